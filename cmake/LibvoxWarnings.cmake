@@ -1,0 +1,7 @@
+# Warning flags for libvox's own targets (third-party headers come in as system includes).
+add_library(libvox_warnings INTERFACE)
+target_compile_options(libvox_warnings INTERFACE
+  -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wcast-align -Wunused
+  -Woverloaded-virtual -Wimplicit-fallthrough
+  $<$<BOOL:${LIBVOX_WERROR}>:-Werror>)
+install(TARGETS libvox_warnings EXPORT libvoxTargets)

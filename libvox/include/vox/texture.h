@@ -1,0 +1,89 @@
+/// @file texture.h
+/// @brief Decoded textures with a mip pyramid and a filtered lookup whose footprint the caller
+/// sets, so that a voxel can average the texels under its own size rather than point-sample.
+#pragma once
+
+#include <vox/math.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace vox {
+
+/// How stored 8-bit values map to the linear values lookups return.
+enum class ColorSpace : std::uint8_t {
+    Linear,  ///< value / 255 (normal maps, data)
+    SRGB,    ///< sRGB transfer function on RGB, alpha linear (base colour, emission)
+};
+
+/// Texture coordinate wrapping outside [0, 1], as glTF samplers define it.
+enum class WrapMode : std::uint8_t { Repeat, ClampToEdge, MirroredRepeat };
+
+/// An RGBA8 image with a full mip chain down to 1×1, built by area-weighted box filtering in
+/// linear space (so an sRGB checkerboard averages to the right grey, not a dark one).
+class Texture {
+public:
+    /// Largest accepted width or height; larger images are rejected before decoding.
+    static constexpr int kMaxDimension = 16384;
+
+    Texture() = default;
+
+    /// Builds a texture from tightly packed 8-bit pixels with 1–4 channels (grey, grey+alpha,
+    /// RGB, RGBA). @p name is kept for messages.
+    Texture(std::string name, int width, int height, int channels, std::span<const std::uint8_t> pixels,
+            ColorSpace colorSpace);
+
+    [[nodiscard]] const std::string& name() const noexcept { return name_; }
+    [[nodiscard]] int width() const noexcept { return levels_.empty() ? 0 : levels_[0].width; }
+    [[nodiscard]] int height() const noexcept { return levels_.empty() ? 0 : levels_[0].height; }
+    [[nodiscard]] int levelCount() const noexcept { return static_cast<int>(levels_.size()); }
+    [[nodiscard]] int levelWidth(int level) const { return levels_.at(level).width; }
+    [[nodiscard]] int levelHeight(int level) const { return levels_.at(level).height; }
+    [[nodiscard]] ColorSpace colorSpace() const noexcept { return colorSpace_; }
+    /// Channels of the source image (1–4); a lookup always returns RGBA.
+    [[nodiscard]] int sourceChannels() const noexcept { return sourceChannels_; }
+    /// Bytes held by all mip levels.
+    [[nodiscard]] std::size_t memoryBytes() const noexcept;
+
+    /// The linear RGBA value of one texel of one mip level (no filtering, no wrapping).
+    [[nodiscard]] Vec4f texel(int level, int x, int y) const;
+
+    /// Filtered lookup: trilinear over the mip level whose texels are @p footprint wide,
+    /// where @p footprint is the filter width in texture-coordinate units (1 = the whole
+    /// texture; 0 = the finest level, bilinear). Returns linear RGBA.
+    [[nodiscard]] Vec4f sample(Vec2f uv, float footprint, WrapMode wrapS = WrapMode::Repeat,
+                               WrapMode wrapT = WrapMode::Repeat) const;
+
+private:
+    struct Level {
+        int width = 0, height = 0;
+        std::vector<std::uint8_t> rgba;
+    };
+    [[nodiscard]] Vec4f bilinear(const Level& level, Vec2f uv, WrapMode wrapS, WrapMode wrapT) const;
+    [[nodiscard]] Vec4f decode(const std::uint8_t* p) const;
+
+    std::string name_;
+    ColorSpace colorSpace_ = ColorSpace::Linear;
+    int sourceChannels_ = 4;
+    std::vector<Level> levels_;
+};
+
+/// Decodes an image file with OpenImageIO (PNG, JPEG, TGA, BMP, EXR, ...). HDR and 16-bit
+/// sources are converted to 8 bits per channel. @throws IoError if it cannot be read,
+/// InvalidDataError if it cannot be decoded or exceeds Texture::kMaxDimension.
+[[nodiscard]] Texture loadTexture(const std::filesystem::path& file, ColorSpace colorSpace);
+
+/// Decodes an image held in memory (a GLB buffer view or a data URI) that @p container holds;
+/// @p what names it there (e.g. "image 2 'logo'"), both for messages and as the texture's
+/// name. @p mimeType helps pick the decoder and may be empty. @throws InvalidDataError.
+[[nodiscard]] Texture decodeTexture(std::span<const std::uint8_t> encoded, const std::filesystem::path& container,
+                                    const std::string& what, const std::string& mimeType, ColorSpace colorSpace);
+
+/// sRGB-encoded value in [0, 1] to linear, and back (IEC 61966-2-1).
+[[nodiscard]] float srgbToLinear(float value);
+[[nodiscard]] float linearToSrgb(float value);
+
+}  // namespace vox

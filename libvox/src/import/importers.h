@@ -1,0 +1,18 @@
+// One entry point per input format; importScene picks one after checking the file's contents.
+#pragma once
+
+#include "import_context.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace vox::detail {
+
+void importGltf(ImportContext& context, const std::vector<std::uint8_t>& bytes, bool binary);
+void importObj(ImportContext& context, const std::vector<std::uint8_t>& bytes);
+void importDrc(ImportContext& context, const std::vector<std::uint8_t>& bytes);
+
+enum class OpenMeshFormat { Ply, Stl, Off };
+void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& bytes, OpenMeshFormat format);
+
+}  // namespace vox::detail

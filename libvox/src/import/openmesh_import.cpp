@@ -1,0 +1,393 @@
+// PLY, STL and OFF through OpenMesh. OpenMesh reserves memory by the counts a header claims and
+// reports success on files it could not parse, so the header is checked here first (every
+// claimed count must fit the bytes that follow it) and the result is checked afterwards.
+#include "importers.h"
+
+#include <vox/util/timings.h>
+
+#include <OpenMesh/Core/IO/MeshIO.hh>
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <OpenMesh/Core/System/omstream.hh>
+
+#include <iostream>
+
+#include <charconv>
+#include <cstring>
+#include <mutex>
+#include <sstream>
+#include <streambuf>
+#include <unordered_map>
+
+namespace vox::detail {
+namespace {
+
+struct MeshTraits : OpenMesh::DefaultTraits {
+    VertexAttributes(OpenMesh::Attributes::Normal | OpenMesh::Attributes::Color | OpenMesh::Attributes::TexCoord2D);
+    FaceAttributes(OpenMesh::Attributes::Normal);
+    typedef OpenMesh::Vec4f Color;
+};
+using OmMesh = OpenMesh::TriMesh_ArrayKernelT<MeshTraits>;
+
+/// An istream over bytes already in memory, so OpenMesh parses exactly what was checked.
+class MemoryBuffer : public std::streambuf {
+public:
+    explicit MemoryBuffer(const std::vector<std::uint8_t>& bytes) {
+        char* begin = const_cast<char*>(reinterpret_cast<const char*>(bytes.data()));
+        setg(begin, begin, begin + bytes.size());
+    }
+
+protected:
+    // OpenMesh's binary readers seek; a bare streambuf cannot.
+    pos_type seekoff(off_type offset, std::ios_base::seekdir dir, std::ios_base::openmode) override {
+        const off_type base = dir == std::ios_base::beg ? 0 : (dir == std::ios_base::cur ? gptr() - eback() : egptr() - eback());
+        const off_type target = base + offset;
+        if (target < 0 || target > egptr() - eback()) return pos_type(off_type(-1));
+        setg(eback(), eback() + target, egptr());
+        return pos_type(target);
+    }
+    pos_type seekpos(pos_type position, std::ios_base::openmode mode) override {
+        return seekoff(off_type(position), std::ios_base::beg, mode);
+    }
+};
+
+/// Splits text into whitespace-separated tokens, line by line.
+class LineReader {
+public:
+    explicit LineReader(const std::vector<std::uint8_t>& bytes) : bytes_(bytes) {}
+    bool next(std::string& line) {
+        if (pos_ >= bytes_.size()) return false;
+        const auto* start = bytes_.data() + pos_;
+        const auto* end = static_cast<const std::uint8_t*>(std::memchr(start, '\n', bytes_.size() - pos_));
+        const std::size_t len = end ? static_cast<std::size_t>(end - start) : bytes_.size() - pos_;
+        line.assign(reinterpret_cast<const char*>(start), len);
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        pos_ += len + (end ? 1 : 0);
+        return true;
+    }
+    [[nodiscard]] std::size_t position() const { return pos_; }
+
+private:
+    const std::vector<std::uint8_t>& bytes_;
+    std::size_t pos_ = 0;
+};
+
+std::vector<std::string> tokens(const std::string& line) {
+    std::vector<std::string> out;
+    std::istringstream in(line);
+    for (std::string t; in >> t;) out.push_back(t);
+    return out;
+}
+
+bool parseCount(const std::string& text, std::uint64_t& value) {
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+    return ec == std::errc() && end == text.data() + text.size();
+}
+
+int plyTypeSize(const std::string& type) {
+    if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
+    if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
+    if (type == "int" || type == "uint" || type == "int32" || type == "uint32" || type == "float" || type == "float32") return 4;
+    if (type == "double" || type == "float64") return 8;
+    return 0;
+}
+
+struct HeaderFacts {
+    std::uint64_t vertices = 0;
+    std::uint64_t faces = 0;      // PLY/OFF faces (polygons); STL triangles
+    bool binary = false;
+    std::string textureFile;  // PLY "comment TextureFile" (MeshLab's convention)
+};
+
+HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::uint8_t>& bytes) {
+    LineReader reader(bytes);
+    std::string line;
+    reader.next(line);  // "ply", checked by the caller
+    HeaderFacts facts;
+    struct Element {
+        std::string name;
+        std::uint64_t count = 0;
+        std::uint64_t minBytes = 0;
+        std::vector<std::string> properties;
+    };
+    std::vector<Element> elements;
+    bool ended = false, hasFormat = false;
+    while (reader.next(line)) {
+        const auto t = tokens(line);
+        if (t.empty()) continue;
+        if (t[0] == "end_header") {
+            ended = true;
+            break;
+        }
+        if (t[0] == "format") {
+            if (t.size() < 2 || (t[1] != "ascii" && t[1] != "binary_little_endian" && t[1] != "binary_big_endian"))
+                context.fail("PLY header: unknown format '" + line + "'");
+            facts.binary = t[1] != "ascii";
+            hasFormat = true;
+        } else if (t[0] == "comment") {
+            if (t.size() >= 3 && t[1] == "TextureFile") facts.textureFile = line.substr(line.find("TextureFile") + 12);
+        } else if (t[0] == "obj_info") {
+        } else if (t[0] == "element") {
+            std::uint64_t count = 0;
+            if (t.size() != 3 || !parseCount(t[2], count)) context.fail("PLY header: malformed element line '" + line + "'");
+            elements.push_back({t[1], count, 0, {}});
+        } else if (t[0] == "property") {
+            if (elements.empty()) context.fail("PLY header: property before any element");
+            Element& e = elements.back();
+            if (t.size() == 5 && t[1] == "list") {
+                const int countSize = plyTypeSize(t[2]);
+                if (!countSize || !plyTypeSize(t[3])) context.fail("PLY header: unknown list type in '" + line + "'");
+                e.minBytes += facts.binary ? countSize : 2;
+                e.properties.push_back(t[4]);
+            } else if (t.size() == 3) {
+                const int size = plyTypeSize(t[1]);
+                if (!size) context.fail("PLY header: unknown property type in '" + line + "'");
+                e.minBytes += facts.binary ? size : 2;
+                e.properties.push_back(t[2]);
+            } else {
+                context.fail("PLY header: malformed property line '" + line + "'");
+            }
+        }
+        // Other lines (some exporters write free text without "comment") are ignored, as OpenMesh does.
+    }
+    if (!ended) context.fail("PLY header has no end_header");
+    if (!hasFormat) context.fail("PLY header has no format line");
+    const std::uint64_t available = bytes.size() - reader.position();
+    std::uint64_t needed = 0;
+    for (const Element& e : elements) {
+        if (e.minBytes && e.count > available / e.minBytes)
+            context.fail("PLY header claims " + std::to_string(e.count) + " " + e.name + " elements, more than the " +
+                         std::to_string(available) + " bytes after the header can hold");
+        needed += e.count * e.minBytes;
+        if (e.name == "vertex") facts.vertices = e.count;
+        if (e.name == "face") facts.faces = e.count;
+    }
+    if (needed > available)
+        context.fail("PLY header claims elements needing at least " + std::to_string(needed) + " bytes, but only " +
+                     std::to_string(available) + " follow the header");
+    return facts;
+}
+
+HeaderFacts checkOffHeader(const ImportContext& context, const std::vector<std::uint8_t>& bytes) {
+    LineReader reader(bytes);
+    std::string line;
+    auto nextContent = [&]() -> std::vector<std::string> {
+        while (reader.next(line)) {
+            const std::string content = line.substr(0, line.find('#'));
+            auto t = tokens(content);
+            if (!t.empty()) return t;
+        }
+        return {};
+    };
+    auto t = nextContent();
+    if (t.empty()) context.fail("is empty");
+    const std::string& keyword = t[0];
+    const std::size_t offAt = keyword.rfind("OFF");
+    if (offAt == std::string::npos || offAt + 3 != keyword.size() ||
+        keyword.substr(0, offAt).find_first_not_of("STCN4n") != std::string::npos)
+        context.fail("is not an OFF file (no OFF keyword) despite its extension");
+    if (keyword.substr(0, offAt).find_first_of("4n") != std::string::npos)
+        context.fail("OFF with 4D or n-dimensional vertices is not supported");
+    HeaderFacts facts;
+    facts.binary = t.size() > 1 && t[1] == "BINARY";
+    std::vector<std::string> counts(t.begin() + 1 + (facts.binary ? 1 : 0), t.end());
+    if (counts.empty()) counts = nextContent();
+    std::uint64_t edges = 0;
+    if (counts.size() < 2 || !parseCount(counts[0], facts.vertices) || !parseCount(counts[1], facts.faces) ||
+        (counts.size() > 2 && !parseCount(counts[2], edges)))
+        context.fail("OFF header: malformed vertex/face counts");
+    const std::uint64_t available = bytes.size() - reader.position();
+    const std::uint64_t vertexBytes = facts.binary ? 12 : 6, faceBytes = facts.binary ? 16 : 8;
+    if (facts.vertices > available / vertexBytes || facts.faces > available / faceBytes ||
+        facts.vertices * vertexBytes + facts.faces * faceBytes > available)
+        context.fail("OFF header claims " + std::to_string(facts.vertices) + " vertices and " + std::to_string(facts.faces) +
+                     " faces, more than the " + std::to_string(available) + " bytes that follow can hold");
+    return facts;
+}
+
+/// Sends OpenMesh's error stream (normally stderr) to @p sink while it lives, and silences its
+/// log and info streams: libvox reports what went wrong in its own words.
+class OpenMeshErrorCapture {
+public:
+    explicit OpenMeshErrorCapture(std::ostream& sink) : sink_(sink) {
+        omerr().disconnect(std::cerr);
+        omerr().connect(sink_);
+        omlog().disable();
+        omout().disable();
+    }
+    ~OpenMeshErrorCapture() {
+        omerr().disconnect(sink_);
+        omerr().connect(std::cerr);
+    }
+    OpenMeshErrorCapture(const OpenMeshErrorCapture&) = delete;
+    OpenMeshErrorCapture& operator=(const OpenMeshErrorCapture&) = delete;
+
+private:
+    std::ostream& sink_;
+};
+
+/// Triangles an STL file holds: the binary header's count, or the ASCII "endfacet" lines.
+HeaderFacts countStlTriangles(const std::vector<std::uint8_t>& bytes) {
+    HeaderFacts facts;
+    if (bytes.size() >= 84) {
+        std::uint32_t count;
+        std::memcpy(&count, bytes.data() + 80, 4);
+        facts.binary = bytes.size() == 84 + 50ull * count;
+        if (facts.binary) {
+            facts.faces = count;
+            return facts;
+        }
+    }
+    const std::string_view text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+    for (std::size_t at = text.find("endfacet"); at != std::string_view::npos; at = text.find("endfacet", at + 8)) ++facts.faces;
+    return facts;
+}
+
+std::mutex& openMeshMutex() {
+    static std::mutex mutex;  // OpenMesh's log streams are process-wide
+    return mutex;
+}
+
+/// OpenMesh adds each face that would make its mesh non-manifold again on copies of its vertices,
+/// appended after the file's own, without their normals, colours or UVs. libvox needs no
+/// manifold: point such faces back at the file's vertex with the same position.
+void remapNonManifoldCopies(Mesh& mesh, std::uint64_t fileVertices) {
+    if (fileVertices == 0 || mesh.positions.size() <= fileVertices) return;
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> byPosition;
+    auto key = [](const Vec3f& p) {
+        std::uint32_t x, y, z;
+        std::memcpy(&x, &p.x, 4);
+        std::memcpy(&y, &p.y, 4);
+        std::memcpy(&z, &p.z, 4);
+        return (std::uint64_t{x} * 0x9E3779B97F4A7C15ull) ^ (std::uint64_t{y} * 0xC2B2AE3D27D4EB4Full) ^ z;
+    };
+    for (std::uint32_t v = 0; v < fileVertices; ++v) byPosition[key(mesh.positions[v])].push_back(v);
+    for (std::uint32_t& index : mesh.indices) {
+        if (index < fileVertices) continue;
+        for (std::uint32_t original : byPosition[key(mesh.positions[index])])
+            if (mesh.positions[original] == mesh.positions[index]) {
+                index = original;
+                break;
+            }
+    }
+    auto truncate = [&](auto& values) {
+        if (values.size() > fileVertices) values.resize(fileVertices);
+    };
+    truncate(mesh.positions);
+    truncate(mesh.normals);
+    truncate(mesh.colors);
+    for (auto& set : mesh.uvs) truncate(set);
+}
+
+}  // namespace
+
+void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& bytes, OpenMeshFormat format) {
+    Timings::Scope timer(context.options().timings, "import.parse");
+    HeaderFacts facts;
+    std::string ext;
+    switch (format) {
+    case OpenMeshFormat::Ply:
+        facts = checkPlyHeader(context, bytes);
+        ext = "ply";
+        break;
+    case OpenMeshFormat::Off:
+        facts = checkOffHeader(context, bytes);
+        ext = "off";
+        break;
+    case OpenMeshFormat::Stl:
+        facts = countStlTriangles(bytes);
+        ext = "stl";
+        break;
+    }
+    if (facts.faces == 0) context.fail("has no faces (a point cloud?)");
+
+    OmMesh mesh;
+    OpenMesh::IO::Options options = OpenMesh::IO::Options::VertexNormal | OpenMesh::IO::Options::VertexColor |
+                                    OpenMesh::IO::Options::VertexTexCoord | OpenMesh::IO::Options::ColorAlpha |
+                                    OpenMesh::IO::Options::ColorFloat;
+    if (facts.binary) options += OpenMesh::IO::Options::Binary;
+    std::ostringstream openMeshErrors;
+    bool ok = false;
+    {
+        std::lock_guard lock(openMeshMutex());
+        OpenMeshErrorCapture capture(openMeshErrors);
+        MemoryBuffer buffer(bytes);
+        std::istream stream(&buffer);
+        try {
+            ok = OpenMesh::IO::read_mesh(mesh, stream, ext, options);
+        } catch (const std::bad_alloc&) {
+            context.fail("cannot be read: it claims more data than memory holds");
+        } catch (const std::exception& e) {
+            context.fail(std::string("cannot be read: ") + e.what());
+        }
+    }
+    const std::string errors = openMeshErrors.str();
+    auto countLines = [&](std::string_view what) {
+        std::size_t n = 0;
+        for (std::size_t at = errors.find(what); at != std::string::npos; at = errors.find(what, at + what.size())) ++n;
+        return n;
+    };
+    auto firstError = [&]() {
+        std::string line = errors.substr(0, errors.find('\n'));
+        return line.empty() ? std::string() : " (" + line + ")";
+    };
+    if (!ok) context.fail("cannot be parsed" + firstError());
+    if (countLines("invalid vertex index")) context.fail("a face refers to a vertex that does not exist");
+    if (mesh.n_faces() == 0) context.fail("has no faces (a point cloud?)");
+    if (facts.vertices && mesh.n_vertices() < facts.vertices)
+        context.fail("is truncated: " + std::to_string(mesh.n_vertices()) + " of " + std::to_string(facts.vertices) + " vertices read");
+    // OpenMesh drops faces with repeated vertices (STL: silently) — they are degenerate.
+    const std::size_t droppedByOpenMesh =
+        format == OpenMeshFormat::Stl ? (facts.faces > mesh.n_faces() ? facts.faces - mesh.n_faces() : 0) : countLines("equal vertices");
+    context.scene().degenerateTrianglesDropped += droppedByOpenMesh;
+
+    Mesh out;
+    out.name = context.input().stem().string();
+    out.dynamic = context.isDynamicName(out.name);
+    out.positions.reserve(mesh.n_vertices());
+    for (auto v : mesh.vertices()) {
+        const auto p = mesh.point(v);
+        out.positions.push_back({p[0], p[1], p[2]});
+    }
+    // STL facet normals are ignored (flat normals are recomputed from the geometry).
+    if (options.check(OpenMesh::IO::Options::VertexNormal) && format != OpenMeshFormat::Stl) {
+        for (auto v : mesh.vertices()) {
+            const auto n = mesh.normal(v);
+            out.normals.push_back({n[0], n[1], n[2]});
+        }
+    }
+    if (options.check(OpenMesh::IO::Options::VertexTexCoord) && format != OpenMeshFormat::Stl) {
+        out.uvs.emplace_back();
+        for (auto v : mesh.vertices()) {
+            const auto t = mesh.texcoord2D(v);
+            out.uvs[0].push_back({t[0], 1.0f - t[1]});  // PLY's v points up the image, libvox's down
+        }
+    }
+    if (options.check(OpenMesh::IO::Options::VertexColor) && format != OpenMeshFormat::Stl) {
+        const bool alpha = options.check(OpenMesh::IO::Options::ColorAlpha);
+        for (auto v : mesh.vertices()) {
+            const auto c = mesh.color(v);
+            // PLY/OFF colours are display-referred (sRGB-encoded), libvox's are linear.
+            out.colors.push_back({srgbToLinear(c[0]), srgbToLinear(c[1]), srgbToLinear(c[2]), alpha ? c[3] : 1.0f});
+        }
+    }
+    out.indices.reserve(mesh.n_faces() * 3);
+    for (auto f : mesh.faces())
+        for (auto v : mesh.fv_range(f)) out.indices.push_back(static_cast<std::uint32_t>(v.idx()));
+    remapNonManifoldCopies(out, facts.vertices);
+
+    if (!facts.textureFile.empty() && !out.uvs.empty()) {
+        Material material;
+        material.name = facts.textureFile;
+        const std::filesystem::path image = context.input().parent_path() / facts.textureFile;
+        material.baseColorTexture.texture = context.texture("file:" + image.string(), ColorSpace::SRGB, [&] {
+            return decodeTexture(context.readFile(image), image, "", "", ColorSpace::SRGB);
+        });
+        context.scene().materials.push_back(material);
+        out.material = static_cast<std::uint32_t>(context.scene().materials.size() - 1);
+    } else {
+        out.material = context.defaultMaterial();
+    }
+    context.scene().meshes.push_back(std::move(out));
+}
+
+}  // namespace vox::detail

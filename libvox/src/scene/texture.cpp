@@ -1,0 +1,181 @@
+#include <vox/formats/error.h>
+#include <vox/texture.h>
+
+#include <array>
+#include <cmath>
+#include <stdexcept>
+
+namespace vox {
+namespace {
+
+const std::array<float, 256>& srgbDecodeTable() {
+    static const std::array<float, 256> table = [] {
+        std::array<float, 256> t{};
+        for (int i = 0; i < 256; ++i) t[i] = srgbToLinear(static_cast<float>(i) / 255.0f);
+        return t;
+    }();
+    return table;
+}
+
+std::uint8_t quantize(float value) {
+    return static_cast<std::uint8_t>(std::lround(std::clamp(value, 0.0f, 1.0f) * 255.0f));
+}
+
+int wrapIndex(int i, int n, WrapMode mode) {
+    switch (mode) {
+    case WrapMode::ClampToEdge:
+        return std::clamp(i, 0, n - 1);
+    case WrapMode::MirroredRepeat: {
+        const int period = 2 * n;
+        const int m = ((i % period) + period) % period;
+        return m < n ? m : period - 1 - m;
+    }
+    case WrapMode::Repeat:
+    default:
+        return ((i % n) + n) % n;
+    }
+}
+
+/// Brings a coordinate into a small range with the same wrapped result, so that huge UVs
+/// neither overflow the integer texel index nor lose the fraction.
+float reduceCoordinate(float u, WrapMode mode) {
+    if (!std::isfinite(u)) return 0.0f;
+    switch (mode) {
+    case WrapMode::ClampToEdge:
+        return std::clamp(u, -1.0f, 2.0f);
+    case WrapMode::MirroredRepeat:
+        return u - 2.0f * std::floor(u * 0.5f);
+    case WrapMode::Repeat:
+    default:
+        return u - std::floor(u);
+    }
+}
+
+/// Box-filters one axis of a linear float image from @p srcLen to @p dstLen texels, weighting
+/// each source texel by how much of it the destination texel covers (exact for odd sizes).
+std::vector<float> downsampleAxis(const std::vector<float>& src, int width, int height, bool alongX, int dstLen) {
+    const int srcLen = alongX ? width : height;
+    const int outW = alongX ? dstLen : width, outH = alongX ? height : dstLen;
+    std::vector<float> dst(static_cast<std::size_t>(outW) * outH * 4, 0.0f);
+    const double scale = static_cast<double>(srcLen) / dstLen;
+    for (int d = 0; d < dstLen; ++d) {
+        const double a = d * scale, b = (d + 1) * scale;
+        for (int s = static_cast<int>(std::floor(a)); s < std::min(srcLen, static_cast<int>(std::ceil(b))); ++s) {
+            const float w = static_cast<float>((std::min(b, s + 1.0) - std::max(a, static_cast<double>(s))) / scale);
+            if (w <= 0) continue;
+            const int lines = alongX ? height : width;
+            for (int line = 0; line < lines; ++line) {
+                const std::size_t si = alongX ? (static_cast<std::size_t>(line) * width + s) : (static_cast<std::size_t>(s) * width + line);
+                const std::size_t di = alongX ? (static_cast<std::size_t>(line) * outW + d) : (static_cast<std::size_t>(d) * outW + line);
+                for (int c = 0; c < 4; ++c) dst[di * 4 + c] += w * src[si * 4 + c];
+            }
+        }
+    }
+    return dst;
+}
+
+}  // namespace
+
+float srgbToLinear(float v) {
+    return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+}
+
+float linearToSrgb(float v) {
+    return v <= 0.0031308f ? v * 12.92f : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+}
+
+Texture::Texture(std::string name, int width, int height, int channels, std::span<const std::uint8_t> pixels,
+                 ColorSpace colorSpace)
+    : name_(std::move(name)), colorSpace_(colorSpace), sourceChannels_(channels) {
+    if (width < 1 || height < 1 || width > kMaxDimension || height > kMaxDimension)
+        throw std::invalid_argument("Texture: size out of range");
+    if (channels < 1 || channels > 4) throw std::invalid_argument("Texture: channels must be 1-4");
+    const std::size_t texels = static_cast<std::size_t>(width) * height;
+    if (pixels.size() != texels * channels) throw std::invalid_argument("Texture: pixel buffer size mismatch");
+
+    Level base{width, height, std::vector<std::uint8_t>(texels * 4)};
+    for (std::size_t i = 0; i < texels; ++i) {
+        const std::uint8_t* p = pixels.data() + i * channels;
+        std::uint8_t* q = base.rgba.data() + i * 4;
+        switch (channels) {
+        case 1: q[0] = q[1] = q[2] = p[0]; q[3] = 255; break;
+        case 2: q[0] = q[1] = q[2] = p[0]; q[3] = p[1]; break;
+        case 3: q[0] = p[0]; q[1] = p[1]; q[2] = p[2]; q[3] = 255; break;
+        default: q[0] = p[0]; q[1] = p[1]; q[2] = p[2]; q[3] = p[3]; break;
+        }
+    }
+    levels_.push_back(std::move(base));
+
+    // The chain is filtered in linear float so rounding does not accumulate level to level.
+    std::vector<float> linear(texels * 4);
+    for (std::size_t i = 0; i < texels; ++i) {
+        const Vec4f v = decode(levels_[0].rgba.data() + i * 4);
+        for (int c = 0; c < 4; ++c) linear[i * 4 + c] = v[c];
+    }
+    int w = width, h = height;
+    while (w > 1 || h > 1) {
+        const int nw = std::max(1, w / 2), nh = std::max(1, h / 2);
+        if (nw != w) linear = downsampleAxis(linear, w, h, true, nw);
+        if (nh != h) linear = downsampleAxis(linear, nw, h, false, nh);
+        w = nw;
+        h = nh;
+        Level level{w, h, std::vector<std::uint8_t>(static_cast<std::size_t>(w) * h * 4)};
+        for (std::size_t i = 0; i < static_cast<std::size_t>(w) * h; ++i) {
+            for (int c = 0; c < 3; ++c) {
+                const float v = linear[i * 4 + c];
+                level.rgba[i * 4 + c] = quantize(colorSpace_ == ColorSpace::SRGB ? linearToSrgb(v) : v);
+            }
+            level.rgba[i * 4 + 3] = quantize(linear[i * 4 + 3]);
+        }
+        levels_.push_back(std::move(level));
+    }
+}
+
+std::size_t Texture::memoryBytes() const noexcept {
+    std::size_t bytes = 0;
+    for (const Level& level : levels_) bytes += level.rgba.size();
+    return bytes;
+}
+
+Vec4f Texture::decode(const std::uint8_t* p) const {
+    constexpr float inv = 1.0f / 255.0f;
+    if (colorSpace_ == ColorSpace::SRGB) {
+        const auto& table = srgbDecodeTable();
+        return {table[p[0]], table[p[1]], table[p[2]], p[3] * inv};
+    }
+    return {p[0] * inv, p[1] * inv, p[2] * inv, p[3] * inv};
+}
+
+Vec4f Texture::texel(int level, int x, int y) const {
+    const Level& l = levels_.at(level);
+    if (x < 0 || y < 0 || x >= l.width || y >= l.height) throw std::out_of_range("Texture::texel");
+    return decode(l.rgba.data() + (static_cast<std::size_t>(y) * l.width + x) * 4);
+}
+
+Vec4f Texture::bilinear(const Level& level, Vec2f uv, WrapMode wrapS, WrapMode wrapT) const {
+    const float x = reduceCoordinate(uv.x, wrapS) * level.width - 0.5f;
+    const float y = reduceCoordinate(uv.y, wrapT) * level.height - 0.5f;
+    const float fx0 = std::floor(x), fy0 = std::floor(y);
+    const float tx = x - fx0, ty = y - fy0;
+    const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
+    const int xs[2] = {wrapIndex(x0, level.width, wrapS), wrapIndex(x0 + 1, level.width, wrapS)};
+    const int ys[2] = {wrapIndex(y0, level.height, wrapT), wrapIndex(y0 + 1, level.height, wrapT)};
+    auto at = [&](int xi, int yi) {
+        return decode(level.rgba.data() + (static_cast<std::size_t>(ys[yi]) * level.width + xs[xi]) * 4);
+    };
+    return (at(0, 0) * (1 - tx) + at(1, 0) * tx) * (1 - ty) + (at(0, 1) * (1 - tx) + at(1, 1) * tx) * ty;
+}
+
+Vec4f Texture::sample(Vec2f uv, float footprint, WrapMode wrapS, WrapMode wrapT) const {
+    if (levels_.empty()) return {1, 1, 1, 1};
+    const float texels = std::isfinite(footprint) ? footprint * static_cast<float>(std::max(width(), height())) : 0.0f;
+    const float lod = std::clamp(texels > 1.0f ? std::log2(texels) : 0.0f, 0.0f, static_cast<float>(levelCount() - 1));
+    const int fine = static_cast<int>(lod);
+    const float t = lod - static_cast<float>(fine);
+    const Vec4f a = bilinear(levels_[fine], uv, wrapS, wrapT);
+    if (t <= 0.0f || fine + 1 >= levelCount()) return a;
+    const Vec4f b = bilinear(levels_[fine + 1], uv, wrapS, wrapT);
+    return a * (1 - t) + b * t;
+}
+
+}  // namespace vox

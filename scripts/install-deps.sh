@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs every build and test dependency of libvox from Debian 12 packages.
+# Idempotent: packages already present are skipped, so both README commands can call it.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libopenvdb-dev libboost-iostreams-dev libtbb-dev libblosc-dev
+  libtinygltf-dev nlohmann-json3-dev libstb-dev
+  libdraco-dev draco
+  libopenmesh-dev
+  libopenimageio-dev openimageio-tools
+  libcli11-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libegl-dev libopengl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri
+  assimp-testmodels
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+sudo=""
+[ "$(id -u)" -ne 0 ] && sudo="sudo"
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "install-deps: done"

@@ -1,0 +1,87 @@
+#include "reports.h"
+
+#include <vox/formats/atomic_file.h>
+#include <vox/util/parallel.h>
+#include <vox/version.h>
+
+#include <system_error>
+
+namespace vox::tools {
+namespace {
+
+nlohmann::json vec3(Vec3f v) { return nlohmann::json::array({v.x, v.y, v.z}); }
+
+const char* lightType(Light::Type type) {
+    switch (type) {
+    case Light::Type::Directional: return "directional";
+    case Light::Type::Point: return "point";
+    case Light::Type::Spot: return "spot";
+    }
+    return "unknown";
+}
+
+std::string escapeDepfilePath(const std::string& path) {
+    std::string out;
+    for (char c : path) {
+        if (c == ' ' || c == '#') out.push_back('\\');
+        if (c == '$') out.push_back('$');
+        out.push_back(c);
+    }
+    return out;
+}
+
+}  // namespace
+
+nlohmann::json sceneReport(const Scene& scene) {
+    nlohmann::json report;
+    nlohmann::json inputs = nlohmann::json::array();
+    for (const auto& file : scene.sourceFiles) {
+        std::error_code ec;
+        const auto size = std::filesystem::file_size(file, ec);
+        inputs.push_back({{"path", file.string()}, {"bytes", ec ? 0 : size}});
+    }
+    report["inputs"] = inputs;
+    report["triangles"] = scene.triangleCount();
+    report["dynamic_triangles"] = scene.dynamicTriangleCount();
+    report["degenerate_triangles_dropped"] = scene.degenerateTrianglesDropped;
+    report["meshes"] = scene.meshes.size();
+    report["materials"] = scene.materials.size();
+    std::size_t textureBytes = 0;
+    for (const Texture& t : scene.textures) textureBytes += t.memoryBytes();
+    report["textures"] = scene.textures.size();
+    report["texture_bytes"] = textureBytes;
+    nlohmann::json lights = nlohmann::json::array();
+    for (const Light& light : scene.lights)
+        lights.push_back({{"name", light.name}, {"type", lightType(light.type)}, {"color", vec3(light.color)},
+                          {"intensity", light.intensity}, {"range", light.range}, {"position", vec3(light.position)},
+                          {"direction", vec3(light.direction)}, {"dynamic", light.dynamic}});
+    report["lights"] = lights;
+    const Bounds3f bounds = scene.bounds();
+    report["bounds"] = {{"min", vec3(bounds.min)}, {"max", vec3(bounds.max)}};
+    report["warnings"] = scene.warnings;
+    return report;
+}
+
+void writeStats(const std::filesystem::path& file, nlohmann::json report, const std::string& tool, const Timings& timings) {
+    nlohmann::json ms = nlohmann::json::object();
+    for (const auto& [stage, milliseconds] : timings.entries()) ms[stage] = milliseconds;
+    report["timings_ms"] = ms;
+    report["peak_rss_bytes"] = peakRssBytes();
+    report["threads"] = ThreadLimit::active();
+    report["tool"] = tool;
+    report["version"] = LIBVOX_VERSION_STRING;
+    writeFileAtomically(file, report.dump(2) + "\n");
+}
+
+std::string depfileText(const std::filesystem::path& target, const std::vector<std::filesystem::path>& dependencies) {
+    std::string text = escapeDepfilePath(target.string()) + ":";
+    for (const auto& dep : dependencies) text += " \\\n  " + escapeDepfilePath(dep.string());
+    return text + "\n";
+}
+
+void writeDepfile(const std::filesystem::path& file, const std::filesystem::path& target,
+                  const std::vector<std::filesystem::path>& dependencies) {
+    writeFileAtomically(file, depfileText(target, dependencies));
+}
+
+}  // namespace vox::tools

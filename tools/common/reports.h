@@ -1,0 +1,30 @@
+// Machine-readable outputs the tools write: --stats JSON and --depfile dependency lists.
+#pragma once
+
+#include <vox/scene.h>
+#include <vox/util/timings.h>
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace vox::tools {
+
+/// The scene part of a stats report: inputs, triangles, materials, textures, lights, bounds, ...
+/// (keys documented in docs/cli.md).
+[[nodiscard]] nlohmann::json sceneReport(const Scene& scene);
+
+/// Adds timings_ms, peak_rss_bytes, threads, tool and version to @p report and writes it
+/// atomically to @p file.
+void writeStats(const std::filesystem::path& file, nlohmann::json report, const std::string& tool, const Timings& timings);
+
+/// Writes a Make/Ninja depfile "TARGET: DEP DEP ..." atomically, escaping spaces, '#' and '$'.
+void writeDepfile(const std::filesystem::path& file, const std::filesystem::path& target,
+                  const std::vector<std::filesystem::path>& dependencies);
+
+/// The text of a depfile (what writeDepfile writes).
+[[nodiscard]] std::string depfileText(const std::filesystem::path& target, const std::vector<std::filesystem::path>& dependencies);
+
+}  // namespace vox::tools
