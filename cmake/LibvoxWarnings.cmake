@@ -2,6 +2,6 @@
 add_library(libvox_warnings INTERFACE)
 target_compile_options(libvox_warnings INTERFACE
   -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wcast-align -Wunused
-  -Woverloaded-virtual -Wimplicit-fallthrough
+  -Woverloaded-virtual -Wimplicit-fallthrough -Wno-missing-field-initializers
   $<$<BOOL:${LIBVOX_WERROR}>:-Werror>)
 install(TARGETS libvox_warnings EXPORT libvoxTargets)

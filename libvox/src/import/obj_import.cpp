@@ -186,7 +186,7 @@ TextureBinding ObjImporter::readMap(std::string_view args, ColorSpace colorSpace
     // Options come before the file name: -o/-s/-t take up to 3 numbers, the others one value.
     float offset[2] = {0, 0}, scale[2] = {1, 1};
     std::string_view rest = trim(args);
-    while (!rest.empty() && rest.front() == '-') {
+    for (; !rest.empty() && rest.front() == '-'; rest = trim(rest)) {
         std::string_view option = nextToken(rest);
         if (option == "-o" || option == "-s" || option == "-t") {
             for (int i = 0; i < 3; ++i) {

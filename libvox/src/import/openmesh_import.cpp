@@ -242,6 +242,20 @@ HeaderFacts countStlTriangles(const std::vector<std::uint8_t>& bytes) {
     return facts;
 }
 
+/// The text with every '#' comment removed (line structure kept), or empty if it has none.
+std::vector<std::uint8_t> withoutComments(const std::vector<std::uint8_t>& text) {
+    if (std::find(text.begin(), text.end(), '#') == text.end()) return {};
+    std::vector<std::uint8_t> out;
+    out.reserve(text.size());
+    bool inComment = false;
+    for (std::uint8_t c : text) {
+        if (c == '#') inComment = true;
+        if (c == '\n') inComment = false;
+        if (!inComment) out.push_back(c);
+    }
+    return out;
+}
+
 std::mutex& openMeshMutex() {
     static std::mutex mutex;  // OpenMesh's log streams are process-wide
     return mutex;
@@ -300,6 +314,11 @@ void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& byt
     }
     if (facts.faces == 0) context.fail("has no faces (a point cloud?)");
 
+    // OpenMesh's OFF reader does not know '#' comments, which OFF allows anywhere.
+    const std::vector<std::uint8_t> uncommented =
+        format == OpenMeshFormat::Off && !facts.binary ? withoutComments(bytes) : std::vector<std::uint8_t>{};
+    const std::vector<std::uint8_t>& input = uncommented.empty() ? bytes : uncommented;
+
     OmMesh mesh;
     OpenMesh::IO::Options options = OpenMesh::IO::Options::VertexNormal | OpenMesh::IO::Options::VertexColor |
                                     OpenMesh::IO::Options::VertexTexCoord | OpenMesh::IO::Options::ColorAlpha |
@@ -310,7 +329,7 @@ void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& byt
     {
         std::lock_guard lock(openMeshMutex());
         OpenMeshErrorCapture capture(openMeshErrors);
-        MemoryBuffer buffer(bytes);
+        MemoryBuffer buffer(input);
         std::istream stream(&buffer);
         try {
             ok = OpenMesh::IO::read_mesh(mesh, stream, ext, options);

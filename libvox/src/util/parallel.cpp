@@ -6,12 +6,14 @@
 namespace vox {
 
 struct ThreadLimit::Control {
+    // Constructed in place: a global_control's limit ends with the object, so it must not be a
+    // temporary that is moved from.
+    explicit Control(std::size_t threads) : control(tbb::global_control::max_allowed_parallelism, threads) {}
     tbb::global_control control;
 };
 
 ThreadLimit::ThreadLimit(int threads)
-    : control_(std::make_unique<Control>(Control{tbb::global_control(
-          tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads > 0 ? threads : hardwareThreads()))})) {}
+    : control_(std::make_unique<Control>(static_cast<std::size_t>(threads > 0 ? threads : hardwareThreads()))) {}
 
 ThreadLimit::~ThreadLimit() = default;
 

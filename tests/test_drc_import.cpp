@@ -1,0 +1,82 @@
+#include <vox/formats/error.h>
+#include <vox/import.h>
+
+#include "test_support.h"
+
+#include <draco/compression/encode.h>
+#include <draco/mesh/triangle_soup_mesh_builder.h>
+#include <draco/point_cloud/point_cloud_builder.h>
+
+using vox::test::ScratchDir;
+
+namespace {
+
+std::vector<std::uint8_t> encode(const draco::PointCloud& cloud, bool mesh) {
+    draco::Encoder encoder;
+    draco::EncoderBuffer buffer;
+    const draco::Status status = mesh ? encoder.EncodeMeshToBuffer(static_cast<const draco::Mesh&>(cloud), &buffer)
+                                      : encoder.EncodePointCloudToBuffer(cloud, &buffer);
+    EXPECT_TRUE(status.ok()) << status.error_msg_string();
+    return {buffer.data(), buffer.data() + buffer.size()};
+}
+
+}  // namespace
+
+TEST(DrcImport, TriangleMeshWithColoursAndUvs) {
+    ScratchDir dir;
+    draco::TriangleSoupMeshBuilder builder;
+    builder.Start(2);
+    const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+    const int col = builder.AddAttribute(draco::GeometryAttribute::COLOR, 3, draco::DT_UINT8);
+    const int tex = builder.AddAttribute(draco::GeometryAttribute::TEX_COORD, 2, draco::DT_FLOAT32);
+    const float p[4][3] = {{0, 0, 0}, {4, 0, 0}, {4, 4, 0}, {0, 4, 0}};
+    const std::uint8_t c[4][3] = {{255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {255, 255, 255}};
+    const float t[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    const int faces[2][3] = {{0, 1, 2}, {0, 2, 3}};
+    for (int f = 0; f < 2; ++f) {
+        const draco::FaceIndex face(f);
+        builder.SetAttributeValuesForFace(pos, face, p[faces[f][0]], p[faces[f][1]], p[faces[f][2]]);
+        builder.SetAttributeValuesForFace(col, face, c[faces[f][0]], c[faces[f][1]], c[faces[f][2]]);
+        builder.SetAttributeValuesForFace(tex, face, t[faces[f][0]], t[faces[f][1]], t[faces[f][2]]);
+    }
+    auto mesh = builder.Finalize();
+    mesh->attribute(col)->set_normalized(true);
+    vox::test::writeBinary(dir / "quad.drc", encode(*mesh, true));
+
+    const vox::Scene scene = vox::importScene(dir / "quad.drc");
+    ASSERT_EQ(scene.meshes.size(), 1u);
+    const vox::Mesh& m = scene.meshes[0];
+    EXPECT_EQ(m.triangleCount(), 2u);
+    EXPECT_EQ(m.name, "quad");
+    const vox::Bounds3f b = scene.bounds();
+    EXPECT_NEAR(b.max.x, 4.0f, 1e-3f);
+    EXPECT_NEAR(b.max.y, 4.0f, 1e-3f);
+    ASSERT_EQ(m.colors.size(), m.positions.size());
+    ASSERT_EQ(m.uvs.size(), 1u);
+    for (std::size_t v = 0; v < m.positions.size(); ++v) {
+        const float sum = m.colors[v].x + m.colors[v].y + m.colors[v].z;
+        EXPECT_GE(sum, 0.99f);  // every corner has one full channel or white
+        EXPECT_NEAR(m.uvs[0][v].y, 1.0f - m.positions[v].y / 4.0f, 1e-3f) << "v flipped to libvox's convention";
+    }
+}
+
+TEST(DrcImport, PointCloudsAndGarbageAreInvalid) {
+    ScratchDir dir;
+    draco::PointCloudBuilder builder;
+    builder.Start(2);
+    const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+    const float a[3] = {0, 0, 0}, b[3] = {1, 1, 1};
+    builder.SetAttributeValueForPoint(pos, draco::PointIndex(0), a);
+    builder.SetAttributeValueForPoint(pos, draco::PointIndex(1), b);
+    vox::test::writeBinary(dir / "points.drc", encode(*builder.Finalize(false), false));
+    try {
+        (void)vox::importScene(dir / "points.drc");
+        FAIL();
+    } catch (const vox::InvalidDataError& e) {
+        EXPECT_NE(std::string(e.what()).find("point cloud"), std::string::npos) << e.what();
+    }
+    vox::test::writeText(dir / "junk.drc", "DRACO and then nonsense bytes that decode to nothing");
+    EXPECT_THROW((void)vox::importScene(dir / "junk.drc"), vox::InvalidDataError);
+    vox::test::writeText(dir / "nodraco.drc", "plain text");
+    EXPECT_THROW((void)vox::importScene(dir / "nodraco.drc"), vox::InvalidDataError);
+}

@@ -1,0 +1,146 @@
+#include <vox/formats/error.h>
+#include <vox/import.h>
+
+#include "test_support.h"
+
+#include <chrono>
+#include <cstring>
+
+using vox::test::ScratchDir;
+using vox::test::writeBinary;
+using vox::test::writeText;
+
+namespace {
+
+template <typename E>
+std::string importError(const std::filesystem::path& file) {
+    try {
+        (void)vox::importScene(file);
+    } catch (const E& e) {
+        return e.what();
+    } catch (const std::exception& e) {
+        ADD_FAILURE() << "wrong exception type: " << e.what();
+        return {};
+    }
+    ADD_FAILURE() << "import succeeded but should have failed";
+    return {};
+}
+
+std::vector<std::uint8_t> bytesOf(const std::string& text) { return {text.begin(), text.end()}; }
+
+template <typename T>
+void append(std::vector<std::uint8_t>& out, T value) {
+    const auto* p = reinterpret_cast<const std::uint8_t*>(&value);
+    out.insert(out.end(), p, p + sizeof(T));
+}
+
+}  // namespace
+
+TEST(OpenMeshImport, AsciiPlyWithVertexColoursAndQuads) {
+    ScratchDir dir;
+    writeText(dir / "q.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                             "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n"
+                             "property list uchar int vertex_indices\nend_header\n"
+                             "0 0 0 255 0 0\n1 0 0 0 255 0\n1 1 0 0 0 255\n0 1 0 128 128 128\n4 0 1 2 3\n");
+    const vox::Scene scene = vox::importScene(dir / "q.ply");
+    ASSERT_EQ(scene.meshes.size(), 1u);
+    const vox::Mesh& m = scene.meshes[0];
+    EXPECT_EQ(m.triangleCount(), 2u);
+    ASSERT_EQ(m.colors.size(), 4u);
+    EXPECT_FLOAT_EQ(m.colors[0].x, 1.0f);
+    EXPECT_FLOAT_EQ(m.colors[1].y, 1.0f);
+    EXPECT_NEAR(m.colors[3].x, vox::srgbToLinear(128.0f / 255.0f), 1e-6f);
+    for (const vox::Vec3f& n : m.normals) EXPECT_NEAR(n.z, 1.0f, 1e-6f);
+}
+
+TEST(OpenMeshImport, BinaryPly) {
+    ScratchDir dir;
+    auto bytes = bytesOf("ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                         "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n");
+    for (float v : {0.f, 0.f, 0.f, 2.f, 0.f, 0.f, 0.f, 3.f, 0.f}) append(bytes, v);
+    append<std::uint8_t>(bytes, 3);
+    for (std::int32_t i : {0, 1, 2}) append(bytes, i);
+    writeBinary(dir / "b.ply", bytes);
+    const vox::Scene scene = vox::importScene(dir / "b.ply");
+    EXPECT_EQ(scene.triangleCount(), 1u);
+    EXPECT_EQ(scene.bounds().max, (vox::Vec3f{2, 3, 0}));
+}
+
+TEST(OpenMeshImport, NonManifoldFacesKeepTheirVertexAttributes) {
+    ScratchDir dir;
+    // Three triangles on one edge (0-1): OpenMesh re-adds the third on copied vertices; libvox
+    // maps it back so that its vertex colours survive.
+    writeText(dir / "fin.ply", "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+                               "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 3\n"
+                               "property list uchar int vertex_indices\nend_header\n"
+                               "0 0 0 255 255 255\n1 0 0 255 255 255\n0 1 0 255 0 0\n0 -1 0 0 255 0\n0 0 1 0 0 255\n"
+                               "3 0 1 2\n3 1 0 3\n3 0 1 4\n");
+    const vox::Scene scene = vox::importScene(dir / "fin.ply");
+    const vox::Mesh& m = scene.meshes.at(0);
+    EXPECT_EQ(m.triangleCount(), 3u);
+    EXPECT_EQ(m.positions.size(), 5u);
+    for (const vox::Vec4f& c : m.colors) EXPECT_GT(c.x + c.y + c.z, 0.99f) << "a vertex lost its colour";
+}
+
+TEST(OpenMeshImport, HeaderCountsBeyondTheFileAreRejectedWithoutAllocating) {
+    ScratchDir dir;
+    writeText(dir / "huge.ply", "ply\nformat ascii 1.0\nelement vertex 999999999999\nproperty float x\nproperty float y\n"
+                                "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n");
+    writeText(dir / "huge.off", "OFF\n3 999999999999 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    for (const char* name : {"huge.ply", "huge.off"}) {
+        const auto start = std::chrono::steady_clock::now();
+        const std::string message = importError<vox::InvalidDataError>(dir / name);
+        EXPECT_NE(message.find("999999999999"), std::string::npos) << message;
+        EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2)) << name;
+    }
+}
+
+TEST(OpenMeshImport, TruncatedAndDanglingFilesAreInvalid) {
+    ScratchDir dir;
+    auto bytes = bytesOf("ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                         "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n");
+    for (float v : {0.f, 0.f, 0.f, 2.f, 0.f}) append(bytes, v);  // 5 of 9 floats
+    writeBinary(dir / "short.ply", bytes);
+    importError<vox::InvalidDataError>(dir / "short.ply");
+    writeText(dir / "dangling.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+    importError<vox::InvalidDataError>(dir / "dangling.off");
+    writeText(dir / "points.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "points.ply").find("no faces"), std::string::npos);
+    writeText(dir / "noply.ply", "solid x\nendsolid x\n");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "noply.ply").find("not a PLY"), std::string::npos);
+    writeText(dir / "nooff.off", "3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "nooff.off").find("not an OFF"), std::string::npos);
+}
+
+TEST(OpenMeshImport, BinaryAndAsciiStlCountDegenerateTriangles) {
+    ScratchDir dir;
+    std::vector<std::uint8_t> bytes(80, ' ');
+    std::memcpy(bytes.data(), "solid but actually binary", 25);  // binary files may start with "solid"
+    append<std::uint32_t>(bytes, 2);
+    const float triangles[2][12] = {{0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 0, 1, 0, 0, 0, 0, 0, 0, 1, 0, 0}};
+    for (const auto& t : triangles) {
+        for (float v : t) append(bytes, v);
+        append<std::uint16_t>(bytes, 0);
+    }
+    writeBinary(dir / "b.stl", bytes);
+    const vox::Scene binary = vox::importScene(dir / "b.stl");
+    EXPECT_EQ(binary.triangleCount(), 1u);
+    EXPECT_EQ(binary.degenerateTrianglesDropped, 1u);
+    for (const vox::Vec3f& n : binary.meshes[0].normals) EXPECT_NEAR(n.z, 1.0f, 1e-6f);
+
+    writeText(dir / "a.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n");
+    EXPECT_EQ(vox::importScene(dir / "a.stl").triangleCount(), 1u);
+    writeText(dir / "bad.stl", "not an stl");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "bad.stl").find("not an STL"), std::string::npos);
+}
+
+TEST(OpenMeshImport, OffWithCommentsAndPlyTextureFile) {
+    ScratchDir dir;
+    writeText(dir / "c.off", "# comment\nOFF\n# counts follow\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n");
+    EXPECT_EQ(vox::importScene(dir / "c.off").triangleCount(), 2u);
+
+    writeText(dir / "t.ply", "ply\nformat ascii 1.0\ncomment TextureFile missing.png\nelement vertex 3\nproperty float x\n"
+                             "property float y\nproperty float z\nproperty float s\nproperty float t\nelement face 1\n"
+                             "property list uchar int vertex_indices\nend_header\n0 0 0 0 0\n1 0 0 1 0\n0 1 0 0 1\n3 0 1 2\n");
+    EXPECT_NE(importError<vox::IoError>(dir / "t.ply").find("missing.png"), std::string::npos);
+}
