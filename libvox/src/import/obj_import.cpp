@@ -213,8 +213,9 @@ TextureBinding ObjImporter::readMap(std::string_view args, ColorSpace colorSpace
     if (name.empty()) context_.fail(mtl.filename().string() + " line " + std::to_string(line) + ": texture map without a file name");
     std::replace(name.begin(), name.end(), '\\', '/');
     const std::filesystem::path image = (mtl.parent_path() / name).lexically_normal();
-    // OBJ's v axis points up the image, libvox's (glTF's) down it: v' = 1 - (s·v + o).
-    binding.uvTransform = {scale[0], 0, offset[0], 0, -scale[1], 1 - offset[1]};
+    // -s/-o act on OBJ's v (up the image); the mesh's v is already libvox's 1 - v_obj, so in
+    // libvox terms v' = 1 - (s·(1 - v) + o) = s·v + (1 - s - o).
+    binding.uvTransform = {scale[0], 0, offset[0], 0, scale[1], 1 - scale[1] - offset[1]};
     binding.texture = context_.texture("file:" + image.string(), colorSpace, [&] {
         return decodeTexture(context_.readFile(image), image, "", "", colorSpace);
     });

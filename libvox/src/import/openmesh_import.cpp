@@ -242,16 +242,30 @@ HeaderFacts countStlTriangles(const std::vector<std::uint8_t>& bytes) {
     return facts;
 }
 
-/// The text with every '#' comment removed (line structure kept), or empty if it has none.
+/// The text without '#' comments and the blank lines they leave (OpenMesh wants "OFF" first),
+/// or empty if it has no comment.
 std::vector<std::uint8_t> withoutComments(const std::vector<std::uint8_t>& text) {
     if (std::find(text.begin(), text.end(), '#') == text.end()) return {};
     std::vector<std::uint8_t> out;
     out.reserve(text.size());
-    bool inComment = false;
+    bool inComment = false, lineHasContent = false;
+    std::size_t lineStart = 0;
     for (std::uint8_t c : text) {
         if (c == '#') inComment = true;
-        if (c == '\n') inComment = false;
-        if (!inComment) out.push_back(c);
+        if (c == '\n') {
+            inComment = false;
+            if (!lineHasContent) {
+                out.resize(lineStart);  // drop the blank line
+                continue;
+            }
+            out.push_back(c);
+            lineStart = out.size();
+            lineHasContent = false;
+            continue;
+        }
+        if (inComment) continue;
+        out.push_back(c);
+        if (!std::isspace(c)) lineHasContent = true;
     }
     return out;
 }
