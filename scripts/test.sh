@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# README command 2 (and CI's): installs what is needed, builds with warnings as errors, and runs
+# the whole test suite.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+./scripts/install-deps.sh
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DLIBVOX_WERROR=ON >/dev/null
+cmake --build build
+ctest --test-dir build --output-on-failure -j"$(nproc)"
