@@ -2,6 +2,7 @@
 // output on failure, --stats and --depfile.
 #include <vox/formats/atomic_file.h>
 
+#include "assimp_models.h"
 #include "cornell_box.h"
 #include "test_support.h"
 
@@ -86,6 +87,21 @@ TEST(Tools, BadInputFailsCleanlyWithNoOutputLeftBehind) {
     }
 }
 
+TEST(Tools, EveryBrokenAssimpModelFailsCleanly) {
+    ScratchDir dir;
+    int broken = 0;
+    for (const vox::test::ModelCase& model : vox::test::kAssimpModels) {
+        if (model.error == vox::ExitCode::Ok) continue;
+        ++broken;
+        const auto input = vox::test::assimpModels() / model.path;
+        SCOPED_TRACE(input.string());
+        const ProcessResult r = voxelize({input.string(), "--stats", (dir / "out.json").string(), "--depfile", (dir / "out.d").string()});
+        expectOneLineError(r, static_cast<int>(model.error), input.string() + ": ");
+        EXPECT_EQ(dir.files(), std::vector<std::string>{}) << "no output, no temporary";
+    }
+    EXPECT_GE(broken, 30);  // the table's broken files, so the loop cannot silently test nothing
+}
+
 TEST(Tools, StatsReportTheSceneWithStableKeys) {
     ScratchDir dir;
     const auto scene = vox::scenes::writeCornellBox(dir.path());
@@ -105,6 +121,17 @@ TEST(Tools, StatsReportTheSceneWithStableKeys) {
     EXPECT_GT(stats["timings_ms"]["import"].get<double>(), 0.0);
     EXPECT_GT(stats["peak_rss_bytes"].get<std::uint64_t>(), 1u << 20);
     EXPECT_EQ(stats["threads"], 1);
+}
+
+TEST(Tools, DepfileOfARealExternalBufferAndTextureGltf) {
+    ScratchDir dir;
+    const auto model = vox::test::assimpModels() / "glTF2/BoxTextured-glTF/BoxTextured.gltf";
+    const ProcessResult r = voxelize({model.string(), "--stats", (dir / "s.json").string(), "--depfile", (dir / "s.d").string()});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const std::string depfile = vox::test::readText(dir / "s.d");
+    const auto folder = model.parent_path();
+    EXPECT_EQ(depfile, (dir / "s.json").string() + ": \\\n  " + model.string() + " \\\n  " + (folder / "BoxTextured0.bin").string() +
+                           " \\\n  " + (folder / "CesiumLogoFlat.png").string() + "\n");
 }
 
 TEST(Tools, DepfileListsEveryFileRead) {
@@ -164,4 +191,17 @@ TEST(Tools, VoxinspectSceneDescribesWhatWasImported) {
     EXPECT_NE(text.out.find("DynamicSphere"), std::string::npos);
     EXPECT_NE(text.out.find("dynamic"), std::string::npos);
     expectOneLineError(voxinspect({"scene", (dir / "none.obj").string()}), 2, "none.obj", "voxinspect");
+}
+
+TEST(Tools, ProgressBarAppearsOnlyOnATerminal) {
+    ScratchDir dir;
+    const auto scene = vox::scenes::writeCornellBox(dir.path());
+    // `script` gives the tool a pseudo-terminal as stderr.
+    const ProcessResult tty = runProcess("/usr/bin/script", {"-q", "-e", "-c", vox::test::voxelizePath().string() + " " + scene.string(), "/dev/null"});
+    EXPECT_EQ(tty.exitCode, 0) << tty.out << tty.err;
+    EXPECT_NE(tty.out.find("decoding textures"), std::string::npos) << tty.out;
+    EXPECT_NE(tty.out.find('\r'), std::string::npos);
+    const ProcessResult quiet = runProcess("/usr/bin/script", {"-q", "-e", "-c", vox::test::voxelizePath().string() + " -q " + scene.string(), "/dev/null"});
+    EXPECT_EQ(quiet.exitCode, 0);
+    EXPECT_EQ(quiet.out.find("decoding textures"), std::string::npos) << quiet.out;
 }

@@ -97,7 +97,7 @@ struct Scene {
     std::vector<std::filesystem::path> sourceFiles;
     /// Triangles dropped because they had no area.
     std::size_t degenerateTrianglesDropped = 0;
-    /// Warnings the import issued (also sent to the log as they happened).
+    /// Warnings the import issued (importScene also logs them, once the import has succeeded).
     std::vector<std::string> warnings;
 
     [[nodiscard]] std::size_t triangleCount() const noexcept;

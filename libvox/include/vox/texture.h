@@ -76,9 +76,10 @@ private:
 /// InvalidDataError if it cannot be decoded or exceeds Texture::kMaxDimension.
 [[nodiscard]] Texture loadTexture(const std::filesystem::path& file, ColorSpace colorSpace);
 
-/// Decodes an image held in memory (a GLB buffer view or a data URI) that @p container holds;
-/// @p what names it there (e.g. "image 2 'logo'"), both for messages and as the texture's
-/// name. @p mimeType helps pick the decoder and may be empty. @throws InvalidDataError.
+/// Decodes an encoded image held in memory. @p container is the file it came from and @p what
+/// names it there (e.g. "image 2 'logo'" inside a GLB), or is empty when @p container is the
+/// image file itself; both appear in messages and the texture's name. @p mimeType helps pick
+/// the decoder and may be empty. @throws InvalidDataError.
 [[nodiscard]] Texture decodeTexture(std::span<const std::uint8_t> encoded, const std::filesystem::path& container,
                                     const std::string& what, const std::string& mimeType, ColorSpace colorSpace);
 

@@ -289,12 +289,11 @@ Mat4d GltfImporter::localTransform(const tinygltf::Node& node) {
 std::int32_t GltfImporter::loadImage(int imageIndex, ColorSpace colorSpace) {
     const tinygltf::Image& image = model_.images.at(imageIndex);
     const std::string what = "image " + std::to_string(imageIndex) + (image.name.empty() ? "" : " '" + image.name + "'");
-    return context_.texture("image:" + std::to_string(imageIndex), colorSpace, [&]() -> Texture {
-        if (!image.image.empty()) return decodeTexture(image.image, context_.input(), what, image.mimeType, colorSpace);
+    return context_.texture("image:" + std::to_string(imageIndex), colorSpace, [&]() -> ImportContext::EncodedImage {
+        if (!image.image.empty()) return {image.image, context_.input(), what, image.mimeType};
         if (image.uri.empty()) fail(what + " has neither data nor a URI");
         const std::filesystem::path file = baseDir_ / percentDecode(image.uri);
-        const std::vector<std::uint8_t> bytes = context_.readFile(file);
-        return decodeTexture(bytes, file, "", image.mimeType, colorSpace);
+        return {context_.readFile(file), file, "", image.mimeType};
     });
 }
 

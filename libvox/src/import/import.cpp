@@ -2,6 +2,7 @@
 #include "importers.h"
 
 #include <vox/import.h>
+#include <vox/util/log.h>
 #include <vox/util/timings.h>
 
 #include <algorithm>
@@ -98,10 +99,12 @@ Scene importScene(const std::filesystem::path& file, const ImportOptions& option
         detail::importDrc(context, bytes);
     }
 
+    context.decodeTextures();
     {
         Timings::Scope timer(options.timings, "import.finalize");
         context.finish(missingNormals);
     }
+    for (const std::string& warning : scene.warnings) log::warning(file.string() + ": " + warning);
     return scene;
 }
 

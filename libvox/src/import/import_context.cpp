@@ -1,6 +1,10 @@
 #include "import_context.h"
 
 #include <vox/util/log.h>
+#include <vox/util/progress.h>
+#include <vox/util/timings.h>
+
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -13,8 +17,8 @@ ImportContext::ImportContext(std::filesystem::path input, const ImportOptions& o
 
 void ImportContext::warn(const std::string& problem) {
     if (options_.strict) fail(problem + " (an error under --strict)");
+    // Printed by importScene once the import has succeeded: a failed import reports one line.
     scene_.warnings.push_back(problem);
-    log::warning(input_.string() + ": " + problem);
 }
 
 void ImportContext::fail(const std::string& problem) const { throw InvalidDataError(input_, problem); }
@@ -63,16 +67,35 @@ std::uint32_t ImportContext::defaultMaterial() {
 }
 
 std::int32_t ImportContext::texture(const std::string& key, ColorSpace colorSpace,
-                                    const std::function<Texture()>& load) {
+                                    const std::function<EncodedImage()>& read) {
+    if (!options_.loadTextures) return -1;
     const auto mapKey = std::make_pair(key, colorSpace);
     if (auto it = textures_.find(mapKey); it != textures_.end()) return it->second;
-    std::int32_t index = -1;
-    if (options_.loadTextures) {
-        scene_.textures.push_back(load());
-        index = static_cast<std::int32_t>(scene_.textures.size() - 1);
-    }
+    pendingTextures_.emplace_back(read(), colorSpace);
+    const auto index = static_cast<std::int32_t>(scene_.textures.size() + pendingTextures_.size() - 1);
     textures_.emplace(mapKey, index);
     return index;
+}
+
+void ImportContext::decodeTextures() {
+    if (pendingTextures_.empty()) return;
+    Timings::Scope timer(options_.timings, "import.textures");
+    const std::size_t first = scene_.textures.size(), count = pendingTextures_.size();
+    scene_.textures.resize(first + count);
+    std::vector<std::exception_ptr> errors(count);
+    Progress progress("decoding textures", count);
+    tbb::parallel_for(std::size_t{0}, count, [&](std::size_t i) {
+        const auto& [image, colorSpace] = pendingTextures_[i];
+        try {
+            scene_.textures[first + i] = decodeTexture(image.bytes, image.file, image.what, image.mimeType, colorSpace);
+        } catch (...) {
+            errors[i] = std::current_exception();
+        }
+        progress.advance();
+    });
+    pendingTextures_.clear();
+    for (const auto& error : errors)
+        if (error) std::rethrow_exception(error);
 }
 
 void ImportContext::finish(MissingNormals missingNormals) {

@@ -48,13 +48,27 @@ public:
     /// Index of a material with glTF's defaults, created on first use.
     [[nodiscard]] std::uint32_t defaultMaterial();
 
-    /// Index of the texture known by @p key in @p colorSpace, created by @p load on first use.
-    /// A texture that fails to load fails the import (a missing image is an error).
+    /// An image to decode: its encoded bytes and where they came from (for messages).
+    struct EncodedImage {
+        std::vector<std::uint8_t> bytes;
+        std::filesystem::path file;  ///< the image file, or the scene file holding it
+        std::string what;            ///< "" for an image file, else e.g. "image 2 'logo'"
+        std::string mimeType;
+    };
+
+    /// Index of the texture known by @p key in @p colorSpace. On first use @p read supplies the
+    /// encoded image (reading files in import order, so depfiles are deterministic); decoding
+    /// happens later, in parallel, in decodeTextures(). Returns -1 without calling @p read when
+    /// textures are off.
     [[nodiscard]] std::int32_t texture(const std::string& key, ColorSpace colorSpace,
-                                       const std::function<Texture()>& load);
+                                       const std::function<EncodedImage()>& read);
+
+    /// Decodes every texture registered so far into Scene::textures, in parallel. A failure
+    /// fails the import with the error of the first failing texture in registration order.
+    void decodeTextures();
 
     /// Validates and repairs the meshes (see finalizeScene) and warns about unused --dynamic
-    /// names. Importers call it last.
+    /// names. Called after the importer and decodeTextures().
     void finish(MissingNormals missingNormals);
 
 private:
@@ -64,6 +78,7 @@ private:
     std::uint64_t bytesRead_ = 0;
     std::set<std::string> usedDynamicNames_;
     std::map<std::pair<std::string, ColorSpace>, std::int32_t> textures_;
+    std::vector<std::pair<EncodedImage, ColorSpace>> pendingTextures_;
     std::int64_t defaultMaterial_ = -1;
 };
 

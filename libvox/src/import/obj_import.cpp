@@ -4,6 +4,7 @@
 // vertices are shared within a mesh where position, UV and normal indices all match.
 #include "importers.h"
 
+#include <vox/util/progress.h>
 #include <vox/util/timings.h>
 
 #include <charconv>
@@ -79,6 +80,9 @@ public:
         return false;
     }
 
+    /// Bytes consumed so far.
+    [[nodiscard]] std::size_t position() const { return std::min(pos_, text_.size()); }
+
 private:
     std::string_view text_;
     std::size_t pos_ = 0, lineNumber_ = 0;
@@ -102,10 +106,18 @@ struct MeshBuilder {
     bool anyUv = false, anyNormal = false;
 };
 
+/// Largest polygon ear-clipped; clipping costs O(n³) at worst, so larger faces (which real
+/// exporters do not write) are fanned to keep hostile input from hanging the import.
+constexpr std::size_t kMaxEarClippedCorners = 256;
+
 /// Ear clipping in the plane of the polygon's Newell normal; a fan if clipping gets stuck
-/// (self-intersecting input). Appends triangles as indices into @p polygon.
+/// (self-intersecting input) or the polygon is huge. Appends triangles as indices into @p points.
 void triangulatePolygon(const std::vector<Vec3f>& points, std::vector<std::array<std::size_t, 3>>& out) {
     const std::size_t n = points.size();
+    if (n > kMaxEarClippedCorners) {
+        for (std::size_t i = 1; i + 1 < n; ++i) out.push_back({0, i, i + 1});
+        return;
+    }
     Vec3d normal{};
     for (std::size_t i = 0; i < n; ++i) {
         const Vec3f a = points[i], b = points[(i + 1) % n];
@@ -216,8 +228,8 @@ TextureBinding ObjImporter::readMap(std::string_view args, ColorSpace colorSpace
     // -s/-o act on OBJ's v (up the image); the mesh's v is already libvox's 1 - v_obj, so in
     // libvox terms v' = 1 - (s·(1 - v) + o) = s·v + (1 - s - o).
     binding.uvTransform = {scale[0], 0, offset[0], 0, scale[1], 1 - scale[1] - offset[1]};
-    binding.texture = context_.texture("file:" + image.string(), colorSpace, [&] {
-        return decodeTexture(context_.readFile(image), image, "", "", colorSpace);
+    binding.texture = context_.texture("file:" + image.string(), colorSpace, [&]() -> ImportContext::EncodedImage {
+        return {context_.readFile(image), image, "", ""};
     });
     return binding;
 }
@@ -363,7 +375,14 @@ void ObjImporter::run(std::string_view text) {
     ObjLines lines(text);
     std::string_view line;
     std::size_t number = 0;
+    Progress progress("reading OBJ", text.size());
+    constexpr std::size_t kProgressStep = 1 << 20;
+    std::size_t reported = 0;
     while (lines.next(line, number)) {
+        if (lines.position() - reported >= kProgressStep) {
+            progress.advance(lines.position() - reported);
+            reported = lines.position();
+        }
         std::string_view args = trim(line);
         if (args.empty() || args.front() == '#') continue;
         const std::string_view keyword = nextToken(args);
@@ -430,6 +449,7 @@ void ObjImporter::run(std::string_view text) {
         }
         // s, vp, cstype, deg, ... do not affect a surface voxelization.
     }
+    progress.advance(text.size() - reported);
     for (const auto& [name, unused] : unknownMaterials_)
         context_.warn("usemtl '" + name + "' names no material in the .mtl files; the default material is used");
     if (skippedElements_) context_.warn("skipped " + std::to_string(skippedElements_) + " point, line, curve or surface element(s)");

@@ -412,8 +412,8 @@ void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& byt
         Material material;
         material.name = facts.textureFile;
         const std::filesystem::path image = context.input().parent_path() / facts.textureFile;
-        material.baseColorTexture.texture = context.texture("file:" + image.string(), ColorSpace::SRGB, [&] {
-            return decodeTexture(context.readFile(image), image, "", "", ColorSpace::SRGB);
+        material.baseColorTexture.texture = context.texture("file:" + image.string(), ColorSpace::SRGB, [&]() -> ImportContext::EncodedImage {
+            return {context.readFile(image), image, "", ""};
         });
         context.scene().materials.push_back(material);
         out.material = static_cast<std::uint32_t>(context.scene().materials.size() - 1);

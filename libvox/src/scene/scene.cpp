@@ -176,7 +176,10 @@ void finalizeScene(ImportContext& context, MissingNormals missingNormals) {
         if (trianglesBefore > 0 || scene.degenerateTrianglesDropped > 0)
             context.fail("all " + std::to_string(trianglesBefore + scene.degenerateTrianglesDropped - degenerate) +
                          " triangles are degenerate (no area)");
-        context.fail("contains no triangles");
+        // What was skipped explains why nothing is left.
+        std::string skipped;
+        for (const std::string& warning : scene.warnings) skipped += (skipped.empty() ? " (" : "; ") + warning;
+        context.fail("contains no triangles" + (skipped.empty() ? std::string() : skipped + ")"));
     }
     if (scene.degenerateTrianglesDropped)
         context.warn("dropped " + std::to_string(scene.degenerateTrianglesDropped) + " degenerate triangle(s) with no area");

@@ -39,20 +39,29 @@ Texture decodeOpened(OIIO::ImageInput& input, const std::filesystem::path& file,
                                               std::to_string(spec.height) + ", larger than the supported " +
                                               std::to_string(Texture::kMaxDimension) + " per side");
     const int channels = std::min(spec.nchannels, 4);
-    const std::size_t count = static_cast<std::size_t>(spec.width) * spec.height * channels;
-    std::vector<float> values(count);
-    if (!input.read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, values.data()))
-        throw InvalidDataError(file, prefix + "cannot decode image: " + input.geterror());
-
-    // Integer formats store encoded values (sRGB for colour textures); floating-point formats
-    // store linear values, which are encoded here to the texture's colour space.
-    const bool linearSource = spec.format.is_floating_point();
-    std::vector<std::uint8_t> pixels(count);
-    for (std::size_t i = 0; i < count; ++i) {
-        float v = std::isfinite(values[i]) ? values[i] : 0.0f;
-        const bool isAlpha = (channels == 2 && i % 2 == 1) || (channels == 4 && i % 4 == 3);
-        if (linearSource && colorSpace == ColorSpace::SRGB && !isAlpha) v = linearToSrgb(std::clamp(v, 0.0f, 1.0f));
-        pixels[i] = static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f));
+    const std::size_t rowValues = static_cast<std::size_t>(spec.width) * channels;
+    std::vector<std::uint8_t> pixels(rowValues * spec.height);
+    if (!spec.format.is_floating_point()) {
+        // Integer formats hold encoded values (sRGB for colour textures): 8 bits directly.
+        if (!input.read_image(0, 0, 0, channels, OIIO::TypeDesc::UINT8, pixels.data()))
+            throw InvalidDataError(file, prefix + "cannot decode image: " + input.geterror());
+    } else {
+        // Floating-point formats hold linear values: encode them to the texture's colour space,
+        // a band of rows at a time so a large HDR image never exists as floats all at once.
+        constexpr int kBand = 64;
+        std::vector<float> band(rowValues * kBand);
+        for (int y0 = 0; y0 < spec.height; y0 += kBand) {
+            const int y1 = std::min(spec.height, y0 + kBand);
+            if (!input.read_scanlines(0, 0, y0, y1, 0, 0, channels, OIIO::TypeDesc::FLOAT, band.data()))
+                throw InvalidDataError(file, prefix + "cannot decode image: " + input.geterror());
+            for (std::size_t i = 0; i < rowValues * static_cast<std::size_t>(y1 - y0); ++i) {
+                float v = std::isfinite(band[i]) ? std::clamp(band[i], 0.0f, 1.0f) : 0.0f;
+                const std::size_t channel = i % static_cast<std::size_t>(channels);
+                const bool isAlpha = (channels == 2 && channel == 1) || (channels == 4 && channel == 3);
+                if (colorSpace == ColorSpace::SRGB && !isAlpha) v = linearToSrgb(v);
+                pixels[rowValues * static_cast<std::size_t>(y0) + i] = static_cast<std::uint8_t>(std::lround(v * 255.0f));
+            }
+        }
     }
     return Texture(what.empty() ? file.filename().string() : what, spec.width, spec.height, channels, pixels, colorSpace);
 }
