@@ -3,6 +3,7 @@
 
 #include "gltf_builder.h"
 #include "shapes.h"
+#include "import_expect.h"
 #include "test_support.h"
 
 #include <draco/compression/encode.h>
@@ -16,36 +17,13 @@
 
 using vox::scenes::BufferStorage;
 using vox::scenes::GltfBuilder;
+using vox::test::importError;
+using vox::test::importOk;
 using vox::test::ScratchDir;
 
 namespace {
 
-vox::Scene importOk(const std::filesystem::path& file, const vox::ImportOptions& options = {}) {
-    try {
-        return vox::importScene(file, options);
-    } catch (const std::exception& e) {
-        ADD_FAILURE() << "import failed: " << e.what();
-        return {};
-    }
-}
 
-/// Imports expecting error type E; returns its message.
-template <typename E>
-std::string importError(const std::filesystem::path& file, const vox::ImportOptions& options = {}) {
-    try {
-        (void)vox::importScene(file, options);
-    } catch (const E& e) {
-        const std::string message = e.what();
-        EXPECT_EQ(message.rfind(file.string(), 0), 0u) << "message should start with the file: " << message;
-        EXPECT_EQ(message.find('\n'), std::string::npos) << "message should be one line: " << message;
-        return message;
-    } catch (const std::exception& e) {
-        ADD_FAILURE() << "wrong exception type: " << e.what();
-        return {};
-    }
-    ADD_FAILURE() << "import succeeded but should have failed";
-    return {};
-}
 
 GltfBuilder::Primitive triangle(int material = -1) {
     GltfBuilder::Primitive p;
@@ -550,4 +528,31 @@ TEST(GltfImport, DracoCompressedPrimitivesDecode) {
         const auto broken = writeSingleNode(dir, gltf, {"box", 0}, storage, storage == BufferStorage::Glb ? "bad.glb" : "bad.gltf");
         EXPECT_NE(importError<vox::InvalidDataError>(broken).find("Draco attribute 77"), std::string::npos);
     }
+}
+
+TEST(GltfImport, DeepHierarchiesAndNestingNeitherRecurseNorCrash) {
+    ScratchDir dir;
+    // A chain of 200000 nodes: deeper than any call stack would take recursively.
+    GltfBuilder gltf;
+    const int mesh = gltf.addMesh("tri", {triangle()});
+    constexpr int kDepth = 200000;
+    auto& nodes = gltf.json()["nodes"];
+    nodes = nlohmann::json::array();
+    for (int i = 0; i < kDepth; ++i) {
+        nlohmann::json node = {{"translation", {0.0, 0.0, 1e-4}}};
+        if (i + 1 < kDepth) node["children"] = {i + 1};
+        else node["mesh"] = mesh;
+        nodes.push_back(node);
+    }
+    gltf.setSceneRoots({0});
+    gltf.write(dir / "deep.gltf", BufferStorage::DataUri);
+    const vox::Scene scene = importOk(dir / "deep.gltf");
+    ASSERT_EQ(scene.triangleCount(), 1u);
+    EXPECT_NEAR(scene.meshes[0].positions[0].z, kDepth * 1e-4f, 1e-2f);
+
+    // JSON nested a million levels deep in extras.
+    std::string deep = R"({"asset": {"version": "2.0"}, "extras": )";
+    deep += std::string(1000000, '[') + std::string(1000000, ']') + "}";
+    vox::test::writeText(dir / "nested.gltf", deep);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "nested.gltf").find("nests deeper"), std::string::npos);
 }

@@ -2,28 +2,18 @@
 #include <vox/import.h>
 
 #include "gltf_builder.h"
+#include "import_expect.h"
 #include "test_support.h"
 
 #include <cmath>
 
+using vox::test::importError;
+using vox::test::importOk;
 using vox::test::ScratchDir;
 using vox::test::writeText;
 
 namespace {
 
-template <typename E>
-std::string importError(const std::filesystem::path& file, const vox::ImportOptions& options = {}) {
-    try {
-        (void)vox::importScene(file, options);
-    } catch (const E& e) {
-        return e.what();
-    } catch (const std::exception& e) {
-        ADD_FAILURE() << "wrong exception type: " << e.what();
-        return {};
-    }
-    ADD_FAILURE() << "import succeeded but should have failed";
-    return {};
-}
 
 const char* kCube = R"(# unit cube with one normal per face
 v 0 0 0

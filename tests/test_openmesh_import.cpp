@@ -1,30 +1,20 @@
 #include <vox/formats/error.h>
 #include <vox/import.h>
 
+#include "import_expect.h"
 #include "test_support.h"
 
 #include <chrono>
 #include <cstring>
 
+using vox::test::importError;
+using vox::test::importOk;
 using vox::test::ScratchDir;
 using vox::test::writeBinary;
 using vox::test::writeText;
 
 namespace {
 
-template <typename E>
-std::string importError(const std::filesystem::path& file) {
-    try {
-        (void)vox::importScene(file);
-    } catch (const E& e) {
-        return e.what();
-    } catch (const std::exception& e) {
-        ADD_FAILURE() << "wrong exception type: " << e.what();
-        return {};
-    }
-    ADD_FAILURE() << "import succeeded but should have failed";
-    return {};
-}
 
 std::vector<std::uint8_t> bytesOf(const std::string& text) { return {text.begin(), text.end()}; }
 

@@ -11,15 +11,6 @@ namespace {
 
 nlohmann::json vec3(Vec3f v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
-const char* lightType(Light::Type type) {
-    switch (type) {
-    case Light::Type::Directional: return "directional";
-    case Light::Type::Point: return "point";
-    case Light::Type::Spot: return "spot";
-    }
-    return "unknown";
-}
-
 std::string escapeDepfilePath(const std::string& path) {
     std::string out;
     for (char c : path) {
@@ -31,6 +22,15 @@ std::string escapeDepfilePath(const std::string& path) {
 }
 
 }  // namespace
+
+const char* lightTypeName(Light::Type type) {
+    switch (type) {
+    case Light::Type::Directional: return "directional";
+    case Light::Type::Point: return "point";
+    case Light::Type::Spot: return "spot";
+    }
+    return "unknown";
+}
 
 nlohmann::json sceneReport(const Scene& scene) {
     nlohmann::json report;
@@ -52,7 +52,7 @@ nlohmann::json sceneReport(const Scene& scene) {
     report["texture_bytes"] = textureBytes;
     nlohmann::json lights = nlohmann::json::array();
     for (const Light& light : scene.lights)
-        lights.push_back({{"name", light.name}, {"type", lightType(light.type)}, {"color", vec3(light.color)},
+        lights.push_back({{"name", light.name}, {"type", lightTypeName(light.type)}, {"color", vec3(light.color)},
                           {"intensity", light.intensity}, {"range", light.range}, {"position", vec3(light.position)},
                           {"direction", vec3(light.direction)}, {"dynamic", light.dynamic}});
     report["lights"] = lights;

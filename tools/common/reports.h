@@ -12,6 +12,9 @@
 
 namespace vox::tools {
 
+/// "directional", "point" or "spot".
+[[nodiscard]] const char* lightTypeName(Light::Type type);
+
 /// The scene part of a stats report: inputs, triangles, materials, textures, lights, bounds, ...
 /// (keys documented in docs/cli.md).
 [[nodiscard]] nlohmann::json sceneReport(const Scene& scene);

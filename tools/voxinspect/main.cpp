@@ -68,7 +68,7 @@ void inspectScene(const SceneCommand& command) {
     std::printf("  lights     %zu\n", scene.lights.size());
     for (const vox::Light& l : scene.lights)
         std::printf("    %-28s %s intensity %g colour (%.3g %.3g %.3g) at (%g %g %g)%s\n", l.name.c_str(),
-                    l.type == vox::Light::Type::Directional ? "directional" : (l.type == vox::Light::Type::Point ? "point" : "spot"),
+                    vox::tools::lightTypeName(l.type),
                     l.intensity, l.color.x, l.color.y, l.color.z, l.position.x, l.position.y, l.position.z,
                     l.dynamic ? "  dynamic" : "");
 }

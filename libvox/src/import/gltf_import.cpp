@@ -150,7 +150,10 @@ private:
     TextureBinding bindTexture(int textureIndex, int texCoord, const tinygltf::ExtensionMap& extensions,
                                ColorSpace colorSpace, const std::string& what);
     std::int32_t loadImage(int imageIndex, ColorSpace colorSpace);
+    /// Imports a node's own mesh and light and queues it for its children.
     void importNode(int node, const Mat4d& parent, bool dynamic);
+    /// Imports a root and everything below it, depth first, without recursion.
+    void importHierarchy(int root);
     void importPrimitive(const tinygltf::Mesh& mesh, int meshIndex, int primitiveIndex, const Mat4d& world,
                          const std::string& nodeName, bool dynamic);
     void importLight(int lightIndex, const Mat4d& world, bool dynamic, const std::string& nodeName);
@@ -160,6 +163,13 @@ private:
     tinygltf::Model& model_;
     std::filesystem::path baseDir_;
     std::vector<int> visitState_;  // 0 unvisited, 1 on the current path, 2 done
+    struct PendingNode {
+        int node;
+        Mat4d world;
+        bool dynamic;
+        std::size_t nextChild;
+    };
+    std::vector<PendingNode> pending_;  // the depth-first path from the root
     std::size_t skippedPrimitives_ = 0;
     std::size_t missingUvSets_ = 0;
     std::size_t skinnedMeshes_ = 0;
@@ -568,9 +578,6 @@ void GltfImporter::importPrimitive(const tinygltf::Mesh& mesh, int meshIndex, in
 }
 
 void GltfImporter::importNode(int nodeIndex, const Mat4d& parent, bool dynamic) {
-    if (visitState_[nodeIndex] == 1) fail("node " + std::to_string(nodeIndex) + " is its own ancestor (the node hierarchy has a cycle)");
-    if (visitState_[nodeIndex] == 2) fail("node " + std::to_string(nodeIndex) + " has more than one parent");
-    visitState_[nodeIndex] = 1;
     const tinygltf::Node& node = model_.nodes[nodeIndex];
     const std::string what = "node " + std::to_string(nodeIndex) + (node.name.empty() ? "" : " '" + node.name + "'");
     const Mat4d world = parent * localTransform(node);
@@ -594,8 +601,31 @@ void GltfImporter::importNode(int nodeIndex, const Mat4d& parent, bool dynamic) 
     }
     if (auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end() && it->second.Has("light"))
         importLight(it->second.Get("light").GetNumberAsInt(), world, dynamic, node.name);
-    for (int child : node.children) importNode(child, world, dynamic);
-    visitState_[nodeIndex] = 2;
+
+    // Children are queued by the caller's explicit stack: hierarchies deeper than the call stack
+    // (hostile files, or long chains from some exporters) cannot overflow it.
+    pending_.push_back({nodeIndex, world, dynamic, 0});
+}
+
+void GltfImporter::importHierarchy(int root) {
+    if (visitState_[root] != 0) fail("node " + std::to_string(root) + " is listed in the scene more than once or has a parent");
+    visitState_[root] = 1;
+    importNode(root, Mat4d::identity(), false);
+    while (!pending_.empty()) {
+        PendingNode& top = pending_.back();
+        const auto& children = model_.nodes[top.node].children;
+        if (top.nextChild == children.size()) {
+            visitState_[top.node] = 2;
+            pending_.pop_back();
+            continue;
+        }
+        const int child = children[top.nextChild++];
+        if (visitState_[child] == 1) fail("node " + std::to_string(child) + " is its own ancestor (the node hierarchy has a cycle)");
+        if (visitState_[child] == 2) fail("node " + std::to_string(child) + " has more than one parent");
+        visitState_[child] = 1;
+        const Mat4d world = top.world;  // importNode may grow pending_, moving top
+        importNode(child, world, top.dynamic);
+    }
 }
 
 void GltfImporter::run() {
@@ -618,7 +648,7 @@ void GltfImporter::run() {
         for (std::size_t i = 0; i < model_.nodes.size(); ++i)
             if (!isChild[i]) roots.push_back(static_cast<int>(i));
     }
-    for (int root : roots) importNode(root, Mat4d::identity(), false);
+    for (int root : roots) importHierarchy(root);
 
     if (skippedPrimitives_) context_.warn("skipped " + std::to_string(skippedPrimitives_) + " primitive(s) of points or lines");
     if (missingUvSets_) context_.warn(std::to_string(missingUvSets_) + " primitive(s) lack a UV set their material's textures use; those lookups read (0, 0)");

@@ -372,6 +372,25 @@ std::uint32_t readU32(const std::uint8_t* p) {
 }  // namespace
 
 std::string validateGltfJson(std::string_view jsonText, const std::filesystem::path& file) {
+    // glTF nests a dozen levels at most; parsers and tinygltf's extras conversion recurse per
+    // level, so absurd nesting is rejected by a scan that does not.
+    constexpr int kMaxJsonDepth = 256;
+    int depth = 0;
+    bool inString = false;
+    for (std::size_t i = 0; i < jsonText.size(); ++i) {
+        const char c = jsonText[i];
+        if (inString) {
+            if (c == '\\') ++i;
+            else if (c == '"') inString = false;
+        } else if (c == '"') {
+            inString = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > kMaxJsonDepth)
+                throw InvalidDataError(file, "JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+        } else if (c == ']' || c == '}') {
+            --depth;
+        }
+    }
     json root = json::parse(jsonText.begin(), jsonText.end(), nullptr, false);
     if (root.is_discarded()) {
         // Parse again with exceptions for the position of the error.
