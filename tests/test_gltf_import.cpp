@@ -1,4 +1,5 @@
 #include <vox/formats/error.h>
+#include <vox/image_io.h>
 #include <vox/import.h>
 
 #include "gltf_builder.h"
@@ -223,7 +224,7 @@ TEST(GltfImport, MaterialsTexturesAndExtensions) {
     ScratchDir dir;
     GltfBuilder gltf;
     const std::vector<std::uint8_t> pixels = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};
-    vox::scenes::writePng(dir / "tex.png", 2, 2, 3, pixels);
+    vox::writePng(dir / "tex.png", 2, 2, 3, pixels);
     const int texture = gltf.addTexture(gltf.addImage("tex.png"), 33071, 33648);
     const int material = gltf.addMaterial({"glow", {0.5f, 0.25f, 1.0f, 0.5f}, texture, {1.0f, 0.5f, 0.0f}, 40.0f});
     auto& m = gltf.json()["materials"][material];
@@ -337,8 +338,8 @@ TEST(GltfImport, ExternalEmbeddedAndGlbStorageGiveTheSameScene) {
         GltfBuilder gltf;
         const std::vector<std::uint8_t> pixels(4 * 4 * 3, 200);
         const int image = storage == BufferStorage::External
-                              ? (vox::scenes::writePng(dir / "t.png", 4, 4, 3, pixels), gltf.addImage("t.png"))
-                              : gltf.addBufferImage(vox::scenes::encodePng(4, 4, 3, pixels), "image/png");
+                              ? (vox::writePng(dir / "t.png", 4, 4, 3, pixels), gltf.addImage("t.png"))
+                              : gltf.addBufferImage(vox::encodePng(4, 4, 3, pixels), "image/png");
         const int material = gltf.addMaterial({"m", {1, 1, 1, 1}, gltf.addTexture(image)});
         GltfBuilder::Primitive box = vox::scenes::boxPrimitive({0, 0, 0}, {1, 1, 1}, material);
         const auto file = writeSingleNode(dir, gltf, {"box", gltf.addMesh("box", {box})}, storage,
@@ -442,7 +443,7 @@ TEST(GltfImport, MissingUvSetReadsZeroWithAWarning) {
     ScratchDir dir;
     GltfBuilder gltf;
     const std::vector<std::uint8_t> pixels(3, 255);
-    const int material = gltf.addMaterial({"m", {1, 1, 1, 1}, gltf.addTexture(gltf.addBufferImage(vox::scenes::encodePng(1, 1, 3, pixels), "image/png"))});
+    const int material = gltf.addMaterial({"m", {1, 1, 1, 1}, gltf.addTexture(gltf.addBufferImage(vox::encodePng(1, 1, 3, pixels), "image/png"))});
     gltf.json()["materials"][material]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] = 1;
     writeSingleNode(dir, gltf, {"n", gltf.addMesh("tri", {triangle(material)})});
     const vox::Scene scene = importOk(dir / "scene.gltf");

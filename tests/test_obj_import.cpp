@@ -1,4 +1,5 @@
 #include <vox/formats/error.h>
+#include <vox/image_io.h>
 #include <vox/import.h>
 
 #include "gltf_builder.h"
@@ -86,7 +87,7 @@ TEST(ObjImport, ConcavePolygonsAreEarClipped) {
 TEST(ObjImport, ObjectsGroupsAndMaterialsSplitMeshes) {
     ScratchDir dir;
     const std::vector<std::uint8_t> pixels = {255, 0, 0, 0, 0, 255};
-    vox::scenes::writePng(dir / "tex.png", 2, 1, 3, pixels);
+    vox::writePng(dir / "tex.png", 2, 1, 3, pixels);
     std::filesystem::create_directories(dir / "sub");
     std::filesystem::copy_file(dir / "tex.png", dir / "sub" / "tex2.png");
     writeText(dir / "m.mtl", "newmtl red\nKd 1 0 0\nd 0.5\nmap_Kd -s 2 2 1 -o 0.5 0 0 tex.png\n"

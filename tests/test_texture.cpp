@@ -1,4 +1,5 @@
 #include <vox/formats/error.h>
+#include <vox/image_io.h>
 #include <vox/texture.h>
 
 #include "gltf_builder.h"
@@ -109,7 +110,7 @@ TEST(Texture, WrapModes) {
 
 TEST(Texture, DecodesPngFromMemoryExactly) {
     const std::vector<std::uint8_t> pixels = {10, 20, 30, 40, 50, 60, 70, 80, 90, 200, 210, 220};
-    const auto png = vox::scenes::encodePng(2, 2, 3, pixels);
+    const auto png = vox::encodePng(2, 2, 3, pixels);
     const Texture t = vox::decodeTexture(png, "container.glb", "image 0", "image/png", ColorSpace::Linear);
     ASSERT_EQ(t.width(), 2);
     ASSERT_EQ(t.height(), 2);

@@ -1,4 +1,5 @@
 #include "cornell_box.h"
+#include <vox/image_io.h>
 
 #include "shapes.h"
 
@@ -22,10 +23,10 @@ std::filesystem::path writeCornellBox(const std::filesystem::path& directory, Bu
         }
     int image;
     if (storage == BufferStorage::External) {
-        writePng(directory / "checker.png", kSize, kSize, 3, checker);
+        vox::writePng(directory / "checker.png", kSize, kSize, 3, checker);
         image = gltf.addImage("checker.png");
     } else {
-        image = gltf.addBufferImage(encodePng(kSize, kSize, 3, checker), "image/png");
+        image = gltf.addBufferImage(vox::encodePng(kSize, kSize, 3, checker), "image/png");
     }
     const int checkerTexture = gltf.addTexture(image);
 

@@ -1,7 +1,5 @@
 #include "gltf_builder.h"
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
 
 #include <cstring>
 #include <fstream>
@@ -194,23 +192,6 @@ void GltfBuilder::write(const std::filesystem::path& file, BufferStorage storage
         out.insert(out.end(), bin.begin(), bin.end());
     }
     writeBytes(file, out);
-}
-
-void writePng(const std::filesystem::path& file, int width, int height, int channels, std::span<const std::uint8_t> pixels) {
-    auto output = OIIO::ImageOutput::create(file.string());
-    OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
-    if (!output || !output->open(file.string(), spec) || !output->write_image(OIIO::TypeDesc::UINT8, pixels.data()) || !output->close())
-        throw std::runtime_error("cannot write " + file.string());
-}
-
-std::vector<std::uint8_t> encodePng(int width, int height, int channels, std::span<const std::uint8_t> pixels) {
-    std::vector<unsigned char> bytes;
-    OIIO::Filesystem::IOVecOutput writer(bytes);
-    auto output = OIIO::ImageOutput::create("image.png");
-    const OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
-    if (!output || !output->set_ioproxy(&writer) || !output->open("image.png", spec) || !output->write_image(OIIO::TypeDesc::UINT8, pixels.data()) || !output->close())
-        throw std::runtime_error("cannot encode PNG");
-    return {bytes.begin(), bytes.end()};
 }
 
 }  // namespace vox::scenes

@@ -95,9 +95,4 @@ private:
     std::vector<std::uint8_t> buffer_;
 };
 
-/// Writes an 8-bit RGB(A) PNG through OpenImageIO.
-void writePng(const std::filesystem::path& file, int width, int height, int channels, std::span<const std::uint8_t> pixels);
-/// Encodes an 8-bit image as PNG bytes in memory.
-[[nodiscard]] std::vector<std::uint8_t> encodePng(int width, int height, int channels, std::span<const std::uint8_t> pixels);
-
 }  // namespace vox::scenes

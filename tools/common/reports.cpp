@@ -62,6 +62,48 @@ nlohmann::json sceneReport(const Scene& scene) {
     return report;
 }
 
+nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakdown& b) {
+    const esvo::Header& h = reader.header();
+    const esvo::Directory& d = reader.directory();
+    std::uint64_t voxels = 0, farPointers = 0, descriptors = 0;
+    for (std::uint64_t n : d.voxelsPerLevel) voxels += n;
+    for (const esvo::SliceEntry& s : d.slices) {
+        farPointers += s.farPointerCount;
+        descriptors += s.descriptorCount;
+    }
+    const auto perVoxel = [&](std::uint64_t bytes) { return voxels ? double(bytes) / double(voxels) : 0.0; };
+    nlohmann::json report;
+    report["file"] = reader.path().string();
+    report["version"] = std::to_string(h.versionMajor) + "." + std::to_string(h.versionMinor);
+    report["depth"] = h.leafDepth;
+    report["voxels"] = voxels;
+    report["voxels_per_level"] = d.voxelsPerLevel;
+    report["descriptors"] = descriptors;
+    report["slices"] = d.slices.size();
+    std::uint32_t maxSlice = 0;
+    for (const esvo::SliceEntry& s : d.slices) maxSlice = std::max(maxSlice, s.byteSize);
+    report["largest_slice_bytes"] = maxSlice;
+    report["slice_bytes_limit"] = h.sliceBytesLimit;
+    report["far_pointers"] = farPointers;
+    report["file_bytes"] = h.fileBytes;
+    report["root_cube"] = {{"origin", {-h.worldToRoot[3] / h.worldToRoot[0], -h.worldToRoot[7] / h.worldToRoot[5],
+                                       -h.worldToRoot[11] / h.worldToRoot[10]}},
+                           {"size", 1.0 / h.worldToRoot[0]}};
+    report["bytes"] = {{"hierarchy", b.descriptorBytes},   {"far_pointers", b.farPointerBytes},
+                       {"page_headers", b.pageHeaderBytes}, {"padding", b.paddingBytes + b.slicePaddingBytes},
+                       {"info_sections", b.infoBytes},      {"header_and_directory", b.headerAndDirectoryBytes},
+                       {"attachments", b.attachmentBytes}};
+    report["bytes_per_voxel"] = {{"total", perVoxel(h.fileBytes)},
+                                 {"hierarchy", perVoxel(b.descriptorBytes)},
+                                 {"far_pointers", perVoxel(b.farPointerBytes)},
+                                 {"page_headers", perVoxel(b.pageHeaderBytes)},
+                                 {"padding", perVoxel(b.paddingBytes + b.slicePaddingBytes)},
+                                 {"info_sections", perVoxel(b.infoBytes)},
+                                 {"header_and_directory", perVoxel(b.headerAndDirectoryBytes)},
+                                 {"attachments", perVoxel(b.attachmentBytes)}};
+    return report;
+}
+
 void writeStats(const std::filesystem::path& file, nlohmann::json report, const std::string& tool, const Timings& timings) {
     nlohmann::json ms = nlohmann::json::object();
     for (const auto& [stage, milliseconds] : timings.entries()) ms[stage] = milliseconds;

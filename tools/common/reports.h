@@ -1,6 +1,7 @@
 // Machine-readable outputs the tools write: --stats JSON and --depfile dependency lists.
 #pragma once
 
+#include <vox/formats/esvo_reader.h>
 #include <vox/scene.h>
 #include <vox/util/timings.h>
 
@@ -18,6 +19,11 @@ namespace vox::tools {
 /// The scene part of a stats report: inputs, triangles, materials, textures, lights, bounds, ...
 /// (keys documented in docs/cli.md).
 [[nodiscard]] nlohmann::json sceneReport(const Scene& scene);
+
+/// The .esvo summary voxinspect info prints: depth, voxels, voxels_per_level, slices,
+/// far_pointers, file_bytes, bytes_per_voxel {total, hierarchy, far_pointers, page_headers,
+/// padding, info_sections, header_and_directory, attachments} (docs/cli.md).
+[[nodiscard]] nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakdown& breakdown);
 
 /// Adds timings_ms, peak_rss_bytes, threads, tool and version to @p report and writes it
 /// atomically to @p file.

@@ -5,6 +5,7 @@
 
 #include <vox/formats/error.h>
 #include <vox/import.h>
+#include <vox/octree.h>
 #include <vox/util/log.h>
 #include <vox/util/timings.h>
 #include <vox/version.h>
@@ -17,6 +18,11 @@ namespace {
 struct VoxelizeOptions {
     vox::tools::CommonOptions common;
     std::string input;
+    std::string output;
+    unsigned depth = 10;
+    std::uint32_t sliceBytes = 1u << 20;
+    std::uint32_t nearPointerLimit = 0x7FFF;
+    bool includeDynamic = false;
     std::string stats;
     std::string depfile;
     std::vector<std::string> dynamicNames;
@@ -27,8 +33,11 @@ struct VoxelizeOptions {
 void voxelize(const VoxelizeOptions& options) {
     vox::Timings timings;
     const auto start = std::chrono::steady_clock::now();
-    if (!options.depfile.empty() && options.stats.empty())
-        throw vox::UsageError("--depfile needs an output to name as its target (--stats)");
+    if (!options.depfile.empty() && options.stats.empty() && options.output.empty())
+        throw vox::UsageError("--depfile needs an output to name as its target (-o or --stats)");
+    const std::filesystem::path output(options.output);
+    if (!options.output.empty() && output.extension() != ".esvo")
+        throw vox::UsageError("-o: unknown output type '" + output.extension().string() + "' (expected .esvo)");
 
     vox::ImportOptions importOptions;
     importOptions.dynamicNames = options.dynamicNames;
@@ -50,9 +59,54 @@ void voxelize(const VoxelizeOptions& options) {
                   bounds.min.z, bounds.max.x, bounds.max.y, bounds.max.z);
     vox::log::info(summary);
 
+    nlohmann::json report = vox::tools::sceneReport(scene);
+    if (!options.output.empty()) {
+        vox::SurfaceVoxelizeOptions voxelizeOptions;
+        voxelizeOptions.depth = options.depth;
+        voxelizeOptions.includeDynamic = options.includeDynamic;
+        voxelizeOptions.timings = &timings;
+        const auto buildStart = std::chrono::steady_clock::now();
+        vox::SparseOctree octree;
+        {
+            vox::Timings::Scope timer(&timings, "voxelize");
+            octree = vox::voxelizeSurface(scene, voxelizeOptions);
+        }
+        const double voxelizeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - buildStart).count();
+        vox::EsvoWriteOptions writeOptions;
+        writeOptions.sliceBytes = options.sliceBytes;
+        writeOptions.nearPointerLimit = options.nearPointerLimit;
+        writeOptions.sceneBounds = bounds;
+        writeOptions.timings = &timings;
+        vox::EsvoWriteResult written;
+        {
+            vox::Timings::Scope timer(&timings, "esvo");
+            written = vox::writeEsvo(output, octree, writeOptions);
+        }
+        const double buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - buildStart).count();
+        std::snprintf(summary, sizeof summary, "%s: depth %u, %llu voxels (%llu leaves), %u slices, %llu far pointers, %llu bytes (%.3f bytes/voxel)",
+                      options.output.c_str(), octree.leafDepth, static_cast<unsigned long long>(octree.voxelCount()),
+                      static_cast<unsigned long long>(octree.voxelsPerLevel.back()), written.slices,
+                      static_cast<unsigned long long>(written.farPointers), static_cast<unsigned long long>(written.fileBytes),
+                      double(written.fileBytes) / double(octree.voxelCount()));
+        vox::log::info(summary);
+        report["octree"] = {{"output", options.output},
+                            {"depth", octree.leafDepth},
+                            {"voxels", octree.voxelCount()},
+                            {"voxels_per_level", octree.voxelsPerLevel},
+                            {"descriptors", written.descriptors},
+                            {"slices", written.slices},
+                            {"far_pointers", written.farPointers},
+                            {"file_bytes", written.fileBytes},
+                            {"bytes_per_voxel", double(written.fileBytes) / double(octree.voxelCount())},
+                            {"voxelize_seconds", voxelizeSeconds},
+                            {"build_seconds", buildSeconds},
+                            {"voxels_per_second", double(octree.voxelCount()) / buildSeconds}};
+    }
+
     timings.add("total", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-    if (!options.stats.empty()) vox::tools::writeStats(options.stats, vox::tools::sceneReport(scene), "voxelize", timings);
-    if (!options.depfile.empty()) vox::tools::writeDepfile(options.depfile, options.stats, scene.sourceFiles);
+    if (!options.stats.empty()) vox::tools::writeStats(options.stats, report, "voxelize", timings);
+    if (!options.depfile.empty())
+        vox::tools::writeDepfile(options.depfile, options.output.empty() ? options.stats : options.output, scene.sourceFiles);
 }
 
 }  // namespace
@@ -62,6 +116,15 @@ int main(int argc, char** argv) {
     CLI::App app{"Turns a triangle scene (glTF/GLB, OBJ, PLY, STL, OFF, Draco) into voxel assets.", "voxelize"};
     app.set_version_flag("--version", std::string("voxelize (libvox) ") + LIBVOX_VERSION_STRING);
     app.add_option("input", options.input, "Scene file: .gltf .glb .obj .ply .stl .off .drc")->required();
+    app.add_option("-o,--output", options.output, "Write the sparse voxel octree here (.esvo)");
+    app.add_option("--depth", options.depth, "Leaf level: 2^N voxels along the scene's longest side")
+        ->check(CLI::Range(1, 20))->capture_default_str();
+    app.add_option("--slice-bytes", options.sliceBytes, "Largest .esvo slice in bytes")
+        ->check(CLI::Range(16384, 1 << 30))->capture_default_str();
+    app.add_flag("--include-dynamic", options.includeDynamic, "Voxelize dynamic meshes too (left out by default)");
+    app.add_option("--debug-near-pointer-limit", options.nearPointerLimit,
+                   "Largest near child pointer (testing far pointers)")
+        ->check(CLI::Range(32, 0x7FFF))->group("");
     app.add_option("--stats", options.stats, "Write a JSON report: inputs, counts, timings, peak memory");
     app.add_option("--depfile", options.depfile, "Write a Make/Ninja depfile listing every file read");
     app.add_option("--dynamic", options.dynamicNames,

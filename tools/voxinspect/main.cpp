@@ -1,8 +1,8 @@
 // voxinspect: looks inside the files libvox reads and writes. `scene` shows what the importer
-// makes of a scene file; the .esvo/.rvol commands (info, validate, dump, render) arrive with
-// those formats.
+// makes of a scene file; info, validate, dump and render work on .esvo files.
 #include "../common/reports.h"
 #include "../common/tool_main.h"
+#include "esvo_commands.h"
 
 #include <vox/formats/error.h>
 #include <vox/import.h>
@@ -80,6 +80,7 @@ int main(int argc, char** argv) {
     CLI::App app{"Inspects the files libvox reads and writes.", "voxinspect"};
     app.set_version_flag("--version", std::string("voxinspect (libvox) ") + LIBVOX_VERSION_STRING);
     app.require_subcommand(1);
+    app.fallthrough();
     vox::tools::addCommonOptions(app, common);
 
     SceneCommand scene;
@@ -89,7 +90,11 @@ int main(int argc, char** argv) {
     sceneApp->add_flag("--strict", scene.strict, "Treat repaired input as an error");
     sceneApp->add_option("--dynamic", scene.dynamicNames, "Mark a node, object or group dynamic; repeatable");
 
+    vox::tools::EsvoCommands esvo;
+    esvo.add(app);
+
     return vox::tools::runTool("voxinspect", app, argc, argv, common, [&] {
         if (sceneApp->parsed()) inspectScene(scene);
+        else esvo.run();
     });
 }

@@ -1,0 +1,248 @@
+// Structural validation of .esvo blocks and files (docs/esvo-format.md, "Invariants").
+#include <vox/formats/error.h>
+#include <vox/formats/esvo_reader.h>
+
+#include <string>
+
+namespace vox::esvo {
+namespace {
+
+std::int32_t signedWord(const std::uint8_t* block, std::uint64_t word) { return load<std::int32_t>(block + 4 * word); }
+std::uint32_t word(const std::uint8_t* block, std::uint64_t word) { return load<std::uint32_t>(block + 4 * word); }
+
+class BlockChecker {
+public:
+    BlockChecker(const std::filesystem::path& file, std::uint32_t sliceIndex, const SliceEntry& entry)
+        : file_(file), sliceIndex_(sliceIndex), entry_(entry) {}
+
+    [[noreturn]] void fail(std::uint64_t byteInSlice, const std::string& what) const {
+        throw InvalidDataError(file_, "slice " + std::to_string(sliceIndex_) + ", byte " + std::to_string(byteInSlice) +
+                                          " (file offset " + std::to_string(entry_.fileOffset + byteInSlice) + "): " + what);
+    }
+
+private:
+    const std::filesystem::path& file_;
+    std::uint32_t sliceIndex_;
+    const SliceEntry& entry_;
+};
+
+}  // namespace
+
+BlockTables readBlockTables(std::span<const std::uint8_t> block, const std::filesystem::path& file, std::uint32_t sliceIndex) {
+    const auto fail = [&](std::uint64_t byte, const std::string& what) {
+        throw InvalidDataError(file, "slice " + std::to_string(sliceIndex) + ", byte " + std::to_string(byte) + ": " + what);
+    };
+    const std::uint64_t words = block.size() / 4;
+    if (block.size() < kPageHeaderBytes || block.size() % 8 != 0) fail(0, "block size is not a multiple of 8 bytes");
+    BlockTables t;
+    const std::int64_t infoWord = signedWord(block.data(), 0);
+    if (infoWord < 2 || infoWord % 2 != 0 || static_cast<std::uint64_t>(infoWord) + info::kAttachments > words)
+        fail(0, "page header does not point at an info section inside the block");
+    t.infoWord = static_cast<std::uint32_t>(infoWord);
+    const std::uint64_t attachments = word(block.data(), t.infoWord + info::kAttachmentCount);
+    if (attachments > 64 || t.infoWord + info::tablesWord(static_cast<std::uint32_t>(attachments)) + info::kTablesWords > words)
+        fail(4ull * (t.infoWord + info::kAttachmentCount), "attachment count runs past the block");
+    const std::uint64_t tables = t.infoWord + info::tablesWord(static_cast<std::uint32_t>(attachments));
+    const auto table = [&](std::uint64_t at, std::uint32_t& count, std::uint32_t& tableWord) {
+        count = word(block.data(), at);
+        const std::int64_t start = static_cast<std::int64_t>(t.infoWord) + signedWord(block.data(), at + 1);
+        if (start < static_cast<std::int64_t>(tables + info::kTablesWords) || static_cast<std::uint64_t>(start) + count > words)
+            fail(4 * at, "table lies outside the block's info section");
+        tableWord = static_cast<std::uint32_t>(start);
+    };
+    table(tables, t.rootGroupCount, t.rootGroupTableWord);
+    table(tables + 2, t.frontierCount, t.frontierTableWord);
+    return t;
+}
+
+BlockSummary validateBlock(const std::filesystem::path& file, const Header& header, std::uint32_t sliceIndex,
+                           const SliceEntry& entry, std::span<const std::uint8_t> block,
+                           std::span<const FrontierDescriptor> parents) {
+    const BlockChecker check(file, sliceIndex, entry);
+    if (block.size() != entry.byteSize) check.fail(0, "block size differs from the directory's");
+    const BlockTables t = readBlockTables(block, file, sliceIndex);
+    const std::uint8_t* b = block.data();
+    const std::uint64_t infoByte = 4ull * t.infoWord;
+    if (word(b, t.infoWord + info::kSliceId) != sliceIndex) check.fail(infoByte, "info section names another slice");
+    if (word(b, t.infoWord + info::kBlockIndex) != 0) check.fail(infoByte + 4, "block index in slice is not 0");
+    if (static_cast<std::int64_t>(t.infoWord) + signedWord(b, t.infoWord + info::kFirstDescriptor) != 2)
+        check.fail(infoByte + 8, "first-descriptor pointer does not point at byte 8");
+    if (word(b, t.infoWord + info::kAttachmentCount) != 0)
+        check.fail(infoByte + 12, "attachments present, but this file declares none");
+    if (t.rootGroupCount != entry.rootGroupCount || t.rootGroupCount != parents.size())
+        check.fail(infoByte, "root group count differs from the directory's");
+
+    // Every 8-byte unit of the descriptor area is a page header, a descriptor, a far slot or zero padding.
+    const std::uint64_t units = infoByte / 8;
+    enum : std::uint8_t { kFree, kPageHeader, kDescriptor, kFarSlot };
+    std::vector<std::uint8_t> use(units, kFree);
+    BlockSummary summary;
+    for (std::uint64_t page = 0; page * kPageBytes < infoByte; ++page) {
+        const std::uint64_t byte = page * kPageBytes;
+        if (static_cast<std::int64_t>(byte / 4) + signedWord(b, byte / 4) != t.infoWord || word(b, byte / 4 + 1) != 0)
+            check.fail(byte, "page header does not point at the info section");
+        use[byte / 8] = kPageHeader;
+        summary.pageHeaderBytes += kPageHeaderBytes;
+    }
+    const auto claimGroup = [&](std::uint64_t first, std::uint64_t count, std::uint64_t from, const char* what) {
+        if (first < 1 || first + count > units) check.fail(8 * from, std::string(what) + " points outside the descriptor area");
+        if ((8 * first) / kPageBytes != (8 * (first + count) - 1) / kPageBytes)
+            check.fail(8 * first, "sibling group straddles a page header");
+        for (std::uint64_t u = first; u < first + count; ++u) {
+            if (use[u] != kFree) check.fail(8 * u, std::string(what) + " overlaps other data");
+            use[u] = kDescriptor;
+        }
+    };
+    const auto claimSlot = [&](std::uint64_t slot, std::uint64_t from) {
+        if (slot < 1 || slot >= units) check.fail(8 * from, "far pointer slot outside the descriptor area");
+        if (use[slot] != kFree) check.fail(8 * slot, "far pointer slot overlaps other data");
+        use[slot] = kFarSlot;
+        if (word(b, 2 * slot + 1) != 0) check.fail(8 * slot + 4, "far pointer slot padding is not zero");
+    };
+
+    struct Pending {
+        std::uint64_t unit;
+        VoxelPosition position;
+    };
+    std::vector<Pending> stack;
+    std::uint64_t descriptors = 0, farSlots = 0, voxels = 0, frontierIndex = 0;
+    summary.voxelsPerLevel.assign(header.leafDepth + 1, 0);
+    const auto pushGroup = [&](std::uint64_t first, std::uint32_t nonLeafMask, const VoxelPosition& parent) {
+        std::uint64_t n = popc8(nonLeafMask);
+        for (int slot = 7; slot >= 0; --slot)
+            if (nonLeafMask & (1u << slot)) stack.push_back({first + --n, parent.child(static_cast<std::uint32_t>(slot))});
+    };
+    for (std::uint32_t g = 0; g < t.rootGroupCount; ++g) {
+        const std::uint64_t first = word(b, t.rootGroupTableWord + g);
+        const std::uint32_t mask = parents[g].nonLeafMask;
+        if (mask == 0 || (g > 0 && sliceIndex == 0)) check.fail(4ull * (t.rootGroupTableWord + g), "root group without descriptors");
+        claimGroup(first, popc8(mask), t.rootGroupTableWord / 2, "root group table entry");
+        if (sliceIndex == 0)
+            stack.push_back({first, VoxelPosition{}});
+        else
+            pushGroup(first, mask, parents[g].position);
+        while (!stack.empty()) {
+            const Pending d = stack.back();
+            stack.pop_back();
+            const ChildDescriptor desc{word(b, 2 * d.unit), word(b, 2 * d.unit + 1)};
+            const std::uint64_t at = 8 * d.unit;
+            if (d.position.level != 0 && d.position.level < entry.firstLevel) check.fail(at, "descriptor above the slice's levels");
+            if (desc.contour != 0) check.fail(at + 4, "contour bits set, but this file has no contours");
+            if (desc.validMask() == 0) check.fail(at, "descriptor with an empty valid mask");
+            if ((desc.nonLeafMask() & ~desc.validMask()) != 0) check.fail(at, "non-leaf mask has bits outside the valid mask");
+            ++descriptors;
+            voxels += popc8(desc.validMask());
+            summary.voxelsPerLevel[d.position.level + 1] += popc8(desc.validMask());
+            if (d.position.level + 1 == header.leafDepth && desc.nonLeafMask() != 0)
+                check.fail(at, "children below the leaf depth");
+            if (desc.nonLeafMask() == 0) {
+                if (desc.childPointer() != 0 || desc.far()) check.fail(at, "child pointer set on a descriptor without non-leaf children");
+                continue;
+            }
+            if (desc.childPointer() == 0) check.fail(at, "zero child pointer");
+            const bool frontier = d.position.level + 1 >= entry.endLevel;
+            if (frontier) {
+                if (!desc.far()) check.fail(at, "frontier descriptor without a far pointer slot");
+                const std::uint64_t slot = d.unit + desc.childPointer();
+                claimSlot(slot, d.unit);
+                ++farSlots;
+                if (word(b, 2 * slot) != 0) check.fail(8 * slot, "frontier far pointer is not 0 in the file");
+                if (frontierIndex >= t.frontierCount || word(b, t.frontierTableWord + frontierIndex) != d.unit)
+                    check.fail(4ull * (t.frontierTableWord + frontierIndex), "frontier table does not list the frontier descriptors in order");
+                ++frontierIndex;
+                summary.frontier.push_back({desc.nonLeafMask(), d.position});
+                continue;
+            }
+            std::int64_t target;
+            if (desc.far()) {
+                const std::uint64_t slot = d.unit + desc.childPointer();
+                claimSlot(slot, d.unit);
+                ++farSlots;
+                target = static_cast<std::int64_t>(d.unit) + signedWord(b, 2 * slot);
+            } else {
+                if (desc.childPointer() > header.nearPointerLimit) check.fail(at, "child pointer above the file's near pointer limit");
+                target = static_cast<std::int64_t>(d.unit + desc.childPointer());
+            }
+            if (target < 1) check.fail(at, "child pointer before the descriptor area");
+            claimGroup(static_cast<std::uint64_t>(target), popc8(desc.nonLeafMask()), d.unit, "child pointer");
+            pushGroup(static_cast<std::uint64_t>(target), desc.nonLeafMask(), d.position);
+        }
+    }
+    if (frontierIndex != t.frontierCount) check.fail(4ull * t.frontierTableWord, "frontier table lists descriptors that are not frontier");
+    if (descriptors != entry.descriptorCount) check.fail(8, "descriptor count differs from the directory's");
+    if (farSlots != entry.farPointerCount) check.fail(8, "far pointer count differs from the directory's");
+    if (voxels != entry.voxelCount) check.fail(8, "voxel count differs from the directory's");
+    for (std::uint64_t u = 1; u < units; ++u)
+        if (use[u] == kFree) {
+            if (load<std::uint64_t>(b + 8 * u) != 0) check.fail(8 * u, "padding is not zero (unreferenced data)");
+            summary.paddingBytes += 8;
+        }
+    summary.descriptorBytes = 8 * descriptors;
+    summary.farPointerBytes = 8 * farSlots;
+    summary.infoBytes = block.size() - infoByte;
+    return summary;
+}
+
+FileBreakdown validateFile(const EsvoReader& reader) {
+    const Header& h = reader.header();
+    const Directory& d = reader.directory();
+    FileBreakdown total;
+    total.headerAndDirectoryBytes = h.directoryOffset + h.directoryBytes;
+    std::vector<std::vector<FrontierDescriptor>> frontiers(d.slices.size());
+    struct Region {
+        std::uint32_t level, x, y, z;
+    };
+    std::vector<Region> regions(d.slices.size(), Region{0, 0, 0, 0});
+    std::vector<std::uint64_t> voxelsPerLevel(h.leafDepth + 1, 0);
+    voxelsPerLevel[0] = 1;
+    std::uint64_t used = total.headerAndDirectoryBytes;
+    const FrontierDescriptor rootParent{1, {}};
+    for (std::uint32_t i = 0; i < d.slices.size(); ++i) {
+        const SliceEntry& s = d.slices[i];
+        std::span<const FrontierDescriptor> parents(&rootParent, 1);
+        if (i > 0) {
+            const Region& pr = regions[s.parent];
+            Region r = pr;
+            for (std::uint32_t step = 0; step < s.pathLevels; ++step) {
+                const auto octant = static_cast<std::uint32_t>(s.regionPath >> (3 * (s.pathLevels - 1 - step))) & 7u;
+                r = {r.level + 1, 2 * r.x + (octant & 1u), 2 * r.y + ((octant >> 1) & 1u), 2 * r.z + (octant >> 2)};
+            }
+            regions[i] = r;
+            const auto& pf = frontiers[s.parent];
+            if (std::uint64_t{s.firstFrontier} + s.rootGroupCount > pf.size())
+                throw InvalidDataError(reader.path(), "slice directory entry " + std::to_string(i) +
+                                                          ": frontier range exceeds its parent's frontier table");
+            parents = std::span<const FrontierDescriptor>(pf.data() + s.firstFrontier, s.rootGroupCount);
+            for (const FrontierDescriptor& p : parents) {
+                const std::uint32_t shift = p.position.level - r.level;
+                if ((p.position.x >> shift) != r.x || (p.position.y >> shift) != r.y || (p.position.z >> shift) != r.z)
+                    throw InvalidDataError(reader.path(), "slice directory entry " + std::to_string(i) +
+                                                              ": a root group lies outside the slice's region");
+            }
+        }
+        const std::vector<std::uint8_t> bytes = reader.readSlice(i);
+        BlockSummary summary = validateBlock(reader.path(), h, i, s, bytes, parents);
+        std::uint64_t consumed = 0;
+        for (std::uint32_t c = 0; c < s.childCount; ++c) consumed += d.slices[s.firstChild + c].rootGroupCount;
+        if (consumed != summary.frontier.size())
+            throw InvalidDataError(reader.path(), "slice " + std::to_string(i) + ": " + std::to_string(summary.frontier.size()) +
+                                                      " frontier descriptors but its child slices resolve " + std::to_string(consumed));
+        for (std::size_t l = 0; l < voxelsPerLevel.size(); ++l) voxelsPerLevel[l] += summary.voxelsPerLevel[l];
+        total.descriptorBytes += summary.descriptorBytes;
+        total.farPointerBytes += summary.farPointerBytes;
+        total.pageHeaderBytes += summary.pageHeaderBytes;
+        total.infoBytes += summary.infoBytes;
+        total.paddingBytes += summary.paddingBytes;
+        used += s.byteSize;
+        frontiers[i] = std::move(summary.frontier);
+    }
+    for (std::size_t l = 0; l < voxelsPerLevel.size(); ++l)
+        if (voxelsPerLevel[l] != d.voxelsPerLevel[l])
+            throw InvalidDataError(reader.path(), "slice directory: level " + std::to_string(l) + " lists " +
+                                                      std::to_string(d.voxelsPerLevel[l]) + " voxels but the slices hold " +
+                                                      std::to_string(voxelsPerLevel[l]));
+    total.slicePaddingBytes = h.fileBytes - used;
+    return total;
+}
+
+}  // namespace vox::esvo

@@ -1,0 +1,77 @@
+/// @file octree.h
+/// @brief Surface voxelization into a sparse octree, and writing it as an .esvo file
+/// (docs/esvo-format.md).
+#pragma once
+
+#include <vox/math.h>
+#include <vox/scene.h>
+#include <vox/util/timings.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+namespace vox {
+
+/// The axis-aligned cube the octree covers, in world units.
+struct RootCube {
+    Vec3d origin{0, 0, 0};  ///< minimum corner
+    double size = 1;        ///< edge length
+
+    /// The cube for @p bounds: its minimum corner at the bounds' minimum, its edge the longest
+    /// side (1 if the bounds are a point). Geometry on the far faces belongs to the last voxels.
+    [[nodiscard]] static RootCube enclosing(const Bounds3f& bounds);
+    /// Row-major affine matrix from world coordinates to the unit cube [0,1]³.
+    [[nodiscard]] std::array<double, 16> worldToUnit() const;
+};
+
+/// A sparse octree as per-level child masks in Morton order: the structure every builder
+/// produces and the .esvo writer lays out. Level 0 is the root cube; a voxel at level l has
+/// mask bit s set when its child in slot s (bit 0: +x, bit 1: +y, bit 2: +z) exists; a mask of 0
+/// is a leaf. The children of the voxels of level l are the voxels of level l+1, in order.
+struct SparseOctree {
+    RootCube cube;
+    std::uint32_t leafDepth = 0;                    ///< finest level
+    std::vector<std::vector<std::uint8_t>> masks;   ///< masks[l][i] for levels 0 … leafDepth−1
+    std::vector<std::uint64_t> voxelsPerLevel;      ///< leafDepth + 1 entries
+
+    [[nodiscard]] std::uint64_t voxelCount() const noexcept;
+};
+
+/// Options for voxelizeSurface.
+struct SurfaceVoxelizeOptions {
+    std::uint32_t depth = 10;       ///< leaf level: 2^depth voxels along the cube's edge (1 … 20)
+    bool includeDynamic = false;    ///< voxelize meshes flagged dynamic too
+    Timings* timings = nullptr;
+};
+
+/// Voxelizes the triangles of @p scene: a leaf voxel exists exactly where a triangle intersects
+/// its closed cube (separating-axis test in double precision), and so does every ancestor.
+/// Top-down and subtree by subtree in parallel; memory grows with the output, not with the
+/// resolution. The result does not depend on the thread count.
+/// @throws InvalidDataError if the scene has no (static) triangles; UsageError for a bad depth.
+[[nodiscard]] SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& options);
+
+/// Options for writeEsvo.
+struct EsvoWriteOptions {
+    std::uint32_t sliceBytes = 1u << 20;   ///< largest slice, ≥ 16384
+    /// Largest near child pointer (64-bit units). 32767 is the format's; tests lower it to force
+    /// far pointers.
+    std::uint32_t nearPointerLimit = 0x7FFF;
+    Bounds3f sceneBounds;
+    Timings* timings = nullptr;
+};
+
+/// What writeEsvo produced.
+struct EsvoWriteResult {
+    std::uint64_t fileBytes = 0;
+    std::uint32_t slices = 0;
+    std::uint64_t descriptors = 0;
+    std::uint64_t farPointers = 0;
+};
+
+/// Lays @p octree out as ESVO blocks in slices and writes the .esvo file atomically. The same
+/// octree and options always give the same bytes.
+EsvoWriteResult writeEsvo(const std::filesystem::path& file, const SparseOctree& octree, const EsvoWriteOptions& options);
+
+}  // namespace vox

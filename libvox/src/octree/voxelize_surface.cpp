@@ -1,0 +1,247 @@
+// Surface voxelization: triangles are binned into the cells of a coarse level, then every cell's
+// subtree is built top-down in parallel, each node filtering its parent's triangle list with the
+// exact triangle/box test. Per-level mask arrays come out in Morton order (see SparseOctree).
+#include "triangle_box.h"
+
+#include <vox/formats/error.h>
+#include <vox/formats/esvo.h>
+#include <vox/octree.h>
+#include <vox/util/progress.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <cmath>
+#include <span>
+
+namespace vox {
+
+RootCube RootCube::enclosing(const Bounds3f& bounds) {
+    RootCube cube;
+    cube.origin = {bounds.min.x, bounds.min.y, bounds.min.z};
+    const double extent = std::max({double(bounds.max.x) - bounds.min.x, double(bounds.max.y) - bounds.min.y,
+                                    double(bounds.max.z) - bounds.min.z});
+    cube.size = extent > 0 ? extent : 1.0;
+    return cube;
+}
+
+std::array<double, 16> RootCube::worldToUnit() const {
+    const double s = 1.0 / size;
+    return {s, 0, 0, -origin.x * s, 0, s, 0, -origin.y * s, 0, 0, s, -origin.z * s, 0, 0, 0, 1};
+}
+
+std::uint64_t SparseOctree::voxelCount() const noexcept {
+    std::uint64_t total = 0;
+    for (std::uint64_t n : voxelsPerLevel) total += n;
+    return total;
+}
+
+namespace {
+
+using detail::BoxTestTriangle;
+
+std::uint32_t mortonCell(std::uint32_t x, std::uint32_t y, std::uint32_t z, std::uint32_t levels) {
+    std::uint32_t code = 0;
+    for (std::uint32_t bit = 0; bit < levels; ++bit)
+        code |= (((x >> bit) & 1u) << (3 * bit)) | (((y >> bit) & 1u) << (3 * bit + 1)) | (((z >> bit) & 1u) << (3 * bit + 2));
+    return code;
+}
+
+/// Builds one cell's subtree depth-first, appending each node's mask to its level's array after
+/// its children: per level, nodes still come out in Morton order.
+class SubtreeBuilder {
+public:
+    SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, std::uint32_t depth, std::uint32_t rootLevel)
+        : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), scratch_(depth + 1), masks_(depth - rootLevel) {}
+
+    void build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list) {
+        const double childSize = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));
+        const double half = 0.5 * childSize;
+        std::uint32_t mask = 0;
+        for (std::uint32_t slot = 0; slot < 8; ++slot) {
+            const std::uint32_t cx = 2 * x + (slot & 1u), cy = 2 * y + ((slot >> 1) & 1u), cz = 2 * z + (slot >> 2);
+            const Vec3d centre{(cx + 0.5) * childSize, (cy + 0.5) * childSize, (cz + 0.5) * childSize};
+            if (level + 1 == depth_) {
+                for (std::uint32_t t : list)
+                    if (detail::triangleOverlapsCube(triangles_[t], centre, half)) {
+                        mask |= 1u << slot;
+                        break;
+                    }
+                continue;
+            }
+            std::vector<std::uint32_t>& childList = scratch_[level + 1];
+            childList.clear();
+            for (std::uint32_t t : list)
+                if (detail::triangleOverlapsCube(triangles_[t], centre, half)) childList.push_back(t);
+            if (childList.empty()) continue;
+            mask |= 1u << slot;
+            build(level + 1, cx, cy, cz, childList);
+        }
+        masks_[level - rootLevel_].push_back(static_cast<std::uint8_t>(mask));
+    }
+
+    std::vector<std::vector<std::uint8_t>>& masks() { return masks_; }
+
+private:
+    const std::vector<BoxTestTriangle>& triangles_;
+    std::uint32_t depth_;
+    std::uint32_t rootLevel_;
+    std::vector<std::vector<std::uint32_t>> scratch_;
+    std::vector<std::vector<std::uint8_t>> masks_;
+};
+
+}  // namespace
+
+SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& options) {
+    if (options.depth < 1 || options.depth > esvo::kMaxLeafDepth)
+        throw UsageError("--depth must be between 1 and " + std::to_string(esvo::kMaxLeafDepth));
+    const std::uint32_t depth = options.depth;
+
+    Bounds3f bounds;
+    std::size_t triangleCount = 0;
+    for (const Mesh& mesh : scene.meshes) {
+        if (mesh.dynamic && !options.includeDynamic) continue;
+        for (std::uint32_t index : mesh.indices) bounds.add(mesh.positions[index]);
+        triangleCount += mesh.triangleCount();
+    }
+    const std::filesystem::path source = scene.sourceFiles.empty() ? std::filesystem::path("scene") : scene.sourceFiles.front();
+    if (triangleCount == 0) throw InvalidDataError(source, "no static triangles to voxelize");
+    if (triangleCount >= 0xFFFFFFFFull) throw InvalidDataError(source, "more than 2^32 triangles");
+
+    SparseOctree octree;
+    octree.cube = RootCube::enclosing(bounds);
+    octree.leafDepth = depth;
+
+    // Triangles in leaf-voxel units: the cube is [0, 2^depth]³.
+    std::vector<BoxTestTriangle> triangles;
+    triangles.reserve(triangleCount);
+    {
+        Timings::Scope timer(options.timings, "voxelize_prepare");
+        const double scale = std::ldexp(1.0, static_cast<int>(depth)) / octree.cube.size;
+        const auto toLeaf = [&](Vec3f p) {
+            return Vec3d{(p.x - octree.cube.origin.x) * scale, (p.y - octree.cube.origin.y) * scale, (p.z - octree.cube.origin.z) * scale};
+        };
+        for (const Mesh& mesh : scene.meshes) {
+            if (mesh.dynamic && !options.includeDynamic) continue;
+            for (std::size_t t = 0; t < mesh.triangleCount(); ++t)
+                triangles.push_back(detail::prepareBoxTest(toLeaf(mesh.positions[mesh.indices[3 * t]]),
+                                                           toLeaf(mesh.positions[mesh.indices[3 * t + 1]]),
+                                                           toLeaf(mesh.positions[mesh.indices[3 * t + 2]])));
+        }
+    }
+
+    // Bin triangles into the cells of level k: (Morton code << 32 | triangle), sorted.
+    const std::uint32_t k = std::min<std::uint32_t>(depth - 1, 4);
+    const std::uint32_t cellsPerAxis = 1u << k;
+    const double cellSize = std::ldexp(1.0, static_cast<int>(depth - k));
+    std::vector<std::uint64_t> pairs;
+    {
+        Timings::Scope timer(options.timings, "voxelize_bin");
+        tbb::enumerable_thread_specific<std::vector<std::uint64_t>> local;
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+            auto& out = local.local();
+            for (std::size_t t = r.begin(); t != r.end(); ++t) {
+                const BoxTestTriangle& tri = triangles[t];
+                std::uint32_t first[3], last[3];
+                for (int axis = 0; axis < 3; ++axis) {
+                    const double lo = std::min({tri.v0[axis], tri.v1[axis], tri.v2[axis]}) / cellSize;
+                    const double hi = std::max({tri.v0[axis], tri.v1[axis], tri.v2[axis]}) / cellSize;
+                    // Closed cells: a vertex on a cell boundary touches the cells on both sides.
+                    first[axis] = static_cast<std::uint32_t>(std::clamp(std::ceil(lo) - 1.0, 0.0, double(cellsPerAxis - 1)));
+                    last[axis] = static_cast<std::uint32_t>(std::clamp(std::floor(hi), 0.0, double(cellsPerAxis - 1)));
+                }
+                for (std::uint32_t z = first[2]; z <= last[2]; ++z)
+                    for (std::uint32_t y = first[1]; y <= last[1]; ++y)
+                        for (std::uint32_t x = first[0]; x <= last[0]; ++x) {
+                            const Vec3d centre{(x + 0.5) * cellSize, (y + 0.5) * cellSize, (z + 0.5) * cellSize};
+                            if (detail::triangleOverlapsCube(tri, centre, 0.5 * cellSize))
+                                out.push_back((std::uint64_t{mortonCell(x, y, z, k)} << 32) | t);
+                        }
+            }
+        });
+        for (auto& part : local) pairs.insert(pairs.end(), part.begin(), part.end());
+        tbb::parallel_sort(pairs.begin(), pairs.end());
+    }
+
+    struct Cell {
+        std::uint32_t code;
+        std::size_t begin, end;  // range in pairs
+    };
+    std::vector<Cell> cells;
+    for (std::size_t i = 0; i < pairs.size();) {
+        const auto code = static_cast<std::uint32_t>(pairs[i] >> 32);
+        std::size_t j = i;
+        while (j < pairs.size() && static_cast<std::uint32_t>(pairs[j] >> 32) == code) ++j;
+        cells.push_back({code, i, j});
+        i = j;
+    }
+
+    // Subtrees of the cells, in parallel; results are joined in Morton order.
+    std::vector<std::vector<std::vector<std::uint8_t>>> subtrees(cells.size());
+    {
+        Timings::Scope timer(options.timings, "voxelize_subtrees");
+        Progress progress("voxelizing", cells.size());
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 1), [&](const tbb::blocked_range<std::size_t>& r) {
+            for (std::size_t c = r.begin(); c != r.end(); ++c) {
+                std::vector<std::uint32_t> list;
+                list.reserve(cells[c].end - cells[c].begin);
+                for (std::size_t i = cells[c].begin; i < cells[c].end; ++i) list.push_back(static_cast<std::uint32_t>(pairs[i]));
+                std::uint32_t x = 0, y = 0, z = 0;
+                for (std::uint32_t bit = 0; bit < k; ++bit) {
+                    x |= ((cells[c].code >> (3 * bit)) & 1u) << bit;
+                    y |= ((cells[c].code >> (3 * bit + 1)) & 1u) << bit;
+                    z |= ((cells[c].code >> (3 * bit + 2)) & 1u) << bit;
+                }
+                SubtreeBuilder builder(triangles, depth, k);
+                builder.build(k, x, y, z, list);
+                subtrees[c] = std::move(builder.masks());
+                progress.advance();
+            }
+        });
+    }
+    pairs.clear();
+    pairs.shrink_to_fit();
+
+    octree.masks.resize(depth);
+    // Levels above k from the set of occupied cells.
+    std::vector<std::uint32_t> codes;
+    codes.reserve(cells.size());
+    for (const Cell& c : cells) codes.push_back(c.code);
+    for (std::uint32_t level = k; level-- > 0;) {
+        std::vector<std::uint32_t> parents;
+        auto& masks = octree.masks[level];
+        for (std::uint32_t code : codes) {
+            if (parents.empty() || parents.back() != (code >> 3)) {
+                parents.push_back(code >> 3);
+                masks.push_back(0);
+            }
+            masks.back() = static_cast<std::uint8_t>(masks.back() | (1u << (code & 7u)));
+        }
+        codes = std::move(parents);
+    }
+    for (std::uint32_t level = k; level < depth; ++level) {
+        std::size_t total = 0;
+        for (const auto& s : subtrees) total += s[level - k].size();
+        auto& masks = octree.masks[level];
+        masks.reserve(total);
+        for (auto& s : subtrees) {
+            masks.insert(masks.end(), s[level - k].begin(), s[level - k].end());
+            s[level - k] = {};
+        }
+    }
+    octree.voxelsPerLevel.assign(depth + 1, 0);
+    octree.voxelsPerLevel[0] = 1;
+    for (std::uint32_t level = 0; level < depth; ++level) {
+        std::uint64_t children = 0;
+        for (std::uint8_t m : octree.masks[level]) children += esvo::popc8(m);
+        octree.voxelsPerLevel[level + 1] = children;
+        if (level + 1 < depth && octree.masks[level + 1].size() != children)
+            throw std::logic_error("voxelizeSurface: level sizes inconsistent");
+    }
+    return octree;
+}
+
+}  // namespace vox

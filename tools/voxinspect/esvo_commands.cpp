@@ -1,0 +1,315 @@
+#include "esvo_commands.h"
+
+#include "../common/reports.h"
+
+#include <vox/formats/error.h>
+#include <vox/formats/esvo_reader.h>
+#include <vox/image_io.h>
+#include <vox/raycast.h>
+#include <vox/util/log.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+
+namespace vox::tools {
+namespace {
+
+Vec3d parseVector(const std::string& text, const char* option) {
+    Vec3d v;
+    char tail = 0;
+    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v.x, &v.y, &v.z, &tail) != 3 || !std::isfinite(v.x) ||
+        !std::isfinite(v.y) || !std::isfinite(v.z))
+        throw UsageError(std::string(option) + " expects x,y,z (got '" + text + "')");
+    return v;
+}
+
+void printInfo(const std::string& file, bool json) {
+    const esvo::EsvoReader reader(file);
+    const esvo::FileBreakdown breakdown = esvo::validateFile(reader);
+    const nlohmann::json report = esvoReport(reader, breakdown);
+    if (json) {
+        std::cout << report.dump(2) << "\n";
+        return;
+    }
+    std::printf("%s: .esvo %s, leaf depth %u\n", file.c_str(), report["version"].get<std::string>().c_str(),
+                reader.header().leafDepth);
+    std::printf("  voxels          %llu\n", static_cast<unsigned long long>(report["voxels"].get<std::uint64_t>()));
+    const auto& perLevel = reader.directory().voxelsPerLevel;
+    for (std::size_t l = 0; l < perLevel.size(); ++l)
+        std::printf("    level %-3zu %14llu\n", l, static_cast<unsigned long long>(perLevel[l]));
+    std::printf("  slices          %zu (largest %u bytes, limit %u)\n", reader.directory().slices.size(),
+                report["largest_slice_bytes"].get<std::uint32_t>(), reader.header().sliceBytesLimit);
+    std::printf("  far pointers    %llu\n", static_cast<unsigned long long>(report["far_pointers"].get<std::uint64_t>()));
+    std::printf("  file bytes      %llu\n", static_cast<unsigned long long>(reader.header().fileBytes));
+    std::printf("  bytes per voxel %.3f\n", report["bytes_per_voxel"]["total"].get<double>());
+    for (const char* part : {"hierarchy", "far_pointers", "page_headers", "padding", "info_sections", "header_and_directory", "attachments"})
+        std::printf("    %-22s %.4f  (%llu bytes)\n", part, report["bytes_per_voxel"][part].get<double>(),
+                    static_cast<unsigned long long>(report["bytes"][part].get<std::uint64_t>()));
+}
+
+nlohmann::json sliceJson(const esvo::SliceEntry& s, std::uint32_t index) {
+    return {{"index", index},
+            {"file_offset", s.fileOffset},
+            {"bytes", s.byteSize},
+            {"checksum", s.checksum},
+            {"parent", s.parent == esvo::kNoSlice ? nlohmann::json(nullptr) : nlohmann::json(s.parent)},
+            {"first_child", s.firstChild},
+            {"children", s.childCount},
+            {"region_level", s.regionLevel},
+            {"path_levels", s.pathLevels},
+            {"region_path", s.regionPath},
+            {"first_level", s.firstLevel},
+            {"end_level", s.endLevel},
+            {"first_frontier", s.firstFrontier},
+            {"root_groups", s.rootGroupCount},
+            {"descriptors", s.descriptorCount},
+            {"far_pointers", s.farPointerCount},
+            {"voxels", s.voxelCount}};
+}
+
+void dump(const std::string& file, long long sliceIndex, bool json) {
+    const esvo::EsvoReader reader(file);
+    const esvo::Header& h = reader.header();
+    if (sliceIndex < 0) {
+        if (json) {
+            nlohmann::json out;
+            out["header"] = {{"version", std::to_string(h.versionMajor) + "." + std::to_string(h.versionMinor)},
+                             {"world_to_root", h.worldToRoot},
+                             {"scene_bounds", {h.sceneBoundsMin, h.sceneBoundsMax}},
+                             {"leaf_depth", h.leafDepth},
+                             {"attachment_kinds", h.attachmentKinds},
+                             {"slice_bytes_limit", h.sliceBytesLimit},
+                             {"near_pointer_limit", h.nearPointerLimit},
+                             {"slice_count", h.sliceCount},
+                             {"directory_offset", h.directoryOffset},
+                             {"directory_bytes", h.directoryBytes},
+                             {"file_bytes", h.fileBytes}};
+            out["voxels_per_level"] = reader.directory().voxelsPerLevel;
+            nlohmann::json slices = nlohmann::json::array();
+            for (std::uint32_t i = 0; i < reader.sliceCount(); ++i) slices.push_back(sliceJson(reader.slice(i), i));
+            out["slices"] = slices;
+            std::cout << out.dump(2) << "\n";
+            return;
+        }
+        std::printf("header: version %u.%u, leaf depth %u, %u slices, slice limit %u bytes, near pointer limit %u, %llu bytes\n",
+                    h.versionMajor, h.versionMinor, h.leafDepth, h.sliceCount, h.sliceBytesLimit, h.nearPointerLimit,
+                    static_cast<unsigned long long>(h.fileBytes));
+        std::printf("%6s %6s %10s %8s %6s %9s %5s %7s %9s %9s %8s %10s\n", "slice", "parent", "offset", "bytes", "region", "levels",
+                    "kids", "groups", "descr", "far", "frontier", "voxels");
+        for (std::uint32_t i = 0; i < reader.sliceCount(); ++i) {
+            const esvo::SliceEntry& s = reader.slice(i);
+            std::printf("%6u %6lld %10llu %8u %6u %4u-%-4u %5u %7u %9u %9u %8u %10llu\n", i,
+                        s.parent == esvo::kNoSlice ? -1LL : static_cast<long long>(s.parent),
+                        static_cast<unsigned long long>(s.fileOffset), s.byteSize, s.regionLevel, s.firstLevel, s.endLevel,
+                        s.childCount, s.rootGroupCount, s.descriptorCount, s.farPointerCount, s.firstFrontier,
+                        static_cast<unsigned long long>(s.voxelCount));
+        }
+        return;
+    }
+    if (sliceIndex >= reader.sliceCount()) throw UsageError("--slice " + std::to_string(sliceIndex) + ": the file has " +
+                                                            std::to_string(reader.sliceCount()) + " slices");
+    const auto index = static_cast<std::uint32_t>(sliceIndex);
+    const std::vector<std::uint8_t> block = reader.readSlice(index);
+    const esvo::BlockTables t = esvo::readBlockTables(block, reader.path(), index);
+    // Every 8-byte unit of the descriptor area, classified by walking it in order.
+    nlohmann::json units = nlohmann::json::array();
+    if (!json) {
+        std::printf("slice %u: %zu bytes, info section at byte %u, %u root groups, %u frontier descriptors\n", index, block.size(),
+                    4 * t.infoWord, t.rootGroupCount, t.frontierCount);
+        std::printf("%8s  %-10s %s\n", "byte", "kind", "content");
+    }
+    std::vector<std::uint8_t> isSlot(t.infoWord / 2, 0);
+    for (std::uint32_t u = 1; u < t.infoWord / 2; ++u) {
+        if ((8 * u) % esvo::kPageBytes == 0) continue;
+        const esvo::ChildDescriptor d{esvo::load<std::uint32_t>(block.data() + 8 * u), 0};
+        if (d.validMask() != 0 && d.far() && u + d.childPointer() < isSlot.size()) isSlot[u + d.childPointer()] = 1;
+    }
+    for (std::uint32_t u = 0; u < t.infoWord / 2; ++u) {
+        const std::uint32_t w0 = esvo::load<std::uint32_t>(block.data() + 8 * u);
+        const std::uint32_t w1 = esvo::load<std::uint32_t>(block.data() + 8 * u + 4);
+        const esvo::ChildDescriptor d{w0, w1};
+        std::string kind;
+        nlohmann::json entry{{"byte", 8 * u}};
+        if ((8 * u) % esvo::kPageBytes == 0) {
+            kind = "page";
+            entry["info_offset_words"] = static_cast<std::int32_t>(w0);
+        } else if (isSlot[u]) {
+            kind = "far";
+            entry["offset_units"] = static_cast<std::int32_t>(w0);
+        } else if (d.validMask() != 0) {
+            kind = "descriptor";
+            entry["valid"] = d.validMask();
+            entry["non_leaf"] = d.nonLeafMask();
+            entry["far"] = d.far();
+            entry["child_pointer"] = d.childPointer();
+        } else {
+            kind = "padding";
+        }
+        entry["kind"] = kind;
+        if (json) {
+            units.push_back(entry);
+            continue;
+        }
+        if (kind == "page")
+            std::printf("%8u  %-10s info at %+d words\n", 8 * u, "page", static_cast<std::int32_t>(w0));
+        else if (kind == "far")
+            std::printf("%8u  %-10s %+d units%s\n", 8 * u, "far", static_cast<std::int32_t>(w0), w0 == 0 ? " (child slice not loaded)" : "");
+        else if (kind == "descriptor")
+            std::printf("%8u  %-10s valid %02x non-leaf %02x %s %u\n", 8 * u, "descriptor", d.validMask(), d.nonLeafMask(),
+                        d.far() ? "far-slot" : "child", d.childPointer());
+        else if (w0 || w1)
+            std::printf("%8u  %-10s %08x %08x\n", 8 * u, "data?", w0, w1);
+    }
+    if (json) {
+        nlohmann::json out = sliceJson(reader.slice(index), index);
+        out["info_byte"] = 4 * t.infoWord;
+        std::vector<std::uint32_t> roots, frontier;
+        for (std::uint32_t i = 0; i < t.rootGroupCount; ++i) roots.push_back(8 * esvo::load<std::uint32_t>(block.data() + 4 * (t.rootGroupTableWord + i)));
+        for (std::uint32_t i = 0; i < t.frontierCount; ++i) frontier.push_back(8 * esvo::load<std::uint32_t>(block.data() + 4 * (t.frontierTableWord + i)));
+        out["root_group_bytes"] = roots;
+        out["frontier_bytes"] = frontier;
+        out["units"] = units;
+        std::cout << out.dump(1) << "\n";
+    }
+}
+
+std::array<std::uint8_t, 3> levelColour(std::uint32_t level) {
+    static constexpr std::array<std::array<std::uint8_t, 3>, 8> palette{{{230, 25, 75}, {60, 180, 75}, {255, 225, 25}, {0, 130, 200},
+                                                                          {245, 130, 48}, {145, 30, 180}, {70, 240, 240}, {240, 50, 230}}};
+    return palette[level % palette.size()];
+}
+
+void render(const EsvoCommands& c) {
+    PinholeCamera camera;
+    camera.eye = parseVector(c.eye, "--eye");
+    camera.target = parseVector(c.target, "--target");
+    camera.up = parseVector(c.up, "--up");
+    camera.fovYDegrees = c.fov;
+    camera.width = c.width;
+    camera.height = c.height;
+    camera.validate();
+    if (c.channel != "depth" && c.channel != "normal" && c.channel != "iterations" && c.channel != "level")
+        throw UsageError("--channel must be depth, normal, iterations or level");
+    if (!(c.lodScale >= 0)) throw UsageError("--lod-scale must be 0 or more");
+
+    const esvo::EsvoReader reader(c.file);
+    esvo::EsvoPool pool(reader);
+    pool.loadAll(c.loadLevels);
+    const EsvoRayCaster caster(pool);
+    CastOptions options;
+    options.lodAngle = camera.pixelAngle() * c.lodScale;
+    options.maxLevel = c.maxLevel;
+    const RenderBuffers image = renderEsvo(caster, camera, options);
+
+    const std::size_t pixels = image.depth.size();
+    std::vector<std::uint8_t> rgb(3 * pixels, 0);
+    float nearest = std::numeric_limits<float>::infinity(), farthest = 0;
+    std::uint32_t maxIterations = 1;
+    for (std::size_t i = 0; i < pixels; ++i) {
+        if (std::isfinite(image.depth[i])) nearest = std::min(nearest, image.depth[i]), farthest = std::max(farthest, image.depth[i]);
+        maxIterations = std::max(maxIterations, image.iterations[i]);
+    }
+    for (std::size_t i = 0; i < pixels; ++i) {
+        std::uint8_t* p = &rgb[3 * i];
+        const bool hit = std::isfinite(image.depth[i]);
+        if (c.channel == "iterations") {
+            // Heat map: blue (few) to red (many), linear in iterations.
+            const float v = float(image.iterations[i]) / float(maxIterations);
+            p[0] = static_cast<std::uint8_t>(255 * std::clamp(2 * v - 0.5f, 0.0f, 1.0f));
+            p[1] = static_cast<std::uint8_t>(255 * std::clamp(1 - std::abs(2 * v - 1), 0.0f, 1.0f));
+            p[2] = static_cast<std::uint8_t>(255 * std::clamp(1.5f - 2 * v, 0.0f, 1.0f));
+            continue;
+        }
+        if (!hit) continue;
+        if (c.channel == "depth") {
+            const float v = farthest > nearest ? (image.depth[i] - nearest) / (farthest - nearest) : 0.0f;
+            p[0] = p[1] = p[2] = static_cast<std::uint8_t>(std::lround(255 * (1 - 0.8f * v)));
+        } else if (c.channel == "normal") {
+            const Vec3f n = image.normal[i];
+            p[0] = static_cast<std::uint8_t>(std::lround(127.5f * (n.x + 1)));
+            p[1] = static_cast<std::uint8_t>(std::lround(127.5f * (n.y + 1)));
+            p[2] = static_cast<std::uint8_t>(std::lround(127.5f * (n.z + 1)));
+        } else {
+            const auto colour = levelColour(image.level[i]);
+            std::copy(colour.begin(), colour.end(), p);
+        }
+    }
+    writePng(c.output, image.width, image.height, 3, rgb);
+    if (!c.depthOut.empty()) writePfm(c.depthOut, image.width, image.height, image.depth);
+    const double rays = double(pixels);
+    log::info(c.output + ": " + std::to_string(image.width) + "x" + std::to_string(image.height) + ", " + std::to_string(image.hits) +
+              " hits, " + std::to_string(rays / image.seconds / 1e6) + " Mrays/s");
+    if (!c.stats.empty()) {
+        nlohmann::json report{{"file", c.file},
+                              {"width", image.width},
+                              {"height", image.height},
+                              {"rays", pixels},
+                              {"hits", image.hits},
+                              {"cast_seconds", image.seconds},
+                              {"mrays_per_second", rays / image.seconds / 1e6},
+                              {"loaded_slices", pool.loadedSliceCount()},
+                              {"resident_bytes", pool.residentBytes()}};
+        std::uint64_t iterations = 0;
+        for (std::uint32_t it : image.iterations) iterations += it;
+        report["mean_iterations"] = double(iterations) / rays;
+        Timings timings;
+        timings.add("cast", image.seconds * 1000.0);
+        writeStats(c.stats, report, "voxinspect render", timings);
+    }
+}
+
+}  // namespace
+
+void EsvoCommands::add(CLI::App& app) {
+    info = app.add_subcommand("info", "Levels, voxels per level, slices and bytes per voxel of an .esvo file");
+    info->add_option("file", file, ".esvo file")->required();
+    info->add_flag("--json", json, "Print JSON");
+
+    validate = app.add_subcommand("validate", "Check every invariant of an .esvo file; exit 3 at the first violation");
+    validate->add_option("file", file, ".esvo file")->required();
+
+    dump = app.add_subcommand("dump", "Print the header and slice directory, or one slice's blocks");
+    dump->add_option("file", file, ".esvo file")->required();
+    dump->add_option("--slice", slice, "Dump this slice's descriptor area unit by unit")->check(CLI::NonNegativeNumber);
+    dump->add_flag("--json", json, "Print JSON");
+
+    render = app.add_subcommand("render", "Ray cast an .esvo file to a PNG (and a PFM depth map)");
+    render->add_option("file", file, ".esvo file")->required();
+    render->add_option("-o,--output", output, "PNG to write")->required();
+    render->add_option("--eye", eye, "Camera position x,y,z (world units)")->required();
+    render->add_option("--target", target, "Point looked at x,y,z")->required();
+    render->add_option("--up", up, "Up vector x,y,z")->capture_default_str();
+    render->add_option("--fov", fov, "Vertical field of view, degrees")->capture_default_str();
+    render->add_option("--width", width, "Image width")->capture_default_str();
+    render->add_option("--height", height, "Image height")->capture_default_str();
+    render->add_option("--channel", channel, "depth, normal, iterations or level")->capture_default_str();
+    render->add_option("--depth-out", depthOut, "Write distances as PFM (+inf where rays miss)");
+    render->add_option("--max-level", maxLevel, "Treat voxels of this level as leaves");
+    render->add_option("--load-levels", loadLevels, "Load only slices starting above this level (streaming check)");
+    render->add_option("--lod-scale", lodScale, "Stop at voxels smaller than this many pixels; 0: always to the leaves")
+        ->capture_default_str();
+    render->add_option("--stats", stats, "Write a JSON report: rays, Mrays/s, iterations");
+}
+
+bool EsvoCommands::run() {
+    if (info->parsed()) {
+        printInfo(file, json);
+    } else if (validate->parsed()) {
+        const esvo::EsvoReader reader(file);
+        const esvo::FileBreakdown b = esvo::validateFile(reader);
+        (void)b;
+        log::info(file + ": valid (" + std::to_string(reader.sliceCount()) + " slices, " +
+                  std::to_string(reader.header().fileBytes) + " bytes)");
+    } else if (dump->parsed()) {
+        vox::tools::dump(file, slice, json);
+    } else if (render->parsed()) {
+        vox::tools::render(*this);
+    } else {
+        return false;
+    }
+    return true;
+}
+
+}  // namespace vox::tools
