@@ -123,7 +123,6 @@ Directory decodeDirectory(const std::filesystem::path& file, const Header& h, co
             if (s.firstChild != nextChild || s.childCount > h.sliceCount - nextChild)
                 invalid(file, where + "children are not the next entries in breadth-first order");
             nextChild += s.childCount;
-            if (s.endLevel >= h.leafDepth) invalid(file, where + "has child slices but ends at the leaf level");
         }
         if (i == 0) {
             if (s.parent != kNoSlice || s.regionLevel != 0 || s.firstLevel != 0 || s.pathLevels != 0 || s.regionPath != 0 ||
@@ -135,7 +134,8 @@ Directory decodeDirectory(const std::filesystem::path& file, const Header& h, co
         const SliceEntry& parent = d.slices[s.parent];
         if (i < parent.firstChild || i >= parent.firstChild + parent.childCount)
             invalid(file, where + "not among its parent's children");
-        if (s.firstLevel != parent.endLevel) invalid(file, where + "does not start where its parent ends");
+        if (s.firstLevel <= parent.firstLevel || s.firstLevel > parent.endLevel)
+            invalid(file, where + "does not start inside its parent's level range");
         if (s.pathLevels > 21 || s.regionLevel != parent.regionLevel + s.pathLevels || s.regionLevel >= s.firstLevel ||
             (s.pathLevels < 21 && s.regionPath >> (3 * s.pathLevels) != 0))
             invalid(file, where + "region inconsistent with its parent's");

@@ -106,6 +106,7 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
     };
     std::vector<Pending> stack;
     std::uint64_t descriptors = 0, farSlots = 0, voxels = 0, frontierIndex = 0;
+    std::uint32_t deepest = 0, shallowestRoot = 0xFFFFFFFFu;
     summary.voxelsPerLevel.assign(header.leafDepth + 1, 0);
     const auto pushGroup = [&](std::uint64_t first, std::uint32_t nonLeafMask, const VoxelPosition& parent) {
         std::uint64_t n = popc8(nonLeafMask);
@@ -117,6 +118,7 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
         const std::uint32_t mask = parents[g].nonLeafMask;
         if (mask == 0 || (g > 0 && sliceIndex == 0)) check.fail(4ull * (t.rootGroupTableWord + g), "root group without descriptors");
         claimGroup(first, popc8(mask), t.rootGroupTableWord / 2, "root group table entry");
+        shallowestRoot = std::min(shallowestRoot, sliceIndex == 0 ? 0u : parents[g].position.level + 1);
         if (sliceIndex == 0)
             stack.push_back({first, VoxelPosition{}});
         else
@@ -126,7 +128,9 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
             stack.pop_back();
             const ChildDescriptor desc{word(b, 2 * d.unit), word(b, 2 * d.unit + 1)};
             const std::uint64_t at = 8 * d.unit;
-            if (d.position.level != 0 && d.position.level < entry.firstLevel) check.fail(at, "descriptor above the slice's levels");
+            if (d.position.level < entry.firstLevel || d.position.level >= entry.endLevel)
+                check.fail(at, "descriptor outside the slice's level range");
+            deepest = std::max(deepest, d.position.level);
             if (desc.contour != 0) check.fail(at + 4, "contour bits set, but this file has no contours");
             if (desc.validMask() == 0) check.fail(at, "descriptor with an empty valid mask");
             if ((desc.nonLeafMask() & ~desc.validMask()) != 0) check.fail(at, "non-leaf mask has bits outside the valid mask");
@@ -140,13 +144,13 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
                 continue;
             }
             if (desc.childPointer() == 0) check.fail(at, "zero child pointer");
-            const bool frontier = d.position.level + 1 >= entry.endLevel;
+            // A far slot holding 0 marks a frontier descriptor: its children are in a child slice.
+            if (desc.far() && d.unit + desc.childPointer() >= units) check.fail(at, "far pointer slot outside the descriptor area");
+            const bool frontier = desc.far() && word(b, 2 * (d.unit + desc.childPointer())) == 0;
             if (frontier) {
-                if (!desc.far()) check.fail(at, "frontier descriptor without a far pointer slot");
                 const std::uint64_t slot = d.unit + desc.childPointer();
                 claimSlot(slot, d.unit);
                 ++farSlots;
-                if (word(b, 2 * slot) != 0) check.fail(8 * slot, "frontier far pointer is not 0 in the file");
                 if (frontierIndex >= t.frontierCount || word(b, t.frontierTableWord + frontierIndex) != d.unit)
                     check.fail(4ull * (t.frontierTableWord + frontierIndex), "frontier table does not list the frontier descriptors in order");
                 ++frontierIndex;
@@ -168,6 +172,8 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
             pushGroup(static_cast<std::uint64_t>(target), desc.nonLeafMask(), d.position);
         }
     }
+    if (deepest + 1 != entry.endLevel || shallowestRoot != entry.firstLevel)
+        check.fail(8, "level range differs from the directory's");
     if (frontierIndex != t.frontierCount) check.fail(4ull * t.frontierTableWord, "frontier table lists descriptors that are not frontier");
     if (descriptors != entry.descriptorCount) check.fail(8, "descriptor count differs from the directory's");
     if (farSlots != entry.farPointerCount) check.fail(8, "far pointer count differs from the directory's");

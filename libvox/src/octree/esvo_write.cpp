@@ -57,26 +57,16 @@ public:
             }
         return mask;
     }
-    /// The descendants at level+1 of the voxels [lo, hi) of level.
-    [[nodiscard]] std::pair<std::uint64_t, std::uint64_t> childRange(std::uint32_t level, std::uint64_t lo, std::uint64_t hi) const {
-        return {firstChild_[level][lo], firstChild_[level][hi]};
-    }
-    [[nodiscard]] std::uint64_t descriptorsIn(std::uint32_t level, std::uint64_t lo, std::uint64_t hi) const {
-        if (level >= depth()) return 0;
-        const auto& masks = octree_.masks[level];
-        return static_cast<std::uint64_t>(std::count_if(masks.begin() + std::ptrdiff_t(lo), masks.begin() + std::ptrdiff_t(hi),
-                                                        [](std::uint8_t m) { return m != 0; }));
-    }
-
 private:
     const SparseOctree& octree_;
     std::vector<std::vector<std::uint64_t>> firstChild_;
 };
 
-/// A region: the subtree of voxel `index` at `level`.
-struct Region {
+/// A voxel with its Morton path from the root (3 bits per level, slot bit 0 = +x).
+struct Node {
     std::uint32_t level = 0;
     std::uint64_t index = 0;
+    std::uint64_t path = 0;
 };
 
 /// One slice's block, laid out.
@@ -85,57 +75,75 @@ struct SliceBlock {
     std::uint32_t descriptors = 0, farSlots = 0;
     std::uint64_t voxels = 0;
     std::uint32_t rootGroups = 0;
-    std::vector<std::uint64_t> frontierVoxels;  // level endLevel−1 indices, in frontier-table order
+    std::uint32_t firstLevel = 0, endLevel = 0;
+    std::vector<Node> frontier;           // in frontier-table order
     std::uint32_t infoWord = 0;
     [[nodiscard]] std::uint64_t byteSize() const { return 8 * units.size(); }
 };
 
-/// Depth-first layout of the descriptors of one region over levels [first, end).
-class BlockLayout {
+/// Bytes of the descriptors strictly below each voxel (saturating), bottom-up: what a child
+/// slice holding that voxel's child group and everything under it needs, before overheads.
+class SubtreeSizes {
 public:
-    BlockLayout(const OctreeIndex& tree, Region region, std::uint32_t first, std::uint32_t end, std::uint32_t nearLimit)
-        : tree_(tree), first_(first), end_(end), nearLimit_(nearLimit) {
-        // Voxel ranges of the region per level, and descendant descriptor counts for the
-        // conservative near/far decision.
-        lo_.assign(end + 1, 0);
-        hi_.assign(end + 1, 0);
-        lo_[region.level] = region.index;
-        hi_[region.level] = region.index + 1;
-        for (std::uint32_t l = region.level; l < end; ++l) std::tie(lo_[l + 1], hi_[l + 1]) = tree.childRange(l, lo_[l], hi_[l]);
-        below_.resize(end + 1);
-        for (std::uint32_t l = end; l-- > first;) {
-            // below_[l][i]: descriptors strictly below voxel (l, lo_[l]+i) inside this slice.
-            auto& counts = below_[l];
-            counts.assign(hi_[l] - lo_[l], 0);
-            if (l + 1 >= end) continue;
-            for (std::uint64_t i = lo_[l]; i < hi_[l]; ++i) {
-                const std::uint32_t valid = tree.validMask(l, i);
-                if (!valid) continue;
-                std::uint64_t child = tree.firstChild(l, i), sum = 0;
-                for (std::uint32_t slot = 0; slot < 8; ++slot)
-                    if (valid & (1u << slot)) {
-                        if (tree.hasDescriptor(l + 1, child)) sum += 1 + below_[l + 1][child - lo_[l + 1]];
-                        ++child;
-                    }
-                counts[i - lo_[l]] = sum;
-            }
+    explicit SubtreeSizes(const OctreeIndex& tree) : tree_(tree), bytes_(tree.depth()) {
+        const std::uint32_t depth = tree.depth();
+        for (std::uint32_t l = depth; l-- > 0;) {
+            auto& out = bytes_[l];
+            out.assign(tree.levelSize(l), 0);
+            if (l + 1 >= depth) continue;
+            const auto& next = bytes_[l + 1];
+            tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, out.size(), 1 << 14), [&](const tbb::blocked_range<std::uint64_t>& r) {
+                for (std::uint64_t i = r.begin(); i != r.end(); ++i) {
+                    const std::uint32_t valid = tree.validMask(l, i);
+                    std::uint64_t child = tree.firstChild(l, i), sum = 0;
+                    for (std::uint32_t slot = 0; slot < 8; ++slot)
+                        if (valid & (1u << slot)) {
+                            if (tree.hasDescriptor(l + 1, child)) sum += 8 + next[child];
+                            ++child;
+                        }
+                    out[i] = static_cast<std::uint32_t>(std::min<std::uint64_t>(sum, 0xFFFFFFFFu));
+                }
+            });
         }
     }
+    [[nodiscard]] std::uint64_t operator()(std::uint32_t level, std::uint64_t index) const { return bytes_[level][index]; }
 
-    SliceBlock run() {
+private:
+    const OctreeIndex& tree_;
+    std::vector<std::vector<std::uint32_t>> bytes_;
+};
+
+/// Which descriptors of a slice hand their children to child slices (become frontier).
+struct CutRule {
+    bool whole = true;                 // nothing is cut: the slice holds complete subtrees
+    std::uint64_t leafBytes = 0;       // cut a voxel whose subtree (SubtreeSizes) is at most this
+    std::uint32_t endLevel = 0xFFFFFFFFu;  // cut every voxel at level endLevel − 1 or deeper
+};
+
+/// Depth-first layout of one slice: the child groups of its root parents (or the root
+/// descriptor), and everything below them that the cut rule keeps.
+class BlockLayout {
+public:
+    BlockLayout(const OctreeIndex& tree, const SubtreeSizes& sizes, std::uint32_t nearLimit, CutRule cut)
+        : tree_(tree), sizes_(sizes), nearLimit_(nearLimit), cut_(cut) {}
+
+    /// @p parents empty: the root slice.
+    SliceBlock run(const std::vector<Node>& parents) {
         block_.units.assign(1, 0);  // page header of page 0
         pageHeaders_.push_back(0);
+        block_.firstLevel = parents.empty() ? 0 : 0xFFFFFFFFu;
         std::vector<std::uint64_t> rootGroupUnits;
-        if (first_ == 0) {
-            const std::uint64_t unit = placeGroup(1);
+        if (parents.empty()) {
+            const Node root{0, 0, 0};
+            const bool far = isFrontier(root);
+            const std::uint64_t unit = placeGroup(far ? 2 : 1);
             rootGroupUnits.push_back(unit);
-            ++block_.descriptors;
-            block_.voxels += esvo::popc8(tree_.validMask(0, 0));
-            layoutRoot(unit);
+            writeMembers(&root, 1, unit, &far);
+            descend(&root, 1, unit);
         } else {
-            for (std::uint64_t p = lo_[first_ - 1]; p < hi_[first_ - 1]; ++p) {
-                if (tree_.nonLeafMask(first_ - 1, p) == 0) continue;
-                rootGroupUnits.push_back(layoutGroup(first_ - 1, p));
+            for (const Node& p : parents) {
+                block_.firstLevel = std::min(block_.firstLevel, p.level + 1);
+                rootGroupUnits.push_back(layoutGroup(p));
             }
         }
         // Info section and tables.
@@ -163,6 +171,11 @@ public:
     }
 
 private:
+    [[nodiscard]] bool isFrontier(const Node& n) const {
+        if (tree_.nonLeafMask(n.level, n.index) == 0 || cut_.whole) return false;
+        return n.level + 1 >= cut_.endLevel || sizes_(n.level, n.index) <= cut_.leafBytes;
+    }
+
     /// Reserves @p count contiguous units inside one page, inserting padding and a page header
     /// where the page is full.
     std::uint64_t placeGroup(std::uint64_t count) {
@@ -177,74 +190,79 @@ private:
         return start;
     }
 
-    /// Upper bound, in units, of what a descriptor with @p below descendants in the slice lays out.
-    static std::uint64_t subtreeBound(std::uint64_t below) {
-        if (below == 0) return 0;
-        const std::uint64_t raw = 2 * below;  // each descriptor and at most one far slot each
+    /// Upper bound, in units, of what a voxel's subtree lays out in this slice: its descriptors,
+    /// at most one far slot each, page headers and padding.
+    [[nodiscard]] std::uint64_t subtreeBound(const Node& n) const {
+        if (isFrontier(n) || tree_.nonLeafMask(n.level, n.index) == 0) return 0;
+        const std::uint64_t raw = 2 * (sizes_(n.level, n.index) / 8);
         return raw + 17 * ((raw + kPageUnits - 18) / (kPageUnits - 17)) + 17;
     }
 
-    /// Pointer kind for member j of a group of n whose earlier members need @p earlierBound units.
-    bool decideFar(std::uint32_t level, std::uint64_t voxel, std::uint64_t n, std::uint64_t j, std::uint64_t earlierBound) const {
-        if (tree_.nonLeafMask(level, voxel) == 0) return false;
-        if (level + 1 >= end_) return true;  // children live in a child slice
-        const std::uint64_t estimate = (2 * n - j) + earlierBound + 17;
-        return estimate > nearLimit_;
-    }
-
-    /// Lays out the child group of voxel (level, voxel) — its children with descriptors — and
-    /// everything below them; returns the group's first unit.
-    std::uint64_t layoutGroup(std::uint32_t level, std::uint64_t voxel) {
-        const std::uint32_t valid = tree_.validMask(level, voxel);
-        std::uint64_t members[8];
-        std::uint64_t n = 0;
-        std::uint64_t child = tree_.firstChild(level, voxel);
-        for (std::uint32_t slot = 0; slot < 8; ++slot)
-            if (valid & (1u << slot)) {
-                if (tree_.hasDescriptor(level + 1, child)) members[n++] = child;
-                ++child;
-            }
-        bool far[8];
-        std::uint64_t farCount = 0, earlier = 0;
-        for (std::uint64_t j = 0; j < n; ++j) {
-            far[j] = decideFar(level + 1, members[j], n, j, earlier);
-            farCount += far[j];
-            earlier += subtreeBound(below_[level + 1][members[j] - lo_[level + 1]]);
-        }
-        const std::uint64_t start = placeGroup(n + farCount);
+    /// Writes the descriptors of a group placed at @p start (far slots follow the members).
+    void writeMembers(const Node* members, std::uint64_t n, std::uint64_t start, const bool* far) {
         std::uint64_t slot = start + n;
         for (std::uint64_t j = 0; j < n; ++j) {
             const std::uint64_t unit = start + j;
-            const std::uint32_t valid1 = tree_.validMask(level + 1, members[j]);
-            const std::uint32_t nonLeaf = tree_.nonLeafMask(level + 1, members[j]);
+            const std::uint32_t valid = tree_.validMask(members[j].level, members[j].index);
+            const std::uint32_t nonLeaf = tree_.nonLeafMask(members[j].level, members[j].index);
             std::uint32_t pointer = 0;
             if (far[j]) {
                 pointer = static_cast<std::uint32_t>(slot - unit);
                 ++slot;
                 ++block_.farSlots;
             }
-            block_.units[unit] = esvo::ChildDescriptor::make(valid1, nonLeaf, pointer, far[j]).topology;
+            block_.units[unit] = esvo::ChildDescriptor::make(valid, nonLeaf, pointer, far[j]).topology;
             ++block_.descriptors;
-            block_.voxels += esvo::popc8(valid1);
+            block_.voxels += esvo::popc8(valid);
+            block_.endLevel = std::max(block_.endLevel, members[j].level + 1);
         }
+    }
+
+    /// Links each member to its child group (laid out now) or records it as frontier.
+    void descend(const Node* members, std::uint64_t n, std::uint64_t start) {
         for (std::uint64_t j = 0; j < n; ++j) {
-            const std::uint64_t unit = start + j;
-            if (tree_.nonLeafMask(level + 1, members[j]) == 0) continue;
-            if (level + 2 >= end_) {
-                frontierUnits_.push_back(unit);
-                block_.frontierVoxels.push_back(members[j]);
+            if (tree_.nonLeafMask(members[j].level, members[j].index) == 0) continue;
+            if (isFrontier(members[j])) {
+                frontierUnits_.push_back(start + j);
+                block_.frontier.push_back(members[j]);
                 continue;
             }
-            const std::uint64_t group = layoutGroup(level + 1, members[j]);
-            link(unit, group);
+            link(start + j, layoutGroup(members[j]));
         }
+    }
+
+    /// Lays out the child group of @p parent — its children with descriptors — and everything
+    /// below them; returns the group's first unit.
+    std::uint64_t layoutGroup(const Node& parent) {
+        const std::uint32_t valid = tree_.validMask(parent.level, parent.index);
+        Node members[8];
+        std::uint64_t n = 0;
+        std::uint64_t child = tree_.firstChild(parent.level, parent.index);
+        for (std::uint32_t slot = 0; slot < 8; ++slot)
+            if (valid & (1u << slot)) {
+                if (tree_.hasDescriptor(parent.level + 1, child)) members[n++] = Node{parent.level + 1, child, (parent.path << 3) | slot};
+                ++child;
+            }
+        bool far[8];
+        std::uint64_t farCount = 0, earlier = 0;
+        for (std::uint64_t j = 0; j < n; ++j) {
+            // Conservative: the rest of this group and its slots, the subtrees of earlier
+            // members, and a page break before the child group.
+            far[j] = isFrontier(members[j]) ||
+                     (tree_.nonLeafMask(members[j].level, members[j].index) != 0 && (2 * n - j) + earlier + 17 > nearLimit_);
+            farCount += far[j];
+            earlier += subtreeBound(members[j]);
+        }
+        const std::uint64_t start = placeGroup(n + farCount);
+        writeMembers(members, n, start, far);
+        descend(members, n, start);
         return start;
     }
 
     /// Points the descriptor at @p unit to the group at @p group, through its far slot if it has one.
     void link(std::uint64_t unit, std::uint64_t group) {
         auto& word = block_.units[unit];
-        esvo::ChildDescriptor d{static_cast<std::uint32_t>(word), 0};
+        const esvo::ChildDescriptor d{static_cast<std::uint32_t>(word), 0};
         const std::uint64_t offset = group - unit;
         if (d.far()) {
             block_.units[unit + d.childPointer()] = static_cast<std::uint32_t>(static_cast<std::int32_t>(offset));
@@ -255,40 +273,17 @@ private:
         word = esvo::ChildDescriptor::make(d.validMask(), d.nonLeafMask(), static_cast<std::uint32_t>(offset), false).topology;
     }
 
-    /// The root descriptor (placed by run()) and everything below it.
-    void layoutRoot(std::uint64_t unit) {
-        const std::uint32_t level = 0;
-        const std::uint64_t voxel = 0;
-        block_.units[unit] = esvo::ChildDescriptor::make(tree_.validMask(0, 0), tree_.nonLeafMask(0, 0), 0, false).topology;
-        if (tree_.nonLeafMask(level, voxel) == 0) return;
-        auto& word = block_.units[unit];
-        if (level + 1 >= end_) {
-            // Root whose children are in child slices: a far slot right after it.
-            const std::uint64_t slot = placeGroup(1);
-            word = esvo::ChildDescriptor::make(tree_.validMask(level, voxel), tree_.nonLeafMask(level, voxel),
-                                               static_cast<std::uint32_t>(slot - unit), true).topology;
-            ++block_.farSlots;
-            frontierUnits_.push_back(unit);
-            block_.frontierVoxels.push_back(voxel);
-            return;
-        }
-        word = esvo::ChildDescriptor::make(tree_.validMask(level, voxel), tree_.nonLeafMask(level, voxel), 0, false).topology;
-        const std::uint64_t group = layoutGroup(level, voxel);
-        link(unit, group);
-    }
-
     const OctreeIndex& tree_;
-    std::uint32_t first_, end_, nearLimit_;
-    std::vector<std::uint64_t> lo_, hi_;
-    std::vector<std::vector<std::uint64_t>> below_;
+    const SubtreeSizes& sizes_;
+    std::uint32_t nearLimit_;
+    CutRule cut_;
     SliceBlock block_;
     std::vector<std::uint64_t> pageHeaders_;
     std::vector<std::uint64_t> frontierUnits_;
 };
 
 struct PlannedSlice {
-    Region region;
-    std::uint32_t firstLevel = 0, endLevel = 0;
+    Node region;
     std::uint32_t parent = esvo::kNoSlice;
     std::uint32_t pathLevels = 0;
     std::uint64_t path = 0;
@@ -296,118 +291,100 @@ struct PlannedSlice {
     SliceBlock block;
 };
 
-/// Splits the octree into slices of at most sliceBytes: each slice takes as many levels as fit;
-/// the next levels go to child slices, split by region until each fits.
+/// Splits the octree into slices of at most sliceBytes. A slice whose subtrees fit holds them
+/// whole; otherwise every voxel whose subtree fits a slice hands it to a child slice (so the far
+/// slots this costs are few, one per such voxel), and if the part left still does not fit, it
+/// ends at the deepest level that does. Child slices take runs of the frontier by region.
 class SlicePlanner {
 public:
-    SlicePlanner(const OctreeIndex& tree, const EsvoWriteOptions& options) : tree_(tree), options_(options) {}
+    SlicePlanner(const OctreeIndex& tree, const SubtreeSizes& sizes, const EsvoWriteOptions& options)
+        : tree_(tree), sizes_(sizes), options_(options) {}
 
     std::vector<PlannedSlice> plan() {
-        chooseBoundaries();
-        makeSlice(Region{0, 0}, 0, esvo::kNoSlice, 0, 0);
+        makeSlice(Node{0, 0, 0}, {}, esvo::kNoSlice);
         return std::move(slices_);
     }
 
+    Progress* progress = nullptr;
+
 private:
-    SliceBlock layout(Region region, std::uint32_t first, std::uint32_t end) const {
-        return BlockLayout(tree_, region, first, end, options_.nearPointerLimit).run();
+    [[nodiscard]] std::uint64_t budget() const { return options_.sliceBytes - options_.sliceBytes / 16; }
+
+    SliceBlock layout(const std::vector<Node>& parents, CutRule cut) const {
+        return BlockLayout(tree_, sizes_, options_.nearPointerLimit, cut).run(parents);
     }
 
-    std::pair<std::uint64_t, std::uint64_t> rangeAt(Region region, std::uint32_t level) const {
-        std::uint64_t lo = region.index, hi = region.index + 1;
-        for (std::uint32_t l = region.level; l < level; ++l) std::tie(lo, hi) = tree_.childRange(l, lo, hi);
-        return {lo, hi};
-    }
-
-    void makeSlice(Region region, std::uint32_t first, std::uint32_t parent, std::uint32_t pathLevels, std::uint64_t path) {
-        const std::uint32_t depth = tree_.depth();
-        SliceBlock block = layout(region, first, first + 1);
-        if (block.byteSize() > options_.sliceBytes) throw std::logic_error("esvo layout: a single level does not fit a slice");
-        // Take as many levels as fit, but end on a boundary level where one fits: then the
-        // frontier (one far slot per descriptor) falls on the sparse upper levels.
-        std::uint32_t end = first + 1;
-        std::optional<std::pair<std::uint32_t, SliceBlock>> aligned;
-        if (isBoundary(end)) aligned.emplace(end, block);
-        while (end < depth && !block.frontierVoxels.empty()) {
-            const auto [lo, hi] = rangeAt(region, end);
-            if (block.byteSize() + 8 * tree_.descriptorsIn(end, lo, hi) > options_.sliceBytes) break;
-            SliceBlock trial = layout(region, first, end + 1);
-            if (trial.byteSize() > options_.sliceBytes) break;
-            block = std::move(trial);
-            ++end;
-            if (isBoundary(end) || block.frontierVoxels.empty()) aligned.emplace(end, block);
+    void makeSlice(const Node& region, const std::vector<Node>& parents, std::uint32_t parent) {
+        std::uint64_t content = parents.empty() ? 8 + sizes_(0, 0) : 0;
+        std::uint32_t shallowest = parents.empty() ? 0 : 0xFFFFFFFFu;
+        for (const Node& p : parents) {
+            content += sizes_(p.level, p.index);
+            shallowest = std::min(shallowest, p.level + 1);
         }
-        if (aligned) {
-            end = aligned->first;
-            block = std::move(aligned->second);
+        std::optional<SliceBlock> block;
+        if (content <= budget()) {
+            SliceBlock whole = layout(parents, CutRule{});
+            if (whole.byteSize() <= options_.sliceBytes) block = std::move(whole);
+        }
+        if (!block) {
+            // Deepest trunk level that fits, from the bottom up.
+            for (std::uint32_t end = tree_.depth(); end > shallowest; --end) {
+                SliceBlock trial = layout(parents, CutRule{false, budget(), end});
+                if (trial.byteSize() <= options_.sliceBytes) {
+                    block = std::move(trial);
+                    break;
+                }
+            }
+            if (!block) throw std::logic_error("esvo layout: the root groups of a slice do not fit it");
         }
         const auto index = static_cast<std::uint32_t>(slices_.size());
         PlannedSlice slice;
         slice.region = region;
-        slice.firstLevel = first;
-        slice.endLevel = end;
         slice.parent = parent;
-        slice.pathLevels = pathLevels;
-        slice.path = path;
-        slice.block = std::move(block);
-        const bool hasFrontier = !slice.block.frontierVoxels.empty();
+        if (parent != esvo::kNoSlice) {
+            const Node& pr = slices_[parent].region;
+            slice.pathLevels = region.level - pr.level;
+            slice.path = slice.pathLevels ? region.path & ((std::uint64_t{1} << (3 * slice.pathLevels)) - 1) : 0;
+            slices_[parent].children.push_back(index);
+        }
+        slice.block = std::move(*block);
+        std::vector<Node> frontier = slice.block.frontier;
         slices_.push_back(std::move(slice));
-        if (parent != esvo::kNoSlice) slices_[parent].children.push_back(index);
-        if (progress_) progress_->advance();
-        if (hasFrontier) partition(region, end, index, 0, 0);
+        if (progress) progress->advance();
+        if (!frontier.empty()) partition(region, frontier, 0, frontier.size(), index);
     }
 
-    /// Covers the descriptors of levels ≥ level inside @p region with child slices of @p parent.
-    void partition(Region region, std::uint32_t level, std::uint32_t parent, std::uint32_t pathLevels, std::uint64_t path) {
-        const auto [lo, hi] = rangeAt(region, level - 1);
-        bool any = false;
-        for (std::uint64_t i = lo; i < hi && !any; ++i) any = tree_.nonLeafMask(level - 1, i) != 0;
-        if (!any) return;
-        bool fits = region.level + 1 == level;
-        if (!fits) {
-            const auto [clo, chi] = rangeAt(region, level);
-            fits = 8 * tree_.descriptorsIn(level, clo, chi) < options_.sliceBytes &&
-                   layout(region, level, level + 1).byteSize() <= options_.sliceBytes;
-        }
-        if (fits) {
-            makeSlice(region, level, parent, pathLevels, path);
+    [[nodiscard]] static bool inside(const Node& n, const Node& region) {
+        return n.level >= region.level && (n.path >> (3 * (n.level - region.level))) == region.path;
+    }
+
+    /// Child slices for frontier[first, last), all inside @p region.
+    void partition(const Node& region, const std::vector<Node>& frontier, std::size_t first, std::size_t last, std::uint32_t parent) {
+        if (first == last) return;
+        std::uint64_t content = 0;
+        for (std::size_t i = first; i < last; ++i) content += sizes_(frontier[i].level, frontier[i].index);
+        if (last - first == 1 || content <= budget() || frontier[first].level == region.level) {
+            makeSlice(region, std::vector<Node>(frontier.begin() + std::ptrdiff_t(first), frontier.begin() + std::ptrdiff_t(last)), parent);
             return;
         }
         const std::uint32_t valid = tree_.validMask(region.level, region.index);
         std::uint64_t child = tree_.firstChild(region.level, region.index);
+        std::size_t i = first;
         for (std::uint32_t slot = 0; slot < 8; ++slot)
             if (valid & (1u << slot)) {
-                partition(Region{region.level + 1, child}, level, parent, pathLevels + 1, (path << 3) | slot);
-                ++child;
+                const Node octant{region.level + 1, child++, (region.path << 3) | slot};
+                std::size_t j = i;
+                while (j < last && inside(frontier[j], octant)) ++j;
+                partition(octant, frontier, i, j, parent);
+                i = j;
             }
+        if (i != last) throw std::logic_error("esvo layout: frontier not in Morton order");
     }
-
-    /// Slices end on levels leafDepth − j·h: h is the tallest stack of bottom levels whose
-    /// descriptors, per parent voxel above them, average a quarter slice or less.
-    void chooseBoundaries() {
-        const std::uint32_t depth = tree_.depth();
-        std::vector<std::uint64_t> descriptors(depth + 1, 0);
-        for (std::uint32_t l = 0; l < depth; ++l) descriptors[l] = tree_.descriptorsIn(l, 0, tree_.levelSize(l));
-        std::uint32_t height = 1;
-        std::uint64_t below = descriptors[depth - 1];
-        for (std::uint32_t h = 2; h < depth; ++h) {
-            below += descriptors[depth - h];
-            const std::uint64_t parents = std::max<std::uint64_t>(1, descriptors[depth - h - 1]);
-            if (8 * below / parents > options_.sliceBytes / 4) break;
-            height = h;
-        }
-        boundaries_.assign(depth + 1, false);
-        for (std::int64_t b = depth; b > 0; b -= height) boundaries_[static_cast<std::size_t>(b)] = true;
-    }
-    [[nodiscard]] bool isBoundary(std::uint32_t level) const { return boundaries_[level]; }
 
     const OctreeIndex& tree_;
+    const SubtreeSizes& sizes_;
     const EsvoWriteOptions& options_;
     std::vector<PlannedSlice> slices_;
-    std::vector<bool> boundaries_;
-
-public:
-    Progress* progress_ = nullptr;
 };
 
 }  // namespace
@@ -423,9 +400,10 @@ EsvoWriteResult writeEsvo(const std::filesystem::path& file, const SparseOctree&
     {
         Timings::Scope timer(options.timings, "esvo_layout");
         const OctreeIndex index(octree);
+        const SubtreeSizes sizes(index);
         Progress progress("laying out slices", 0);
-        SlicePlanner planner(index, options);
-        planner.progress_ = &progress;
+        SlicePlanner planner(index, sizes, options);
+        planner.progress = &progress;
         planned = planner.plan();
     }
 
@@ -459,8 +437,8 @@ EsvoWriteResult writeEsvo(const std::filesystem::path& file, const SparseOctree&
         e.childCount = static_cast<std::uint32_t>(s.children.size());
         e.firstChild = s.children.empty() ? 0 : position[s.children.front()];
         e.regionLevel = static_cast<std::uint8_t>(s.region.level);
-        e.firstLevel = static_cast<std::uint8_t>(s.firstLevel);
-        e.endLevel = static_cast<std::uint8_t>(s.endLevel);
+        e.firstLevel = static_cast<std::uint8_t>(s.block.firstLevel);
+        e.endLevel = static_cast<std::uint8_t>(s.block.endLevel);
         e.pathLevels = static_cast<std::uint8_t>(s.pathLevels);
         e.regionPath = s.path;
         e.rootGroupCount = s.block.rootGroups;
@@ -477,7 +455,7 @@ EsvoWriteResult writeEsvo(const std::filesystem::path& file, const SparseOctree&
             directory.slices[position[c]].firstFrontier = next;
             next += planned[c].block.rootGroups;
         }
-        if (next != s.block.frontierVoxels.size()) throw std::logic_error("esvo layout: child slices do not cover the frontier");
+        if (next != s.block.frontier.size()) throw std::logic_error("esvo layout: child slices do not cover the frontier");
     }
 
     esvo::Header header;
