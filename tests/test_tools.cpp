@@ -8,6 +8,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
+#include <cstring>
+
 using vox::test::ProcessResult;
 using vox::test::runProcess;
 using vox::test::ScratchDir;
@@ -204,4 +207,137 @@ TEST(Tools, ProgressBarAppearsOnlyOnATerminal) {
     const ProcessResult quiet = runProcess("/usr/bin/script", {"-q", "-e", "-c", vox::test::voxelizePath().string() + " -q " + scene.string(), "/dev/null"});
     EXPECT_EQ(quiet.exitCode, 0);
     EXPECT_EQ(quiet.out.find("decoding textures"), std::string::npos) << quiet.out;
+}
+
+// ---- .esvo through the tools ----------------------------------------------------------------
+
+namespace {
+
+std::vector<std::uint8_t> readBytes(const std::filesystem::path& file) {
+    const std::string text = vox::test::readText(file);
+    return {text.begin(), text.end()};
+}
+
+}  // namespace
+
+TEST(Tools, VoxelizeWritesAnEsvoThatValidatesAndReportsItself) {
+    ScratchDir dir;
+    const auto scene = vox::scenes::writeCornellBox(dir.path());
+    const auto esvo = dir / "box.esvo";
+    const ProcessResult r = voxelize({scene.string(), "-o", esvo.string(), "--depth", "6", "--stats", (dir / "s.json").string(),
+                                      "--depfile", (dir / "s.d").string(), "--threads", "1"});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto stats = nlohmann::json::parse(vox::test::readText(dir / "s.json"));
+    const auto& octree = stats["octree"];
+    EXPECT_EQ(octree["depth"], 6);
+    EXPECT_EQ(octree["voxels_per_level"].size(), 7u);
+    EXPECT_EQ(octree["voxels_per_level"][0], 1);
+    EXPECT_GT(octree["voxels_per_second"].get<double>(), 0.0);
+    EXPECT_GT(stats["timings_ms"]["voxelize"].get<double>(), 0.0);
+    EXPECT_EQ(vox::test::readText(dir / "s.d").rfind(esvo.string() + ":", 0), 0u) << "the depfile's target is the -o output";
+
+    const ProcessResult valid = voxinspect({"validate", esvo.string()});
+    EXPECT_EQ(valid.exitCode, 0) << valid.err;
+
+    const ProcessResult info = voxinspect({"info", esvo.string(), "--json"});
+    ASSERT_EQ(info.exitCode, 0) << info.err;
+    const auto report = nlohmann::json::parse(info.out);
+    for (const char* key : {"depth", "voxels", "voxels_per_level", "slices", "far_pointers", "file_bytes", "bytes_per_voxel"})
+        EXPECT_TRUE(report.contains(key)) << key;
+    EXPECT_EQ(report["depth"], 6);
+    EXPECT_EQ(report["voxels"], octree["voxels"]);
+    EXPECT_EQ(report["voxels_per_level"], octree["voxels_per_level"]);
+    EXPECT_EQ(report["file_bytes"].get<std::uint64_t>(), std::filesystem::file_size(esvo));
+    const auto& perVoxel = report["bytes_per_voxel"];
+    EXPECT_NEAR(perVoxel["total"].get<double>(), double(std::filesystem::file_size(esvo)) / report["voxels"].get<double>(), 1e-9);
+    double parts = 0;
+    for (const char* part : {"hierarchy", "far_pointers", "page_headers", "padding", "info_sections", "header_and_directory", "attachments"})
+        parts += perVoxel[part].get<double>();
+    EXPECT_NEAR(parts, perVoxel["total"].get<double>(), 1e-9) << "the parts add up to the file";
+    // Static geometry only: the dynamic sphere is left out unless asked for.
+    const auto withDynamic = dir / "all.esvo";
+    ASSERT_EQ(voxelize({scene.string(), "-o", withDynamic.string(), "--depth", "6", "--include-dynamic"}).exitCode, 0);
+    EXPECT_GT(std::filesystem::file_size(withDynamic), std::filesystem::file_size(esvo));
+}
+
+TEST(Tools, EsvoIsByteIdenticalWhateverTheThreadCount) {
+    ScratchDir dir;
+    const auto scene = vox::scenes::writeCornellBox(dir.path());
+    for (const char* threads : {"1", "2", "3"})
+        ASSERT_EQ(voxelize({scene.string(), "-o", (dir / (std::string("t") + threads + ".esvo")).string(), "--depth", "7",
+                            "--slice-bytes", "16384", "--threads", threads}).exitCode, 0);
+    EXPECT_EQ(readBytes(dir / "t1.esvo"), readBytes(dir / "t2.esvo"));
+    EXPECT_EQ(readBytes(dir / "t1.esvo"), readBytes(dir / "t3.esvo"));
+}
+
+TEST(Tools, SmallSlicesAndShortPointersStillValidate) {
+    ScratchDir dir;
+    const auto scene = vox::scenes::writeCornellBox(dir.path());
+    const auto esvo = dir / "small.esvo";
+    ASSERT_EQ(voxelize({scene.string(), "-o", esvo.string(), "--depth", "8", "--slice-bytes", "16384",
+                        "--debug-near-pointer-limit", "32"}).exitCode, 0);
+    EXPECT_EQ(voxinspect({"validate", esvo.string()}).exitCode, 0);
+    const auto report = nlohmann::json::parse(voxinspect({"info", esvo.string(), "--json"}).out);
+    EXPECT_GT(report["slices"].get<int>(), 10);
+    EXPECT_LE(report["largest_slice_bytes"].get<int>(), 16384);
+    EXPECT_GT(report["far_pointers"].get<int>(), 100);
+    EXPECT_GT(report["bytes"]["page_headers"].get<int>(), 8 * report["slices"].get<int>()) << "page headers inside slices";
+    const ProcessResult dump = voxinspect({"dump", esvo.string(), "--json"});
+    ASSERT_EQ(dump.exitCode, 0) << dump.err;
+    EXPECT_EQ(nlohmann::json::parse(dump.out)["slices"].size(), report["slices"].get<std::size_t>());
+    const ProcessResult slice = voxinspect({"dump", esvo.string(), "--slice", "1", "--json"});
+    ASSERT_EQ(slice.exitCode, 0) << slice.err;
+    EXPECT_FALSE(nlohmann::json::parse(slice.out)["units"].empty());
+}
+
+TEST(Tools, ValidateLocatesTheFirstViolation) {
+    ScratchDir dir;
+    const auto scene = vox::scenes::writeCornellBox(dir.path());
+    const auto esvo = dir / "box.esvo";
+    ASSERT_EQ(voxelize({scene.string(), "-o", esvo.string(), "--depth", "6"}).exitCode, 0);
+    auto bytes = readBytes(esvo);
+    const auto corrupt = dir / "corrupt.esvo";
+    bytes[bytes.size() - 100] ^= 0x10;  // inside the last slice
+    vox::test::writeBinary(corrupt, bytes);
+    expectOneLineError(voxinspect({"validate", corrupt.string()}), 3, "slice", "voxinspect");
+    bytes.resize(bytes.size() - 7);
+    vox::test::writeBinary(corrupt, bytes);
+    expectOneLineError(voxinspect({"validate", corrupt.string()}), 3, corrupt.string(), "voxinspect");
+    expectOneLineError(voxinspect({"info", (dir / "missing.esvo").string()}), 2, "missing.esvo", "voxinspect");
+    expectOneLineError(voxinspect({"validate", scene.string()}), 3, "bad magic", "voxinspect");
+}
+
+TEST(Tools, RenderWritesPngAndPfmFromTheCamera) {
+    ScratchDir dir;
+    const auto scene = vox::scenes::writeCornellBox(dir.path());
+    const auto esvo = dir / "box.esvo";
+    ASSERT_EQ(voxelize({scene.string(), "-o", esvo.string(), "--depth", "7"}).exitCode, 0);
+    const auto png = dir / "v.png", pfm = dir / "v.pfm";
+    const ProcessResult r = voxinspect({"render", esvo.string(), "-o", png.string(), "--eye", "0,1,5", "--target", "0,1,0", "--fov", "40",
+                                        "--width", "64", "--height", "48", "--channel", "normal", "--depth-out", pfm.string()});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto image = readBytes(png);
+    ASSERT_GT(image.size(), 24u);
+    EXPECT_EQ((image[16] << 24) | (image[17] << 16) | (image[18] << 8) | image[19], 64);  // IHDR width
+    EXPECT_EQ((image[20] << 24) | (image[21] << 16) | (image[22] << 8) | image[23], 48);
+    const std::string depth = vox::test::readText(pfm);
+    const std::string header = "Pf\n64 48\n-1.0\n";
+    ASSERT_EQ(depth.size(), header.size() + 4 * 64 * 48);
+    EXPECT_EQ(depth.substr(0, header.size()), header);
+    const auto at = [&](int x, int yFromTop) {
+        float v;
+        std::memcpy(&v, depth.data() + header.size() + 4 * ((47 - yFromTop) * 64 + x), 4);
+        return v;
+    };
+    EXPECT_TRUE(std::isinf(at(0, 0))) << "the corner ray passes beside the box";
+    // The centre ray enters the open front and meets the back wall (z = -1.0 to -1.05) or the
+    // boxes in front of it: 5 − (−1.05) = 6.05 at most.
+    EXPECT_GT(at(32, 24), 4.0f);
+    EXPECT_LT(at(32, 24), 6.1f);
+    for (const char* channel : {"depth", "iterations", "level"})
+        EXPECT_EQ(voxinspect({"render", esvo.string(), "-o", png.string(), "--eye", "0,1,5", "--target", "0,1,0", "--width", "16",
+                              "--height", "16", "--channel", channel}).exitCode, 0) << channel;
+    expectOneLineError(voxinspect({"render", esvo.string(), "-o", png.string(), "--eye", "0,1,5", "--target", "0,1,5"}), 1,
+                       "same point", "voxinspect");
+    expectOneLineError(voxelize({scene.string(), "-o", (dir / "x.obj").string()}), 1, "expected .esvo");
 }
