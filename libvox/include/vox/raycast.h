@@ -10,6 +10,7 @@
 #include <vox/math.h>
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <vector>
 
@@ -78,7 +79,10 @@ struct RenderBuffers {
     double seconds = 0;                    ///< wall time of the casting
 };
 
-/// Casts one primary ray per pixel, in parallel (TBB).
+/// Casts one primary ray per pixel through @p cast, in parallel (TBB).
+[[nodiscard]] RenderBuffers renderPixels(const PinholeCamera& camera, const std::function<CastHit(const Ray&)>& cast);
+
+/// Casts one primary ray per pixel against the octree, in parallel (TBB).
 [[nodiscard]] RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camera, const CastOptions& options);
 
 }  // namespace vox

@@ -78,7 +78,8 @@ struct SliceBlock {
     std::uint32_t firstLevel = 0, endLevel = 0;
     std::vector<Node> frontier;           // in frontier-table order
     std::uint32_t infoWord = 0;
-    [[nodiscard]] std::uint64_t byteSize() const { return 8 * units.size(); }
+    bool overflow = false;  // a near pointer estimate failed: the block is over a slice anyway
+    [[nodiscard]] std::uint64_t byteSize() const { return overflow ? ~std::uint64_t{0} : 8 * units.size(); }
 };
 
 /// Bytes of the descriptors strictly below each voxel (saturating), bottom-up: what a child
@@ -124,8 +125,10 @@ struct CutRule {
 /// descriptor), and everything below them that the cut rule keeps.
 class BlockLayout {
 public:
-    BlockLayout(const OctreeIndex& tree, const SubtreeSizes& sizes, std::uint32_t nearLimit, CutRule cut)
-        : tree_(tree), sizes_(sizes), nearLimit_(nearLimit), cut_(cut) {}
+    /// Blocks larger than @p sliceBytes are only measured, never written: their near/far
+    /// estimates may assume every subtree fits the slice.
+    BlockLayout(const OctreeIndex& tree, const SubtreeSizes& sizes, std::uint32_t nearLimit, CutRule cut, std::uint64_t sliceBytes)
+        : tree_(tree), sizes_(sizes), nearLimit_(nearLimit), cut_(cut), maxUnits_(sliceBytes / 8) {}
 
     /// @p parents empty: the root slice.
     SliceBlock run(const std::vector<Node>& parents) {
@@ -167,6 +170,7 @@ public:
         for (std::uint64_t header : pageHeaders_)
             block_.units[header] = static_cast<std::uint32_t>(static_cast<std::int32_t>(2 * infoUnit - 2 * header));
         block_.rootGroups = static_cast<std::uint32_t>(rootGroupUnits.size());
+        if (block_.overflow && block_.units.size() <= maxUnits_) throw std::logic_error("esvo layout: near pointer estimate exceeded");
         return std::move(block_);
     }
 
@@ -194,7 +198,8 @@ private:
     /// at most one far slot each, page headers and padding.
     [[nodiscard]] std::uint64_t subtreeBound(const Node& n) const {
         if (isFrontier(n) || tree_.nonLeafMask(n.level, n.index) == 0) return 0;
-        const std::uint64_t raw = 2 * (sizes_(n.level, n.index) / 8);
+        // What stays in this slice is at most the slice, whatever the whole subtree holds.
+        const std::uint64_t raw = std::min(2 * (sizes_(n.level, n.index) / 8), maxUnits_);
         return raw + 17 * ((raw + kPageUnits - 18) / (kPageUnits - 17)) + 17;
     }
 
@@ -268,8 +273,10 @@ private:
             block_.units[unit + d.childPointer()] = static_cast<std::uint32_t>(static_cast<std::int32_t>(offset));
             return;
         }
-        if (offset > nearLimit_)
-            throw std::logic_error("esvo layout: near pointer estimate exceeded (" + std::to_string(offset) + " units)");
+        if (offset > nearLimit_) {
+            // Only possible in a block larger than a slice (see the constructor): mark it unusable.
+            block_.overflow = true;
+        }
         word = esvo::ChildDescriptor::make(d.validMask(), d.nonLeafMask(), static_cast<std::uint32_t>(offset), false).topology;
     }
 
@@ -277,6 +284,7 @@ private:
     const SubtreeSizes& sizes_;
     std::uint32_t nearLimit_;
     CutRule cut_;
+    std::uint64_t maxUnits_;
     SliceBlock block_;
     std::vector<std::uint64_t> pageHeaders_;
     std::vector<std::uint64_t> frontierUnits_;
@@ -311,7 +319,7 @@ private:
     [[nodiscard]] std::uint64_t budget() const { return options_.sliceBytes - options_.sliceBytes / 16; }
 
     SliceBlock layout(const std::vector<Node>& parents, CutRule cut) const {
-        return BlockLayout(tree_, sizes_, options_.nearPointerLimit, cut).run(parents);
+        return BlockLayout(tree_, sizes_, options_.nearPointerLimit, cut, options_.sliceBytes).run(parents);
     }
 
     void makeSlice(const Node& region, const std::vector<Node>& parents, std::uint32_t parent) {

@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -210,7 +211,7 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
     return result;
 }
 
-RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camera, const CastOptions& options) {
+RenderBuffers renderPixels(const PinholeCamera& camera, const std::function<CastHit(const Ray&)>& cast) {
     camera.validate();
     RenderBuffers out;
     out.width = camera.width;
@@ -226,7 +227,7 @@ RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camer
         std::uint64_t localHits = 0;
         for (int y = rows.begin(); y != rows.end(); ++y)
             for (int x = 0; x < camera.width; ++x) {
-                const CastHit h = caster.cast(camera.rayThrough(x, y), options);
+                const CastHit h = cast(camera.rayThrough(x, y));
                 const std::size_t i = std::size_t(y) * std::size_t(camera.width) + std::size_t(x);
                 out.iterations[i] = h.iterations;
                 if (!h.hit) continue;
@@ -240,6 +241,10 @@ RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camer
     out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     out.hits = hits;
     return out;
+}
+
+RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camera, const CastOptions& options) {
+    return renderPixels(camera, [&](const Ray& ray) { return caster.cast(ray, options); });
 }
 
 }  // namespace vox
