@@ -1,7 +1,10 @@
 // Triangle / axis-aligned box overlap by the separating-axis theorem (Akenine-Möller 2001):
 // the 3 box normals, the triangle normal and the 9 edge cross products. Closed sets: a triangle
-// touching the box's boundary overlaps it. Double precision; degenerate (zero-area) triangles
-// still work, because a zero normal or zero cross product gives an axis that never separates.
+// touching the box's boundary overlaps it. Double precision, with a separation margin of 1e-9
+// relative to the quantities compared, so that rounding never splits a touching contact
+// differently between a cube and its children (coordinates of non-power-of-two scenes are not
+// exact in leaf units). Degenerate (zero-area) triangles still work: a zero normal or zero cross
+// product gives an axis that never separates.
 #pragma once
 
 #include <vox/math.h>
@@ -10,6 +13,12 @@
 #include <cmath>
 
 namespace vox::detail {
+
+/// True if [lo, hi] lies beyond [−r, r] by more than the rounding margin.
+[[nodiscard]] inline bool separated(double lo, double hi, double r, double magnitude) {
+    const double margin = 1e-9 * (r + magnitude);
+    return lo > r + margin || hi < -r - margin;
+}
 
 /// A triangle prepared for many box tests.
 struct BoxTestTriangle {
@@ -28,13 +37,13 @@ struct BoxTestTriangle {
     for (int axis = 0; axis < 3; ++axis) {
         const double lo = std::min({a[axis], b[axis], d[axis]});
         const double hi = std::max({a[axis], b[axis], d[axis]});
-        if (lo > h || hi < -h) return false;
+        if (separated(lo, hi, h, std::max(std::abs(lo), std::abs(hi)))) return false;
     }
     // Triangle plane.
     const Vec3d& n = tri.normal;
     const double r = h * (std::abs(n.x) + std::abs(n.y) + std::abs(n.z));
     const double s = dot(n, a);
-    if (s > r || s < -r) return false;
+    if (separated(s, s, r, std::abs(s))) return false;
     // Edge × axis.
     const Vec3d edges[3] = {b - a, d - b, a - d};
     for (const Vec3d& e : edges) {
@@ -42,17 +51,17 @@ struct BoxTestTriangle {
         {
             const double pa = e.z * a.y - e.y * a.z, pb = e.z * b.y - e.y * b.z, pd = e.z * d.y - e.y * d.z;
             const double rad = h * (std::abs(e.z) + std::abs(e.y));
-            if (std::min({pa, pb, pd}) > rad || std::max({pa, pb, pd}) < -rad) return false;
+            if (separated(std::min({pa, pb, pd}), std::max({pa, pb, pd}), rad, std::abs(pa) + std::abs(pb) + std::abs(pd))) return false;
         }
         {
             const double pa = -e.z * a.x + e.x * a.z, pb = -e.z * b.x + e.x * b.z, pd = -e.z * d.x + e.x * d.z;
             const double rad = h * (std::abs(e.z) + std::abs(e.x));
-            if (std::min({pa, pb, pd}) > rad || std::max({pa, pb, pd}) < -rad) return false;
+            if (separated(std::min({pa, pb, pd}), std::max({pa, pb, pd}), rad, std::abs(pa) + std::abs(pb) + std::abs(pd))) return false;
         }
         {
             const double pa = e.y * a.x - e.x * a.y, pb = e.y * b.x - e.x * b.y, pd = e.y * d.x - e.x * d.y;
             const double rad = h * (std::abs(e.y) + std::abs(e.x));
-            if (std::min({pa, pb, pd}) > rad || std::max({pa, pb, pd}) < -rad) return false;
+            if (separated(std::min({pa, pb, pd}), std::max({pa, pb, pd}), rad, std::abs(pa) + std::abs(pb) + std::abs(pd))) return false;
         }
     }
     return true;

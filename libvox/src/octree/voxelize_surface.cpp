@@ -57,7 +57,9 @@ public:
     SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, std::uint32_t depth, std::uint32_t rootLevel)
         : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), scratch_(depth + 1), masks_(depth - rootLevel) {}
 
-    void build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list) {
+    /// Returns the node's mask; a node none of whose children a triangle touches (possible only
+    /// where rounding made the parent's test pass) is left out: nothing is appended.
+    std::uint32_t build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list) {
         const double childSize = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));
         const double half = 0.5 * childSize;
         std::uint32_t mask = 0;
@@ -77,10 +79,10 @@ public:
             for (std::uint32_t t : list)
                 if (detail::triangleOverlapsCube(triangles_[t], centre, half)) childList.push_back(t);
             if (childList.empty()) continue;
-            mask |= 1u << slot;
-            build(level + 1, cx, cy, cz, childList);
+            if (build(level + 1, cx, cy, cz, childList) != 0) mask |= 1u << slot;
         }
-        masks_[level - rootLevel_].push_back(static_cast<std::uint8_t>(mask));
+        if (mask != 0) masks_[level - rootLevel_].push_back(static_cast<std::uint8_t>(mask));
+        return mask;
     }
 
     std::vector<std::vector<std::uint8_t>>& masks() { return masks_; }
@@ -181,6 +183,7 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
 
     // Subtrees of the cells, in parallel; results are joined in Morton order.
     std::vector<std::vector<std::vector<std::uint8_t>>> subtrees(cells.size());
+    std::vector<std::uint8_t> occupied(cells.size(), 0);
     {
         Timings::Scope timer(options.timings, "voxelize_subtrees");
         Progress progress("voxelizing", cells.size());
@@ -196,7 +199,7 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
                     z |= ((cells[c].code >> (3 * bit + 2)) & 1u) << bit;
                 }
                 SubtreeBuilder builder(triangles, depth, k);
-                builder.build(k, x, y, z, list);
+                occupied[c] = builder.build(k, x, y, z, list) != 0;
                 subtrees[c] = std::move(builder.masks());
                 progress.advance();
             }
@@ -209,7 +212,8 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
     // Levels above k from the set of occupied cells.
     std::vector<std::uint32_t> codes;
     codes.reserve(cells.size());
-    for (const Cell& c : cells) codes.push_back(c.code);
+    for (std::size_t c = 0; c < cells.size(); ++c)
+        if (occupied[c]) codes.push_back(cells[c].code);
     for (std::uint32_t level = k; level-- > 0;) {
         std::vector<std::uint32_t> parents;
         auto& masks = octree.masks[level];
