@@ -2,6 +2,7 @@
 #include <vox/formats/error.h>
 #include <vox/formats/esvo_reader.h>
 
+#include <algorithm>
 #include <string>
 
 namespace vox::esvo {
@@ -183,6 +184,11 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
             if (load<std::uint64_t>(b + 8 * u) != 0) check.fail(8 * u, "padding is not zero (unreferenced data)");
             summary.paddingBytes += 8;
         }
+    // The block ends with the tables, padded to 8 bytes with zero.
+    const std::uint64_t tablesEnd = std::max<std::uint64_t>(t.rootGroupTableWord + t.rootGroupCount, t.frontierTableWord + t.frontierCount);
+    if ((4 * tablesEnd + 7) / 8 * 8 != block.size()) check.fail(4 * tablesEnd, "data after the info section's tables");
+    for (std::uint64_t w = tablesEnd; w < block.size() / 4; ++w)
+        if (word(b, w) != 0) check.fail(4 * w, "padding after the tables is not zero");
     summary.descriptorBytes = 8 * descriptors;
     summary.farPointerBytes = 8 * farSlots;
     summary.infoBytes = block.size() - infoByte;
