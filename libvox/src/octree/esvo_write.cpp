@@ -308,21 +308,35 @@ public:
     SlicePlanner(const OctreeIndex& tree, const SubtreeSizes& sizes, const EsvoWriteOptions& options)
         : tree_(tree), sizes_(sizes), options_(options) {}
 
+    /// Slices in depth-first order (each slice, then its children's subtrees in order). Child
+    /// slices are planned in parallel; the result does not depend on the thread count.
     std::vector<PlannedSlice> plan() {
-        makeSlice(Node{0, 0, 0}, {}, esvo::kNoSlice);
-        return std::move(slices_);
+        std::unique_ptr<PlanNode> root = makeSlice(Node{0, 0, 0}, {});
+        std::vector<PlannedSlice> slices;
+        flatten(*root, esvo::kNoSlice, slices);
+        return slices;
     }
 
     Progress* progress = nullptr;
 
 private:
+    struct PlanNode {
+        Node region;
+        SliceBlock block;
+        std::vector<std::unique_ptr<PlanNode>> children;
+    };
+    struct ChildJob {
+        Node region;
+        std::vector<Node> parents;
+    };
+
     [[nodiscard]] std::uint64_t budget() const { return options_.sliceBytes - options_.sliceBytes / 16; }
 
     SliceBlock layout(const std::vector<Node>& parents, CutRule cut) const {
         return BlockLayout(tree_, sizes_, options_.nearPointerLimit, cut, options_.sliceBytes).run(parents);
     }
 
-    void makeSlice(const Node& region, const std::vector<Node>& parents, std::uint32_t parent) {
+    std::unique_ptr<PlanNode> makeSlice(const Node& region, const std::vector<Node>& parents) const {
         std::uint64_t content = parents.empty() ? 8 + sizes_(0, 0) : 0;
         std::uint32_t shallowest = parents.empty() ? 0 : 0xFFFFFFFFu;
         for (const Node& p : parents) {
@@ -345,21 +359,33 @@ private:
             }
             if (!block) throw std::logic_error("esvo layout: the root groups of a slice do not fit it");
         }
-        const auto index = static_cast<std::uint32_t>(slices_.size());
+        auto node = std::make_unique<PlanNode>();
+        node->region = region;
+        node->block = std::move(*block);
+        if (progress) progress->advance();
+        std::vector<ChildJob> jobs;
+        const auto& frontier = node->block.frontier;
+        if (!frontier.empty()) partition(region, frontier, 0, frontier.size(), jobs);
+        node->children.resize(jobs.size());
+        tbb::parallel_for(std::size_t{0}, jobs.size(), [&](std::size_t i) { node->children[i] = makeSlice(jobs[i].region, jobs[i].parents); });
+        return node;
+    }
+
+    static void flatten(PlanNode& node, std::uint32_t parent, std::vector<PlannedSlice>& out) {
+        const auto index = static_cast<std::uint32_t>(out.size());
         PlannedSlice slice;
-        slice.region = region;
+        slice.region = node.region;
         slice.parent = parent;
         if (parent != esvo::kNoSlice) {
-            const Node& pr = slices_[parent].region;
-            slice.pathLevels = region.level - pr.level;
-            slice.path = slice.pathLevels ? region.path & ((std::uint64_t{1} << (3 * slice.pathLevels)) - 1) : 0;
-            slices_[parent].children.push_back(index);
+            const Node& pr = out[parent].region;
+            slice.pathLevels = node.region.level - pr.level;
+            slice.path = slice.pathLevels ? node.region.path & ((std::uint64_t{1} << (3 * slice.pathLevels)) - 1) : 0;
+            out[parent].children.push_back(index);
         }
-        slice.block = std::move(*block);
-        std::vector<Node> frontier = slice.block.frontier;
-        slices_.push_back(std::move(slice));
-        if (progress) progress->advance();
-        if (!frontier.empty()) partition(region, frontier, 0, frontier.size(), index);
+        slice.block = std::move(node.block);
+        out.push_back(std::move(slice));
+        for (auto& child : node.children) flatten(*child, index, out);
+        node.children.clear();
     }
 
     [[nodiscard]] static bool inside(const Node& n, const Node& region) {
@@ -367,12 +393,13 @@ private:
     }
 
     /// Child slices for frontier[first, last), all inside @p region.
-    void partition(const Node& region, const std::vector<Node>& frontier, std::size_t first, std::size_t last, std::uint32_t parent) {
+    void partition(const Node& region, const std::vector<Node>& frontier, std::size_t first, std::size_t last,
+                   std::vector<ChildJob>& jobs) const {
         if (first == last) return;
         std::uint64_t content = 0;
         for (std::size_t i = first; i < last; ++i) content += sizes_(frontier[i].level, frontier[i].index);
         if (last - first == 1 || content <= budget() || frontier[first].level == region.level) {
-            makeSlice(region, std::vector<Node>(frontier.begin() + std::ptrdiff_t(first), frontier.begin() + std::ptrdiff_t(last)), parent);
+            jobs.push_back({region, std::vector<Node>(frontier.begin() + std::ptrdiff_t(first), frontier.begin() + std::ptrdiff_t(last))});
             return;
         }
         const std::uint32_t valid = tree_.validMask(region.level, region.index);
@@ -383,7 +410,7 @@ private:
                 const Node octant{region.level + 1, child++, (region.path << 3) | slot};
                 std::size_t j = i;
                 while (j < last && inside(frontier[j], octant)) ++j;
-                partition(octant, frontier, i, j, parent);
+                partition(octant, frontier, i, j, jobs);
                 i = j;
             }
         if (i != last) throw std::logic_error("esvo layout: frontier not in Morton order");
@@ -392,7 +419,6 @@ private:
     const OctreeIndex& tree_;
     const SubtreeSizes& sizes_;
     const EsvoWriteOptions& options_;
-    std::vector<PlannedSlice> slices_;
 };
 
 }  // namespace

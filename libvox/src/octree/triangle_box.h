@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace vox::detail {
 
@@ -65,6 +66,45 @@ struct BoxTestTriangle {
         }
     }
     return true;
+}
+
+/// The children of the closed cube with centre @p c and half-extent @p h that @p tri overlaps,
+/// as a slot mask (bit 0 of a slot: +x half, bit 1: +y, bit 2: +z). The same test as
+/// triangleOverlapsCube for each child, sharing the triangle's projections among the eight.
+[[nodiscard]] inline std::uint32_t childOverlapMask(const BoxTestTriangle& tri, Vec3d c, double h) {
+    const double q = 0.5 * h;  // children's half-extent; their centres are c ± q per axis
+    const Vec3d a = tri.v0 - c, b = tri.v1 - c, d = tri.v2 - c;
+    std::uint32_t mask = 0xFF;
+    static constexpr std::uint32_t kLowHalf[3] = {0x55, 0x33, 0x0F};  // slots with the axis bit clear
+    for (int axis = 0; axis < 3; ++axis) {
+        const double lo = std::min({a[axis], b[axis], d[axis]});
+        const double hi = std::max({a[axis], b[axis], d[axis]});
+        const double magnitude = std::max(std::abs(lo), std::abs(hi));
+        if (separated(lo + q, hi + q, q, magnitude)) mask &= ~kLowHalf[axis];
+        if (separated(lo - q, hi - q, q, magnitude)) mask &= kLowHalf[axis];
+        if (mask == 0) return 0;
+    }
+    // Child s's centre projects onto axis A at q·(±A.x ± A.y ± A.z); its radius is q·|A|₁.
+    const auto testAxis = [&](Vec3d axisVector, double pmin, double pmax, double magnitude) {
+        const double r = q * (std::abs(axisVector.x) + std::abs(axisVector.y) + std::abs(axisVector.z));
+        for (std::uint32_t slot = 0; slot < 8; ++slot) {
+            if (!(mask & (1u << slot))) continue;
+            const double cp = q * ((slot & 1u ? axisVector.x : -axisVector.x) + (slot & 2u ? axisVector.y : -axisVector.y) +
+                                   (slot & 4u ? axisVector.z : -axisVector.z));
+            if (separated(pmin - cp, pmax - cp, r, magnitude)) mask &= ~(1u << slot);
+        }
+    };
+    const double s = dot(tri.normal, a);
+    testAxis(tri.normal, s, s, std::abs(s));
+    const Vec3d edges[3] = {b - a, d - b, a - d};
+    for (const Vec3d& e : edges) {
+        if (mask == 0) return 0;
+        for (const Vec3d axisVector : {Vec3d{0, e.z, -e.y}, Vec3d{-e.z, 0, e.x}, Vec3d{e.y, -e.x, 0}}) {
+            const double pa = dot(axisVector, a), pb = dot(axisVector, b), pd = dot(axisVector, d);
+            testAxis(axisVector, std::min({pa, pb, pd}), std::max({pa, pb, pd}), std::abs(pa) + std::abs(pb) + std::abs(pd));
+        }
+    }
+    return mask;
 }
 
 }  // namespace vox::detail

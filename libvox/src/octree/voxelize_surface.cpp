@@ -14,6 +14,7 @@
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <span>
 
@@ -60,26 +61,28 @@ public:
     /// Returns the node's mask; a node none of whose children a triangle touches (possible only
     /// where rounding made the parent's test pass) is left out: nothing is appended.
     std::uint32_t build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list) {
-        const double childSize = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));
-        const double half = 0.5 * childSize;
+        const double half = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));  // this node's half-extent
+        const Vec3d centre{(2 * x + 1) * half, (2 * y + 1) * half, (2 * z + 1) * half};
         std::uint32_t mask = 0;
-        for (std::uint32_t slot = 0; slot < 8; ++slot) {
-            const std::uint32_t cx = 2 * x + (slot & 1u), cy = 2 * y + ((slot >> 1) & 1u), cz = 2 * z + (slot >> 2);
-            const Vec3d centre{(cx + 0.5) * childSize, (cy + 0.5) * childSize, (cz + 0.5) * childSize};
-            if (level + 1 == depth_) {
-                for (std::uint32_t t : list)
-                    if (detail::triangleOverlapsCube(triangles_[t], centre, half)) {
-                        mask |= 1u << slot;
-                        break;
-                    }
-                continue;
+        if (level + 1 == depth_) {
+            for (std::uint32_t t : list) {
+                mask |= detail::childOverlapMask(triangles_[t], centre, half);
+                if (mask == 0xFF) break;
             }
-            std::vector<std::uint32_t>& childList = scratch_[level + 1];
-            childList.clear();
-            for (std::uint32_t t : list)
-                if (detail::triangleOverlapsCube(triangles_[t], centre, half)) childList.push_back(t);
-            if (childList.empty()) continue;
-            if (build(level + 1, cx, cy, cz, childList) != 0) mask |= 1u << slot;
+        } else {
+            auto& children = scratch_[level + 1];
+            for (auto& c : children) c.clear();
+            std::uint32_t touched = 0;
+            for (std::uint32_t t : list) {
+                const std::uint32_t m = detail::childOverlapMask(triangles_[t], centre, half);
+                touched |= m;
+                for (std::uint32_t bits = m; bits; bits &= bits - 1) children[static_cast<unsigned>(__builtin_ctz(bits))].push_back(t);
+            }
+            for (std::uint32_t slot = 0; slot < 8; ++slot) {
+                if (!(touched & (1u << slot))) continue;
+                const std::uint32_t cx = 2 * x + (slot & 1u), cy = 2 * y + ((slot >> 1) & 1u), cz = 2 * z + (slot >> 2);
+                if (build(level + 1, cx, cy, cz, children[slot]) != 0) mask |= 1u << slot;
+            }
         }
         if (mask != 0) masks_[level - rootLevel_].push_back(static_cast<std::uint8_t>(mask));
         return mask;
@@ -91,7 +94,7 @@ private:
     const std::vector<BoxTestTriangle>& triangles_;
     std::uint32_t depth_;
     std::uint32_t rootLevel_;
-    std::vector<std::vector<std::uint32_t>> scratch_;
+    std::vector<std::array<std::vector<std::uint32_t>, 8>> scratch_;  // child lists per level
     std::vector<std::vector<std::uint8_t>> masks_;
 };
 
