@@ -205,24 +205,43 @@ HeaderFacts checkOffHeader(const ImportContext& context, const std::vector<std::
 }
 
 /// Sends OpenMesh's error stream (normally stderr) to @p sink while it lives, and silences its
-/// log and info streams: libvox reports what went wrong in its own words.
+/// log and info streams: libvox reports what went wrong in its own words. OpenMesh's stream
+/// multiplexer leaks a target on every disconnect, so one forwarding stream is connected once
+/// for the life of the process and only its destination changes.
 class OpenMeshErrorCapture {
 public:
-    explicit OpenMeshErrorCapture(std::ostream& sink) : sink_(sink) {
-        omerr().disconnect(std::cerr);
-        omerr().connect(sink_);
-        omlog().disable();
-        omout().disable();
-    }
-    ~OpenMeshErrorCapture() {
-        omerr().disconnect(sink_);
-        omerr().connect(std::cerr);
-    }
+    /// The caller holds openMeshMutex(): OpenMesh's streams are global.
+    explicit OpenMeshErrorCapture(std::ostream& sink) { router().buffer.target = &sink; }
+    ~OpenMeshErrorCapture() { router().buffer.target = nullptr; }
     OpenMeshErrorCapture(const OpenMeshErrorCapture&) = delete;
     OpenMeshErrorCapture& operator=(const OpenMeshErrorCapture&) = delete;
 
 private:
-    std::ostream& sink_;
+    struct ForwardingBuffer : std::streambuf {
+        std::ostream* target = nullptr;
+        int overflow(int c) override {
+            if (target && c != traits_type::eof()) target->put(static_cast<char>(c));
+            return traits_type::not_eof(c);
+        }
+        std::streamsize xsputn(const char* text, std::streamsize count) override {
+            if (target) target->write(text, count);
+            return count;
+        }
+    };
+    struct Router {
+        ForwardingBuffer buffer;
+        std::ostream stream{&buffer};
+        Router() {
+            omerr().disconnect(std::cerr);
+            omerr().connect(stream);
+            omlog().disable();
+            omout().disable();
+        }
+    };
+    static Router& router() {
+        static Router instance;
+        return instance;
+    }
 };
 
 /// Triangles an STL file holds: the binary header's count, or the ASCII "endfacet" lines.
