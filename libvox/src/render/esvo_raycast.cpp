@@ -25,16 +25,29 @@ void PinholeCamera::validate() const {
     if (width < 1 || height < 1 || width > 16384 || height > 16384) throw UsageError("camera: image size must be 1..16384");
 }
 
-Ray PinholeCamera::rayThrough(int x, int y) const {
-    const Vec3d forward = normalize(target - eye);
-    const Vec3d right = normalize(cross(forward, up));
-    const Vec3d trueUp = cross(right, forward);
-    const double tanHalf = std::tan(fovYDegrees * 0.5 * 3.14159265358979323846 / 180.0);
-    const double aspect = double(width) / double(height);
-    const double sx = ((x + 0.5) / width * 2.0 - 1.0) * tanHalf * aspect;
-    const double sy = (1.0 - (y + 0.5) / height * 2.0) * tanHalf;
-    return {eye, normalize(forward + right * sx + trueUp * sy)};
-}
+namespace {
+
+/// The camera's basis, computed once per image rather than once per ray.
+struct CameraBasis {
+    Vec3d eye, forward, right, up;
+    double tanHalf, aspect;
+    int width, height;
+
+    explicit CameraBasis(const PinholeCamera& c)
+        : eye(c.eye), forward(normalize(c.target - c.eye)), right(normalize(cross(forward, c.up))), up(cross(right, forward)),
+          tanHalf(std::tan(c.fovYDegrees * 0.5 * 3.14159265358979323846 / 180.0)), aspect(double(c.width) / double(c.height)),
+          width(c.width), height(c.height) {}
+
+    [[nodiscard]] Ray ray(int x, int y) const {
+        const double sx = ((x + 0.5) / width * 2.0 - 1.0) * tanHalf * aspect;
+        const double sy = (1.0 - (y + 0.5) / height * 2.0) * tanHalf;
+        return {eye, normalize(forward + right * sx + up * sy)};
+    }
+};
+
+}  // namespace
+
+Ray PinholeCamera::rayThrough(int x, int y) const { return CameraBasis(*this).ray(x, y); }
 
 double PinholeCamera::pixelAngle() const {
     return 2.0 * std::tan(fovYDegrees * 0.5 * 3.14159265358979323846 / 180.0) / height;
@@ -222,12 +235,13 @@ RenderBuffers renderPixels(const PinholeCamera& camera, const std::function<Cast
     out.iterations.assign(pixels, 0);
     out.level.assign(pixels, 0);
     std::atomic<std::uint64_t> hits{0};
+    const CameraBasis basis(camera);
     const auto start = std::chrono::steady_clock::now();
     tbb::parallel_for(tbb::blocked_range<int>(0, camera.height, 4), [&](const tbb::blocked_range<int>& rows) {
         std::uint64_t localHits = 0;
         for (int y = rows.begin(); y != rows.end(); ++y)
             for (int x = 0; x < camera.width; ++x) {
-                const CastHit h = cast(camera.rayThrough(x, y));
+                const CastHit h = cast(basis.ray(x, y));
                 const std::size_t i = std::size_t(y) * std::size_t(camera.width) + std::size_t(x);
                 out.iterations[i] = h.iterations;
                 if (!h.hit) continue;
