@@ -84,14 +84,18 @@ struct BoxTestTriangle {
         if (separated(lo - q, hi - q, q, magnitude)) mask &= kLowHalf[axis];
         if (mask == 0) return 0;
     }
-    // Child s's centre projects onto axis A at q·(±A.x ± A.y ± A.z); its radius is q·|A|₁.
+    // Child s's centre projects onto axis A at q·(±A.x ± A.y ± A.z); its radius is q·|A|₁. The
+    // child is not separated on A while that centre lies within the triangle's projection grown
+    // by the radius and the margin (the same comparison as separated(), solved for the centre).
     const auto testAxis = [&](Vec3d axisVector, double pmin, double pmax, double magnitude) {
-        const double r = q * (std::abs(axisVector.x) + std::abs(axisVector.y) + std::abs(axisVector.z));
-        for (std::uint32_t slot = 0; slot < 8; ++slot) {
-            if (!(mask & (1u << slot))) continue;
-            const double cp = q * ((slot & 1u ? axisVector.x : -axisVector.x) + (slot & 2u ? axisVector.y : -axisVector.y) +
-                                   (slot & 4u ? axisVector.z : -axisVector.z));
-            if (separated(pmin - cp, pmax - cp, r, magnitude)) mask &= ~(1u << slot);
+        const double ax = q * axisVector.x, ay = q * axisVector.y, az = q * axisVector.z;
+        const double r = std::abs(ax) + std::abs(ay) + std::abs(az);
+        const double grow = r + 1e-9 * (r + magnitude);
+        const double low = pmin - grow, high = pmax + grow;
+        for (std::uint32_t bits = mask; bits; bits &= bits - 1) {
+            const auto slot = static_cast<std::uint32_t>(__builtin_ctz(bits));
+            const double cp = (slot & 1u ? ax : -ax) + (slot & 2u ? ay : -ay) + (slot & 4u ? az : -az);
+            if (cp < low || cp > high) mask &= ~(1u << slot);
         }
     };
     const double s = dot(tri.normal, a);
