@@ -251,7 +251,7 @@ TEST(Tools, VoxelizeWritesAnEsvoThatValidatesAndReportsItself) {
     const auto& perVoxel = report["bytes_per_voxel"];
     EXPECT_NEAR(perVoxel["total"].get<double>(), double(std::filesystem::file_size(esvo)) / report["voxels"].get<double>(), 1e-9);
     double parts = 0;
-    for (const char* part : {"hierarchy", "far_pointers", "page_headers", "padding", "info_sections", "header_and_directory", "attachments"})
+    for (const char* part : {"hierarchy", "far_pointers", "page_headers", "padding", "info_sections", "header_and_directory", "contours", "attachments"})
         parts += perVoxel[part].get<double>();
     EXPECT_NEAR(parts, perVoxel["total"].get<double>(), 1e-9) << "the parts add up to the file";
     // Static geometry only: the dynamic sphere is left out unless asked for.

@@ -68,17 +68,29 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
     if (word(b, t.infoWord + info::kBlockIndex) != 0) check.fail(infoByte + 4, "block index in slice is not 0");
     if (static_cast<std::int64_t>(t.infoWord) + signedWord(b, t.infoWord + info::kFirstDescriptor) != 2)
         check.fail(infoByte + 8, "first-descriptor pointer does not point at byte 8");
-    if (word(b, t.infoWord + info::kAttachmentCount) != 0)
-        check.fail(infoByte + 12, "attachments present, but this file declares none");
+    // Attachments: only the contour array so far, between the descriptor area and the info section.
+    std::uint64_t contourStart = t.infoWord;  // words
+    const std::uint32_t attachments = word(b, t.infoWord + info::kAttachmentCount);
+    for (std::uint32_t a = 0; a < attachments; ++a) {
+        const std::uint64_t at = t.infoWord + info::kAttachments + 2 * a;
+        const std::uint32_t kind = word(b, at);
+        if (kind != static_cast<std::uint32_t>(AttachmentKind::Contour) || !(header.attachmentKinds & 1u) || a > 0)
+            check.fail(4 * at, "unexpected attachment kind " + std::to_string(kind));
+        const std::int64_t start = static_cast<std::int64_t>(t.infoWord) + signedWord(b, at + 1);
+        if (start < 2 || start % 2 != 0 || start > static_cast<std::int64_t>(t.infoWord))
+            check.fail(4 * at + 4, "contour array pointer outside the block");
+        contourStart = static_cast<std::uint64_t>(start);
+    }
+    std::vector<std::uint8_t> contourUsed(t.infoWord - contourStart, 0);
     if (t.rootGroupCount != entry.rootGroupCount || t.rootGroupCount != parents.size())
         check.fail(infoByte, "root group count differs from the directory's");
 
     // Every 8-byte unit of the descriptor area is a page header, a descriptor, a far slot or zero padding.
-    const std::uint64_t units = infoByte / 8;
+    const std::uint64_t units = contourStart / 2;  // the descriptor area ends where contours begin
     enum : std::uint8_t { kFree, kPageHeader, kDescriptor, kFarSlot };
     std::vector<std::uint8_t> use(units, kFree);
     BlockSummary summary;
-    for (std::uint64_t page = 0; page * kPageBytes < infoByte; ++page) {
+    for (std::uint64_t page = 0; page * kPageBytes < 8 * units; ++page) {
         const std::uint64_t byte = page * kPageBytes;
         if (static_cast<std::int64_t>(byte / 4) + signedWord(b, byte / 4) != t.infoWord || word(b, byte / 4 + 1) != 0)
             check.fail(byte, "page header does not point at the info section");
@@ -132,7 +144,23 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
             if (d.position.level < entry.firstLevel || d.position.level >= entry.endLevel)
                 check.fail(at, "descriptor outside the slice's level range");
             deepest = std::max(deepest, d.position.level);
-            if (desc.contour != 0) check.fail(at + 4, "contour bits set, but this file has no contours");
+            if (desc.contourMask() == 0) {
+                if (desc.contour != 0) check.fail(at + 4, "contour pointer without a contour mask");
+            } else {
+                if ((desc.contourMask() & ~desc.validMask()) != 0) check.fail(at + 4, "contour mask has bits outside the valid mask");
+                const std::uint64_t firstContour = 2 * d.unit + desc.contourPointer();
+                const std::uint64_t count = popc8(desc.contourMask());
+                if (firstContour < contourStart || firstContour + count > t.infoWord)
+                    check.fail(at + 4, "contour pointer outside the contour array");
+                for (std::uint64_t w = firstContour; w < firstContour + count; ++w) {
+                    if (contourUsed[w - contourStart]) check.fail(4 * w, "contour shared by two descriptors");
+                    contourUsed[w - contourStart] = 1;
+                    const Contour c = Contour::decode(word(b, w));
+                    if (std::max({std::abs(c.nx), std::abs(c.ny), std::abs(c.nz)}) != 31)
+                        check.fail(4 * w, "contour normal's largest component is not ±31");
+                }
+                summary.contourBytes += 4 * count;
+            }
             if (desc.validMask() == 0) check.fail(at, "descriptor with an empty valid mask");
             if ((desc.nonLeafMask() & ~desc.validMask()) != 0) check.fail(at, "non-leaf mask has bits outside the valid mask");
             ++descriptors;
@@ -184,6 +212,9 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
             if (load<std::uint64_t>(b + 8 * u) != 0) check.fail(8 * u, "padding is not zero (unreferenced data)");
             summary.paddingBytes += 8;
         }
+    for (std::size_t w = 0; w < contourUsed.size(); ++w)
+        if (!contourUsed[w] && !(w + 1 == contourUsed.size() && w % 2 == 1 && word(b, contourStart + w) == 0))
+            check.fail(4 * (contourStart + w), "contour array word no descriptor refers to");
     // The block ends with the tables, padded to 8 bytes with zero.
     const std::uint64_t tablesEnd = std::max<std::uint64_t>(t.rootGroupTableWord + t.rootGroupCount, t.frontierTableWord + t.frontierCount);
     if ((4 * tablesEnd + 7) / 8 * 8 != block.size()) check.fail(4 * tablesEnd, "data after the info section's tables");
@@ -192,6 +223,7 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
     summary.descriptorBytes = 8 * descriptors;
     summary.farPointerBytes = 8 * farSlots;
     summary.infoBytes = block.size() - infoByte;
+    summary.paddingBytes += 4 * (contourUsed.size()) - summary.contourBytes;
     return summary;
 }
 
@@ -245,6 +277,7 @@ FileBreakdown validateFile(const EsvoReader& reader) {
         total.pageHeaderBytes += summary.pageHeaderBytes;
         total.infoBytes += summary.infoBytes;
         total.paddingBytes += summary.paddingBytes;
+        total.contourBytes += summary.contourBytes;
         used += s.byteSize;
         frontiers[i] = std::move(summary.frontier);
     }

@@ -92,7 +92,7 @@ nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakd
     report["bytes"] = {{"hierarchy", b.descriptorBytes},   {"far_pointers", b.farPointerBytes},
                        {"page_headers", b.pageHeaderBytes}, {"padding", b.paddingBytes + b.slicePaddingBytes},
                        {"info_sections", b.infoBytes},      {"header_and_directory", b.headerAndDirectoryBytes},
-                       {"attachments", b.attachmentBytes}};
+                       {"contours", b.contourBytes},       {"attachments", b.attachmentBytes}};
     report["bytes_per_voxel"] = {{"total", perVoxel(h.fileBytes)},
                                  {"hierarchy", perVoxel(b.descriptorBytes)},
                                  {"far_pointers", perVoxel(b.farPointerBytes)},
@@ -100,6 +100,7 @@ nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakd
                                  {"padding", perVoxel(b.paddingBytes + b.slicePaddingBytes)},
                                  {"info_sections", perVoxel(b.infoBytes)},
                                  {"header_and_directory", perVoxel(b.headerAndDirectoryBytes)},
+                                 {"contours", perVoxel(b.contourBytes)},
                                  {"attachments", perVoxel(b.attachmentBytes)}};
     return report;
 }

@@ -34,6 +34,9 @@ struct SparseOctree {
     std::uint32_t leafDepth = 0;                    ///< finest level
     std::vector<std::vector<std::uint8_t>> masks;   ///< masks[l][i] for levels 0 … leafDepth−1
     std::vector<std::uint64_t> voxelsPerLevel;      ///< leafDepth + 1 entries
+    /// contours[l][i]: the encoded esvo::Contour of voxel i of level l (0: none), for levels
+    /// 0 … leafDepth (level 0's single entry is unused). Empty: the octree has no contours.
+    std::vector<std::vector<std::uint32_t>> contours;
 
     [[nodiscard]] std::uint64_t voxelCount() const noexcept;
 };

@@ -42,6 +42,7 @@ struct CastOptions {
     double lodAngle = 0;
     std::uint32_t maxLevel = std::numeric_limits<std::uint32_t>::max();  ///< treat this level as leaves
     double tMax = std::numeric_limits<double>::infinity();
+    bool contours = true;  ///< intersect voxels' contours (off: cubes only)
 };
 
 struct CastHit {

@@ -11,6 +11,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <deque>
 #include <memory>
 #include <optional>
@@ -43,6 +44,11 @@ public:
         return level < depth() ? octree_.masks[level][i] : 0u;
     }
     [[nodiscard]] bool hasDescriptor(std::uint32_t level, std::uint64_t i) const { return validMask(level, i) != 0; }
+    [[nodiscard]] bool hasContours() const { return !octree_.contours.empty(); }
+    /// Encoded contour of voxel i of level (0: none).
+    [[nodiscard]] std::uint32_t contour(std::uint32_t level, std::uint64_t i) const {
+        return octree_.contours.empty() ? 0u : octree_.contours[level][i];
+    }
     [[nodiscard]] std::uint64_t firstChild(std::uint32_t level, std::uint64_t i) const { return firstChild_[level][i]; }
     /// Slots whose children have descriptors of their own.
     [[nodiscard]] std::uint32_t nonLeafMask(std::uint32_t level, std::uint64_t i) const {
@@ -78,6 +84,7 @@ struct SliceBlock {
     std::uint32_t firstLevel = 0, endLevel = 0;
     std::vector<Node> frontier;           // in frontier-table order
     std::uint32_t infoWord = 0;
+    std::uint64_t contourWords = 0;
     bool overflow = false;  // a near pointer estimate failed: the block is over a slice anyway
     [[nodiscard]] std::uint64_t byteSize() const { return overflow ? ~std::uint64_t{0} : 8 * units.size(); }
 };
@@ -91,7 +98,17 @@ public:
         for (std::uint32_t l = depth; l-- > 0;) {
             auto& out = bytes_[l];
             out.assign(tree.levelSize(l), 0);
-            if (l + 1 >= depth) continue;
+            if (l + 1 >= depth) {
+                // Children are leaves: only their contours.
+                for (std::uint64_t i = 0; i < out.size(); ++i) {
+                    const std::uint32_t valid = tree.validMask(l, i);
+                    std::uint64_t child = tree.firstChild(l, i), sum = 0;
+                    for (std::uint32_t slot = 0; slot < 8; ++slot)
+                        if (valid & (1u << slot)) sum += tree.contour(l + 1, child++) ? 4 : 0;
+                    out[i] = static_cast<std::uint32_t>(sum);
+                }
+                continue;
+            }
             const auto& next = bytes_[l + 1];
             tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, out.size(), 1 << 14), [&](const tbb::blocked_range<std::uint64_t>& r) {
                 for (std::uint64_t i = r.begin(); i != r.end(); ++i) {
@@ -100,6 +117,7 @@ public:
                     for (std::uint32_t slot = 0; slot < 8; ++slot)
                         if (valid & (1u << slot)) {
                             if (tree.hasDescriptor(l + 1, child)) sum += 8 + next[child];
+                            if (tree.contour(l + 1, child)) sum += 4;
                             ++child;
                         }
                     out[i] = static_cast<std::uint32_t>(std::min<std::uint64_t>(sum, 0xFFFFFFFFu));
@@ -141,7 +159,7 @@ public:
             const bool far = isFrontier(root);
             const std::uint64_t unit = placeGroup(far ? 2 : 1);
             rootGroupUnits.push_back(unit);
-            writeMembers(&root, 1, unit, &far);
+            writeMembers(&root, 1, unit, &far);  // also queues the root's children's contours
             descend(&root, 1, unit);
         } else {
             for (const Node& p : parents) {
@@ -149,16 +167,36 @@ public:
                 rootGroupUnits.push_back(layoutGroup(p));
             }
         }
+        // Contour array: each descriptor's children's contours, in descriptor order.
+        const std::uint64_t contourWord = 2 * block_.units.size();
+        std::uint64_t nextWord = contourWord;
+        std::vector<std::uint32_t> contourWords;
+        for (const PendingContours& p : contours_) {
+            block_.units[p.unit] |= std::uint64_t{((nextWord - 2 * p.unit) << 8) | p.mask} << 32;
+            contourWords.insert(contourWords.end(), p.values.begin(), p.values.begin() + esvo::popc8(p.mask));
+            nextWord += esvo::popc8(p.mask);
+        }
+        if (contourWords.size() % 2) contourWords.push_back(0);
+        for (std::size_t i = 0; i < contourWords.size(); i += 2)
+            block_.units.push_back(contourWords[i] | (std::uint64_t{contourWords[i + 1]} << 32));
+        block_.contourWords = nextWord - contourWord;
+        if (contourWord >= (std::uint64_t{1} << 24) && !contours_.empty()) block_.overflow = true;  // 24-bit contour pointers
+        const std::uint32_t attachments = contours_.empty() ? 0 : 1;
+
         // Info section and tables.
         const std::uint64_t infoUnit = block_.units.size();
         block_.infoWord = static_cast<std::uint32_t>(2 * infoUnit);
         std::vector<std::uint32_t> words;
         const auto rel = [&](std::uint64_t wordIndex) { return static_cast<std::uint32_t>(static_cast<std::int32_t>(wordIndex - 2 * infoUnit)); };
-        const std::uint64_t tablesStart = 2 * infoUnit + esvo::info::kAttachments + esvo::info::kTablesWords;
+        const std::uint64_t tablesStart = 2 * infoUnit + esvo::info::tablesWord(attachments) + esvo::info::kTablesWords;
         words.push_back(0);  // slice id, set when the slice's place in the directory is known
         words.push_back(0);  // block index in slice
         words.push_back(rel(2));
-        words.push_back(0);  // attachment count
+        words.push_back(attachments);
+        if (attachments) {
+            words.push_back(static_cast<std::uint32_t>(esvo::AttachmentKind::Contour));
+            words.push_back(rel(contourWord));
+        }
         words.push_back(static_cast<std::uint32_t>(rootGroupUnits.size()));
         words.push_back(rel(tablesStart));
         words.push_back(static_cast<std::uint32_t>(frontierUnits_.size()));
@@ -217,10 +255,29 @@ private:
                 ++block_.farSlots;
             }
             block_.units[unit] = esvo::ChildDescriptor::make(valid, nonLeaf, pointer, far[j]).topology;
+            collectContours(members[j], unit);
             ++block_.descriptors;
             block_.voxels += esvo::popc8(valid);
             block_.endLevel = std::max(block_.endLevel, members[j].level + 1);
         }
+    }
+
+    /// Queues the contours of @p n's children for the block's contour array.
+    void collectContours(const Node& n, std::uint64_t unit) {
+        if (!tree_.hasContours()) return;
+        const std::uint32_t valid = tree_.validMask(n.level, n.index);
+        PendingContours p{unit, 0, {}};
+        std::uint64_t child = tree_.firstChild(n.level, n.index);
+        std::uint32_t count = 0;
+        for (std::uint32_t slot = 0; slot < 8; ++slot)
+            if (valid & (1u << slot)) {
+                if (const std::uint32_t c = tree_.contour(n.level + 1, child)) {
+                    p.mask |= 1u << slot;
+                    p.values[count++] = c;
+                }
+                ++child;
+            }
+        if (p.mask) contours_.push_back(p);
     }
 
     /// Links each member to its child group (laid out now) or records it as frontier.
@@ -288,6 +345,12 @@ private:
     SliceBlock block_;
     std::vector<std::uint64_t> pageHeaders_;
     std::vector<std::uint64_t> frontierUnits_;
+    struct PendingContours {
+        std::uint64_t unit;
+        std::uint32_t mask;
+        std::array<std::uint32_t, 8> values;
+    };
+    std::vector<PendingContours> contours_;
 };
 
 struct PlannedSlice {
@@ -497,6 +560,7 @@ EsvoWriteResult writeEsvo(const std::filesystem::path& file, const SparseOctree&
     header.sceneBoundsMin = {options.sceneBounds.min.x, options.sceneBounds.min.y, options.sceneBounds.min.z};
     header.sceneBoundsMax = {options.sceneBounds.max.x, options.sceneBounds.max.y, options.sceneBounds.max.z};
     header.leafDepth = octree.leafDepth;
+    if (!octree.contours.empty()) header.attachmentKinds |= 1u << static_cast<unsigned>(esvo::AttachmentKind::Contour);
     header.sliceBytesLimit = options.sliceBytes;
     header.nearPointerLimit = options.nearPointerLimit;
     header.sliceCount = static_cast<std::uint32_t>(planned.size());

@@ -106,8 +106,10 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
 
     CastHit result;
     std::uint32_t parent = pool_.rootDescriptorWord();
-    std::uint32_t descriptor = 0;
+    std::uint32_t descriptor = 0, descriptor2 = 0;  // the parent's two words: topology, contours
     bool haveDescriptor = false;
+    float slabT = -1.0f;          // where a contour last raised the span's start, and its normal
+    Vec3f slabNormal{0, 0, 0};
     int idx = 0;
     float posX = 1.0f, posY = 1.0f, posZ = 1.0f;
     int scale = kScaleMax - 1;
@@ -121,6 +123,7 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
         ++result.iterations;
         if (!haveDescriptor) {
             descriptor = words[parent];
+            descriptor2 = words[parent + 1];
             haveDescriptor = true;
         }
         const float txCorner = posX * txCoef - txBias;
@@ -137,21 +140,54 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
                 result.level = level;
                 break;
             }
-            const float tvMax = std::min(tMax, tcMax);
+            float tvMax = std::min(tMax, tcMax);
             const float half = scaleExp2 * 0.5f;
             const float txCenter = half * txCoef + txCorner;
             const float tyCenter = half * tyCoef + tyCorner;
             const float tzCenter = half * tzCoef + tzCorner;
-            if (tMin <= tvMax) {
+            // Contour: the voxel's slab, in its local coordinates u = (p − centre) / size.
+            float tvMin = tMin;
+            bool fromSlab = false;
+            Vec3f slabN{0, 0, 0};
+            if (options.contours && ((descriptor2 >> slot) & 1u)) {
+                const std::uint32_t pointer = descriptor2 >> 8;
+                const esvo::Contour c =
+                    esvo::Contour::decode(words[parent + pointer + esvo::popc8(descriptor2 & ((1u << slot) - 1u))]);
+                // Unmirrored centre of this voxel (a mirrored axis runs 3 − x).
+                const float cx = (octantMask & 1) ? posX + half : 3.0f - posX - half;
+                const float cy = (octantMask & 2) ? posY + half : 3.0f - posY - half;
+                const float cz = (octantMask & 4) ? posZ + half : 3.0f - posZ - half;
+                const float nd = float(c.nx) * dx + float(c.ny) * dy + float(c.nz) * dz;
+                const float no = float(c.nx) * (px - cx) + float(c.ny) * (py - cy) + float(c.nz) * (pz - cz);
+                const float centreOffset = scaleExp2 * float(c.position) * float(esvo::Contour::kStep);
+                const float halfThickness = scaleExp2 * float(c.thickness) * float(esvo::Contour::kStep) * 0.5f;
+                const float lo = centreOffset - halfThickness - no, hi = centreOffset + halfThickness - no;  // nd·t ∈ [lo, hi]
+                if (nd != 0.0f) {
+                    float t0 = lo / nd, t1 = hi / nd;
+                    if (nd < 0.0f) std::swap(t0, t1);
+                    if (t0 > tvMin) {
+                        tvMin = t0;
+                        fromSlab = true;
+                        const float sign = nd > 0.0f ? -1.0f : 1.0f;  // face the ray
+                        slabN = {sign * float(c.nx), sign * float(c.ny), sign * float(c.nz)};
+                    }
+                    tvMax = std::min(tvMax, t1);
+                } else if (lo > 0.0f || hi < 0.0f) {
+                    tvMax = -1.0f;  // parallel to the slab and outside it
+                }
+            }
+            if (tvMin <= tvMax) {
                 bool leaf = !((descriptor >> slot) & 1u) || level >= options.maxLevel;
                 std::int32_t offset = static_cast<std::int32_t>(descriptor >> 17);
                 if (!leaf && (descriptor & 0x10000u)) {
                     offset = static_cast<std::int32_t>(words[parent + 2 * static_cast<std::uint32_t>(offset)]);
                     leaf = offset == 0;  // child slice not loaded: this is the finest level there is
                 }
+                if (fromSlab) slabT = tvMin, slabNormal = slabN;
                 if (leaf) {
                     hit = true;
                     result.level = level;
+                    tMin = tvMin;
                     break;
                 }
                 // PUSH
@@ -162,10 +198,11 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
                 idx = 0;
                 --scale;
                 scaleExp2 = half;
+                tMin = tvMin;  // the span carries this voxel's slab down to its children
+                tMax = tvMax;
                 if (txCenter > tMin) idx ^= 1, posX += scaleExp2;
                 if (tyCenter > tMin) idx ^= 2, posY += scaleExp2;
                 if (tzCenter > tMin) idx ^= 4, posZ += scaleExp2;
-                tMax = tvMax;
                 haveDescriptor = false;
                 continue;
             }
@@ -204,12 +241,15 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
 
     result.hit = true;
     result.t = tMin;
-    // The face the ray entered through: the axis whose entry plane it crossed last.
+    // The face the ray entered through: the axis whose entry plane it crossed last, or the
+    // contour plane if that is where the span began.
     const float txEntry = (posX + scaleExp2) * txCoef - txBias;
     const float tyEntry = (posY + scaleExp2) * tyCoef - tyBias;
     const float tzEntry = (posZ + scaleExp2) * tzCoef - tzBias;
     Vec3d n{0, 0, 0};
-    if (txEntry >= tyEntry && txEntry >= tzEntry)
+    if (slabT == tMin && slabT >= std::max({txEntry, tyEntry, tzEntry}))
+        n = {slabNormal.x, slabNormal.y, slabNormal.z};
+    else if (txEntry >= tyEntry && txEntry >= tzEntry)
         n.x = dx > 0 ? -1 : 1;
     else if (tyEntry >= tzEntry)
         n.y = dy > 0 ? -1 : 1;

@@ -51,11 +51,35 @@ struct ChildDescriptor {
     [[nodiscard]] constexpr std::uint32_t validMask() const noexcept { return (topology >> 8) & 0xFFu; }
     [[nodiscard]] constexpr bool far() const noexcept { return (topology >> 16) & 1u; }
     [[nodiscard]] constexpr std::uint32_t childPointer() const noexcept { return topology >> 17; }
+    [[nodiscard]] constexpr std::uint32_t contourMask() const noexcept { return contour & 0xFFu; }
+    /// 32-bit words from this descriptor's first word to the contour of its first child with one.
+    [[nodiscard]] constexpr std::uint32_t contourPointer() const noexcept { return contour >> 8; }
 
     [[nodiscard]] static constexpr ChildDescriptor make(std::uint32_t validMask, std::uint32_t nonLeafMask,
                                                         std::uint32_t childPointer, bool far) noexcept {
         return {(childPointer << 17) | (far ? 1u << 16 : 0u) | ((validMask & 0xFFu) << 8) | (nonLeafMask & 0xFFu), 0};
     }
+};
+
+/// A contour (esvo-layout, "Contour"): the slab |n·u − position·0.75| ≤ thickness·0.75/2 in the
+/// voxel's local coordinates u ∈ [−0.5, 0.5]³, n an integer vector whose largest component is ±31.
+struct Contour {
+    int nx = 0, ny = 0, nz = 0;   ///< 6-bit signed each
+    int position = 0;             ///< 7-bit signed, steps of 0.75
+    unsigned thickness = 0;       ///< 7-bit unsigned, steps of 0.75
+
+    [[nodiscard]] static constexpr Contour decode(std::uint32_t v) noexcept {
+        const auto field = [v](int shift, int bits) {
+            // Sign-extend a bit field by shifting it to the top and back.
+            return static_cast<int>(static_cast<std::int32_t>(v << (32 - shift - bits)) >> (32 - bits));
+        };
+        return {field(12, 6), field(6, 6), field(0, 6), field(18, 7), v >> 25};
+    }
+    [[nodiscard]] constexpr std::uint32_t encode() const noexcept {
+        return (thickness << 25) | ((static_cast<std::uint32_t>(position) & 0x7Fu) << 18) | ((static_cast<std::uint32_t>(nx) & 0x3Fu) << 12) |
+               ((static_cast<std::uint32_t>(ny) & 0x3Fu) << 6) | (static_cast<std::uint32_t>(nz) & 0x3Fu);
+    }
+    static constexpr double kStep = 0.75;
 };
 
 /// Number of set bits in the low 8 bits.

@@ -64,7 +64,7 @@ struct FrontierDescriptor {
 struct BlockSummary {
     std::vector<FrontierDescriptor> frontier;  ///< in frontier-table order
     std::vector<std::uint64_t> voxelsPerLevel; ///< voxels this block holds, by level
-    std::uint64_t descriptorBytes = 0, farPointerBytes = 0, pageHeaderBytes = 0, infoBytes = 0, paddingBytes = 0;
+    std::uint64_t descriptorBytes = 0, farPointerBytes = 0, pageHeaderBytes = 0, infoBytes = 0, paddingBytes = 0, contourBytes = 0;
 };
 
 /// Word offsets inside a block, read from its info section (after validateBlock has passed).
@@ -90,7 +90,7 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
 /// Per-part byte totals over a whole file (voxinspect info).
 struct FileBreakdown {
     std::uint64_t descriptorBytes = 0, farPointerBytes = 0, pageHeaderBytes = 0, infoBytes = 0, paddingBytes = 0,
-                  attachmentBytes = 0, headerAndDirectoryBytes = 0, slicePaddingBytes = 0;
+                  contourBytes = 0, attachmentBytes = 0, headerAndDirectoryBytes = 0, slicePaddingBytes = 0;
 };
 
 /// Validates the whole file: header, directory, every slice and the links between slices.
