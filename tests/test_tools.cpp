@@ -274,7 +274,8 @@ TEST(Tools, SmallSlicesAndShortPointersStillValidate) {
     ScratchDir dir;
     const auto scene = vox::scenes::writeCornellBox(dir.path());
     const auto esvo = dir / "small.esvo";
-    ASSERT_EQ(voxelize({scene.string(), "-o", esvo.string(), "--depth", "8", "--slice-bytes", "16384",
+    // Cubes only, so that descriptor runs fill whole pages of the small slices.
+    ASSERT_EQ(voxelize({scene.string(), "-o", esvo.string(), "--depth", "8", "--slice-bytes", "16384", "--no-contours",
                         "--debug-near-pointer-limit", "32"}).exitCode, 0);
     EXPECT_EQ(voxinspect({"validate", esvo.string()}).exitCode, 0);
     const auto report = nlohmann::json::parse(voxinspect({"info", esvo.string(), "--json"}).out);
@@ -340,4 +341,26 @@ TEST(Tools, RenderWritesPngAndPfmFromTheCamera) {
     expectOneLineError(voxinspect({"render", esvo.string(), "-o", png.string(), "--eye", "0,1,5", "--target", "0,1,5"}), 1,
                        "same point", "voxinspect");
     expectOneLineError(voxelize({scene.string(), "-o", (dir / "x.obj").string()}), 1, "expected .esvo");
+}
+
+TEST(Tools, ContoursAreOnByDefaultAndRefinementStopsAtTheContourError) {
+    ScratchDir dir;
+    const auto scene = vox::scenes::writeCornellBox(dir.path());
+    const auto info = [&](const std::vector<std::string>& extra) {
+        std::vector<std::string> args{scene.string(), "-o", (dir / "c.esvo").string(), "--depth", "8"};
+        args.insert(args.end(), extra.begin(), extra.end());
+        EXPECT_EQ(voxelize(args).exitCode, 0);
+        EXPECT_EQ(voxinspect({"validate", (dir / "c.esvo").string()}).exitCode, 0);
+        return nlohmann::json::parse(voxinspect({"info", (dir / "c.esvo").string(), "--json"}).out);
+    };
+    const auto cubes = info({"--no-contours"});
+    const auto contours = info({});
+    const auto coarse = info({"--contour-error", "0.5"});
+    EXPECT_EQ(cubes["bytes"]["contours"], 0);
+    EXPECT_GT(contours["bytes"]["contours"].get<std::uint64_t>(), 0u);
+    EXPECT_EQ(contours["voxels"], cubes["voxels"]) << "without an error bound, contours do not change the voxels";
+    // The Cornell box is made of flat faces: a slab fits them exactly, so refinement ends long
+    // before the leaf depth.
+    EXPECT_LT(coarse["voxels"].get<double>(), 0.2 * cubes["voxels"].get<double>());
+    EXPECT_LT(coarse["voxels_per_level"][8].get<double>(), 0.2 * cubes["voxels_per_level"][8].get<double>());
 }

@@ -23,6 +23,8 @@ struct VoxelizeOptions {
     std::uint32_t sliceBytes = 1u << 20;
     std::uint32_t nearPointerLimit = 0x7FFF;
     bool includeDynamic = false;
+    bool noContours = false;
+    double contourError = 0;
     std::string stats;
     std::string depfile;
     std::vector<std::string> dynamicNames;
@@ -64,6 +66,8 @@ void voxelize(const VoxelizeOptions& options) {
         vox::SurfaceVoxelizeOptions voxelizeOptions;
         voxelizeOptions.depth = options.depth;
         voxelizeOptions.includeDynamic = options.includeDynamic;
+        voxelizeOptions.contours = !options.noContours;
+        voxelizeOptions.contourError = options.contourError;
         voxelizeOptions.timings = &timings;
         const auto buildStart = std::chrono::steady_clock::now();
         vox::SparseOctree octree;
@@ -120,8 +124,12 @@ int main(int argc, char** argv) {
     app.add_option("--depth", options.depth, "Leaf level: 2^N voxels along the scene's longest side")
         ->check(CLI::Range(1, 20))->capture_default_str();
     app.add_option("--slice-bytes", options.sliceBytes, "Largest .esvo slice in bytes")
-        ->check(CLI::Range(16384, 1 << 30))->capture_default_str();
+        ->check(CLI::Range(16384, 1 << 26))->capture_default_str();
     app.add_flag("--include-dynamic", options.includeDynamic, "Voxelize dynamic meshes too (left out by default)");
+    app.add_flag("--no-contours", options.noContours, "Cubes only: no contours (slabs) in the octree");
+    app.add_option("--contour-error", options.contourError,
+                   "Stop refining where a voxel's cube and contour lie within E leaf voxels of the surface (0: refine to --depth)")
+        ->check(CLI::Range(0.0, 1e6))->capture_default_str();
     app.add_option("--debug-near-pointer-limit", options.nearPointerLimit,
                    "Largest near child pointer (testing far pointers)")
         ->check(CLI::Range(32, 0x7FFF))->group("");

@@ -45,6 +45,10 @@ struct SparseOctree {
 struct SurfaceVoxelizeOptions {
     std::uint32_t depth = 10;       ///< leaf level: 2^depth voxels along the cube's edge (1 … 20)
     bool includeDynamic = false;    ///< voxelize meshes flagged dynamic too
+    bool contours = false;          ///< fit a contour (slab) to every voxel where it helps
+    /// With contours: a voxel stops refining where cube ∩ slab lies within this many leaf
+    /// voxels of the surface; 0 refines everything to the leaf depth.
+    double contourError = 0;
     Timings* timings = nullptr;
 };
 

@@ -1,6 +1,7 @@
 // Surface voxelization: triangles are binned into the cells of a coarse level, then every cell's
 // subtree is built top-down in parallel, each node filtering its parent's triangle list with the
 // exact triangle/box test. Per-level mask arrays come out in Morton order (see SparseOctree).
+#include "contours.h"
 #include "triangle_box.h"
 
 #include <vox/formats/error.h>
@@ -55,8 +56,12 @@ std::uint32_t mortonCell(std::uint32_t x, std::uint32_t y, std::uint32_t z, std:
 /// its children: per level, nodes still come out in Morton order.
 class SubtreeBuilder {
 public:
-    SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, std::uint32_t depth, std::uint32_t rootLevel)
-        : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), scratch_(depth + 1), masks_(depth - rootLevel) {}
+    /// @p contourError: leaf units; a voxel whose cube ∩ slab lies within it of the surface
+    /// stops refining (0: always refine to the leaf depth).
+    SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, std::uint32_t depth, std::uint32_t rootLevel, bool contours,
+                   double contourError)
+        : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), contours_(contours), contourError_(contourError),
+          scratch_(depth + 1), masks_(depth - rootLevel), contourOut_(contours ? depth + 1 - rootLevel : 0) {}
 
     /// Returns the node's mask; a node none of whose children a triangle touches (possible only
     /// where rounding made the parent's test pass) is left out: nothing is appended.
@@ -64,7 +69,7 @@ public:
         const double half = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));  // this node's half-extent
         const Vec3d centre{(2 * x + 1) * half, (2 * y + 1) * half, (2 * z + 1) * half};
         std::uint32_t mask = 0;
-        if (level + 1 == depth_) {
+        if (level + 1 == depth_ && !contours_) {
             for (std::uint32_t t : list) {
                 mask |= detail::childOverlapMask(triangles_[t], centre, half);
                 if (mask == 0xFF) break;
@@ -78,24 +83,51 @@ public:
                 touched |= m;
                 for (std::uint32_t bits = m; bits; bits &= bits - 1) children[static_cast<unsigned>(__builtin_ctz(bits))].push_back(t);
             }
+            std::array<std::uint32_t, 8> childContours{};
+            const double childHalf = 0.5 * half;
             for (std::uint32_t slot = 0; slot < 8; ++slot) {
                 if (!(touched & (1u << slot))) continue;
                 const std::uint32_t cx = 2 * x + (slot & 1u), cy = 2 * y + ((slot >> 1) & 1u), cz = 2 * z + (slot >> 2);
-                if (build(level + 1, cx, cy, cz, children[slot]) != 0) mask |= 1u << slot;
+                bool leaf = level + 1 == depth_;
+                if (contours_) {
+                    const Vec3d childCentre{(2 * cx + 1) * childHalf, (2 * cy + 1) * childHalf, (2 * cz + 1) * childHalf};
+                    const detail::ContourFit fit = detail::fitContour(children[slot], triangles_, childCentre, childHalf, contourScratch_);
+                    childContours[slot] = fit.encoded;
+                    // Refinement stops where cube ∩ slab is within the error of the surface; a
+                    // slab thicker than twice the error cannot be (one of its planes is too far).
+                    if (!leaf && contourError_ > 0 && fit.encoded && fit.thickness * childHalf <= contourError_ &&
+                        detail::shapeError(fit.encoded, children[slot], triangles_, childCentre, childHalf) <= contourError_)
+                        leaf = true;
+                }
+                if (leaf) {
+                    mask |= 1u << slot;
+                    if (level + 1 < depth_) masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
+                } else if (build(level + 1, cx, cy, cz, children[slot]) != 0) {
+                    mask |= 1u << slot;
+                }
             }
+            if (contours_)
+                for (std::uint32_t bits = mask; bits; bits &= bits - 1)
+                    contourOut_[level + 1 - rootLevel_].push_back(childContours[static_cast<unsigned>(__builtin_ctz(bits))]);
         }
         if (mask != 0) masks_[level - rootLevel_].push_back(static_cast<std::uint8_t>(mask));
         return mask;
     }
 
     std::vector<std::vector<std::uint8_t>>& masks() { return masks_; }
+    /// contours()[l − rootLevel] for levels rootLevel … depth (the root level's entry stays empty).
+    std::vector<std::vector<std::uint32_t>>& contours() { return contourOut_; }
 
 private:
     const std::vector<BoxTestTriangle>& triangles_;
     std::uint32_t depth_;
     std::uint32_t rootLevel_;
+    bool contours_;
+    double contourError_;
     std::vector<std::array<std::vector<std::uint32_t>, 8>> scratch_;  // child lists per level
     std::vector<std::vector<std::uint8_t>> masks_;
+    std::vector<std::vector<std::uint32_t>> contourOut_;
+    detail::ContourScratch contourScratch_;
 };
 
 }  // namespace
@@ -186,6 +218,7 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
 
     // Subtrees of the cells, in parallel; results are joined in Morton order.
     std::vector<std::vector<std::vector<std::uint8_t>>> subtrees(cells.size());
+    std::vector<std::vector<std::vector<std::uint32_t>>> subtreeContours(cells.size());
     std::vector<std::uint8_t> occupied(cells.size(), 0);
     {
         Timings::Scope timer(options.timings, "voxelize_subtrees");
@@ -201,9 +234,10 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
                     y |= ((cells[c].code >> (3 * bit + 1)) & 1u) << bit;
                     z |= ((cells[c].code >> (3 * bit + 2)) & 1u) << bit;
                 }
-                SubtreeBuilder builder(triangles, depth, k);
+                SubtreeBuilder builder(triangles, depth, k, options.contours, options.contourError);
                 occupied[c] = builder.build(k, x, y, z, list) != 0;
                 subtrees[c] = std::move(builder.masks());
+                subtreeContours[c] = std::move(builder.contours());
                 progress.advance();
             }
         });
@@ -239,13 +273,33 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
             s[level - k] = {};
         }
     }
+    if (options.contours) {
+        // Levels down to k come from the binning and carry no contours; below, the subtrees'.
+        octree.contours.resize(depth + 1);
+        for (std::uint32_t level = 0; level <= k; ++level)
+            octree.contours[level].assign(level == 0 ? 1 : octree.masks[level - 1].empty() ? 0 : [&] {
+                std::uint64_t n = 0;
+                for (std::uint8_t m : octree.masks[level - 1]) n += esvo::popc8(m);
+                return n;
+            }(), 0u);
+        for (std::uint32_t level = k + 1; level <= depth; ++level) {
+            auto& out = octree.contours[level];
+            for (std::size_t c = 0; c < cells.size(); ++c) {
+                if (!occupied[c]) continue;
+                auto& part = subtreeContours[c][level - k];
+                out.insert(out.end(), part.begin(), part.end());
+                part = {};
+            }
+        }
+    }
     octree.voxelsPerLevel.assign(depth + 1, 0);
     octree.voxelsPerLevel[0] = 1;
     for (std::uint32_t level = 0; level < depth; ++level) {
         std::uint64_t children = 0;
         for (std::uint8_t m : octree.masks[level]) children += esvo::popc8(m);
         octree.voxelsPerLevel[level + 1] = children;
-        if (level + 1 < depth && octree.masks[level + 1].size() != children)
+        if ((level + 1 < depth && octree.masks[level + 1].size() != children) ||
+            (!octree.contours.empty() && octree.contours[level + 1].size() != children))
             throw std::logic_error("voxelizeSurface: level sizes inconsistent");
     }
     return octree;

@@ -1,0 +1,179 @@
+#include "contours.h"
+
+#include <vox/formats/esvo.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+namespace vox::detail {
+namespace {
+
+/// Clips polygon @p in to the cube [−½, ½]³ (Sutherland–Hodgman), appending the result to @p out.
+void clipToUnitCube(std::array<Vec3d, 3> triangle, std::vector<Vec3d>& out) {
+    std::array<Vec3d, 12> a{}, b{};
+    std::size_t n = 3;
+    std::copy(triangle.begin(), triangle.end(), a.begin());
+    for (int axis = 0; axis < 3 && n > 0; ++axis)
+        for (double side : {-1.0, 1.0}) {
+            // Keep side·p[axis] ≤ ½.
+            std::size_t m = 0;
+            for (std::size_t i = 0; i < n; ++i) {
+                const Vec3d& p = a[i];
+                const Vec3d& q = a[(i + 1) % n];
+                const double dp = side * p[axis] - 0.5, dq = side * q[axis] - 0.5;
+                if (dp <= 0) b[m++] = p;
+                if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) b[m++] = p + (q - p) * (dp / (dp - dq));
+                if (m >= b.size() - 1) break;
+            }
+            n = m;
+            std::copy(b.begin(), b.begin() + std::ptrdiff_t(n), a.begin());
+            if (n == 0) break;
+        }
+    out.insert(out.end(), a.begin(), a.begin() + std::ptrdiff_t(n));
+}
+
+/// Quantises a direction to the contour's integer normal (largest component ±31).
+std::array<int, 3> quantiseNormal(Vec3d m) {
+    const double largest = std::max({std::abs(m.x), std::abs(m.y), std::abs(m.z)});
+    if (!(largest > 0)) return {0, 0, 0};
+    return {static_cast<int>(std::lround(31 * m.x / largest)), static_cast<int>(std::lround(31 * m.y / largest)),
+            static_cast<int>(std::lround(31 * m.z / largest))};
+}
+
+/// Encodes the slab along @p n covering every point; 0 if it cannot be represented.
+std::uint32_t encodeSlab(const std::array<int, 3>& n, std::span<const Vec3d> points, double& thickness) {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const Vec3d& p : points) {
+        const double v = n[0] * p.x + n[1] * p.y + n[2] * p.z;
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+    }
+    constexpr double step = esvo::Contour::kStep;
+    const auto position = static_cast<int>(std::clamp<long>(std::lround(0.5 * (lo + hi) / step), -64, 63));
+    // Conservative: the half thickness reaches both ends from the quantised position, with a
+    // little room for the ray caster's float arithmetic.
+    const double reach = std::max(hi - position * step, position * step - lo) + 1e-4;
+    const double t = std::ceil(2 * reach / step);
+    if (t > 127) return 0;
+    esvo::Contour c{n[0], n[1], n[2], position, static_cast<unsigned>(t)};
+    thickness = c.thickness * step / std::sqrt(double(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]));
+    return c.encode();
+}
+
+double pointTriangleDistance(Vec3d p, Vec3d a, Vec3d b, Vec3d c) {
+    // Ericson, Real-Time Collision Detection 5.1.5.
+    const Vec3d ab = b - a, ac = c - a, ap = p - a;
+    const double d1 = dot(ab, ap), d2 = dot(ac, ap);
+    if (d1 <= 0 && d2 <= 0) return length(p - a);
+    const Vec3d bp = p - b;
+    const double d3 = dot(ab, bp), d4 = dot(ac, bp);
+    if (d3 >= 0 && d4 <= d3) return length(p - b);
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0 && d1 >= 0 && d3 <= 0) return length(p - (a + ab * (d1 / (d1 - d3))));
+    const Vec3d cp = p - c;
+    const double d5 = dot(ab, cp), d6 = dot(ac, cp);
+    if (d6 >= 0 && d5 <= d6) return length(p - c);
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0 && d2 >= 0 && d6 <= 0) return length(p - (a + ac * (d2 / (d2 - d6))));
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return length(p - (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))));
+    const double denom = 1.0 / (va + vb + vc);
+    return length(p - (a + ab * (vb * denom) + ac * (vc * denom)));
+}
+
+}  // namespace
+
+ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c, double h,
+                      ContourScratch& scratch) {
+    auto& points = scratch.points;
+    points.clear();
+    const double toLocal = 0.5 / h;
+    Vec3d mean{0, 0, 0};
+    struct Candidate {
+        double area;
+        Vec3d normal;
+    };
+    std::array<Candidate, 3> largest{};
+    for (std::uint32_t t : list) {
+        const BoxTestTriangle& tri = triangles[t];
+        const std::size_t before = points.size();
+        clipToUnitCube({(tri.v0 - c) * toLocal, (tri.v1 - c) * toLocal, (tri.v2 - c) * toLocal}, points);
+        // Fragment area (fan) weighs the triangle's unit normal.
+        double area = 0;
+        for (std::size_t i = before + 2; i < points.size(); ++i) area += 0.5 * length(cross(points[i - 1] - points[before], points[i] - points[before]));
+        const double nl = length(tri.normal);
+        if (!(nl > 0) || area <= 0) continue;
+        const Vec3d unit = tri.normal * (1.0 / nl);
+        mean = mean + unit * area;
+        if (area > largest[2].area) {
+            largest[2] = {area, unit};
+            std::sort(largest.begin(), largest.end(), [](const Candidate& x, const Candidate& y) { return x.area > y.area; });
+        }
+    }
+    ContourFit best;
+    if (points.empty()) return best;
+    double bestRatio = 0.9;  // a contour must cut at least 10 % off the cube along its normal
+    const auto consider = [&](Vec3d direction) {
+        const auto n = quantiseNormal(direction);
+        if (n[0] == 0 && n[1] == 0 && n[2] == 0) return;
+        double thickness = 0;
+        const std::uint32_t encoded = encodeSlab(n, points, thickness);
+        if (!encoded) return;
+        const double extent = (std::abs(n[0]) + std::abs(n[1]) + std::abs(n[2])) / std::sqrt(double(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]));
+        const double ratio = thickness / extent;
+        if (ratio < bestRatio) {
+            bestRatio = ratio;
+            best = {encoded, thickness};
+        }
+    };
+    consider(mean);
+    for (const Candidate& cand : largest)
+        if (cand.area > 0) consider(cand.normal);
+    return best;
+}
+
+double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
+                  double h) {
+    // Vertices of cube ∩ slab in local coordinates: cube corners inside the slab, and where the
+    // cube's edges cross the slab's two planes.
+    std::array<Vec3d, 8 + 24> vertices;
+    std::size_t count = 0;
+    const esvo::Contour contour = esvo::Contour::decode(encoded);
+    const Vec3d n{double(contour.nx), double(contour.ny), double(contour.nz)};
+    const double centre = contour.position * esvo::Contour::kStep, half = 0.5 * contour.thickness * esvo::Contour::kStep;
+    const auto inside = [&](Vec3d p) { return encoded == 0 || std::abs(dot(n, p) - centre) <= half + 1e-9; };
+    for (int k = 0; k < 8; ++k) {
+        const Vec3d p{k & 1 ? 0.5 : -0.5, k & 2 ? 0.5 : -0.5, k & 4 ? 0.5 : -0.5};
+        if (inside(p)) vertices[count++] = p;
+    }
+    if (encoded != 0)
+        for (int axis = 0; axis < 3; ++axis)
+            for (int k = 0; k < 4; ++k) {
+                Vec3d p{0, 0, 0};
+                const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+                p[u] = k & 1 ? 0.5 : -0.5;
+                p[v] = k & 2 ? 0.5 : -0.5;
+                // Points of the edge: p + s·e_axis, s ∈ [−½, ½].
+                if (n[axis] == 0) continue;
+                for (double plane : {centre - half, centre + half}) {
+                    const double s = (plane - (dot(n, p))) / n[axis];
+                    if (s < -0.5 || s > 0.5) continue;
+                    Vec3d q = p;
+                    q[axis] = s;
+                    vertices[count++] = q;
+                }
+            }
+    double error = 0;
+    const double toLeaf = 2 * h;
+    for (std::size_t i = 0; i < count; ++i) {
+        const Vec3d p = c + vertices[i] * toLeaf;
+        double nearest = std::numeric_limits<double>::infinity();
+        for (std::uint32_t t : list) nearest = std::min(nearest, pointTriangleDistance(p, triangles[t].v0, triangles[t].v1, triangles[t].v2));
+        error = std::max(error, nearest);
+    }
+    return error;
+}
+
+}  // namespace vox::detail

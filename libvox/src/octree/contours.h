@@ -1,0 +1,37 @@
+// Contours (Laine & Karras 5.2): a pair of parallel planes per voxel bounding the surface inside
+// it, fitted to the triangle fragments the voxel's cube cuts out, encoded conservatively in the
+// 32-bit esvo::Contour, and the geometric error of the shape cube ∩ slab that drives refinement.
+#pragma once
+
+#include "triangle_box.h"
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace vox::detail {
+
+/// Reusable buffers for contour fitting (one per thread).
+struct ContourScratch {
+    std::vector<Vec3d> points;  // fragment vertices, voxel-local
+};
+
+/// A fitted contour: the encoded value (0: no useful contour) and the slab's thickness.
+struct ContourFit {
+    std::uint32_t encoded = 0;
+    double thickness = 0;  ///< world-free: in units of the voxel's edge
+};
+
+/// Fits a contour to the triangles @p list of @p triangles inside the cube with centre @p c and
+/// half-extent @p h (leaf units). Candidates: the fragments' area-weighted normal and the normals
+/// of the largest fragments, each quantised first; the slab must contain every fragment after
+/// quantisation. Returns encoded 0 when no slab is thinner than 90 % of the cube along it.
+[[nodiscard]] ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
+                                    double h, ContourScratch& scratch);
+
+/// Largest distance (leaf units) from a vertex of cube ∩ slab (@p encoded may be 0: the cube)
+/// to the nearest of the triangles in @p list: the shape's geometric error.
+[[nodiscard]] double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles,
+                                Vec3d c, double h);
+
+}  // namespace vox::detail
