@@ -431,3 +431,81 @@ TEST_F(EsvoRaycast, RaysOutsideAndInsideTheCube) {
     EXPECT_EQ(onSurface.t, 0.0f);
     EXPECT_EQ(onSurface.level, kDepth);
 }
+
+namespace {
+
+struct DepthAgreement {
+    double hitMiss = 0, withinDiagonal = 0, meanError = 0, p95Error = 0, worstBehind = 0;
+    std::uint64_t voxels = 0;
+};
+
+/// Octree (with @p options for the voxelizer) against the mesh over the three cameras.
+DepthAgreement compareWithMesh(const vox::SurfaceVoxelizeOptions& options, const std::string& name) {
+    const vox::SparseOctree octree = vox::voxelizeSurface(shared->scene, options);
+    vox::EsvoWriteOptions write;
+    write.sceneBounds = shared->scene.bounds();
+    const fs::path file = shared->dir / (name + ".esvo");
+    (void)vox::writeEsvo(file, octree, write);
+    const vox::esvo::EsvoReader reader(file);
+    EXPECT_NO_THROW((void)vox::esvo::validateFile(reader));
+    vox::esvo::EsvoPool pool(reader);
+    pool.loadAll();
+    const vox::EsvoRayCaster caster(pool);
+    const double diagonal = std::sqrt(3.0) * caster.leafVoxelSize();
+    std::uint64_t pixels = 0, agree = 0, both = 0, within = 0;
+    std::vector<double> errors;
+    DepthAgreement r;
+    for (const auto& cam : shared->cameras) {
+        const auto mesh = renderMesh(cam);
+        const vox::RenderBuffers oct = vox::renderEsvo(caster, cam, exact());
+        for (std::size_t i = 0; i < mesh.size(); ++i) {
+            ++pixels;
+            const bool mh = std::isfinite(mesh[i].t), oh = std::isfinite(oct.depth[i]);
+            agree += mh == oh;
+            if (!(mh && oh)) continue;
+            ++both;
+            const double e = double(oct.depth[i]) - mesh[i].t;
+            errors.push_back(std::abs(e) / diagonal);
+            within += std::abs(e) <= diagonal;
+            r.worstBehind = std::max(r.worstBehind, e / diagonal);
+        }
+    }
+    std::sort(errors.begin(), errors.end());
+    r.hitMiss = double(agree) / double(pixels);
+    r.withinDiagonal = double(within) / double(both);
+    for (double e : errors) r.meanError += e / double(errors.size());
+    r.p95Error = errors[errors.size() * 95 / 100];
+    r.voxels = octree.voxelCount();
+    std::printf("%-22s voxels %9llu  hit/miss %.3f%%  within a diagonal %.2f%%  mean %.3f  p95 %.3f diagonals  worst behind %.4f\n",
+                name.c_str(), static_cast<unsigned long long>(r.voxels), 100 * r.hitMiss, 100 * r.withinDiagonal, r.meanError,
+                r.p95Error, r.worstBehind);
+    return r;
+}
+
+}  // namespace
+
+TEST_F(EsvoRaycast, ContoursTightenDepthAndRefinementStopsEarlyAtEqualError) {
+    vox::SurfaceVoxelizeOptions cubes;
+    cubes.depth = kDepth;
+    vox::SurfaceVoxelizeOptions withContours = cubes;
+    withContours.contours = true;
+    vox::SurfaceVoxelizeOptions refined = withContours;
+    refined.contourError = 0.5;
+    const DepthAgreement c = compareWithMesh(cubes, "cubes");
+    const DepthAgreement k = compareWithMesh(withContours, "contours");
+    const DepthAgreement e = compareWithMesh(refined, "contours_error_0.5");
+    // Same voxels, but the slabs cut the layer down to the surface.
+    EXPECT_EQ(k.voxels, c.voxels);
+    EXPECT_GE(k.hitMiss, c.hitMiss);
+    EXPECT_LT(k.meanError, 0.25 * c.meanError);
+    EXPECT_LT(k.p95Error, 0.5 * c.p95Error);
+    EXPECT_GE(k.withinDiagonal, 0.99) << "with contours the octree issue's depth bound holds";
+    // Conservative slabs: never noticeably behind the surface.
+    EXPECT_LT(k.worstBehind, 0.01);
+    EXPECT_LT(e.worstBehind, 0.01);
+    // Error-driven refinement: far fewer voxels at no worse error than cubes at full depth.
+    EXPECT_LT(e.voxels, c.voxels / 4);
+    EXPECT_LE(e.p95Error, c.p95Error);
+    EXPECT_LE(e.meanError, c.meanError);
+    EXPECT_GE(e.hitMiss, 0.995);
+}

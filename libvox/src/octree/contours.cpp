@@ -134,6 +134,24 @@ ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<Box
     return best;
 }
 
+std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& thickness) {
+    if (encoded == 0) return 0;
+    esvo::Contour c = esvo::Contour::decode(encoded);
+    // Positions are in steps of 0.75, the offsets Σ n·(½ − bit) in steps of 0.5: only whole steps
+    // survive exactly; round the position outward by widening the slab instead.
+    const double offset = 0.5 * ((slot & 1u ? -c.nx : c.nx) + (slot & 2u ? -c.ny : c.ny) + (slot & 4u ? -c.nz : c.nz));
+    const double centre = 2 * c.position * esvo::Contour::kStep + offset;
+    const double half = c.thickness * esvo::Contour::kStep;  // doubled, then halved
+    const long position = std::lround(centre / esvo::Contour::kStep);
+    const double reach = half + std::abs(centre - position * esvo::Contour::kStep);
+    const double t = std::ceil(2 * reach / esvo::Contour::kStep - 1e-9);
+    if (position < -64 || position > 63 || t > 127) return 0;
+    c.position = static_cast<int>(position);
+    c.thickness = static_cast<unsigned>(t);
+    thickness = c.thickness * esvo::Contour::kStep / std::sqrt(double(c.nx * c.nx + c.ny * c.ny + c.nz * c.nz));
+    return c.encode();
+}
+
 double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
                   double h) {
     // Vertices of cube ∩ slab in local coordinates: cube corners inside the slab, and where the

@@ -29,6 +29,11 @@ struct ContourFit {
 [[nodiscard]] ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
                                     double h, ContourScratch& scratch);
 
+/// The slab of contour @p encoded of a voxel, seen from its child in @p slot (pos' = 2·pos +
+/// Σ n·(½ − bit), thickness doubled): 0 when none or when it no longer fits the encoding.
+/// @p thickness receives its thickness in the child's edge units.
+[[nodiscard]] std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& thickness);
+
 /// Largest distance (leaf units) from a vertex of cube ∩ slab (@p encoded may be 0: the cube)
 /// to the nearest of the triangles in @p list: the shape's geometric error.
 [[nodiscard]] double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles,

@@ -52,6 +52,11 @@ std::uint32_t mortonCell(std::uint32_t x, std::uint32_t y, std::uint32_t z, std:
     return code;
 }
 
+/// A voxel stores a contour of its own only where its slab is at most this fraction of the one
+/// its ancestors impose (measured on Wuson at depth 10: 0.5 → 2.9 bytes of contours per voxel,
+/// 0.15 → 1.7, with depth error within a leaf diagonal on 99.7 % and 99.55 % of pixels).
+constexpr double kOwnContourGain = 0.25;
+
 /// Builds one cell's subtree depth-first, appending each node's mask to its level's array after
 /// its children: per level, nodes still come out in Morton order.
 class SubtreeBuilder {
@@ -65,7 +70,9 @@ public:
 
     /// Returns the node's mask; a node none of whose children a triangle touches (possible only
     /// where rounding made the parent's test pass) is left out: nothing is appended.
-    std::uint32_t build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list) {
+    /// @p slab: the node's effective contour (its own, or its parent's carried down; 0: none).
+    std::uint32_t build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list,
+                        std::uint32_t slab = 0) {
         const double half = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));  // this node's half-extent
         const Vec3d centre{(2 * x + 1) * half, (2 * y + 1) * half, (2 * z + 1) * half};
         std::uint32_t mask = 0;
@@ -89,20 +96,31 @@ public:
                 if (!(touched & (1u << slot))) continue;
                 const std::uint32_t cx = 2 * x + (slot & 1u), cy = 2 * y + ((slot >> 1) & 1u), cz = 2 * z + (slot >> 2);
                 bool leaf = level + 1 == depth_;
+                std::uint32_t childSlab = 0;
                 if (contours_) {
                     const Vec3d childCentre{(2 * cx + 1) * childHalf, (2 * cy + 1) * childHalf, (2 * cz + 1) * childHalf};
                     const detail::ContourFit fit = detail::fitContour(children[slot], triangles_, childCentre, childHalf, contourScratch_);
-                    childContours[slot] = fit.encoded;
+                    // The child keeps a contour of its own only where it is much thinner than the
+                    // slab its ancestors already impose on it (the ray caster carries theirs).
+                    double carriedThickness = 0;
+                    const std::uint32_t carried = detail::carryContour(slab, slot, carriedThickness);
+                    double thickness = carriedThickness;
+                    childSlab = carried;
+                    if (fit.encoded && (carried == 0 || fit.thickness < kOwnContourGain * carriedThickness)) {
+                        childContours[slot] = fit.encoded;
+                        childSlab = fit.encoded;
+                        thickness = fit.thickness;
+                    }
                     // Refinement stops where cube ∩ slab is within the error of the surface; a
                     // slab thicker than twice the error cannot be (one of its planes is too far).
-                    if (!leaf && contourError_ > 0 && fit.encoded && fit.thickness * childHalf <= contourError_ &&
-                        detail::shapeError(fit.encoded, children[slot], triangles_, childCentre, childHalf) <= contourError_)
+                    if (!leaf && contourError_ > 0 && childSlab && thickness * childHalf <= contourError_ &&
+                        detail::shapeError(childSlab, children[slot], triangles_, childCentre, childHalf) <= contourError_)
                         leaf = true;
                 }
                 if (leaf) {
                     mask |= 1u << slot;
                     if (level + 1 < depth_) masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
-                } else if (build(level + 1, cx, cy, cz, children[slot]) != 0) {
+                } else if (build(level + 1, cx, cy, cz, children[slot], childSlab) != 0) {
                     mask |= 1u << slot;
                 }
             }
