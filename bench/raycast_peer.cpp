@@ -2,9 +2,11 @@
 // the BVH triangle caster and the octree with the ESVO caster, in the same process, and prints
 // JSON with both speeds, their ratio, and how well the two images agree (hit/miss, depth within
 // one leaf-voxel diagonal along the ray, and along the surface normal).
-// Usage: raycast_peer MESH ESVO --eye x,y,z --target x,y,z [--fov D] [--width W] [--height H] [--repeat N]
+// Usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z | --view dx,dy,dz) [--fov D] [--width W] [--height H] [--repeat N]
+// --view frames the mesh's bounds from direction (dx,dy,dz).
 #include <vox/formats/error.h>
 #include <vox/import.h>
+#include <vox/util/log.h>
 #include <vox/raycast.h>
 #include <vox/triangle_raycast.h>
 
@@ -14,6 +16,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <optional>
 #include <string>
 
 namespace {
@@ -39,11 +42,12 @@ vox::RenderBuffers best(int repeat, Render render) {
 
 int main(int argc, char** argv) {
     try {
-        if (argc < 3) throw vox::UsageError("usage: raycast_peer MESH ESVO --eye x,y,z --target x,y,z [--fov D] [--width W] [--height H] [--repeat N]");
+        if (argc < 3) throw vox::UsageError("usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z | --view dx,dy,dz) [--fov D] [--width W] [--height H] [--repeat N]");
         vox::PinholeCamera camera;
         camera.width = 1024;
         camera.height = 768;
         int repeat = 3;
+        std::optional<vox::Vec3d> view;
         for (int i = 3; i + 1 < argc; i += 2) {
             const std::string key = argv[i];
             if (key == "--eye") camera.eye = parse(argv[i + 1]);
@@ -53,9 +57,19 @@ int main(int argc, char** argv) {
             else if (key == "--width") camera.width = std::stoi(argv[i + 1]);
             else if (key == "--height") camera.height = std::stoi(argv[i + 1]);
             else if (key == "--repeat") repeat = std::max(1, std::stoi(argv[i + 1]));
+            else if (key == "--view") view = parse(argv[i + 1]);
             else throw vox::UsageError("unknown option " + key);
         }
+        vox::log::setVerbosity(vox::log::Verbosity::Quiet);  // the benchmark's output is its JSON
         const vox::Scene scene = vox::importScene(argv[1]);
+        if (view) {
+            const vox::Bounds3f b = scene.bounds();
+            const vox::Vec3d centre{(b.min.x + b.max.x) / 2.0, (b.min.y + b.max.y) / 2.0, (b.min.z + b.max.z) / 2.0};
+            const vox::Vec3f e = b.extent();
+            const double radius = 0.5 * std::sqrt(double(e.x) * e.x + double(e.y) * e.y + double(e.z) * e.z);
+            camera.target = centre;
+            camera.eye = centre + vox::normalize(*view) * (radius / std::sin(0.5 * camera.fovYDegrees * 3.14159265358979 / 180.0));
+        }
         const vox::TriangleRayCaster triangles(scene);
         const vox::esvo::EsvoReader reader(argv[2]);
         vox::esvo::EsvoPool pool(reader);
@@ -109,6 +123,18 @@ int main(int argc, char** argv) {
             {"surface_distance_within_leaf_diagonal", bothHit ? double(surfaceWithin) / double(bothHit) : 0.0},
             {"octree_not_behind_mesh", bothHit ? double(infront) / double(bothHit) : 0.0},
             {"leaf_diagonal", diagonal},
+            {"voxels", [&] {
+                 std::uint64_t n = 0;
+                 for (std::uint64_t v : reader.directory().voxelsPerLevel) n += v;
+                 return n;
+             }()},
+            {"file_bytes", reader.header().fileBytes},
+            {"depth_error_mean", errors.empty() ? 0.0 : [&] {
+                 double sum = 0;
+                 for (double e : errors) sum += e;
+                 return sum / double(errors.size());
+             }()},
+            {"depth_error_p95", errors.empty() ? 0.0 : errors[errors.size() * 95 / 100]},
             {"depth_error_p50", errors.empty() ? 0.0 : errors[errors.size() / 2]},
             {"depth_error_p99", errors.empty() ? 0.0 : errors[errors.size() * 99 / 100]}};
         std::cout << out.dump(2) << "\n";
