@@ -10,28 +10,35 @@
 namespace vox::detail {
 namespace {
 
-/// Clips polygon @p in to the cube [−½, ½]³ (Sutherland–Hodgman), appending the result to @p out.
-void clipToUnitCube(std::array<Vec3d, 3> triangle, std::vector<Vec3d>& out) {
-    std::array<Vec3d, 12> a{}, b{};
+/// Clips a triangle to the cube [−½, ½]³ (Sutherland–Hodgman), appending the polygon to @p out.
+void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out) {
+    bool inside = true;
+    for (const Vec3d& p : triangle) inside = inside && std::abs(p.x) <= 0.5 && std::abs(p.y) <= 0.5 && std::abs(p.z) <= 0.5;
+    if (inside) {  // common for fine triangles in coarse voxels
+        out.insert(out.end(), triangle.begin(), triangle.end());
+        return;
+    }
+    std::array<Vec3d, 12> bufferA{}, bufferB{};
+    Vec3d* a = bufferA.data();
+    Vec3d* b = bufferB.data();
     std::size_t n = 3;
-    std::copy(triangle.begin(), triangle.end(), a.begin());
+    std::copy(triangle.begin(), triangle.end(), a);
     for (int axis = 0; axis < 3 && n > 0; ++axis)
         for (double side : {-1.0, 1.0}) {
             // Keep side·p[axis] ≤ ½.
             std::size_t m = 0;
-            for (std::size_t i = 0; i < n; ++i) {
+            for (std::size_t i = 0; i < n && m + 2 <= bufferA.size(); ++i) {
                 const Vec3d& p = a[i];
-                const Vec3d& q = a[(i + 1) % n];
+                const Vec3d& q = a[i + 1 == n ? 0 : i + 1];
                 const double dp = side * p[axis] - 0.5, dq = side * q[axis] - 0.5;
                 if (dp <= 0) b[m++] = p;
                 if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) b[m++] = p + (q - p) * (dp / (dp - dq));
-                if (m >= b.size() - 1) break;
             }
             n = m;
-            std::copy(b.begin(), b.begin() + std::ptrdiff_t(n), a.begin());
+            std::swap(a, b);
             if (n == 0) break;
         }
-    out.insert(out.end(), a.begin(), a.begin() + std::ptrdiff_t(n));
+    out.insert(out.end(), a, a + n);
 }
 
 /// Quantises a direction to the contour's integer normal (largest component ±31).
@@ -108,8 +115,9 @@ ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<Box
         const Vec3d unit = tri.normal * (1.0 / nl);
         mean = mean + unit * area;
         if (area > largest[2].area) {
-            largest[2] = {area, unit};
-            std::sort(largest.begin(), largest.end(), [](const Candidate& x, const Candidate& y) { return x.area > y.area; });
+            std::size_t i = 2;
+            for (; i > 0 && area > largest[i - 1].area; --i) largest[i] = largest[i - 1];
+            largest[i] = {area, unit};
         }
     }
     ContourFit best;
@@ -129,8 +137,9 @@ ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<Box
         }
     };
     consider(mean);
+    // The mean normal is enough for smooth patches; edges and corners need the others.
     for (const Candidate& cand : largest)
-        if (cand.area > 0) consider(cand.normal);
+        if (cand.area > 0 && bestRatio > 0.1) consider(cand.normal);
     return best;
 }
 

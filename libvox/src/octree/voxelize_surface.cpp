@@ -56,6 +56,9 @@ std::uint32_t mortonCell(std::uint32_t x, std::uint32_t y, std::uint32_t z, std:
 /// its ancestors impose (measured on Wuson at depth 10: 0.5 → 2.9 bytes of contours per voxel,
 /// 0.15 → 1.7, with depth error within a leaf diagonal on 99.7 % and 99.55 % of pixels).
 constexpr double kOwnContourGain = 0.25;
+/// Thinnest slab the encoding can state, in edge units: one 0.75 step along a normal of length
+/// at most 31·√3.
+constexpr double kThinnestSlab = 0.75 / (31 * 1.7320508075688772);
 
 /// Builds one cell's subtree depth-first, appending each node's mask to its level's array after
 /// its children: per level, nodes still come out in Morton order.
@@ -99,11 +102,14 @@ public:
                 std::uint32_t childSlab = 0;
                 if (contours_) {
                     const Vec3d childCentre{(2 * cx + 1) * childHalf, (2 * cy + 1) * childHalf, (2 * cz + 1) * childHalf};
-                    const detail::ContourFit fit = detail::fitContour(children[slot], triangles_, childCentre, childHalf, contourScratch_);
                     // The child keeps a contour of its own only where it is much thinner than the
-                    // slab its ancestors already impose on it (the ray caster carries theirs).
+                    // slab its ancestors already impose on it (the ray caster carries theirs);
+                    // below a gain's worth of the thinnest encodable slab, no fit can win.
                     double carriedThickness = 0;
                     const std::uint32_t carried = detail::carryContour(slab, slot, carriedThickness);
+                    const detail::ContourFit fit = carried && kOwnContourGain * carriedThickness <= kThinnestSlab
+                                                       ? detail::ContourFit{}
+                                                       : detail::fitContour(children[slot], triangles_, childCentre, childHalf, contourScratch_);
                     double thickness = carriedThickness;
                     childSlab = carried;
                     if (fit.encoded && (carried == 0 || fit.thickness < kOwnContourGain * carriedThickness)) {
