@@ -53,6 +53,14 @@ BlockTables readBlockTables(std::span<const std::uint8_t> block, const std::file
     };
     table(tables, t.rootGroupCount, t.rootGroupTableWord);
     table(tables + 2, t.frontierCount, t.frontierTableWord);
+    t.contourWord = t.infoWord;
+    for (std::uint64_t a = 0; a < attachments; ++a) {
+        const std::uint64_t at = t.infoWord + info::kAttachments + 2 * a;
+        if (word(block.data(), at) != static_cast<std::uint32_t>(AttachmentKind::Contour)) continue;
+        const std::int64_t start = static_cast<std::int64_t>(t.infoWord) + signedWord(block.data(), at + 1);
+        if (start < 2 || start % 2 != 0 || start > static_cast<std::int64_t>(t.infoWord)) fail(4 * at + 4, "contour array pointer outside the block");
+        t.contourWord = static_cast<std::uint32_t>(start);
+    }
     return t;
 }
 

@@ -120,13 +120,14 @@ void dump(const std::string& file, long long sliceIndex, bool json) {
                     4 * t.infoWord, t.rootGroupCount, t.frontierCount);
         std::printf("%8s  %-10s %s\n", "byte", "kind", "content");
     }
-    std::vector<std::uint8_t> isSlot(t.infoWord / 2, 0);
-    for (std::uint32_t u = 1; u < t.infoWord / 2; ++u) {
+    const std::uint32_t descriptorUnits = t.contourWord / 2;  // the contour array follows the descriptors
+    std::vector<std::uint8_t> isSlot(descriptorUnits, 0);
+    for (std::uint32_t u = 1; u < descriptorUnits; ++u) {
         if ((8 * u) % esvo::kPageBytes == 0) continue;
         const esvo::ChildDescriptor d{esvo::load<std::uint32_t>(block.data() + 8 * u), 0};
         if (d.validMask() != 0 && d.far() && u + d.childPointer() < isSlot.size()) isSlot[u + d.childPointer()] = 1;
     }
-    for (std::uint32_t u = 0; u < t.infoWord / 2; ++u) {
+    for (std::uint32_t u = 0; u < descriptorUnits; ++u) {
         const std::uint32_t w0 = esvo::load<std::uint32_t>(block.data() + 8 * u);
         const std::uint32_t w1 = esvo::load<std::uint32_t>(block.data() + 8 * u + 4);
         const esvo::ChildDescriptor d{w0, w1};
@@ -144,6 +145,8 @@ void dump(const std::string& file, long long sliceIndex, bool json) {
             entry["non_leaf"] = d.nonLeafMask();
             entry["far"] = d.far();
             entry["child_pointer"] = d.childPointer();
+            entry["contour_mask"] = d.contourMask();
+            entry["contour_pointer"] = d.contourPointer();
         } else {
             kind = "padding";
         }
@@ -157,13 +160,27 @@ void dump(const std::string& file, long long sliceIndex, bool json) {
         else if (kind == "far")
             std::printf("%8u  %-10s %+d units%s\n", 8 * u, "far", static_cast<std::int32_t>(w0), w0 == 0 ? " (child slice not loaded)" : "");
         else if (kind == "descriptor")
-            std::printf("%8u  %-10s valid %02x non-leaf %02x %s %u\n", 8 * u, "descriptor", d.validMask(), d.nonLeafMask(),
-                        d.far() ? "far-slot" : "child", d.childPointer());
+            std::printf("%8u  %-10s valid %02x non-leaf %02x %s %u contours %02x at +%u words\n", 8 * u, "descriptor", d.validMask(),
+                        d.nonLeafMask(), d.far() ? "far-slot" : "child", d.childPointer(), d.contourMask(), d.contourPointer());
         else if (w0 || w1)
             std::printf("%8u  %-10s %08x %08x\n", 8 * u, "data?", w0, w1);
     }
+    // The contour array, word by word, decoded.
+    nlohmann::json contours = nlohmann::json::array();
+    for (std::uint32_t w = t.contourWord; w < t.infoWord; ++w) {
+        const std::uint32_t value = esvo::load<std::uint32_t>(block.data() + 4 * w);
+        const esvo::Contour c = esvo::Contour::decode(value);
+        if (json) {
+            contours.push_back({{"byte", 4 * w}, {"normal", {c.nx, c.ny, c.nz}}, {"position", c.position}, {"thickness", c.thickness}});
+            continue;
+        }
+        std::printf("%8u  %-10s n (%d %d %d) position %d thickness %u  (|n·u %+.2f| <= %.3f)\n", 4 * w, "contour", c.nx, c.ny, c.nz,
+                    c.position, c.thickness, -c.position * esvo::Contour::kStep, 0.5 * c.thickness * esvo::Contour::kStep);
+    }
     if (json) {
         nlohmann::json out = sliceJson(reader.slice(index), index);
+        out["contour_byte"] = 4 * t.contourWord;
+        out["contours"] = contours;
         out["info_byte"] = 4 * t.infoWord;
         std::vector<std::uint32_t> roots, frontier;
         for (std::uint32_t i = 0; i < t.rootGroupCount; ++i) roots.push_back(8 * esvo::load<std::uint32_t>(block.data() + 4 * (t.rootGroupTableWord + i)));

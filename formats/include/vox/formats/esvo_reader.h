@@ -72,6 +72,7 @@ struct BlockTables {
     std::uint32_t infoWord = 0;
     std::uint32_t rootGroupCount = 0, rootGroupTableWord = 0;
     std::uint32_t frontierCount = 0, frontierTableWord = 0;
+    std::uint32_t contourWord = 0;  ///< start of the contour array; infoWord when there is none
 };
 /// Reads the tables' location from a block; throws InvalidDataError if they are out of range.
 [[nodiscard]] BlockTables readBlockTables(std::span<const std::uint8_t> block, const std::filesystem::path& file,
