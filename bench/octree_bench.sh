@@ -4,6 +4,7 @@
 # (so peak memory is per build), then ray casts each file at 1024x768 with primary rays, and
 # against its peer: the same view of the mesh through the BVH triangle caster (raycast_peer).
 # Usage: bench/octree_bench.sh [BUILD_DIR] [DEPTHS...]    (default: build 10 11 12)
+# VOXELIZE_ARGS adds voxelize options, e.g. VOXELIZE_ARGS=--no-contours for cubes only.
 set -euo pipefail
 build=${1:-build}
 shift || true
@@ -18,13 +19,15 @@ camera=(--eye 0.3,0.4,3.2 --target 0,0,0 --fov 45 --width 1024 --height 768)
 # The geometric-truth view of a real mesh (assimp-testmodels), depth 10, against the triangle caster.
 wuson=/usr/share/assimp/models/PLY/Wuson.ply
 if [ -f "$wuson" ]; then
-    "$build/tools/voxelize" "$wuson" -o "$out/wuson10.esvo" --depth 10 -q
+    # shellcheck disable=SC2086
+    "$build/tools/voxelize" "$wuson" -o "$out/wuson10.esvo" --depth 10 -q ${VOXELIZE_ARGS:-}
     "$build/bench/raycast_peer" "$wuson" "$out/wuson10.esvo" --eye 2.5,1.2,3 --target 0,0.75,0 --fov 50 > "$out/wuson_peer.json"
     python3 -c "import json,sys; p=json.load(open(sys.argv[1])); print('Wuson depth 10, 1024x768: hit/miss agree %.2f%%, depth within a leaf diagonal %.1f%% (along the normal %.1f%%), p50/p99 error %.4f/%.4f (diagonal %.4f); triangles %.2f Mrays/s, octree %.2f (x%.2f)' % (100*p['hit_miss_agreement'], 100*p['depth_within_leaf_diagonal'], 100*p['surface_distance_within_leaf_diagonal'], p['depth_error_p50'], p['depth_error_p99'], p['leaf_diagonal'], p['triangle_mrays_per_second'], p['octree_mrays_per_second'], p['octree_over_triangle']))" "$out/wuson_peer.json"
 fi
 printf '%-6s %12s %10s %12s %10s %10s %8s %11s %10s %10s\n' depth voxels build_s Mvoxels/s peak_MB file_MB B/voxel hierarchy Mrays/s Mrays/s_lod0
 for d in "${depths[@]}"; do
-    "$build/tools/voxelize" "$mesh" -o "$out/sphere$d.esvo" --depth "$d" --stats "$out/build$d.json" -q
+    # shellcheck disable=SC2086
+    "$build/tools/voxelize" "$mesh" -o "$out/sphere$d.esvo" --depth "$d" --stats "$out/build$d.json" -q ${VOXELIZE_ARGS:-}
     "$build/tools/voxinspect" info "$out/sphere$d.esvo" --json > "$out/info$d.json"
     "$build/tools/voxinspect" render "$out/sphere$d.esvo" -o "$out/render$d.png" "${camera[@]}" --stats "$out/render$d.json" -q
     "$build/tools/voxinspect" render "$out/sphere$d.esvo" -o "$out/render${d}_full.png" "${camera[@]}" --lod-scale 0 --stats "$out/render${d}_full.json" -q
@@ -45,4 +48,4 @@ print(f'       peer (same process, best of 3): triangles {p["triangle_mrays_per_
       f'(along the normal {100*p["surface_distance_within_leaf_diagonal"]:.1f}%)')
 PY
 done
-echo "threads: $(nproc); stats JSON and renders in $out"
+echo "threads: $(nproc); voxelize options: ${VOXELIZE_ARGS:-(defaults)}; stats JSON and renders in $out"
