@@ -210,6 +210,7 @@ void render(const EsvoCommands& c) {
     if (c.channel != "depth" && c.channel != "normal" && c.channel != "iterations" && c.channel != "level")
         throw UsageError("--channel must be depth, normal, iterations or level");
     if (!(c.lodScale >= 0)) throw UsageError("--lod-scale must be 0 or more");
+    if (c.beam != 0 && c.beam != 4 && c.beam != 8) throw UsageError("--beam must be 0, 4 or 8");
 
     const esvo::EsvoReader reader(c.file);
     esvo::EsvoPool pool(reader);
@@ -218,7 +219,7 @@ void render(const EsvoCommands& c) {
     CastOptions options;
     options.lodAngle = camera.pixelAngle() * c.lodScale;
     options.maxLevel = c.maxLevel;
-    const RenderBuffers image = renderEsvo(caster, camera, options);
+    const RenderBuffers image = renderEsvo(caster, camera, options, c.beam);
 
     const std::size_t pixels = image.depth.size();
     std::vector<std::uint8_t> rgb(3 * pixels, 0);
@@ -257,7 +258,8 @@ void render(const EsvoCommands& c) {
     if (!c.depthOut.empty()) writePfm(c.depthOut, image.width, image.height, image.depth);
     const double rays = double(pixels);
     log::info(c.output + ": " + std::to_string(image.width) + "x" + std::to_string(image.height) + ", " + std::to_string(image.hits) +
-              " hits, " + std::to_string(rays / image.seconds / 1e6) + " Mrays/s");
+              " hits, " + std::to_string(rays / image.seconds / 1e6) + " Mrays/s" +
+              (c.beam ? " (beam " + std::to_string(c.beam) + ")" : std::string()));
     if (!c.stats.empty()) {
         nlohmann::json report{{"file", c.file},
                               {"width", image.width},
@@ -270,9 +272,19 @@ void render(const EsvoCommands& c) {
                               {"resident_bytes", pool.residentBytes()}};
         std::uint64_t iterations = 0;
         for (std::uint32_t it : image.iterations) iterations += it;
-        report["mean_iterations"] = double(iterations) / rays;
+        report["mean_iterations"] = double(iterations) / rays;  // the fine pass's, per ray
+        report["beam"] = c.beam;
+        report["coarse_rays"] = image.coarseRays;
+        report["coarse_iterations_per_pixel"] = double(image.coarseIterations) / rays;
+        report["mean_iterations_with_coarse"] = double(iterations + image.coarseIterations) / rays;
+        report["coarse_seconds"] = image.coarseSeconds;
+        report["fine_seconds"] = image.seconds - image.coarseSeconds;
         Timings timings;
         timings.add("cast", image.seconds * 1000.0);
+        if (c.beam) {
+            timings.add("coarse", image.coarseSeconds * 1000.0);
+            timings.add("fine", (image.seconds - image.coarseSeconds) * 1000.0);
+        }
         writeStats(c.stats, report, "voxinspect render", timings);
     }
 }
@@ -306,6 +318,8 @@ void EsvoCommands::add(CLI::App& app) {
     render->add_option("--max-level", maxLevel, "Treat voxels of this level as leaves");
     render->add_option("--load-levels", loadLevels, "Load only slices starting above this level (streaming check)");
     render->add_option("--lod-scale", lodScale, "Stop at voxels smaller than this many pixels; 0: always to the leaves")
+        ->capture_default_str();
+    render->add_option("--beam", beam, "Beam optimisation: a coarse pass per NxN pixel block (0: off, 4 or 8); same image")
         ->capture_default_str();
     render->add_option("--stats", stats, "Write a JSON report: rays, Mrays/s, iterations");
 }

@@ -20,6 +20,7 @@ struct EsvoCommands {
     unsigned maxLevel = 0xFFFFFFFFu;
     unsigned loadLevels = 0xFFFFFFFFu;
     double lodScale = 1.0;
+    int beam = 0;
 
     CLI::App* info = nullptr;
     CLI::App* validate = nullptr;

@@ -3,7 +3,9 @@
 /// PUSH/ADVANCE/POP over the octree placed at [1,2]³ with mirrored axes, a stack per scale,
 /// POP by the highest differing bit, and a level-of-detail cut by the voxel's projected size.
 /// It walks the blocks an esvo::EsvoPool holds, following far pointers across slices, and stops
-/// at the finest loaded level where deeper slices are not loaded.
+/// at the finest loaded level where deeper slices are not loaded. renderEsvo() can add the beam
+/// optimisation (section 6.2): a conservative coarse pass of cones through pixel-block corners
+/// that gives every pixel's ray a start distance, leaving the image bit for bit the same.
 #pragma once
 
 #include <vox/formats/esvo_reader.h>
@@ -43,6 +45,21 @@ struct CastOptions {
     std::uint32_t maxLevel = std::numeric_limits<std::uint32_t>::max();  ///< treat this level as leaves
     double tMax = std::numeric_limits<double>::infinity();
     bool contours = true;  ///< intersect voxels' contours (off: cubes only)
+    /// Beam optimisation, fine pass: the traversal's active span starts at this distance instead
+    /// of 0, so the ray skips the empty space before it. Whenever tStart is strictly below the
+    /// distance at which the ray hits with tStart = 0 (or the ray misses), the result (hit, t,
+    /// level, normal) is bitwise the same; only the iterations drop. A coarse cast (beamRadius) gives
+    /// such a start for every ray of its beam.
+    float tStart = 0;
+    /// Beam optimisation, coarse pass: > 0 turns cast() into a conservative cone trace for the
+    /// rays with the same origin whose unit directions lie within this distance (the chord, about
+    /// the angle in radians) of this ray's. Each voxel is treated as its cube dilated by
+    /// beamRadius·t at distance t (plus the fine caster's rounding), contours are ignored, and
+    /// the cast stops at the first dilated voxel where a fine ray with the same lodAngle and
+    /// maxLevel could stop. CastHit::t is then a start distance strictly below the hit distance
+    /// of every ray of the beam (+inf and hit = false if none of them can hit); normal is 0 and
+    /// iterations counts the nodes expanded.
+    double beamRadius = 0;
 };
 
 struct CastHit {
@@ -63,9 +80,12 @@ public:
     [[nodiscard]] double leafVoxelSize() const noexcept { return leafSize_; }
 
 private:
+    [[nodiscard]] CastHit castBeam(const Ray& ray, const CastOptions& options) const;
+
     const esvo::EsvoPool& pool_;
     double a_[12];         // world → root cube [0,1]³, row-major 3×4
     double unitScale_ = 1; // cube-root of |det|: world length → root-cube length
+    double rowNorm_ = 1;   // largest row norm of the linear part: bounds |(A·v)_i| by rowNorm_·|v|
     double leafSize_ = 1;
 };
 
@@ -77,13 +97,24 @@ struct RenderBuffers {
     std::vector<std::uint32_t> iterations;
     std::vector<std::uint8_t> level;       ///< level hit; 0 where it missed
     std::uint64_t hits = 0;
-    double seconds = 0;                    ///< wall time of the casting
+    double seconds = 0;                    ///< wall time of the casting, coarse pass included
+    // Beam optimisation (renderEsvo with beam > 0); iterations above are the fine pass's.
+    int beam = 0;                          ///< block size; 0: single pass
+    std::uint64_t coarseRays = 0;          ///< block-corner rays cast by the coarse pass
+    std::uint64_t coarseIterations = 0;    ///< nodes the coarse rays expanded, summed
+    double coarseSeconds = 0;              ///< wall time of the coarse pass (part of seconds)
 };
 
 /// Casts one primary ray per pixel through @p cast, in parallel (TBB).
 [[nodiscard]] RenderBuffers renderPixels(const PinholeCamera& camera, const std::function<CastHit(const Ray&)>& cast);
 
 /// Casts one primary ray per pixel against the octree, in parallel (TBB).
-[[nodiscard]] RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camera, const CastOptions& options);
+/// @p beam > 1 turns on the beam optimisation with beam × beam pixel blocks: a coarse pass casts
+/// one cone (CastOptions::beamRadius) through every block corner, then each pixel's ray starts
+/// (CastOptions::tStart) at the smallest start of its block's four corners. The buffers are
+/// bitwise the same as without it except iterations. 0 (or 1): one pass. Throws UsageError for
+/// a beam below 0 or above 64.
+[[nodiscard]] RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camera, const CastOptions& options,
+                                       int beam = 0);
 
 }  // namespace vox

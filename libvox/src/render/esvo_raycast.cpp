@@ -38,9 +38,12 @@ struct CameraBasis {
           tanHalf(std::tan(c.fovYDegrees * 0.5 * 3.14159265358979323846 / 180.0)), aspect(double(c.width) / double(c.height)),
           width(c.width), height(c.height) {}
 
-    [[nodiscard]] Ray ray(int x, int y) const {
-        const double sx = ((x + 0.5) / width * 2.0 - 1.0) * tanHalf * aspect;
-        const double sy = (1.0 - (y + 0.5) / height * 2.0) * tanHalf;
+    [[nodiscard]] Ray ray(int x, int y) const { return rayAt(x + 0.5, y + 0.5); }
+    /// The ray through image position (@p px, @p py) in pixels: (0, 0) is the top left corner
+    /// of the image, (x + 0.5, y + 0.5) the centre of pixel (x, y).
+    [[nodiscard]] Ray rayAt(double px, double py) const {
+        const double sx = (px / width * 2.0 - 1.0) * tanHalf * aspect;
+        const double sy = (1.0 - py / height * 2.0) * tanHalf;
         return {eye, normalize(forward + right * sx + up * sy)};
     }
 };
@@ -62,10 +65,14 @@ EsvoRayCaster::EsvoRayCaster(const esvo::EsvoPool& pool) : pool_(pool) {
                        a_[2] * (a_[4] * a_[9] - a_[5] * a_[8]);
     if (!(std::abs(det) > 0)) throw InvalidDataError(pool.reader().path(), "header: world-to-root transform is singular");
     unitScale_ = std::cbrt(std::abs(det));
+    rowNorm_ = 0;
+    for (int i = 0; i < 3; ++i)
+        rowNorm_ = std::max(rowNorm_, std::sqrt(a_[4 * i] * a_[4 * i] + a_[4 * i + 1] * a_[4 * i + 1] + a_[4 * i + 2] * a_[4 * i + 2]));
     leafSize_ = std::ldexp(1.0, -static_cast<int>(pool.reader().header().leafDepth)) / unitScale_;
 }
 
 CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
+    if (options.beamRadius > 0) return castBeam(ray, options);
     constexpr int kScaleMax = 23;
     const float epsilon = std::ldexp(1.0f, -kScaleMax);
     const std::uint32_t* words = pool_.words();
@@ -98,9 +105,11 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
 
     float tMin = std::max({2.0f * txCoef - txBias, 2.0f * tyCoef - tyBias, 2.0f * tzCoef - tzBias});
     float tMax = std::min({txCoef - txBias, tyCoef - tyBias, tzCoef - tzBias});
-    float h = tMax;
-    tMin = std::max(tMin, 0.0f);
+    tMin = std::max(tMin, std::max(options.tStart, 0.0f));
     tMax = std::min(tMax, static_cast<float>(std::min(options.tMax, 3.0e38)));
+    // The span only shrinks from here (tMin never decreases, tMax never exceeds this), so an
+    // empty one is a miss: a ray beside the cube, or a beam start past everything.
+    if (!(tMin <= tMax)) return CastHit{};
     // Footprint of a pixel at distance t, in root-cube units: t·lodCoef.
     const auto lodCoef = static_cast<float>(options.lodAngle * unitScale_);
 
@@ -142,9 +151,13 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
             }
             float tvMax = std::min(tMax, tcMax);
             const float half = scaleExp2 * 0.5f;
-            const float txCenter = half * txCoef + txCorner;
-            const float tyCenter = half * tyCoef + tyCorner;
-            const float tzCenter = half * tzCoef + tzCorner;
+            // The centre planes are evaluated exactly as the children's corners will be
+            // (position · coef − bias), not as half · coef + corner: then the child PUSH picks
+            // is the one ADVANCE walks through at tMin, bit for bit, which is what makes a
+            // traversal started at tStart reproduce the one started at 0 (see castBeam).
+            const float txCenter = (posX + half) * txCoef - txBias;
+            const float tyCenter = (posY + half) * tyCoef - tyBias;
+            const float tzCenter = (posZ + half) * tzCoef - tzBias;
             // Contour: the voxel's slab, in its local coordinates u = (p − centre) / size.
             float tvMin = tMin;
             bool fromSlab = false;
@@ -191,8 +204,11 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
                     break;
                 }
                 // PUSH
-                if (tcMax < h) stack[scale] = {parent, tMax};
-                h = tcMax;
+                // Always written. The paper skips the store when the child exits with its parent
+                // (tcMax >= h), as no POP can then land on this scale; but when distinct planes
+                // round to the same float t (rays from hundreds of root cubes away into a deep
+                // octree) a POP can, and would read a stale entry or none. One store per PUSH.
+                stack[scale] = {parent, tMax};
                 offset += static_cast<std::int32_t>(esvo::popc8(descriptor & ((1u << slot) - 1u)));
                 parent = static_cast<std::uint32_t>(static_cast<std::int64_t>(parent) + 2 * static_cast<std::int64_t>(offset));
                 idx = 0;
@@ -233,7 +249,6 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
             posY = std::bit_cast<float>(shy << scale);
             posZ = std::bit_cast<float>(shz << scale);
             idx = static_cast<int>((shx & 1u) | ((shy & 1u) << 1) | ((shz & 1u) << 2));
-            h = 0.0f;
             haveDescriptor = false;
         }
     }
@@ -264,8 +279,170 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
     return result;
 }
 
-RenderBuffers renderPixels(const PinholeCamera& camera, const std::function<CastHit(const Ray&)>& cast) {
-    camera.validate();
+// ---- beam optimisation: the coarse pass ---------------------------------------------------
+//
+// Why the image stays bit for bit the same (the fine pass, cast() with tStart):
+//
+// 1. Let P_a(p) = p·coef_a − bias_a be the float t at which the (mirrored) ray crosses the plane
+//    at coordinate p of axis a. cast() evaluates every plane it compares this one way, the cell
+//    corners in ADVANCE and the centres in PUSH alike, so P_a is a fixed, monotone function of p
+//    (as long as the compiler rounds every instance alike: no FMA on baseline x86-64; a build
+//    that contracted some instances and not others would show up in tests/test_esvo_beam.cpp).
+//    By induction over PUSH, ADVANCE and POP, the span start tMin at the current cell X is
+//        tMin = max(P-entries of X, slab entries of X's ancestors, T0),   T0 = max(tStart, 0),
+//    and every corner of X is >= tMin: the traversal from T0 only raises each cell's tMin to
+//    max(tMin, T0), and the cell PUSH picks at T0 is exactly the one ADVANCE passes through there.
+// 2. So started at T0 < t (the hit distance of the ray started at 0), the traversal visits the
+//    same cells after T0 with spans that are never wider, cannot stop anywhere the full traversal
+//    does not, reaches the hit cell with the same span start max(t, T0) = t, records the same
+//    contour (any slab start it skips is <= T0 < t) and so returns the same t, level and normal.
+//    A miss stays a miss for any T0. T0 must be strictly below t: at T0 = t a cell the full
+//    traversal hits over a zero-length span could be skipped. The stack is written on every
+//    PUSH, so what a POP reads does not depend on the path that led there.
+// 3. The hit distance t of a fine ray lies within its hit cell X's float entry and exit planes,
+//    so the exact point of the float ray at t is inside X grown by eta = u·(18 + 4|p|) per axis
+//    (u = 2^-24, p the float origin), whatever the direction: the rounding of P_a is relative to
+//    |p|·|coef_a| and coef_a = 1/|d_a|. The same holds where the ray leaves X (tcMax), which the
+//    level-of-detail cut compares.
+// 4. A coarse ray with the same origin and a unit direction within chord r of the fine ray's is,
+//    at the same t, within t·(r·rowNorm + rounding and clamping of the fine direction) +
+//    origin rounding of the fine ray's point, per axis in octree units. So it is inside X dilated
+//    by w(t) = k·t + e at the fine ray's hit distance, and at the fine ray's exit from X.
+//    castBeam() finds the smallest t at which it enters a dilated cell at which some fine ray of
+//    the beam could stop: a leaf, a maxLevel voxel, a voxel whose children are not loaded, or one
+//    where the level-of-detail cut could fire (exit of the dilated cell · lodCoef >= size, with
+//    slack). A dilated child lies inside its dilated parent, so the descent loses nothing, and
+//    contours only shrink spans, so ignoring them only lowers the bound. The result is <= every
+//    fine hit distance of the beam, and is returned as a float strictly below it (floatBelow).
+
+namespace {
+
+/// A float strictly below @p d: the largest at or below d − 2^-30·(1 + |d|); 0 if that is not
+/// positive (a start of 0 is the single pass itself).
+float floatBelow(double d) {
+    const double x = d - 0x1p-30 * (1.0 + std::abs(d));  // clears the double rounding of d
+    if (!(x > 0)) return 0.0f;
+    float f = static_cast<float>(x);
+    if (static_cast<double>(f) > x) f = std::nextafter(f, 0.0f);
+    return f;
+}
+
+/// One axis of a dilated cell: the t ≥ 0 where o + d·t ∈ [lo − k·t − e, hi + k·t + e].
+struct AxisBeam {
+    double o, upCoef, upInv, downCoef, downInv, e;  // (d − k)·t ≤ hi + e − o; (−d − k)·t ≤ o − lo + e
+
+    AxisBeam(double origin, double direction, double k, double pad)
+        : o(origin), upCoef(direction - k), upInv(1.0 / upCoef), downCoef(-direction - k), downInv(1.0 / downCoef), e(pad) {}
+
+    static void constrain(double coef, double inv, double rhs, double& t0, double& t1) {
+        if (coef > 0)
+            t1 = std::min(t1, rhs * inv);
+        else if (coef < 0)
+            t0 = std::max(t0, rhs * inv);
+        else if (rhs < 0)
+            t1 = -1.0;  // never inside
+    }
+    void span(double lo, double hi, double& t0, double& t1) const {
+        t0 = 0.0;
+        t1 = std::numeric_limits<double>::infinity();
+        constrain(upCoef, upInv, hi + e - o, t0, t1);
+        constrain(downCoef, downInv, o - lo + e, t0, t1);
+    }
+};
+
+}  // namespace
+
+CastHit EsvoRayCaster::castBeam(const Ray& ray, const CastOptions& options) const {
+    const std::uint32_t* words = pool_.words();
+    const Vec3d& ow = ray.origin;
+    const Vec3d& dw = ray.direction;
+    // The same expressions cast() rounds to float.
+    const double o[3] = {a_[0] * ow.x + a_[1] * ow.y + a_[2] * ow.z + a_[3] + 1.0, a_[4] * ow.x + a_[5] * ow.y + a_[6] * ow.z + a_[7] + 1.0,
+                         a_[8] * ow.x + a_[9] * ow.y + a_[10] * ow.z + a_[11] + 1.0};
+    const double d[3] = {a_[0] * dw.x + a_[1] * dw.y + a_[2] * dw.z, a_[4] * dw.x + a_[5] * dw.y + a_[6] * dw.z,
+                         a_[8] * dw.x + a_[9] * dw.y + a_[10] * dw.z};
+    const double oMax = std::max({std::abs(o[0]), std::abs(o[1]), std::abs(o[2])});
+    constexpr double u = 0x1p-24;  // float rounding
+    // Per unit t: the beam's chord in octree units, the fine direction's rounding to float and
+    // its clamp to 2^-23, and slack for the double arithmetic of the coarse ray itself.
+    const double k = options.beamRadius * rowNorm_ * (1 + 1e-9) + u * rowNorm_ * 1.01 + 0x1p-23 + 1e-12;
+    // Absolute: the fine caster's plane rounding (eta, point 3), its origin's rounding to float,
+    // and a pad that absorbs this function's own double rounding for any t below ~1e6.
+    const double e = u * (24.0 + 4.0 * oMax) + u * oMax + 1e-9;
+    const AxisBeam axes[3] = {AxisBeam(o[0], d[0], k, e), AxisBeam(o[1], d[1], k, e), AxisBeam(o[2], d[2], k, e)};
+    const double lod = static_cast<double>(static_cast<float>(options.lodAngle * unitScale_));  // cast()'s lodCoef
+    const double lodSlack = 1.0 + 0x1p-20;  // cast() rounds tcMax·lodCoef to float
+
+    struct Node {
+        std::uint32_t descriptor;  // word index of the node's child descriptor
+        std::uint32_t level;
+        double x, y, z;            // minimum corner in [1,2]³
+        double size;               // edge
+        double t0;                 // entry into the dilated node
+    };
+    Node stack[8 * 24];
+    int top = 0;
+    stack[top++] = {pool_.rootDescriptorWord(), 0, 1.0, 1.0, 1.0, 1.0, 0.0};
+    double best = std::numeric_limits<double>::infinity();
+    CastHit result;
+    while (top > 0) {
+        const Node n = stack[--top];
+        if (n.t0 >= best) continue;  // a nearer stop was found since it was pushed
+        ++result.iterations;
+        const std::uint32_t descriptor = words[n.descriptor];
+        const std::uint32_t level = n.level + 1;
+        const double size = 0.5 * n.size;  // a child's edge
+        const double corner[3] = {n.x, n.y, n.z};
+        double span[3][2][2];  // [axis][upper half][entry, exit]
+        for (int a = 0; a < 3; ++a) {
+            axes[a].span(corner[a], corner[a] + size, span[a][0][0], span[a][0][1]);
+            axes[a].span(corner[a] + size, corner[a] + 2 * size, span[a][1][0], span[a][1][1]);
+        }
+        Node children[8];
+        int count = 0;
+        for (std::uint32_t valid = (descriptor >> 8) & 0xFFu; valid != 0; valid &= valid - 1) {
+            const int slot = std::countr_zero(valid);
+            const int bx = slot & 1, by = (slot >> 1) & 1, bz = slot >> 2;
+            const double t0 = std::max({span[0][bx][0], span[1][by][0], span[2][bz][0]});
+            const double t1 = std::min({span[0][bx][1], span[1][by][1], span[2][bz][1]});
+            if (!(t0 <= t1) || t0 >= best) continue;
+            // Where cast() could stop: the same tests, the level-of-detail one for any ray of
+            // the beam (its exit from the cell is at most this dilated exit).
+            // (Stopping at level 23 at the latest, cast()'s finest scale, also bounds the stack:
+            // at most 7 entries wait per level.)
+            bool stop = !((descriptor >> slot) & 1u) || level >= options.maxLevel || level >= 23;
+            std::int64_t offset = static_cast<std::int32_t>(descriptor >> 17);
+            if (!stop && (descriptor & 0x10000u)) {
+                offset = static_cast<std::int32_t>(words[n.descriptor + 2 * static_cast<std::uint32_t>(offset)]);
+                stop = offset == 0;
+            }
+            if (!stop && lod > 0 && t1 * lod * lodSlack >= size) stop = true;
+            if (stop) {
+                best = t0;
+                result.level = level;
+                continue;
+            }
+            offset += esvo::popc8(descriptor & ((1u << slot) - 1u));
+            children[count++] = {static_cast<std::uint32_t>(static_cast<std::int64_t>(n.descriptor) + 2 * offset), level,
+                                 n.x + bx * size, n.y + by * size, n.z + bz * size, size, t0};
+        }
+        // Nearest on top of the stack: front to back, so a close stop prunes the rest early.
+        for (int i = 1; i < count; ++i)  // insertion sort, farthest first
+            for (int j = i; j > 0 && children[j - 1].t0 < children[j].t0; --j) std::swap(children[j - 1], children[j]);
+        for (int i = 0; i < count; ++i)
+            if (children[i].t0 < best) stack[top++] = children[i];
+    }
+    if (best == std::numeric_limits<double>::infinity()) return result;
+    result.hit = true;
+    result.t = floatBelow(best);
+    return result;
+}
+
+// ---- images ----------------------------------------------------------------------------------
+
+namespace {
+
+RenderBuffers emptyBuffers(const PinholeCamera& camera) {
     RenderBuffers out;
     out.width = camera.width;
     out.height = camera.height;
@@ -274,14 +451,19 @@ RenderBuffers renderPixels(const PinholeCamera& camera, const std::function<Cast
     out.normal.assign(pixels, Vec3f{0, 0, 0});
     out.iterations.assign(pixels, 0);
     out.level.assign(pixels, 0);
+    return out;
+}
+
+/// One cast per pixel in parallel, @p cast(x, y) giving the pixel's CastHit; returns the seconds.
+template <class Cast>
+double castPixels(const PinholeCamera& camera, RenderBuffers& out, const Cast& cast) {
     std::atomic<std::uint64_t> hits{0};
-    const CameraBasis basis(camera);
     const auto start = std::chrono::steady_clock::now();
     tbb::parallel_for(tbb::blocked_range<int>(0, camera.height, 4), [&](const tbb::blocked_range<int>& rows) {
         std::uint64_t localHits = 0;
         for (int y = rows.begin(); y != rows.end(); ++y)
             for (int x = 0; x < camera.width; ++x) {
-                const CastHit h = cast(basis.ray(x, y));
+                const CastHit h = cast(x, y);
                 const std::size_t i = std::size_t(y) * std::size_t(camera.width) + std::size_t(x);
                 out.iterations[i] = h.iterations;
                 if (!h.hit) continue;
@@ -292,13 +474,72 @@ RenderBuffers renderPixels(const PinholeCamera& camera, const std::function<Cast
             }
         hits += localHits;
     });
-    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     out.hits = hits;
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+RenderBuffers renderPixels(const PinholeCamera& camera, const std::function<CastHit(const Ray&)>& cast) {
+    camera.validate();
+    RenderBuffers out = emptyBuffers(camera);
+    const CameraBasis basis(camera);
+    out.seconds = castPixels(camera, out, [&](int x, int y) { return cast(basis.ray(x, y)); });
     return out;
 }
 
-RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camera, const CastOptions& options) {
-    return renderPixels(camera, [&](const Ray& ray) { return caster.cast(ray, options); });
+RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camera, const CastOptions& options, int beam) {
+    camera.validate();
+    if (beam < 0 || beam > 64) throw UsageError("beam: block size must be 0 (off) or 2..64 pixels");
+    RenderBuffers out = emptyBuffers(camera);
+    const CameraBasis basis(camera);
+    if (beam <= 1) {
+        out.seconds = castPixels(camera, out, [&](int x, int y) { return caster.cast(basis.ray(x, y), options); });
+        return out;
+    }
+    out.beam = beam;
+    // Coarse pass: one cone through every block corner. A pixel's centre is at most (beam − 1)/2
+    // pixels from its block's nearest corner along each axis, and one pixel is pixelAngle() on
+    // the image plane at distance 1, where the chord between unit directions is at most the
+    // distance between the plane points (projecting onto the unit sphere from outside it does
+    // not stretch distances). That corner's start is below the pixel's hit, so the smallest of
+    // the four is too.
+    const int blocksX = (camera.width + beam - 1) / beam, blocksY = (camera.height + beam - 1) / beam;
+    const int cornersX = blocksX + 1, cornersY = blocksY + 1;
+    CastOptions coarse = options;
+    coarse.contours = false;
+    coarse.tStart = 0;
+    coarse.beamRadius = camera.pixelAngle() * (beam - 1) * std::sqrt(0.5);
+    std::vector<float> starts(std::size_t(cornersX) * std::size_t(cornersY));
+    std::atomic<std::uint64_t> coarseIterations{0};
+    const auto start = std::chrono::steady_clock::now();
+    tbb::parallel_for(tbb::blocked_range<int>(0, cornersY), [&](const tbb::blocked_range<int>& rows) {
+        std::uint64_t local = 0;
+        for (int j = rows.begin(); j != rows.end(); ++j)
+            for (int i = 0; i < cornersX; ++i) {
+                const CastHit h = caster.cast(basis.rayAt(double(i) * beam, double(j) * beam), coarse);
+                starts[std::size_t(j) * std::size_t(cornersX) + std::size_t(i)] = h.t;  // +inf: no ray of the beam hits
+                local += h.iterations;
+            }
+        coarseIterations += local;
+    });
+    out.coarseSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    out.coarseRays = starts.size();
+    out.coarseIterations = coarseIterations;
+    // Fine pass: every pixel from the smallest start of its block's corners.
+    const float userStart = options.tStart;
+    const double fineSeconds = castPixels(camera, out, [&](int x, int y) {
+        const std::size_t bx = std::size_t(x / beam), by = std::size_t(y / beam);
+        const float* row0 = &starts[by * std::size_t(cornersX) + bx];
+        const float* row1 = row0 + cornersX;
+        CastOptions fine = options;
+        fine.tStart = std::max(userStart, std::min({row0[0], row0[1], row1[0], row1[1]}));
+        // No ray of the block can hit: cast() would return this at once; skip making the ray.
+        if (fine.tStart == std::numeric_limits<float>::infinity()) return CastHit{};
+        return caster.cast(basis.ray(x, y), fine);
+    });
+    out.seconds = out.coarseSeconds + fineSeconds;
+    return out;
 }
 
 }  // namespace vox
