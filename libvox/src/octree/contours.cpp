@@ -11,14 +11,14 @@ namespace vox::detail {
 namespace {
 
 /// Clips a triangle to the cube [−½, ½]³ (Sutherland–Hodgman), appending the polygon to @p out.
-void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out) {
+void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out, std::array<Vec3d, 12>& bufferA,
+                    std::array<Vec3d, 12>& bufferB) {
     bool inside = true;
     for (const Vec3d& p : triangle) inside = inside && std::abs(p.x) <= 0.5 && std::abs(p.y) <= 0.5 && std::abs(p.z) <= 0.5;
     if (inside) {  // common for fine triangles in coarse voxels
         out.insert(out.end(), triangle.begin(), triangle.end());
         return;
     }
-    std::array<Vec3d, 12> bufferA{}, bufferB{};
     Vec3d* a = bufferA.data();
     Vec3d* b = bufferB.data();
     std::size_t n = 3;
@@ -106,7 +106,7 @@ ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<Box
     for (std::uint32_t t : list) {
         const BoxTestTriangle& tri = triangles[t];
         const std::size_t before = points.size();
-        clipToUnitCube({(tri.v0 - c) * toLocal, (tri.v1 - c) * toLocal, (tri.v2 - c) * toLocal}, points);
+        clipToUnitCube({(tri.v0 - c) * toLocal, (tri.v1 - c) * toLocal, (tri.v2 - c) * toLocal}, points, scratch.clipA, scratch.clipB);
         // Fragment area (fan) weighs the triangle's unit normal.
         double area = 0;
         for (std::size_t i = before + 2; i < points.size(); ++i) area += 0.5 * length(cross(points[i - 1] - points[before], points[i] - points[before]));

@@ -5,6 +5,7 @@
 
 #include "triangle_box.h"
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -13,7 +14,8 @@ namespace vox::detail {
 
 /// Reusable buffers for contour fitting (one per thread).
 struct ContourScratch {
-    std::vector<Vec3d> points;  // fragment vertices, voxel-local
+    std::vector<Vec3d> points;               // fragment vertices, voxel-local
+    std::array<Vec3d, 12> clipA{}, clipB{};  // clipping ping-pong buffers (zeroed once, not per triangle)
 };
 
 /// A fitted contour: the encoded value (0: no useful contour) and the slab's thickness.
