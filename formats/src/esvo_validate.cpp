@@ -53,10 +53,13 @@ BlockTables readBlockTables(std::span<const std::uint8_t> block, const std::file
     };
     table(tables, t.rootGroupCount, t.rootGroupTableWord);
     table(tables + 2, t.frontierCount, t.frontierTableWord);
+    // Attachments: only the contour array so far, between the descriptor area and the info section.
     t.contourWord = t.infoWord;
     for (std::uint64_t a = 0; a < attachments; ++a) {
         const std::uint64_t at = t.infoWord + info::kAttachments + 2 * a;
-        if (word(block.data(), at) != static_cast<std::uint32_t>(AttachmentKind::Contour)) continue;
+        const std::uint32_t kind = word(block.data(), at);
+        if (kind != static_cast<std::uint32_t>(AttachmentKind::Contour) || a > 0)
+            fail(4 * at, "unexpected attachment kind " + std::to_string(kind));
         const std::int64_t start = static_cast<std::int64_t>(t.infoWord) + signedWord(block.data(), at + 1);
         if (start < 2 || start % 2 != 0 || start > static_cast<std::int64_t>(t.infoWord)) fail(4 * at + 4, "contour array pointer outside the block");
         t.contourWord = static_cast<std::uint32_t>(start);
@@ -76,19 +79,9 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
     if (word(b, t.infoWord + info::kBlockIndex) != 0) check.fail(infoByte + 4, "block index in slice is not 0");
     if (static_cast<std::int64_t>(t.infoWord) + signedWord(b, t.infoWord + info::kFirstDescriptor) != 2)
         check.fail(infoByte + 8, "first-descriptor pointer does not point at byte 8");
-    // Attachments: only the contour array so far, between the descriptor area and the info section.
-    std::uint64_t contourStart = t.infoWord;  // words
-    const std::uint32_t attachments = word(b, t.infoWord + info::kAttachmentCount);
-    for (std::uint32_t a = 0; a < attachments; ++a) {
-        const std::uint64_t at = t.infoWord + info::kAttachments + 2 * a;
-        const std::uint32_t kind = word(b, at);
-        if (kind != static_cast<std::uint32_t>(AttachmentKind::Contour) || !(header.attachmentKinds & 1u) || a > 0)
-            check.fail(4 * at, "unexpected attachment kind " + std::to_string(kind));
-        const std::int64_t start = static_cast<std::int64_t>(t.infoWord) + signedWord(b, at + 1);
-        if (start < 2 || start % 2 != 0 || start > static_cast<std::int64_t>(t.infoWord))
-            check.fail(4 * at + 4, "contour array pointer outside the block");
-        contourStart = static_cast<std::uint64_t>(start);
-    }
+    if (word(b, t.infoWord + info::kAttachmentCount) != 0 && !(header.attachmentKinds & 1u))
+        check.fail(infoByte + 12, "contour attachment, but the header declares no contours");
+    const std::uint64_t contourStart = t.contourWord;  // words
     std::vector<std::uint8_t> contourUsed(t.infoWord - contourStart, 0);
     if (t.rootGroupCount != entry.rootGroupCount || t.rootGroupCount != parents.size())
         check.fail(infoByte, "root group count differs from the directory's");

@@ -329,8 +329,7 @@ bool EsvoCommands::run() {
         printInfo(file, json);
     } else if (validate->parsed()) {
         const esvo::EsvoReader reader(file);
-        const esvo::FileBreakdown b = esvo::validateFile(reader);
-        (void)b;
+        (void)esvo::validateFile(reader);
         log::info(file + ": valid (" + std::to_string(reader.sliceCount()) + " slices, " +
                   std::to_string(reader.header().fileBytes) + " bytes)");
     } else if (dump->parsed()) {

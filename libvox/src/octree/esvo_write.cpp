@@ -93,7 +93,7 @@ struct SliceBlock {
 /// slice holding that voxel's child group and everything under it needs, before overheads.
 class SubtreeSizes {
 public:
-    explicit SubtreeSizes(const OctreeIndex& tree) : tree_(tree), bytes_(tree.depth()) {
+    explicit SubtreeSizes(const OctreeIndex& tree) : bytes_(tree.depth()) {
         const std::uint32_t depth = tree.depth();
         for (std::uint32_t l = depth; l-- > 0;) {
             auto& out = bytes_[l];
@@ -128,7 +128,6 @@ public:
     [[nodiscard]] std::uint64_t operator()(std::uint32_t level, std::uint64_t index) const { return bytes_[level][index]; }
 
 private:
-    const OctreeIndex& tree_;
     std::vector<std::vector<std::uint32_t>> bytes_;
 };
 

@@ -297,15 +297,19 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
             s[level - k] = {};
         }
     }
+    octree.voxelsPerLevel.assign(depth + 1, 0);
+    octree.voxelsPerLevel[0] = 1;
+    for (std::uint32_t level = 0; level < depth; ++level) {
+        std::uint64_t children = 0;
+        for (std::uint8_t m : octree.masks[level]) children += esvo::popc8(m);
+        octree.voxelsPerLevel[level + 1] = children;
+        if (level + 1 < depth && octree.masks[level + 1].size() != children)
+            throw std::logic_error("voxelizeSurface: level sizes inconsistent");
+    }
     if (options.contours) {
         // Levels down to k come from the binning and carry no contours; below, the subtrees'.
         octree.contours.resize(depth + 1);
-        for (std::uint32_t level = 0; level <= k; ++level)
-            octree.contours[level].assign(level == 0 ? 1 : octree.masks[level - 1].empty() ? 0 : [&] {
-                std::uint64_t n = 0;
-                for (std::uint8_t m : octree.masks[level - 1]) n += esvo::popc8(m);
-                return n;
-            }(), 0u);
+        for (std::uint32_t level = 0; level <= k; ++level) octree.contours[level].assign(octree.voxelsPerLevel[level], 0u);
         for (std::uint32_t level = k + 1; level <= depth; ++level) {
             auto& out = octree.contours[level];
             for (std::size_t c = 0; c < cells.size(); ++c) {
@@ -314,17 +318,8 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
                 out.insert(out.end(), part.begin(), part.end());
                 part = {};
             }
+            if (out.size() != octree.voxelsPerLevel[level]) throw std::logic_error("voxelizeSurface: contour count inconsistent");
         }
-    }
-    octree.voxelsPerLevel.assign(depth + 1, 0);
-    octree.voxelsPerLevel[0] = 1;
-    for (std::uint32_t level = 0; level < depth; ++level) {
-        std::uint64_t children = 0;
-        for (std::uint8_t m : octree.masks[level]) children += esvo::popc8(m);
-        octree.voxelsPerLevel[level + 1] = children;
-        if ((level + 1 < depth && octree.masks[level + 1].size() != children) ||
-            (!octree.contours.empty() && octree.contours[level + 1].size() != children))
-            throw std::logic_error("voxelizeSurface: level sizes inconsistent");
     }
     return octree;
 }
