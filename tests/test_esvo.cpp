@@ -196,9 +196,9 @@ void expectFileMatches(const fs::path& file, const vox::SparseOctree& octree, co
     const vox::esvo::FileBreakdown b = vox::esvo::validateFile(reader);
     EXPECT_EQ(b.descriptorBytes, 8 * descriptors);
     EXPECT_EQ(b.farPointerBytes, 8 * far);
-    EXPECT_EQ(b.attachmentBytes, 0u);
+    EXPECT_EQ(b.attributeLookupBytes + b.attributeValueBytes + b.attributeBlockBytes, 0u);
     EXPECT_EQ(b.headerAndDirectoryBytes, 256 + vox::esvo::directoryBytes(h.leafDepth, h.sliceCount));
-    EXPECT_EQ(b.descriptorBytes + b.farPointerBytes + b.pageHeaderBytes + b.infoBytes + b.paddingBytes + b.attachmentBytes +
+    EXPECT_EQ(b.descriptorBytes + b.farPointerBytes + b.pageHeaderBytes + b.infoBytes + b.paddingBytes +
                   b.headerAndDirectoryBytes + b.slicePaddingBytes,
               h.fileBytes);
 

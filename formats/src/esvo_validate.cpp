@@ -1,5 +1,6 @@
 // Structural validation of .esvo blocks and files (docs/esvo-format.md, "Invariants").
 #include <vox/formats/error.h>
+#include <vox/formats/esvo_attributes.h>
 #include <vox/formats/esvo_reader.h>
 
 #include <algorithm>
@@ -27,6 +28,53 @@ private:
     const SliceEntry& entry_;
 };
 
+/// The colour/normal attachment. Uncompressed: a lookup word per unit of the descriptor area
+/// (zero where the unit is no descriptor; mask within the valid mask), padded to a whole unit,
+/// then the values every lookup entry references, each exactly once, in order. Compressed: one
+/// 6-word block per pair of units (that pairs never mix parents, validateBlock checks: every
+/// group starts on an even unit), and the base normal's axis field is not 3.
+void validateAttributes(const BlockChecker& check, const BlockTables& t, const std::uint8_t* b, std::uint64_t units,
+                        std::vector<std::uint64_t>& descriptorUnits, BlockSummary& summary) {
+    std::sort(descriptorUnits.begin(), descriptorUnits.end());
+    const std::uint64_t begin = t.attributeWord, size = t.attributeEndWord - t.attributeWord;
+    if (t.attributeKind == AttachmentKind::Palette) {
+        const std::uint64_t lookupWords = units + units % 2;
+        if (size < lookupWords) check.fail(4 * begin, "colour/normal lookup array shorter than the descriptor area");
+        std::uint64_t expected = lookupWords;  // values follow the lookup array in descriptor order
+        std::size_t next = 0;
+        for (std::uint64_t u = 0; u < lookupWords; ++u) {
+            const PaletteLookup entry{word(b, begin + u)};
+            const bool isDescriptor = next < descriptorUnits.size() && descriptorUnits[next] == u;
+            if (!isDescriptor) {
+                if (entry.word != 0) check.fail(4 * (begin + u), "colour/normal lookup entry for a unit that is no descriptor");
+                continue;
+            }
+            ++next;
+            const std::uint32_t valid = ChildDescriptor{word(b, 2 * u), 0}.validMask();
+            if ((entry.mask() & ~valid) != 0) check.fail(4 * (begin + u), "colour/normal mask has bits outside the valid mask");
+            if (entry.mask() == 0) {
+                if (entry.word != 0) check.fail(4 * (begin + u), "colour/normal value pointer without a mask");
+                continue;
+            }
+            if (entry.valuePointer() != expected) check.fail(4 * (begin + u), "colour/normal values not stored in descriptor order");
+            expected += 2ull * popc8(entry.mask());
+            if (expected > size) check.fail(4 * (begin + u), "colour/normal values run past the attachment");
+        }
+        for (std::uint64_t w = lookupWords; w < size; w += 2)
+            if ((word(b, begin + w + 1) >> 29 & 3u) == 3u) check.fail(4 * (begin + w + 1), "normal with an invalid cube face");
+        if (expected != size) check.fail(4 * (begin + expected), "colour/normal values no lookup entry refers to");
+        summary.attributeLookupBytes += 4 * lookupWords;
+        summary.attributeValueBytes += 4 * (size - lookupWords);
+        return;
+    }
+    const std::uint64_t blocks = (units + 1) / 2;
+    if (size != kCompressedBlockWords * blocks) check.fail(4 * begin, "compressed colour/normal array is not one block per pair of units");
+    for (std::uint64_t p = 0; p < blocks; ++p)
+        if ((word(b, begin + kCompressedBlockWords * p + 2) >> 29 & 3u) == 3u)
+            check.fail(4 * (begin + kCompressedBlockWords * p + 2), "base normal with an invalid cube face");
+    summary.attributeBlockBytes += 4 * size;
+}
+
 }  // namespace
 
 BlockTables readBlockTables(std::span<const std::uint8_t> block, const std::filesystem::path& file, std::uint32_t sliceIndex) {
@@ -53,16 +101,31 @@ BlockTables readBlockTables(std::span<const std::uint8_t> block, const std::file
     };
     table(tables, t.rootGroupCount, t.rootGroupTableWord);
     table(tables + 2, t.frontierCount, t.frontierTableWord);
-    // Attachments: only the contour array so far, between the descriptor area and the info section.
-    t.contourWord = t.infoWord;
+    // Attachments lie between the descriptor area and the info section, in directory order, each
+    // reaching to the next: at most a contour array, then at most one colour/normal attachment.
+    std::int64_t previous = 2;
+    bool contours = false;
+    std::vector<std::uint32_t> starts;
     for (std::uint64_t a = 0; a < attachments; ++a) {
         const std::uint64_t at = t.infoWord + info::kAttachments + 2 * a;
         const std::uint32_t kind = word(block.data(), at);
-        if (kind != static_cast<std::uint32_t>(AttachmentKind::Contour) || a > 0)
-            fail(4 * at, "unexpected attachment kind " + std::to_string(kind));
+        const bool contour = kind == static_cast<std::uint32_t>(AttachmentKind::Contour);
+        const bool attribute = kind == static_cast<std::uint32_t>(AttachmentKind::Palette) || kind == static_cast<std::uint32_t>(AttachmentKind::Dxt);
+        if (!(contour && a == 0) && !(attribute && !t.hasAttributes())) fail(4 * at, "unexpected attachment kind " + std::to_string(kind));
         const std::int64_t start = static_cast<std::int64_t>(t.infoWord) + signedWord(block.data(), at + 1);
-        if (start < 2 || start % 2 != 0 || start > static_cast<std::int64_t>(t.infoWord)) fail(4 * at + 4, "contour array pointer outside the block");
-        t.contourWord = static_cast<std::uint32_t>(start);
+        if (start < previous || start % 2 != 0 || start > static_cast<std::int64_t>(t.infoWord))
+            fail(4 * at + 4, "attachment pointer outside the block or out of order");
+        previous = start;
+        starts.push_back(static_cast<std::uint32_t>(start));
+        if (contour) contours = true;
+        if (attribute) t.attributeKind = static_cast<AttachmentKind>(kind);
+    }
+    t.descriptorEndWord = starts.empty() ? t.infoWord : starts.front();
+    t.contourWord = t.contourEndWord = t.descriptorEndWord;
+    if (contours) t.contourEndWord = starts.size() > 1 ? starts[1] : t.infoWord;
+    if (t.hasAttributes()) {
+        t.attributeWord = starts.back();
+        t.attributeEndWord = t.infoWord;
     }
     return t;
 }
@@ -79,15 +142,20 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
     if (word(b, t.infoWord + info::kBlockIndex) != 0) check.fail(infoByte + 4, "block index in slice is not 0");
     if (static_cast<std::int64_t>(t.infoWord) + signedWord(b, t.infoWord + info::kFirstDescriptor) != 2)
         check.fail(infoByte + 8, "first-descriptor pointer does not point at byte 8");
-    if (word(b, t.infoWord + info::kAttachmentCount) != 0 && !(header.attachmentKinds & 1u))
+    const auto declared = [&](AttachmentKind kind) { return (header.attachmentKinds >> static_cast<unsigned>(kind)) & 1u; };
+    if (t.contourEndWord != t.contourWord && !declared(AttachmentKind::Contour))
         check.fail(infoByte + 12, "contour attachment, but the header declares no contours");
+    if (t.hasAttributes() && !declared(t.attributeKind))
+        check.fail(infoByte + 12, "colour/normal attachment of a kind the header does not declare");
+    if (!t.hasAttributes() && (declared(AttachmentKind::Palette) || declared(AttachmentKind::Dxt)))
+        check.fail(infoByte + 12, "the header declares colours and normals, but the block has none");
     const std::uint64_t contourStart = t.contourWord;  // words
-    std::vector<std::uint8_t> contourUsed(t.infoWord - contourStart, 0);
+    std::vector<std::uint8_t> contourUsed(t.contourEndWord - contourStart, 0);
     if (t.rootGroupCount != entry.rootGroupCount || t.rootGroupCount != parents.size())
         check.fail(infoByte, "root group count differs from the directory's");
 
     // Every 8-byte unit of the descriptor area is a page header, a descriptor, a far slot or zero padding.
-    const std::uint64_t units = contourStart / 2;  // the descriptor area ends where contours begin
+    const std::uint64_t units = t.descriptorEndWord / 2;
     enum : std::uint8_t { kFree, kPageHeader, kDescriptor, kFarSlot };
     std::vector<std::uint8_t> use(units, kFree);
     BlockSummary summary;
@@ -102,6 +170,9 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
         if (first < 1 || first + count > units) check.fail(8 * from, std::string(what) + " points outside the descriptor area");
         if ((8 * first) / kPageBytes != (8 * (first + count) - 1) / kPageBytes)
             check.fail(8 * first, "sibling group straddles a page header");
+        // Compressed attributes pair units 2p and 2p + 1: groups start even so pairs never mix parents.
+        if (t.attributeKind == AttachmentKind::Dxt && first % 2 != 0)
+            check.fail(8 * first, "sibling group starts on an odd unit, so a compressed block would mix parents");
         for (std::uint64_t u = first; u < first + count; ++u) {
             if (use[u] != kFree) check.fail(8 * u, std::string(what) + " overlaps other data");
             use[u] = kDescriptor;
@@ -119,6 +190,7 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
         VoxelPosition position;
     };
     std::vector<Pending> stack;
+    std::vector<std::uint64_t> descriptorUnits;  // with attributes: every descriptor found
     std::uint64_t descriptors = 0, farSlots = 0, voxels = 0, frontierIndex = 0;
     std::uint32_t deepest = 0, shallowestRoot = 0xFFFFFFFFu;
     summary.voxelsPerLevel.assign(header.leafDepth + 1, 0);
@@ -151,7 +223,7 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
                 if ((desc.contourMask() & ~desc.validMask()) != 0) check.fail(at + 4, "contour mask has bits outside the valid mask");
                 const std::uint64_t firstContour = 2 * d.unit + desc.contourPointer();
                 const std::uint64_t count = popc8(desc.contourMask());
-                if (firstContour < contourStart || firstContour + count > t.infoWord)
+                if (firstContour < contourStart || firstContour + count > t.contourEndWord)
                     check.fail(at + 4, "contour pointer outside the contour array");
                 for (std::uint64_t w = firstContour; w < firstContour + count; ++w) {
                     if (contourUsed[w - contourStart]) check.fail(4 * w, "contour shared by two descriptors");
@@ -163,6 +235,7 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
                 summary.contourBytes += 4 * count;
             }
             if (desc.validMask() == 0) check.fail(at, "descriptor with an empty valid mask");
+            if (t.hasAttributes()) descriptorUnits.push_back(d.unit);
             if ((desc.nonLeafMask() & ~desc.validMask()) != 0) check.fail(at, "non-leaf mask has bits outside the valid mask");
             ++descriptors;
             voxels += popc8(desc.validMask());
@@ -216,6 +289,7 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
     for (std::size_t w = 0; w < contourUsed.size(); ++w)
         if (!contourUsed[w] && !(w + 1 == contourUsed.size() && w % 2 == 1 && word(b, contourStart + w) == 0))
             check.fail(4 * (contourStart + w), "contour array word no descriptor refers to");
+    if (t.hasAttributes()) validateAttributes(check, t, b, units, descriptorUnits, summary);
     // The block ends with the tables, padded to 8 bytes with zero.
     const std::uint64_t tablesEnd = std::max<std::uint64_t>(t.rootGroupTableWord + t.rootGroupCount, t.frontierTableWord + t.frontierCount);
     if ((4 * tablesEnd + 7) / 8 * 8 != block.size()) check.fail(4 * tablesEnd, "data after the info section's tables");
@@ -279,6 +353,9 @@ FileBreakdown validateFile(const EsvoReader& reader) {
         total.infoBytes += summary.infoBytes;
         total.paddingBytes += summary.paddingBytes;
         total.contourBytes += summary.contourBytes;
+        total.attributeLookupBytes += summary.attributeLookupBytes;
+        total.attributeValueBytes += summary.attributeValueBytes;
+        total.attributeBlockBytes += summary.attributeBlockBytes;
         used += s.byteSize;
         frontiers[i] = std::move(summary.frontier);
     }

@@ -89,19 +89,30 @@ nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakd
     report["root_cube"] = {{"origin", {-h.worldToRoot[3] / h.worldToRoot[0], -h.worldToRoot[7] / h.worldToRoot[5],
                                        -h.worldToRoot[11] / h.worldToRoot[10]}},
                            {"size", 1.0 / h.worldToRoot[0]}};
-    report["bytes"] = {{"hierarchy", b.descriptorBytes},   {"far_pointers", b.farPointerBytes},
-                       {"page_headers", b.pageHeaderBytes}, {"padding", b.paddingBytes + b.slicePaddingBytes},
-                       {"info_sections", b.infoBytes},      {"header_and_directory", b.headerAndDirectoryBytes},
-                       {"contours", b.contourBytes},       {"attachments", b.attachmentBytes}};
-    report["bytes_per_voxel"] = {{"total", perVoxel(h.fileBytes)},
-                                 {"hierarchy", perVoxel(b.descriptorBytes)},
-                                 {"far_pointers", perVoxel(b.farPointerBytes)},
-                                 {"page_headers", perVoxel(b.pageHeaderBytes)},
-                                 {"padding", perVoxel(b.paddingBytes + b.slicePaddingBytes)},
-                                 {"info_sections", perVoxel(b.infoBytes)},
-                                 {"header_and_directory", perVoxel(b.headerAndDirectoryBytes)},
-                                 {"contours", perVoxel(b.contourBytes)},
-                                 {"attachments", perVoxel(b.attachmentBytes)}};
+    const auto kinds = h.attachmentKinds;
+    const auto has = [&](esvo::AttachmentKind k) { return (kinds >> static_cast<unsigned>(k)) & 1u; };
+    report["contours"] = has(esvo::AttachmentKind::Contour) != 0;
+    report["attributes"] = has(esvo::AttachmentKind::Dxt) ? "compressed" : has(esvo::AttachmentKind::Palette) ? "raw" : "none";
+    const std::pair<const char*, std::uint64_t> parts[] = {
+        {"hierarchy", b.descriptorBytes},
+        {"far_pointers", b.farPointerBytes},
+        {"page_headers", b.pageHeaderBytes},
+        {"padding", b.paddingBytes + b.slicePaddingBytes},
+        {"info_sections", b.infoBytes},
+        {"header_and_directory", b.headerAndDirectoryBytes},
+        {"contours", b.contourBytes},
+        {"attribute_lookup", b.attributeLookupBytes},
+        {"attribute_values", b.attributeValueBytes},
+        {"attribute_blocks", b.attributeBlockBytes},
+    };
+    nlohmann::json bytes = nlohmann::json::object(), perVoxelBytes = nlohmann::json::object();
+    perVoxelBytes["total"] = perVoxel(h.fileBytes);
+    for (const auto& [name, value] : parts) {
+        bytes[name] = value;
+        perVoxelBytes[name] = perVoxel(value);
+    }
+    report["bytes"] = bytes;
+    report["bytes_per_voxel"] = perVoxelBytes;
     return report;
 }
 

@@ -22,7 +22,8 @@ namespace vox::tools {
 
 /// The .esvo summary voxinspect info prints: depth, voxels, voxels_per_level, slices,
 /// far_pointers, file_bytes, bytes_per_voxel {total, hierarchy, far_pointers, page_headers,
-/// padding, info_sections, header_and_directory, contours, attachments} (docs/cli.md).
+/// padding, info_sections, header_and_directory, contours, attribute_lookup, attribute_values,
+/// attribute_blocks} (docs/cli.md).
 [[nodiscard]] nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakdown& breakdown);
 
 /// Adds timings_ms, peak_rss_bytes, threads, tool and version to @p report and writes it

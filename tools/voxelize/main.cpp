@@ -25,6 +25,9 @@ struct VoxelizeOptions {
     bool includeDynamic = false;
     bool noContours = false;
     double contourError = 0;
+    std::string attributes = "dxt";
+    double colorError = 0;
+    double normalError = 0;
     std::string stats;
     std::string depfile;
     std::vector<std::string> dynamicNames;
@@ -68,6 +71,9 @@ void voxelize(const VoxelizeOptions& options) {
         voxelizeOptions.includeDynamic = options.includeDynamic;
         voxelizeOptions.contours = !options.noContours;
         voxelizeOptions.contourError = options.contourError;
+        voxelizeOptions.attributes = options.attributes != "none";
+        voxelizeOptions.colorError = options.colorError;
+        voxelizeOptions.normalErrorDegrees = options.normalError;
         voxelizeOptions.timings = &timings;
         const auto buildStart = std::chrono::steady_clock::now();
         vox::SparseOctree octree;
@@ -79,6 +85,9 @@ void voxelize(const VoxelizeOptions& options) {
         vox::EsvoWriteOptions writeOptions;
         writeOptions.sliceBytes = options.sliceBytes;
         writeOptions.nearPointerLimit = options.nearPointerLimit;
+        writeOptions.attributes = options.attributes == "raw" ? vox::AttributeEncoding::Raw
+                                : options.attributes == "dxt" ? vox::AttributeEncoding::Compressed
+                                                              : vox::AttributeEncoding::None;
         writeOptions.sceneBounds = bounds;
         writeOptions.timings = &timings;
         vox::EsvoWriteResult written;
@@ -101,6 +110,7 @@ void voxelize(const VoxelizeOptions& options) {
                             {"slices", written.slices},
                             {"far_pointers", written.farPointers},
                             {"file_bytes", written.fileBytes},
+                            {"attributes", options.attributes},
                             {"bytes_per_voxel", double(written.fileBytes) / double(octree.voxelCount())},
                             {"voxelize_seconds", voxelizeSeconds},
                             {"build_seconds", buildSeconds},
@@ -130,6 +140,15 @@ int main(int argc, char** argv) {
     app.add_option("--contour-error", options.contourError,
                    "Stop refining where a voxel's cube and contour lie within E leaf voxels of the surface (0: refine to --depth)")
         ->check(CLI::Range(0.0, 1e6))->capture_default_str();
+    app.add_option("--attributes", options.attributes,
+                   "Colour and normal per voxel: dxt (compressed, 6 words per 16 child slots), raw (64 bits per voxel) or none")
+        ->check(CLI::IsMember({"dxt", "raw", "none"}))->capture_default_str();
+    app.add_option("--color-error", options.colorError,
+                   "With --contour-error: keep refining where colour varies more than this (8-bit sRGB steps) inside a voxel (0: off)")
+        ->check(CLI::Range(0.0, 255.0))->capture_default_str();
+    app.add_option("--normal-error", options.normalError,
+                   "With --contour-error: keep refining where the normal varies more than this many degrees inside a voxel (0: off)")
+        ->check(CLI::Range(0.0, 180.0))->capture_default_str();
     app.add_option("--debug-near-pointer-limit", options.nearPointerLimit,
                    "Largest near child pointer (testing far pointers)")
         ->check(CLI::Range(32, 0x7FFF))->group("");

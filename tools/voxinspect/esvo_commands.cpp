@@ -44,9 +44,11 @@ void printInfo(const std::string& file, bool json) {
     std::printf("  far pointers    %llu\n", static_cast<unsigned long long>(report["far_pointers"].get<std::uint64_t>()));
     std::printf("  file bytes      %llu\n", static_cast<unsigned long long>(reader.header().fileBytes));
     std::printf("  bytes per voxel %.3f\n", report["bytes_per_voxel"]["total"].get<double>());
-    for (const char* part : {"hierarchy", "far_pointers", "page_headers", "padding", "info_sections", "header_and_directory", "contours", "attachments"})
-        std::printf("    %-22s %.4f  (%llu bytes)\n", part, report["bytes_per_voxel"][part].get<double>(),
-                    static_cast<unsigned long long>(report["bytes"][part].get<std::uint64_t>()));
+    std::printf("  contours        %s\n  attributes      %s\n", report["contours"].get<bool>() ? "yes" : "no",
+                report["attributes"].get<std::string>().c_str());
+    for (const auto& [part, bytes] : report["bytes"].items())
+        std::printf("    %-22s %.4f  (%llu bytes)\n", part.c_str(), report["bytes_per_voxel"][part].get<double>(),
+                    static_cast<unsigned long long>(bytes.get<std::uint64_t>()));
 }
 
 nlohmann::json sliceJson(const esvo::SliceEntry& s, std::uint32_t index) {

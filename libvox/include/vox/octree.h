@@ -37,6 +37,11 @@ struct SparseOctree {
     /// contours[l][i]: the encoded esvo::Contour of voxel i of level l (0: none), for levels
     /// 0 … leafDepth (level 0's single entry is unused). Empty: the octree has no contours.
     std::vector<std::vector<std::uint32_t>> contours;
+    /// attributes[l][i]: the shading attributes of voxel i of level l, for levels 0 … leafDepth,
+    /// filtered from the triangle fragments inside the voxel: the colour word
+    /// (esvo::packColor, sRGB-encoded RGB, linear coverage in alpha) in the low 32 bits and the
+    /// cube-face normal (esvo::encodeNormal) in the high 32 bits. Empty: no attributes.
+    std::vector<std::vector<std::uint64_t>> attributes;
 
     [[nodiscard]] std::uint64_t voxelCount() const noexcept;
 };
@@ -49,6 +54,14 @@ struct SurfaceVoxelizeOptions {
     /// With contours: a voxel stops refining where cube ∩ slab lies within this many leaf
     /// voxels of the surface; 0 refines everything to the leaf depth.
     double contourError = 0;
+    /// Filter a colour and a normal for every voxel (SparseOctree::attributes).
+    bool attributes = false;
+    /// With attributes and a contour error: a voxel whose geometry is within the contour error
+    /// still refines while its colour or normal varies more than these bounds over its fragments
+    /// (colour: largest 8-bit sRGB channel difference from the voxel's value; normal: degrees).
+    /// 0 disables the attribute criterion.
+    double colorError = 0;
+    double normalErrorDegrees = 0;
     Timings* timings = nullptr;
 };
 
@@ -59,8 +72,17 @@ struct SurfaceVoxelizeOptions {
 /// @throws InvalidDataError if the scene has no (static) triangles; UsageError for a bad depth.
 [[nodiscard]] SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& options);
 
+/// How writeEsvo stores SparseOctree::attributes (docs/esvo-format.md, "Attributes").
+enum class AttributeEncoding : std::uint8_t {
+    None,        ///< no colour or normal
+    Raw,         ///< uncompressed ("palette"): a lookup entry per descriptor, 64 bits per stored voxel
+    Compressed,  ///< DXT-style: 6 words per pair of sibling descriptors (16 child slots)
+};
+
 /// Options for writeEsvo.
 struct EsvoWriteOptions {
+    /// Ignored (None) when the octree has no attributes.
+    AttributeEncoding attributes = AttributeEncoding::Compressed;
     std::uint32_t sliceBytes = 1u << 20;   ///< largest slice, ≥ 16384
     /// Largest near child pointer (64-bit units). 32767 is the format's; tests lower it to force
     /// far pointers.

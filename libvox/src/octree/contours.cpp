@@ -10,37 +10,6 @@
 namespace vox::detail {
 namespace {
 
-/// Clips a triangle to the cube [−½, ½]³ (Sutherland–Hodgman), appending the polygon to @p out.
-void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out, std::array<Vec3d, 12>& bufferA,
-                    std::array<Vec3d, 12>& bufferB) {
-    bool inside = true;
-    for (const Vec3d& p : triangle) inside = inside && std::abs(p.x) <= 0.5 && std::abs(p.y) <= 0.5 && std::abs(p.z) <= 0.5;
-    if (inside) {  // common for fine triangles in coarse voxels
-        out.insert(out.end(), triangle.begin(), triangle.end());
-        return;
-    }
-    Vec3d* a = bufferA.data();
-    Vec3d* b = bufferB.data();
-    std::size_t n = 3;
-    std::copy(triangle.begin(), triangle.end(), a);
-    for (int axis = 0; axis < 3 && n > 0; ++axis)
-        for (double side : {-1.0, 1.0}) {
-            // Keep side·p[axis] ≤ ½.
-            std::size_t m = 0;
-            for (std::size_t i = 0; i < n && m + 2 <= bufferA.size(); ++i) {
-                const Vec3d& p = a[i];
-                const Vec3d& q = a[i + 1 == n ? 0 : i + 1];
-                const double dp = side * p[axis] - 0.5, dq = side * q[axis] - 0.5;
-                if (dp <= 0) b[m++] = p;
-                if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) b[m++] = p + (q - p) * (dp / (dp - dq));
-            }
-            n = m;
-            std::swap(a, b);
-            if (n == 0) break;
-        }
-    out.insert(out.end(), a, a + n);
-}
-
 /// Quantises a direction to the contour's integer normal (largest component ±31).
 std::array<int, 3> quantiseNormal(Vec3d m) {
     const double largest = std::max({std::abs(m.x), std::abs(m.y), std::abs(m.z)});

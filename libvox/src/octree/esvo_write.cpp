@@ -1,8 +1,12 @@
 // Lays a SparseOctree out as ESVO blocks (child descriptors with near/far pointers, page headers,
-// info sections) grouped into slices, and writes the .esvo file (docs/esvo-format.md).
+// info sections, contour and attribute attachments) grouped into slices, and writes the .esvo file
+// (docs/esvo-format.md).
+#include "attribute_encode.h"
+
 #include <vox/formats/atomic_file.h>
 #include <vox/formats/error.h>
 #include <vox/formats/esvo.h>
+#include <vox/formats/esvo_attributes.h>
 #include <vox/octree.h>
 #include <vox/util/log.h>
 #include <vox/util/progress.h>
@@ -49,6 +53,9 @@ public:
     [[nodiscard]] std::uint32_t contour(std::uint32_t level, std::uint64_t i) const {
         return octree_.contours.empty() ? 0u : octree_.contours[level][i];
     }
+    [[nodiscard]] bool hasAttributes() const { return !octree_.attributes.empty(); }
+    /// Attribute word pair of voxel i of level (SparseOctree::attributes).
+    [[nodiscard]] std::uint64_t attribute(std::uint32_t level, std::uint64_t i) const { return octree_.attributes[level][i]; }
     [[nodiscard]] std::uint64_t firstChild(std::uint32_t level, std::uint64_t i) const { return firstChild_[level][i]; }
     /// Slots whose children have descriptors of their own.
     [[nodiscard]] std::uint32_t nonLeafMask(std::uint32_t level, std::uint64_t i) const {
@@ -85,6 +92,15 @@ struct SliceBlock {
     std::vector<Node> frontier;           // in frontier-table order
     std::uint32_t infoWord = 0;
     std::uint64_t contourWords = 0;
+    /// Compressed attributes are encoded once the plan is final: the descriptors by unit, and
+    /// where their blocks go.
+    struct DescriptorRef {
+        std::uint64_t unit;
+        std::uint32_t level;
+        std::uint64_t index;
+    };
+    std::vector<DescriptorRef> pendingCompressed;
+    std::uint64_t compressedUnit = 0;
     bool overflow = false;  // a near pointer estimate failed: the block is over a slice anyway
     [[nodiscard]] std::uint64_t byteSize() const { return overflow ? ~std::uint64_t{0} : 8 * units.size(); }
 };
@@ -93,8 +109,19 @@ struct SliceBlock {
 /// slice holding that voxel's child group and everything under it needs, before overheads.
 class SubtreeSizes {
 public:
-    explicit SubtreeSizes(const OctreeIndex& tree) : bytes_(tree.depth()) {
+    /// Attribute bytes are estimated per descriptor: raw, a lookup word and 8 bytes per child;
+    /// compressed, half a 24-byte block plus a padding unit and its half block per group.
+    SubtreeSizes(const OctreeIndex& tree, AttributeEncoding attributes) : bytes_(tree.depth()) {
         const std::uint32_t depth = tree.depth();
+        const auto descriptorBytes = [&](std::uint32_t valid) -> std::uint64_t {
+            switch (attributes) {
+            case AttributeEncoding::Raw: return 8 + 4 + 8 * esvo::popc8(valid);
+            case AttributeEncoding::Compressed: return 8 + 12;
+            case AttributeEncoding::None: break;
+            }
+            return 8;
+        };
+        const std::uint64_t groupBytes = attributes == AttributeEncoding::Compressed ? 20 : 0;
         for (std::uint32_t l = depth; l-- > 0;) {
             auto& out = bytes_[l];
             out.assign(tree.levelSize(l), 0);
@@ -114,12 +141,17 @@ public:
                 for (std::uint64_t i = r.begin(); i != r.end(); ++i) {
                     const std::uint32_t valid = tree.validMask(l, i);
                     std::uint64_t child = tree.firstChild(l, i), sum = 0;
+                    bool group = false;
                     for (std::uint32_t slot = 0; slot < 8; ++slot)
                         if (valid & (1u << slot)) {
-                            if (tree.hasDescriptor(l + 1, child)) sum += 8 + next[child];
+                            if (tree.hasDescriptor(l + 1, child)) {
+                                sum += descriptorBytes(tree.validMask(l + 1, child)) + next[child];
+                                group = true;
+                            }
                             if (tree.contour(l + 1, child)) sum += 4;
                             ++child;
                         }
+                    if (group) sum += groupBytes;
                     out[i] = static_cast<std::uint32_t>(std::min<std::uint64_t>(sum, 0xFFFFFFFFu));
                 }
             });
@@ -144,8 +176,10 @@ class BlockLayout {
 public:
     /// Blocks larger than @p sliceBytes are only measured, never written: their near/far
     /// estimates may assume every subtree fits the slice.
-    BlockLayout(const OctreeIndex& tree, const SubtreeSizes& sizes, std::uint32_t nearLimit, CutRule cut, std::uint64_t sliceBytes)
-        : tree_(tree), sizes_(sizes), nearLimit_(nearLimit), cut_(cut), maxUnits_(sliceBytes / 8) {}
+    BlockLayout(const OctreeIndex& tree, const SubtreeSizes& sizes, std::uint32_t nearLimit, CutRule cut, std::uint64_t sliceBytes,
+                AttributeEncoding attributes)
+        : tree_(tree), sizes_(sizes), nearLimit_(nearLimit), cut_(cut), maxUnits_(sliceBytes / 8),
+          attributes_(tree.hasAttributes() ? attributes : AttributeEncoding::None) {}
 
     /// @p parents empty: the root slice.
     SliceBlock run(const std::vector<Node>& parents) {
@@ -180,7 +214,10 @@ public:
             block_.units.push_back(contourWords[i] | (std::uint64_t{contourWords[i + 1]} << 32));
         block_.contourWords = nextWord - contourWord;
         if (contourWord >= (std::uint64_t{1} << 24) && !contours_.empty()) block_.overflow = true;  // 24-bit contour pointers
-        const std::uint32_t attachments = contours_.empty() ? 0 : 1;
+        const std::uint64_t attributeWord = 2 * block_.units.size();
+        if (attributes_ == AttributeEncoding::Raw) appendPalette(contourWord / 2);
+        if (attributes_ == AttributeEncoding::Compressed) reserveCompressed(contourWord / 2);
+        const std::uint32_t attachments = (contours_.empty() ? 0 : 1) + (attributes_ == AttributeEncoding::None ? 0 : 1);
 
         // Info section and tables.
         const std::uint64_t infoUnit = block_.units.size();
@@ -192,9 +229,13 @@ public:
         words.push_back(0);  // block index in slice
         words.push_back(rel(2));
         words.push_back(attachments);
-        if (attachments) {
+        if (!contours_.empty()) {
             words.push_back(static_cast<std::uint32_t>(esvo::AttachmentKind::Contour));
             words.push_back(rel(contourWord));
+        }
+        if (attributes_ != AttributeEncoding::None) {
+            words.push_back(static_cast<std::uint32_t>(attributes_ == AttributeEncoding::Raw ? esvo::AttachmentKind::Palette : esvo::AttachmentKind::Dxt));
+            words.push_back(rel(attributeWord));
         }
         words.push_back(static_cast<std::uint32_t>(rootGroupUnits.size()));
         words.push_back(rel(tablesStart));
@@ -218,13 +259,19 @@ private:
     }
 
     /// Reserves @p count contiguous units inside one page, inserting padding and a page header
-    /// where the page is full.
+    /// where the page is full. With compressed attributes groups start on even units, so that
+    /// the descriptors sharing a compressed block are siblings.
     std::uint64_t placeGroup(std::uint64_t count) {
         auto& u = block_.units;
+        const auto alignForPairs = [&] {
+            if (attributes_ == AttributeEncoding::Compressed && u.size() % 2) u.push_back(0);
+        };
+        alignForPairs();
         if (u.size() % kPageUnits + count > kPageUnits) u.resize((u.size() / kPageUnits + 1) * kPageUnits, 0);
         if (u.size() % kPageUnits == 0) {
             pageHeaders_.push_back(u.size());
             u.push_back(0);
+            alignForPairs();
         }
         const std::uint64_t start = u.size();
         u.resize(start + count, 0);
@@ -255,6 +302,7 @@ private:
             }
             block_.units[unit] = esvo::ChildDescriptor::make(valid, nonLeaf, pointer, far[j]).topology;
             collectContours(members[j], unit);
+            if (attributes_ != AttributeEncoding::None) descriptors_.push_back({unit, members[j].level, members[j].index});
             ++block_.descriptors;
             block_.voxels += esvo::popc8(valid);
             block_.endLevel = std::max(block_.endLevel, members[j].level + 1);
@@ -277,6 +325,48 @@ private:
                 ++child;
             }
         if (p.mask) contours_.push_back(p);
+    }
+
+    /// Values of the children of descriptor @p d, in slot order: SparseOctree::attributes.
+    template <typename F>
+    void forEachChildValue(const SliceBlock::DescriptorRef& d, F&& f) const {
+        const std::uint32_t valid = tree_.validMask(d.level, d.index);
+        std::uint64_t child = tree_.firstChild(d.level, d.index);
+        for (std::uint32_t slot = 0; slot < 8; ++slot)
+            if (valid & (1u << slot)) f(slot, tree_.attribute(d.level + 1, child++));
+    }
+
+    /// Uncompressed attachment: a lookup word per unit of the descriptor area (0 for units that
+    /// are not descriptors), padded to a whole unit, then the stored values. A child whose value
+    /// equals its parent's is not stored: it inherits. (The root voxel's own value is stored
+    /// nowhere, so the root descriptor stores all its children.)
+    void appendPalette(std::uint64_t descriptorUnits) {
+        std::vector<std::uint32_t> lookup(descriptorUnits + descriptorUnits % 2, 0);
+        std::vector<std::uint64_t> values;
+        const std::uint64_t valuesWord = lookup.size();  // relative to the attachment
+        for (const SliceBlock::DescriptorRef& d : descriptors_) {
+            const std::uint64_t own = d.level == 0 ? ~std::uint64_t{0} : tree_.attribute(d.level, d.index);
+            std::uint32_t mask = 0;
+            const std::uint64_t pointer = valuesWord + 2 * values.size();
+            forEachChildValue(d, [&](std::uint32_t slot, std::uint64_t value) {
+                if (value == own) return;
+                mask |= 1u << slot;
+                values.push_back(value);
+            });
+            if (pointer > esvo::PaletteLookup::kMaxPointer) block_.overflow = true;
+            lookup[d.unit] = mask ? esvo::PaletteLookup::make(mask, static_cast<std::uint32_t>(pointer)).word : 0u;
+        }
+        for (std::size_t i = 0; i < lookup.size(); i += 2) block_.units.push_back(lookup[i] | (std::uint64_t{lookup[i + 1]} << 32));
+        block_.units.insert(block_.units.end(), values.begin(), values.end());
+    }
+
+    /// Compressed attachment: one block per pair of units of the descriptor area, filled by
+    /// encodeCompressedAttributes once the slice plan is final.
+    void reserveCompressed(std::uint64_t descriptorUnits) {
+        const std::uint64_t blocks = (descriptorUnits + 1) / 2;
+        block_.compressedUnit = block_.units.size();
+        block_.units.resize(block_.units.size() + 3 * blocks, 0);  // 6 words each
+        block_.pendingCompressed = std::move(descriptors_);
     }
 
     /// Links each member to its child group (laid out now) or records it as frontier.
@@ -350,7 +440,35 @@ private:
         std::array<std::uint32_t, 8> values;
     };
     std::vector<PendingContours> contours_;
+    AttributeEncoding attributes_;
+    std::vector<SliceBlock::DescriptorRef> descriptors_;  // with attributes: every descriptor placed, by unit
 };
+
+/// Encodes the compressed attribute blocks of a laid-out slice: block p holds the children of
+/// the descriptors in units 2p (slots 0-7) and 2p + 1 (slots 8-15).
+void encodeCompressedAttributes(SliceBlock& block, const OctreeIndex& tree) {
+    auto& refs = block.pendingCompressed;
+    auto* words = reinterpret_cast<std::uint32_t*>(block.units.data() + block.compressedUnit);
+    for (std::size_t i = 0; i < refs.size();) {
+        const std::uint64_t pair = refs[i].unit / 2;
+        std::array<std::uint64_t, 16> values{};
+        std::uint32_t used = 0;
+        for (; i < refs.size() && refs[i].unit / 2 == pair; ++i) {
+            const SliceBlock::DescriptorRef& d = refs[i];
+            const std::uint32_t base = (d.unit & 1u) ? 8u : 0u;
+            const std::uint32_t valid = tree.validMask(d.level, d.index);
+            std::uint64_t child = tree.firstChild(d.level, d.index);
+            for (std::uint32_t slot = 0; slot < 8; ++slot)
+                if (valid & (1u << slot)) {
+                    values[base + slot] = tree.attribute(d.level + 1, child++);
+                    used |= 1u << (base + slot);
+                }
+        }
+        const esvo::CompressedBlock encoded = detail::encodeCompressedBlock(values, used);
+        std::copy(encoded.begin(), encoded.end(), words + 6 * pair);
+    }
+    refs = {};
+}
 
 struct PlannedSlice {
     Node region;
@@ -395,7 +513,7 @@ private:
     [[nodiscard]] std::uint64_t budget() const { return options_.sliceBytes - options_.sliceBytes / 16; }
 
     SliceBlock layout(const std::vector<Node>& parents, CutRule cut) const {
-        return BlockLayout(tree_, sizes_, options_.nearPointerLimit, cut, options_.sliceBytes).run(parents);
+        return BlockLayout(tree_, sizes_, options_.nearPointerLimit, cut, options_.sliceBytes, options_.attributes).run(parents);
     }
 
     std::unique_ptr<PlanNode> makeSlice(const Node& region, const std::vector<Node>& parents) const {
@@ -493,14 +611,19 @@ EsvoWriteResult writeEsvo(const std::filesystem::path& file, const SparseOctree&
     if (octree.leafDepth < 1 || octree.leafDepth > esvo::kMaxLeafDepth) throw UsageError("leaf depth out of range");
 
     std::vector<PlannedSlice> planned;
+    const OctreeIndex index(octree);
     {
         Timings::Scope timer(options.timings, "esvo_layout");
-        const OctreeIndex index(octree);
-        const SubtreeSizes sizes(index);
+        const SubtreeSizes sizes(index, octree.attributes.empty() ? AttributeEncoding::None : options.attributes);
         Progress progress("laying out slices", 0);
         SlicePlanner planner(index, sizes, options);
         planner.progress = &progress;
         planned = planner.plan();
+    }
+
+    if (!octree.attributes.empty() && options.attributes == AttributeEncoding::Compressed) {
+        Timings::Scope timer(options.timings, "esvo_compress_attributes");
+        tbb::parallel_for(std::size_t{0}, planned.size(), [&](std::size_t i) { encodeCompressedAttributes(planned[i].block, index); });
     }
 
     // Directory order: breadth-first, so every slice's children are contiguous.
@@ -560,6 +683,10 @@ EsvoWriteResult writeEsvo(const std::filesystem::path& file, const SparseOctree&
     header.sceneBoundsMax = {options.sceneBounds.max.x, options.sceneBounds.max.y, options.sceneBounds.max.z};
     header.leafDepth = octree.leafDepth;
     if (!octree.contours.empty()) header.attachmentKinds |= 1u << static_cast<unsigned>(esvo::AttachmentKind::Contour);
+    if (!octree.attributes.empty() && options.attributes == AttributeEncoding::Raw)
+        header.attachmentKinds |= 1u << static_cast<unsigned>(esvo::AttachmentKind::Palette);
+    if (!octree.attributes.empty() && options.attributes == AttributeEncoding::Compressed)
+        header.attachmentKinds |= 1u << static_cast<unsigned>(esvo::AttachmentKind::Dxt);
     header.sliceBytesLimit = options.sliceBytes;
     header.nearPointerLimit = options.nearPointerLimit;
     header.sliceCount = static_cast<std::uint32_t>(planned.size());

@@ -3,6 +3,7 @@
 // exact triangle/box test. Per-level mask arrays come out in Morton order (see SparseOctree).
 #include "contours.h"
 #include "triangle_box.h"
+#include "voxel_attributes.h"
 
 #include <vox/formats/error.h>
 #include <vox/formats/esvo.h>
@@ -17,6 +18,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 #include <span>
 
 namespace vox {
@@ -66,20 +68,24 @@ class SubtreeBuilder {
 public:
     /// @p contourError: leaf units; a voxel whose cube ∩ slab lies within it of the surface
     /// stops refining (0: always refine to the leaf depth).
-    SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, std::uint32_t depth, std::uint32_t rootLevel, bool contours,
-                   double contourError)
-        : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), contours_(contours), contourError_(contourError),
-          scratch_(depth + 1), masks_(depth - rootLevel), contourOut_(contours ? depth + 1 - rootLevel : 0) {}
+    /// @p attributes: null, or the sampler that filters every voxel's colour and normal.
+    SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, std::uint32_t depth, std::uint32_t rootLevel,
+                   const SurfaceVoxelizeOptions& options, const detail::AttributeSampler* attributes)
+        : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), contours_(options.contours), contourError_(options.contourError),
+          colorError_(options.colorError), normalError_(options.normalErrorDegrees), attributes_(attributes), scratch_(depth + 1), masks_(depth - rootLevel), contourOut_(options.contours ? depth + 1 - rootLevel : 0),
+          attributeOut_(attributes ? depth + 1 - rootLevel : 0) {}
+
 
     /// Returns the node's mask; a node none of whose children a triangle touches (possible only
     /// where rounding made the parent's test pass) is left out: nothing is appended.
     /// @p slab: the node's effective contour (its own, or its parent's carried down; 0: none).
+    /// @p sums: with attributes, receives the node's attribute sums.
     std::uint32_t build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list,
-                        std::uint32_t slab = 0) {
+                        std::uint32_t slab = 0, detail::AttributeSums* sums = nullptr) {
         const double half = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));  // this node's half-extent
         const Vec3d centre{(2 * x + 1) * half, (2 * y + 1) * half, (2 * z + 1) * half};
         std::uint32_t mask = 0;
-        if (level + 1 == depth_ && !contours_) {
+        if (level + 1 == depth_ && !contours_ && !attributes_) {
             for (std::uint32_t t : list) {
                 mask |= detail::childOverlapMask(triangles_[t], centre, half);
                 if (mask == 0xFF) break;
@@ -94,6 +100,7 @@ public:
                 for (std::uint32_t bits = m; bits; bits &= bits - 1) children[static_cast<unsigned>(__builtin_ctz(bits))].push_back(t);
             }
             std::array<std::uint32_t, 8> childContours{};
+            std::array<detail::AttributeSums, 8> childSums{};
             const double childHalf = 0.5 * half;
             for (std::uint32_t slot = 0; slot < 8; ++slot) {
                 if (!(touched & (1u << slot))) continue;
@@ -121,26 +128,46 @@ public:
                     // slab thicker than twice the error cannot be (one of its planes is too far).
                     if (!leaf && contourError_ > 0 && childSlab && thickness * childHalf <= contourError_ &&
                         detail::shapeError(childSlab, children[slot], triangles_, childCentre, childHalf) <= contourError_)
-                        leaf = true;
+                        leaf = attributesWithinBounds(children[slot], childCentre, childHalf);
                 }
                 if (leaf) {
                     mask |= 1u << slot;
                     if (level + 1 < depth_) masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
-                } else if (build(level + 1, cx, cy, cz, children[slot], childSlab) != 0) {
+                    if (attributes_) {
+                        const Vec3d childCentre{(2 * cx + 1) * childHalf, (2 * cy + 1) * childHalf, (2 * cz + 1) * childHalf};
+                        childSums[slot] = attributes_->filter(children[slot], childCentre, childHalf, attributeScratch_);
+                    }
+                } else if (build(level + 1, cx, cy, cz, children[slot], childSlab, &childSums[slot]) != 0) {
                     mask |= 1u << slot;
                 }
             }
-            if (contours_)
-                for (std::uint32_t bits = mask; bits; bits &= bits - 1)
-                    contourOut_[level + 1 - rootLevel_].push_back(childContours[static_cast<unsigned>(__builtin_ctz(bits))]);
+            for (std::uint32_t bits = mask; bits; bits &= bits - 1) {
+                const auto slot = static_cast<unsigned>(__builtin_ctz(bits));
+                if (contours_) contourOut_[level + 1 - rootLevel_].push_back(childContours[slot]);
+                if (attributes_) {
+                    attributeOut_[level + 1 - rootLevel_].push_back(childSums[slot].pack());
+                    if (sums) *sums += childSums[slot];
+                }
+            }
         }
         if (mask != 0) masks_[level - rootLevel_].push_back(static_cast<std::uint8_t>(mask));
         return mask;
     }
 
     std::vector<std::vector<std::uint8_t>>& masks() { return masks_; }
+
+    /// The attribute criterion of refinement: true where the voxel's own (encoded) colour and
+    /// normal represent everything inside it within the bounds, or where there are no bounds.
+    bool attributesWithinBounds(std::span<const std::uint32_t> list, Vec3d centre, double half) {
+        if (!attributes_ || (colorError_ <= 0 && normalError_ <= 0)) return true;
+        const std::uint64_t value = attributes_->filter(list, centre, half, attributeScratch_).pack();
+        const auto v = attributes_->variation(list, centre, half, value, attributeScratch_);
+        return (colorError_ <= 0 || v.color <= colorError_) && (normalError_ <= 0 || v.normalDegrees <= normalError_);
+    }
     /// contours()[l − rootLevel] for levels rootLevel … depth (the root level's entry stays empty).
     std::vector<std::vector<std::uint32_t>>& contours() { return contourOut_; }
+    /// attributes()[l − rootLevel] for levels rootLevel … depth (the root level's entry stays empty).
+    std::vector<std::vector<std::uint64_t>>& attributes() { return attributeOut_; }
 
 private:
     const std::vector<BoxTestTriangle>& triangles_;
@@ -148,10 +175,14 @@ private:
     std::uint32_t rootLevel_;
     bool contours_;
     double contourError_;
+    double colorError_, normalError_;
+    const detail::AttributeSampler* attributes_;
     std::vector<std::array<std::vector<std::uint32_t>, 8>> scratch_;  // child lists per level
     std::vector<std::vector<std::uint8_t>> masks_;
     std::vector<std::vector<std::uint32_t>> contourOut_;
+    std::vector<std::vector<std::uint64_t>> attributeOut_;
     detail::ContourScratch contourScratch_;
+    detail::AttributeScratch attributeScratch_;
 };
 
 }  // namespace
@@ -179,14 +210,19 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
     // Triangles in leaf-voxel units: the cube is [0, 2^depth]³.
     std::vector<BoxTestTriangle> triangles;
     triangles.reserve(triangleCount);
+    std::vector<detail::TriangleSource> sources;
+    if (options.attributes) sources.reserve(triangleCount);
     {
         Timings::Scope timer(options.timings, "voxelize_prepare");
         const double scale = std::ldexp(1.0, static_cast<int>(depth)) / octree.cube.size;
         const auto toLeaf = [&](Vec3f p) {
             return Vec3d{(p.x - octree.cube.origin.x) * scale, (p.y - octree.cube.origin.y) * scale, (p.z - octree.cube.origin.z) * scale};
         };
-        for (const Mesh& mesh : scene.meshes) {
+        for (std::uint32_t m = 0; m < scene.meshes.size(); ++m) {
+            const Mesh& mesh = scene.meshes[m];
             if (mesh.dynamic && !options.includeDynamic) continue;
+            if (options.attributes)
+                for (std::size_t t = 0; t < mesh.triangleCount(); ++t) sources.push_back({m, static_cast<std::uint32_t>(t)});
             for (std::size_t t = 0; t < mesh.triangleCount(); ++t)
                 triangles.push_back(detail::prepareBoxTest(toLeaf(mesh.positions[mesh.indices[3 * t]]),
                                                            toLeaf(mesh.positions[mesh.indices[3 * t + 1]]),
@@ -243,7 +279,11 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
     // Subtrees of the cells, in parallel; results are joined in Morton order.
     std::vector<std::vector<std::vector<std::uint8_t>>> subtrees(cells.size());
     std::vector<std::vector<std::vector<std::uint32_t>>> subtreeContours(cells.size());
+    std::vector<std::vector<std::vector<std::uint64_t>>> subtreeAttributes(cells.size());
+    std::vector<detail::AttributeSums> cellSums(cells.size());
     std::vector<std::uint8_t> occupied(cells.size(), 0);
+    std::optional<detail::AttributeSampler> sampler;
+    if (options.attributes) sampler.emplace(scene, triangles, std::move(sources));
     {
         Timings::Scope timer(options.timings, "voxelize_subtrees");
         Progress progress("voxelizing", cells.size());
@@ -258,10 +298,11 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
                     y |= ((cells[c].code >> (3 * bit + 1)) & 1u) << bit;
                     z |= ((cells[c].code >> (3 * bit + 2)) & 1u) << bit;
                 }
-                SubtreeBuilder builder(triangles, depth, k, options.contours, options.contourError);
-                occupied[c] = builder.build(k, x, y, z, list) != 0;
+                SubtreeBuilder builder(triangles, depth, k, options, sampler ? &*sampler : nullptr);
+                occupied[c] = builder.build(k, x, y, z, list, 0, &cellSums[c]) != 0;
                 subtrees[c] = std::move(builder.masks());
                 subtreeContours[c] = std::move(builder.contours());
+                subtreeAttributes[c] = std::move(builder.attributes());
                 progress.advance();
             }
         });
@@ -272,20 +313,35 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
     octree.masks.resize(depth);
     // Levels above k from the set of occupied cells.
     std::vector<std::uint32_t> codes;
+    std::vector<detail::AttributeSums> sums;  // with attributes: per entry of codes
     codes.reserve(cells.size());
     for (std::size_t c = 0; c < cells.size(); ++c)
-        if (occupied[c]) codes.push_back(cells[c].code);
+        if (occupied[c]) {
+            codes.push_back(cells[c].code);
+            if (options.attributes) sums.push_back(cellSums[c]);
+        }
+    if (options.attributes) {
+        octree.attributes.resize(depth + 1);
+        for (const auto& s : sums) octree.attributes[k].push_back(s.pack());
+    }
     for (std::uint32_t level = k; level-- > 0;) {
         std::vector<std::uint32_t> parents;
+        std::vector<detail::AttributeSums> parentSums;
         auto& masks = octree.masks[level];
-        for (std::uint32_t code : codes) {
+        for (std::size_t i = 0; i < codes.size(); ++i) {
+            const std::uint32_t code = codes[i];
             if (parents.empty() || parents.back() != (code >> 3)) {
                 parents.push_back(code >> 3);
                 masks.push_back(0);
+                if (options.attributes) parentSums.emplace_back();
             }
             masks.back() = static_cast<std::uint8_t>(masks.back() | (1u << (code & 7u)));
+            if (options.attributes) parentSums.back() += sums[i];
         }
         codes = std::move(parents);
+        sums = std::move(parentSums);
+        if (options.attributes)
+            for (const auto& s : sums) octree.attributes[level].push_back(s.pack());
     }
     for (std::uint32_t level = k; level < depth; ++level) {
         std::size_t total = 0;
@@ -320,6 +376,21 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
             }
             if (out.size() != octree.voxelsPerLevel[level]) throw std::logic_error("voxelizeSurface: contour count inconsistent");
         }
+    }
+    if (options.attributes) {
+        for (std::uint32_t level = k + 1; level <= depth; ++level) {
+            auto& out = octree.attributes[level];
+            out.reserve(octree.voxelsPerLevel[level]);
+            for (std::size_t c = 0; c < cells.size(); ++c) {
+                if (!occupied[c]) continue;
+                auto& part = subtreeAttributes[c][level - k];
+                out.insert(out.end(), part.begin(), part.end());
+                part = {};
+            }
+        }
+        for (std::uint32_t level = 0; level <= depth; ++level)
+            if (octree.attributes[level].size() != octree.voxelsPerLevel[level])
+                throw std::logic_error("voxelizeSurface: attribute count inconsistent");
     }
     return octree;
 }

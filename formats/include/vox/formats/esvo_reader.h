@@ -65,6 +65,8 @@ struct BlockSummary {
     std::vector<FrontierDescriptor> frontier;  ///< in frontier-table order
     std::vector<std::uint64_t> voxelsPerLevel; ///< voxels this block holds, by level
     std::uint64_t descriptorBytes = 0, farPointerBytes = 0, pageHeaderBytes = 0, infoBytes = 0, paddingBytes = 0, contourBytes = 0;
+    /// Attribute attachment: lookup words (uncompressed), stored values, compressed blocks.
+    std::uint64_t attributeLookupBytes = 0, attributeValueBytes = 0, attributeBlockBytes = 0;
 };
 
 /// Word offsets inside a block, read from its info section (after validateBlock has passed).
@@ -72,7 +74,13 @@ struct BlockTables {
     std::uint32_t infoWord = 0;
     std::uint32_t rootGroupCount = 0, rootGroupTableWord = 0;
     std::uint32_t frontierCount = 0, frontierTableWord = 0;
-    std::uint32_t contourWord = 0;  ///< start of the contour array; infoWord when there is none
+    std::uint32_t descriptorEndWord = 0;  ///< end of the descriptor area: the first attachment, or the info section
+    std::uint32_t contourWord = 0;        ///< start of the contour array; descriptorEndWord when there is none
+    std::uint32_t contourEndWord = 0;
+    /// The colour/normal attachment: AttachmentKind::Palette or Dxt, or Contour when there is none.
+    AttachmentKind attributeKind = AttachmentKind::Contour;
+    std::uint32_t attributeWord = 0, attributeEndWord = 0;
+    [[nodiscard]] bool hasAttributes() const noexcept { return attributeKind != AttachmentKind::Contour; }
 };
 /// Reads the tables' location from a block; throws InvalidDataError if they are out of range.
 [[nodiscard]] BlockTables readBlockTables(std::span<const std::uint8_t> block, const std::filesystem::path& file,
@@ -91,7 +99,8 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
 /// Per-part byte totals over a whole file (voxinspect info).
 struct FileBreakdown {
     std::uint64_t descriptorBytes = 0, farPointerBytes = 0, pageHeaderBytes = 0, infoBytes = 0, paddingBytes = 0,
-                  contourBytes = 0, attachmentBytes = 0, headerAndDirectoryBytes = 0, slicePaddingBytes = 0;
+                  contourBytes = 0, attributeLookupBytes = 0, attributeValueBytes = 0, attributeBlockBytes = 0,
+                  headerAndDirectoryBytes = 0, slicePaddingBytes = 0;
 };
 
 /// Validates the whole file: header, directory, every slice and the links between slices.

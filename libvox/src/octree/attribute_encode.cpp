@@ -1,0 +1,665 @@
+#include "attribute_encode.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace vox::detail {
+namespace {
+
+using esvo::Vec3;
+
+// ============================================================================================
+// Colour: RGB565 endpoints c0, c1 and a palette {c0, c1, ⅔c0+⅓c1, ⅓c0+⅔c1}.
+// ============================================================================================
+
+/// The used colours of a block, as 8-bit sRGB integers.
+struct ColorPoints {
+    unsigned count = 0;
+    std::array<unsigned, 16> slot{};
+    std::array<std::array<int, 3>, 16> rgb{};
+};
+
+constexpr int expand5(int c) { return (c << 3) | (c >> 2); }
+constexpr int expand6(int c) { return (c << 2) | (c >> 4); }
+
+/// Lookup tables built once: the code whose expansion is nearest to each 8-bit value, and for
+/// single-colour blocks the endpoint pair whose ⅔a + ⅓b palette entry (with colorPalette's
+/// rounding) is nearest; the pair a = b also covers the endpoints themselves.
+struct ColorTables {
+    std::array<std::uint8_t, 256> nearest5{}, nearest6{};
+    std::array<std::array<std::uint8_t, 2>, 256> single5{}, single6{};
+};
+
+template <int Bits>
+void fillTables(std::array<std::uint8_t, 256>& nearest, std::array<std::array<std::uint8_t, 2>, 256>& single) {
+    constexpr int kCodes = 1 << Bits;
+    const auto expand = [](int c) { return Bits == 5 ? expand5(c) : expand6(c); };
+    for (int value = 0; value < 256; ++value) {
+        int best = 0;
+        for (int c = 1; c < kCodes; ++c)
+            if (std::abs(expand(c) - value) < std::abs(expand(best) - value)) best = c;
+        nearest[value] = static_cast<std::uint8_t>(best);
+        int bestError = std::numeric_limits<int>::max();
+        for (int a = 0; a < kCodes; ++a)
+            for (int b = 0; b < kCodes; ++b) {
+                const int error = std::abs((2 * expand(a) + expand(b) + 1) / 3 - value);
+                if (error < bestError) {
+                    bestError = error;
+                    single[value] = {static_cast<std::uint8_t>(a), static_cast<std::uint8_t>(b)};
+                }
+            }
+    }
+}
+
+const ColorTables& colorTables() {
+    static const ColorTables tables = [] {
+        ColorTables t;
+        fillTables<5>(t.nearest5, t.single5);
+        fillTables<6>(t.nearest6, t.single6);
+        return t;
+    }();
+    return tables;
+}
+
+/// Nearest RGB565 code of a float RGB endpoint.
+std::uint32_t quantise565(const std::array<float, 3>& c, const ColorTables& t) {
+    const auto channel = [](float x) { return static_cast<std::size_t>(std::clamp(std::lround(x), 0l, 255l)); };
+    return (std::uint32_t{t.nearest5[channel(c[0])]} << 11) | (std::uint32_t{t.nearest6[channel(c[1])]} << 5) | t.nearest5[channel(c[2])];
+}
+
+/// Endpoints, their error over the used colours, and each used colour's palette index.
+struct ColorState {
+    std::uint32_t c0 = 0, c1 = 0;
+    std::uint32_t error = std::numeric_limits<std::uint32_t>::max();
+    std::array<std::uint8_t, 16> index{};
+};
+
+/// Summed squared error of the used colours against the palette of (c0, c1), each taking its
+/// nearest entry (the lowest index on ties). Stops early once the sum exceeds @p bound.
+std::uint32_t evalColors(const ColorPoints& p, std::uint32_t c0, std::uint32_t c1, std::array<std::uint8_t, 16>& index,
+                         std::uint32_t bound) {
+    const auto palette = esvo::colorPalette(c0, c1);
+    std::array<int, 4> pr{}, pg{}, pb{};
+    for (unsigned k = 0; k < 4; ++k) {
+        pr[k] = static_cast<int>(esvo::colorChannel(palette[k], 0));
+        pg[k] = static_cast<int>(esvo::colorChannel(palette[k], 1));
+        pb[k] = static_cast<int>(esvo::colorChannel(palette[k], 2));
+    }
+    std::uint32_t total = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        int best = std::numeric_limits<int>::max();
+        unsigned bestK = 0;
+        for (unsigned k = 0; k < 4; ++k) {
+            const int dr = p.rgb[i][0] - pr[k], dg = p.rgb[i][1] - pg[k], db = p.rgb[i][2] - pb[k];
+            const int d = dr * dr + dg * dg + db * db;
+            if (d < best) {
+                best = d;
+                bestK = k;
+            }
+        }
+        index[i] = static_cast<std::uint8_t>(bestK);
+        total += static_cast<std::uint32_t>(best);
+        if (total > bound) return total;
+    }
+    return total;
+}
+
+/// Replaces @p s by endpoints (c0, c1) if they decode with a smaller error.
+bool tryColors(const ColorPoints& p, std::uint32_t c0, std::uint32_t c1, ColorState& s) {
+    if (s.error != std::numeric_limits<std::uint32_t>::max() && ((c0 == s.c0 && c1 == s.c1) || (c0 == s.c1 && c1 == s.c0)))
+        return false;
+    std::array<std::uint8_t, 16> index{};
+    const std::uint32_t error = evalColors(p, c0, c1, index, s.error);
+    if (error >= s.error) return false;
+    s.c0 = c0;
+    s.c1 = c1;
+    s.error = error;
+    s.index = index;
+    return true;
+}
+
+/// Least-squares endpoints for fixed indices (the cluster-fit step); false when the indices do
+/// not determine both endpoints (every colour on one palette entry).
+bool refitColors(const ColorPoints& p, const std::array<std::uint8_t, 16>& index, std::array<float, 3>& a, std::array<float, 3>& b) {
+    static constexpr std::array<float, 4> kWeight{1.0f, 0.0f, 2.0f / 3.0f, 1.0f / 3.0f};
+    float aa = 0, ab = 0, bb = 0;
+    std::array<float, 3> xa{}, xb{};
+    for (unsigned i = 0; i < p.count; ++i) {
+        const float alpha = kWeight[index[i]], beta = 1.0f - alpha;
+        aa += alpha * alpha;
+        ab += alpha * beta;
+        bb += beta * beta;
+        for (unsigned ch = 0; ch < 3; ++ch) {
+            xa[ch] += alpha * static_cast<float>(p.rgb[i][ch]);
+            xb[ch] += beta * static_cast<float>(p.rgb[i][ch]);
+        }
+    }
+    const float det = aa * bb - ab * ab;
+    if (!(det > 1e-3f)) return false;
+    for (unsigned ch = 0; ch < 3; ++ch) {
+        a[ch] = (bb * xa[ch] - ab * xb[ch]) / det;
+        b[ch] = (aa * xb[ch] - ab * xa[ch]) / det;
+    }
+    return true;
+}
+
+/// Alternates index assignment and least-squares endpoints (rounded to RGB565) while it helps.
+void clusterFit(const ColorPoints& p, const ColorTables& t, ColorState& s) {
+    for (int iteration = 0; iteration < 8 && s.error > 0; ++iteration) {
+        std::array<float, 3> a{}, b{};
+        if (!refitColors(p, s.index, a, b)) return;
+        if (!tryColors(p, quantise565(a, t), quantise565(b, t), s)) return;
+    }
+}
+
+/// Greedy descent over the six endpoint channels, one code step at a time.
+void stepColors(const ColorPoints& p, ColorState& s) {
+    static constexpr std::array<unsigned, 3> kShift{11, 5, 0};
+    static constexpr std::array<std::uint32_t, 3> kMax{31, 63, 31};
+    for (int pass = 0; pass < 16 && s.error > 0; ++pass) {
+        bool improved = false;
+        for (unsigned endpoint = 0; endpoint < 2; ++endpoint)
+            for (unsigned ch = 0; ch < 3; ++ch)
+                for (const int step : {-1, 1}) {
+                    const std::uint32_t c = endpoint ? s.c1 : s.c0;
+                    const std::uint32_t value = (c >> kShift[ch]) & kMax[ch];
+                    if ((step < 0 && value == 0) || (step > 0 && value == kMax[ch])) continue;
+                    const std::uint32_t moved =
+                        (c & ~(kMax[ch] << kShift[ch])) | ((static_cast<std::uint32_t>(static_cast<int>(value) + step)) << kShift[ch]);
+                    if (endpoint ? tryColors(p, s.c0, moved, s) : tryColors(p, moved, s.c1, s)) improved = true;
+                }
+        if (!improved) break;
+    }
+}
+
+/// Principal axis of the colours' covariance (power iteration from the bounding-box diagonal).
+std::array<float, 3> principalAxis(const ColorPoints& p, const std::array<float, 3>& mean, const std::array<float, 3>& diagonal) {
+    std::array<float, 6> cov{};  // xx xy xz yy yz zz
+    for (unsigned i = 0; i < p.count; ++i) {
+        const float x = static_cast<float>(p.rgb[i][0]) - mean[0], y = static_cast<float>(p.rgb[i][1]) - mean[1],
+                    z = static_cast<float>(p.rgb[i][2]) - mean[2];
+        cov[0] += x * x;
+        cov[1] += x * y;
+        cov[2] += x * z;
+        cov[3] += y * y;
+        cov[4] += y * z;
+        cov[5] += z * z;
+    }
+    std::array<float, 3> v = diagonal;
+    for (int iteration = 0; iteration < 8; ++iteration) {
+        const std::array<float, 3> w{cov[0] * v[0] + cov[1] * v[1] + cov[2] * v[2], cov[1] * v[0] + cov[3] * v[1] + cov[4] * v[2],
+                                     cov[2] * v[0] + cov[4] * v[1] + cov[5] * v[2]};
+        const float len = std::max({std::fabs(w[0]), std::fabs(w[1]), std::fabs(w[2])});
+        if (!(len > 0)) break;
+        v = {w[0] / len, w[1] / len, w[2] / len};
+    }
+    const float len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(len > 0)) return {1, 0, 0};
+    return {v[0] / len, v[1] / len, v[2] / len};
+}
+
+ColorState encodeColors(const ColorPoints& p) {
+    const ColorTables& t = colorTables();
+    ColorState best;
+
+    std::array<int, 3> lo{255, 255, 255}, hi{0, 0, 0};
+    std::array<float, 3> mean{};
+    bool single = true;
+    for (unsigned i = 0; i < p.count; ++i) {
+        for (unsigned ch = 0; ch < 3; ++ch) {
+            lo[ch] = std::min(lo[ch], p.rgb[i][ch]);
+            hi[ch] = std::max(hi[ch], p.rgb[i][ch]);
+            mean[ch] += static_cast<float>(p.rgb[i][ch]);
+        }
+        single = single && p.rgb[i] == p.rgb[0];
+    }
+    for (float& m : mean) m /= static_cast<float>(p.count);
+
+    // One colour: per channel the best endpoint pair of the precomputed tables (optimal).
+    const auto singleFit = [&](const std::array<int, 3>& c) {
+        const auto& r = t.single5[static_cast<std::size_t>(c[0])];
+        const auto& g = t.single6[static_cast<std::size_t>(c[1])];
+        const auto& b = t.single5[static_cast<std::size_t>(c[2])];
+        tryColors(p, (std::uint32_t{r[0]} << 11) | (std::uint32_t{g[0]} << 5) | b[0],
+                  (std::uint32_t{r[1]} << 11) | (std::uint32_t{g[1]} << 5) | b[1], best);
+    };
+    singleFit(single ? p.rgb[0]
+                     : std::array<int, 3>{static_cast<int>(std::lround(mean[0])), static_cast<int>(std::lround(mean[1])),
+                                          static_cast<int>(std::lround(mean[2]))});
+    if (single || best.error == 0) return best;
+
+    // Start points: the principal axis' extent through the mean, the two colours at its ends,
+    // and the bounding-box diagonal along it; each improved by cluster fitting.
+    const std::array<float, 3> axis =
+        principalAxis(p, mean, {static_cast<float>(hi[0] - lo[0]), static_cast<float>(hi[1] - lo[1]), static_cast<float>(hi[2] - lo[2])});
+    float tMin = std::numeric_limits<float>::max(), tMax = -tMin;
+    unsigned iMin = 0, iMax = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        float proj = 0;
+        for (unsigned ch = 0; ch < 3; ++ch) proj += (static_cast<float>(p.rgb[i][ch]) - mean[ch]) * axis[ch];
+        if (proj < tMin) tMin = proj, iMin = i;
+        if (proj > tMax) tMax = proj, iMax = i;
+    }
+    const auto toFloat = [](const std::array<int, 3>& c) {
+        return std::array<float, 3>{static_cast<float>(c[0]), static_cast<float>(c[1]), static_cast<float>(c[2])};
+    };
+    std::array<std::array<float, 3>, 6> starts{};
+    for (unsigned ch = 0; ch < 3; ++ch) {
+        starts[0][ch] = mean[ch] + tMin * axis[ch];
+        starts[1][ch] = mean[ch] + tMax * axis[ch];
+        const bool rising = axis[ch] >= 0;
+        starts[4][ch] = static_cast<float>(rising ? lo[ch] : hi[ch]);
+        starts[5][ch] = static_cast<float>(rising ? hi[ch] : lo[ch]);
+    }
+    starts[2] = toFloat(p.rgb[iMin]);
+    starts[3] = toFloat(p.rgb[iMax]);
+    for (unsigned s = 0; s < starts.size() && best.error > 0; s += 2) {
+        ColorState candidate;
+        tryColors(p, quantise565(starts[s], t), quantise565(starts[s + 1], t), candidate);
+        clusterFit(p, t, candidate);
+        if (candidate.error < best.error) best = candidate;
+    }
+    stepColors(p, best);
+    clusterFit(p, t, best);
+    return best;
+}
+
+// ============================================================================================
+// Normals: normalise(base + cu·u + cv·v), base a cube-face point, cu, cv ∈ kAxisWeights.
+// ============================================================================================
+
+/// The used normals (unit) of a block and their projections onto the plane of one cube face.
+struct NormalPoints {
+    unsigned count = 0;
+    std::array<unsigned, 16> slot{};
+    std::array<Vec3, 16> n{};
+    unsigned axis = 2;   ///< the face's axis
+    float sign = 1;      ///< and its direction
+    std::array<float, 16> px{}, py{}, weight{};  ///< in-plane coordinates (axis+1, axis+2) and LS weights
+};
+
+/// A fit in the face plane: p ≈ b + cu·u + cv·v, combo k = uIndex + 4·vIndex.
+struct PlaneFit {
+    float bx = 0, by = 0, ux = 0, uy = 0, vx = 0, vy = 0;
+    double error = std::numeric_limits<double>::max();
+    std::array<std::uint8_t, 16> combo{};
+};
+
+/// Assigns every point its nearest of the 16 lattice points; true when a combo changed.
+bool assignPlane(const NormalPoints& p, PlaneFit& f) {
+    std::array<float, 16> lx{}, ly{};
+    for (unsigned k = 0; k < 16; ++k) {
+        const float cu = esvo::kAxisWeights[k & 3], cv = esvo::kAxisWeights[k >> 2];
+        lx[k] = f.bx + cu * f.ux + cv * f.vx;
+        ly[k] = f.by + cu * f.uy + cv * f.vy;
+    }
+    bool changed = false;
+    double error = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        float best = std::numeric_limits<float>::max();
+        unsigned bestK = 0;
+        for (unsigned k = 0; k < 16; ++k) {
+            const float dx = p.px[i] - lx[k], dy = p.py[i] - ly[k];
+            const float d = dx * dx + dy * dy;
+            if (d < best) {
+                best = d;
+                bestK = k;
+            }
+        }
+        changed = changed || f.combo[i] != bestK;
+        f.combo[i] = static_cast<std::uint8_t>(bestK);
+        error += double(p.weight[i]) * best;
+    }
+    f.error = error;
+    return changed;
+}
+
+/// Weighted least squares for b, u, v given the combos (ridge-regularised so that an axis no
+/// combo varies along comes out zero).
+void solvePlane(const NormalPoints& p, PlaneFit& f) {
+    double m[3][3]{}, rx[3]{}, ry[3]{}, wsum = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        const double row[3]{1.0, esvo::kAxisWeights[f.combo[i] & 3], esvo::kAxisWeights[f.combo[i] >> 2]};
+        const double w = p.weight[i];
+        wsum += w;
+        for (unsigned r = 0; r < 3; ++r) {
+            for (unsigned c = 0; c < 3; ++c) m[r][c] += w * row[r] * row[c];
+            rx[r] += w * row[r] * p.px[i];
+            ry[r] += w * row[r] * p.py[i];
+        }
+    }
+    const double ridge = 1e-7 * wsum;
+    m[1][1] += ridge;
+    m[2][2] += ridge;
+    const double c00 = m[1][1] * m[2][2] - m[1][2] * m[2][1], c01 = m[1][2] * m[2][0] - m[1][0] * m[2][2],
+                 c02 = m[1][0] * m[2][1] - m[1][1] * m[2][0];
+    const double det = m[0][0] * c00 + m[0][1] * c01 + m[0][2] * c02;
+    if (!(std::fabs(det) > 1e-30)) return;
+    // Inverse by cofactors (m is symmetric).
+    const double inv[3][3]{{c00, c01, c02},
+                           {c01, m[0][0] * m[2][2] - m[0][2] * m[2][0], m[0][1] * m[2][0] - m[0][0] * m[2][1]},
+                           {c02, m[0][1] * m[2][0] - m[0][0] * m[2][1], m[0][0] * m[1][1] - m[0][1] * m[1][0]}};
+    double sx[3], sy[3];
+    for (unsigned r = 0; r < 3; ++r) {
+        sx[r] = (inv[r][0] * rx[0] + inv[r][1] * rx[1] + inv[r][2] * rx[2]) / det;
+        sy[r] = (inv[r][0] * ry[0] + inv[r][1] * ry[1] + inv[r][2] * ry[2]) / det;
+    }
+    f.bx = static_cast<float>(sx[0]);
+    f.by = static_cast<float>(sy[0]);
+    f.ux = static_cast<float>(sx[1]);
+    f.uy = static_cast<float>(sy[1]);
+    f.vx = static_cast<float>(sx[2]);
+    f.vy = static_cast<float>(sy[2]);
+}
+
+/// Alternates assignment and least squares from the start in @p f until the combos settle.
+void fitPlane(const NormalPoints& p, PlaneFit& f) {
+    assignPlane(p, f);
+    for (int iteration = 0; iteration < 12; ++iteration) {
+        solvePlane(p, f);
+        if (!assignPlane(p, f)) break;
+    }
+}
+
+/// A quantised normal block: words 2 (base) and 4 (axes), the summed 1 − cos of the used normals
+/// and their combos.
+struct NormalState {
+    std::uint32_t base = 0, axes = 0;
+    double error = std::numeric_limits<double>::max();
+    std::array<std::uint8_t, 16> combo{};
+};
+
+/// Summed 1 − cos between each used normal and its best of the 16 decoded normals of (base,
+/// axes), as esvo::decodeBlockNormal computes them; stops early beyond @p bound.
+double evalNormals(const NormalPoints& p, std::uint32_t base, std::uint32_t axes, std::array<std::uint8_t, 16>& combo, double bound) {
+    const Vec3 b = esvo::decodeNormal(base);
+    const Vec3 u = esvo::decodeAxis(axes & 0xFFFFu), v = esvo::decodeAxis(axes >> 16);
+    std::array<float, 16> dx{}, dy{}, dz{};
+    for (unsigned k = 0; k < 16; ++k) {
+        const float cu = esvo::kAxisWeights[k & 3], cv = esvo::kAxisWeights[k >> 2];
+        const float x = b[0] + cu * u[0] + cv * v[0], y = b[1] + cu * u[1] + cv * v[1], z = b[2] + cu * u[2] + cv * v[2];
+        const float len = std::sqrt(x * x + y * y + z * z);
+        const float inv = len > 0 ? 1.0f / len : 0.0f;  // a zero vector decodes as +z; counting it as useless is close enough
+        dx[k] = x * inv;
+        dy[k] = y * inv;
+        dz[k] = z * inv;
+    }
+    double total = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        float best = -2;
+        unsigned bestK = 0;
+        for (unsigned k = 0; k < 16; ++k) {
+            const float d = p.n[i][0] * dx[k] + p.n[i][1] * dy[k] + p.n[i][2] * dz[k];
+            if (d > best) {
+                best = d;
+                bestK = k;
+            }
+        }
+        combo[i] = static_cast<std::uint8_t>(bestK);
+        total += 1.0 - double(best);
+        if (total > bound) return total;
+    }
+    return total;
+}
+
+bool tryNormals(const NormalPoints& p, std::uint32_t base, std::uint32_t axes, NormalState& s) {
+    if (s.error != std::numeric_limits<double>::max() && base == s.base && axes == s.axes) return false;
+    std::array<std::uint8_t, 16> combo{};
+    const double error = evalNormals(p, base, axes, combo, s.error);
+    if (!(error < s.error)) return false;
+    s.base = base;
+    s.axes = axes;
+    s.error = error;
+    s.combo = combo;
+    return true;
+}
+
+/// Re-rounds a 16-bit axis at exponent @p e (components clamped to −8 … 7).
+std::uint32_t roundAxis(const Vec3& a, int e) {
+    const float step = std::ldexp(1.0f, e - 13);
+    std::uint32_t bits = static_cast<std::uint32_t>(e) << 12;
+    for (unsigned c = 0; c < 3; ++c) {
+        const long q = std::clamp(std::lround(a[c] / step), -8l, 7l);
+        bits |= (static_cast<std::uint32_t>(q) & 15u) << (4 * c);
+    }
+    return bits;
+}
+
+/// Quantises a plane fit: the base through encodeNormal (rescaling the axes when the base falls
+/// off its face), the axes through encodeAxis; then refits the base to the quantised axes and
+/// searches neighbouring axis codes, all measured against the decoded normals.
+NormalState quantiseFit(const NormalPoints& p, const PlaneFit& f) {
+    const unsigned a = p.axis, ua = (a + 1) % 3, va = (a + 2) % 3;
+    const auto toBase = [&](float bx, float by, float& scale) {
+        Vec3 b{};
+        b[a] = p.sign;
+        b[ua] = bx;
+        b[va] = by;
+        scale = 1.0f / std::max({1.0f, std::fabs(bx), std::fabs(by)});
+        return esvo::encodeNormal(b);
+    };
+    float scale = 1;
+    const std::uint32_t base = toBase(f.bx, f.by, scale);
+    Vec3 u{}, v{};
+    u[ua] = f.ux * scale;
+    u[va] = f.uy * scale;
+    v[ua] = f.vx * scale;
+    v[va] = f.vy * scale;
+    NormalState s;
+    tryNormals(p, base, esvo::encodeAxis(u) | (esvo::encodeAxis(v) << 16), s);
+    if (s.error <= 0) return s;
+
+    // Base refit: with the axes fixed at their quantised values, the best base for the combos is
+    // the weighted mean of p − cu·u − cv·v (in the face plane, where the rescaled axes live × 1/scale).
+    for (int round = 0; round < 2; ++round) {
+        const Vec3 qu = esvo::decodeAxis(s.axes & 0xFFFFu), qv = esvo::decodeAxis(s.axes >> 16);
+        const Vec3 qb = esvo::decodeNormal(s.base);
+        const float k = 1.0f / std::fabs(qb[a]);  // back to the face plane of the fit
+        double sx = 0, sy = 0, sw = 0;
+        for (unsigned i = 0; i < p.count; ++i) {
+            const float cu = esvo::kAxisWeights[s.combo[i] & 3], cv = esvo::kAxisWeights[s.combo[i] >> 2];
+            const double w = p.weight[i];
+            sx += w * (p.px[i] - k * (cu * qu[ua] + cv * qv[ua]));
+            sy += w * (p.py[i] - k * (cu * qu[va] + cv * qv[va]));
+            sw += w;
+        }
+        float refitScale = 1;
+        const std::uint32_t refit = toBase(static_cast<float>(sx / sw), static_cast<float>(sy / sw), refitScale);
+        if (!tryNormals(p, refit, s.axes, s)) break;
+    }
+
+    // Neighbouring axis codes: each in-plane component ±1, and each axis one exponent finer or
+    // coarser (re-rounded).
+    for (int pass = 0; pass < 3 && s.error > 0; ++pass) {
+        bool improved = false;
+        for (unsigned which = 0; which < 2; ++which) {
+            const unsigned shift = 16 * which;
+            for (const unsigned c : {ua, va})
+                for (const int step : {-1, 1}) {
+                    const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
+                    const int value = static_cast<int>(static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28) + step;
+                    if (value < -8 || value > 7) continue;
+                    const std::uint32_t moved = (bits & ~(15u << (4 * c))) | ((static_cast<std::uint32_t>(value) & 15u) << (4 * c));
+                    if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (moved << shift), s)) improved = true;
+                }
+            const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
+            const int e = static_cast<int>(bits >> 12);
+            const Vec3 decoded = esvo::decodeAxis(bits);
+            for (const int ne : {e - 1, e + 1}) {
+                if (ne < 0 || ne > 15) continue;
+                if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (roundAxis(decoded, ne) << shift), s)) improved = true;
+            }
+        }
+        if (!improved) break;
+    }
+    return s;
+}
+
+NormalState encodeNormals(NormalPoints& p) {
+    // The face: the dominant axis of the mean normal (of the first normal if they cancel).
+    Vec3 mean{};
+    for (unsigned i = 0; i < p.count; ++i)
+        for (unsigned c = 0; c < 3; ++c) mean[c] += p.n[i][c];
+    if (!(mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2] > 1e-6f * static_cast<float>(p.count * p.count))) mean = p.n[0];
+    const float ax = std::fabs(mean[0]), ay = std::fabs(mean[1]), az = std::fabs(mean[2]);
+    p.axis = ax >= ay && ax >= az ? 0u : (ay >= az ? 1u : 2u);
+    p.sign = mean[p.axis] < 0 ? -1.0f : 1.0f;
+    const unsigned a = p.axis, ua = (a + 1) % 3, va = (a + 2) % 3;
+
+    // Project onto the face plane. Normals further than ~78° from the face axis (beyond 90° they
+    // have no projection) are pushed out to that radius in their in-plane direction.
+    constexpr float kMinDot = 0.2f;
+    for (unsigned i = 0; i < p.count; ++i) {
+        const float d = p.sign * p.n[i][a];
+        float x = p.n[i][ua], y = p.n[i][va];
+        if (d >= kMinDot) {
+            x /= d;
+            y /= d;
+        } else {
+            const float len = std::sqrt(x * x + y * y);
+            const float s = len > 0 ? 1.0f / (kMinDot * len) : 0.0f;
+            x *= s;
+            y *= s;
+        }
+        p.px[i] = x;
+        p.py[i] = y;
+        // A step in the plane turns the normal by about cos² (radially) to cos (tangentially).
+        const float c = std::max(d, kMinDot);
+        p.weight[i] = c * c * c;
+    }
+
+    // Principal axes of the projected points.
+    double wsum = 0, mx = 0, my = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        wsum += p.weight[i];
+        mx += p.weight[i] * p.px[i];
+        my += p.weight[i] * p.py[i];
+    }
+    mx /= wsum;
+    my /= wsum;
+    double sxx = 0, sxy = 0, syy = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        const double dx = p.px[i] - mx, dy = p.py[i] - my;
+        sxx += p.weight[i] * dx * dx;
+        sxy += p.weight[i] * dx * dy;
+        syy += p.weight[i] * dy * dy;
+    }
+    const double half = 0.5 * (sxx - syy);
+    const double l1 = 0.5 * (sxx + syy) + std::sqrt(half * half + sxy * sxy);
+    double e1x = 1, e1y = 0;
+    if (std::fabs(sxy) > 1e-12 * (sxx + syy)) {
+        e1x = sxy;
+        e1y = l1 - sxx;
+        const double len = std::sqrt(e1x * e1x + e1y * e1y);
+        e1x /= len;
+        e1y /= len;
+    } else if (syy > sxx) {
+        e1x = 0;
+        e1y = 1;
+    }
+    const double e2x = -e1y, e2y = e1x;
+    double t1lo = 0, t1hi = 0, t2lo = 0, t2hi = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        const double dx = p.px[i] - mx, dy = p.py[i] - my;
+        const double t1 = dx * e1x + dy * e1y, t2 = dx * e2x + dy * e2y;
+        t1lo = std::min(t1lo, t1);
+        t1hi = std::max(t1hi, t1);
+        t2lo = std::min(t2lo, t2);
+        t2hi = std::max(t2hi, t2);
+    }
+    const double cx = mx + e1x * 0.5 * (t1lo + t1hi) + e2x * 0.5 * (t2lo + t2hi);
+    const double cy = my + e1y * 0.5 * (t1lo + t1hi) + e2y * 0.5 * (t2lo + t2hi);
+    const double h1 = 0.5 * (t1hi - t1lo), h2 = 0.5 * (t2hi - t2lo);
+
+    // Two starts: a 4×4 lattice over the principal extents, and 16 levels along the principal
+    // axis (u = ¾ h1, v = 3⁄16 h1 interleave) for nearly one-dimensional sets.
+    PlaneFit grid;
+    grid.bx = static_cast<float>(cx);
+    grid.by = static_cast<float>(cy);
+    grid.ux = static_cast<float>(0.75 * h1 * e1x);
+    grid.uy = static_cast<float>(0.75 * h1 * e1y);
+    grid.vx = static_cast<float>(0.75 * h2 * e2x);
+    grid.vy = static_cast<float>(0.75 * h2 * e2y);
+    fitPlane(p, grid);
+    PlaneFit line = grid;
+    line.bx = static_cast<float>(cx);
+    line.by = static_cast<float>(cy);
+    line.ux = static_cast<float>(0.75 * h1 * e1x);
+    line.uy = static_cast<float>(0.75 * h1 * e1y);
+    line.vx = static_cast<float>(0.1875 * h1 * e1x);
+    line.vy = static_cast<float>(0.1875 * h1 * e1y);
+    if (h2 < 0.5 * h1) fitPlane(p, line);
+    const PlaneFit& fit = line.error < grid.error ? line : grid;
+    return quantiseFit(p, fit);
+}
+
+esvo::Vec3 unitOrZ(const esvo::Vec3& n) {
+    const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(len > 0) || !std::isfinite(len)) return {0, 0, 1};
+    return {n[0] / len, n[1] / len, n[2] / len};
+}
+
+}  // namespace
+
+std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask) {
+    ColorPoints p;
+    for (unsigned slot = 0; slot < 16; ++slot) {
+        if (!((usedMask >> slot) & 1u)) continue;
+        p.slot[p.count] = slot;
+        for (unsigned ch = 0; ch < 3; ++ch) p.rgb[p.count][ch] = static_cast<int>(esvo::colorChannel(colors[slot], ch));
+        ++p.count;
+    }
+    if (p.count == 0) return {0, 0};
+    const ColorState s = encodeColors(p);
+    std::uint32_t indices = 0;
+    for (unsigned i = 0; i < p.count; ++i) indices |= std::uint32_t{s.index[i]} << (2 * p.slot[i]);
+    return {s.c0 | (s.c1 << 16), indices};
+}
+
+std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask) {
+    NormalPoints p;
+    for (unsigned slot = 0; slot < 16; ++slot) {
+        if (!((usedMask >> slot) & 1u)) continue;
+        p.slot[p.count] = slot;
+        p.n[p.count] = unitOrZ(normals[slot]);
+        ++p.count;
+    }
+    if (p.count == 0) return {esvo::encodeNormal({0, 0, 1}), 0, 0, 0};
+    const NormalState s = encodeNormals(p);
+    std::uint32_t uIndices = 0, vIndices = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        uIndices |= (std::uint32_t{s.combo[i]} & 3u) << (2 * p.slot[i]);
+        vIndices |= (std::uint32_t{s.combo[i]} >> 2) << (2 * p.slot[i]);
+    }
+    return {s.base, uIndices, s.axes, vIndices};
+}
+
+esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>& values, std::uint32_t usedMask) {
+    std::array<std::uint32_t, 16> colors{};
+    std::array<esvo::Vec3, 16> normals{};
+    for (unsigned slot = 0; slot < 16; ++slot) {
+        colors[slot] = static_cast<std::uint32_t>(values[slot]);
+        normals[slot] = esvo::decodeNormal(static_cast<std::uint32_t>(values[slot] >> 32));
+    }
+    const auto c = encodeColorBlock(colors, usedMask);
+    const auto n = encodeNormalBlock(normals, usedMask);
+    return {c[0], c[1], n[0], n[1], n[2], n[3]};
+}
+
+std::uint64_t colorBlockError(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask, std::uint32_t word0,
+                              std::uint32_t word1) noexcept {
+    const auto palette = esvo::colorPalette(word0 & 0xFFFFu, word0 >> 16);
+    std::uint64_t total = 0;
+    for (unsigned slot = 0; slot < 16; ++slot) {
+        if (!((usedMask >> slot) & 1u)) continue;
+        const std::uint32_t decoded = palette[esvo::blockIndex(word1, slot)];
+        for (unsigned ch = 0; ch < 3; ++ch) {
+            const int d = static_cast<int>(esvo::colorChannel(colors[slot], ch)) - static_cast<int>(esvo::colorChannel(decoded, ch));
+            total += static_cast<std::uint64_t>(d * d);
+        }
+    }
+    return total;
+}
+
+}  // namespace vox::detail

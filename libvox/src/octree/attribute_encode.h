@@ -1,0 +1,38 @@
+// Encoders of the .esvo compressed attribute block (Laine & Karras, "Efficient Sparse Voxel
+// Octrees", 5.5): the colours and normals of the 16 child slots of two sibling descriptors in the
+// 6-word esvo::CompressedBlock whose layout and decoders are in vox/formats/esvo_attributes.h.
+// The encoders search for the block that decodes closest to the input, measured with the
+// decoders' own arithmetic: squared 8-bit sRGB error for colour, angle for normals. They are
+// deterministic (no randomness, no dependence on threads) and take a few microseconds a block.
+#pragma once
+
+#include <vox/formats/esvo_attributes.h>
+
+#include <array>
+#include <cstdint>
+
+namespace vox::detail {
+
+/// Encodes 16 colours (esvo::packColor words, sRGB RGB; alpha ignored) into words 0-1 of a
+/// compressed block: RGB565 endpoints and 2-bit indices. Only slots whose bit is set in
+/// @p usedMask (bits 0-15) matter; unused slots get index 0, and a mask of 0 gives {0, 0}.
+/// Minimises the summed squared RGB error over the used slots as esvo::colorPalette decodes
+/// them; one colour, or two that are RGB565 values, come out exact.
+[[nodiscard]] std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask);
+
+/// Encodes 16 normals (any non-zero vectors; normalised first, a zero or non-finite one counts
+/// as +z) into words 2-5: base normal, U indices, axes, V indices. Only used slots matter;
+/// unused slots get index 0, and a mask of 0 gives a +z base with zero axes. Minimises the
+/// summed 1 − cos of the angle between each used normal and its esvo::decodeBlockNormal.
+[[nodiscard]] std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask);
+
+/// Both: @p values hold colour word | (cube-face normal word << 32) per slot (the layout of the
+/// uncompressed attachment's values).
+[[nodiscard]] esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>& values, std::uint32_t usedMask);
+
+/// Summed squared RGB error (8-bit units, alpha ignored) of the used slots of @p colors against
+/// colour words @p word0 (endpoints) and @p word1 (indices), decoded with esvo::colorPalette.
+[[nodiscard]] std::uint64_t colorBlockError(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask, std::uint32_t word0,
+                                            std::uint32_t word1) noexcept;
+
+}  // namespace vox::detail

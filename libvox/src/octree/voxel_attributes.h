@@ -1,0 +1,80 @@
+// Shading attributes of voxels (Laine & Karras 5.4, and the original builder): each voxel's colour
+// and normal are the area-weighted means over the triangle fragments its cube cuts out. Colour is
+// base colour factor × base colour texture × vertex colour, the texture filtered over a footprint
+// the size of the voxel; the normal is the interpolated shading normal, bent by the normal map.
+// A parent's sums are exactly the sums of its children's (the children's cubes partition its
+// fragments), so only the voxels where refinement stops clip triangles.
+#pragma once
+
+#include "triangle_box.h"
+
+#include <vox/scene.h>
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace vox::detail {
+
+/// Where a triangle of the voxelizer's list came from.
+struct TriangleSource {
+    std::uint32_t mesh = 0;
+    std::uint32_t triangle = 0;
+};
+
+/// Area-weighted sums over fragments. Weights are fragment areas in leaf units², plus a tiny
+/// term so that a voxel whose fragments all have zero area (a triangle touching its boundary)
+/// still gets their attributes.
+struct AttributeSums {
+    double weight = 0;
+    Vec3d color{0, 0, 0};   ///< linear RGB × weight
+    double alpha = 0;       ///< × weight
+    Vec3d normal{0, 0, 0};  ///< unit shading normal × weight
+    /// The heaviest fragment's normal: the fallback where opposite normals cancel in the mean.
+    Vec3d dominantNormal{0, 0, 1};
+    double dominantWeight = -1;
+
+    AttributeSums& operator+=(const AttributeSums& other);
+    /// The voxel's attribute word pair: esvo::packColor (sRGB) | esvo::encodeNormal << 32.
+    [[nodiscard]] std::uint64_t pack() const;
+};
+
+/// Reusable buffers (one per thread).
+struct AttributeScratch {
+    std::vector<Vec3d> polygon;
+    std::array<Vec3d, 12> clipA{}, clipB{};
+};
+
+/// Evaluates materials at fragment centroids.
+class AttributeSampler {
+public:
+    /// @p triangles are in leaf units and @p sources says where each came from.
+    AttributeSampler(const Scene& scene, const std::vector<BoxTestTriangle>& triangles, std::vector<TriangleSource> sources);
+
+    /// Sums over the fragments of the triangles @p list inside the cube with centre @p c and
+    /// half-extent @p h (leaf units).
+    [[nodiscard]] AttributeSums filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch) const;
+
+    /// How far the attributes inside a cube stray from the voxel value @p packed (an
+    /// AttributeSums::pack() word pair): the largest 8-bit sRGB channel difference and the largest
+    /// normal angle (degrees), sampled at the vertices and centroid of every fragment with
+    /// textures filtered at the leaf size.
+    struct Variation {
+        double color = 0;
+        double normalDegrees = 0;
+    };
+    [[nodiscard]] Variation variation(std::span<const std::uint32_t> list, Vec3d c, double h, std::uint64_t packed,
+                                      AttributeScratch& scratch) const;
+
+private:
+    /// Colour (linear RGBA) and unit shading normal of triangle @p t at leaf-unit point @p p,
+    /// with textures filtered over @p footprint leaf units.
+    void shade(std::uint32_t t, Vec3d p, double footprint, Vec4f& color, Vec3d& normal) const;
+
+    const Scene& scene_;
+    const std::vector<BoxTestTriangle>& triangles_;
+    std::vector<TriangleSource> sources_;
+};
+
+}  // namespace vox::detail

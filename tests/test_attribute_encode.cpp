@@ -1,0 +1,426 @@
+// The compressed attribute block (libvox/src/octree/attribute_encode.h over the decoders of
+// vox/formats/esvo_attributes.h): the cube-face normal and axis codes round-trip within their
+// precision, exactly representable colour blocks come out exact, smooth normal blocks decode
+// within a fraction of a degree, unused slots change nothing, and the colour encoder is at
+// least as good as stb_dxt's high-quality mode on real texture tiles (both decoded by ours).
+#include "octree/attribute_encode.h"
+
+#include <vox/formats/esvo_attributes.h>
+#include <vox/texture.h>
+
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <vector>
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wunused-function"
+#pragma GCC diagnostic ignored "-Wsign-compare"
+#define STB_DXT_IMPLEMENTATION
+#include <stb/stb_dxt.h>
+#pragma GCC diagnostic pop
+
+namespace {
+
+namespace esvo = vox::esvo;
+using esvo::Vec3;
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+/// Angle between two (not necessarily unit) vectors, accurate for tiny angles.
+double angle(const Vec3& a, const Vec3& b) {
+    const double cx = double(a[1]) * b[2] - double(a[2]) * b[1], cy = double(a[2]) * b[0] - double(a[0]) * b[2],
+                 cz = double(a[0]) * b[1] - double(a[1]) * b[0];
+    const double dot = double(a[0]) * b[0] + double(a[1]) * b[1] + double(a[2]) * b[2];
+    return std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), dot);
+}
+
+Vec3 normalised(double x, double y, double z) {
+    const double len = std::sqrt(x * x + y * y + z * z);
+    return {static_cast<float>(x / len), static_cast<float>(y / len), static_cast<float>(z / len)};
+}
+
+Vec3 randomDirection(std::mt19937& rng) {
+    std::normal_distribution<double> g;
+    for (;;) {
+        const double x = g(rng), y = g(rng), z = g(rng);
+        if (x * x + y * y + z * z > 1e-6) return normalised(x, y, z);
+    }
+}
+
+/// A random mask with @p bits of the 16 slots set.
+std::uint32_t randomMask(std::mt19937& rng, unsigned bits) {
+    std::array<unsigned, 16> slots{};
+    for (unsigned i = 0; i < 16; ++i) slots[i] = i;
+    std::shuffle(slots.begin(), slots.end(), rng);
+    std::uint32_t mask = 0;
+    for (unsigned i = 0; i < bits; ++i) mask |= 1u << slots[i];
+    return mask;
+}
+
+struct NormalErrors {
+    double mean = 0, max = 0;
+};
+
+/// Angular errors of the used slots of an encoded normal block, as decodeBlockNormal decodes them.
+NormalErrors normalErrors(const std::array<Vec3, 16>& normals, std::uint32_t mask, const std::array<std::uint32_t, 4>& words) {
+    const esvo::CompressedBlock block{0, 0, words[0], words[1], words[2], words[3]};
+    NormalErrors e;
+    unsigned count = 0;
+    for (unsigned s = 0; s < 16; ++s) {
+        if (!((mask >> s) & 1u)) continue;
+        const double a = angle(normals[s], esvo::decodeBlockNormal(block.data(), s));
+        e.mean += a;
+        e.max = std::max(e.max, a);
+        ++count;
+    }
+    if (count) e.mean /= count;
+    return e;
+}
+
+/// Normals of a sphere of radius @p radius (voxels) at the 16 child-voxel centres of two
+/// adjacent 2×2×2 descriptors (a 4×2×2 box along @p longAxis) near a random surface point.
+std::array<Vec3, 16> spherePatch(std::mt19937& rng, double radius, unsigned longAxis) {
+    const Vec3 d = randomDirection(rng);
+    std::array<Vec3, 16> normals{};
+    for (unsigned s = 0; s < 16; ++s) {
+        const unsigned child = s & 7, descriptor = s >> 3;
+        std::array<double, 3> offset{(child & 1) - 0.5, ((child >> 1) & 1) - 0.5, ((child >> 2) & 1) - 0.5};
+        offset[longAxis] = offset[longAxis] + 2.0 * descriptor - 1.0;
+        normals[s] = normalised(radius * d[0] + offset[0], radius * d[1] + offset[1], radius * d[2] + offset[2]);
+    }
+    return normals;
+}
+
+// ---- colour corpus ----------------------------------------------------------------------------
+
+struct ColorBlock {
+    std::array<std::uint32_t, 16> colors{};
+    std::uint32_t mask = 0xFFFFu;
+};
+
+/// 4×4 tiles of real textures (sRGB bytes as stored), a bounded number per texture spread over it.
+std::vector<ColorBlock> textureTiles(std::size_t perTexture) {
+    const char* files[] = {"glTF/CesiumMilkTruck/CesiumMilkTruck.png", "OBJ/drkwood2.jpg", "IQM/Head.jpg", "3DS/CWALL02.jpg",
+                           "LWO/LWO2/MappingModes/earthSpherical.jpg"};
+    std::vector<ColorBlock> tiles;
+    for (const char* file : files) {
+        const auto path = vox::test::assimpModels() / file;
+        if (!std::filesystem::exists(path)) continue;
+        const vox::Texture texture = vox::loadTexture(path, vox::ColorSpace::SRGB);
+        const int tx = texture.width() / 4, ty = texture.height() / 4;
+        const std::size_t total = static_cast<std::size_t>(tx) * static_cast<std::size_t>(ty);
+        const std::size_t stride = std::max<std::size_t>(1, total / perTexture) | 1;
+        for (std::size_t t = 0; t < total; t += stride) {
+            const int x0 = static_cast<int>(t % static_cast<std::size_t>(tx)) * 4, y0 = static_cast<int>(t / static_cast<std::size_t>(tx)) * 4;
+            ColorBlock b;
+            for (unsigned s = 0; s < 16; ++s) {
+                const vox::Vec4f c = texture.texel(0, x0 + static_cast<int>(s % 4), y0 + static_cast<int>(s / 4));
+                const auto byte = [](float linear) {
+                    return static_cast<std::uint32_t>(std::lround(std::clamp(vox::linearToSrgb(linear), 0.0f, 1.0f) * 255.0f));
+                };
+                b.colors[s] = esvo::packColor(byte(c.x), byte(c.y), byte(c.z));
+            }
+            tiles.push_back(b);
+        }
+    }
+    return tiles;
+}
+
+/// Random colours around a random line (gradients with noise) and uniformly random blocks.
+std::vector<ColorBlock> syntheticBlocks(std::mt19937& rng, std::size_t count) {
+    std::uniform_int_distribution<int> byte(0, 255);
+    std::uniform_real_distribution<double> unit(0, 1);
+    std::vector<ColorBlock> blocks;
+    for (std::size_t i = 0; i < count; ++i) {
+        ColorBlock b;
+        const int kind = static_cast<int>(i % 3);
+        std::array<double, 3> a{}, z{};
+        for (unsigned ch = 0; ch < 3; ++ch) a[ch] = byte(rng), z[ch] = byte(rng);
+        const double noise = kind == 0 ? 0 : 12.0;
+        std::normal_distribution<double> jitter(0, noise > 0 ? noise : 1);
+        for (unsigned s = 0; s < 16; ++s) {
+            const double t = kind == 0 ? (s % 4 + s / 4) / 6.0 : unit(rng);
+            std::array<std::uint32_t, 3> c{};
+            for (unsigned ch = 0; ch < 3; ++ch) {
+                double v = kind == 2 ? byte(rng) : a[ch] + t * (z[ch] - a[ch]) + (noise > 0 ? jitter(rng) : 0.0);
+                c[ch] = static_cast<std::uint32_t>(std::clamp(std::lround(v), 0l, 255l));
+            }
+            b.colors[s] = esvo::packColor(c[0], c[1], c[2]);
+        }
+        blocks.push_back(b);
+    }
+    return blocks;
+}
+
+/// stb_dxt's block for the used slots (unused ones filled with the first used colour), as our words.
+std::array<std::uint32_t, 2> stbEncode(const ColorBlock& b, int mode) {
+    unsigned first = 0;
+    while (!((b.mask >> first) & 1u)) ++first;
+    unsigned char rgba[64];
+    for (unsigned s = 0; s < 16; ++s) {
+        const std::uint32_t c = ((b.mask >> s) & 1u) ? b.colors[s] : b.colors[first];
+        for (unsigned ch = 0; ch < 3; ++ch) rgba[4 * s + ch] = static_cast<unsigned char>(esvo::colorChannel(c, ch));
+        rgba[4 * s + 3] = 255;
+    }
+    unsigned char out[8];
+    stb_compress_dxt_block(out, rgba, 0, mode);
+    const auto word = [&](unsigned o) {
+        return std::uint32_t{out[o]} | (std::uint32_t{out[o + 1]} << 8) | (std::uint32_t{out[o + 2]} << 16) | (std::uint32_t{out[o + 3]} << 24);
+    };
+    return {word(0), word(4)};
+}
+
+}  // namespace
+
+TEST(AttributeEncode, CubeFaceNormalRoundTripsWithinItsPrecision) {
+    std::vector<Vec3> directions;
+    for (int axis = 0; axis < 3; ++axis)
+        for (float sign : {-1.0f, 1.0f}) {
+            Vec3 n{};
+            n[axis] = sign;
+            directions.push_back(n);
+        }
+    for (float x : {-1.0f, 0.0f, 1.0f})
+        for (float y : {-1.0f, 0.0f, 1.0f})
+            for (float z : {-1.0f, 0.0f, 1.0f})
+                if (x != 0 || y != 0 || z != 0) directions.push_back(normalised(x, y, z));
+    std::mt19937 rng(1);
+    for (int i = 0; i < 200000; ++i) directions.push_back(randomDirection(rng));
+    double worst = 0;
+    for (const Vec3& n : directions) {
+        const std::uint32_t code = esvo::encodeNormal(n);
+        worst = std::max(worst, angle(n, esvo::decodeNormal(code)));
+        const Vec3 unit = esvo::decodeUnitNormal(code);
+        EXPECT_NEAR(std::sqrt(unit[0] * unit[0] + unit[1] * unit[1] + unit[2] * unit[2]), 1.0, 1e-6);
+    }
+    EXPECT_LT(worst, std::ldexp(1.0, -12));
+    // The axes themselves are exact.
+    for (unsigned i = 0; i < 6; ++i) EXPECT_EQ(esvo::decodeNormal(esvo::encodeNormal(directions[i])), directions[i]);
+}
+
+TEST(AttributeEncode, AxisCodeRoundTrips) {
+    // Every decoded axis is re-encoded to the same vector.
+    for (std::uint32_t bits = 0; bits < 0x10000u; ++bits) {
+        const Vec3 a = esvo::decodeAxis(bits);
+        ASSERT_EQ(esvo::decodeAxis(esvo::encodeAxis(a)), a) << bits;
+    }
+    // Arbitrary vectors within range: within half a step of the chosen exponent per component.
+    std::mt19937 rng(2);
+    std::uniform_real_distribution<float> component(-1, 1);
+    std::uniform_int_distribution<int> exponent(-12, 4);
+    for (int i = 0; i < 20000; ++i) {
+        const float scale = std::ldexp(1.0f, exponent(rng));
+        const Vec3 a{component(rng) * scale, component(rng) * scale, component(rng) * scale};
+        const std::uint32_t bits = esvo::encodeAxis(a);
+        const float step = std::ldexp(1.0f, static_cast<int>(bits >> 12) - 13);
+        const Vec3 d = esvo::decodeAxis(bits);
+        for (unsigned c = 0; c < 3; ++c) ASSERT_LE(std::fabs(d[c] - a[c]), 0.5f * step * 1.0001f) << i;
+        // and the exponent is the smallest that holds the largest component.
+        if ((bits >> 12) > 0) {
+            const float largest = std::max({std::fabs(a[0]), std::fabs(a[1]), std::fabs(a[2])});
+            EXPECT_GT(largest, 7.5f * 0.5f * step);
+        }
+    }
+}
+
+TEST(AttributeEncode, EmptyMaskGivesZeroBlockWithValidBase) {
+    std::array<std::uint64_t, 16> values{};
+    for (unsigned s = 0; s < 16; ++s) values[s] = 0x12345678u | (std::uint64_t{esvo::encodeNormal({1, 2, 3})} << 32);
+    const esvo::CompressedBlock block = vox::detail::encodeCompressedBlock(values, 0);
+    EXPECT_EQ(block[0], 0u);
+    EXPECT_EQ(block[1], 0u);
+    EXPECT_EQ(block[3], 0u);
+    EXPECT_EQ(block[4], 0u);
+    EXPECT_EQ(block[5], 0u);
+    EXPECT_EQ(esvo::decodeUnitNormal(block[2]), (Vec3{0, 0, 1}));
+    EXPECT_EQ(esvo::decodeBlockNormal(block.data(), 3), (Vec3{0, 0, 1}));
+}
+
+TEST(AttributeEncode, RepresentableColourBlocksAreExact) {
+    std::mt19937 rng(3);
+    std::uniform_int_distribution<std::uint32_t> code(0, 0xFFFF);
+    for (int i = 0; i < 2000; ++i) {
+        const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 16));
+        const std::uint32_t a = esvo::expandRgb565(code(rng)), b = esvo::expandRgb565(code(rng));
+        std::array<std::uint32_t, 16> colors{};
+        for (unsigned s = 0; s < 16; ++s) colors[s] = (i % 2 == 0 || (rng() & 1)) ? a : b;
+        const auto words = vox::detail::encodeColorBlock(colors, mask);
+        ASSERT_EQ(vox::detail::colorBlockError(colors, mask, words[0], words[1]), 0u) << i;
+        const esvo::CompressedBlock block{words[0], words[1], 0, 0, 0, 0};
+        for (unsigned s = 0; s < 16; ++s) {
+            if ((mask >> s) & 1u) ASSERT_EQ(esvo::decodeBlockColor(block.data(), s), colors[s] | 0xFF000000u);
+            else ASSERT_EQ(esvo::blockIndex(words[1], s), 0u);
+        }
+    }
+}
+
+TEST(AttributeEncode, SingleColourBlocksAreOptimal) {
+    // Brute force over every endpoint pair, per channel (channels are independent for one colour).
+    const auto bestChannel = [](int value, int bits) {
+        const auto expand = [bits](int c) { return bits == 5 ? (c << 3) | (c >> 2) : (c << 2) | (c >> 4); };
+        int best = 1 << 20;
+        for (int a = 0; a < (1 << bits); ++a)
+            for (int b = 0; b < (1 << bits); ++b)
+                for (int entry : {expand(a), (2 * expand(a) + expand(b) + 1) / 3}) best = std::min(best, (entry - value) * (entry - value));
+        return best;
+    };
+    std::array<std::array<int, 256>, 2> best{};
+    for (int v = 0; v < 256; ++v) best[0][v] = bestChannel(v, 5), best[1][v] = bestChannel(v, 6);
+    std::mt19937 rng(4);
+    std::uniform_int_distribution<std::uint32_t> byte(0, 255);
+    for (int i = 0; i < 3000; ++i) {
+        const std::uint32_t r = byte(rng), g = byte(rng), b = byte(rng);
+        std::array<std::uint32_t, 16> colors{};
+        colors.fill(esvo::packColor(r, g, b));
+        const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 16));
+        const auto words = vox::detail::encodeColorBlock(colors, mask);
+        const std::uint64_t expected = static_cast<std::uint64_t>(std::popcount(mask)) *
+                                       static_cast<std::uint64_t>(best[0][r] + best[1][g] + best[0][b]);
+        ASSERT_EQ(vox::detail::colorBlockError(colors, mask, words[0], words[1]), expected) << r << ' ' << g << ' ' << b;
+    }
+}
+
+TEST(AttributeEncode, UnusedSlotsChangeNothing) {
+    std::mt19937 rng(5);
+    std::uniform_int_distribution<std::uint32_t> word;
+    for (int i = 0; i < 500; ++i) {
+        const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 15));
+        std::array<std::uint64_t, 16> values{};
+        for (auto& v : values) v = (word(rng) & 0xFFFFFFu) | (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
+        const esvo::CompressedBlock block = vox::detail::encodeCompressedBlock(values, mask);
+        for (unsigned s = 0; s < 16; ++s) {
+            if ((mask >> s) & 1u) continue;
+            EXPECT_EQ(esvo::blockIndex(block[1], s), 0u);
+            EXPECT_EQ(esvo::blockIndex(block[3], s), 0u);
+            EXPECT_EQ(esvo::blockIndex(block[5], s), 0u);
+            values[s] = word(rng) | (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
+        }
+        ASSERT_EQ(vox::detail::encodeCompressedBlock(values, mask), block) << i;
+        ASSERT_EQ(vox::detail::encodeCompressedBlock(values, mask | 0xFFFF0000u), block) << "bits above 15 are ignored";
+    }
+}
+
+TEST(AttributeEncode, EqualNormalsKeepTheCubeFacePrecision) {
+    std::mt19937 rng(6);
+    for (int i = 0; i < 2000; ++i) {
+        const Vec3 n = i < 6 ? Vec3{float(i == 0) - float(i == 1), float(i == 2) - float(i == 3), float(i == 4) - float(i == 5)}
+                             : randomDirection(rng);
+        std::array<Vec3, 16> normals{};
+        normals.fill(n);
+        const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 16));
+        const auto words = vox::detail::encodeNormalBlock(normals, mask);
+        ASSERT_LT(normalErrors(normals, mask, words).max, 0.01 * kDegree) << i;
+        ASSERT_LT(normalErrors(normals, mask, words).max, 2 * angle(n, esvo::decodeNormal(esvo::encodeNormal(n))) + 1e-6) << i;
+    }
+}
+
+TEST(AttributeEncode, SmoothNormalBlocksDecodeWithinAFractionOfADegree) {
+    std::mt19937 rng(7);
+    // Radius 24 voxels: a 4×2×2 block spans about 10°; smaller radii (more curvature) less strictly.
+    for (const double radius : {24.0, 64.0, 400.0}) {
+        double sum = 0, worst = 0;
+        int count = 0;
+        for (int i = 0; i < 1000; ++i) {
+            const auto normals = spherePatch(rng, radius, static_cast<unsigned>(i % 3));
+            const std::uint32_t mask = i % 2 ? 0xFFFFu : randomMask(rng, 8);
+            const NormalErrors e = normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask));
+            sum += e.mean;
+            worst = std::max(worst, e.max);
+            ++count;
+        }
+        EXPECT_LT(sum / count, 0.5 * kDegree * 24.0 / radius) << radius;
+        EXPECT_LT(worst, 2.0 * kDegree * std::sqrt(24.0 / radius)) << radius;
+    }
+    // Random normals in a 10° cone (no structure): still well under a degree on average.
+    double sum = 0, worst = 0;
+    for (int i = 0; i < 1000; ++i) {
+        const Vec3 axis = randomDirection(rng);
+        std::array<Vec3, 16> normals{};
+        for (auto& n : normals) {
+            Vec3 d = randomDirection(rng);
+            while (angle(d, axis) > 5 * kDegree) {
+                const float t = 0.9f;
+                d = normalised(t * axis[0] + (1 - t) * d[0], t * axis[1] + (1 - t) * d[1], t * axis[2] + (1 - t) * d[2]);
+            }
+            n = d;
+        }
+        const NormalErrors e = normalErrors(normals, 0xFFFFu, vox::detail::encodeNormalBlock(normals, 0xFFFFu));
+        sum += e.mean;
+        worst = std::max(worst, e.max);
+    }
+    EXPECT_LT(sum / 1000, 0.6 * kDegree);
+    EXPECT_LT(worst, 2.5 * kDegree);
+}
+
+TEST(AttributeEncode, WidelySpreadNormalsStaySane) {
+    std::mt19937 rng(8);
+    double sum = 0;
+    for (int i = 0; i < 500; ++i) {
+        std::array<Vec3, 16> normals{};
+        for (auto& n : normals) n = randomDirection(rng);  // the whole sphere
+        if (i % 2) normals[1] = Vec3{-normals[0][0], -normals[0][1], -normals[0][2]};
+        const std::uint32_t mask = i % 3 ? 0xFFFFu : randomMask(rng, 4);
+        const auto words = vox::detail::encodeNormalBlock(normals, mask);
+        const esvo::CompressedBlock block{0, 0, words[0], words[1], words[2], words[3]};
+        for (unsigned s = 0; s < 16; ++s) {
+            const Vec3 d = esvo::decodeBlockNormal(block.data(), s);
+            ASSERT_TRUE(std::isfinite(d[0]) && std::isfinite(d[1]) && std::isfinite(d[2]));
+            ASSERT_NEAR(std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), 1.0, 1e-5);
+        }
+        sum += normalErrors(normals, mask, words).mean;
+    }
+    // 16 decoded directions cannot cover the sphere, but they should serve it far better than one.
+    EXPECT_LT(sum / 500, 45 * kDegree);
+}
+
+TEST(AttributeEncode, ColourBeatsStbDxtHighQuality) {
+    std::mt19937 rng(9);
+    std::vector<ColorBlock> corpus = textureTiles(1200);
+    ASSERT_GE(corpus.size(), 1000u) << "texture corpus missing: is assimp-testmodels installed?";
+    const std::size_t tiles = corpus.size();
+    const std::vector<ColorBlock> synthetic = syntheticBlocks(rng, 1500);
+    corpus.insert(corpus.end(), synthetic.begin(), synthetic.end());
+    // Partially used blocks (8 of 16 slots, as in voxel blocks).
+    const std::size_t full = corpus.size();
+    for (std::size_t i = 0; i < full; i += 2) {
+        ColorBlock b = corpus[i];
+        b.mask = randomMask(rng, 8);
+        corpus.push_back(b);
+    }
+    std::array<std::uint64_t, 2> ours{}, stb{};  // [full, partial]
+    std::uint64_t tileOurs = 0, tileStb = 0;
+    for (std::size_t i = 0; i < corpus.size(); ++i) {
+        const ColorBlock& b = corpus[i];
+        const auto words = vox::detail::encodeColorBlock(b.colors, b.mask);
+        const auto stbWords = stbEncode(b, STB_DXT_HIGHQUAL);
+        const std::uint64_t e = vox::detail::colorBlockError(b.colors, b.mask, words[0], words[1]);
+        const std::uint64_t es = vox::detail::colorBlockError(b.colors, b.mask, stbWords[0], stbWords[1]);
+        ours[i >= full] += e;
+        stb[i >= full] += es;
+        if (i < tiles) tileOurs += e, tileStb += es;
+    }
+    EXPECT_LE(ours[0], stb[0]);
+    EXPECT_LE(ours[1], stb[1]);
+    EXPECT_LE(tileOurs, tileStb);
+    std::printf("summed squared error, ours vs stb_dxt HIGHQUAL: tiles %llu vs %llu, full %llu vs %llu, partial %llu vs %llu\n",
+                static_cast<unsigned long long>(tileOurs), static_cast<unsigned long long>(tileStb),
+                static_cast<unsigned long long>(ours[0]), static_cast<unsigned long long>(stb[0]),
+                static_cast<unsigned long long>(ours[1]), static_cast<unsigned long long>(stb[1]));
+}
+
+TEST(AttributeEncode, IsDeterministic) {
+    std::mt19937 rng(10);
+    for (int i = 0; i < 200; ++i) {
+        std::array<std::uint64_t, 16> values{};
+        for (auto& v : values) v = (rng() & 0xFFFFFFu) | (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
+        const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 16));
+        EXPECT_EQ(vox::detail::encodeCompressedBlock(values, mask), vox::detail::encodeCompressedBlock(values, mask));
+    }
+}
