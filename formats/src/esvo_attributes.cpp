@@ -60,10 +60,14 @@ Vec3 decodeAxis(std::uint32_t bits16) noexcept {
 }
 
 std::uint32_t encodeAxis(const Vec3& axis) noexcept {
-    const float largest = std::max({std::fabs(axis[0]), std::fabs(axis[1]), std::fabs(axis[2])});
+    const float highest = std::max({axis[0], axis[1], axis[2], 0.0f});
+    const float lowest = std::min({axis[0], axis[1], axis[2], 0.0f});
     std::uint32_t e = 0;
-    // Smallest exponent whose range (−8 … 7 steps) holds the largest component after rounding.
-    while (e < 15 && largest > 7.5f * std::ldexp(1.0f, static_cast<int>(e) - 13)) ++e;
+    // Smallest exponent whose range (−8 … 7 steps) holds every component after rounding (to
+    // within half a step: 7.5 clamps to 7, −8.5 to −8).
+    while (e < 15 && (highest > 7.5f * std::ldexp(1.0f, static_cast<int>(e) - 13) ||
+                      lowest < -8.5f * std::ldexp(1.0f, static_cast<int>(e) - 13)))
+        ++e;
     const float step = std::ldexp(1.0f, static_cast<int>(e) - 13);
     std::uint32_t bits = e << 12;
     for (unsigned c = 0; c < 3; ++c) {

@@ -194,6 +194,18 @@ void dump(const std::string& file, long long sliceIndex, bool json) {
     }
 }
 
+/// Per pixel, the edge of the voxel hit in pixels at its distance (0 where the ray missed): the
+/// post-process filter's radius.
+std::vector<float> voxelFootprints(const RenderBuffers& image, const EsvoRayCaster& caster, int leafDepth, const PinholeCamera& camera) {
+    std::vector<float> out(image.depth.size(), 0.0f);
+    for (std::size_t i = 0; i < out.size(); ++i) {
+        if (!std::isfinite(image.depth[i]) || !(image.depth[i] > 0)) continue;
+        const double edge = std::ldexp(caster.leafVoxelSize(), leafDepth - int(image.level[i]));
+        out[i] = static_cast<float>(edge / (double(image.depth[i]) * camera.pixelAngle()));
+    }
+    return out;
+}
+
 std::array<std::uint8_t, 3> levelColour(std::uint32_t level) {
     static constexpr std::array<std::array<std::uint8_t, 3>, 8> palette{{{230, 25, 75}, {60, 180, 75}, {255, 225, 25}, {0, 130, 200},
                                                                           {245, 130, 48}, {145, 30, 180}, {70, 240, 240}, {240, 50, 230}}};
@@ -209,8 +221,11 @@ void render(const EsvoCommands& c) {
     camera.width = c.width;
     camera.height = c.height;
     camera.validate();
-    if (c.channel != "depth" && c.channel != "normal" && c.channel != "iterations" && c.channel != "level")
-        throw UsageError("--channel must be depth, normal, iterations or level");
+    static const std::array<std::string, 7> kChannels{"depth", "normal", "iterations", "level", "color", "shaded", "face-normal"};
+    if (std::find(kChannels.begin(), kChannels.end(), c.channel) == kChannels.end())
+        throw UsageError("--channel must be depth, normal, face-normal, color, shaded, iterations or level");
+    const bool colorChannel = c.channel == "color" || c.channel == "shaded";
+    if (c.filter && !colorChannel) throw UsageError("--filter applies to --channel color or shaded");
     if (!(c.lodScale >= 0)) throw UsageError("--lod-scale must be 0 or more");
     if (c.beam != 0 && c.beam != 4 && c.beam != 8) throw UsageError("--beam must be 0, 4 or 8");
 
@@ -221,7 +236,17 @@ void render(const EsvoCommands& c) {
     CastOptions options;
     options.lodAngle = camera.pixelAngle() * c.lodScale;
     options.maxLevel = c.maxLevel;
+    options.attributes = c.channel != "depth" && c.channel != "iterations" && c.channel != "level" && c.channel != "face-normal";
+    const std::uint32_t kinds = reader.header().attachmentKinds;
+    const bool hasAttributes = (kinds >> static_cast<unsigned>(esvo::AttachmentKind::Palette) & 1u) ||
+                               (kinds >> static_cast<unsigned>(esvo::AttachmentKind::Dxt) & 1u);
+    if (c.channel == "color" && !hasAttributes) throw UsageError(c.file + ": no colours in this file (voxelize --attributes none)");
     const RenderBuffers image = renderEsvo(caster, camera, options, c.beam);
+    std::vector<Vec3f> linear;  // color / shaded
+    if (colorChannel) {
+        linear = c.channel == "color" ? albedoImage(image) : shadeHeadlight(image, camera);
+        if (c.filter) linear = postProcessFilter(linear, voxelFootprints(image, caster, static_cast<int>(reader.header().leafDepth), camera), image.width, image.height);
+    }
 
     const std::size_t pixels = image.depth.size();
     std::vector<std::uint8_t> rgb(3 * pixels, 0);
@@ -243,11 +268,14 @@ void render(const EsvoCommands& c) {
             continue;
         }
         if (!hit) continue;
-        if (c.channel == "depth") {
+        if (colorChannel) {
+            for (int k = 0; k < 3; ++k)
+                p[k] = static_cast<std::uint8_t>(std::lround(255.0f * linearToSrgb(std::clamp(linear[i][k], 0.0f, 1.0f))));
+        } else if (c.channel == "depth") {
             const float v = farthest > nearest ? (image.depth[i] - nearest) / (farthest - nearest) : 0.0f;
             p[0] = p[1] = p[2] = static_cast<std::uint8_t>(std::lround(255 * (1 - 0.8f * v)));
-        } else if (c.channel == "normal") {
-            const Vec3f n = image.normal[i];
+        } else if (c.channel == "normal" || c.channel == "face-normal") {
+            const Vec3f n = c.channel == "normal" && image.color[i] != 0 ? image.shadingNormal[i] : image.normal[i];
             p[0] = static_cast<std::uint8_t>(std::lround(127.5f * (n.x + 1)));
             p[1] = static_cast<std::uint8_t>(std::lround(127.5f * (n.y + 1)));
             p[2] = static_cast<std::uint8_t>(std::lround(127.5f * (n.z + 1)));
@@ -315,7 +343,11 @@ void EsvoCommands::add(CLI::App& app) {
     render->add_option("--fov", fov, "Vertical field of view, degrees")->capture_default_str();
     render->add_option("--width", width, "Image width")->capture_default_str();
     render->add_option("--height", height, "Image height")->capture_default_str();
-    render->add_option("--channel", channel, "depth, normal, iterations or level")->capture_default_str();
+    render->add_option("--channel", channel,
+                       "shaded (headlight Phong on the voxels' colours and normals), color, normal (shading normal), "
+                       "face-normal (of the cube face or contour hit), depth, iterations or level")
+        ->capture_default_str();
+    render->add_flag("--filter", filter, "Post-process filter (Laine & Karras 6.3): blur each pixel over its voxel's projected size");
     render->add_option("--depth-out", depthOut, "Write distances as PFM (+inf where rays miss)");
     render->add_option("--max-level", maxLevel, "Treat voxels of this level as leaves");
     render->add_option("--load-levels", loadLevels, "Load only slices starting above this level (streaming check)");

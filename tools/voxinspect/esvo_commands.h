@@ -21,6 +21,7 @@ struct EsvoCommands {
     unsigned loadLevels = 0xFFFFFFFFu;
     double lodScale = 1.0;
     int beam = 0;
+    bool filter = false;
 
     CLI::App* info = nullptr;
     CLI::App* validate = nullptr;

@@ -60,6 +60,9 @@ struct CastOptions {
     /// of every ray of the beam (+inf and hit = false if none of them can hit); normal is 0 and
     /// iterations counts the nodes expanded.
     double beamRadius = 0;
+    /// Look up the colour and shading normal of the voxel hit (CastHit::color, shadingNormal),
+    /// inheriting from ancestors where the file omits a value. Ignored for files without them.
+    bool attributes = false;
 };
 
 struct CastHit {
@@ -68,6 +71,9 @@ struct CastHit {
     std::uint32_t level = 0;       ///< level of the voxel hit
     std::uint32_t iterations = 0;  ///< loop iterations the traversal took
     Vec3f normal{0, 0, 0};         ///< world normal of the cube face the ray entered
+    bool hasAttributes = false;    ///< color and shadingNormal hold the surface's attributes
+    std::uint32_t color = 0;       ///< esvo::packColor word: sRGB-encoded RGB, coverage in alpha
+    Vec3f shadingNormal{0, 0, 0};  ///< unit world shading normal (the filtered one, not the face's)
 };
 
 /// Casts rays against the slices an EsvoPool has loaded. Thread-safe; the pool must not change
@@ -81,6 +87,10 @@ public:
 
 private:
     [[nodiscard]] CastHit castBeam(const Ray& ray, const CastOptions& options) const;
+    /// Fills @p hit's attributes from the value child @p slot of the descriptor at
+    /// @p descriptorWord stores; false where it stores none (the voxel inherits) or the block
+    /// has no attributes.
+    static bool lookupAttributes(const std::uint32_t* words, std::uint32_t descriptorWord, std::uint32_t slot, CastHit& hit);
 
     const esvo::EsvoPool& pool_;
     double a_[12];         // world → root cube [0,1]³, row-major 3×4
@@ -96,6 +106,8 @@ struct RenderBuffers {
     std::vector<Vec3f> normal;             ///< world normals; 0 where it missed
     std::vector<std::uint32_t> iterations;
     std::vector<std::uint8_t> level;       ///< level hit; 0 where it missed
+    std::vector<std::uint32_t> color;      ///< CastHit::color; 0 where it missed or there is none
+    std::vector<Vec3f> shadingNormal;      ///< CastHit::shadingNormal; 0 where it missed or there is none
     std::uint64_t hits = 0;
     double seconds = 0;                    ///< wall time of the casting, coarse pass included
     // Beam optimisation (renderEsvo with beam > 0); iterations above are the fine pass's.
@@ -104,6 +116,24 @@ struct RenderBuffers {
     std::uint64_t coarseIterations = 0;    ///< nodes the coarse rays expanded, summed
     double coarseSeconds = 0;              ///< wall time of the coarse pass (part of seconds)
 };
+
+/// Phong shading under a headlight (a light at the eye) of every hit pixel with attributes:
+/// ambient 0.1 + diffuse 0.9 × albedo, plus a white specular lobe (exponent 32, strength 0.25),
+/// from RenderBuffers::color and shadingNormal and the camera's rays. Returns linear RGB per pixel
+/// (black where the ray missed).
+[[nodiscard]] std::vector<Vec3f> shadeHeadlight(const RenderBuffers& buffers, const PinholeCamera& camera);
+
+/// Linear RGB per pixel of RenderBuffers::color (black where the ray missed).
+[[nodiscard]] std::vector<Vec3f> albedoImage(const RenderBuffers& buffers);
+
+/// Laine & Karras' post-process filter (section 6.3) that hides the blockiness of per-voxel
+/// attributes: each pixel is blurred over a disc whose radius @p radius gives (in pixels: the
+/// projected size of the voxel it hit; ≤ 1: no blur, 0 for misses), sampled by an ordered kernel
+/// of 96 samples up to 24 pixels out; walking outwards, the radius shrinks to any neighbour's
+/// smaller one, so blur stops at silhouettes and at finer voxels, and each sample's weight fades
+/// out over the last pixel of the radius.
+[[nodiscard]] std::vector<Vec3f> postProcessFilter(const std::vector<Vec3f>& image, const std::vector<float>& radius, int width,
+                                                   int height);
 
 /// Casts one primary ray per pixel through @p cast, in parallel (TBB).
 [[nodiscard]] RenderBuffers renderPixels(const PinholeCamera& camera, const std::function<CastHit(const Ray&)>& cast);

@@ -362,42 +362,52 @@ void fitPlane(const NormalPoints& p, PlaneFit& f) {
     }
 }
 
-/// A quantised normal block: words 2 (base) and 4 (axes), the summed 1 − cos of the used normals
-/// and their combos.
+/// A quantised normal block: words 2 (base) and 4 (axes), the summed squared chord error of the
+/// used normals (see evalNormals) and their combos.
 struct NormalState {
     std::uint32_t base = 0, axes = 0;
     double error = std::numeric_limits<double>::max();
     std::array<std::uint8_t, 16> combo{};
 };
 
-/// Summed 1 − cos between each used normal and its best of the 16 decoded normals of (base,
-/// axes), as esvo::decodeBlockNormal computes them; stops early beyond @p bound.
+/// Summed squared chord |n − d|² = 2 (1 − cos) between each used normal n and the nearest d of
+/// the 16 decoded normals of (base, axes), as esvo::decodeBlockNormal computes them; stops
+/// early beyond @p bound.
 double evalNormals(const NormalPoints& p, std::uint32_t base, std::uint32_t axes, std::array<std::uint8_t, 16>& combo, double bound) {
     const Vec3 b = esvo::decodeNormal(base);
     const Vec3 u = esvo::decodeAxis(axes & 0xFFFFu), v = esvo::decodeAxis(axes >> 16);
-    std::array<float, 16> dx{}, dy{}, dz{};
+    // The 16 decoded directions, in arrays the compiler can vectorise over.
+    alignas(16) std::array<float, 16> dx{}, dy{}, dz{};
     for (unsigned k = 0; k < 16; ++k) {
         const float cu = esvo::kAxisWeights[k & 3], cv = esvo::kAxisWeights[k >> 2];
-        const float x = b[0] + cu * u[0] + cv * v[0], y = b[1] + cu * u[1] + cv * v[1], z = b[2] + cu * u[2] + cv * v[2];
-        const float len = std::sqrt(x * x + y * y + z * z);
-        const float inv = len > 0 ? 1.0f / len : 0.0f;  // a zero vector decodes as +z; counting it as useless is close enough
-        dx[k] = x * inv;
-        dy[k] = y * inv;
-        dz[k] = z * inv;
+        dx[k] = b[0] + cu * u[0] + cv * v[0];
+        dy[k] = b[1] + cu * u[1] + cv * v[1];
+        dz[k] = b[2] + cu * u[2] + cv * v[2];
     }
+    for (unsigned k = 0; k < 16; ++k) {
+        const float len2 = dx[k] * dx[k] + dy[k] * dy[k] + dz[k] * dz[k];
+        // A zero vector decodes as +z; counting it as pointing nowhere is close enough.
+        const float inv = len2 > 0 ? 1.0f / std::sqrt(len2) : 0.0f;
+        dx[k] *= inv;
+        dy[k] *= inv;
+        dz[k] *= inv;
+    }
+    // |n − d|² = 2 (1 − cos): the same order, but precise for tiny angles, where 1 − cos in
+    // float is not.
     double total = 0;
     for (unsigned i = 0; i < p.count; ++i) {
-        float best = -2;
-        unsigned bestK = 0;
+        const float nx = p.n[i][0], ny = p.n[i][1], nz = p.n[i][2];
+        alignas(16) std::array<float, 16> d{};
         for (unsigned k = 0; k < 16; ++k) {
-            const float d = p.n[i][0] * dx[k] + p.n[i][1] * dy[k] + p.n[i][2] * dz[k];
-            if (d > best) {
-                best = d;
-                bestK = k;
-            }
+            const float ex = nx - dx[k], ey = ny - dy[k], ez = nz - dz[k];
+            d[k] = ex * ex + ey * ey + ez * ez;
         }
+        float best = d[0];
+        for (unsigned k = 1; k < 16; ++k) best = std::min(best, d[k]);
+        unsigned bestK = 0;
+        while (bestK < 15 && d[bestK] != best) ++bestK;
         combo[i] = static_cast<std::uint8_t>(bestK);
-        total += 1.0 - double(best);
+        total += best;
         if (total > bound) return total;
     }
     return total;
@@ -496,7 +506,8 @@ NormalState quantiseFit(const NormalPoints& p, const PlaneFit& f) {
     return s;
 }
 
-NormalState encodeNormals(NormalPoints& p) {
+/// Picks the face, projects the normals onto its plane and fits the lattice there.
+PlaneFit fitNormals(NormalPoints& p) {
     // The face: the dominant axis of the mean normal (of the first normal if they cancel).
     Vec3 mean{};
     for (unsigned i = 0; i < p.count; ++i)
@@ -590,9 +601,10 @@ NormalState encodeNormals(NormalPoints& p) {
     line.vx = static_cast<float>(0.1875 * h1 * e1x);
     line.vy = static_cast<float>(0.1875 * h1 * e1y);
     if (h2 < 0.5 * h1) fitPlane(p, line);
-    const PlaneFit& fit = line.error < grid.error ? line : grid;
-    return quantiseFit(p, fit);
+    return line.error < grid.error ? line : grid;
 }
+
+NormalState encodeNormals(NormalPoints& p) { return quantiseFit(p, fitNormals(p)); }
 
 esvo::Vec3 unitOrZ(const esvo::Vec3& n) {
     const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);

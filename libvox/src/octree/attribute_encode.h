@@ -23,7 +23,8 @@ namespace vox::detail {
 /// Encodes 16 normals (any non-zero vectors; normalised first, a zero or non-finite one counts
 /// as +z) into words 2-5: base normal, U indices, axes, V indices. Only used slots matter;
 /// unused slots get index 0, and a mask of 0 gives a +z base with zero axes. Minimises the
-/// summed 1 − cos of the angle between each used normal and its esvo::decodeBlockNormal.
+/// summed 1 − cos of the angle between each used normal and its esvo::decodeBlockNormal
+/// (≈ half the summed squared angle).
 [[nodiscard]] std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask);
 
 /// Both: @p values hold colour word | (cube-face normal word << 32) per slot (the layout of the

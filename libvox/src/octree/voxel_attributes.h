@@ -6,6 +6,7 @@
 // fragments), so only the voxels where refinement stops clip triangles.
 #pragma once
 
+#include "../scene/surface_shading.h"
 #include "triangle_box.h"
 
 #include <vox/scene.h>
@@ -16,12 +17,6 @@
 #include <vector>
 
 namespace vox::detail {
-
-/// Where a triangle of the voxelizer's list came from.
-struct TriangleSource {
-    std::uint32_t mesh = 0;
-    std::uint32_t triangle = 0;
-};
 
 /// Area-weighted sums over fragments. Weights are fragment areas in leaf units², plus a tiny
 /// term so that a voxel whose fragments all have zero area (a triangle touching its boundary)

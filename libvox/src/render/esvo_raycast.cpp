@@ -2,6 +2,7 @@
 // written against libvox's block layout. Octree coordinates are [1,2]³ so that POP can read the
 // cube position off the float bit patterns.
 #include <vox/formats/error.h>
+#include <vox/formats/esvo_attributes.h>
 #include <vox/raycast.h>
 
 #include <tbb/blocked_range.h>
@@ -128,6 +129,7 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
     if (1.5f * tzCoef - tzBias > tMin) idx ^= 4, posZ = 1.5f;
 
     bool hit = false;
+    int hitSlot = 0;
     while (scale < kScaleMax) {
         ++result.iterations;
         if (!haveDescriptor) {
@@ -147,6 +149,7 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
             if (lodCoef > 0 && tcMax * lodCoef >= scaleExp2) {  // voxel smaller than the pixel
                 hit = true;
                 result.level = level;
+                hitSlot = slot;
                 break;
             }
             float tvMax = std::min(tMax, tcMax);
@@ -200,6 +203,7 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
                 if (leaf) {
                     hit = true;
                     result.level = level;
+                    hitSlot = slot;
                     tMin = tvMin;
                     break;
                 }
@@ -276,7 +280,55 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
                    a_[2] * n.x + a_[6] * n.y + a_[10] * n.z};
     const Vec3d nn = normalize(nw);
     result.normal = {static_cast<float>(nn.x), static_cast<float>(nn.y), static_cast<float>(nn.z)};
+
+    if (options.attributes) {
+        // The hit voxel is child hitSlot of `parent`; where its value is omitted it inherits its
+        // parent voxel's: child (position bits at that scale) of the descriptor the stack holds.
+        std::uint32_t descriptorWord = parent;
+        int slot = hitSlot;
+        for (int s = scale;;) {
+            if (lookupAttributes(words, descriptorWord, static_cast<std::uint32_t>(slot), result)) break;
+            if (++s >= kScaleMax) break;  // the root's own value is stored nowhere
+            descriptorWord = stack[s].parent;
+            const int idxAbove = static_cast<int>(((std::bit_cast<std::uint32_t>(posX) >> s) & 1u) |
+                                                  (((std::bit_cast<std::uint32_t>(posY) >> s) & 1u) << 1) |
+                                                  (((std::bit_cast<std::uint32_t>(posZ) >> s) & 1u) << 2));
+            slot = idxAbove ^ octantMask ^ 7;
+        }
+    }
     return result;
+}
+
+bool EsvoRayCaster::lookupAttributes(const std::uint32_t* words, std::uint32_t descriptorWord, std::uint32_t slot, CastHit& hit) {
+    // The descriptor's block: page header → info section → attachment directory.
+    const std::uint32_t pageWord = descriptorWord & ~(esvo::kPageBytes / 4 - 1);
+    const auto infoWord = static_cast<std::uint32_t>(static_cast<std::int64_t>(pageWord) + static_cast<std::int32_t>(words[pageWord]));
+    const std::uint32_t blockWord = infoWord + static_cast<std::uint32_t>(static_cast<std::int32_t>(words[infoWord + esvo::info::kFirstDescriptor])) - 2;
+    const std::uint32_t unit = (descriptorWord - blockWord) / 2;
+    const std::uint32_t count = words[infoWord + esvo::info::kAttachmentCount];
+    for (std::uint32_t a = 0; a < count; ++a) {
+        const std::uint32_t kind = words[infoWord + esvo::info::kAttachments + 2 * a];
+        const std::uint32_t attach = infoWord + static_cast<std::uint32_t>(static_cast<std::int32_t>(words[infoWord + esvo::info::kAttachments + 2 * a + 1]));
+        esvo::Vec3 n{};
+        if (kind == static_cast<std::uint32_t>(esvo::AttachmentKind::Palette)) {
+            const esvo::PaletteLookup entry{words[attach + unit]};
+            if (!((entry.mask() >> slot) & 1u)) return false;
+            const std::uint32_t value = attach + entry.valuePointer() + 2 * esvo::popc8(entry.mask() & ((1u << slot) - 1u));
+            hit.color = words[value];
+            n = esvo::decodeUnitNormal(words[value + 1]);
+        } else if (kind == static_cast<std::uint32_t>(esvo::AttachmentKind::Dxt)) {
+            const std::uint32_t* block = words + attach + esvo::kCompressedBlockWords * (unit / 2);
+            const unsigned blockSlot = slot | ((unit & 1u) << 3);
+            hit.color = esvo::decodeBlockColor(block, blockSlot);
+            n = esvo::decodeBlockNormal(block, blockSlot);
+        } else {
+            continue;
+        }
+        hit.hasAttributes = true;
+        hit.shadingNormal = {n[0], n[1], n[2]};
+        return true;
+    }
+    return false;
 }
 
 // ---- beam optimisation: the coarse pass ---------------------------------------------------
@@ -451,6 +503,8 @@ RenderBuffers emptyBuffers(const PinholeCamera& camera) {
     out.normal.assign(pixels, Vec3f{0, 0, 0});
     out.iterations.assign(pixels, 0);
     out.level.assign(pixels, 0);
+    out.color.assign(pixels, 0);
+    out.shadingNormal.assign(pixels, Vec3f{0, 0, 0});
     return out;
 }
 
@@ -471,6 +525,7 @@ double castPixels(const PinholeCamera& camera, RenderBuffers& out, const Cast& c
                 out.depth[i] = h.t;
                 out.normal[i] = h.normal;
                 out.level[i] = static_cast<std::uint8_t>(h.level);
+                if (h.hasAttributes) out.color[i] = h.color, out.shadingNormal[i] = h.shadingNormal;
             }
         hits += localHits;
     });

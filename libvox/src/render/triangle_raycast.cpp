@@ -1,5 +1,9 @@
 // BVH over triangles: median splits on the longest centroid axis, four triangles per leaf,
 // slab tests and Möller–Trumbore intersection.
+#include "../scene/surface_shading.h"
+
+#include <vox/formats/esvo_attributes.h>
+#include <vox/texture.h>
 #include <vox/triangle_raycast.h>
 
 #include <algorithm>
@@ -8,11 +12,13 @@
 
 namespace vox {
 
-TriangleRayCaster::TriangleRayCaster(const Scene& scene, bool includeDynamic) {
+TriangleRayCaster::TriangleRayCaster(const Scene& scene, bool includeDynamic) : scene_(scene) {
     std::vector<Vec3f> centroids;
-    for (const Mesh& mesh : scene.meshes) {
+    for (std::uint32_t m = 0; m < scene.meshes.size(); ++m) {
+        const Mesh& mesh = scene.meshes[m];
         if (mesh.dynamic && !includeDynamic) continue;
         for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
+            sources_.push_back((std::uint64_t{m} << 32) | t);
             const Vec3f a = mesh.positions[mesh.indices[3 * t]], b = mesh.positions[mesh.indices[3 * t + 1]],
                         c = mesh.positions[mesh.indices[3 * t + 2]];
             triangles_.push_back({a, b - a, c - a});
@@ -57,9 +63,11 @@ std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
                      [&](std::uint32_t x, std::uint32_t y) { return centroids[x][axis] < centroids[y][axis]; });
     std::vector<Triangle> tris(count);
     std::vector<Vec3f> cents(count);
-    for (std::uint32_t i = 0; i < count; ++i) tris[i] = triangles_[order[i]], cents[i] = centroids[order[i]];
+    std::vector<std::uint64_t> sources(count);
+    for (std::uint32_t i = 0; i < count; ++i) tris[i] = triangles_[order[i]], cents[i] = centroids[order[i]], sources[i] = sources_[order[i]];
     std::copy(tris.begin(), tris.end(), triangles_.begin() + first);
     std::copy(cents.begin(), cents.end(), centroids.begin() + first);
+    std::copy(sources.begin(), sources.end(), sources_.begin() + first);
     build(first, half, centroids);
     node.first = build(first + half, count - half, centroids);
     node.count = 0;
@@ -67,7 +75,7 @@ std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
     return index;
 }
 
-CastHit TriangleRayCaster::cast(const Ray& ray, double tMax) const {
+CastHit TriangleRayCaster::cast(const Ray& ray, double tMax, double footprintAngle) const {
     CastHit result;
     if (nodes_.empty()) return result;
     const Vec3f o{static_cast<float>(ray.origin.x), static_cast<float>(ray.origin.y), static_cast<float>(ray.origin.z)};
@@ -117,11 +125,26 @@ CastHit TriangleRayCaster::cast(const Ray& ray, double tMax) const {
     Vec3f n = normalize(cross(triangles_[bestTriangle].e1, triangles_[bestTriangle].e2));
     if (dot(n, d) > 0) n = -n;
     result.normal = n;
+
+    const std::uint64_t source = sources_[bestTriangle];
+    const detail::TriangleSource where{static_cast<std::uint32_t>(source >> 32), static_cast<std::uint32_t>(source)};
+    const Mesh& mesh = scene_.meshes[where.mesh];
+    std::array<Vec3d, 3> corners;
+    for (int k = 0; k < 3; ++k) {
+        const Vec3f p = mesh.positions[mesh.indices[3 * std::size_t{where.triangle} + k]];
+        corners[k] = {p.x, p.y, p.z};
+    }
+    const Vec3d at = ray.origin + ray.direction * double(best);
+    const detail::SurfaceSample sample = detail::shadeTriangle(scene_, where, corners, detail::barycentric(corners, at), footprintAngle * best);
+    result.hasAttributes = true;
+    result.color = detail::packLinearColor(sample.color);
+    result.shadingNormal = {static_cast<float>(sample.normal.x), static_cast<float>(sample.normal.y), static_cast<float>(sample.normal.z)};
     return result;
 }
 
 RenderBuffers renderTriangles(const TriangleRayCaster& caster, const PinholeCamera& camera) {
-    return renderPixels(camera, [&](const Ray& ray) { return caster.cast(ray); });
+    const double footprint = camera.pixelAngle();
+    return renderPixels(camera, [&](const Ray& ray) { return caster.cast(ray, std::numeric_limits<double>::infinity(), footprint); });
 }
 
 }  // namespace vox

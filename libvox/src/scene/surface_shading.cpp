@@ -1,0 +1,99 @@
+#include "surface_shading.h"
+
+#include <vox/formats/esvo_attributes.h>
+#include <vox/texture.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace vox::detail {
+namespace {
+
+template <typename T>
+T interpolate(const std::vector<T>& values, const std::uint32_t* index, const Vec3d& b) {
+    return values[index[0]] * static_cast<float>(b.x) + values[index[1]] * static_cast<float>(b.y) + values[index[2]] * static_cast<float>(b.z);
+}
+
+/// Square root of the ratio of a triangle's UV area to its area: UV units per length unit.
+double uvPerLengthUnit(const std::array<Vec2f, 3>& uv, double area) {
+    const double du1 = uv[1].x - uv[0].x, dv1 = uv[1].y - uv[0].y, du2 = uv[2].x - uv[0].x, dv2 = uv[2].y - uv[0].y;
+    const double uvArea = 0.5 * std::abs(du1 * dv2 - du2 * dv1);
+    return area > 0 ? std::sqrt(uvArea / area) : 0.0;
+}
+
+}  // namespace
+
+std::uint32_t packLinearColor(Vec4f color) {
+    const auto channel = [](float linear, bool srgb) {
+        const float v = std::clamp(linear, 0.0f, 1.0f);
+        return static_cast<std::uint32_t>(std::lround(255.0f * (srgb ? linearToSrgb(v) : v)));
+    };
+    return esvo::packColor(channel(color.x, true), channel(color.y, true), channel(color.z, true), channel(color.w, false));
+}
+
+Vec3d barycentric(const std::array<Vec3d, 3>& corners, Vec3d p) {
+    const Vec3d e1 = corners[1] - corners[0], e2 = corners[2] - corners[0], vp = p - corners[0];
+    const double d00 = dot(e1, e1), d01 = dot(e1, e2), d11 = dot(e2, e2), d20 = dot(vp, e1), d21 = dot(vp, e2);
+    const double denom = d00 * d11 - d01 * d01;
+    if (!(denom > 0)) return {1.0 / 3, 1.0 / 3, 1.0 / 3};
+    const double b1 = std::clamp((d11 * d20 - d01 * d21) / denom, 0.0, 1.0);
+    const double b2 = std::clamp((d00 * d21 - d01 * d20) / denom, 0.0, 1.0 - b1);
+    return {1 - b1 - b2, b1, b2};
+}
+
+SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std::array<Vec3d, 3>& corners, Vec3d b, double footprint) {
+    const Mesh& mesh = scene.meshes[source.mesh];
+    const Material& material = scene.materials[mesh.material];
+    const std::uint32_t* index = &mesh.indices[3 * std::size_t{source.triangle}];
+    const Vec3d e1 = corners[1] - corners[0], e2 = corners[2] - corners[0];
+    const Vec3d faceNormal = cross(e1, e2);
+    const double area = 0.5 * length(faceNormal);
+
+    const auto usable = [&](const TextureBinding& binding) {
+        return binding.valid() && static_cast<std::size_t>(binding.texture) < scene.textures.size() && binding.uvSet < mesh.uvs.size() &&
+               !mesh.uvs[binding.uvSet].empty();
+    };
+    const auto cornerUvs = [&](const TextureBinding& binding) {
+        const auto& uvs = mesh.uvs[binding.uvSet];
+        return std::array<Vec2f, 3>{binding.transformUv(uvs[index[0]]), binding.transformUv(uvs[index[1]]), binding.transformUv(uvs[index[2]])};
+    };
+    const auto lookup = [&](const TextureBinding& binding, const std::array<Vec2f, 3>& uv) {
+        const Vec2f at = uv[0] * static_cast<float>(b.x) + uv[1] * static_cast<float>(b.y) + uv[2] * static_cast<float>(b.z);
+        const auto width = static_cast<float>(footprint * uvPerLengthUnit(uv, area));
+        return scene.textures[static_cast<std::size_t>(binding.texture)].sample(at, width, binding.wrapS, binding.wrapT);
+    };
+
+    SurfaceSample out;
+    out.color = material.baseColorFactor;
+    if (!mesh.colors.empty()) out.color = out.color * interpolate(mesh.colors, index, b);
+    if (usable(material.baseColorTexture)) out.color = out.color * lookup(material.baseColorTexture, cornerUvs(material.baseColorTexture));
+
+    const Vec3f shading = interpolate(mesh.normals, index, b);
+    Vec3d normal{shading.x, shading.y, shading.z};
+    normal = length(normal) > 0 ? normalize(normal) : (area > 0 ? normalize(faceNormal) : Vec3d{0, 0, 1});
+    if (usable(material.normalTexture)) {
+        const auto uv = cornerUvs(material.normalTexture);
+        const double du1 = uv[1].x - uv[0].x, dv1 = uv[1].y - uv[0].y, du2 = uv[2].x - uv[0].x, dv2 = uv[2].y - uv[0].y;
+        const double det = du1 * dv2 - du2 * dv1;
+        if (std::abs(det) > 1e-20) {
+            // dp/du and dp/dv of the triangle; the map's +Y is up in the image, i.e. towards −v
+            // (glTF's UV origin is the image's top-left corner).
+            Vec3d tangent = (e1 * dv2 - e2 * dv1) / det;
+            const Vec3d dpdv = (e2 * du1 - e1 * du2) / det;
+            tangent = tangent - normal * dot(normal, tangent);
+            if (length(tangent) > 0) {
+                tangent = normalize(tangent);
+                Vec3d bitangent = cross(normal, tangent);
+                if (dot(bitangent, dpdv) > 0) bitangent = -bitangent;
+                const Vec4f m = lookup(material.normalTexture, uv);
+                const double scale = material.normalScale;
+                const Vec3d bent = tangent * ((2.0 * m.x - 1.0) * scale) + bitangent * ((2.0 * m.y - 1.0) * scale) + normal * (2.0 * m.z - 1.0);
+                if (length(bent) > 0) normal = normalize(bent);
+            }
+        }
+    }
+    out.normal = normal;
+    return out;
+}
+
+}  // namespace vox::detail
