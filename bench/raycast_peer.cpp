@@ -1,10 +1,14 @@
 // Ray casting against its peer: renders a mesh and its .esvo from the same camera, the mesh with
 // the BVH triangle caster and the octree with the ESVO caster, in the same process, and prints
 // JSON with both speeds, their ratio, and how well the two images agree (hit/miss, depth within
-// one leaf-voxel diagonal along the ray, and along the surface normal).
+// one leaf-voxel diagonal along the ray, and along the surface normal). Where the .esvo has colours
+// and normals, a further (untimed) render compares them with the mesh's material at the same
+// pixels: colour PSNR (8-bit sRGB) and the angle between the voxel's normal and the mesh's
+// interpolated shading normal.
 // Usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z | --view dx,dy,dz) [--fov D] [--width W] [--height H] [--repeat N]
 // --view frames the mesh's bounds from direction (dx,dy,dz).
 #include <vox/formats/error.h>
+#include <vox/formats/esvo_attributes.h>
 #include <vox/import.h>
 #include <vox/util/log.h>
 #include <vox/raycast.h>
@@ -104,6 +108,58 @@ int main(int argc, char** argv) {
         }
         std::sort(errors.begin(), errors.end());
         const double rays = double(mesh.depth.size());
+
+        nlohmann::json attributes = nullptr;
+        const std::uint32_t kinds = reader.header().attachmentKinds;
+        if ((kinds >> static_cast<unsigned>(vox::esvo::AttachmentKind::Palette) & 1u) || (kinds >> static_cast<unsigned>(vox::esvo::AttachmentKind::Dxt) & 1u)) {
+            vox::CastOptions withAttributes;
+            withAttributes.attributes = true;
+            const auto shaded = vox::renderEsvo(octree, camera, withAttributes);
+            std::vector<double> angles, sameSurfaceAngles;
+            double squared = 0, sameSurfaceSquared = 0;
+            std::uint64_t compared = 0, sameSurface = 0;
+            for (std::size_t i = 0; i < mesh.depth.size(); ++i) {
+                if (!std::isfinite(mesh.depth[i]) || !std::isfinite(shaded.depth[i]) || shaded.color[i] == 0) continue;
+                const vox::Vec3f a = shaded.shadingNormal[i], b = mesh.shadingNormal[i];
+                const double angle = std::acos(std::clamp(double(dot(a, b)), -1.0, 1.0)) * 180.0 / 3.14159265358979323846;
+                double sq = 0;
+                for (unsigned ch = 0; ch < 3; ++ch) {
+                    const double d = double(vox::esvo::colorChannel(shaded.color[i], ch)) - double(vox::esvo::colorChannel(mesh.color[i], ch));
+                    sq += d * d;
+                }
+                angles.push_back(angle);
+                squared += sq;
+                ++compared;
+                // The same surface: the hit points lie within a leaf diagonal of each other along
+                // the normal (not a voxel that also holds a neighbouring surface).
+                const vox::Ray ray = camera.rayThrough(static_cast<int>(i % std::size_t(camera.width)), static_cast<int>(i / std::size_t(camera.width)));
+                const vox::Vec3f n = mesh.normal[i];
+                const double cosine = std::abs(n.x * ray.direction.x + n.y * ray.direction.y + n.z * ray.direction.z);
+                if (std::abs(double(shaded.depth[i]) - double(mesh.depth[i])) * cosine <= diagonal) {
+                    sameSurfaceAngles.push_back(angle);
+                    sameSurfaceSquared += sq;
+                    ++sameSurface;
+                }
+            }
+            const auto summary = [](std::vector<double>& v) {
+                std::sort(v.begin(), v.end());
+                double sum = 0;
+                for (double x : v) sum += x;
+                return nlohmann::json{{"mean", v.empty() ? 0.0 : sum / double(v.size())},
+                                      {"p50", v.empty() ? 0.0 : v[v.size() / 2]},
+                                      {"p99", v.empty() ? 0.0 : v[v.size() * 99 / 100]}};
+            };
+            const auto psnr = [](double sq, std::uint64_t n) {
+                return n == 0 || sq == 0 ? 99.0 : 10.0 * std::log10(255.0 * 255.0 / (sq / (3.0 * double(n))));
+            };
+            attributes = {{"compared_pixels", compared},
+                          {"same_surface_pixels", sameSurface},
+                          {"kind", (kinds >> static_cast<unsigned>(vox::esvo::AttachmentKind::Dxt) & 1u) ? "compressed" : "raw"},
+                          {"normal_error_degrees", summary(angles)},
+                          {"normal_error_degrees_same_surface", summary(sameSurfaceAngles)},
+                          {"color_psnr_db", psnr(squared, compared)},
+                          {"color_psnr_db_same_surface", psnr(sameSurfaceSquared, sameSurface)}};
+        }
         nlohmann::json out{
             {"mesh", argv[1]},
             {"esvo", argv[2]},
@@ -136,7 +192,8 @@ int main(int argc, char** argv) {
              }()},
             {"depth_error_p95", errors.empty() ? 0.0 : errors[errors.size() * 95 / 100]},
             {"depth_error_p50", errors.empty() ? 0.0 : errors[errors.size() / 2]},
-            {"depth_error_p99", errors.empty() ? 0.0 : errors[errors.size() * 99 / 100]}};
+            {"depth_error_p99", errors.empty() ? 0.0 : errors[errors.size() * 99 / 100]},
+            {"attributes", attributes}};
         std::cout << out.dump(2) << "\n";
         return 0;
     } catch (const vox::Error& e) {

@@ -4,12 +4,13 @@
 
 namespace vox::scenes {
 
-std::filesystem::path writeBumpySphere(const std::filesystem::path& directory, int rings, int segments) {
+std::filesystem::path writeBumpySphere(const std::filesystem::path& directory, int rings, int segments, bool bumps) {
     std::filesystem::create_directories(directory);
     constexpr double kPi = 3.14159265358979323846;
     GltfBuilder::Primitive p;
     p.material = 0;
-    const auto radius = [](double theta, double phi) {
+    const auto radius = [bumps](double theta, double phi) {
+        if (!bumps) return 1.0;
         return 1.0 + 0.08 * std::sin(7 * theta) * std::cos(5 * phi) + 0.03 * std::sin(23 * theta + 3 * phi) +
                0.015 * std::cos(41 * phi - 13 * theta);
     };
@@ -39,9 +40,10 @@ std::filesystem::path writeBumpySphere(const std::filesystem::path& directory, i
     for (int s = 0; s < segments; ++s) p.indices.insert(p.indices.end(), {south, ring(rings - 1, s), ring(rings - 1, s + 1)});
     GltfBuilder gltf;
     gltf.addMaterial({"Clay", {0.7f, 0.6f, 0.5f, 1}});
-    const int mesh = gltf.addMesh("BumpySphere", {p});
-    gltf.setSceneRoots({gltf.addNode({"BumpySphere", mesh})});
-    const auto file = directory / "bumpy_sphere.glb";
+    const char* name = bumps ? "BumpySphere" : "Sphere";
+    const int mesh = gltf.addMesh(name, {p});
+    gltf.setSceneRoots({gltf.addNode({name, mesh})});
+    const auto file = directory / (bumps ? "bumpy_sphere.glb" : "sphere.glb");
     gltf.write(file, BufferStorage::Glb);
     return file;
 }

@@ -14,6 +14,7 @@ namespace vox::scenes {
 }
 
 /// Writes "bumpy_sphere.glb" (radius about 1 around the origin) into @p directory; returns its path.
-std::filesystem::path writeBumpySphere(const std::filesystem::path& directory, int rings, int segments);
+/// @p bumps false: a plain unit sphere ("sphere.glb"), the smooth surface normal measurements use.
+std::filesystem::path writeBumpySphere(const std::filesystem::path& directory, int rings, int segments, bool bumps = true);
 
 }  // namespace vox::scenes

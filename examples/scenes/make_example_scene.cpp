@@ -1,5 +1,5 @@
 // Writes libvox's example scenes.
-// Usage: make_example_scene [cornell-box | bumpy-sphere [--rings R --segments S]] [-o DIR] [--glb]
+// Usage: make_example_scene [cornell-box | bumpy-sphere | sphere [--rings R --segments S]] [-o DIR] [--glb]
 #include "bumpy_sphere.h"
 #include "cornell_box.h"
 
@@ -20,20 +20,20 @@ int main(int argc, char** argv) {
             directory = argv[++i];
         } else if (arg == "--glb") {
             storage = vox::scenes::BufferStorage::Glb;
-        } else if (arg == "cornell-box" || arg == "bumpy-sphere") {
+        } else if (arg == "cornell-box" || arg == "bumpy-sphere" || arg == "sphere") {
             scene = arg;
         } else if (arg == "--rings" && i + 1 < argc) {
             rings = std::max(3, std::atoi(argv[++i]));
         } else if (arg == "--segments" && i + 1 < argc) {
             segments = std::max(3, std::atoi(argv[++i]));
         } else {
-            std::fprintf(stderr, "make_example_scene: error: unknown argument '%s'\nusage: make_example_scene [cornell-box | bumpy-sphere [--rings R --segments S]] [-o DIR] [--glb]\n", argv[i]);
+            std::fprintf(stderr, "make_example_scene: error: unknown argument '%s'\nusage: make_example_scene [cornell-box | bumpy-sphere | sphere [--rings R --segments S]] [-o DIR] [--glb]\n", argv[i]);
             return 1;
         }
     }
     try {
-        const auto file = scene == "bumpy-sphere" ? vox::scenes::writeBumpySphere(directory, rings, segments)
-                                                  : vox::scenes::writeCornellBox(directory, storage);
+        const auto file = scene == "cornell-box" ? vox::scenes::writeCornellBox(directory, storage)
+                                                 : vox::scenes::writeBumpySphere(directory, rings, segments, scene == "bumpy-sphere");
         std::printf("%s\n", file.string().c_str());
     } catch (const std::exception& e) {
         std::fprintf(stderr, "make_example_scene: error: %s\n", e.what());

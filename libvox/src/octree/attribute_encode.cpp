@@ -1,6 +1,7 @@
 #include "attribute_encode.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -199,6 +200,68 @@ std::array<float, 3> principalAxis(const ColorPoints& p, const std::array<float,
     return {v[0] / len, v[1] / len, v[2] / len};
 }
 
+/// Exhaustive cluster fit along the principal axis (as squish's ClusterFit): the colours sorted
+/// by their projection, every split of that order into the four palette entries in line
+/// (c0, ⅔c0+⅓c1, ⅓c0+⅔c1, c1) and its least-squares endpoints; returns the endpoints of the
+/// split with the smallest unquantised error. False when no split determines both endpoints.
+bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean, const std::array<float, 3>& axis, std::array<float, 3>& a,
+                       std::array<float, 3>& b) {
+    const unsigned n = p.count;
+    std::array<float, 16> proj{};
+    std::array<unsigned, 16> order{};
+    for (unsigned i = 0; i < n; ++i) {
+        order[i] = i;
+        for (unsigned ch = 0; ch < 3; ++ch) proj[i] += (static_cast<float>(p.rgb[i][ch]) - mean[ch]) * axis[ch];
+    }
+    std::sort(order.begin(), order.begin() + n, [&](unsigned x, unsigned y) { return proj[x] < proj[y] || (proj[x] == proj[y] && x < y); });
+    // Prefix sums of the sorted colours per channel, laid out so that the compiler can vectorise
+    // the inner loop (over the start of the last cluster).
+    std::array<std::array<float, 17>, 3> prefix{};
+    for (unsigned ch = 0; ch < 3; ++ch)
+        for (unsigned i = 0; i < n; ++i) prefix[ch][i + 1] = prefix[ch][i] + static_cast<float>(p.rgb[order[i]][ch]);
+    // Maximise Σ_ch (C X² − 2B XY + A Y²) / det, which is Σ|x|² minus the least-squares error.
+    float bestRatio = 0;
+    unsigned best0 = 0, best1 = 0, best2 = 0;
+    bool found = false;
+    const float nf = static_cast<float>(n);
+    std::array<float, 17> index2{};
+    for (unsigned i = 0; i <= n; ++i) index2[i] = static_cast<float>(i);
+    for (unsigned i0 = 0; i0 <= n; ++i0)
+        for (unsigned i1 = i0; i1 <= n; ++i1) {
+            const float n0 = static_cast<float>(i0), n2 = static_cast<float>(i1 - i0);
+            alignas(16) std::array<float, 17> ratio{};
+            for (unsigned i2 = i1; i2 <= n; ++i2) {
+                const float n3 = index2[i2] - static_cast<float>(i1), n1 = nf - index2[i2];
+                const float aa = n0 + (4.0f * n2 + n3) * (1.0f / 9.0f), ab = (n2 + n3) * (2.0f / 9.0f), bb = n1 + (n2 + 4.0f * n3) * (1.0f / 9.0f);
+                const float det = aa * bb - ab * ab;
+                float q = 0;
+                for (unsigned ch = 0; ch < 3; ++ch) {
+                    const float s0 = prefix[ch][i0], s2 = prefix[ch][i1] - s0, s3 = prefix[ch][i2] - prefix[ch][i1], s1 = prefix[ch][n] - prefix[ch][i2];
+                    const float x = s0 + (2.0f * s2 + s3) * (1.0f / 3.0f), y = s1 + (s2 + 2.0f * s3) * (1.0f / 3.0f);
+                    q += bb * x * x - 2.0f * ab * x * y + aa * y * y;
+                }
+                // det = Σ over pairs of (αi − αj)² (Lagrange's identity) is ≥ 1/9 unless every colour
+                // is on one entry, where det and q vanish: a branch-free guard the compiler can vectorise.
+                ratio[i2] = q / std::max(det, 0.1f);
+            }
+            for (unsigned i2 = i1; i2 <= n; ++i2)
+                if (ratio[i2] > bestRatio) {
+                    bestRatio = ratio[i2];
+                    best0 = i0;
+                    best1 = i1;
+                    best2 = i2;
+                    found = true;
+                }
+        }
+    if (!found) return false;
+    std::array<std::uint8_t, 16> index{};
+    for (unsigned i = 0; i < n; ++i) index[order[i]] = i < best0 ? 0 : (i < best1 ? 2 : (i < best2 ? 3 : 1));
+    return refitColors(p, index, a, b);
+}
+
+/// Summed squared error per used colour above which orderedClusterFit is tried.
+constexpr std::uint32_t kOrderedFitThreshold = 20;
+
 ColorState encodeColors(const ColorPoints& p) {
     const ColorTables& t = colorTables();
     ColorState best;
@@ -260,6 +323,16 @@ ColorState encodeColors(const ColorPoints& p) {
         clusterFit(p, t, candidate);
         if (candidate.error < best.error) best = candidate;
     }
+    // Blocks still far off (RMS above ~2.6 per channel) are worth the exhaustive ordered fit.
+    if (best.error > kOrderedFitThreshold * p.count) {
+        std::array<float, 3> a{}, b{};
+        if (orderedClusterFit(p, mean, axis, a, b)) {
+            ColorState candidate;
+            tryColors(p, quantise565(a, t), quantise565(b, t), candidate);
+            clusterFit(p, t, candidate);
+            if (candidate.error < best.error) best = candidate;
+        }
+    }
     stepColors(p, best);
     clusterFit(p, t, best);
     return best;
@@ -279,6 +352,17 @@ struct NormalPoints {
     std::array<float, 16> px{}, py{}, weight{};  ///< in-plane coordinates (axis+1, axis+2) and LS weights
 };
 
+/// Index of the smallest of 16 non-negative values, the lowest on (near) ties: the index is put
+/// in the low 4 mantissa bits, which keeps the order of non-negative floats, so that a plain
+/// min reduction (vectorisable, unlike an argmin loop) finds both.
+unsigned argmin16(std::array<float, 16>& d) {
+    for (unsigned k = 0; k < 16; ++k) d[k] = std::bit_cast<float>((std::bit_cast<std::uint32_t>(d[k]) & ~15u) | k);
+    for (unsigned k = 0; k < 8; ++k) d[k] = std::min(d[k], d[k + 8]);
+    for (unsigned k = 0; k < 4; ++k) d[k] = std::min(d[k], d[k + 4]);
+    for (unsigned k = 0; k < 2; ++k) d[k] = std::min(d[k], d[k + 2]);
+    return std::bit_cast<std::uint32_t>(std::min(d[0], d[1])) & 15u;
+}
+
 /// A fit in the face plane: p ≈ b + cu·u + cv·v, combo k = uIndex + 4·vIndex.
 struct PlaneFit {
     float bx = 0, by = 0, ux = 0, uy = 0, vx = 0, vy = 0;
@@ -297,19 +381,16 @@ bool assignPlane(const NormalPoints& p, PlaneFit& f) {
     bool changed = false;
     double error = 0;
     for (unsigned i = 0; i < p.count; ++i) {
-        float best = std::numeric_limits<float>::max();
-        unsigned bestK = 0;
+        std::array<float, 16> d{};
         for (unsigned k = 0; k < 16; ++k) {
             const float dx = p.px[i] - lx[k], dy = p.py[i] - ly[k];
-            const float d = dx * dx + dy * dy;
-            if (d < best) {
-                best = d;
-                bestK = k;
-            }
+            d[k] = dx * dx + dy * dy;
         }
+        const std::array<float, 16> exact = d;
+        const unsigned bestK = argmin16(d);
         changed = changed || f.combo[i] != bestK;
         f.combo[i] = static_cast<std::uint8_t>(bestK);
-        error += double(p.weight[i]) * best;
+        error += double(p.weight[i]) * exact[bestK];
     }
     f.error = error;
     return changed;
@@ -377,7 +458,7 @@ double evalNormals(const NormalPoints& p, std::uint32_t base, std::uint32_t axes
     const Vec3 b = esvo::decodeNormal(base);
     const Vec3 u = esvo::decodeAxis(axes & 0xFFFFu), v = esvo::decodeAxis(axes >> 16);
     // The 16 decoded directions, in arrays the compiler can vectorise over.
-    alignas(16) std::array<float, 16> dx{}, dy{}, dz{};
+    std::array<float, 16> dx{}, dy{}, dz{};
     for (unsigned k = 0; k < 16; ++k) {
         const float cu = esvo::kAxisWeights[k & 3], cv = esvo::kAxisWeights[k >> 2];
         dx[k] = b[0] + cu * u[0] + cv * v[0];
@@ -397,17 +478,15 @@ double evalNormals(const NormalPoints& p, std::uint32_t base, std::uint32_t axes
     double total = 0;
     for (unsigned i = 0; i < p.count; ++i) {
         const float nx = p.n[i][0], ny = p.n[i][1], nz = p.n[i][2];
-        alignas(16) std::array<float, 16> d{};
+        std::array<float, 16> d{};
         for (unsigned k = 0; k < 16; ++k) {
             const float ex = nx - dx[k], ey = ny - dy[k], ez = nz - dz[k];
             d[k] = ex * ex + ey * ey + ez * ez;
         }
-        float best = d[0];
-        for (unsigned k = 1; k < 16; ++k) best = std::min(best, d[k]);
-        unsigned bestK = 0;
-        while (bestK < 15 && d[bestK] != best) ++bestK;
+        const std::array<float, 16> exact = d;
+        const unsigned bestK = argmin16(d);
         combo[i] = static_cast<std::uint8_t>(bestK);
-        total += best;
+        total += exact[bestK];
         if (total > bound) return total;
     }
     return total;
@@ -503,6 +582,22 @@ NormalState quantiseFit(const NormalPoints& p, const PlaneFit& f) {
         }
         if (!improved) break;
     }
+
+    // Cluster-fit step: the unquantised least squares for the combos the quantised block chose,
+    // quantised again.
+    for (int round = 0; round < 2; ++round) {
+        PlaneFit g = f;
+        g.combo = s.combo;
+        solvePlane(p, g);
+        float refitScale = 1;
+        const std::uint32_t refitBase = toBase(g.bx, g.by, refitScale);
+        Vec3 ru{}, rv{};
+        ru[ua] = g.ux * refitScale;
+        ru[va] = g.uy * refitScale;
+        rv[ua] = g.vx * refitScale;
+        rv[va] = g.vy * refitScale;
+        if (!tryNormals(p, refitBase, esvo::encodeAxis(ru) | (esvo::encodeAxis(rv) << 16), s)) break;
+    }
     return s;
 }
 
@@ -583,28 +678,49 @@ PlaneFit fitNormals(NormalPoints& p) {
     const double cy = my + e1y * 0.5 * (t1lo + t1hi) + e2y * 0.5 * (t2lo + t2hi);
     const double h1 = 0.5 * (t1hi - t1lo), h2 = 0.5 * (t2hi - t2lo);
 
-    // Two starts: a 4×4 lattice over the principal extents, and 16 levels along the principal
-    // axis (u = ¾ h1, v = 3⁄16 h1 interleave) for nearly one-dimensional sets.
-    PlaneFit grid;
-    grid.bx = static_cast<float>(cx);
-    grid.by = static_cast<float>(cy);
-    grid.ux = static_cast<float>(0.75 * h1 * e1x);
-    grid.uy = static_cast<float>(0.75 * h1 * e1y);
-    grid.vx = static_cast<float>(0.75 * h2 * e2x);
-    grid.vy = static_cast<float>(0.75 * h2 * e2y);
-    fitPlane(p, grid);
-    PlaneFit line = grid;
-    line.bx = static_cast<float>(cx);
-    line.by = static_cast<float>(cy);
-    line.ux = static_cast<float>(0.75 * h1 * e1x);
-    line.uy = static_cast<float>(0.75 * h1 * e1y);
-    line.vx = static_cast<float>(0.1875 * h1 * e1x);
-    line.vy = static_cast<float>(0.1875 * h1 * e1y);
-    if (h2 < 0.5 * h1) fitPlane(p, line);
-    return line.error < grid.error ? line : grid;
+    // Starts (the alternation only finds a local optimum): 4×4 lattices along the principal
+    // axes at three scales and turned by 45° at two, and for nearly one-dimensional sets 16
+    // levels along the principal axis (u = ¾ h1 and v = 3⁄16 h1 interleave). The lowest
+    // least-squares error wins.
+    const double diagonal = std::sqrt(0.5);
+    struct Start {
+        double u1, u2, v1, v2;  // u and v in the principal frame (e1, e2)
+    };
+    const Start starts[] = {{0.75 * h1, 0, 0, 0.75 * h2},
+                            {0.4 * h1, 0, 0, 0.4 * h2},
+                            {h1, 0, 0, h2},
+                            {0.4 * diagonal * h1, 0.4 * diagonal * h2, -0.4 * diagonal * h1, 0.4 * diagonal * h2},
+                            {diagonal * h1, diagonal * h2, -diagonal * h1, diagonal * h2},
+                            {0.75 * h1, 0, 0.1875 * h1, 0}};
+    const unsigned startCount = !(h1 > 1e-6) ? 1 : (h2 < 0.5 * h1 ? 6 : 5);  // equal normals need one
+    PlaneFit best;
+    for (unsigned i = 0; i < startCount; ++i) {
+        const Start& st = starts[i];
+        PlaneFit fit;
+        fit.bx = static_cast<float>(cx);
+        fit.by = static_cast<float>(cy);
+        fit.ux = static_cast<float>(st.u1 * e1x + st.u2 * e2x);
+        fit.uy = static_cast<float>(st.u1 * e1y + st.u2 * e2y);
+        fit.vx = static_cast<float>(st.v1 * e1x + st.v2 * e2x);
+        fit.vy = static_cast<float>(st.v1 * e1y + st.v2 * e2y);
+        fitPlane(p, fit);
+        if (fit.error < best.error) best = fit;
+    }
+    return best;
 }
 
-NormalState encodeNormals(NormalPoints& p) { return quantiseFit(p, fitNormals(p)); }
+NormalState encodeNormals(NormalPoints& p) {
+    // One direction (flat surfaces: common): the cube-face code itself, zero axes.
+    bool equal = true;
+    for (unsigned i = 1; i < p.count && equal; ++i) equal = p.n[i] == p.n[0];
+    if (equal) {
+        NormalState s;
+        s.base = esvo::encodeNormal(p.n[0]);
+        s.error = 0;
+        return s;
+    }
+    return quantiseFit(p, fitNormals(p));
+}
 
 esvo::Vec3 unitOrZ(const esvo::Vec3& n) {
     const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);

@@ -32,7 +32,12 @@ std::uint64_t AttributeSums::pack() const {
 }
 
 AttributeSampler::AttributeSampler(const Scene& scene, const std::vector<BoxTestTriangle>& triangles, std::vector<TriangleSource> sources)
-    : scene_(scene), triangles_(triangles), sources_(std::move(sources)) {}
+    : scene_(scene), triangles_(triangles), sources_(std::move(sources)), textured_(scene.meshes.size(), 0) {
+    for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
+        const Material& material = scene.materials[scene.meshes[m].material];
+        textured_[m] = material.baseColorTexture.valid() || material.normalTexture.valid();
+    }
+}
 
 void AttributeSampler::shade(std::uint32_t t, Vec3d p, double footprint, Vec4f& color, Vec3d& normal) const {
     const BoxTestTriangle& tri = triangles_[t];
@@ -78,7 +83,20 @@ AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3
         const double weight = area * edge * edge + tiny;
         Vec4f color;
         Vec3d normal;
-        shade(t, c + centroid * edge, edge, color, normal);
+        if (area > 0 && textured_[sources_[t].mesh]) {
+            // Textures are box-filtered over the fragment itself; a lookup at its centroid with a
+            // voxel-wide footprint would reach half a voxel past it.
+            const std::array<Vec3d, 3> corners{tri.v0, tri.v1, tri.v2};
+            scratch.barycentrics.clear();
+            for (const Vec3d& v : poly) scratch.barycentrics.push_back(barycentric(corners, c + v * edge));
+            const SurfaceSample sample =
+                shadeTriangle(scene_, sources_[t], corners, barycentric(corners, c + centroid * edge), edge, scratch.barycentrics);
+            color = sample.color;
+            normal = sample.normal;
+        } else {
+            // Without textures the attributes are linear over the fragment: its centroid's value is its mean.
+            shade(t, c + centroid * edge, edge, color, normal);
+        }
         sums.weight += weight;
         sums.color += Vec3d{color.x, color.y, color.z} * weight;
         sums.alpha += color.w * weight;
@@ -95,34 +113,23 @@ AttributeSampler::Variation AttributeSampler::variation(std::span<const std::uin
                                                       AttributeScratch& scratch) const {
     const auto colorWord = static_cast<std::uint32_t>(packed);
     const esvo::Vec3 n = esvo::decodeUnitNormal(static_cast<std::uint32_t>(packed >> 32));
-    const Vec3d voxelNormal{n[0], n[1], n[2]};
     Variation out;
-    const double edge = 2 * h;
-    const double toLocal = 1.0 / edge;
-    const auto measure = [&](std::uint32_t t, Vec3d local) {
-        Vec4f color;
-        Vec3d normal;
-        shade(t, c + local * edge, 1.0, color, normal);
-        const float rgb[3] = {color.x, color.y, color.z};
-        for (unsigned ch = 0; ch < 3; ++ch) {
-            const double v = 255.0 * linearToSrgb(std::clamp(rgb[ch], 0.0f, 1.0f));
-            out.color = std::max(out.color, std::abs(v - double(esvo::colorChannel(colorWord, ch))));
-        }
-        const double cosine = std::clamp(dot(normal, voxelNormal), -1.0, 1.0);
+    const double q = 0.5 * h;
+    for (std::uint32_t slot = 0; slot < 8; ++slot) {
+        const Vec3d childCentre{c.x + (slot & 1u ? q : -q), c.y + (slot & 2u ? q : -q), c.z + (slot & 4u ? q : -q)};
+        scratch.childList.clear();
+        for (std::uint32_t t : list)
+            if (triangleOverlapsCube(triangles_[t], childCentre, q)) scratch.childList.push_back(t);
+        if (scratch.childList.empty()) continue;
+        const AttributeSums sums = filter(scratch.childList, childCentre, q, scratch);
+        if (!(sums.weight > 1e-6 * q * q)) continue;  // a touching contact, not surface
+        const std::uint64_t child = sums.pack();
+        for (unsigned ch = 0; ch < 3; ++ch)
+            out.color = std::max(out.color, std::abs(double(esvo::colorChannel(static_cast<std::uint32_t>(child), ch)) -
+                                                     double(esvo::colorChannel(colorWord, ch))));
+        const esvo::Vec3 m = esvo::decodeUnitNormal(static_cast<std::uint32_t>(child >> 32));
+        const double cosine = std::clamp(double(n[0]) * m[0] + double(n[1]) * m[1] + double(n[2]) * m[2], -1.0, 1.0);
         out.normalDegrees = std::max(out.normalDegrees, std::acos(cosine) * 57.29577951308232);
-    };
-    for (std::uint32_t t : list) {
-        const BoxTestTriangle& tri = triangles_[t];
-        scratch.polygon.clear();
-        clipToUnitCube({(tri.v0 - c) * toLocal, (tri.v1 - c) * toLocal, (tri.v2 - c) * toLocal}, scratch.polygon, scratch.clipA, scratch.clipB);
-        const auto& poly = scratch.polygon;
-        if (poly.size() < 3) continue;
-        Vec3d mean{0, 0, 0};
-        for (const Vec3d& v : poly) mean += v;
-        mean = mean / static_cast<double>(poly.size());
-        measure(t, mean);
-        // Vertices pulled slightly inwards, so a shared edge's texel is not counted for both sides.
-        for (const Vec3d& v : poly) measure(t, v + (mean - v) * 0.01);
     }
     return out;
 }

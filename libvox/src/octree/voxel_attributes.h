@@ -38,6 +38,8 @@ struct AttributeSums {
 /// Reusable buffers (one per thread).
 struct AttributeScratch {
     std::vector<Vec3d> polygon;
+    std::vector<Vec3d> barycentrics;  ///< of the polygon's vertices
+    std::vector<std::uint32_t> childList;
     std::array<Vec3d, 12> clipA{}, clipB{};
 };
 
@@ -53,8 +55,8 @@ public:
 
     /// How far the attributes inside a cube stray from the voxel value @p packed (an
     /// AttributeSums::pack() word pair): the largest 8-bit sRGB channel difference and the largest
-    /// normal angle (degrees), sampled at the vertices and centroid of every fragment with
-    /// textures filtered at the leaf size.
+    /// normal angle (degrees) between it and the values its eight children would have, i.e. what
+    /// refining once more would show.
     struct Variation {
         double color = 0;
         double normalDegrees = 0;
@@ -70,6 +72,7 @@ private:
     const Scene& scene_;
     const std::vector<BoxTestTriangle>& triangles_;
     std::vector<TriangleSource> sources_;
+    std::vector<std::uint8_t> textured_;  ///< per mesh: its material has a texture
 };
 
 }  // namespace vox::detail

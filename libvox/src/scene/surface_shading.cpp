@@ -41,7 +41,8 @@ Vec3d barycentric(const std::array<Vec3d, 3>& corners, Vec3d p) {
     return {1 - b1 - b2, b1, b2};
 }
 
-SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std::array<Vec3d, 3>& corners, Vec3d b, double footprint) {
+SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std::array<Vec3d, 3>& corners, Vec3d b, double footprint,
+                            std::span<const Vec3d> fragment) {
     const Mesh& mesh = scene.meshes[source.mesh];
     const Material& material = scene.materials[mesh.material];
     const std::uint32_t* index = &mesh.indices[3 * std::size_t{source.triangle}];
@@ -57,10 +58,19 @@ SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std
         const auto& uvs = mesh.uvs[binding.uvSet];
         return std::array<Vec2f, 3>{binding.transformUv(uvs[index[0]]), binding.transformUv(uvs[index[1]]), binding.transformUv(uvs[index[2]])};
     };
+    const auto at = [](const std::array<Vec2f, 3>& uv, const Vec3d& w) {
+        return uv[0] * static_cast<float>(w.x) + uv[1] * static_cast<float>(w.y) + uv[2] * static_cast<float>(w.z);
+    };
     const auto lookup = [&](const TextureBinding& binding, const std::array<Vec2f, 3>& uv) {
-        const Vec2f at = uv[0] * static_cast<float>(b.x) + uv[1] * static_cast<float>(b.y) + uv[2] * static_cast<float>(b.z);
+        const Texture& texture = scene.textures[static_cast<std::size_t>(binding.texture)];
+        if (!fragment.empty()) {
+            std::array<Vec2f, 12> polygon;
+            const std::size_t n = std::min(fragment.size(), polygon.size());
+            for (std::size_t i = 0; i < n; ++i) polygon[i] = at(uv, fragment[i]);
+            return texture.integrate(std::span<const Vec2f>(polygon.data(), n), binding.wrapS, binding.wrapT);
+        }
         const auto width = static_cast<float>(footprint * uvPerLengthUnit(uv, area));
-        return scene.textures[static_cast<std::size_t>(binding.texture)].sample(at, width, binding.wrapS, binding.wrapT);
+        return texture.sample(at(uv, b), width, binding.wrapS, binding.wrapT);
     };
 
     SurfaceSample out;

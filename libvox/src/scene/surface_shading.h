@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 
 namespace vox::detail {
 
@@ -25,9 +26,11 @@ struct SurfaceSample {
 /// Shades triangle @p source of @p scene at barycentric coordinates @p b (weights of its three
 /// corners). @p corners are its positions in any frame that is a uniform scale and translation of
 /// world space; @p footprint, in that frame's length unit, is the width textures are filtered
-/// over (0: the finest mip level).
+/// over (0: the finest mip level). With @p fragment (the barycentric coordinates of a convex
+/// polygon's vertices, @p b its centroid), textures are instead box-filtered over that polygon
+/// exactly (Texture::integrate): a fragment's mean, not a blur centred on it.
 [[nodiscard]] SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std::array<Vec3d, 3>& corners, Vec3d b,
-                                          double footprint);
+                                          double footprint, std::span<const Vec3d> fragment = {});
 
 /// esvo::packColor word of a linear RGBA colour: RGB sRGB-encoded, alpha linear, clamped to [0, 1]
 /// and rounded to 8 bits.

@@ -178,4 +178,68 @@ Vec4f Texture::sample(Vec2f uv, float footprint, WrapMode wrapS, WrapMode wrapT)
     return a * (1 - t) + b * t;
 }
 
+Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMode wrapT, int maxTexels) const {
+    if (levels_.empty()) return {1, 1, 1, 1};
+    if (polygon.empty()) return sample({0, 0}, 0, wrapS, wrapT);
+    Vec2f lo = polygon[0], hi = polygon[0], mean{0, 0};
+    for (const Vec2f& p : polygon) {
+        lo = {std::min(lo.x, p.x), std::min(lo.y, p.y)};
+        hi = {std::max(hi.x, p.x), std::max(hi.y, p.y)};
+        mean = mean + p * (1.0f / static_cast<float>(polygon.size()));
+    }
+    if (!(std::isfinite(lo.x) && std::isfinite(lo.y) && std::isfinite(hi.x) && std::isfinite(hi.y))) return sample(mean, 0, wrapS, wrapT);
+    int level = 0;
+    const auto span = [&](int l) {
+        return std::max(double(hi.x - lo.x) * levels_[l].width, double(hi.y - lo.y) * levels_[l].height);
+    };
+    while (level + 1 < levelCount() && span(level) > maxTexels) ++level;
+    if (span(level) > 4.0 * maxTexels) return texel(level, 0, 0);  // the 1×1 level: the image's mean
+    const Level& l = levels_[level];
+
+    // Sutherland–Hodgman against the texel's four sides, in this level's texel units.
+    // A triangle clipped to a cube has at most 9 vertices; each side adds at most one more.
+    std::array<Vec2f, 16> a{};
+    const std::size_t n0 = std::min<std::size_t>(polygon.size(), 12);
+    for (std::size_t i = 0; i < n0; ++i) a[i] = {polygon[i].x * static_cast<float>(l.width), polygon[i].y * static_cast<float>(l.height)};
+    const auto clippedArea = [&](float x0, float y0) {
+        std::array<Vec2f, 16> in = a, out{};
+        std::size_t n = n0;
+        const float bounds[4] = {x0, x0 + 1, y0, y0 + 1};
+        for (int side = 0; side < 4 && n > 0; ++side) {
+            const int axis = side / 2;
+            const float limit = bounds[side];
+            const float sign = side % 2 ? -1.0f : 1.0f;  // keep sign·(p − limit) ≥ 0
+            std::size_t m = 0;
+            for (std::size_t i = 0; i < n && m + 2 <= out.size(); ++i) {
+                const Vec2f p = in[i], q = in[i + 1 == n ? 0 : i + 1];
+                const float dp = sign * (p[axis] - limit), dq = sign * (q[axis] - limit);
+                if (dp >= 0) out[m++] = p;
+                if ((dp > 0 && dq < 0) || (dp < 0 && dq > 0)) out[m++] = p + (q - p) * (dp / (dp - dq));
+            }
+            n = m;
+            in = out;
+        }
+        float area = 0;  // shoelace; the polygon stays convex
+        for (std::size_t i = 0; i < n; ++i) {
+            const Vec2f p = in[i], q = in[i + 1 == n ? 0 : i + 1];
+            area += p.x * q.y - q.x * p.y;
+        }
+        return 0.5f * std::abs(area);
+    };
+    Vec4f sum{0, 0, 0, 0};
+    float total = 0;
+    const int x0 = static_cast<int>(std::floor(lo.x * l.width)), x1 = static_cast<int>(std::ceil(hi.x * l.width));
+    const int y0 = static_cast<int>(std::floor(lo.y * l.height)), y1 = static_cast<int>(std::ceil(hi.y * l.height));
+    for (int y = y0; y < std::max(y1, y0 + 1); ++y)
+        for (int x = x0; x < std::max(x1, x0 + 1); ++x) {
+            const float area = clippedArea(float(x), float(y));
+            if (!(area > 0)) continue;
+            const int tx = wrapIndex(x, l.width, wrapS), ty = wrapIndex(y, l.height, wrapT);
+            sum = sum + decode(l.rgba.data() + (static_cast<std::size_t>(ty) * l.width + tx) * 4) * area;
+            total += area;
+        }
+    if (!(total > 0)) return sample(mean, 0, wrapS, wrapT);
+    return sum * (1.0f / total);
+}
+
 }  // namespace vox
