@@ -1,0 +1,215 @@
+// Colour and normal attachments end to end: the uncompressed (palette) and compressed (DXT-style)
+// encodings written by writeEsvo, checked by the validator, streamed into an EsvoPool and read
+// back by the ray caster, against the triangle reference rendering of the same scene.
+#include <vox/formats/error.h>
+#include <vox/formats/esvo_attributes.h>
+#include <vox/formats/esvo_reader.h>
+#include <vox/import.h>
+#include <vox/octree.h>
+#include <vox/raycast.h>
+#include <vox/triangle_raycast.h>
+
+#include "cornell_box.h"
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Fixture {
+    vox::Scene scene;
+    vox::SparseOctree octree;
+};
+
+/// The textured example (the Cornell box, its tall box checkered), voxelized with attributes.
+const Fixture& cornellBox(std::uint32_t depth) {
+    static std::map<std::uint32_t, Fixture> cache;
+    auto it = cache.find(depth);
+    if (it != cache.end()) return it->second;
+    static vox::test::ScratchDir dir;
+    Fixture f;
+    f.scene = vox::importScene(vox::scenes::writeCornellBox(dir.path()));
+    vox::SurfaceVoxelizeOptions options;
+    options.depth = depth;
+    options.contours = true;
+    options.attributes = true;
+    f.octree = vox::voxelizeSurface(f.scene, options);
+    return cache.emplace(depth, std::move(f)).first->second;
+}
+
+fs::path write(const vox::SparseOctree& octree, const fs::path& file, vox::AttributeEncoding encoding, std::uint32_t sliceBytes = 1u << 20,
+               std::uint32_t nearLimit = 0x7FFF) {
+    vox::EsvoWriteOptions options;
+    options.attributes = encoding;
+    options.sliceBytes = sliceBytes;
+    options.nearPointerLimit = nearLimit;
+    vox::writeEsvo(file, octree, options);
+    return file;
+}
+
+vox::PinholeCamera frontView(int size) {
+    vox::PinholeCamera camera;
+    camera.eye = {0, 1, 3.2};
+    camera.target = {0, 1, 0};
+    camera.width = camera.height = size;
+    return camera;
+}
+
+vox::RenderBuffers renderColours(const fs::path& file, const vox::PinholeCamera& camera) {
+    const vox::esvo::EsvoReader reader(file);
+    vox::esvo::EsvoPool pool(reader);
+    pool.loadAll();
+    const vox::EsvoRayCaster caster(pool);
+    vox::CastOptions options;
+    options.attributes = true;
+    return vox::renderEsvo(caster, camera, options);
+}
+
+/// PSNR (dB) of 8-bit sRGB colours over the pixels both images hit; counts those pixels.
+double psnr(const vox::RenderBuffers& a, const vox::RenderBuffers& b, std::size_t* compared = nullptr) {
+    double squared = 0;
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < a.color.size(); ++i) {
+        if (!std::isfinite(a.depth[i]) || !std::isfinite(b.depth[i])) continue;
+        for (unsigned ch = 0; ch < 3; ++ch) {
+            const double d = double(vox::esvo::colorChannel(a.color[i], ch)) - double(vox::esvo::colorChannel(b.color[i], ch));
+            squared += d * d;
+        }
+        ++n;
+    }
+    if (compared) *compared = n;
+    return squared == 0 ? 99.0 : 10 * std::log10(255.0 * 255.0 * 3.0 * double(n) / squared);
+}
+
+}  // namespace
+
+TEST(EsvoAttributes, BothEncodingsValidateAcrossSmallSlicesAndFarPointers) {
+    vox::test::ScratchDir dir;
+    const vox::SparseOctree& octree = cornellBox(7).octree;
+    for (const auto encoding : {vox::AttributeEncoding::Raw, vox::AttributeEncoding::Compressed}) {
+        const fs::path file = write(octree, dir / "small.esvo", encoding, 16384, 32);
+        const vox::esvo::EsvoReader reader(file);
+        EXPECT_GT(reader.sliceCount(), 4u);
+        const vox::esvo::FileBreakdown b = vox::esvo::validateFile(reader);
+        EXPECT_EQ(b.descriptorBytes + b.farPointerBytes + b.pageHeaderBytes + b.infoBytes + b.paddingBytes + b.contourBytes +
+                      b.attributeLookupBytes + b.attributeValueBytes + b.attributeBlockBytes + b.headerAndDirectoryBytes + b.slicePaddingBytes,
+                  reader.header().fileBytes);
+        std::uint64_t descriptors = 0, far = 0;
+        for (const auto& s : reader.directory().slices) descriptors += s.descriptorCount, far += s.farPointerCount;
+        EXPECT_GT(far, 0u);
+        if (encoding == vox::AttributeEncoding::Raw) {
+            EXPECT_EQ(reader.header().attachmentKinds, 0b011u);
+            // A lookup word per unit of every descriptor area; a value for each voxel that differs
+            // from its parent — few on the box's flat single-colour walls.
+            EXPECT_GE(b.attributeLookupBytes, 4 * descriptors);
+            EXPECT_GT(b.attributeValueBytes, 0u);
+            EXPECT_LT(b.attributeValueBytes, 8 * octree.voxelCount() / 4);
+            EXPECT_EQ(b.attributeBlockBytes, 0u);
+        } else {
+            EXPECT_EQ(reader.header().attachmentKinds, 0b101u);
+            // 24 bytes per pair of units: at least half a block per descriptor.
+            EXPECT_GE(b.attributeBlockBytes, 12 * descriptors);
+            EXPECT_EQ(b.attributeBlockBytes % 24, 0u);
+            EXPECT_EQ(b.attributeLookupBytes + b.attributeValueBytes, 0u);
+        }
+    }
+}
+
+TEST(EsvoAttributes, RenderedColoursMatchTheTriangleRendering) {
+    // The textured example at depth 9 from the front, 256²: the octree's colours (the raw values,
+    // inherited from ancestors where omitted) against the material the triangle caster shades.
+    vox::test::ScratchDir dir;
+    const Fixture& f = cornellBox(9);
+    const vox::PinholeCamera camera = frontView(256);
+    const vox::TriangleRayCaster triangles(f.scene);
+    const vox::RenderBuffers reference = vox::renderTriangles(triangles, camera);
+    const vox::RenderBuffers raw = renderColours(write(f.octree, dir / "raw.esvo", vox::AttributeEncoding::Raw), camera);
+    const vox::RenderBuffers dxt = renderColours(write(f.octree, dir / "dxt.esvo", vox::AttributeEncoding::Compressed), camera);
+    std::size_t compared = 0;
+    const double rawPsnr = psnr(raw, reference, &compared);
+    EXPECT_GT(compared, 40000u);
+    // Walls and boxes are single colours: away from edges and the checker's, exactly the
+    // material's 8-bit value; a wrong lookup or a broken inheritance gives another wall's colour.
+    std::size_t exact = 0;
+    for (std::size_t i = 0; i < raw.color.size(); ++i)
+        if (std::isfinite(raw.depth[i]) && std::isfinite(reference.depth[i]) && (raw.color[i] & 0xFFFFFFu) == (reference.color[i] & 0xFFFFFFu)) ++exact;
+    EXPECT_GT(double(exact) / double(compared), 0.85);
+    EXPECT_GT(rawPsnr, 30.0);
+    const double dxtPsnr = psnr(dxt, reference);
+    EXPECT_GT(dxtPsnr, 29.0);
+    EXPECT_GT(psnr(dxt, raw), 35.0) << "compressed against raw";
+    std::printf("colour PSNR against the triangle rendering: raw %.2f dB, compressed %.2f dB; compressed against raw %.2f dB\n", rawPsnr,
+                dxtPsnr, psnr(dxt, raw));
+    // Shading normals: the walls' and the floor's, exactly the faces' on flat surfaces.
+    std::size_t aligned = 0;
+    for (std::size_t i = 0; i < raw.color.size(); ++i)
+        if (std::isfinite(raw.depth[i]) && std::isfinite(reference.depth[i]) && dot(raw.shadingNormal[i], reference.shadingNormal[i]) > 0.9999f)
+            ++aligned;
+    EXPECT_GT(double(aligned) / double(compared), 0.85);
+}
+
+TEST(EsvoAttributes, ValidatorRejectsBrokenAttachments) {
+    vox::test::ScratchDir dir;
+    const vox::SparseOctree& octree = cornellBox(5).octree;
+    const vox::esvo::FrontierDescriptor rootParent{1, {}};
+    const auto expectRejected = [&](const fs::path& file, auto&& corrupt, const char* what) {
+        const vox::esvo::EsvoReader reader(file);
+        ASSERT_EQ(reader.sliceCount(), 1u);
+        std::vector<std::uint8_t> block = reader.readSlice(0);
+        const vox::esvo::BlockTables t = vox::esvo::readBlockTables(block, file, 0);
+        ASSERT_TRUE(t.hasAttributes());
+        EXPECT_NO_THROW(vox::esvo::validateBlock(file, reader.header(), 0, reader.slice(0), block, {&rootParent, 1}));
+        corrupt(block.data(), t);
+        try {
+            (void)vox::esvo::validateBlock(file, reader.header(), 0, reader.slice(0), block, {&rootParent, 1});
+            ADD_FAILURE() << what << ": not detected";
+        } catch (const vox::InvalidDataError& e) {
+            EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+        }
+    };
+    const fs::path raw = write(octree, dir / "raw.esvo", vox::AttributeEncoding::Raw);
+    const std::uint32_t rootUnit = 1;  // the root descriptor follows page 0's header
+    expectRejected(raw, [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
+        // The first descriptor that stores values and has an empty slot.
+        for (std::uint32_t u = 1; u < t.descriptorEndWord / 2; ++u) {
+            const std::uint32_t at = 4 * (t.attributeWord + u);
+            const std::uint32_t valid = vox::esvo::load<std::uint32_t>(b + 8 * u) >> 8 & 0xFFu;
+            if (vox::esvo::load<std::uint32_t>(b + at) == 0 || valid == 0xFFu) continue;
+            vox::esvo::store<std::uint32_t>(b + at, vox::esvo::load<std::uint32_t>(b + at) | (~valid & 0xFFu));
+            return;
+        }
+        ADD_FAILURE() << "no descriptor with an empty slot stores values";
+    }, "mask has bits outside the valid mask");
+    expectRejected(raw, [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
+        const std::uint32_t at = 4 * (t.attributeWord + rootUnit);
+        vox::esvo::store<std::uint32_t>(b + at, vox::esvo::load<std::uint32_t>(b + at) + (2u << 8));
+    }, "not stored in descriptor order");
+    expectRejected(raw, [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
+        vox::esvo::store<std::uint32_t>(b + 4 * (t.attributeWord + 0), 0x101u);  // unit 0 is the page header
+    }, "no descriptor");
+    const fs::path dxt = write(octree, dir / "dxt.esvo", vox::AttributeEncoding::Compressed);
+    expectRejected(dxt, [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
+        vox::esvo::store<std::uint32_t>(b + 4 * (t.attributeWord + 2), 0x60000000u);  // block 0's base normal: axis 3
+    }, "invalid cube face");
+    // The header must declare the kind the blocks hold.
+    const vox::esvo::EsvoReader reader(dxt);
+    vox::esvo::Header header = reader.header();
+    header.attachmentKinds = 0b011u;
+    const std::vector<std::uint8_t> block = reader.readSlice(0);
+    EXPECT_THROW((void)vox::esvo::validateBlock(dxt, header, 0, reader.slice(0), block, {&rootParent, 1}), vox::InvalidDataError);
+}
+
+TEST(EsvoAttributes, FilesWithoutAttributesRenderWithoutThem) {
+    vox::test::ScratchDir dir;
+    const fs::path none = write(cornellBox(5).octree, dir / "none.esvo", vox::AttributeEncoding::None);
+    const vox::esvo::EsvoReader reader(none);
+    EXPECT_EQ(reader.header().attachmentKinds, 1u);
+    (void)vox::esvo::validateFile(reader);
+    const vox::RenderBuffers image = renderColours(none, frontView(32));
+    EXPECT_GT(image.hits, 0u);
+    for (std::uint32_t c : image.color) EXPECT_EQ(c, 0u);
+}
