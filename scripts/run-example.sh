@@ -14,13 +14,13 @@ scene=$(build/examples/make_example_scene cornell-box -o "$out/scene")
 build/tools/voxelize "$scene" -o "$out/cornell_box.esvo" --depth 10 -v \
     --stats "$out/cornell_box.stats.json" --depfile "$out/cornell_box.d"
 build/tools/voxinspect validate "$out/cornell_box.esvo" -v
-build/tools/voxinspect render "$out/cornell_box.esvo" -o "$out/cornell_box.png" --channel normal \
+build/tools/voxinspect render "$out/cornell_box.esvo" -o "$out/cornell_box.png" --channel shaded \
     --eye 0,1,3.4 --target 0,1,0 --fov 45 --width 640 --height 640 --depth-out "$out/cornell_box.depth.pfm" -v
 
 echo
 echo "Example scene:  $scene"
 echo "Octree:         $out/cornell_box.esvo   (voxinspect info $out/cornell_box.esvo)"
-echo "Render:         $out/cornell_box.png, depth $out/cornell_box.depth.pfm"
+echo "Render:         $out/cornell_box.png (colours and normals under a headlight), depth $out/cornell_box.depth.pfm"
 echo "Stats (JSON):   $out/cornell_box.stats.json"
 echo "Depfile:        $out/cornell_box.d"
 echo "Inspect it:     build/tools/voxinspect scene $scene"
