@@ -111,7 +111,7 @@ int main(int argc, char** argv) {
 
         nlohmann::json attributes = nullptr;
         const std::uint32_t kinds = reader.header().attachmentKinds;
-        if ((kinds >> static_cast<unsigned>(vox::esvo::AttachmentKind::Palette) & 1u) || (kinds >> static_cast<unsigned>(vox::esvo::AttachmentKind::Dxt) & 1u)) {
+        if (reader.header().hasAttributes()) {
             vox::CastOptions withAttributes;
             withAttributes.attributes = true;
             const auto shaded = vox::renderEsvo(octree, camera, withAttributes);
@@ -154,7 +154,7 @@ int main(int argc, char** argv) {
             };
             attributes = {{"compared_pixels", compared},
                           {"same_surface_pixels", sameSurface},
-                          {"kind", (kinds >> static_cast<unsigned>(vox::esvo::AttachmentKind::Dxt) & 1u) ? "compressed" : "raw"},
+                          {"kinds", kinds},
                           {"normal_error_degrees", summary(angles)},
                           {"normal_error_degrees_same_surface", summary(sameSurfaceAngles)},
                           {"color_psnr_db", psnr(squared, compared)},

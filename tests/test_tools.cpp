@@ -253,7 +253,7 @@ TEST(Tools, VoxelizeWritesAnEsvoThatValidatesAndReportsItself) {
     double parts = 0;
     for (const auto& [part, value] : perVoxel.items())
         if (part != "total") parts += value.get<double>();
-    EXPECT_EQ(report["attributes"], "compressed") << "colours and normals are compressed by default";
+    EXPECT_EQ(report["attributes"], "dxt") << "colours and normals are compressed by default";
     EXPECT_GT(perVoxel["attribute_blocks"].get<double>(), 1.0);
     EXPECT_NEAR(parts, perVoxel["total"].get<double>(), 1e-9) << "the parts add up to the file";
     // Static geometry only: the dynamic sphere is left out unless asked for.

@@ -1,3 +1,4 @@
+#include <vox/formats/esvo.h>
 #include <vox/formats/esvo_attributes.h>
 
 #include <algorithm>
@@ -86,6 +87,49 @@ Vec3 decodeBlockNormal(const std::uint32_t* block, unsigned slot) noexcept {
     const Vec3 u = decodeAxis(block[4] & 0xFFFFu), v = decodeAxis(block[4] >> 16);
     const float cu = kAxisWeights[blockIndex(block[3], slot)], cv = kAxisWeights[blockIndex(block[5], slot)];
     return normalise({base[0] + cu * u[0] + cv * v[0], base[1] + cu * u[1] + cv * v[1], base[2] + cu * u[2] + cv * v[2]});
+}
+
+bool readAttribute(const std::uint32_t* words, std::uint32_t descriptorWord, std::uint32_t slot, AttributeValue& out) noexcept {
+    // The descriptor's block: page header → info section → attachment directory.
+    const std::uint32_t pageWord = descriptorWord & ~(kPageBytes / 4 - 1);
+    const auto infoWord = static_cast<std::uint32_t>(static_cast<std::int64_t>(pageWord) + static_cast<std::int32_t>(words[pageWord]));
+    const std::uint32_t blockWord = infoWord + static_cast<std::uint32_t>(static_cast<std::int32_t>(words[infoWord + info::kFirstDescriptor])) - 2;
+    const std::uint32_t unit = (descriptorWord - blockWord) / 2;
+    const std::uint32_t count = words[infoWord + info::kAttachmentCount];
+    // The descriptor area ends where the first attachment begins (a DxtLookup's blocks follow
+    // a lookup word per unit of it).
+    const auto attachmentWord = [&](std::uint32_t a) {
+        return infoWord + static_cast<std::uint32_t>(static_cast<std::int32_t>(words[infoWord + info::kAttachments + 2 * a + 1]));
+    };
+    for (std::uint32_t a = 0; a < count; ++a) {
+        const std::uint32_t kind = words[infoWord + info::kAttachments + 2 * a];
+        const std::uint32_t attach = attachmentWord(a);
+        Vec3& n = out.normal;
+        if (kind == static_cast<std::uint32_t>(AttachmentKind::Palette)) {
+            const PaletteLookup entry{words[attach + unit]};
+            if (!((entry.mask() >> slot) & 1u)) return false;
+            const std::uint32_t value = attach + entry.valuePointer() + 2 * popc8(entry.mask() & ((1u << slot) - 1u));
+            out.color = words[value];
+            n = decodeUnitNormal(words[value + 1]);
+        } else if (kind == static_cast<std::uint32_t>(AttachmentKind::DxtLookup)) {
+            const PaletteLookup entry{words[attach + unit]};
+            if (!((entry.mask() >> slot) & 1u)) return false;
+            const std::uint32_t value = entry.valuePointer() + popc8(entry.mask() & ((1u << slot) - 1u));
+            const std::uint32_t descriptorUnits = (attachmentWord(0) - blockWord) / 2;
+            const std::uint32_t* block = words + attach + lookupArrayWords(descriptorUnits) + kCompressedBlockWords * (value / 16);
+            out.color = decodeBlockColor(block, value % 16);
+            n = decodeBlockNormal(block, value % 16);
+        } else if (kind == static_cast<std::uint32_t>(AttachmentKind::Dxt)) {
+            const std::uint32_t* block = words + attach + kCompressedBlockWords * (unit / 2);
+            const unsigned blockSlot = slot | ((unit & 1u) << 3);
+            out.color = decodeBlockColor(block, blockSlot);
+            n = decodeBlockNormal(block, blockSlot);
+        } else {
+            continue;
+        }
+        return true;
+    }
+    return false;
 }
 
 }  // namespace vox::esvo

@@ -112,4 +112,37 @@ void EsvoPool::loadAll(std::uint32_t level) {
         if (reader_.slice(i).firstLevel < level) load(i);
 }
 
+void EsvoPool::forEachVoxel(const std::function<void(const VoxelPosition&, const AttributeValue*)>& visit) const {
+    struct Pending {
+        std::uint32_t word;
+        VoxelPosition position;
+        AttributeValue value;
+        bool hasValue;
+    };
+    std::vector<Pending> stack{{rootWord_, VoxelPosition{}, AttributeValue{}, false}};
+    const std::uint32_t* words = arena_.data();
+    while (!stack.empty()) {
+        const Pending p = stack.back();
+        stack.pop_back();
+        const ChildDescriptor d{words[p.word], words[p.word + 1]};
+        // Children in slot order; their descriptors are pushed in reverse so they pop in order.
+        std::vector<Pending> children;
+        for (std::uint32_t slot = 0; slot < 8; ++slot) {
+            if (!((d.validMask() >> slot) & 1u)) continue;
+            Pending child{0, p.position.child(slot), p.value, p.hasValue};
+            if (readAttribute(words, p.word, slot, child.value)) child.hasValue = true;
+            visit(child.position, child.hasValue ? &child.value : nullptr);
+            if (!((d.nonLeafMask() >> slot) & 1u)) continue;
+            std::int64_t offset = d.childPointer();
+            if (d.far()) {
+                offset = static_cast<std::int32_t>(words[p.word + 2 * d.childPointer()]);
+                if (offset == 0) continue;  // child slice not loaded
+            }
+            child.word = static_cast<std::uint32_t>(p.word + 2 * (offset + popc8(d.nonLeafMask() & ((1u << slot) - 1u))));
+            children.push_back(child);
+        }
+        stack.insert(stack.end(), children.rbegin(), children.rend());
+    }
+}
+
 }  // namespace vox::esvo

@@ -32,15 +32,24 @@ private:
 /// (zero where the unit is no descriptor; mask within the valid mask), padded to a whole unit,
 /// then the values every lookup entry references, each exactly once, in order. Compressed: one
 /// 6-word block per pair of units (that pairs never mix parents, validateBlock checks: every
-/// group starts on an even unit), and the base normal's axis field is not 3.
+/// group starts on an even unit), and the base normal's axis field is not 3. Compressed behind a
+/// lookup: the same lookup array with pointers counting values, then one block per 16 values.
 void validateAttributes(const BlockChecker& check, const BlockTables& t, const std::uint8_t* b, std::uint64_t units,
                         std::vector<std::uint64_t>& descriptorUnits, BlockSummary& summary) {
     std::sort(descriptorUnits.begin(), descriptorUnits.end());
     const std::uint64_t begin = t.attributeWord, size = t.attributeEndWord - t.attributeWord;
-    if (t.attributeKind == AttachmentKind::Palette) {
+    const auto checkBlocks = [&](std::uint64_t first, std::uint64_t blocks) {
+        for (std::uint64_t p = 0; p < blocks; ++p)
+            if ((word(b, first + kCompressedBlockWords * p + 2) >> 29 & 3u) == 3u)
+                check.fail(4 * (first + kCompressedBlockWords * p + 2), "base normal with an invalid cube face");
+    };
+    if (t.attributeKind == AttachmentKind::Palette || t.attributeKind == AttachmentKind::DxtLookup) {
+        const bool palette = t.attributeKind == AttachmentKind::Palette;
         const std::uint64_t lookupWords = units + units % 2;
         if (size < lookupWords) check.fail(4 * begin, "colour/normal lookup array shorter than the descriptor area");
-        std::uint64_t expected = lookupWords;  // values follow the lookup array in descriptor order
+        // Palette pointers count words (values follow the lookup array, two words each);
+        // DxtLookup pointers count values. Either way in descriptor order.
+        std::uint64_t expected = palette ? lookupWords : 0;
         std::size_t next = 0;
         for (std::uint64_t u = 0; u < lookupWords; ++u) {
             const PaletteLookup entry{word(b, begin + u)};
@@ -57,8 +66,17 @@ void validateAttributes(const BlockChecker& check, const BlockTables& t, const s
                 continue;
             }
             if (entry.valuePointer() != expected) check.fail(4 * (begin + u), "colour/normal values not stored in descriptor order");
-            expected += 2ull * popc8(entry.mask());
-            if (expected > size) check.fail(4 * (begin + u), "colour/normal values run past the attachment");
+            expected += (palette ? 2ull : 1ull) * popc8(entry.mask());
+            if (palette && expected > size) check.fail(4 * (begin + u), "colour/normal values run past the attachment");
+        }
+        if (!palette) {
+            const std::uint64_t blocks = (expected + 15) / 16;
+            if (size != lookupWords + kCompressedBlockWords * blocks)
+                check.fail(4 * begin, "compressed colour/normal array is not one block per 16 stored values");
+            checkBlocks(begin + lookupWords, blocks);
+            summary.attributeLookupBytes += 4 * lookupWords;
+            summary.attributeBlockBytes += 4 * (size - lookupWords);
+            return;
         }
         for (std::uint64_t w = lookupWords; w < size; w += 2)
             if ((word(b, begin + w + 1) >> 29 & 3u) == 3u) check.fail(4 * (begin + w + 1), "normal with an invalid cube face");
@@ -69,9 +87,7 @@ void validateAttributes(const BlockChecker& check, const BlockTables& t, const s
     }
     const std::uint64_t blocks = (units + 1) / 2;
     if (size != kCompressedBlockWords * blocks) check.fail(4 * begin, "compressed colour/normal array is not one block per pair of units");
-    for (std::uint64_t p = 0; p < blocks; ++p)
-        if ((word(b, begin + kCompressedBlockWords * p + 2) >> 29 & 3u) == 3u)
-            check.fail(4 * (begin + kCompressedBlockWords * p + 2), "base normal with an invalid cube face");
+    checkBlocks(begin, blocks);
     summary.attributeBlockBytes += 4 * size;
 }
 
@@ -110,7 +126,7 @@ BlockTables readBlockTables(std::span<const std::uint8_t> block, const std::file
         const std::uint64_t at = t.infoWord + info::kAttachments + 2 * a;
         const std::uint32_t kind = word(block.data(), at);
         const bool contour = kind == static_cast<std::uint32_t>(AttachmentKind::Contour);
-        const bool attribute = kind == static_cast<std::uint32_t>(AttachmentKind::Palette) || kind == static_cast<std::uint32_t>(AttachmentKind::Dxt);
+        const bool attribute = kind < 32 && ((kAttributeKindBits >> kind) & 1u);
         if (!(contour && a == 0) && !(attribute && !t.hasAttributes())) fail(4 * at, "unexpected attachment kind " + std::to_string(kind));
         const std::int64_t start = static_cast<std::int64_t>(t.infoWord) + signedWord(block.data(), at + 1);
         if (start < previous || start % 2 != 0 || start > static_cast<std::int64_t>(t.infoWord))
@@ -147,7 +163,7 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
         check.fail(infoByte + 12, "contour attachment, but the header declares no contours");
     if (t.hasAttributes() && !declared(t.attributeKind))
         check.fail(infoByte + 12, "colour/normal attachment of a kind the header does not declare");
-    if (!t.hasAttributes() && (declared(AttachmentKind::Palette) || declared(AttachmentKind::Dxt)))
+    if (!t.hasAttributes() && header.hasAttributes())
         check.fail(infoByte + 12, "the header declares colours and normals, but the block has none");
     const std::uint64_t contourStart = t.contourWord;  // words
     std::vector<std::uint8_t> contourUsed(t.contourEndWord - contourStart, 0);

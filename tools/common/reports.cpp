@@ -92,7 +92,10 @@ nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakd
     const auto kinds = h.attachmentKinds;
     const auto has = [&](esvo::AttachmentKind k) { return (kinds >> static_cast<unsigned>(k)) & 1u; };
     report["contours"] = has(esvo::AttachmentKind::Contour) != 0;
-    report["attributes"] = has(esvo::AttachmentKind::Dxt) ? "compressed" : has(esvo::AttachmentKind::Palette) ? "raw" : "none";
+    report["attributes"] = has(esvo::AttachmentKind::Dxt)         ? "dxt"
+                           : has(esvo::AttachmentKind::DxtLookup) ? "dxt-lookup"
+                           : has(esvo::AttachmentKind::Palette)   ? "raw"
+                                                                  : "none";
     const std::pair<const char*, std::uint64_t> parts[] = {
         {"hierarchy", b.descriptorBytes},
         {"far_pointers", b.farPointerBytes},

@@ -85,9 +85,10 @@ void voxelize(const VoxelizeOptions& options) {
         vox::EsvoWriteOptions writeOptions;
         writeOptions.sliceBytes = options.sliceBytes;
         writeOptions.nearPointerLimit = options.nearPointerLimit;
-        writeOptions.attributes = options.attributes == "raw" ? vox::AttributeEncoding::Raw
-                                : options.attributes == "dxt" ? vox::AttributeEncoding::Compressed
-                                                              : vox::AttributeEncoding::None;
+        writeOptions.attributes = options.attributes == "raw"          ? vox::AttributeEncoding::Raw
+                                : options.attributes == "dxt"        ? vox::AttributeEncoding::Compressed
+                                : options.attributes == "dxt-lookup" ? vox::AttributeEncoding::CompressedLookup
+                                                                     : vox::AttributeEncoding::None;
         writeOptions.sceneBounds = bounds;
         writeOptions.timings = &timings;
         vox::EsvoWriteResult written;
@@ -141,8 +142,10 @@ int main(int argc, char** argv) {
                    "Stop refining where a voxel's cube and contour lie within E leaf voxels of the surface (0: refine to --depth)")
         ->check(CLI::Range(0.0, 1e6))->capture_default_str();
     app.add_option("--attributes", options.attributes,
-                   "Colour and normal per voxel: dxt (compressed, 6 words per 16 child slots), raw (64 bits per voxel) or none")
-        ->check(CLI::IsMember({"dxt", "raw", "none"}))->capture_default_str();
+                   "Colour and normal per voxel: dxt (compressed, 6 words per pair of sibling descriptors), dxt-lookup "
+                   "(compressed behind a lookup entry per descriptor, values equal to the parent's omitted), raw (64 bits "
+                   "per stored voxel) or none")
+        ->check(CLI::IsMember({"dxt", "dxt-lookup", "raw", "none"}))->capture_default_str();
     app.add_option("--color-error", options.colorError,
                    "With --contour-error: keep refining where colour varies more than this (8-bit sRGB steps) inside a voxel (0: off)")
         ->check(CLI::Range(0.0, 255.0))->capture_default_str();

@@ -237,10 +237,7 @@ void render(const EsvoCommands& c) {
     options.lodAngle = camera.pixelAngle() * c.lodScale;
     options.maxLevel = c.maxLevel;
     options.attributes = c.channel != "depth" && c.channel != "iterations" && c.channel != "level" && c.channel != "face-normal";
-    const std::uint32_t kinds = reader.header().attachmentKinds;
-    const bool hasAttributes = (kinds >> static_cast<unsigned>(esvo::AttachmentKind::Palette) & 1u) ||
-                               (kinds >> static_cast<unsigned>(esvo::AttachmentKind::Dxt) & 1u);
-    if (c.channel == "color" && !hasAttributes) throw UsageError(c.file + ": no colours in this file (voxelize --attributes none)");
+    if (c.channel == "color" && !reader.header().hasAttributes()) throw UsageError(c.file + ": no colours in this file (voxelize --attributes none)");
     const RenderBuffers image = renderEsvo(caster, camera, options, c.beam);
     std::vector<Vec3f> linear;  // color / shaded
     if (colorChannel) {

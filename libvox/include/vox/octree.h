@@ -77,6 +77,9 @@ enum class AttributeEncoding : std::uint8_t {
     None,        ///< no colour or normal
     Raw,         ///< uncompressed ("palette"): a lookup entry per descriptor, 64 bits per stored voxel
     Compressed,  ///< DXT-style: 6 words per pair of sibling descriptors (16 child slots)
+    /// DXT-style behind a lookup entry per descriptor (Laine & Karras 5.7): 6 words per 16 stored
+    /// values; a child equal to its parent is not stored (it inherits), and no pairing padding.
+    CompressedLookup,
 };
 
 /// Options for writeEsvo.

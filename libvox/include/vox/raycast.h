@@ -87,10 +87,6 @@ public:
 
 private:
     [[nodiscard]] CastHit castBeam(const Ray& ray, const CastOptions& options) const;
-    /// Fills @p hit's attributes from the value child @p slot of the descriptor at
-    /// @p descriptorWord stores; false where it stores none (the voxel inherits) or the block
-    /// has no attributes.
-    static bool lookupAttributes(const std::uint32_t* words, std::uint32_t descriptorWord, std::uint32_t slot, CastHit& hit);
 
     const esvo::EsvoPool& pool_;
     double a_[12];         // world → root cube [0,1]³, row-major 3×4

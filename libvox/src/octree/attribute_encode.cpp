@@ -452,11 +452,9 @@ struct NormalState {
 };
 
 /// Summed squared chord |n − d|² = 2 (1 − cos) between each used normal n and the nearest d of
-/// the 16 decoded normals of (base, axes), as esvo::decodeBlockNormal computes them; stops
-/// early beyond @p bound.
-double evalNormals(const NormalPoints& p, std::uint32_t base, std::uint32_t axes, std::array<std::uint8_t, 16>& combo, double bound) {
-    const Vec3 b = esvo::decodeNormal(base);
-    const Vec3 u = esvo::decodeAxis(axes & 0xFFFFu), v = esvo::decodeAxis(axes >> 16);
+/// the 16 directions normalise(b + cu·u + cv·v), computed as esvo::decodeBlockNormal computes
+/// them; the nearest one's combo goes to @p combo. Stops early beyond @p bound.
+double evalLattice(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v, std::array<std::uint8_t, 16>& combo, double bound) {
     // The 16 decoded directions, in arrays the compiler can vectorise over.
     std::array<float, 16> dx{}, dy{}, dz{};
     for (unsigned k = 0; k < 16; ++k) {
@@ -490,6 +488,11 @@ double evalNormals(const NormalPoints& p, std::uint32_t base, std::uint32_t axes
         if (total > bound) return total;
     }
     return total;
+}
+
+/// evalLattice of the decoded (base, axes) words.
+double evalNormals(const NormalPoints& p, std::uint32_t base, std::uint32_t axes, std::array<std::uint8_t, 16>& combo, double bound) {
+    return evalLattice(p, esvo::decodeNormal(base), esvo::decodeAxis(axes & 0xFFFFu), esvo::decodeAxis(axes >> 16), combo, bound);
 }
 
 bool tryNormals(const NormalPoints& p, std::uint32_t base, std::uint32_t axes, NormalState& s) {
@@ -709,6 +712,440 @@ PlaneFit fitNormals(NormalPoints& p) {
     return best;
 }
 
+// ---- The 3-D fit ------------------------------------------------------------------------------
+// The face-plane fit cannot serve blocks whose normals span 90° or more: the voxels along the
+// edges and corners where walls meet (+x, +y and their average), or both sides of a thin sheet
+// (+y and −y). The decoded directions are the central projection of a planar lattice
+// b + cu·u + cv·v that may lie anywhere in space, and the fit below works with that lattice
+// directly: unquantised models built exactly through up to four cluster representatives of the
+// normals (and the face-plane fit lifted to 3-D), each refined by Levenberg–Marquardt on the
+// decoded error; the best are quantised and refined on the codes.
+
+/// An unquantised lattice: base b = x[0…2], axes u = x[3…5], v = x[6…8].
+using Model = std::array<double, 9>;
+using Dir = std::array<double, 3>;
+
+Vec3 modelPart(const Model& x, unsigned part) {
+    return {static_cast<float>(x[3 * part]), static_cast<float>(x[3 * part + 1]), static_cast<float>(x[3 * part + 2])};
+}
+
+double modelError(const NormalPoints& p, const Model& x, std::array<std::uint8_t, 16>& combo) {
+    return evalLattice(p, modelPart(x, 0), modelPart(x, 1), modelPart(x, 2), combo, std::numeric_limits<double>::max());
+}
+
+/// Scales @p x (which leaves its directions alone) so that the base's largest component is ±1,
+/// the cube-face form; false when the axes would then exceed the code's range (7·2²).
+bool normaliseModel(Model& x) {
+    const double bMax = std::max({std::fabs(x[0]), std::fabs(x[1]), std::fabs(x[2])});
+    double aMax = 0;
+    for (unsigned i = 3; i < 9; ++i) aMax = std::max(aMax, std::fabs(x[i]));
+    if (!(bMax > 0) || !(aMax <= 28.0 * bMax)) return false;
+    for (double& c : x) c /= bMax;
+    return true;
+}
+
+unsigned dominantAxis(const Model& x) {
+    const double ax = std::fabs(x[0]), ay = std::fabs(x[1]), az = std::fabs(x[2]);
+    return ax >= ay && ax >= az ? 0u : (ay >= az ? 1u : 2u);
+}
+
+/// Solves m·y = r (r becomes y) for a symmetric positive definite m of order n ≤ 9 by Cholesky
+/// (lower triangle of m used and overwritten); false when m is not numerically positive definite.
+bool solveSpd(std::array<std::array<double, 9>, 9>& m, std::array<double, 9>& r, unsigned n) {
+    for (unsigned j = 0; j < n; ++j) {
+        double d = m[j][j];
+        for (unsigned k = 0; k < j; ++k) d -= m[j][k] * m[j][k];
+        if (!(d > 0)) return false;
+        d = std::sqrt(d);
+        m[j][j] = d;
+        for (unsigned i = j + 1; i < n; ++i) {
+            double s = m[i][j];
+            for (unsigned k = 0; k < j; ++k) s -= m[i][k] * m[j][k];
+            m[i][j] = s / d;
+        }
+    }
+    for (unsigned i = 0; i < n; ++i) {
+        double s = r[i];
+        for (unsigned k = 0; k < i; ++k) s -= m[i][k] * r[k];
+        r[i] = s / m[i][i];
+    }
+    for (unsigned i = n; i-- > 0;) {
+        double s = r[i];
+        for (unsigned k = i + 1; k < n; ++k) s -= m[k][i] * r[k];
+        r[i] = s / m[i][i];
+    }
+    return true;
+}
+
+/// Levenberg–Marquardt on the decoded error Σ|P̂ − n|² (P = b + cu·u + cv·v, P̂ = P/|P|) over
+/// the base's two minor components and the axes in @p freeAxes (bit 0: u, bit 1: v); the base's
+/// dominant component stays ±1, which fixes the scale. Every step re-assigns each normal its
+/// nearest lattice point, which only lowers the error: a descent on what evalLattice measures,
+/// starting from @p error (the model's). With both axes free the model is renormalised to the
+/// cube-face form after each step; otherwise the base's minor components are clamped to it.
+/// Returns the error.
+double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>& combo, unsigned freeAxes, int iterations, double error) {
+    double lambda = 1e-3;
+    for (int iteration = 0; iteration < iterations && error > 0; ++iteration) {
+        const unsigned a = dominantAxis(x);
+        // Gauss–Newton: the Jacobian of P̂ is (I − P̂P̂ᵀ)/|P|, and P is linear in x with the
+        // coefficients k = (1, cu, cv) on its three parts.
+        std::array<std::array<double, 9>, 9> h{};
+        std::array<double, 9> g{};
+        for (unsigned i = 0; i < p.count; ++i) {
+            const double k[3]{1.0, esvo::kAxisWeights[combo[i] & 3], esvo::kAxisWeights[combo[i] >> 2]};
+            double q[3];
+            for (unsigned c = 0; c < 3; ++c) q[c] = x[c] + k[1] * x[3 + c] + k[2] * x[6 + c];
+            const double len2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+            if (!(len2 > 1e-24)) continue;
+            const double inv = 1.0 / std::sqrt(len2);
+            for (double& c : q) c *= inv;
+            const double nd = p.n[i][0] * q[0] + p.n[i][1] * q[1] + p.n[i][2] * q[2];
+            double m[3][3], r[3];
+            for (unsigned c = 0; c < 3; ++c) {
+                r[c] = -(p.n[i][c] - nd * q[c]) * inv;
+                for (unsigned d = 0; d < 3; ++d) m[c][d] = ((c == d ? 1.0 : 0.0) - q[c] * q[d]) / len2;
+            }
+            for (unsigned s = 0; s < 3; ++s) {
+                for (unsigned c = 0; c < 3; ++c) g[3 * s + c] += k[s] * r[c];
+                for (unsigned t = 0; t <= s; ++t)
+                    for (unsigned c = 0; c < 3; ++c)
+                        for (unsigned d = 0; d < 3; ++d) h[3 * s + c][3 * t + d] += k[s] * k[t] * m[c][d];
+            }
+        }
+        std::array<unsigned, 8> index{};
+        unsigned n = 0;
+        for (unsigned c = 0; c < 3; ++c)
+            if (c != a) index[n++] = c;
+        for (unsigned axis = 0; axis < 2; ++axis)
+            if ((freeAxes >> axis) & 1u)
+                for (unsigned c = 0; c < 3; ++c) index[n++] = 3 + 3 * axis + c;
+        double trace = 0;
+        for (unsigned j = 0; j < n; ++j) trace += h[index[j]][index[j]];
+        const double floor = 1e-9 * trace / n + 1e-30;
+        bool accepted = false;
+        double gain = 0;
+        for (int attempt = 0; attempt < 4 && !accepted; ++attempt) {
+            std::array<std::array<double, 9>, 9> m{};
+            std::array<double, 9> step{};
+            for (unsigned j = 0; j < n; ++j) {
+                for (unsigned l = 0; l <= j; ++l) {
+                    const unsigned r = std::max(index[j], index[l]), c = std::min(index[j], index[l]);
+                    m[j][l] = h[r][c];
+                }
+                m[j][j] = m[j][j] * (1 + lambda) + floor;
+                step[j] = -g[index[j]];
+            }
+            if (!solveSpd(m, step, n)) {
+                lambda *= 10;
+                continue;
+            }
+            Model y = x;
+            for (unsigned j = 0; j < n; ++j) y[index[j]] += step[j];
+            if (freeAxes == 3) {
+                if (!normaliseModel(y)) {
+                    lambda *= 10;
+                    continue;
+                }
+            } else {
+                for (unsigned c = 0; c < 3; ++c)
+                    if (c != a) y[c] = std::clamp(y[c], -1.0, 1.0);
+            }
+            std::array<std::uint8_t, 16> yc{};
+            const double e = modelError(p, y, yc);
+            if (e < error) {
+                gain = error - e;
+                x = y;
+                combo = yc;
+                error = e;
+                lambda *= 0.3;
+                accepted = true;
+            } else {
+                lambda *= 10;
+            }
+        }
+        if (!accepted || gain < 1e-3 * error) break;
+    }
+    return error;
+}
+
+/// The model of a quantised block.
+Model decodedModel(const NormalState& s) {
+    const Vec3 b = esvo::decodeNormal(s.base), u = esvo::decodeAxis(s.axes & 0xFFFFu), v = esvo::decodeAxis(s.axes >> 16);
+    return {b[0], b[1], b[2], u[0], u[1], u[2], v[0], v[1], v[2]};
+}
+
+/// Searches the codes around @p s: every axis component one step either way and each axis one
+/// exponent finer or coarser (re-rounded); after each pass, the base refit to the axes.
+void searchCodes(const NormalPoints& p, NormalState& s) {
+    for (int pass = 0; pass < 3 && s.error > 0; ++pass) {
+        bool improved = false;
+        for (unsigned which = 0; which < 2; ++which) {
+            const unsigned shift = 16 * which;
+            for (unsigned c = 0; c < 3; ++c)
+                for (const int step : {-1, 1}) {
+                    const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
+                    const int value = static_cast<int>(static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28) + step;
+                    if (value < -8 || value > 7) continue;
+                    const std::uint32_t moved = (bits & ~(15u << (4 * c))) | ((static_cast<std::uint32_t>(value) & 15u) << (4 * c));
+                    if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (moved << shift), s)) improved = true;
+                }
+            const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
+            const int e = static_cast<int>(bits >> 12);
+            const Vec3 decoded = esvo::decodeAxis(bits);
+            for (const int ne : {e - 1, e + 1}) {
+                if (ne < 0 || ne > 15) continue;
+                if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (roundAxis(decoded, ne) << shift), s)) improved = true;
+            }
+        }
+        Model x = decodedModel(s);
+        std::array<std::uint8_t, 16> combo = s.combo;
+        refineModel(p, x, combo, 0, 3, s.error);
+        if (tryNormals(p, esvo::encodeNormal(modelPart(x, 0)), s.axes, s)) improved = true;
+        if (!improved) break;
+    }
+}
+
+/// Quantises a model: all parts rounded at once, and each axis rounded in turn with the rest
+/// refit to it; then searchCodes.
+NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo) {
+    NormalState s;
+    const auto encode = [&](const Model& y) {
+        tryNormals(p, esvo::encodeNormal(modelPart(y, 0)), esvo::encodeAxis(modelPart(y, 1)) | (esvo::encodeAxis(modelPart(y, 2)) << 16), s);
+    };
+    const auto roundPart = [](Model& y, unsigned part) {
+        const Vec3 q = esvo::decodeAxis(esvo::encodeAxis(modelPart(y, part)));
+        for (unsigned c = 0; c < 3; ++c) y[3 * part + c] = q[c];
+    };
+    encode(x);
+    for (unsigned first = 1; first <= 2; ++first) {
+        Model y = x;
+        std::array<std::uint8_t, 16> c = combo;
+        roundPart(y, first);
+        refineModel(p, y, c, first == 1 ? 2u : 1u, 4, modelError(p, y, c));
+        roundPart(y, 3 - first);
+        refineModel(p, y, c, 0, 3, modelError(p, y, c));
+        encode(y);
+    }
+    searchCodes(p, s);
+    return s;
+}
+
+Dir toDir(const Vec3& v) { return {v[0], v[1], v[2]}; }
+double dot(const Dir& a, const Dir& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+Dir unit(const Dir& a) {
+    const double len = std::sqrt(dot(a, a));
+    return len > 0 ? Dir{a[0] / len, a[1] / len, a[2] / len} : a;
+}
+double det3(const Dir& a, const Dir& b, const Dir& c) {
+    return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+}
+
+/// The model whose lattice points at @p pos (cu, cv; not collinear) are @p points.
+Model modelThrough(const std::array<Dir, 3>& points, const std::array<std::array<double, 2>, 3>& pos) {
+    // Rows (1, cu, cv) of the three points; (b, u, v) = L⁻¹ · points, per coordinate.
+    const Dir r0{1, pos[0][0], pos[0][1]}, r1{1, pos[1][0], pos[1][1]}, r2{1, pos[2][0], pos[2][1]};
+    const double det = det3(r0, r1, r2);
+    // Inverse by cofactors: column j of L⁻¹ is (r_{j+1} × r_{j+2}) / det.
+    const auto cross = [](const Dir& a, const Dir& b) { return Dir{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; };
+    const std::array<Dir, 3> col{cross(r1, r2), cross(r2, r0), cross(r0, r1)};
+    Model x{};
+    for (unsigned part = 0; part < 3; ++part)
+        for (unsigned c = 0; c < 3; ++c)
+            x[3 * part + c] = (col[0][part] * points[0][c] + col[1][part] * points[1][c] + col[2][part] * points[2][c]) / det;
+    return x;
+}
+
+/// Models through the points λ1·r1 at cu = −1 and λ2·r2 at cu = 1 (v = 0).
+Model modelOnLine(const Dir& r1, double l1, const Dir& r2, double l2) {
+    Model x{};
+    for (unsigned c = 0; c < 3; ++c) {
+        x[c] = 0.5 * (l1 * r1[c] + l2 * r2[c]);
+        x[3 + c] = 0.5 * (l2 * r2[c] - l1 * r1[c]);
+    }
+    return x;
+}
+
+constexpr std::array<std::array<double, 2>, 3> kTriangle{{{-1, -1}, {1, -1}, {-1, 1}}};
+
+/// The corner of the triangle the lattice's right angle (−1, −1) takes: the representative whose
+/// two others sum longest (keeps the base, their midpoint, away from zero).
+unsigned rightAngle(const std::array<Dir, 4>& r, const std::array<unsigned, 3>& of) {
+    unsigned best = 0;
+    double longest = -1;
+    for (unsigned j = 0; j < 3; ++j) {
+        const Dir& a = r[of[(j + 1) % 3]];
+        const Dir& b = r[of[(j + 2) % 3]];
+        const Dir s{a[0] + b[0], a[1] + b[1], a[2] + b[2]};
+        if (dot(s, s) > longest) longest = dot(s, s), best = j;
+    }
+    return best;
+}
+
+/// Up to six models through k = 2…4 representatives @p r (unit) of clusters of the normals.
+unsigned modelsThrough(const std::array<Dir, 4>& r, unsigned k, std::array<Model, 6>& out) {
+    unsigned count = 0;
+    if (k == 2) {
+        const double c = dot(r[0], r[1]);
+        if (c > -0.95) out[count++] = modelOnLine(r[0], 1, r[1], 1);
+        if (c < 0) {
+            out[count++] = modelOnLine(r[0], 3, r[1], 1);
+            out[count++] = modelOnLine(r[0], 1, r[1], 3);
+        }
+    } else if (k == 3) {
+        const unsigned j = rightAngle(r, {0, 1, 2});
+        out[count++] = modelThrough({r[j], r[(j + 1) % 3], r[(j + 2) % 3]}, kTriangle);
+        // Collinear on the u axis when one lies between the other two: r_m = α·r_a + β·r_b, α, β > 0,
+        // at cu = ±1/3 between λa·r_a at −1 and λb·r_b at 1.
+        for (unsigned m = 0; m < 3; ++m) {
+            const Dir& ra = r[(m + 1) % 3];
+            const Dir& rb = r[(m + 2) % 3];
+            const double aa = dot(ra, ra), ab = dot(ra, rb), bb = dot(rb, rb), am = dot(ra, r[m]), bm = dot(rb, r[m]);
+            const double det = aa * bb - ab * ab;
+            if (!(det > 1e-6)) continue;
+            const double alpha = (bb * am - ab * bm) / det, beta = (aa * bm - ab * am) / det;
+            if (!(alpha > 0.05 && beta > 0.05)) continue;
+            // At +1/3: λa = α, λb = β/2; at −1/3: λa = α/2, λb = β. The more even pair.
+            if (2 * alpha / beta < 2 * beta / alpha) out[count++] = modelOnLine(ra, alpha, rb, 0.5 * beta);
+            else out[count++] = modelOnLine(ra, 0.5 * alpha, rb, beta);
+        }
+    } else if (k == 4) {
+        // The linear dependency Σ α_m r_m = 0.
+        std::array<double, 4> alpha{det3(r[1], r[2], r[3]), -det3(r[0], r[2], r[3]), det3(r[0], r[1], r[3]), -det3(r[0], r[1], r[2])};
+        double largest = 0;
+        unsigned positive = 0;
+        for (const double a : alpha) largest = std::max(largest, std::fabs(a)), positive += a > 0;
+        bool degenerate = !(largest > 0);
+        for (const double a : alpha) degenerate = degenerate || std::fabs(a) < 0.02 * largest;
+        if (!degenerate) {
+            if (positive == 1) {
+                for (double& a : alpha) a = -a;
+                positive = 3;
+            }
+            if (positive == 3) {
+                // One inside the cone of the other three: the corners, and the odd one at (−⅓, −⅓).
+                unsigned odd = 0;
+                while (alpha[odd] > 0) ++odd;
+                std::array<unsigned, 3> corners{};
+                for (unsigned m = 0, n = 0; m < 4; ++m)
+                    if (m != odd) corners[n++] = m;
+                const unsigned j = rightAngle(r, corners);
+                std::array<Dir, 3> points{};
+                for (unsigned n = 0; n < 3; ++n) {
+                    const unsigned m = corners[(j + n) % 3];
+                    for (unsigned c = 0; c < 3; ++c) points[n][c] = 3 * alpha[m] / largest * r[m][c];
+                }
+                out[count++] = modelThrough(points, kTriangle);
+            } else if (positive == 2) {
+                // Two pairs whose segments cross: the diagonals of the outer square.
+                std::array<unsigned, 2> plus{}, minus{};
+                for (unsigned m = 0, np = 0, nm = 0; m < 4; ++m)
+                    if (alpha[m] > 0) plus[np++] = m;
+                    else minus[nm++] = m;
+                std::array<Dir, 3> points{};
+                const std::array<unsigned, 3> at{plus[0], minus[0], minus[1]};
+                for (unsigned n = 0; n < 3; ++n)
+                    for (unsigned c = 0; c < 3; ++c) points[n][c] = std::fabs(alpha[at[n]]) / largest * r[at[n]][c];
+                out[count++] = modelThrough(points, kTriangle);
+            }
+        }
+    }
+    return count;
+}
+
+/// Clusters of the normals for k = 2…4 by farthest-point seeding (each seed the normal farthest
+/// from those before; the first the farthest from the mean) and a few k-means steps; calls
+/// @p use(representatives, k) for each k whose seed is more than ~1° from the others.
+template <typename Use>
+void forClusters(const NormalPoints& p, Use use) {
+    Dir mean{};
+    for (unsigned i = 0; i < p.count; ++i)
+        for (unsigned c = 0; c < 3; ++c) mean[c] += p.n[i][c];
+    std::array<Dir, 4> seed{};
+    std::array<double, 16> nearest{};
+    unsigned first = 0;
+    for (unsigned i = 1; i < p.count; ++i)
+        if (dot(toDir(p.n[i]), mean) < dot(toDir(p.n[first]), mean)) first = i;
+    seed[0] = toDir(p.n[first]);
+    for (unsigned i = 0; i < p.count; ++i) nearest[i] = dot(toDir(p.n[i]), seed[0]);
+    for (unsigned k = 1; k < 4; ++k) {
+        unsigned far = 0;
+        for (unsigned i = 1; i < p.count; ++i)
+            if (nearest[i] < nearest[far]) far = i;
+        if (!(nearest[far] < 0.99985)) return;  // within ~1°: no further cluster
+        seed[k] = toDir(p.n[far]);
+        for (unsigned i = 0; i < p.count; ++i) nearest[i] = std::max(nearest[i], dot(toDir(p.n[i]), seed[k]));
+        std::array<Dir, 4> centre = seed;
+        for (int iteration = 0; iteration < 3; ++iteration) {
+            std::array<Dir, 4> sum{};
+            for (unsigned i = 0; i < p.count; ++i) {
+                const Dir n = toDir(p.n[i]);
+                unsigned best = 0;
+                for (unsigned j = 1; j <= k; ++j)
+                    if (dot(n, centre[j]) > dot(n, centre[best])) best = j;
+                for (unsigned c = 0; c < 3; ++c) sum[best][c] += n[c];
+            }
+            for (unsigned j = 0; j <= k; ++j)
+                if (dot(sum[j], sum[j]) > 0) centre[j] = unit(sum[j]);
+        }
+        use(centre, k + 1);
+    }
+}
+
+/// A continuous candidate: its model, combos and error.
+struct Candidate {
+    Model x{};
+    std::array<std::uint8_t, 16> combo{};
+    double error = std::numeric_limits<double>::max();
+};
+
+/// The face-plane fit as a model.
+Model planeModel(const NormalPoints& p, const PlaneFit& f) {
+    const unsigned a = p.axis, ua = (a + 1) % 3, va = (a + 2) % 3;
+    Model x{};
+    x[a] = p.sign;
+    x[ua] = f.bx;
+    x[va] = f.by;
+    x[3 + ua] = f.ux;
+    x[3 + va] = f.uy;
+    x[6 + ua] = f.vx;
+    x[6 + va] = f.vy;
+    return x;
+}
+
+/// The 3-D search: candidate models from the face-plane fit @p f and from clusters of the
+/// normals, refined; the best two quantised. Replaces @p s where one decodes better.
+void fit3d(const NormalPoints& p, const PlaneFit& f, NormalState& s) {
+    std::array<Candidate, 2> best{};  // the best two, in order
+    const auto consider = [&](Model x) {
+        if (!normaliseModel(x)) return;
+        Candidate c;
+        c.x = x;
+        c.error = refineModel(p, c.x, c.combo, 3, 8, modelError(p, c.x, c.combo));
+        if (c.error < best[0].error) {
+            best[1] = best[0];
+            best[0] = c;
+        } else if (c.error < best[1].error) {
+            best[1] = c;
+        }
+    };
+    if (f.error < std::numeric_limits<double>::max()) consider(planeModel(p, f));
+    forClusters(p, [&](const std::array<Dir, 4>& r, unsigned k) {
+        std::array<Model, 6> models{};
+        const unsigned count = modelsThrough(r, k, models);
+        for (unsigned m = 0; m < count; ++m) consider(models[m]);
+    });
+    for (const Candidate& c : best) {
+        if (c.error == std::numeric_limits<double>::max() || s.error <= 0) continue;
+        const NormalState q = quantiseModel(p, c.x, c.combo);
+        if (q.error < s.error) s = q;
+    }
+}
+
+/// Summed squared chord per used normal (≈ squared angle) below which the face-plane fit is
+/// kept without the 3-D search: about 0.3°.
+constexpr double kFit3dThreshold = 0.3 * 0.3 * (3.14159265358979 / 180) * (3.14159265358979 / 180);
+
 NormalState encodeNormals(NormalPoints& p) {
     // One direction (flat surfaces: common): the cube-face code itself, zero axes.
     bool equal = true;
@@ -719,7 +1156,10 @@ NormalState encodeNormals(NormalPoints& p) {
         s.error = 0;
         return s;
     }
-    return quantiseFit(p, fitNormals(p));
+    const PlaneFit f = fitNormals(p);
+    NormalState s = quantiseFit(p, f);
+    if (s.error > kFit3dThreshold * p.count) fit3d(p, f, s);
+    return s;
 }
 
 esvo::Vec3 unitOrZ(const esvo::Vec3& n) {

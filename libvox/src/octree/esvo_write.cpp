@@ -75,6 +75,17 @@ private:
     std::vector<std::vector<std::uint64_t>> firstChild_;
 };
 
+/// The attachment kind that stores @p encoding (not None).
+esvo::AttachmentKind attachmentKind(AttributeEncoding encoding) {
+    switch (encoding) {
+    case AttributeEncoding::Raw: return esvo::AttachmentKind::Palette;
+    case AttributeEncoding::Compressed: return esvo::AttachmentKind::Dxt;
+    case AttributeEncoding::CompressedLookup: return esvo::AttachmentKind::DxtLookup;
+    case AttributeEncoding::None: break;
+    }
+    throw std::logic_error("attachmentKind: no attributes");
+}
+
 /// A voxel with its Morton path from the root (3 bits per level, slot bit 0 = +x).
 struct Node {
     std::uint32_t level = 0;
@@ -99,7 +110,8 @@ struct SliceBlock {
         std::uint32_t level;
         std::uint64_t index;
     };
-    std::vector<DescriptorRef> pendingCompressed;
+    std::vector<DescriptorRef> pendingCompressed;   // Compressed: by unit
+    std::vector<std::uint64_t> pendingValues;       // CompressedLookup: the stored values in order
     std::uint64_t compressedUnit = 0;
     bool overflow = false;  // a near pointer estimate failed: the block is over a slice anyway
     [[nodiscard]] std::uint64_t byteSize() const { return overflow ? ~std::uint64_t{0} : 8 * units.size(); }
@@ -117,6 +129,7 @@ public:
             switch (attributes) {
             case AttributeEncoding::Raw: return 8 + 4 + 8 * esvo::popc8(valid);
             case AttributeEncoding::Compressed: return 8 + 12;
+            case AttributeEncoding::CompressedLookup: return 8 + 4 + 2 * esvo::popc8(valid);
             case AttributeEncoding::None: break;
             }
             return 8;
@@ -217,6 +230,7 @@ public:
         const std::uint64_t attributeWord = 2 * block_.units.size();
         if (attributes_ == AttributeEncoding::Raw) appendPalette(contourWord / 2);
         if (attributes_ == AttributeEncoding::Compressed) reserveCompressed(contourWord / 2);
+        if (attributes_ == AttributeEncoding::CompressedLookup) appendLookupAndReserveBlocks(contourWord / 2);
         const std::uint32_t attachments = (contours_.empty() ? 0 : 1) + (attributes_ == AttributeEncoding::None ? 0 : 1);
 
         // Info section and tables.
@@ -234,7 +248,7 @@ public:
             words.push_back(rel(contourWord));
         }
         if (attributes_ != AttributeEncoding::None) {
-            words.push_back(static_cast<std::uint32_t>(attributes_ == AttributeEncoding::Raw ? esvo::AttachmentKind::Palette : esvo::AttachmentKind::Dxt));
+            words.push_back(static_cast<std::uint32_t>(attachmentKind(attributes_)));
             words.push_back(rel(attributeWord));
         }
         words.push_back(static_cast<std::uint32_t>(rootGroupUnits.size()));
@@ -341,13 +355,22 @@ private:
     /// equals its parent's is not stored: it inherits. (The root voxel's own value is stored
     /// nowhere, so the root descriptor stores all its children.)
     void appendPalette(std::uint64_t descriptorUnits) {
-        std::vector<std::uint32_t> lookup(descriptorUnits + descriptorUnits % 2, 0);
         std::vector<std::uint64_t> values;
-        const std::uint64_t valuesWord = lookup.size();  // relative to the attachment
+        // Pointers in words from the attachment's start: past the lookup array, two per value.
+        appendLookup(descriptorUnits, values, esvo::lookupArrayWords(static_cast<std::uint32_t>(descriptorUnits)), 2);
+        block_.units.insert(block_.units.end(), values.begin(), values.end());
+    }
+
+    /// The lookup array both lookup-based attachments share: the entry of each descriptor's unit
+    /// masks the children that differ from their parent (the others inherit) and points at the
+    /// first of them, collected into @p values in descriptor order: pointer = @p base + @p scale ×
+    /// index. (The root voxel's own value is stored nowhere, so the root stores all its children.)
+    void appendLookup(std::uint64_t descriptorUnits, std::vector<std::uint64_t>& values, std::uint64_t base, std::uint64_t scale) {
+        std::vector<std::uint32_t> lookup(esvo::lookupArrayWords(static_cast<std::uint32_t>(descriptorUnits)), 0);
         for (const SliceBlock::DescriptorRef& d : descriptors_) {
             const std::uint64_t own = d.level == 0 ? ~std::uint64_t{0} : tree_.attribute(d.level, d.index);
             std::uint32_t mask = 0;
-            const std::uint64_t pointer = valuesWord + 2 * values.size();
+            const std::uint64_t pointer = base + scale * values.size();
             forEachChildValue(d, [&](std::uint32_t slot, std::uint64_t value) {
                 if (value == own) return;
                 mask |= 1u << slot;
@@ -357,7 +380,16 @@ private:
             lookup[d.unit] = mask ? esvo::PaletteLookup::make(mask, static_cast<std::uint32_t>(pointer)).word : 0u;
         }
         for (std::size_t i = 0; i < lookup.size(); i += 2) block_.units.push_back(lookup[i] | (std::uint64_t{lookup[i + 1]} << 32));
-        block_.units.insert(block_.units.end(), values.begin(), values.end());
+    }
+
+    /// Combined-lookup compressed attachment: the lookup array (pointers count values), then one
+    /// block per 16 stored values, filled by encodeCompressedAttributes once the plan is final.
+    void appendLookupAndReserveBlocks(std::uint64_t descriptorUnits) {
+        std::vector<std::uint64_t> values;
+        appendLookup(descriptorUnits, values, 0, 1);
+        block_.compressedUnit = block_.units.size();
+        block_.units.resize(block_.units.size() + 3 * ((values.size() + 15) / 16), 0);
+        block_.pendingValues = std::move(values);
     }
 
     /// Compressed attachment: one block per pair of units of the descriptor area, filled by
@@ -449,6 +481,16 @@ private:
 void encodeCompressedAttributes(SliceBlock& block, const OctreeIndex& tree) {
     auto& refs = block.pendingCompressed;
     auto* words = reinterpret_cast<std::uint32_t*>(block.units.data() + block.compressedUnit);
+    // CompressedLookup: runs of 16 stored values.
+    const auto& pending = block.pendingValues;
+    for (std::size_t first = 0; first < pending.size(); first += 16) {
+        std::array<std::uint64_t, 16> values{};
+        const std::size_t n = std::min<std::size_t>(16, pending.size() - first);
+        std::copy(pending.begin() + std::ptrdiff_t(first), pending.begin() + std::ptrdiff_t(first + n), values.begin());
+        const esvo::CompressedBlock encoded = detail::encodeCompressedBlock(values, n == 16 ? 0xFFFFu : (1u << n) - 1u);
+        std::copy(encoded.begin(), encoded.end(), words + 6 * (first / 16));
+    }
+    block.pendingValues = {};
     for (std::size_t i = 0; i < refs.size();) {
         const std::uint64_t pair = refs[i].unit / 2;
         std::array<std::uint64_t, 16> values{};
@@ -621,7 +663,8 @@ EsvoWriteResult writeEsvo(const std::filesystem::path& file, const SparseOctree&
         planned = planner.plan();
     }
 
-    if (!octree.attributes.empty() && options.attributes == AttributeEncoding::Compressed) {
+    if (!octree.attributes.empty() &&
+        (options.attributes == AttributeEncoding::Compressed || options.attributes == AttributeEncoding::CompressedLookup)) {
         Timings::Scope timer(options.timings, "esvo_compress_attributes");
         tbb::parallel_for(std::size_t{0}, planned.size(), [&](std::size_t i) { encodeCompressedAttributes(planned[i].block, index); });
     }
@@ -683,10 +726,8 @@ EsvoWriteResult writeEsvo(const std::filesystem::path& file, const SparseOctree&
     header.sceneBoundsMax = {options.sceneBounds.max.x, options.sceneBounds.max.y, options.sceneBounds.max.z};
     header.leafDepth = octree.leafDepth;
     if (!octree.contours.empty()) header.attachmentKinds |= 1u << static_cast<unsigned>(esvo::AttachmentKind::Contour);
-    if (!octree.attributes.empty() && options.attributes == AttributeEncoding::Raw)
-        header.attachmentKinds |= 1u << static_cast<unsigned>(esvo::AttachmentKind::Palette);
-    if (!octree.attributes.empty() && options.attributes == AttributeEncoding::Compressed)
-        header.attachmentKinds |= 1u << static_cast<unsigned>(esvo::AttachmentKind::Dxt);
+    if (!octree.attributes.empty() && options.attributes != AttributeEncoding::None)
+        header.attachmentKinds |= 1u << static_cast<unsigned>(attachmentKind(options.attributes));
     header.sliceBytesLimit = options.sliceBytes;
     header.nearPointerLimit = options.nearPointerLimit;
     header.sliceCount = static_cast<std::uint32_t>(planned.size());

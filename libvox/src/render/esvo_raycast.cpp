@@ -287,7 +287,13 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
         std::uint32_t descriptorWord = parent;
         int slot = hitSlot;
         for (int s = scale;;) {
-            if (lookupAttributes(words, descriptorWord, static_cast<std::uint32_t>(slot), result)) break;
+            esvo::AttributeValue value;
+            if (esvo::readAttribute(words, descriptorWord, static_cast<std::uint32_t>(slot), value)) {
+                result.hasAttributes = true;
+                result.color = value.color;
+                result.shadingNormal = {value.normal[0], value.normal[1], value.normal[2]};
+                break;
+            }
             if (++s >= kScaleMax) break;  // the root's own value is stored nowhere
             descriptorWord = stack[s].parent;
             const int idxAbove = static_cast<int>(((std::bit_cast<std::uint32_t>(posX) >> s) & 1u) |
@@ -299,37 +305,6 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
     return result;
 }
 
-bool EsvoRayCaster::lookupAttributes(const std::uint32_t* words, std::uint32_t descriptorWord, std::uint32_t slot, CastHit& hit) {
-    // The descriptor's block: page header → info section → attachment directory.
-    const std::uint32_t pageWord = descriptorWord & ~(esvo::kPageBytes / 4 - 1);
-    const auto infoWord = static_cast<std::uint32_t>(static_cast<std::int64_t>(pageWord) + static_cast<std::int32_t>(words[pageWord]));
-    const std::uint32_t blockWord = infoWord + static_cast<std::uint32_t>(static_cast<std::int32_t>(words[infoWord + esvo::info::kFirstDescriptor])) - 2;
-    const std::uint32_t unit = (descriptorWord - blockWord) / 2;
-    const std::uint32_t count = words[infoWord + esvo::info::kAttachmentCount];
-    for (std::uint32_t a = 0; a < count; ++a) {
-        const std::uint32_t kind = words[infoWord + esvo::info::kAttachments + 2 * a];
-        const std::uint32_t attach = infoWord + static_cast<std::uint32_t>(static_cast<std::int32_t>(words[infoWord + esvo::info::kAttachments + 2 * a + 1]));
-        esvo::Vec3 n{};
-        if (kind == static_cast<std::uint32_t>(esvo::AttachmentKind::Palette)) {
-            const esvo::PaletteLookup entry{words[attach + unit]};
-            if (!((entry.mask() >> slot) & 1u)) return false;
-            const std::uint32_t value = attach + entry.valuePointer() + 2 * esvo::popc8(entry.mask() & ((1u << slot) - 1u));
-            hit.color = words[value];
-            n = esvo::decodeUnitNormal(words[value + 1]);
-        } else if (kind == static_cast<std::uint32_t>(esvo::AttachmentKind::Dxt)) {
-            const std::uint32_t* block = words + attach + esvo::kCompressedBlockWords * (unit / 2);
-            const unsigned blockSlot = slot | ((unit & 1u) << 3);
-            hit.color = esvo::decodeBlockColor(block, blockSlot);
-            n = esvo::decodeBlockNormal(block, blockSlot);
-        } else {
-            continue;
-        }
-        hit.hasAttributes = true;
-        hit.shadingNormal = {n[0], n[1], n[2]};
-        return true;
-    }
-    return false;
-}
 
 // ---- beam optimisation: the coarse pass ---------------------------------------------------
 //

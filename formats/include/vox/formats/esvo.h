@@ -34,11 +34,17 @@ inline constexpr std::uint32_t kNoSlice = 0xFFFFFFFFu;
 enum class AttachmentKind : std::uint32_t {
     Contour = 0,
     Palette = 1,      ///< uncompressed colour + normal
-    Dxt = 2,          ///< compressed colour + normal
+    Dxt = 2,          ///< compressed colour + normal, a block per pair of sibling descriptors
     Corner = 3,
     AmbientOcclusion = 4,
     BuildData = 5,
+    /// Compressed colour + normal behind a lookup entry per descriptor: Laine & Karras 5.7's
+    /// "combined indirect attribute lookup" (libvox's addition; not in the original release).
+    DxtLookup = 6,
 };
+
+/// The attachment kinds that hold colours and normals (at most one per file).
+inline constexpr std::uint32_t kAttributeKindBits = (1u << 1) | (1u << 2) | (1u << 6);
 
 // ---- child descriptors ----------------------------------------------------------------------
 
@@ -124,6 +130,8 @@ struct Header {
     std::uint64_t directoryBytes = 0;
     std::uint32_t directoryChecksum = 0;
     std::uint64_t fileBytes = 0;
+
+    [[nodiscard]] bool hasAttributes() const noexcept { return (attachmentKinds & kAttributeKindBits) != 0; }
 };
 
 /// One slice in the directory (docs/esvo-format.md, "Slice directory").

@@ -53,7 +53,9 @@ struct PaletteLookup {
     static constexpr std::uint32_t kMaxPointer = 0xFFFFFFu;
 };
 
-// ---- compressed block: 6 words per pair of descriptor units (16 child slots) ------------------
+// ---- compressed block: 6 words of 16 values -----------------------------------------------
+// In a Dxt attachment, one block per pair of descriptor units (16 child slots); in a DxtLookup
+// attachment, one block per 16 consecutive stored values (value k: slot k % 16 of block k / 16).
 // word 0: colour endpoints c0 (bits 0-15) and c1 (bits 16-31), RGB565 (R in bits 11-15)
 // word 1: 2-bit colour index per slot, slot s in bits 2s..2s+1
 // word 2: base normal, cube-face encoding
@@ -91,9 +93,29 @@ inline constexpr std::array<float, 4> kAxisWeights{-1.0f, -1.0f / 3.0f, 1.0f / 3
 /// The 2-bit index of @p slot in an index word.
 [[nodiscard]] constexpr std::uint32_t blockIndex(std::uint32_t word, unsigned slot) noexcept { return (word >> (2 * slot)) & 3u; }
 
+/// Words in a DxtLookup attachment before its first block: the lookup array (one word per
+/// descriptor-area unit), padded to a whole unit.
+[[nodiscard]] constexpr std::uint32_t lookupArrayWords(std::uint32_t descriptorUnits) noexcept {
+    return descriptorUnits + (descriptorUnits & 1u);
+}
+
 /// Colour of @p slot (0-15) of a compressed block: packColor(r, g, b, 255).
 [[nodiscard]] std::uint32_t decodeBlockColor(const std::uint32_t* block, unsigned slot) noexcept;
 /// Unit normal of @p slot (0-15): normalise(base + cu·u + cv·v).
 [[nodiscard]] Vec3 decodeBlockNormal(const std::uint32_t* block, unsigned slot) noexcept;
+
+// ---- reading a voxel's value from loaded blocks ------------------------------------------------
+
+/// A voxel's shading attributes as decoded.
+struct AttributeValue {
+    std::uint32_t color = 0;  ///< packColor word (compressed blocks decode with alpha 255)
+    Vec3 normal{0, 0, 1};     ///< unit
+};
+
+/// The value that child @p slot of the descriptor at word @p descriptorWord of @p words stores,
+/// found through the descriptor's page header, info section and attachment directory (the block
+/// must be one that validateBlock accepts, 8 KB aligned in @p words). Returns false where it
+/// stores none: the voxel then inherits its parent voxel's value (or the block has no colours).
+bool readAttribute(const std::uint32_t* words, std::uint32_t descriptorWord, std::uint32_t slot, AttributeValue& out) noexcept;
 
 }  // namespace vox::esvo

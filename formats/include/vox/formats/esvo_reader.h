@@ -5,8 +5,10 @@
 #pragma once
 
 #include <vox/formats/esvo.h>
+#include <vox/formats/esvo_attributes.h>
 
 #include <cstdio>
+#include <functional>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -129,6 +131,10 @@ public:
     /// Word index of the root descriptor.
     [[nodiscard]] std::uint32_t rootDescriptorWord() const noexcept { return rootWord_; }
     [[nodiscard]] std::uint64_t residentBytes() const noexcept { return residentBytes_; }
+    /// Visits every voxel below the root that the loaded slices hold, depth first in slot order,
+    /// with its colour and normal resolved: its own stored value, else the nearest ancestor's
+    /// (nullptr before any ancestor has one, e.g. in a file without colours).
+    void forEachVoxel(const std::function<void(const VoxelPosition&, const AttributeValue*)>& visit) const;
     [[nodiscard]] std::uint32_t loadedSliceCount() const noexcept { return loadedCount_; }
 
 private:
