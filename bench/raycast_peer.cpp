@@ -119,7 +119,7 @@ int main(int argc, char** argv) {
             double squared = 0, sameSurfaceSquared = 0;
             std::uint64_t compared = 0, sameSurface = 0;
             for (std::size_t i = 0; i < mesh.depth.size(); ++i) {
-                if (!std::isfinite(mesh.depth[i]) || !std::isfinite(shaded.depth[i]) || shaded.color[i] == 0) continue;
+                if (!std::isfinite(mesh.depth[i]) || !std::isfinite(shaded.depth[i]) || !vox::hasAttributes(shaded, i)) continue;
                 const vox::Vec3f a = shaded.shadingNormal[i], b = mesh.shadingNormal[i];
                 const double angle = std::acos(std::clamp(double(dot(a, b)), -1.0, 1.0)) * 180.0 / 3.14159265358979323846;
                 double sq = 0;

@@ -68,6 +68,8 @@ Header decodeHeader(const std::filesystem::path& file, const std::uint8_t* p, st
         invalid(file, "header says " + std::to_string(h.fileBytes) + " bytes but the file has " + std::to_string(fileSize) +
                           " (truncated or appended to)");
     if (h.sliceCount < 1) invalid(file, "header: no slices");
+    if (__builtin_popcount(h.attachmentKinds & kAttributeKindBits) > 1)
+        invalid(file, "header: declares more than one kind of colour/normal attachment");
     if (h.directoryOffset != kHeaderBytes) invalid(file, "header: directory does not follow the header");
     if (h.directoryBytes != directoryBytes(h.leafDepth, h.sliceCount) || h.directoryOffset + h.directoryBytes > fileSize)
         invalid(file, "header: directory size does not match " + std::to_string(h.sliceCount) + " slices or exceeds the file");

@@ -122,7 +122,7 @@ void dump(const std::string& file, long long sliceIndex, bool json) {
                     4 * t.infoWord, t.rootGroupCount, t.frontierCount);
         std::printf("%8s  %-10s %s\n", "byte", "kind", "content");
     }
-    const std::uint32_t descriptorUnits = t.contourWord / 2;  // the contour array follows the descriptors
+    const std::uint32_t descriptorUnits = t.descriptorEndWord / 2;
     std::vector<std::uint8_t> isSlot(descriptorUnits, 0);
     for (std::uint32_t u = 1; u < descriptorUnits; ++u) {
         if ((8 * u) % esvo::kPageBytes == 0) continue;
@@ -169,7 +169,7 @@ void dump(const std::string& file, long long sliceIndex, bool json) {
     }
     // The contour array, word by word, decoded.
     nlohmann::json contours = nlohmann::json::array();
-    for (std::uint32_t w = t.contourWord; w < t.infoWord; ++w) {
+    for (std::uint32_t w = t.contourWord; w < t.contourEndWord; ++w) {
         const std::uint32_t value = esvo::load<std::uint32_t>(block.data() + 4 * w);
         const esvo::Contour c = esvo::Contour::decode(value);
         if (json) {
@@ -272,7 +272,7 @@ void render(const EsvoCommands& c) {
             const float v = farthest > nearest ? (image.depth[i] - nearest) / (farthest - nearest) : 0.0f;
             p[0] = p[1] = p[2] = static_cast<std::uint8_t>(std::lround(255 * (1 - 0.8f * v)));
         } else if (c.channel == "normal" || c.channel == "face-normal") {
-            const Vec3f n = c.channel == "normal" && image.color[i] != 0 ? image.shadingNormal[i] : image.normal[i];
+            const Vec3f n = c.channel == "normal" && hasAttributes(image, i) ? image.shadingNormal[i] : image.normal[i];
             p[0] = static_cast<std::uint8_t>(std::lround(127.5f * (n.x + 1)));
             p[1] = static_cast<std::uint8_t>(std::lround(127.5f * (n.y + 1)));
             p[2] = static_cast<std::uint8_t>(std::lround(127.5f * (n.z + 1)));

@@ -103,7 +103,9 @@ struct RenderBuffers {
     std::vector<std::uint32_t> iterations;
     std::vector<std::uint8_t> level;       ///< level hit; 0 where it missed
     std::vector<std::uint32_t> color;      ///< CastHit::color; 0 where it missed or there is none
-    std::vector<Vec3f> shadingNormal;      ///< CastHit::shadingNormal; 0 where it missed or there is none
+    /// CastHit::shadingNormal (unit); the zero vector where the ray missed or there is none, which
+    /// is what hasAttributes() tests (a colour word can legitimately be 0).
+    std::vector<Vec3f> shadingNormal;
     std::uint64_t hits = 0;
     double seconds = 0;                    ///< wall time of the casting, coarse pass included
     // Beam optimisation (renderEsvo with beam > 0); iterations above are the fine pass's.
@@ -112,6 +114,12 @@ struct RenderBuffers {
     std::uint64_t coarseIterations = 0;    ///< nodes the coarse rays expanded, summed
     double coarseSeconds = 0;              ///< wall time of the coarse pass (part of seconds)
 };
+
+/// True where pixel @p i hit a voxel with colour and normal.
+[[nodiscard]] inline bool hasAttributes(const RenderBuffers& buffers, std::size_t i) {
+    const Vec3f& n = buffers.shadingNormal[i];
+    return n.x != 0 || n.y != 0 || n.z != 0;
+}
 
 /// Phong shading under a headlight (a light at the eye) of every hit pixel with attributes:
 /// ambient 0.1 + diffuse 0.9 × albedo, plus a white specular lobe (exponent 32, strength 0.25),
