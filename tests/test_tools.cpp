@@ -270,6 +270,13 @@ TEST(Tools, EsvoIsByteIdenticalWhateverTheThreadCount) {
                             "--slice-bytes", "16384", "--threads", threads}).exitCode, 0);
     EXPECT_EQ(readBytes(dir / "t1.esvo"), readBytes(dir / "t2.esvo"));
     EXPECT_EQ(readBytes(dir / "t1.esvo"), readBytes(dir / "t3.esvo"));
+    // The other colour/normal encodings too (dxt above is the default).
+    for (const char* attributes : {"raw", "dxt-lookup"})
+        for (const char* threads : {"1", "2"})
+            ASSERT_EQ(voxelize({scene.string(), "-o", (dir / (std::string(attributes) + threads + ".esvo")).string(), "--depth", "7",
+                                "--slice-bytes", "16384", "--threads", threads, "--attributes", attributes}).exitCode, 0);
+    EXPECT_EQ(readBytes(dir / "raw1.esvo"), readBytes(dir / "raw2.esvo"));
+    EXPECT_EQ(readBytes(dir / "dxt-lookup1.esvo"), readBytes(dir / "dxt-lookup2.esvo"));
 }
 
 TEST(Tools, SmallSlicesAndShortPointersStillValidate) {
@@ -340,6 +347,25 @@ TEST(Tools, RenderWritesPngAndPfmFromTheCamera) {
     for (const char* channel : {"depth", "iterations", "level"})
         EXPECT_EQ(voxinspect({"render", esvo.string(), "-o", png.string(), "--eye", "0,1,5", "--target", "0,1,0", "--width", "16",
                               "--height", "16", "--channel", channel}).exitCode, 0) << channel;
+    for (const char* channel : {"shaded", "color", "normal", "face-normal"})
+        for (const bool filter : {false, true}) {
+            if (filter && std::string(channel).find("normal") != std::string::npos) continue;
+            std::vector<std::string> args{"render", esvo.string(), "-o", png.string(), "--eye", "0,1,5", "--target", "0,1,0", "--width", "16",
+                                          "--height", "16", "--channel", channel};
+            if (filter) args.push_back("--filter");
+            EXPECT_EQ(voxinspect(args).exitCode, 0) << channel;
+        }
+    expectOneLineError(voxinspect({"render", esvo.string(), "-o", png.string(), "--eye", "0,1,5", "--target", "0,1,0", "--channel", "depth",
+                                   "--filter"}),
+                       1, "--filter", "voxinspect");
+    const auto bare = dir / "bare.esvo";
+    ASSERT_EQ(voxelize({scene.string(), "-o", bare.string(), "--depth", "5", "--attributes", "none"}).exitCode, 0);
+    expectOneLineError(voxinspect({"render", bare.string(), "-o", png.string(), "--eye", "0,1,5", "--target", "0,1,0", "--channel", "color"}),
+                       1, "no colours", "voxinspect");
+    EXPECT_EQ(voxinspect({"render", bare.string(), "-o", png.string(), "--eye", "0,1,5", "--target", "0,1,0", "--width", "16", "--height", "16",
+                          "--channel", "shaded"}).exitCode, 0)
+        << "shading falls back to face normals and grey";
+    expectOneLineError(voxelize({scene.string(), "-o", bare.string(), "--attributes", "bc7"}), 1, "--attributes");
     expectOneLineError(voxinspect({"render", esvo.string(), "-o", png.string(), "--eye", "0,1,5", "--target", "0,1,5"}), 1,
                        "same point", "voxinspect");
     expectOneLineError(voxelize({scene.string(), "-o", (dir / "x.obj").string()}), 1, "expected .esvo");
