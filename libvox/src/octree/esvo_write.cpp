@@ -114,7 +114,10 @@ struct SliceBlock {
     std::vector<std::uint64_t> pendingValues;       // CompressedLookup: the stored values in order
     std::uint64_t compressedUnit = 0;
     bool overflow = false;  // a near pointer estimate failed: the block is over a slice anyway
-    [[nodiscard]] std::uint64_t byteSize() const { return overflow ? ~std::uint64_t{0} : 8 * units.size(); }
+    /// A 24-bit contour or colour/normal pointer cannot reach: the block must not be used even
+    /// if it fits the slice (a dxt-lookup slice past about 48 MiB); the planner cuts deeper.
+    bool pointerOutOfReach = false;
+    [[nodiscard]] std::uint64_t byteSize() const { return overflow || pointerOutOfReach ? ~std::uint64_t{0} : 8 * units.size(); }
 };
 
 /// Bytes of the descriptors strictly below each voxel (saturating), bottom-up: what a child
@@ -226,7 +229,7 @@ public:
         for (std::size_t i = 0; i < contourWords.size(); i += 2)
             block_.units.push_back(contourWords[i] | (std::uint64_t{contourWords[i + 1]} << 32));
         block_.contourWords = nextWord - contourWord;
-        if (contourWord >= (std::uint64_t{1} << 24) && !contours_.empty()) block_.overflow = true;  // 24-bit contour pointers
+        if (contourWord >= (std::uint64_t{1} << 24) && !contours_.empty()) block_.pointerOutOfReach = true;  // 24-bit contour pointers
         const std::uint64_t attributeWord = 2 * block_.units.size();
         if (attributes_ == AttributeEncoding::Raw) appendPalette(contourWord / 2);
         if (attributes_ == AttributeEncoding::Compressed) reserveCompressed(contourWord / 2);
@@ -376,7 +379,7 @@ private:
                 mask |= 1u << slot;
                 values.push_back(value);
             });
-            if (pointer > esvo::PaletteLookup::kMaxPointer) block_.overflow = true;
+            if (pointer > esvo::PaletteLookup::kMaxPointer) block_.pointerOutOfReach = true;
             lookup[d.unit] = mask ? esvo::PaletteLookup::make(mask, static_cast<std::uint32_t>(pointer)).word : 0u;
         }
         for (std::size_t i = 0; i < lookup.size(); i += 2) block_.units.push_back(lookup[i] | (std::uint64_t{lookup[i + 1]} << 32));

@@ -79,7 +79,7 @@ struct BlockTables {
     std::uint32_t descriptorEndWord = 0;  ///< end of the descriptor area: the first attachment, or the info section
     std::uint32_t contourWord = 0;        ///< start of the contour array; descriptorEndWord when there is none
     std::uint32_t contourEndWord = 0;
-    /// The colour/normal attachment: AttachmentKind::Palette or Dxt, or Contour when there is none.
+    /// The colour/normal attachment: AttachmentKind::Palette, Dxt or DxtLookup, or Contour when there is none.
     AttachmentKind attributeKind = AttachmentKind::Contour;
     std::uint32_t attributeWord = 0, attributeEndWord = 0;
     [[nodiscard]] bool hasAttributes() const noexcept { return attributeKind != AttachmentKind::Contour; }
