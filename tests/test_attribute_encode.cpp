@@ -396,6 +396,104 @@ TEST(AttributeEncode, WidelySpreadNormalsStaySane) {
     EXPECT_LT(sum / 500, 30 * kDegree);
 }
 
+/// A block whose used slots (a random set, at least one per direction) cycle through
+/// @p directions in random order; the unused slots hold random directions. Returns the largest
+/// angular error of the used slots.
+double patternMaxError(std::mt19937& rng, const std::vector<Vec3>& directions) {
+    std::array<unsigned, 16> slots{};
+    for (unsigned i = 0; i < 16; ++i) slots[i] = i;
+    std::shuffle(slots.begin(), slots.end(), rng);
+    const unsigned used = static_cast<unsigned>(directions.size() + rng() % (17 - directions.size()));
+    std::array<Vec3, 16> normals{};
+    std::uint32_t mask = 0;
+    for (unsigned i = 0; i < 16; ++i) {
+        normals[slots[i]] = i < used ? directions[i % directions.size()] : randomDirection(rng);
+        if (i < used) mask |= 1u << slots[i];
+    }
+    return normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask)).max;
+}
+
+/// The 6 axis directions ±x, ±y, ±z.
+Vec3 axisDirection(unsigned axis, bool negative) {
+    Vec3 d{};
+    d[axis] = negative ? -1.0f : 1.0f;
+    return d;
+}
+
+Vec3 sum(const Vec3& a, const Vec3& b) { return normalised(double(a[0]) + b[0], double(a[1]) + b[1], double(a[2]) + b[2]); }
+
+// Voxels along the edge where two walls meet (of a box, a room) have children with either wall's
+// normal and, where both walls cross the child, their average: normals 90° apart in one block.
+TEST(AttributeEncode, NormalsWhereTwoWallsMeetDecodeWithinTwoDegrees) {
+    std::mt19937 rng(11);
+    double worst = 0;
+    for (unsigned a = 0; a < 3; ++a)
+        for (unsigned b = 0; b < 3; ++b) {
+            if (a == b) continue;
+            for (unsigned signs = 0; signs < 4; ++signs) {
+                const Vec3 wall0 = axisDirection(a, signs & 1u), wall1 = axisDirection(b, (signs & 2u) != 0);
+                for (int repeat = 0; repeat < 4; ++repeat) {
+                    worst = std::max(worst, patternMaxError(rng, {wall0, wall1, sum(wall0, wall1)}));
+                    worst = std::max(worst, patternMaxError(rng, {wall0, wall1}));
+                }
+            }
+        }
+    std::printf("edges of axis-aligned walls: max %.3f°\n", worst / kDegree);
+    EXPECT_LT(worst, 2 * kDegree);
+}
+
+// Voxels at the corner where three walls meet: the three walls' normals and their average.
+TEST(AttributeEncode, NormalsWhereThreeWallsMeetDecodeWithinAFewDegrees) {
+    std::mt19937 rng(12);
+    double worst = 0;
+    for (unsigned signs = 0; signs < 8; ++signs) {
+        const Vec3 x = axisDirection(0, signs & 1u), y = axisDirection(1, (signs & 2u) != 0), z = axisDirection(2, (signs & 4u) != 0);
+        const Vec3 corner = normalised(double(x[0]), double(y[1]), double(z[2]));
+        for (int repeat = 0; repeat < 8; ++repeat) {
+            worst = std::max(worst, patternMaxError(rng, {x, y, z, corner}));
+            worst = std::max(worst, patternMaxError(rng, {x, y, z}));
+        }
+    }
+    std::printf("corners of axis-aligned walls: max %.3f°\n", worst / kDegree);
+    EXPECT_LT(worst, 3 * kDegree);
+}
+
+// Thin sheets (a wall one voxel thick) give both of their sides' normals, 180° apart, in one
+// block: neither may come out flipped.
+TEST(AttributeEncode, BothSidesOfAThinSheetKeepTheirSide) {
+    std::mt19937 rng(13);
+    double worst = 0;
+    for (unsigned axis = 0; axis < 3; ++axis) {
+        // Four slots each side (the others unused), and random patterns.
+        std::array<Vec3, 16> normals{};
+        for (unsigned s = 0; s < 16; ++s) normals[s] = axisDirection(axis, s >= 4);
+        const std::uint32_t mask = 0xFFu;
+        worst = std::max(worst, normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask)).max);
+        for (int repeat = 0; repeat < 8; ++repeat)
+            worst = std::max(worst, patternMaxError(rng, {axisDirection(axis, false), axisDirection(axis, true)}));
+    }
+    for (int i = 0; i < 300; ++i) {
+        const Vec3 d = randomDirection(rng);
+        worst = std::max(worst, patternMaxError(rng, {d, Vec3{-d[0], -d[1], -d[2]}}));
+    }
+    std::printf("sheets: max %.3f°\n", worst / kDegree);
+    EXPECT_LT(worst, 2 * kDegree);
+}
+
+// Any two directions (one lattice line through both), at any angle.
+TEST(AttributeEncode, AnyTwoDirectionsDecodeWithinTwoDegrees) {
+    std::mt19937 rng(14);
+    double worst = 0, sum = 0;
+    for (int i = 0; i < 1000; ++i) {
+        const double e = patternMaxError(rng, {randomDirection(rng), randomDirection(rng)});
+        worst = std::max(worst, e);
+        sum += e;
+    }
+    std::printf("two random directions: mean of block max %.3f°, max %.3f°\n", sum / 1000 / kDegree, worst / kDegree);
+    EXPECT_LT(worst, 2 * kDegree);
+    EXPECT_LT(sum / 1000, 0.5 * kDegree);
+}
+
 TEST(AttributeEncode, ColourBeatsStbDxtHighQuality) {
     std::mt19937 rng(9);
     std::vector<ColorBlock> corpus = textureTiles(1200);

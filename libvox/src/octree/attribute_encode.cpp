@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 namespace vox::detail {
 namespace {
@@ -465,11 +466,12 @@ double evalLattice(const NormalPoints& p, const Vec3& b, const Vec3& u, const Ve
     }
     for (unsigned k = 0; k < 16; ++k) {
         const float len2 = dx[k] * dx[k] + dy[k] * dy[k] + dz[k] * dz[k];
-        // A zero vector decodes as +z; counting it as pointing nowhere is close enough.
-        const float inv = len2 > 0 ? 1.0f / std::sqrt(len2) : 0.0f;
+        // A zero vector decodes as +z (lattices through the origin are among the 3-D fit's).
+        const bool zero = !(len2 > 0);
+        const float inv = zero ? 0.0f : 1.0f / std::sqrt(len2);
         dx[k] *= inv;
         dy[k] *= inv;
-        dz[k] *= inv;
+        dz[k] = zero ? 1.0f : dz[k] * inv;
     }
     // |n − d|² = 2 (1 − cos): the same order, but precise for tiny angles, where 1 − cos in
     // float is not.
@@ -720,6 +722,20 @@ PlaneFit fitNormals(NormalPoints& p) {
 // directly: unquantised models built exactly through up to four cluster representatives of the
 // normals (and the face-plane fit lifted to 3-D), each refined by Levenberg–Marquardt on the
 // decoded error; the best are quantised and refined on the codes.
+//
+// The search costs several times the face-plane fit, so it runs only where that fit leaves an
+// error worth the time, and builds the cluster models only for blocks wide enough to need them.
+
+/// Blocks whose normals span more than 30° ("wide"), or that hold at most four distinct
+/// directions (more than ~1° apart), get models through clusters of their normals; others only
+/// the face-plane fit lifted to 3-D.
+constexpr double kWideCos = 0.8660254, kDistinctCos = 0.99985;
+
+/// Summed squared chord per used normal (≈ squared angle) above which the face-plane fit is
+/// followed by the 3-D search: (1°)² for narrow blocks, where the face-plane fit is nearly always
+/// as good, (0.3°)² for wide ones.
+constexpr double kDegree2 = (std::numbers::pi / 180) * (std::numbers::pi / 180);
+constexpr double kNarrowThreshold = 1.0 * 1.0 * kDegree2, kWideThreshold = 0.3 * 0.3 * kDegree2;
 
 /// An unquantised lattice: base b = x[0…2], axes u = x[3…5], v = x[6…8].
 using Model = std::array<double, 9>;
@@ -789,8 +805,10 @@ double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>
     for (int iteration = 0; iteration < iterations && error > 0; ++iteration) {
         const unsigned a = dominantAxis(x);
         // Gauss–Newton: the Jacobian of P̂ is (I − P̂P̂ᵀ)/|P|, and P is linear in x with the
-        // coefficients k = (1, cu, cv) on its three parts.
-        std::array<std::array<double, 9>, 9> h{};
+        // coefficients k = (1, cu, cv) on its three parts, so the normal matrix's 3×3 block of
+        // parts (s, t) is Σ k_s k_t M with M = (I − P̂P̂ᵀ)/|P|² (symmetric: six entries kept).
+        const bool used[3]{true, (freeAxes & 1u) != 0, (freeAxes & 2u) != 0};
+        std::array<std::array<double, 6>, 6> block{};  // pairs (0,0) (1,0) (1,1) (2,0) (2,1) (2,2)
         std::array<double, 9> g{};
         for (unsigned i = 0; i < p.count; ++i) {
             const double k[3]{1.0, esvo::kAxisWeights[combo[i] & 3], esvo::kAxisWeights[combo[i] >> 2]};
@@ -798,21 +816,30 @@ double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>
             for (unsigned c = 0; c < 3; ++c) q[c] = x[c] + k[1] * x[3 + c] + k[2] * x[6 + c];
             const double len2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
             if (!(len2 > 1e-24)) continue;
-            const double inv = 1.0 / std::sqrt(len2);
+            const double inv = 1.0 / std::sqrt(len2), inv2 = inv * inv;
             for (double& c : q) c *= inv;
             const double nd = p.n[i][0] * q[0] + p.n[i][1] * q[1] + p.n[i][2] * q[2];
-            double m[3][3], r[3];
+            const double m[6]{(1 - q[0] * q[0]) * inv2, -q[1] * q[0] * inv2, (1 - q[1] * q[1]) * inv2,
+                              -q[2] * q[0] * inv2,      -q[2] * q[1] * inv2, (1 - q[2] * q[2]) * inv2};
+            for (unsigned st = 0, si = 0; si < 3; ++si)
+                for (unsigned ti = 0; ti <= si; ++ti, ++st) {
+                    if (!used[si] || !used[ti]) continue;
+                    const double w = k[si] * k[ti];
+                    for (unsigned e = 0; e < 6; ++e) block[st][e] += w * m[e];
+                }
             for (unsigned c = 0; c < 3; ++c) {
-                r[c] = -(p.n[i][c] - nd * q[c]) * inv;
-                for (unsigned d = 0; d < 3; ++d) m[c][d] = ((c == d ? 1.0 : 0.0) - q[c] * q[d]) / len2;
-            }
-            for (unsigned s = 0; s < 3; ++s) {
-                for (unsigned c = 0; c < 3; ++c) g[3 * s + c] += k[s] * r[c];
-                for (unsigned t = 0; t <= s; ++t)
-                    for (unsigned c = 0; c < 3; ++c)
-                        for (unsigned d = 0; d < 3; ++d) h[3 * s + c][3 * t + d] += k[s] * k[t] * m[c][d];
+                const double r = -(p.n[i][c] - nd * q[c]) * inv;
+                for (unsigned si = 0; si < 3; ++si) g[3 * si + c] += k[si] * r;
             }
         }
+        // Entry (row, col) of the 9×9 normal matrix from the blocks.
+        const auto h = [&](unsigned row, unsigned col) {
+            unsigned si = row / 3, ti = col / 3, c = row % 3, d = col % 3;
+            if (ti > si) std::swap(si, ti), std::swap(c, d);
+            // Each block is symmetric (a multiple of M), stored as (0,0) (1,0) (1,1) (2,0) (2,1) (2,2).
+            const unsigned lo = std::min(c, d), hi = std::max(c, d);
+            return block[si * (si + 1) / 2 + ti][hi * (hi + 1) / 2 + lo];
+        };
         std::array<unsigned, 8> index{};
         unsigned n = 0;
         for (unsigned c = 0; c < 3; ++c)
@@ -821,7 +848,7 @@ double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>
             if ((freeAxes >> axis) & 1u)
                 for (unsigned c = 0; c < 3; ++c) index[n++] = 3 + 3 * axis + c;
         double trace = 0;
-        for (unsigned j = 0; j < n; ++j) trace += h[index[j]][index[j]];
+        for (unsigned j = 0; j < n; ++j) trace += h(index[j], index[j]);
         const double floor = 1e-9 * trace / n + 1e-30;
         bool accepted = false;
         double gain = 0;
@@ -829,10 +856,7 @@ double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>
             std::array<std::array<double, 9>, 9> m{};
             std::array<double, 9> step{};
             for (unsigned j = 0; j < n; ++j) {
-                for (unsigned l = 0; l <= j; ++l) {
-                    const unsigned r = std::max(index[j], index[l]), c = std::min(index[j], index[l]);
-                    m[j][l] = h[r][c];
-                }
+                for (unsigned l = 0; l <= j; ++l) m[j][l] = h(index[j], index[l]);
                 m[j][j] = m[j][j] * (1 + lambda) + floor;
                 step[j] = -g[index[j]];
             }
@@ -841,7 +865,15 @@ double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>
                 continue;
             }
             Model y = x;
-            for (unsigned j = 0; j < n; ++j) y[index[j]] += step[j];
+            bool finite = true;
+            for (unsigned j = 0; j < n; ++j) {
+                y[index[j]] += step[j];
+                finite = finite && std::isfinite(y[index[j]]);
+            }
+            if (!finite) {
+                lambda *= 10;
+                continue;
+            }
             if (freeAxes == 3) {
                 if (!normaliseModel(y)) {
                     lambda *= 10;
@@ -876,9 +908,10 @@ Model decodedModel(const NormalState& s) {
 }
 
 /// Searches the codes around @p s: every axis component one step either way and each axis one
-/// exponent finer or coarser (re-rounded); after each pass, the base refit to the axes.
-void searchCodes(const NormalPoints& p, NormalState& s) {
-    for (int pass = 0; pass < 3 && s.error > 0; ++pass) {
+/// exponent finer or coarser (re-rounded); after each pass (at most @p passes), the base refit
+/// to the axes.
+void searchCodes(const NormalPoints& p, NormalState& s, int passes) {
+    for (int pass = 0; pass < passes && s.error > 0; ++pass) {
         bool improved = false;
         for (unsigned which = 0; which < 2; ++which) {
             const unsigned shift = 16 * which;
@@ -907,18 +940,40 @@ void searchCodes(const NormalPoints& p, NormalState& s) {
 }
 
 /// Quantises a model: all parts rounded at once, and each axis rounded in turn with the rest
-/// refit to it; then searchCodes.
-NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo) {
+/// refit to it (when not @p thorough, u only); then searchCodes.
+NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, bool thorough) {
     NormalState s;
     const auto encode = [&](const Model& y) {
-        tryNormals(p, esvo::encodeNormal(modelPart(y, 0)), esvo::encodeAxis(modelPart(y, 1)) | (esvo::encodeAxis(modelPart(y, 2)) << 16), s);
+        const std::uint32_t axes = esvo::encodeAxis(modelPart(y, 1)) | (esvo::encodeAxis(modelPart(y, 2)) << 16);
+        tryNormals(p, esvo::encodeNormal(modelPart(y, 0)), axes, s);
     };
     const auto roundPart = [](Model& y, unsigned part) {
         const Vec3 q = esvo::decodeAxis(esvo::encodeAxis(modelPart(y, part)));
         for (unsigned c = 0; c < 3; ++c) y[3 * part + c] = q[c];
     };
     encode(x);
-    for (unsigned first = 1; first <= 2; ++first) {
+    // A model whose normals all take one weight of an axis (a lattice line: two directions, or
+    // three in a plane) can spend both axes' codes on the other: with that axis' part moved into
+    // the base, the lattice's diagonal b + c·(u + v) has u + v = Q(a) + Q(a − Q(a)), about
+    // twice the mantissa bits.
+    std::array<std::uint8_t, 16> c0 = combo;
+    modelError(p, x, c0);
+    for (unsigned line = 1; line <= 2; ++line) {
+        const unsigned other = 3 - line;
+        const auto weight = [&](std::uint8_t k) { return other == 1 ? (k & 3u) : (k >> 2); };
+        bool single = true;
+        for (unsigned i = 1; i < p.count; ++i) single = single && weight(c0[i]) == weight(c0[0]);
+        if (!single) continue;
+        Model y = x;
+        for (unsigned k = 0; k < 3; ++k) y[k] += esvo::kAxisWeights[weight(c0[0])] * y[3 * other + k];
+        roundPart(y, line);
+        for (unsigned k = 0; k < 3; ++k) y[3 * other + k] = x[3 * line + k] - y[3 * line + k];
+        roundPart(y, other);
+        std::array<std::uint8_t, 16> c{};
+        refineModel(p, y, c, 0, 3, modelError(p, y, c));
+        encode(y);
+    }
+    for (unsigned first = 1; first <= (thorough ? 2u : 1u); ++first) {
         Model y = x;
         std::array<std::uint8_t, 16> c = combo;
         roundPart(y, first);
@@ -927,7 +982,7 @@ NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::arra
         refineModel(p, y, c, 0, 3, modelError(p, y, c));
         encode(y);
     }
-    searchCodes(p, s);
+    searchCodes(p, s, thorough ? 3 : 2);
     return s;
 }
 
@@ -947,7 +1002,9 @@ Model modelThrough(const std::array<Dir, 3>& points, const std::array<std::array
     const Dir r0{1, pos[0][0], pos[0][1]}, r1{1, pos[1][0], pos[1][1]}, r2{1, pos[2][0], pos[2][1]};
     const double det = det3(r0, r1, r2);
     // Inverse by cofactors: column j of L⁻¹ is (r_{j+1} × r_{j+2}) / det.
-    const auto cross = [](const Dir& a, const Dir& b) { return Dir{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; };
+    const auto cross = [](const Dir& a, const Dir& b) {
+        return Dir{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+    };
     const std::array<Dir, 3> col{cross(r1, r2), cross(r2, r0), cross(r0, r1)};
     Model x{};
     for (unsigned part = 0; part < 3; ++part)
@@ -1053,26 +1110,31 @@ unsigned modelsThrough(const std::array<Dir, 4>& r, unsigned k, std::array<Model
     return count;
 }
 
-/// Clusters of the normals for k = 2…4 by farthest-point seeding (each seed the normal farthest
-/// from those before; the first the farthest from the mean) and a few k-means steps; calls
-/// @p use(representatives, k) for each k whose seed is more than ~1° from the others.
-template <typename Use>
-void forClusters(const NormalPoints& p, Use use) {
+/// The used normal farthest from the normals' mean (the first of equals).
+unsigned outermost(const NormalPoints& p) {
     Dir mean{};
     for (unsigned i = 0; i < p.count; ++i)
         for (unsigned c = 0; c < 3; ++c) mean[c] += p.n[i][c];
-    std::array<Dir, 4> seed{};
-    std::array<double, 16> nearest{};
     unsigned first = 0;
     for (unsigned i = 1; i < p.count; ++i)
         if (dot(toDir(p.n[i]), mean) < dot(toDir(p.n[first]), mean)) first = i;
-    seed[0] = toDir(p.n[first]);
+    return first;
+}
+
+/// Clusters of the normals for k = 2…4 by farthest-point seeding (each seed the normal farthest
+/// from those before, the first the outermost) and a few k-means steps; calls
+/// @p use(representatives, k) for each k whose new seed is a distinct direction.
+template <typename Use>
+void forClusters(const NormalPoints& p, Use use) {
+    std::array<Dir, 4> seed{};
+    std::array<double, 16> nearest{};
+    seed[0] = toDir(p.n[outermost(p)]);
     for (unsigned i = 0; i < p.count; ++i) nearest[i] = dot(toDir(p.n[i]), seed[0]);
     for (unsigned k = 1; k < 4; ++k) {
         unsigned far = 0;
         for (unsigned i = 1; i < p.count; ++i)
             if (nearest[i] < nearest[far]) far = i;
-        if (!(nearest[far] < 0.99985)) return;  // within ~1°: no further cluster
+        if (!(nearest[far] < kDistinctCos)) return;  // no further cluster
         seed[k] = toDir(p.n[far]);
         for (unsigned i = 0; i < p.count; ++i) nearest[i] = std::max(nearest[i], dot(toDir(p.n[i]), seed[k]));
         std::array<Dir, 4> centre = seed;
@@ -1113,38 +1175,54 @@ Model planeModel(const NormalPoints& p, const PlaneFit& f) {
     return x;
 }
 
-/// The 3-D search: candidate models from the face-plane fit @p f and from clusters of the
-/// normals, refined; the best two quantised. Replaces @p s where one decodes better.
-void fit3d(const NormalPoints& p, const PlaneFit& f, NormalState& s) {
-    std::array<Candidate, 2> best{};  // the best two, in order
+/// The candidates refined at all (those with the smallest unrefined error) and the iterations
+/// each gets; the iterations the best two get after that (narrow blocks: their one candidate,
+/// the face-plane fit's). The second best is quantised too when its error is within
+/// kSecondRatio of the best's, or when the best quantised lost more than kQuantisationLoss times
+/// the second's error (some lattices quantise far worse than others equally good: two axes of
+/// one size against one axis on a line).
+constexpr unsigned kRefined = 4;
+constexpr int kFirstIterations = 2, kMoreIterations = 6, kNarrowMoreIterations = 2;
+constexpr double kSecondRatio = 1.5, kQuantisationLoss = 4;
+
+/// Sorts @p c[0…count) by error (stable, so deterministic on ties).
+void sortCandidates(std::array<Candidate, 10>& c, unsigned count) {
+    std::stable_sort(c.begin(), c.begin() + count, [](const Candidate& a, const Candidate& b) { return a.error < b.error; });
+}
+
+/// The 3-D search: candidate models from the face-plane fit @p f and (for wide blocks, see
+/// kWideCos) from clusters of the normals, the best refined; the best one or two quantised. Replaces @p s
+/// where one decodes better.
+void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, NormalState& s) {
+    std::array<Candidate, 10> all{};
+    unsigned count = 0;
     const auto consider = [&](Model x) {
-        if (!normaliseModel(x)) return;
-        Candidate c;
+        if (count == all.size() || !normaliseModel(x)) return;
+        Candidate& c = all[count++];
         c.x = x;
-        c.error = refineModel(p, c.x, c.combo, 3, 8, modelError(p, c.x, c.combo));
-        if (c.error < best[0].error) {
-            best[1] = best[0];
-            best[0] = c;
-        } else if (c.error < best[1].error) {
-            best[1] = c;
-        }
+        c.error = modelError(p, c.x, c.combo);
     };
     if (f.error < std::numeric_limits<double>::max()) consider(planeModel(p, f));
-    forClusters(p, [&](const std::array<Dir, 4>& r, unsigned k) {
-        std::array<Model, 6> models{};
-        const unsigned count = modelsThrough(r, k, models);
-        for (unsigned m = 0; m < count; ++m) consider(models[m]);
-    });
-    for (const Candidate& c : best) {
-        if (c.error == std::numeric_limits<double>::max() || s.error <= 0) continue;
-        const NormalState q = quantiseModel(p, c.x, c.combo);
+    if (wide)
+        forClusters(p, [&](const std::array<Dir, 4>& r, unsigned k) {
+            std::array<Model, 6> models{};
+            const unsigned n = modelsThrough(r, k, models);
+            for (unsigned m = 0; m < n; ++m) consider(models[m]);
+        });
+    sortCandidates(all, count);
+    count = std::min(count, kRefined);
+    for (unsigned i = 0; i < count; ++i) all[i].error = refineModel(p, all[i].x, all[i].combo, 3, kFirstIterations, all[i].error);
+    sortCandidates(all, count);
+    count = std::min(count, 2u);
+    for (unsigned i = 0; i < count; ++i)
+        all[i].error = refineModel(p, all[i].x, all[i].combo, 3, wide ? kMoreIterations : kNarrowMoreIterations, all[i].error);
+    sortCandidates(all, count);
+    for (unsigned i = 0; i < count && s.error > 0; ++i) {
+        if (i > 0 && all[i].error > kSecondRatio * all[0].error && !(s.error > kQuantisationLoss * all[i].error)) break;
+        const NormalState q = quantiseModel(p, all[i].x, all[i].combo, wide);
         if (q.error < s.error) s = q;
     }
 }
-
-/// Summed squared chord per used normal (≈ squared angle) below which the face-plane fit is
-/// kept without the 3-D search: about 0.3°.
-constexpr double kFit3dThreshold = 0.3 * 0.3 * (3.14159265358979 / 180) * (3.14159265358979 / 180);
 
 NormalState encodeNormals(NormalPoints& p) {
     // One direction (flat surfaces: common): the cube-face code itself, zero axes.
@@ -1158,7 +1236,22 @@ NormalState encodeNormals(NormalPoints& p) {
     }
     const PlaneFit f = fitNormals(p);
     NormalState s = quantiseFit(p, f);
-    if (s.error > kFit3dThreshold * p.count) fit3d(p, f, s);
+    // Wide: some normal more than 30° from the outermost one; or few distinct directions.
+    const Dir first = toDir(p.n[outermost(p)]);
+    bool wide = false;
+    for (unsigned i = 0; i < p.count; ++i) wide = wide || dot(toDir(p.n[i]), first) < kWideCos;
+    if (!wide) {
+        std::array<Dir, 5> distinct{};
+        unsigned count = 0;
+        for (unsigned i = 0; i < p.count && count <= 4; ++i) {
+            const Dir n = toDir(p.n[i]);
+            bool known = false;
+            for (unsigned j = 0; j < count && !known; ++j) known = dot(n, distinct[j]) >= kDistinctCos;
+            if (!known) distinct[count++] = n;
+        }
+        wide = count <= 4;
+    }
+    if (s.error > (wide ? kWideThreshold : kNarrowThreshold) * p.count) fit3d(p, f, wide, s);
     return s;
 }
 
