@@ -1,7 +1,8 @@
 // Shading attributes of voxels (Laine & Karras 5.4, and the original builder): each voxel's colour
 // and normal are the area-weighted means over the triangle fragments its cube cuts out. Colour is
-// base colour factor × base colour texture × vertex colour, the texture filtered over a footprint
-// the size of the voxel; the normal is the interpolated shading normal, bent by the normal map.
+// base colour factor × base colour texture × vertex colour, the texture box-filtered exactly over
+// each fragment (Texture::integrate); the normal is the interpolated shading normal, bent by the
+// normal map.
 // A parent's sums are exactly the sums of its children's (the children's cubes partition its
 // fragments), so only the voxels where refinement stops clip triangles.
 #pragma once
@@ -43,7 +44,7 @@ struct AttributeScratch {
     std::array<Vec3d, 12> clipA{}, clipB{};
 };
 
-/// Evaluates materials at fragment centroids.
+/// Evaluates materials over fragments: linear attributes at their centroids, textures over their area.
 class AttributeSampler {
 public:
     /// @p triangles are in leaf units and @p sources says where each came from.
