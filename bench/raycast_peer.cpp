@@ -12,6 +12,7 @@
 #include <vox/import.h>
 #include <vox/util/log.h>
 #include <vox/raycast.h>
+#include <vox/texture.h>
 #include <vox/triangle_raycast.h>
 
 #include <nlohmann/json.hpp>
@@ -159,6 +160,23 @@ int main(int argc, char** argv) {
                           {"normal_error_degrees_same_surface", summary(sameSurfaceAngles)},
                           {"color_psnr_db", psnr(squared, compared)},
                           {"color_psnr_db_same_surface", psnr(sameSurfaceSquared, sameSurface)}};
+            // The same colours after the post-process filter (voxinspect render --filter): each
+            // pixel blurred over its voxel's projected size.
+            const std::vector<float> radius = vox::filterRadii(shaded, octree, camera);
+            const std::vector<vox::Vec3f> filtered = vox::postProcessFilter(vox::albedoImage(shaded), radius, camera.width, camera.height);
+            double filteredSquared = 0;
+            for (std::size_t i = 0; i < mesh.depth.size(); ++i) {
+                if (!std::isfinite(mesh.depth[i]) || !std::isfinite(shaded.depth[i]) || !vox::hasAttributes(shaded, i)) continue;
+                for (unsigned ch = 0; ch < 3; ++ch) {
+                    const double v = std::lround(255.0 * vox::linearToSrgb(std::clamp(filtered[i][static_cast<int>(ch)], 0.0f, 1.0f)));
+                    const double d = v - double(vox::esvo::colorChannel(mesh.color[i], ch));
+                    filteredSquared += d * d;
+                }
+            }
+            attributes["color_psnr_db_filtered"] = psnr(filteredSquared, compared);
+            double meanRadius = 0;
+            for (float r : radius) meanRadius += r;
+            attributes["mean_voxel_pixels"] = 2 * meanRadius / std::max<double>(1.0, double(shaded.hits));
         }
         nlohmann::json out{
             {"mesh", argv[1]},

@@ -194,18 +194,6 @@ void dump(const std::string& file, long long sliceIndex, bool json) {
     }
 }
 
-/// Per pixel, the edge of the voxel hit in pixels at its distance (0 where the ray missed): the
-/// post-process filter's radius.
-std::vector<float> voxelFootprints(const RenderBuffers& image, const EsvoRayCaster& caster, int leafDepth, const PinholeCamera& camera) {
-    std::vector<float> out(image.depth.size(), 0.0f);
-    for (std::size_t i = 0; i < out.size(); ++i) {
-        if (!std::isfinite(image.depth[i]) || !(image.depth[i] > 0)) continue;
-        const double edge = std::ldexp(caster.leafVoxelSize(), leafDepth - int(image.level[i]));
-        out[i] = static_cast<float>(edge / (double(image.depth[i]) * camera.pixelAngle()));
-    }
-    return out;
-}
-
 std::array<std::uint8_t, 3> levelColour(std::uint32_t level) {
     static constexpr std::array<std::array<std::uint8_t, 3>, 8> palette{{{230, 25, 75}, {60, 180, 75}, {255, 225, 25}, {0, 130, 200},
                                                                           {245, 130, 48}, {145, 30, 180}, {70, 240, 240}, {240, 50, 230}}};
@@ -242,7 +230,7 @@ void render(const EsvoCommands& c) {
     std::vector<Vec3f> linear;  // color / shaded
     if (colorChannel) {
         linear = c.channel == "color" ? albedoImage(image) : shadeHeadlight(image, camera);
-        if (c.filter) linear = postProcessFilter(linear, voxelFootprints(image, caster, static_cast<int>(reader.header().leafDepth), camera), image.width, image.height);
+        if (c.filter) linear = postProcessFilter(linear, filterRadii(image, caster, camera), image.width, image.height);
     }
 
     const std::size_t pixels = image.depth.size();

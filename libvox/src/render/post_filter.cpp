@@ -47,6 +47,17 @@ const std::array<KernelSample, kKernelSamples>& kernel() {
 
 }  // namespace
 
+std::vector<float> filterRadii(const RenderBuffers& buffers, const EsvoRayCaster& caster, const PinholeCamera& camera) {
+    std::vector<float> out(buffers.depth.size(), 0.0f);
+    const int leafDepth = static_cast<int>(caster.leafDepth());
+    for (std::size_t i = 0; i < out.size(); ++i) {
+        if (!std::isfinite(buffers.depth[i]) || !(buffers.depth[i] > 0)) continue;
+        const double edge = std::ldexp(caster.leafVoxelSize(), leafDepth - int(buffers.level[i]));
+        out[i] = static_cast<float>(0.5 * edge / (double(buffers.depth[i]) * camera.pixelAngle()));
+    }
+    return out;
+}
+
 std::vector<Vec3f> postProcessFilter(const std::vector<Vec3f>& image, const std::vector<float>& radius, int width, int height) {
     std::vector<Vec3f> out(image.size());
     const auto& samples = kernel();
