@@ -141,7 +141,7 @@ struct RenderBuffers {
 /// Laine & Karras' post-process filter (section 6.3) that hides the blockiness of per-voxel
 /// attributes: each pixel is blurred over a disc whose radius @p radius gives (in pixels, from
 /// filterRadii; ≤ 1: no blur, 0 for misses), sampled by an ordered kernel
-/// of 96 samples up to 24 pixels out; walking outwards, the radius shrinks to any neighbour's
+/// of 96 samples (point-symmetric pairs) up to 24 pixels out; walking outwards, the radius shrinks to any neighbour's
 /// smaller one, so blur stops at silhouettes and at finer voxels, and each sample's weight fades
 /// out over the last pixel of the radius.
 [[nodiscard]] std::vector<Vec3f> postProcessFilter(const std::vector<Vec3f>& image, const std::vector<float>& radius, int width,

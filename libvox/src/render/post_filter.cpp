@@ -22,20 +22,25 @@ constexpr int kKernelSamples = 96;
 constexpr float kKernelRadius = 24.0f;
 
 /// 96 samples in a disc of radius 24, in increasing distance; their density falls with the square
-/// root of the distance (so the count within r grows as r^1.5), spread by the golden angle.
+/// root of the distance (so the count within r grows as r^1.5), spread by the golden angle, in
+/// point-symmetric pairs so that the blur has no direction (a colour edge blends the same
+/// amount on both sides). Each weighs the area of the ring it stands for.
 const std::array<KernelSample, kKernelSamples>& kernel() {
     static const std::array<KernelSample, kKernelSamples> samples = [] {
+        constexpr int pairs = kKernelSamples / 2;
         std::array<KernelSample, kKernelSamples> k{};
         const double golden = 3.14159265358979323846 * (3.0 - std::sqrt(5.0));
         double previousArea = 0;
-        for (int i = 0; i < kKernelSamples; ++i) {
-            const double outer = kKernelRadius * std::pow((i + 1.0) / kKernelSamples, 2.0 / 3.0);
-            const double r = i == 0 ? 0.0 : kKernelRadius * std::pow((i + 0.5) / kKernelSamples, 2.0 / 3.0);
+        for (int i = 0; i < pairs; ++i) {
+            const double outer = kKernelRadius * std::pow((i + 1.0) / pairs, 2.0 / 3.0);
+            const double r = i == 0 ? 0.0 : kKernelRadius * std::pow((i + 0.5) / pairs, 2.0 / 3.0);
             const double area = 3.14159265358979323846 * outer * outer;
             const int dx = static_cast<int>(std::lround(r * std::cos(i * golden)));
             const int dy = static_cast<int>(std::lround(r * std::sin(i * golden)));
-            k[static_cast<std::size_t>(i)] = {dx, dy, static_cast<float>(std::sqrt(double(dx * dx + dy * dy))),
-                                              static_cast<float>(area - previousArea)};
+            const auto distance = static_cast<float>(std::sqrt(double(dx * dx + dy * dy)));
+            const auto weight = static_cast<float>(0.5 * (area - previousArea));
+            k[static_cast<std::size_t>(2 * i)] = {dx, dy, distance, weight};
+            k[static_cast<std::size_t>(2 * i + 1)] = {-dx, -dy, distance, weight};  // the centre twice: same weight in total
             previousArea = area;
         }
         // Rounding to pixels can reorder distances slightly; the walk needs them increasing.
