@@ -273,6 +273,53 @@ TEST(EsvoAttributes, ValidatorRejectsBrokenAttachments) {
     EXPECT_THROW((void)vox::esvo::validateBlock(dxt, header, 0, reader.slice(0), block, {&rootParent, 1}), vox::InvalidDataError);
 }
 
+TEST(EsvoAttributes, CorruptedBlocksAreRejectedOrReadSafely) {
+    // Random words of a valid block overwritten: validateBlock either rejects the block with an
+    // InvalidDataError or, where the change is one the format allows (a colour, an index, a
+    // normal's coordinates), accepts it — and then every value reads back without leaving the
+    // block (run under ASan to see that).
+    vox::test::ScratchDir dir;
+    const vox::SparseOctree& octree = cornellBox(5).octree;
+    const vox::esvo::FrontierDescriptor rootParent{1, {}};
+    std::uint32_t seed = 12345;
+    const auto next = [&] { return seed = seed * 1664525u + 1013904223u; };
+    for (const auto encoding : {vox::AttributeEncoding::Raw, vox::AttributeEncoding::Compressed, vox::AttributeEncoding::CompressedLookup}) {
+        const fs::path file = write(octree, dir / "c.esvo", encoding);
+        const vox::esvo::EsvoReader reader(file);
+        ASSERT_EQ(reader.sliceCount(), 1u);
+        const std::vector<std::uint8_t> original = reader.readSlice(0);
+        const vox::esvo::BlockTables t = vox::esvo::readBlockTables(original, file, 0);
+        std::size_t accepted = 0, rejected = 0;
+        for (int trial = 0; trial < 400; ++trial) {
+            std::vector<std::uint8_t> block = original;
+            // Mostly inside the colour/normal attachment, sometimes anywhere.
+            const std::uint32_t words = static_cast<std::uint32_t>(block.size() / 4);
+            const std::uint32_t w = trial % 4 == 0 ? next() % words : t.attributeWord + next() % (t.attributeEndWord - t.attributeWord);
+            const std::uint32_t value = trial % 3 == 0 ? next() : vox::esvo::load<std::uint32_t>(block.data() + 4 * w) ^ (1u << (next() % 32));
+            vox::esvo::store<std::uint32_t>(block.data() + 4 * w, value);
+            try {
+                (void)vox::esvo::validateBlock(file, reader.header(), 0, reader.slice(0), block, {&rootParent, 1});
+            } catch (const vox::InvalidDataError&) {
+                ++rejected;
+                continue;
+            }
+            ++accepted;
+            const auto* words32 = reinterpret_cast<const std::uint32_t*>(block.data());
+            const vox::esvo::BlockTables bt = vox::esvo::readBlockTables(block, file, 0);
+            for (std::uint32_t u = 1; u < bt.descriptorEndWord / 2; ++u) {
+                const vox::esvo::ChildDescriptor d{words32[2 * u], words32[2 * u + 1]};
+                if (d.validMask() == 0) continue;
+                for (std::uint32_t slot = 0; slot < 8; ++slot) {
+                    vox::esvo::AttributeValue v;
+                    if ((d.validMask() >> slot) & 1u) (void)vox::esvo::readAttribute(words32, 2 * u, slot, v);
+                }
+            }
+        }
+        EXPECT_GT(rejected, 0u) << int(encoding);
+        EXPECT_GT(accepted, 0u) << int(encoding);
+    }
+}
+
 TEST(EsvoAttributes, FilesWithoutAttributesRenderWithoutThem) {
     vox::test::ScratchDir dir;
     const fs::path none = write(cornellBox(5).octree, dir / "none.esvo", vox::AttributeEncoding::None);
