@@ -174,6 +174,22 @@ int main(int argc, char** argv) {
                 }
             }
             attributes["color_psnr_db_filtered"] = psnr(filteredSquared, compared);
+            // With the level-of-detail cut (a voxel no smaller than the pixel): coarser voxels'
+            // colours are their own filtered means, so this is the octree's anti-aliased image.
+            vox::CastOptions lodAttributes = withAttributes;
+            lodAttributes.lodAngle = camera.pixelAngle();
+            const auto lodShaded = vox::renderEsvo(octree, camera, lodAttributes);
+            double lodSquared = 0;
+            std::uint64_t lodCompared = 0;
+            for (std::size_t i = 0; i < mesh.depth.size(); ++i) {
+                if (!std::isfinite(mesh.depth[i]) || !std::isfinite(lodShaded.depth[i]) || !vox::hasAttributes(lodShaded, i)) continue;
+                for (unsigned ch = 0; ch < 3; ++ch) {
+                    const double d = double(vox::esvo::colorChannel(lodShaded.color[i], ch)) - double(vox::esvo::colorChannel(mesh.color[i], ch));
+                    lodSquared += d * d;
+                }
+                ++lodCompared;
+            }
+            attributes["color_psnr_db_lod"] = psnr(lodSquared, lodCompared);
             double meanRadius = 0;
             for (float r : radius) meanRadius += r;
             attributes["mean_voxel_pixels"] = 2 * meanRadius / std::max<double>(1.0, double(shaded.hits));
