@@ -19,6 +19,7 @@
 #include <deque>
 #include <memory>
 #include <optional>
+#include <span>
 
 namespace vox {
 namespace {
@@ -74,6 +75,9 @@ private:
     const SparseOctree& octree_;
     std::vector<std::vector<std::uint64_t>> firstChild_;
 };
+
+/// A DxtLookup slot no lookup entry references (never a value: its normal's axis field is 3).
+constexpr std::uint64_t kPaddingValue = ~std::uint64_t{0};
 
 /// The attachment kind that stores @p encoding (not None).
 esvo::AttachmentKind attachmentKind(AttributeEncoding encoding) {
@@ -368,28 +372,64 @@ private:
     /// masks the children that differ from their parent (the others inherit) and points at the
     /// first of them, collected into @p values in descriptor order: pointer = @p base + @p scale ×
     /// index. (The root voxel's own value is stored nowhere, so the root stores all its children.)
-    void appendLookup(std::uint64_t descriptorUnits, std::vector<std::uint64_t>& values, std::uint64_t base, std::uint64_t scale) {
+    void appendLookup(std::uint64_t descriptorUnits, std::vector<std::uint64_t>& values, std::uint64_t base, std::uint64_t scale,
+                      bool blockAligned = false) {
         std::vector<std::uint32_t> lookup(esvo::lookupArrayWords(static_cast<std::uint32_t>(descriptorUnits)), 0);
         for (const SliceBlock::DescriptorRef& d : descriptors_) {
             const std::uint64_t own = d.level == 0 ? ~std::uint64_t{0} : tree_.attribute(d.level, d.index);
             std::uint32_t mask = 0;
-            const std::uint64_t pointer = base + scale * values.size();
+            std::array<std::uint64_t, 8> stored{};
+            std::uint32_t count = 0;
             forEachChildValue(d, [&](std::uint32_t slot, std::uint64_t value) {
                 if (value == own) return;
                 mask |= 1u << slot;
-                values.push_back(value);
+                stored[count++] = value;
             });
+            if (blockAligned && count > 0) padBeforeIncompatible(values, std::span<const std::uint64_t>(stored.data(), count));
+            const std::uint64_t pointer = base + scale * values.size();
+            values.insert(values.end(), stored.begin(), stored.begin() + count);
             if (pointer > esvo::PaletteLookup::kMaxPointer) block_.pointerOutOfReach = true;
             lookup[d.unit] = mask ? esvo::PaletteLookup::make(mask, static_cast<std::uint32_t>(pointer)).word : 0u;
         }
         for (std::size_t i = 0; i < lookup.size(); i += 2) block_.units.push_back(lookup[i] | (std::uint64_t{lookup[i + 1]} << 32));
     }
 
+    /// DxtLookup packing: a descriptor's values never straddle two blocks, and start a new block
+    /// where they would not share one well with the values already in it (a colour channel
+    /// spread past kPackColourSpread, or a normal farther than kPackNormalDegrees from the block's
+    /// first). The skipped slots are padding (kPaddingValue), never referenced.
+    static void padBeforeIncompatible(std::vector<std::uint64_t>& values, std::span<const std::uint64_t> next) {
+        const std::size_t inBlock = values.size() % 16;
+        bool pad = inBlock + next.size() > 16;
+        if (!pad && inBlock > 0) {
+            const std::size_t first = values.size() - inBlock;
+            std::array<std::uint32_t, 3> lo{255, 255, 255}, hi{0, 0, 0};
+            const auto widen = [&](std::uint64_t v) {
+                for (unsigned ch = 0; ch < 3; ++ch) {
+                    const std::uint32_t c = esvo::colorChannel(static_cast<std::uint32_t>(v), ch);
+                    lo[ch] = std::min(lo[ch], c);
+                    hi[ch] = std::max(hi[ch], c);
+                }
+            };
+            for (std::size_t i = first; i < values.size(); ++i) widen(values[i]);
+            for (std::uint64_t v : next) widen(v);
+            for (unsigned ch = 0; ch < 3; ++ch) pad = pad || hi[ch] - lo[ch] > kPackColourSpread;
+            const esvo::Vec3 a = esvo::decodeUnitNormal(static_cast<std::uint32_t>(values[first] >> 32));
+            for (std::uint64_t v : next) {
+                const esvo::Vec3 b = esvo::decodeUnitNormal(static_cast<std::uint32_t>(v >> 32));
+                pad = pad || a[0] * b[0] + a[1] * b[1] + a[2] * b[2] < kPackNormalCosine;
+            }
+        }
+        if (pad && inBlock > 0) values.resize(values.size() + (16 - inBlock), kPaddingValue);
+    }
+    static constexpr std::uint32_t kPackColourSpread = 64;
+    static constexpr float kPackNormalCosine = 0.819f;  // cos 35°
+
     /// Combined-lookup compressed attachment: the lookup array (pointers count values), then one
     /// block per 16 stored values, filled by encodeCompressedAttributes once the plan is final.
     void appendLookupAndReserveBlocks(std::uint64_t descriptorUnits) {
         std::vector<std::uint64_t> values;
-        appendLookup(descriptorUnits, values, 0, 1);
+        appendLookup(descriptorUnits, values, 0, 1, true);
         block_.compressedUnit = block_.units.size();
         block_.units.resize(block_.units.size() + 3 * ((values.size() + 15) / 16), 0);
         block_.pendingValues = std::move(values);
@@ -490,7 +530,10 @@ void encodeCompressedAttributes(SliceBlock& block, const OctreeIndex& tree) {
         std::array<std::uint64_t, 16> values{};
         const std::size_t n = std::min<std::size_t>(16, pending.size() - first);
         std::copy(pending.begin() + std::ptrdiff_t(first), pending.begin() + std::ptrdiff_t(first + n), values.begin());
-        const esvo::CompressedBlock encoded = detail::encodeCompressedBlock(values, n == 16 ? 0xFFFFu : (1u << n) - 1u);
+        std::uint32_t used = 0;
+        for (std::size_t i = 0; i < n; ++i)
+            if (values[i] != kPaddingValue) used |= 1u << i;
+        const esvo::CompressedBlock encoded = detail::encodeCompressedBlock(values, used);
         std::copy(encoded.begin(), encoded.end(), words + 6 * (first / 16));
     }
     block.pendingValues = {};
