@@ -266,6 +266,10 @@ TEST(EsvoAttributes, ValidatorRejectsBrokenAttachments) {
     expectRejected(dxt, [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
         vox::esvo::store<std::uint32_t>(b + 4 * (t.attributeWord + 2), 0x60000000u);  // block 0's base normal: axis 3
     }, "invalid cube face");
+    // An unknown kind is named, with where it is in the file.
+    expectRejected(dxt, [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
+        vox::esvo::store<std::uint32_t>(b + 4 * (t.infoWord + vox::esvo::info::kAttachments + 2), 7u);
+    }, "(file offset");
     // The header must declare the kind the blocks hold.
     const vox::esvo::EsvoReader reader(dxt);
     vox::esvo::Header header = reader.header();

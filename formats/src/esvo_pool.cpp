@@ -67,7 +67,7 @@ void EsvoPool::load(std::uint32_t slice) {
         BlockSummary summary = validateBlock(reader_.path(), reader_.header(), slice, entry,
                                              std::span<const std::uint8_t>(bytes, entry.byteSize), parents);
         Resident& r = slices_[slice];
-        r.tables = readBlockTables(std::span<const std::uint8_t>(bytes, entry.byteSize), reader_.path(), slice);
+        r.tables = readBlockTables(std::span<const std::uint8_t>(bytes, entry.byteSize), reader_.path(), slice, entry.fileOffset);
         r.frontier = std::move(summary.frontier);
         r.baseWord = base;
         r.pages = pages;

@@ -96,9 +96,12 @@ void validateAttributes(const BlockChecker& check, const BlockTables& t, const s
 
 }  // namespace
 
-BlockTables readBlockTables(std::span<const std::uint8_t> block, const std::filesystem::path& file, std::uint32_t sliceIndex) {
+BlockTables readBlockTables(std::span<const std::uint8_t> block, const std::filesystem::path& file, std::uint32_t sliceIndex,
+                            std::optional<std::uint64_t> fileOffset) {
     const auto fail = [&](std::uint64_t byte, const std::string& what) {
-        throw InvalidDataError(file, "slice " + std::to_string(sliceIndex) + ", byte " + std::to_string(byte) + ": " + what);
+        throw InvalidDataError(file, "slice " + std::to_string(sliceIndex) + ", byte " + std::to_string(byte) +
+                                         (fileOffset ? " (file offset " + std::to_string(*fileOffset + byte) + ")" : std::string()) + ": " +
+                                         what);
     };
     const std::uint64_t words = block.size() / 4;
     if (block.size() < kPageHeaderBytes || block.size() % 8 != 0) fail(0, "block size is not a multiple of 8 bytes");
@@ -154,7 +157,7 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
                            std::span<const FrontierDescriptor> parents) {
     const BlockChecker check(file, sliceIndex, entry);
     if (block.size() != entry.byteSize) check.fail(0, "block size differs from the directory's");
-    const BlockTables t = readBlockTables(block, file, sliceIndex);
+    const BlockTables t = readBlockTables(block, file, sliceIndex, entry.fileOffset);
     const std::uint8_t* b = block.data();
     const std::uint64_t infoByte = 4ull * t.infoWord;
     if (word(b, t.infoWord + info::kSliceId) != sliceIndex) check.fail(infoByte, "info section names another slice");

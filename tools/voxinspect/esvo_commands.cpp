@@ -114,7 +114,7 @@ void dump(const std::string& file, long long sliceIndex, bool json) {
                                                             std::to_string(reader.sliceCount()) + " slices");
     const auto index = static_cast<std::uint32_t>(sliceIndex);
     const std::vector<std::uint8_t> block = reader.readSlice(index);
-    const esvo::BlockTables t = esvo::readBlockTables(block, reader.path(), index);
+    const esvo::BlockTables t = esvo::readBlockTables(block, reader.path(), index, reader.slice(index).fileOffset);
     // Every 8-byte unit of the descriptor area, classified by walking it in order.
     nlohmann::json units = nlohmann::json::array();
     if (!json) {

@@ -84,9 +84,10 @@ struct BlockTables {
     std::uint32_t attributeWord = 0, attributeEndWord = 0;
     [[nodiscard]] bool hasAttributes() const noexcept { return attributeKind != AttachmentKind::Contour; }
 };
-/// Reads the tables' location from a block; throws InvalidDataError if they are out of range.
+/// Reads the tables' location from a block; throws InvalidDataError if they are out of range,
+/// naming the slice, the byte in it and, when @p fileOffset (the slice's) is given, the file offset.
 [[nodiscard]] BlockTables readBlockTables(std::span<const std::uint8_t> block, const std::filesystem::path& file,
-                                          std::uint32_t sliceIndex);
+                                          std::uint32_t sliceIndex, std::optional<std::uint64_t> fileOffset = std::nullopt);
 
 /// Checks every structural invariant of one slice's block: page headers at every 8 KB boundary
 /// pointing at the info section, info section and tables, masks, child and far pointers in range
