@@ -2,9 +2,15 @@
 #include <vox/formats/esvo_attributes.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 namespace vox::esvo {
+namespace {
+/// 2^(e − 13) for an axis exponent e in 0 … 15, built from its bits: std::ldexp was a measurable
+/// share of the block encoder's time.
+float axisStep(std::uint32_t e) noexcept { return std::bit_cast<float>((e + 127u - 13u) << 23); }
+}  // namespace
 
 std::uint32_t encodeNormal(const Vec3& n) noexcept {
     const float ax = std::fabs(n[0]), ay = std::fabs(n[1]), az = std::fabs(n[2]);
@@ -53,7 +59,7 @@ std::array<std::uint32_t, 4> colorPalette(std::uint32_t c0, std::uint32_t c1) no
 }
 
 Vec3 decodeAxis(std::uint32_t bits16) noexcept {
-    const float scale = std::ldexp(1.0f, static_cast<int>((bits16 >> 12) & 15u) - 13);
+    const float scale = axisStep((bits16 >> 12) & 15u);
     const auto component = [&](unsigned shift) {
         return static_cast<float>(static_cast<std::int32_t>(bits16 << (28 - shift)) >> 28) * scale;
     };
@@ -66,10 +72,10 @@ std::uint32_t encodeAxis(const Vec3& axis) noexcept {
     std::uint32_t e = 0;
     // Smallest exponent whose range (−8 … 7 steps) holds every component after rounding (to
     // within half a step: 7.5 clamps to 7, −8.5 to −8).
-    while (e < 15 && (highest > 7.5f * std::ldexp(1.0f, static_cast<int>(e) - 13) ||
-                      lowest < -8.5f * std::ldexp(1.0f, static_cast<int>(e) - 13)))
+    while (e < 15 && (highest > 7.5f * axisStep(e) ||
+                      lowest < -8.5f * axisStep(e)))
         ++e;
-    const float step = std::ldexp(1.0f, static_cast<int>(e) - 13);
+    const float step = axisStep(e);
     std::uint32_t bits = e << 12;
     for (unsigned c = 0; c < 3; ++c) {
         const long q = std::clamp(std::lround(axis[c] / step), -8l, 7l);
