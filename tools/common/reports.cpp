@@ -96,23 +96,21 @@ nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakd
                            : has(esvo::AttachmentKind::DxtLookup) ? "dxt-lookup"
                            : has(esvo::AttachmentKind::Palette)   ? "raw"
                                                                   : "none";
-    const std::pair<const char*, std::uint64_t> parts[] = {
-        {"hierarchy", b.descriptorBytes},
-        {"far_pointers", b.farPointerBytes},
-        {"page_headers", b.pageHeaderBytes},
-        {"padding", b.paddingBytes + b.slicePaddingBytes},
-        {"info_sections", b.infoBytes},
-        {"header_and_directory", b.headerAndDirectoryBytes},
-        {"contours", b.contourBytes},
-        {"attribute_lookup", b.attributeLookupBytes},
-        {"attribute_values", b.attributeValueBytes},
-        {"attribute_blocks", b.attributeBlockBytes},
-    };
+    const std::array<std::uint64_t, kEsvoByteParts.size()> parts{b.descriptorBytes,
+                                                                 b.farPointerBytes,
+                                                                 b.pageHeaderBytes,
+                                                                 b.paddingBytes + b.slicePaddingBytes,
+                                                                 b.infoBytes,
+                                                                 b.headerAndDirectoryBytes,
+                                                                 b.contourBytes,
+                                                                 b.attributeLookupBytes,
+                                                                 b.attributeValueBytes,
+                                                                 b.attributeBlockBytes};
     nlohmann::json bytes = nlohmann::json::object(), perVoxelBytes = nlohmann::json::object();
     perVoxelBytes["total"] = perVoxel(h.fileBytes);
-    for (const auto& [name, value] : parts) {
-        bytes[name] = value;
-        perVoxelBytes[name] = perVoxel(value);
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+        bytes[kEsvoByteParts[i]] = parts[i];
+        perVoxelBytes[kEsvoByteParts[i]] = perVoxel(parts[i]);
     }
     report["bytes"] = bytes;
     report["bytes_per_voxel"] = perVoxelBytes;

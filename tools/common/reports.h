@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -24,6 +25,12 @@ namespace vox::tools {
 /// far_pointers, file_bytes, bytes_per_voxel {total, hierarchy, far_pointers, page_headers,
 /// padding, info_sections, header_and_directory, contours, attribute_lookup, attribute_values,
 /// attribute_blocks} (docs/cli.md).
+/// The keys of esvoReport's "bytes" and "bytes_per_voxel" parts, in the order tools print them.
+inline constexpr std::array<const char*, 10> kEsvoByteParts{"hierarchy",        "far_pointers",     "page_headers",
+                                                            "padding",          "info_sections",    "header_and_directory",
+                                                            "contours",         "attribute_lookup", "attribute_values",
+                                                            "attribute_blocks"};
+
 [[nodiscard]] nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakdown& breakdown);
 
 /// Adds timings_ms, peak_rss_bytes, threads, tool and version to @p report and writes it

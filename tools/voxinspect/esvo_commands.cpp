@@ -46,9 +46,9 @@ void printInfo(const std::string& file, bool json) {
     std::printf("  bytes per voxel %.3f\n", report["bytes_per_voxel"]["total"].get<double>());
     std::printf("  contours        %s\n  attributes      %s\n", report["contours"].get<bool>() ? "yes" : "no",
                 report["attributes"].get<std::string>().c_str());
-    for (const auto& [part, bytes] : report["bytes"].items())
-        std::printf("    %-22s %.4f  (%llu bytes)\n", part.c_str(), report["bytes_per_voxel"][part].get<double>(),
-                    static_cast<unsigned long long>(bytes.get<std::uint64_t>()));
+    for (const char* part : kEsvoByteParts)
+        std::printf("    %-22s %.4f  (%llu bytes)\n", part, report["bytes_per_voxel"][part].get<double>(),
+                    static_cast<unsigned long long>(report["bytes"][part].get<std::uint64_t>()));
 }
 
 nlohmann::json sliceJson(const esvo::SliceEntry& s, std::uint32_t index) {
