@@ -8,6 +8,7 @@
 // uncompressed attachment stores them — so the PSNR is that of compressed against raw values.
 // Usage: attribute_encode_bench [TILES_PER_TEXTURE (default 4000)] [NORMAL_BLOCKS (default 20000)]
 //        attribute_encode_bench --scene FILE [--depth N (default 10)]
+#include "attribute_corpus.h"
 #include "octree/attribute_encode.h"
 
 #include <vox/formats/error.h>
@@ -31,83 +32,31 @@
 #include <string>
 #include <vector>
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wunused-function"
-#pragma GCC diagnostic ignored "-Wsign-compare"
-#define STB_DXT_IMPLEMENTATION
-#include <stb/stb_dxt.h>
-#pragma GCC diagnostic pop
-
 namespace {
 
 namespace esvo = vox::esvo;
 using esvo::Vec3;
 using Clock = std::chrono::steady_clock;
 
-struct ColorBlock {
-    std::array<std::uint32_t, 16> colors{};
-    std::uint32_t mask = 0xFFFFu;
-};
+using vox::corpus::ColorBlock;
+using vox::corpus::normalised;
+using vox::corpus::randomDirection;
+using vox::corpus::randomMask;
 
 struct NormalBlock {
     std::array<Vec3, 16> normals{};
     std::uint32_t mask = 0xFFFFu;
 };
 
-std::uint32_t randomMask(std::mt19937& rng, unsigned bits) {
-    std::array<unsigned, 16> slots{};
-    for (unsigned i = 0; i < 16; ++i) slots[i] = i;
-    std::shuffle(slots.begin(), slots.end(), rng);
-    std::uint32_t mask = 0;
-    for (unsigned i = 0; i < bits; ++i) mask |= 1u << slots[i];
-    return mask;
-}
-
+/// 4×4 tiles of ten assimp-testmodels textures.
 std::vector<ColorBlock> textureTiles(std::size_t perTexture, std::vector<std::string>& used) {
-    const char* files[] = {"glTF/CesiumMilkTruck/CesiumMilkTruck.png", "OBJ/drkwood2.jpg", "IQM/Head.jpg", "IQM/Body.jpg",
-                           "3DS/CWALL02.jpg", "3DS/IMAGE2.jpg", "LWO/LWO2/MappingModes/earthSpherical.jpg",
-                           "ReferenceImages/MappingModes/spherical.png", "Ogre/TheThing/Wrinkles.jpg", "IRRMesh/brownground_1-1.jpg"};
-    std::vector<ColorBlock> tiles;
-    for (const char* file : files) {
-        const std::filesystem::path path = std::filesystem::path("/usr/share/assimp/models") / file;
-        if (!std::filesystem::exists(path)) continue;
-        const vox::Texture texture = vox::loadTexture(path, vox::ColorSpace::SRGB);
-        used.emplace_back(file);
-        const int tx = texture.width() / 4, ty = texture.height() / 4;
-        const std::size_t total = static_cast<std::size_t>(tx) * static_cast<std::size_t>(ty);
-        const std::size_t stride = std::max<std::size_t>(1, total / perTexture) | 1;
-        for (std::size_t t = 0; t < total; t += stride) {
-            const int x0 = static_cast<int>(t % static_cast<std::size_t>(tx)) * 4, y0 = static_cast<int>(t / static_cast<std::size_t>(tx)) * 4;
-            ColorBlock b;
-            for (unsigned s = 0; s < 16; ++s) {
-                const vox::Vec4f c = texture.texel(0, x0 + static_cast<int>(s % 4), y0 + static_cast<int>(s / 4));
-                const auto byte = [](float linear) {
-                    return static_cast<std::uint32_t>(std::lround(std::clamp(vox::linearToSrgb(linear), 0.0f, 1.0f) * 255.0f));
-                };
-                b.colors[s] = esvo::packColor(byte(c.x), byte(c.y), byte(c.z));
-            }
-            tiles.push_back(b);
-        }
-    }
-    return tiles;
-}
-
-std::array<std::uint32_t, 2> stbEncode(const ColorBlock& b, int mode) {
-    unsigned first = 0;
-    while (!((b.mask >> first) & 1u)) ++first;
-    unsigned char rgba[64];
-    for (unsigned s = 0; s < 16; ++s) {
-        const std::uint32_t c = ((b.mask >> s) & 1u) ? b.colors[s] : b.colors[first];
-        for (unsigned ch = 0; ch < 3; ++ch) rgba[4 * s + ch] = static_cast<unsigned char>(esvo::colorChannel(c, ch));
-        rgba[4 * s + 3] = 255;
-    }
-    unsigned char out[8];
-    stb_compress_dxt_block(out, rgba, 0, mode);
-    const auto word = [&](unsigned o) {
-        return std::uint32_t{out[o]} | (std::uint32_t{out[o + 1]} << 8) | (std::uint32_t{out[o + 2]} << 16) | (std::uint32_t{out[o + 3]} << 24);
-    };
-    return {word(0), word(4)};
+    const std::filesystem::path models = "/usr/share/assimp/models";
+    const std::vector<std::filesystem::path> files{models / "glTF/CesiumMilkTruck/CesiumMilkTruck.png", models / "OBJ/drkwood2.jpg",
+                                                   models / "IQM/Head.jpg", models / "IQM/Body.jpg", models / "3DS/CWALL02.jpg",
+                                                   models / "3DS/IMAGE2.jpg", models / "LWO/LWO2/MappingModes/earthSpherical.jpg",
+                                                   models / "ReferenceImages/MappingModes/spherical.png",
+                                                   models / "Ogre/TheThing/Wrinkles.jpg", models / "IRRMesh/brownground_1-1.jpg"};
+    return vox::corpus::textureTiles(files, perTexture, &used);
 }
 
 /// Encodes every block with @p encode (best time of @p repeat runs); returns PSNR and µs/block.
@@ -133,24 +82,11 @@ nlohmann::json colorRun(const std::vector<ColorBlock>& blocks, int repeat, Encod
 nlohmann::json colorSuite(const std::vector<ColorBlock>& blocks) {
     return {{"blocks", blocks.size()},
             {"ours", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::detail::encodeColorBlock(b.colors, b.mask); })},
-            {"stb_normal", colorRun(blocks, 3, [](const ColorBlock& b) { return stbEncode(b, STB_DXT_NORMAL); })},
-            {"stb_highqual", colorRun(blocks, 3, [](const ColorBlock& b) { return stbEncode(b, STB_DXT_HIGHQUAL); })}};
+            {"stb_normal", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::corpus::stbEncode(b, false); })},
+            {"stb_highqual", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::corpus::stbEncode(b, true); })}};
 }
 
 // ---- normals ------------------------------------------------------------------------------------
-
-Vec3 normalised(double x, double y, double z) {
-    const double len = std::sqrt(x * x + y * y + z * z);
-    return {static_cast<float>(x / len), static_cast<float>(y / len), static_cast<float>(z / len)};
-}
-
-Vec3 randomDirection(std::mt19937& rng) {
-    std::normal_distribution<double> g;
-    for (;;) {
-        const double x = g(rng), y = g(rng), z = g(rng);
-        if (x * x + y * y + z * z > 1e-6) return normalised(x, y, z);
-    }
-}
 
 /// Voxel-centre offsets of the 16 slots: two 2×2×2 descriptors side by side along @p longAxis.
 std::array<std::array<double, 3>, 16> slotOffsets(unsigned longAxis) {
@@ -217,31 +153,12 @@ std::vector<NormalBlock> bumpyPatches(std::mt19937& rng, std::size_t count, doub
 
 /// 16 directions uniform within @p halfAngle of a random axis, all slots used.
 std::vector<NormalBlock> randomCones(std::mt19937& rng, std::size_t count, double halfAngle) {
-    std::uniform_real_distribution<double> unit(0, 1);
     std::vector<NormalBlock> blocks(count);
-    for (NormalBlock& b : blocks) {
-        const Vec3 axis = randomDirection(rng);
-        const Vec3 helper = std::fabs(axis[0]) < 0.9f ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-        const Vec3 t1 = normalised(axis[1] * helper[2] - axis[2] * helper[1], axis[2] * helper[0] - axis[0] * helper[2],
-                                   axis[0] * helper[1] - axis[1] * helper[0]);
-        const Vec3 t2{axis[1] * t1[2] - axis[2] * t1[1], axis[2] * t1[0] - axis[0] * t1[2], axis[0] * t1[1] - axis[1] * t1[0]};
-        for (auto& n : b.normals) {
-            const double cosTheta = 1 - unit(rng) * (1 - std::cos(halfAngle)), sinTheta = std::sqrt(1 - cosTheta * cosTheta);
-            const double phi = 2 * std::numbers::pi * unit(rng);
-            const double a = sinTheta * std::cos(phi), c = sinTheta * std::sin(phi);
-            n = normalised(cosTheta * axis[0] + a * t1[0] + c * t2[0], cosTheta * axis[1] + a * t1[1] + c * t2[1],
-                           cosTheta * axis[2] + a * t1[2] + c * t2[2]);
-        }
-    }
+    for (NormalBlock& b : blocks) b.normals = vox::corpus::randomCone(rng, halfAngle);
     return blocks;
 }
 
-double angleDegrees(const Vec3& a, const Vec3& b) {
-    const double cx = double(a[1]) * b[2] - double(a[2]) * b[1], cy = double(a[2]) * b[0] - double(a[0]) * b[2],
-                 cz = double(a[0]) * b[1] - double(a[1]) * b[0];
-    const double dot = double(a[0]) * b[0] + double(a[1]) * b[1] + double(a[2]) * b[2];
-    return std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), dot) * 180.0 / std::numbers::pi;
-}
+double angleDegrees(const Vec3& a, const Vec3& b) { return vox::corpus::angle(a, b) * 180.0 / std::numbers::pi; }
 
 nlohmann::json normalSuite(const std::vector<NormalBlock>& blocks) {
     std::vector<std::array<std::uint32_t, 4>> words(blocks.size());

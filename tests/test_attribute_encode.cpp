@@ -8,6 +8,7 @@
 #include <vox/formats/esvo_attributes.h>
 #include <vox/texture.h>
 
+#include "attribute_corpus.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
@@ -19,51 +20,18 @@
 #include <random>
 #include <vector>
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wunused-function"
-#pragma GCC diagnostic ignored "-Wsign-compare"
-#define STB_DXT_IMPLEMENTATION
-#include <stb/stb_dxt.h>
-#pragma GCC diagnostic pop
-
 namespace {
 
 namespace esvo = vox::esvo;
 using esvo::Vec3;
+using vox::corpus::angle;
+using vox::corpus::ColorBlock;
+using vox::corpus::normalised;
+using vox::corpus::randomCone;
+using vox::corpus::randomDirection;
+using vox::corpus::randomMask;
 
 constexpr double kDegree = std::numbers::pi / 180.0;
-
-/// Angle between two (not necessarily unit) vectors, accurate for tiny angles.
-double angle(const Vec3& a, const Vec3& b) {
-    const double cx = double(a[1]) * b[2] - double(a[2]) * b[1], cy = double(a[2]) * b[0] - double(a[0]) * b[2],
-                 cz = double(a[0]) * b[1] - double(a[1]) * b[0];
-    const double dot = double(a[0]) * b[0] + double(a[1]) * b[1] + double(a[2]) * b[2];
-    return std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), dot);
-}
-
-Vec3 normalised(double x, double y, double z) {
-    const double len = std::sqrt(x * x + y * y + z * z);
-    return {static_cast<float>(x / len), static_cast<float>(y / len), static_cast<float>(z / len)};
-}
-
-Vec3 randomDirection(std::mt19937& rng) {
-    std::normal_distribution<double> g;
-    for (;;) {
-        const double x = g(rng), y = g(rng), z = g(rng);
-        if (x * x + y * y + z * z > 1e-6) return normalised(x, y, z);
-    }
-}
-
-/// A random mask with @p bits of the 16 slots set.
-std::uint32_t randomMask(std::mt19937& rng, unsigned bits) {
-    std::array<unsigned, 16> slots{};
-    for (unsigned i = 0; i < 16; ++i) slots[i] = i;
-    std::shuffle(slots.begin(), slots.end(), rng);
-    std::uint32_t mask = 0;
-    for (unsigned i = 0; i < bits; ++i) mask |= 1u << slots[i];
-    return mask;
-}
 
 struct NormalErrors {
     double mean = 0, max = 0;
@@ -99,60 +67,7 @@ std::array<Vec3, 16> spherePatch(std::mt19937& rng, double radius, unsigned long
     return normals;
 }
 
-/// 16 directions uniformly distributed within @p halfAngle of a random axis.
-std::array<Vec3, 16> randomCone(std::mt19937& rng, double halfAngle) {
-    const Vec3 axis = randomDirection(rng);
-    // An orthonormal basis around the axis.
-    const Vec3 helper = std::fabs(axis[0]) < 0.9f ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-    const Vec3 t1 = normalised(axis[1] * helper[2] - axis[2] * helper[1], axis[2] * helper[0] - axis[0] * helper[2],
-                               axis[0] * helper[1] - axis[1] * helper[0]);
-    const Vec3 t2{axis[1] * t1[2] - axis[2] * t1[1], axis[2] * t1[0] - axis[0] * t1[2], axis[0] * t1[1] - axis[1] * t1[0]};
-    std::uniform_real_distribution<double> unit(0, 1);
-    std::array<Vec3, 16> normals{};
-    for (auto& n : normals) {
-        const double cosTheta = 1 - unit(rng) * (1 - std::cos(halfAngle)), sinTheta = std::sqrt(1 - cosTheta * cosTheta);
-        const double phi = 2 * std::numbers::pi * unit(rng);
-        const double a = sinTheta * std::cos(phi), b = sinTheta * std::sin(phi);
-        n = normalised(cosTheta * axis[0] + a * t1[0] + b * t2[0], cosTheta * axis[1] + a * t1[1] + b * t2[1],
-                       cosTheta * axis[2] + a * t1[2] + b * t2[2]);
-    }
-    return normals;
-}
-
 // ---- colour corpus ----------------------------------------------------------------------------
-
-struct ColorBlock {
-    std::array<std::uint32_t, 16> colors{};
-    std::uint32_t mask = 0xFFFFu;
-};
-
-/// 4×4 tiles of real textures (sRGB bytes as stored), a bounded number per texture spread over it.
-std::vector<ColorBlock> textureTiles(std::size_t perTexture) {
-    const char* files[] = {"glTF/CesiumMilkTruck/CesiumMilkTruck.png", "OBJ/drkwood2.jpg", "IQM/Head.jpg", "3DS/CWALL02.jpg",
-                           "LWO/LWO2/MappingModes/earthSpherical.jpg"};
-    std::vector<ColorBlock> tiles;
-    for (const char* file : files) {
-        const auto path = vox::test::assimpModels() / file;
-        if (!std::filesystem::exists(path)) continue;
-        const vox::Texture texture = vox::loadTexture(path, vox::ColorSpace::SRGB);
-        const int tx = texture.width() / 4, ty = texture.height() / 4;
-        const std::size_t total = static_cast<std::size_t>(tx) * static_cast<std::size_t>(ty);
-        const std::size_t stride = std::max<std::size_t>(1, total / perTexture) | 1;
-        for (std::size_t t = 0; t < total; t += stride) {
-            const int x0 = static_cast<int>(t % static_cast<std::size_t>(tx)) * 4, y0 = static_cast<int>(t / static_cast<std::size_t>(tx)) * 4;
-            ColorBlock b;
-            for (unsigned s = 0; s < 16; ++s) {
-                const vox::Vec4f c = texture.texel(0, x0 + static_cast<int>(s % 4), y0 + static_cast<int>(s / 4));
-                const auto byte = [](float linear) {
-                    return static_cast<std::uint32_t>(std::lround(std::clamp(vox::linearToSrgb(linear), 0.0f, 1.0f) * 255.0f));
-                };
-                b.colors[s] = esvo::packColor(byte(c.x), byte(c.y), byte(c.z));
-            }
-            tiles.push_back(b);
-        }
-    }
-    return tiles;
-}
 
 /// Random colours around a random line (gradients with noise) and uniformly random blocks.
 std::vector<ColorBlock> syntheticBlocks(std::mt19937& rng, std::size_t count) {
@@ -178,24 +93,6 @@ std::vector<ColorBlock> syntheticBlocks(std::mt19937& rng, std::size_t count) {
         blocks.push_back(b);
     }
     return blocks;
-}
-
-/// stb_dxt's block for the used slots (unused ones filled with the first used colour), as our words.
-std::array<std::uint32_t, 2> stbEncode(const ColorBlock& b, int mode) {
-    unsigned first = 0;
-    while (!((b.mask >> first) & 1u)) ++first;
-    unsigned char rgba[64];
-    for (unsigned s = 0; s < 16; ++s) {
-        const std::uint32_t c = ((b.mask >> s) & 1u) ? b.colors[s] : b.colors[first];
-        for (unsigned ch = 0; ch < 3; ++ch) rgba[4 * s + ch] = static_cast<unsigned char>(esvo::colorChannel(c, ch));
-        rgba[4 * s + 3] = 255;
-    }
-    unsigned char out[8];
-    stb_compress_dxt_block(out, rgba, 0, mode);
-    const auto word = [&](unsigned o) {
-        return std::uint32_t{out[o]} | (std::uint32_t{out[o + 1]} << 8) | (std::uint32_t{out[o + 2]} << 16) | (std::uint32_t{out[o + 3]} << 24);
-    };
-    return {word(0), word(4)};
 }
 
 }  // namespace
@@ -496,7 +393,11 @@ TEST(AttributeEncode, AnyTwoDirectionsDecodeWithinTwoDegrees) {
 
 TEST(AttributeEncode, ColourBeatsStbDxtHighQuality) {
     std::mt19937 rng(9);
-    std::vector<ColorBlock> corpus = textureTiles(1200);
+    const std::filesystem::path models = vox::test::assimpModels();
+    const std::array<std::filesystem::path, 5> textures{models / "glTF/CesiumMilkTruck/CesiumMilkTruck.png", models / "OBJ/drkwood2.jpg",
+                                                        models / "IQM/Head.jpg", models / "3DS/CWALL02.jpg",
+                                                        models / "LWO/LWO2/MappingModes/earthSpherical.jpg"};
+    std::vector<ColorBlock> corpus = vox::corpus::textureTiles(textures, 1200);
     ASSERT_GE(corpus.size(), 1000u) << "texture corpus missing: is assimp-testmodels installed?";
     const std::size_t tiles = corpus.size();
     const std::vector<ColorBlock> synthetic = syntheticBlocks(rng, 1500);
@@ -513,7 +414,7 @@ TEST(AttributeEncode, ColourBeatsStbDxtHighQuality) {
     for (std::size_t i = 0; i < corpus.size(); ++i) {
         const ColorBlock& b = corpus[i];
         const auto words = vox::detail::encodeColorBlock(b.colors, b.mask);
-        const auto stbWords = stbEncode(b, STB_DXT_HIGHQUAL);
+        const auto stbWords = vox::corpus::stbEncode(b, true);
         const std::uint64_t e = vox::detail::colorBlockError(b.colors, b.mask, words[0], words[1]);
         const std::uint64_t es = vox::detail::colorBlockError(b.colors, b.mask, stbWords[0], stbWords[1]);
         ours[i >= full] += e;
