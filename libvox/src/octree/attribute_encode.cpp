@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <span>
 
 namespace vox::detail {
 namespace {
@@ -520,6 +521,31 @@ std::uint32_t roundAxis(const Vec3& a, int e) {
     return bits;
 }
 
+/// One pass over the axis codes around @p s: each of the @p components of either axis one step
+/// either way, and each axis one exponent finer or coarser (re-rounded). True if any improved.
+bool stepAxisCodes(const NormalPoints& p, NormalState& s, std::span<const unsigned> components) {
+    bool improved = false;
+    for (unsigned which = 0; which < 2; ++which) {
+        const unsigned shift = 16 * which;
+        for (const unsigned c : components)
+            for (const int step : {-1, 1}) {
+                const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
+                const int value = static_cast<int>(static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28) + step;
+                if (value < -8 || value > 7) continue;
+                const std::uint32_t moved = (bits & ~(15u << (4 * c))) | ((static_cast<std::uint32_t>(value) & 15u) << (4 * c));
+                if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (moved << shift), s)) improved = true;
+            }
+        const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
+        const int e = static_cast<int>(bits >> 12);
+        const Vec3 decoded = esvo::decodeAxis(bits);
+        for (const int ne : {e - 1, e + 1}) {
+            if (ne < 0 || ne > 15) continue;
+            if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (roundAxis(decoded, ne) << shift), s)) improved = true;
+        }
+    }
+    return improved;
+}
+
 /// Quantises a plane fit: the base through encodeNormal (rescaling the axes when the base falls
 /// off its face), the axes through encodeAxis; then refits the base to the quantised axes and
 /// searches neighbouring axis codes, all measured against the decoded normals.
@@ -565,28 +591,9 @@ NormalState quantiseFit(const NormalPoints& p, const PlaneFit& f) {
 
     // Neighbouring axis codes: each in-plane component ±1, and each axis one exponent finer or
     // coarser (re-rounded).
-    for (int pass = 0; pass < 3 && s.error > 0; ++pass) {
-        bool improved = false;
-        for (unsigned which = 0; which < 2; ++which) {
-            const unsigned shift = 16 * which;
-            for (const unsigned c : {ua, va})
-                for (const int step : {-1, 1}) {
-                    const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
-                    const int value = static_cast<int>(static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28) + step;
-                    if (value < -8 || value > 7) continue;
-                    const std::uint32_t moved = (bits & ~(15u << (4 * c))) | ((static_cast<std::uint32_t>(value) & 15u) << (4 * c));
-                    if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (moved << shift), s)) improved = true;
-                }
-            const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
-            const int e = static_cast<int>(bits >> 12);
-            const Vec3 decoded = esvo::decodeAxis(bits);
-            for (const int ne : {e - 1, e + 1}) {
-                if (ne < 0 || ne > 15) continue;
-                if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (roundAxis(decoded, ne) << shift), s)) improved = true;
-            }
-        }
-        if (!improved) break;
-    }
+    const std::array<unsigned, 2> inPlane{ua, va};
+    for (int pass = 0; pass < 3 && s.error > 0; ++pass)
+        if (!stepAxisCodes(p, s, inPlane)) break;
 
     // Cluster-fit step: the unquantised least squares for the combos the quantised block chose,
     // quantised again.
@@ -911,26 +918,9 @@ Model decodedModel(const NormalState& s) {
 /// exponent finer or coarser (re-rounded); after each pass (at most @p passes), the base refit
 /// to the axes.
 void searchCodes(const NormalPoints& p, NormalState& s, int passes) {
+    constexpr std::array<unsigned, 3> kAllComponents{0, 1, 2};
     for (int pass = 0; pass < passes && s.error > 0; ++pass) {
-        bool improved = false;
-        for (unsigned which = 0; which < 2; ++which) {
-            const unsigned shift = 16 * which;
-            for (unsigned c = 0; c < 3; ++c)
-                for (const int step : {-1, 1}) {
-                    const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
-                    const int value = static_cast<int>(static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28) + step;
-                    if (value < -8 || value > 7) continue;
-                    const std::uint32_t moved = (bits & ~(15u << (4 * c))) | ((static_cast<std::uint32_t>(value) & 15u) << (4 * c));
-                    if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (moved << shift), s)) improved = true;
-                }
-            const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
-            const int e = static_cast<int>(bits >> 12);
-            const Vec3 decoded = esvo::decodeAxis(bits);
-            for (const int ne : {e - 1, e + 1}) {
-                if (ne < 0 || ne > 15) continue;
-                if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (roundAxis(decoded, ne) << shift), s)) improved = true;
-            }
-        }
+        bool improved = stepAxisCodes(p, s, kAllComponents);
         Model x = decodedModel(s);
         std::array<std::uint8_t, 16> combo = s.combo;
         refineModel(p, x, combo, 0, 3, s.error);
