@@ -116,18 +116,26 @@ int main(int argc, char** argv) {
             vox::CastOptions withAttributes;
             withAttributes.attributes = true;
             const auto shaded = vox::renderEsvo(octree, camera, withAttributes);
+            // Squared 8-bit sRGB error of a colour word against the mesh's at pixel i.
+            const auto squaredError = [&](std::uint32_t color, std::size_t i) {
+                double sq = 0;
+                for (unsigned ch = 0; ch < 3; ++ch) {
+                    const double d = double(vox::esvo::colorChannel(color, ch)) - double(vox::esvo::colorChannel(mesh.color[i], ch));
+                    sq += d * d;
+                }
+                return sq;
+            };
+            const auto compares = [&](const vox::RenderBuffers& image, std::size_t i) {
+                return std::isfinite(mesh.depth[i]) && std::isfinite(image.depth[i]) && vox::hasAttributes(image, i);
+            };
             std::vector<double> angles, sameSurfaceAngles;
             double squared = 0, sameSurfaceSquared = 0;
             std::uint64_t compared = 0, sameSurface = 0;
             for (std::size_t i = 0; i < mesh.depth.size(); ++i) {
-                if (!std::isfinite(mesh.depth[i]) || !std::isfinite(shaded.depth[i]) || !vox::hasAttributes(shaded, i)) continue;
+                if (!compares(shaded, i)) continue;
                 const vox::Vec3f a = shaded.shadingNormal[i], b = mesh.shadingNormal[i];
                 const double angle = std::acos(std::clamp(double(dot(a, b)), -1.0, 1.0)) * 180.0 / 3.14159265358979323846;
-                double sq = 0;
-                for (unsigned ch = 0; ch < 3; ++ch) {
-                    const double d = double(vox::esvo::colorChannel(shaded.color[i], ch)) - double(vox::esvo::colorChannel(mesh.color[i], ch));
-                    sq += d * d;
-                }
+                const double sq = squaredError(shaded.color[i], i);
                 angles.push_back(angle);
                 squared += sq;
                 ++compared;
@@ -166,12 +174,11 @@ int main(int argc, char** argv) {
             const std::vector<vox::Vec3f> filtered = vox::postProcessFilter(vox::albedoImage(shaded), radius, camera.width, camera.height);
             double filteredSquared = 0;
             for (std::size_t i = 0; i < mesh.depth.size(); ++i) {
-                if (!std::isfinite(mesh.depth[i]) || !std::isfinite(shaded.depth[i]) || !vox::hasAttributes(shaded, i)) continue;
-                for (unsigned ch = 0; ch < 3; ++ch) {
-                    const double v = std::lround(255.0 * vox::linearToSrgb(std::clamp(filtered[i][static_cast<int>(ch)], 0.0f, 1.0f)));
-                    const double d = v - double(vox::esvo::colorChannel(mesh.color[i], ch));
-                    filteredSquared += d * d;
-                }
+                if (!compares(shaded, i)) continue;
+                const auto byte = [&](int ch) {
+                    return static_cast<std::uint32_t>(std::lround(255.0 * vox::linearToSrgb(std::clamp(filtered[i][ch], 0.0f, 1.0f))));
+                };
+                filteredSquared += squaredError(vox::esvo::packColor(byte(0), byte(1), byte(2)), i);
             }
             attributes["color_psnr_db_filtered"] = psnr(filteredSquared, compared);
             // With the level-of-detail cut (a voxel no smaller than the pixel): coarser voxels'
@@ -182,11 +189,8 @@ int main(int argc, char** argv) {
             double lodSquared = 0;
             std::uint64_t lodCompared = 0;
             for (std::size_t i = 0; i < mesh.depth.size(); ++i) {
-                if (!std::isfinite(mesh.depth[i]) || !std::isfinite(lodShaded.depth[i]) || !vox::hasAttributes(lodShaded, i)) continue;
-                for (unsigned ch = 0; ch < 3; ++ch) {
-                    const double d = double(vox::esvo::colorChannel(lodShaded.color[i], ch)) - double(vox::esvo::colorChannel(mesh.color[i], ch));
-                    lodSquared += d * d;
-                }
+                if (!compares(lodShaded, i)) continue;
+                lodSquared += squaredError(lodShaded.color[i], i);
                 ++lodCompared;
             }
             attributes["color_psnr_db_lod"] = psnr(lodSquared, lodCompared);

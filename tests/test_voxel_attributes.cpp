@@ -53,6 +53,21 @@ void addQuad(vox::Scene& scene, float x0, float x1, std::uint32_t material, vox:
     scene.meshes.push_back(mesh);
 }
 
+/// The unit quad under a 64² sRGB checkerboard of black and white squares @p squareTexels wide.
+vox::Scene checkerQuad(int squareTexels) {
+    std::vector<std::uint8_t> pixels(64 * 64);
+    for (int y = 0; y < 64; ++y)
+        for (int x = 0; x < 64; ++x)
+            pixels[std::size_t(y) * 64 + std::size_t(x)] = ((x / squareTexels + y / squareTexels) % 2) ? 255 : 0;
+    vox::Scene scene;
+    scene.textures.emplace_back("checker", 64, 64, 1, pixels, vox::ColorSpace::SRGB);
+    vox::Material material;
+    material.baseColorTexture.texture = 0;
+    scene.materials = {material};
+    addQuad(scene, 0, 1, 0);
+    return scene;
+}
+
 vox::SparseOctree voxelize(const vox::Scene& scene, std::uint32_t depth, bool contours = false, double contourError = 0,
                            double colorError = 0) {
     vox::SurfaceVoxelizeOptions options;
@@ -96,15 +111,7 @@ TEST(VoxelAttributes, TexturesAreFilteredOverTheVoxelsFootprint) {
     // A 64² sRGB checkerboard of 8-texel squares across the unit quad: at depth 3 each leaf covers
     // one square (black or white); at depth 1 each covers 4×4 squares, whose mean is linear 0.5 —
     // a point sample would still say black or white.
-    std::vector<std::uint8_t> pixels(64 * 64);
-    for (int y = 0; y < 64; ++y)
-        for (int x = 0; x < 64; ++x) pixels[std::size_t(y) * 64 + std::size_t(x)] = ((x / 8 + y / 8) % 2) ? 255 : 0;
-    vox::Scene scene;
-    scene.textures.emplace_back("checker", 64, 64, 1, pixels, vox::ColorSpace::SRGB);
-    vox::Material material;
-    material.baseColorTexture.texture = 0;
-    scene.materials = {material};
-    addQuad(scene, 0, 1, 0);
+    const vox::Scene scene = checkerQuad(8);
     for (const auto& [key, value] : attributesByPosition(voxelize(scene, 3)))
         if (std::get<0>(key) == 3) {
             const float v = rgb(value).x;
@@ -166,15 +173,7 @@ TEST(VoxelAttributes, ColourVariationKeepsRefiningWhereGeometryWouldStop) {
     // A flat quad under a checkerboard of single texels, one per leaf at depth 6: contours alone
     // stop refining at level 5, whose voxels average 2×2 texels to grey; the colour criterion
     // refines every voxel to the leaves, each black or white.
-    std::vector<std::uint8_t> pixels(64 * 64);
-    for (int y = 0; y < 64; ++y)
-        for (int x = 0; x < 64; ++x) pixels[std::size_t(y) * 64 + std::size_t(x)] = ((x + y) % 2) ? 255 : 0;
-    vox::Scene scene;
-    scene.textures.emplace_back("checker", 64, 64, 1, pixels, vox::ColorSpace::SRGB);
-    vox::Material material;
-    material.baseColorTexture.texture = 0;
-    scene.materials = {material};
-    addQuad(scene, 0, 1, 0);
+    const vox::Scene scene = checkerQuad(1);
     const vox::SparseOctree geometric = voxelize(scene, 6, true, 2.0);
     const vox::SparseOctree attributed = voxelize(scene, 6, true, 2.0, 16.0);
     EXPECT_EQ(geometric.voxelsPerLevel[6], 0u);

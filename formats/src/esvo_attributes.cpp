@@ -110,13 +110,12 @@ bool readAttribute(const std::uint32_t* words, std::uint32_t descriptorWord, std
     for (std::uint32_t a = 0; a < count; ++a) {
         const std::uint32_t kind = words[infoWord + info::kAttachments + 2 * a];
         const std::uint32_t attach = attachmentWord(a);
-        Vec3& n = out.normal;
         if (kind == static_cast<std::uint32_t>(AttachmentKind::Palette)) {
             const PaletteLookup entry{words[attach + unit]};
             if (!((entry.mask() >> slot) & 1u)) return false;
             const std::uint32_t value = attach + entry.valuePointer() + 2 * popc8(entry.mask() & ((1u << slot) - 1u));
             out.color = words[value];
-            n = decodeUnitNormal(words[value + 1]);
+            out.normal = decodeUnitNormal(words[value + 1]);
         } else if (kind == static_cast<std::uint32_t>(AttachmentKind::DxtLookup)) {
             const PaletteLookup entry{words[attach + unit]};
             if (!((entry.mask() >> slot) & 1u)) return false;
@@ -124,12 +123,12 @@ bool readAttribute(const std::uint32_t* words, std::uint32_t descriptorWord, std
             const std::uint32_t descriptorUnits = (attachmentWord(0) - blockWord) / 2;
             const std::uint32_t* block = words + attach + lookupArrayWords(descriptorUnits) + kCompressedBlockWords * (value / 16);
             out.color = decodeBlockColor(block, value % 16);
-            n = decodeBlockNormal(block, value % 16);
+            out.normal = decodeBlockNormal(block, value % 16);
         } else if (kind == static_cast<std::uint32_t>(AttachmentKind::Dxt)) {
             const std::uint32_t* block = words + attach + kCompressedBlockWords * (unit / 2);
             const unsigned blockSlot = slot | ((unit & 1u) << 3);
             out.color = decodeBlockColor(block, blockSlot);
-            n = decodeBlockNormal(block, blockSlot);
+            out.normal = decodeBlockNormal(block, blockSlot);
         } else {
             continue;
         }

@@ -126,7 +126,8 @@ void EsvoPool::forEachVoxel(const std::function<void(const VoxelPosition&, const
         stack.pop_back();
         const ChildDescriptor d{words[p.word], words[p.word + 1]};
         // Children in slot order; their descriptors are pushed in reverse so they pop in order.
-        std::vector<Pending> children;
+        std::array<Pending, 8> children;
+        std::size_t count = 0;
         for (std::uint32_t slot = 0; slot < 8; ++slot) {
             if (!((d.validMask() >> slot) & 1u)) continue;
             Pending child{0, p.position.child(slot), p.value, p.hasValue};
@@ -139,9 +140,9 @@ void EsvoPool::forEachVoxel(const std::function<void(const VoxelPosition&, const
                 if (offset == 0) continue;  // child slice not loaded
             }
             child.word = static_cast<std::uint32_t>(p.word + 2 * (offset + popc8(d.nonLeafMask() & ((1u << slot) - 1u))));
-            children.push_back(child);
+            children[count++] = child;
         }
-        stack.insert(stack.end(), children.rbegin(), children.rend());
+        while (count > 0) stack.push_back(children[--count]);
     }
 }
 

@@ -21,16 +21,15 @@ namespace vox::tools {
 /// (keys documented in docs/cli.md).
 [[nodiscard]] nlohmann::json sceneReport(const Scene& scene);
 
-/// The .esvo summary voxinspect info prints: depth, voxels, voxels_per_level, slices,
-/// far_pointers, file_bytes, bytes_per_voxel {total, hierarchy, far_pointers, page_headers,
-/// padding, info_sections, header_and_directory, contours, attribute_lookup, attribute_values,
-/// attribute_blocks} (docs/cli.md).
 /// The keys of esvoReport's "bytes" and "bytes_per_voxel" parts, in the order tools print them.
 inline constexpr std::array<const char*, 10> kEsvoByteParts{"hierarchy",        "far_pointers",     "page_headers",
                                                             "padding",          "info_sections",    "header_and_directory",
                                                             "contours",         "attribute_lookup", "attribute_values",
                                                             "attribute_blocks"};
 
+/// The .esvo summary voxinspect info prints: depth, voxels, voxels_per_level, slices,
+/// far_pointers, file_bytes, contours, attributes, bytes and bytes_per_voxel (total and each of
+/// kEsvoByteParts) (docs/cli.md).
 [[nodiscard]] nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakdown& breakdown);
 
 /// Adds timings_ms, peak_rss_bytes, threads, tool and version to @p report and writes it

@@ -129,7 +129,8 @@ struct SliceBlock {
 class SubtreeSizes {
 public:
     /// Attribute bytes are estimated per descriptor: raw, a lookup word and 8 bytes per child;
-    /// compressed, half a 24-byte block plus a padding unit and its half block per group.
+    /// compressed, half a 24-byte block plus a padding unit and its half block per group; behind
+    /// a lookup, a lookup word and 2 bytes (1.5 of block, and padding) per child.
     SubtreeSizes(const OctreeIndex& tree, AttributeEncoding attributes) : bytes_(tree.depth()) {
         const std::uint32_t depth = tree.depth();
         const auto descriptorBytes = [&](std::uint32_t valid) -> std::uint64_t {
@@ -357,10 +358,7 @@ private:
             if (valid & (1u << slot)) f(slot, tree_.attribute(d.level + 1, child++));
     }
 
-    /// Uncompressed attachment: a lookup word per unit of the descriptor area (0 for units that
-    /// are not descriptors), padded to a whole unit, then the stored values. A child whose value
-    /// equals its parent's is not stored: it inherits. (The root voxel's own value is stored
-    /// nowhere, so the root descriptor stores all its children.)
+    /// Uncompressed attachment: the lookup array (appendLookup), then the stored values.
     void appendPalette(std::uint64_t descriptorUnits) {
         std::vector<std::uint64_t> values;
         // Pointers in words from the attachment's start: past the lookup array, two per value.
@@ -396,8 +394,8 @@ private:
 
     /// DxtLookup packing: a descriptor's values never straddle two blocks, and start a new block
     /// where they would not share one well with the values already in it (a colour channel
-    /// spread past kPackColourSpread, or a normal farther than kPackNormalDegrees from the block's
-    /// first). The skipped slots are padding (kPaddingValue), never referenced.
+    /// spread past kPackColourSpread, or a normal's cosine to the block's first below
+    /// kPackNormalCosine). The skipped slots are padding (kPaddingValue), never referenced.
     static void padBeforeIncompatible(std::vector<std::uint64_t>& values, std::span<const std::uint64_t> next) {
         const std::size_t inBlock = values.size() % 16;
         bool pad = inBlock + next.size() > 16;

@@ -39,14 +39,6 @@ AttributeSampler::AttributeSampler(const Scene& scene, const std::vector<BoxTest
     }
 }
 
-void AttributeSampler::shade(std::uint32_t t, Vec3d p, double footprint, Vec4f& color, Vec3d& normal) const {
-    const BoxTestTriangle& tri = triangles_[t];
-    const std::array<Vec3d, 3> corners{tri.v0, tri.v1, tri.v2};
-    const SurfaceSample sample = shadeTriangle(scene_, sources_[t], corners, barycentric(corners, p), footprint);
-    color = sample.color;
-    normal = sample.normal;
-}
-
 AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch) const {
     AttributeSums sums;
     const double edge = 2 * h;
@@ -59,44 +51,38 @@ AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3
         Vec3d centroid{0, 0, 0};
         double area = 0;
         const auto& poly = scratch.polygon;
-        if (poly.empty()) {
+        for (std::size_t i = 1; i + 1 < poly.size(); ++i) {
+            const double a = 0.5 * length(cross(poly[i] - poly[0], poly[i + 1] - poly[0]));
+            centroid += (poly[0] + poly[i] + poly[i + 1]) * (a / 3.0);
+            area += a;
+        }
+        if (area > 0) {
+            centroid = centroid / area;
+        } else if (!poly.empty()) {
+            for (const Vec3d& v : poly) centroid += v;
+            centroid = centroid / static_cast<double>(poly.size());
+        } else {
             // Overlapping within the box test's margin only: take the triangle's vertex nearest
             // the cube, at the tiny weight.
-            const Vec3d vs[3] = {tri.v0, tri.v1, tri.v2};
             double best = 1e300;
-            for (const Vec3d& v : vs)
+            for (const Vec3d& v : {tri.v0, tri.v1, tri.v2})
                 if (const double d = length(v - c); d < best) {
                     best = d;
                     centroid = (v - c) * toLocal;
                 }
-        } else {
-            Vec3d vertexMean{0, 0, 0};
-            for (const Vec3d& v : poly) vertexMean += v;
-            vertexMean = vertexMean / static_cast<double>(poly.size());
-            for (std::size_t i = 1; i + 1 < poly.size(); ++i) {
-                const double a = 0.5 * length(cross(poly[i] - poly[0], poly[i + 1] - poly[0]));
-                centroid += (poly[0] + poly[i] + poly[i + 1]) * (a / 3.0);
-                area += a;
-            }
-            centroid = area > 0 ? centroid / area : vertexMean;
         }
         const double weight = area * edge * edge + tiny;
-        Vec4f color;
-        Vec3d normal;
-        if (area > 0 && textured_[sources_[t].mesh]) {
-            // Textures are box-filtered over the fragment itself; a lookup at its centroid with a
-            // voxel-wide footprint would reach half a voxel past it.
-            const std::array<Vec3d, 3> corners{tri.v0, tri.v1, tri.v2};
-            scratch.barycentrics.clear();
+        // Without textures the attributes are linear over the fragment: its centroid's value is
+        // its mean. Textures are box-filtered over the fragment itself; a lookup at its centroid
+        // with a voxel-wide footprint would reach half a voxel past it.
+        const std::array<Vec3d, 3> corners{tri.v0, tri.v1, tri.v2};
+        scratch.barycentrics.clear();
+        if (area > 0 && textured_[sources_[t].mesh])
             for (const Vec3d& v : poly) scratch.barycentrics.push_back(barycentric(corners, c + v * edge));
-            const SurfaceSample sample =
-                shadeTriangle(scene_, sources_[t], corners, barycentric(corners, c + centroid * edge), edge, scratch.barycentrics);
-            color = sample.color;
-            normal = sample.normal;
-        } else {
-            // Without textures the attributes are linear over the fragment: its centroid's value is its mean.
-            shade(t, c + centroid * edge, edge, color, normal);
-        }
+        const SurfaceSample sample =
+            shadeTriangle(scene_, sources_[t], corners, barycentric(corners, c + centroid * edge), edge, scratch.barycentrics);
+        const Vec4f& color = sample.color;
+        const Vec3d& normal = sample.normal;
         sums.weight += weight;
         sums.color += Vec3d{color.x, color.y, color.z} * weight;
         sums.alpha += color.w * weight;

@@ -66,10 +66,6 @@ public:
                                       AttributeScratch& scratch) const;
 
 private:
-    /// Colour (linear RGBA) and unit shading normal of triangle @p t at leaf-unit point @p p,
-    /// with textures filtered over @p footprint leaf units.
-    void shade(std::uint32_t t, Vec3d p, double footprint, Vec4f& color, Vec3d& normal) const;
-
     const Scene& scene_;
     const std::vector<BoxTestTriangle>& triangles_;
     std::vector<TriangleSource> sources_;

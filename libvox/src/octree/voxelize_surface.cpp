@@ -72,9 +72,9 @@ public:
     SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, std::uint32_t depth, std::uint32_t rootLevel,
                    const SurfaceVoxelizeOptions& options, const detail::AttributeSampler* attributes)
         : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), contours_(options.contours), contourError_(options.contourError),
-          colorError_(options.colorError), normalError_(options.normalErrorDegrees), attributes_(attributes), scratch_(depth + 1), masks_(depth - rootLevel), contourOut_(options.contours ? depth + 1 - rootLevel : 0),
+          colorError_(options.colorError), normalError_(options.normalErrorDegrees), attributes_(attributes), scratch_(depth + 1),
+          masks_(depth - rootLevel), contourOut_(options.contours ? depth + 1 - rootLevel : 0),
           attributeOut_(attributes ? depth + 1 - rootLevel : 0) {}
-
 
     /// Returns the node's mask; a node none of whose children a triangle touches (possible only
     /// where rounding made the parent's test pass) is left out: nothing is appended.
@@ -105,10 +105,11 @@ public:
             for (std::uint32_t slot = 0; slot < 8; ++slot) {
                 if (!(touched & (1u << slot))) continue;
                 const std::uint32_t cx = 2 * x + (slot & 1u), cy = 2 * y + ((slot >> 1) & 1u), cz = 2 * z + (slot >> 2);
+                const Vec3d childCentre{(2 * cx + 1) * childHalf, (2 * cy + 1) * childHalf, (2 * cz + 1) * childHalf};
                 bool leaf = level + 1 == depth_;
                 std::uint32_t childSlab = 0;
+                std::optional<detail::AttributeSums> filtered;  // the child's, where the attribute criterion computed them
                 if (contours_) {
-                    const Vec3d childCentre{(2 * cx + 1) * childHalf, (2 * cy + 1) * childHalf, (2 * cz + 1) * childHalf};
                     // The child keeps a contour of its own only where it is much thinner than the
                     // slab its ancestors already impose on it (the ray caster carries theirs);
                     // below a gain's worth of the thinnest encodable slab, no fit can win.
@@ -128,15 +129,13 @@ public:
                     // slab thicker than twice the error cannot be (one of its planes is too far).
                     if (!leaf && contourError_ > 0 && childSlab && thickness * childHalf <= contourError_ &&
                         detail::shapeError(childSlab, children[slot], triangles_, childCentre, childHalf) <= contourError_)
-                        leaf = attributesWithinBounds(children[slot], childCentre, childHalf);
+                        leaf = attributesWithinBounds(children[slot], childCentre, childHalf, filtered);
                 }
                 if (leaf) {
                     mask |= 1u << slot;
                     if (level + 1 < depth_) masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
-                    if (attributes_) {
-                        const Vec3d childCentre{(2 * cx + 1) * childHalf, (2 * cy + 1) * childHalf, (2 * cz + 1) * childHalf};
-                        childSums[slot] = attributes_->filter(children[slot], childCentre, childHalf, attributeScratch_);
-                    }
+                    if (attributes_)
+                        childSums[slot] = filtered ? *filtered : attributes_->filter(children[slot], childCentre, childHalf, attributeScratch_);
                 } else if (build(level + 1, cx, cy, cz, children[slot], childSlab, &childSums[slot]) != 0) {
                     mask |= 1u << slot;
                 }
@@ -158,10 +157,11 @@ public:
 
     /// The attribute criterion of refinement: true where the voxel's own (encoded) colour and
     /// normal represent everything inside it within the bounds, or where there are no bounds.
-    bool attributesWithinBounds(std::span<const std::uint32_t> list, Vec3d centre, double half) {
+    /// @p sums receives the voxel's sums where they were computed.
+    bool attributesWithinBounds(std::span<const std::uint32_t> list, Vec3d centre, double half, std::optional<detail::AttributeSums>& sums) {
         if (!attributes_ || (colorError_ <= 0 && normalError_ <= 0)) return true;
-        const std::uint64_t value = attributes_->filter(list, centre, half, attributeScratch_).pack();
-        const auto v = attributes_->variation(list, centre, half, value, attributeScratch_);
+        sums = attributes_->filter(list, centre, half, attributeScratch_);
+        const auto v = attributes_->variation(list, centre, half, sums->pack(), attributeScratch_);
         return (colorError_ <= 0 || v.color <= colorError_) && (normalError_ <= 0 || v.normalDegrees <= normalError_);
     }
     /// contours()[l − rootLevel] for levels rootLevel … depth (the root level's entry stays empty).

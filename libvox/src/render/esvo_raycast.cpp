@@ -305,7 +305,6 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
     return result;
 }
 
-
 // ---- beam optimisation: the coarse pass ---------------------------------------------------
 //
 // Why the image stays bit for bit the same (the fine pass, cast() with tStart):
