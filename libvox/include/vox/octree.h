@@ -3,6 +3,7 @@
 /// (docs/esvo-format.md).
 #pragma once
 
+#include <vox/lighting.h>
 #include <vox/math.h>
 #include <vox/scene.h>
 #include <vox/util/timings.h>
@@ -25,6 +26,15 @@ struct RootCube {
     [[nodiscard]] std::array<double, 16> worldToUnit() const;
 };
 
+/// A leaf voxel's material, area-weighted over the triangle fragments inside it, unquantised.
+struct LeafMaterial {
+    std::uint32_t x = 0, y = 0, z = 0;  ///< leaf cell
+    Vec3f albedo{0, 0, 0};              ///< linear base colour (factor × texture × vertex colour)
+    float coverage = 0;                 ///< mean base-colour alpha
+    Vec3f emission{0, 0, 0};            ///< linear emitted radiance
+    VoxelNormals normals;               ///< mean normal and per-axis moments (lighting.h)
+};
+
 /// A sparse octree as per-level child masks in Morton order: the structure every builder
 /// produces and the .esvo writer lays out. Level 0 is the root cube; a voxel at level l has
 /// mask bit s set when its child in slot s (bit 0: +x, bit 1: +y, bit 2: +z) exists; a mask of 0
@@ -43,13 +53,25 @@ struct SparseOctree {
     /// cube-face normal (esvo::encodeNormal) in the high 32 bits. Empty: no attributes.
     std::vector<std::vector<std::uint64_t>> attributes;
 
+    /// With SurfaceVoxelizeOptions::leafMaterials: the unquantised material of every voxel of the
+    /// leaf level, in the order of that level (Morton order). What the radiance bake lights.
+    std::vector<LeafMaterial> leafMaterials;
+
     [[nodiscard]] std::uint64_t voxelCount() const noexcept;
 };
+
 
 /// Options for voxelizeSurface.
 struct SurfaceVoxelizeOptions {
     std::uint32_t depth = 10;       ///< leaf level: 2^depth voxels along the cube's edge (1 … 20)
     bool includeDynamic = false;    ///< voxelize meshes flagged dynamic too
+    bool onlyDynamic = false;       ///< voxelize only the meshes flagged dynamic
+    /// The cube to voxelize in; null: RootCube::enclosing the selected meshes' bounds. Triangles
+    /// outside it are clipped away.
+    const RootCube* cube = nullptr;
+    /// Keep SparseOctree::leafMaterials (implies attributes; without contours every leaf is at
+    /// the leaf depth).
+    bool leafMaterials = false;
     bool contours = false;          ///< fit a contour (slab) to every voxel where it helps
     /// With contours: a voxel stops refining where cube ∩ slab lies within this many leaf
     /// voxels of the surface; 0 refines everything to the leaf depth.

@@ -13,6 +13,8 @@ AttributeSums& AttributeSums::operator+=(const AttributeSums& other) {
     color += other.color;
     alpha += other.alpha;
     normal += other.normal;
+    emission += other.emission;
+    for (std::size_t i = 0; i < normalMoments.size(); ++i) normalMoments[i] += other.normalMoments[i];
     if (other.dominantWeight > dominantWeight) {
         dominantWeight = other.dominantWeight;
         dominantNormal = other.dominantNormal;
@@ -35,7 +37,8 @@ AttributeSampler::AttributeSampler(const Scene& scene, const std::vector<BoxTest
     : scene_(scene), triangles_(triangles), sources_(std::move(sources)), textured_(scene.meshes.size(), 0) {
     for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
         const Material& material = scene.materials[scene.meshes[m].material];
-        textured_[m] = material.baseColorTexture.valid() || material.normalTexture.valid();
+        textured_[m] = material.baseColorTexture.valid() || material.normalTexture.valid() ||
+                      (material.isEmissive() && material.emissiveTexture.valid());
     }
 }
 
@@ -87,6 +90,9 @@ AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3
         sums.color += Vec3d{color.x, color.y, color.z} * weight;
         sums.alpha += color.w * weight;
         sums.normal += normal * weight;
+        sums.emission += Vec3d{sample.emission.x, sample.emission.y, sample.emission.z} * weight;
+        for (int axis = 0; axis < 3; ++axis)
+            sums.normalMoments[2 * axis + (normal[axis] < 0 ? 1 : 0)] += std::abs(normal[axis]) * weight;
         if (weight > sums.dominantWeight) {
             sums.dominantWeight = weight;
             sums.dominantNormal = normal;

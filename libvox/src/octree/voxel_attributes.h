@@ -27,6 +27,11 @@ struct AttributeSums {
     Vec3d color{0, 0, 0};   ///< linear RGB × weight
     double alpha = 0;       ///< × weight
     Vec3d normal{0, 0, 0};  ///< unit shading normal × weight
+    Vec3d emission{0, 0, 0};  ///< linear emitted radiance × weight
+    /// What the normal-weighted attenuation (vox::normalWeightedAttenuation) needs of the normals:
+    /// per axis direction (+x, −x, +y, −y, +z, −z), the sum of weight × |n_s| over fragments whose
+    /// normal points that way.
+    std::array<double, 6> normalMoments{};
     /// The heaviest fragment's normal: the fallback where opposite normals cancel in the mean.
     Vec3d dominantNormal{0, 0, 1};
     double dominantWeight = -1;

@@ -62,6 +62,24 @@ constexpr double kOwnContourGain = 0.25;
 /// at most 31·√3.
 constexpr double kThinnestSlab = 0.75 / (31 * 1.7320508075688772);
 
+LeafMaterial leafMaterial(const detail::AttributeSums& sums, std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+    LeafMaterial out;
+    out.x = x;
+    out.y = y;
+    out.z = z;
+    if (!(sums.weight > 0)) return out;
+    const double w = 1.0 / sums.weight;
+    out.albedo = {static_cast<float>(sums.color.x * w), static_cast<float>(sums.color.y * w), static_cast<float>(sums.color.z * w)};
+    out.coverage = static_cast<float>(sums.alpha * w);
+    out.emission = {static_cast<float>(sums.emission.x * w), static_cast<float>(sums.emission.y * w), static_cast<float>(sums.emission.z * w)};
+    // Where opposite sides of a thin sheet cancel, the heaviest fragment's side stands in (as for
+    // the packed normal).
+    const Vec3d n = length(sums.normal) > 0.05 * sums.weight ? normalize(sums.normal) : sums.dominantNormal;
+    out.normals.mean = {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)};
+    for (std::size_t i = 0; i < 6; ++i) out.normals.moments[i] = static_cast<float>(sums.normalMoments[i] * w);
+    return out;
+}
+
 /// Builds one cell's subtree depth-first, appending each node's mask to its level's array after
 /// its children: per level, nodes still come out in Morton order.
 class SubtreeBuilder {
@@ -74,7 +92,7 @@ public:
         : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), contours_(options.contours), contourError_(options.contourError),
           colorError_(options.colorError), normalError_(options.normalErrorDegrees), attributes_(attributes), scratch_(depth + 1),
           masks_(depth - rootLevel), contourOut_(options.contours ? depth + 1 - rootLevel : 0),
-          attributeOut_(attributes ? depth + 1 - rootLevel : 0) {}
+          attributeOut_(attributes ? depth + 1 - rootLevel : 0), keepLeafMaterials_(options.leafMaterials) {}
 
     /// Returns the node's mask; a node none of whose children a triangle touches (possible only
     /// where rounding made the parent's test pass) is left out: nothing is appended.
@@ -145,6 +163,8 @@ public:
                 if (contours_) contourOut_[level + 1 - rootLevel_].push_back(childContours[slot]);
                 if (attributes_) {
                     attributeOut_[level + 1 - rootLevel_].push_back(childSums[slot].pack());
+                    if (keepLeafMaterials_ && level + 1 == depth_)
+                        leafMaterials_.push_back(leafMaterial(childSums[slot], 2 * x + (slot & 1u), 2 * y + ((slot >> 1) & 1u), 2 * z + (slot >> 2)));
                     if (sums) *sums += childSums[slot];
                 }
             }
@@ -154,6 +174,7 @@ public:
     }
 
     std::vector<std::vector<std::uint8_t>>& masks() { return masks_; }
+    std::vector<LeafMaterial>& leafMaterials() { return leafMaterials_; }
 
     /// The attribute criterion of refinement: true where the voxel's own (encoded) colour and
     /// normal represent everything inside it within the bounds, or where there are no bounds.
@@ -183,6 +204,8 @@ private:
     std::vector<std::vector<std::uint64_t>> attributeOut_;
     detail::ContourScratch contourScratch_;
     detail::AttributeScratch attributeScratch_;
+    bool keepLeafMaterials_;
+    std::vector<LeafMaterial> leafMaterials_;
 };
 
 }  // namespace
@@ -191,27 +214,29 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
     if (options.depth < 1 || options.depth > esvo::kMaxLeafDepth)
         throw UsageError("--depth must be between 1 and " + std::to_string(esvo::kMaxLeafDepth));
     const std::uint32_t depth = options.depth;
+    const auto selected = [&](const Mesh& mesh) { return options.onlyDynamic ? mesh.dynamic : (!mesh.dynamic || options.includeDynamic); };
+    const bool attributes = options.attributes || options.leafMaterials;
 
     Bounds3f bounds;
     std::size_t triangleCount = 0;
     for (const Mesh& mesh : scene.meshes) {
-        if (mesh.dynamic && !options.includeDynamic) continue;
+        if (!selected(mesh)) continue;
         for (std::uint32_t index : mesh.indices) bounds.add(mesh.positions[index]);
         triangleCount += mesh.triangleCount();
     }
     const std::filesystem::path source = scene.sourceFiles.empty() ? std::filesystem::path("scene") : scene.sourceFiles.front();
-    if (triangleCount == 0) throw InvalidDataError(source, "no static triangles to voxelize");
+    if (triangleCount == 0) throw InvalidDataError(source, options.onlyDynamic ? "no dynamic triangles to voxelize" : "no static triangles to voxelize");
     if (triangleCount >= 0xFFFFFFFFull) throw InvalidDataError(source, "more than 2^32 triangles");
 
     SparseOctree octree;
-    octree.cube = RootCube::enclosing(bounds);
+    octree.cube = options.cube ? *options.cube : RootCube::enclosing(bounds);
     octree.leafDepth = depth;
 
     // Triangles in leaf-voxel units: the cube is [0, 2^depth]³.
     std::vector<BoxTestTriangle> triangles;
     triangles.reserve(triangleCount);
     std::vector<detail::TriangleSource> sources;
-    if (options.attributes) sources.reserve(triangleCount);
+    if (attributes) sources.reserve(triangleCount);
     {
         Timings::Scope timer(options.timings, "voxelize_prepare");
         const double scale = std::ldexp(1.0, static_cast<int>(depth)) / octree.cube.size;
@@ -220,8 +245,8 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
         };
         for (std::uint32_t m = 0; m < scene.meshes.size(); ++m) {
             const Mesh& mesh = scene.meshes[m];
-            if (mesh.dynamic && !options.includeDynamic) continue;
-            if (options.attributes)
+            if (!selected(mesh)) continue;
+            if (attributes)
                 for (std::size_t t = 0; t < mesh.triangleCount(); ++t) sources.push_back({m, static_cast<std::uint32_t>(t)});
             for (std::size_t t = 0; t < mesh.triangleCount(); ++t)
                 triangles.push_back(detail::prepareBoxTest(toLeaf(mesh.positions[mesh.indices[3 * t]]),
@@ -283,7 +308,8 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
     std::vector<detail::AttributeSums> cellSums(cells.size());
     std::vector<std::uint8_t> occupied(cells.size(), 0);
     std::optional<detail::AttributeSampler> sampler;
-    if (options.attributes) sampler.emplace(scene, triangles, std::move(sources));
+    if (attributes) sampler.emplace(scene, triangles, std::move(sources));
+    std::vector<std::vector<LeafMaterial>> subtreeLeaves(options.leafMaterials ? cells.size() : 0);
     {
         Timings::Scope timer(options.timings, "voxelize_subtrees");
         Progress progress("voxelizing", cells.size());
@@ -303,6 +329,7 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
                 subtrees[c] = std::move(builder.masks());
                 subtreeContours[c] = std::move(builder.contours());
                 subtreeAttributes[c] = std::move(builder.attributes());
+                if (options.leafMaterials) subtreeLeaves[c] = std::move(builder.leafMaterials());
                 progress.advance();
             }
         });
@@ -376,6 +403,15 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
             }
             if (out.size() != octree.voxelsPerLevel[level]) throw std::logic_error("voxelizeSurface: contour count inconsistent");
         }
+    }
+    if (options.leafMaterials) {
+        octree.leafMaterials.reserve(octree.voxelsPerLevel[depth]);
+        for (auto& part : subtreeLeaves) {
+            octree.leafMaterials.insert(octree.leafMaterials.end(), part.begin(), part.end());
+            part = {};
+        }
+        if (!options.contours && octree.leafMaterials.size() != octree.voxelsPerLevel[depth])
+            throw std::logic_error("voxelizeSurface: leaf material count inconsistent");
     }
     if (options.attributes) {
         for (std::uint32_t level = k + 1; level <= depth; ++level) {

@@ -103,6 +103,13 @@ SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std
         }
     }
     out.normal = normal;
+    if (material.isEmissive()) {
+        out.emission = material.emission();
+        if (usable(material.emissiveTexture)) {
+            const Vec4f e = lookup(material.emissiveTexture, cornerUvs(material.emissiveTexture));
+            out.emission = {out.emission.x * e.x, out.emission.y * e.y, out.emission.z * e.z};
+        }
+    }
     return out;
 }
 

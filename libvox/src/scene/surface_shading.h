@@ -21,6 +21,7 @@ struct TriangleSource {
 struct SurfaceSample {
     Vec4f color{1, 1, 1, 1};  ///< linear RGBA: base colour factor × base colour texture × vertex colour
     Vec3d normal{0, 0, 1};    ///< unit shading normal: interpolated, bent by the normal map
+    Vec3f emission{0, 0, 0};  ///< linear emitted radiance: emissive factor × strength × emissive texture
 };
 
 /// Shades triangle @p source of @p scene at barycentric coordinates @p b (weights of its three

@@ -1,0 +1,60 @@
+/// @file radiance.h
+/// @brief The radiance bake (Gui et al. 2019, "Global illumination based on voxel cone tracing",
+/// as an offline bake): conservative voxelization into albedo/normal/emission (the same
+/// voxelizer as the octree), direct light from punctual lights with normal-weighted attenuation
+/// and voxel shadow rays or shadow cones, a six-direction anisotropic mip chain, cone-traced
+/// diffuse bounces and ambient occlusion. The result is an rvol::Volume (docs/rvol-format.md).
+#pragma once
+
+#include <vox/formats/rvol.h>
+#include <vox/lighting.h>
+#include <vox/math.h>
+#include <vox/scene.h>
+#include <vox/util/timings.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace vox {
+
+/// Options for bakeRadiance.
+struct RadianceBakeOptions {
+    std::uint32_t depth = 8;                       ///< level 0 has 2^depth cells along the longest side (1 … 10)
+    Attenuation attenuation = Attenuation::Weighted;
+    double shadowApertureDegrees = 0;              ///< 0: shadow rays through solid voxels; > 0: shadow cones
+    std::uint32_t bounces = 2;
+    /// λ of the ambient-occlusion falloff (eq. 4): δ += (1 − δ)·α / (1 + λ·r), r the cone radius
+    /// in units of the root cube's edge.
+    double aoLambda = 8;
+    /// Keep per-voxel irradiance per bounce in RadianceBake::voxels (tests and the accuracy bench).
+    bool keepVoxelLighting = false;
+    Timings* timings = nullptr;
+};
+
+/// Lighting of one static voxel, kept with RadianceBakeOptions::keepVoxelLighting.
+struct VoxelLighting {
+    std::uint32_t x = 0, y = 0, z = 0;   ///< level-0 cell
+    Vec3d centre{0, 0, 0};               ///< world
+    Vec3f normal{0, 0, 1};               ///< unit mean normal
+    Vec3f albedo{0, 0, 0};               ///< linear
+    Vec3f emission{0, 0, 0};
+    Vec3f direct{0, 0, 0};               ///< irradiance from the punctual lights, after attenuation and shadows
+    /// indirect[b]: irradiance gathered by bounce b + 1 alone (cones over the volume lit by
+    /// bounces 0 … b, minus what bounce b gathered): the light that arrives after exactly b + 1
+    /// diffuse reflections or emissions.
+    std::vector<Vec3f> indirect;
+};
+
+/// The bake's result.
+struct RadianceBake {
+    rvol::Volume volume;
+    std::vector<VoxelLighting> voxels;   ///< with keepVoxelLighting: every static voxel, Morton order
+    std::uint64_t staticVoxels = 0, dynamicVoxels = 0;
+};
+
+/// Bakes the radiance volume of @p scene. Same scene and options → the same volume, whatever the
+/// thread count. @throws InvalidDataError if the scene has no static triangles; UsageError for
+/// bad options.
+[[nodiscard]] RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options);
+
+}  // namespace vox

@@ -1,0 +1,82 @@
+/// @file radiance_field.h
+/// @brief Sampling and cone tracing over an rvol::Volume in memory (Gui et al. 2019, 2.3–2.4): the
+/// bake's bounces, `voxinspect render`'s final gather and the tests all trace cones through this.
+#pragma once
+
+#include <vox/formats/rvol.h>
+#include <vox/math.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace vox {
+
+/// Read access to a volume's levels with a dense block index per level, for fast lookups. The
+/// volume must outlive the field and keep its blocks (texel values may change: the bake rewrites
+/// them each bounce).
+class RadianceField {
+public:
+    explicit RadianceField(const rvol::Volume& volume);
+
+    [[nodiscard]] const rvol::Volume& volume() const noexcept { return volume_; }
+
+    /// Trilinear sample of level @p level at world point @p p, the cone looking along unit @p dir:
+    /// level 0's single channel, or the three directional channels facing @p dir weighted by
+    /// dir_s² (paper 2.3). Cell coordinates are clamped to the level, like a GPU's clamp-to-edge.
+    [[nodiscard]] rvol::Texel sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexcept;
+    /// Between levels: linear in the fractional level (clamped to [0, depth]).
+    [[nodiscard]] rvol::Texel sampleLod(double level, Vec3d p, Vec3d dir) const noexcept;
+
+    /// One cone: from @p origin along unit @p dir, half-angle tangent @p tanHalfAngle, samples from
+    /// @p start to @p maxDistance (world units) stepping half a footprint, compositing front to back
+    /// (eq. 3, opacity corrected for the step).
+    struct Cone {
+        Vec3d origin, dir;
+        double tanHalfAngle = 0.577;
+        double start = 0;
+        double maxDistance = 1e30;
+        /// With a non-zero @p plane normal: the cone leaves the surface through @p planePoint with
+        /// that unit normal, and no sample's filter reaches behind that plane (a sample's level is
+        /// lowered until its trilinear footprint, 1.5 cells each way, stays in front). Without
+        /// this, coarse samples near the start straddle the surface the cone leaves and pick up
+        /// what lies behind it: the lit outside of a closed room's wall, seen from inside.
+        Vec3d planePoint{0, 0, 0};
+        Vec3d planeNormal{0, 0, 0};
+    };
+    struct ConeResult {
+        Vec3d radiance{0, 0, 0};  ///< composited radiance arriving along the cone
+        double opacity = 0;       ///< accumulated opacity (1 − visibility)
+        double occlusion = 0;     ///< ambient occlusion, eq. 4
+    };
+    /// @p aoLambda: eq. 4's λ, per root-cube edge of cone radius. @p opacityOnly skips radiance
+    /// (shadow cones).
+    [[nodiscard]] ConeResult traceCone(const Cone& cone, double aoLambda, bool opacityOnly = false) const noexcept;
+
+    /// Diffuse irradiance at a surface point: six 60° cones over the hemisphere of @p normal (one
+    /// along it, five tilted 60° at azimuths 72° apart), weighted by their cosine-weighted solid
+    /// angles so that uniform radiance L gives π·L. @p offset: world distance the cones start off
+    /// the surface, along the normal.
+    struct Gather {
+        Vec3d irradiance{0, 0, 0};
+        double occlusion = 0;  ///< cosine-weighted mean of the cones' eq. 4 occlusion
+    };
+    [[nodiscard]] Gather gatherDiffuse(Vec3d point, Vec3d normal, double offset, double aoLambda) const noexcept;
+
+    /// The texels of cell (x, y, z) of @p level (channel c at offset c·rvol::kBlockTexels), or null
+    /// where no block holds it. Coordinates must be inside the level.
+    [[nodiscard]] const rvol::Texel* cellTexels(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z) const noexcept;
+
+    /// Cell edge of level 0, world units.
+    [[nodiscard]] double finestCell() const noexcept { return finestCell_; }
+
+private:
+    struct LevelIndex {
+        std::uint32_t blocksPerAxis = 1;
+        std::vector<std::int32_t> blocks;  ///< dense: block index in the level, or -1
+    };
+    const rvol::Volume& volume_;
+    std::vector<LevelIndex> index_;
+    double finestCell_ = 1;
+};
+
+}  // namespace vox

@@ -1,0 +1,301 @@
+// The radiance bake (Gui et al. 2019 as an offline bake): voxelize with the octree's voxelizer,
+// light level 0 directly, filter the anisotropic mips, then gather bounces with cones and
+// re-filter after each.
+#include "air_regions.h"
+#include "radiance_mips.h"
+#include "voxel_shadows.h"
+
+#include <vox/formats/error.h>
+#include <vox/octree.h>
+#include <vox/radiance.h>
+#include <vox/radiance_field.h>
+#include <vox/util/progress.h>
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <string>
+
+namespace vox {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+/// Where the cones of a gather start, in level-0 cells off the surface: clear of the surface's own
+/// conservative voxels (up to two thick where a plane runs along a cell boundary).
+constexpr double kGatherOffsetCells = 1.5;
+/// A voxel shows no light to a cone looking along an axis direction when under this share of its
+/// surface on that axis faces the cone (it is the back of a surface there).
+constexpr float kHiddenShare = 0.1f;
+
+/// Per level-0 voxel: the bits of the channels that see only the back of its surface.
+std::uint8_t hiddenChannels(const VoxelNormals& normals) {
+    std::uint8_t bits = 0;
+    for (std::uint32_t k = 0; k < rvol::kDirections; ++k) {
+        const std::uint32_t axis = k / 2;
+        const bool looksNegative = k & 1u;
+        // A cone looking along +axis sees the faces whose normals point along −axis.
+        const float front = normals.moments[2 * axis + (looksNegative ? 0 : 1)];
+        const float back = normals.moments[2 * axis + (looksNegative ? 1 : 0)];
+        if (front + back > 0.05f && front < kHiddenShare * (front + back)) bits = static_cast<std::uint8_t>(bits | (1u << k));
+    }
+    return bits;
+}
+
+Vec3d toVec3d(Vec3f v) { return {v.x, v.y, v.z}; }
+
+/// A volume a set of voxels gathers bounce light from: level 0 holds its members, the mips are
+/// filtered from them.
+struct GatherVolume {
+    rvol::Volume* volume = nullptr;
+    rvol::Volume own;                   ///< storage, for the volumes of air regions
+    std::vector<std::size_t> members;   ///< leaf indices, ascending (Morton order)
+    std::vector<std::size_t> cellTexel; ///< per member: its texel in level 0
+    std::vector<std::uint8_t> hidden;   ///< per level-0 texel (filterMips)
+    std::unique_ptr<RadianceField> field;
+
+    void build(rvol::Volume& target, const std::vector<LeafMaterial>& leaves, std::vector<std::size_t> memberIndices) {
+        volume = &target;
+        members = std::move(memberIndices);
+        std::vector<std::array<std::uint32_t, 3>> cells(members.size());
+        for (std::size_t k = 0; k < members.size(); ++k) cells[k] = {leaves[members[k]].x, leaves[members[k]].y, leaves[members[k]].z};
+        detail::allocateVolume(target, cells, cellTexel);
+        hidden.assign(target.levels[0].texels.size(), 0);
+        for (std::size_t k = 0; k < members.size(); ++k) {
+            target.levels[0].texels[cellTexel[k]].a = 1;
+            hidden[cellTexel[k]] = hiddenChannels(leaves[members[k]].normals);
+        }
+        field = std::make_unique<RadianceField>(target);
+    }
+    /// Level 0 from per-leaf radiance, then the mips.
+    void update(const std::vector<Vec3f>& radiance) {
+        auto& texels = volume->levels[0].texels;
+        for (std::size_t k = 0; k < members.size(); ++k) {
+            const Vec3f& L = radiance[members[k]];
+            rvol::Texel& t = texels[cellTexel[k]];
+            t.r = L.x;
+            t.g = L.y;
+            t.b = L.z;
+        }
+        detail::filterMips(*volume, *field, hidden);
+    }
+};
+
+}  // namespace
+
+RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options) {
+    if (options.depth < 1 || options.depth > 10) throw UsageError("--radiance-depth must be between 1 and 10");
+    if (options.bounces > 16) throw UsageError("--bounces must be at most 16");
+    if (!(options.shadowApertureDegrees >= 0 && options.shadowApertureDegrees < 90))
+        throw UsageError("--shadow-aperture must be at least 0 and below 90 degrees");
+    if (!(options.aoLambda >= 0) || !std::isfinite(options.aoLambda)) throw UsageError("--ao-lambda must be a finite number ≥ 0");
+
+    RadianceBake bake;
+    rvol::Volume& volume = bake.volume;
+    const Bounds3f bounds = scene.bounds();
+    const RootCube cube = RootCube::enclosing(bounds);
+    volume.origin = {cube.origin.x, cube.origin.y, cube.origin.z};
+    volume.size = cube.size;
+    volume.depth = options.depth;
+    volume.sceneBounds = {bounds.min.x, bounds.min.y, bounds.min.z, bounds.max.x, bounds.max.y, bounds.max.z};
+
+    // Conservative voxelization with the octree's voxelizer: a cell is solid where a triangle
+    // touches its closed cube; its material is the area-weighted mean over its fragments.
+    SurfaceVoxelizeOptions voxelize;
+    voxelize.depth = options.depth;
+    voxelize.cube = &cube;
+    voxelize.leafMaterials = true;
+    voxelize.timings = options.timings;
+    std::vector<LeafMaterial> leaves = voxelizeSurface(scene, voxelize).leafMaterials;
+    std::vector<LeafMaterial> dynamicLeaves;
+    if (scene.dynamicTriangleCount() > 0) {
+        voxelize.onlyDynamic = true;
+        dynamicLeaves = voxelizeSurface(scene, voxelize).leafMaterials;
+    }
+    bake.staticVoxels = leaves.size();
+    bake.dynamicVoxels = dynamicLeaves.size();
+
+    std::vector<std::array<std::uint32_t, 3>> cells(leaves.size());
+    for (std::size_t i = 0; i < leaves.size(); ++i) cells[i] = {leaves[i].x, leaves[i].y, leaves[i].z};
+    const detail::SolidGrid solid(options.depth, cells);
+    // The stored volume holds every static voxel.
+    GatherVolume all;
+    {
+        std::vector<std::size_t> everyone(leaves.size());
+        for (std::size_t i = 0; i < leaves.size(); ++i) everyone[i] = i;
+        all.build(volume, leaves, std::move(everyone));
+    }
+    const RadianceField& field = *all.field;
+    const double cell = volume.cellSize(0);
+    const auto centreOf = [&](const LeafMaterial& v) {
+        return Vec3d{volume.origin[0] + (v.x + 0.5) * cell, volume.origin[1] + (v.y + 0.5) * cell, volume.origin[2] + (v.z + 0.5) * cell};
+    };
+
+    // Where empty space splits into regions (closed rooms), each large region gets a volume of the
+    // voxels facing it, and its voxels gather from that one: nothing behind a wall reaches them.
+    std::vector<std::unique_ptr<GatherVolume>> regionVolumes;
+    std::vector<std::int32_t> gatherFrom(leaves.size(), -1);  // index into regionVolumes, -1: all
+    {
+        Timings::Scope timer(options.timings, "radiance_regions");
+        const detail::AirRegions regions(solid, options.depth);
+        if (regions.count() > 1) {
+            std::vector<std::uint16_t> faced(leaves.size());
+            std::vector<std::uint64_t> facedCount(regions.count(), 0);
+            for (std::size_t i = 0; i < leaves.size(); ++i) {
+                faced[i] = regions.facing(leaves[i].x, leaves[i].y, leaves[i].z, leaves[i].normals.mean);
+                if (faced[i] < regions.count()) ++facedCount[faced[i]];
+            }
+            // Regions faced by at least 1 % of the voxels, largest first (at most 8), unless one
+            // region is faced by nearly every voxel (then the whole volume is its volume).
+            std::vector<std::uint16_t> chosen;
+            for (std::uint32_t r = 0; r < regions.count(); ++r)
+                if (facedCount[r] * 100 >= leaves.size()) chosen.push_back(static_cast<std::uint16_t>(r));
+            std::stable_sort(chosen.begin(), chosen.end(), [&](std::uint16_t a, std::uint16_t b) { return facedCount[a] > facedCount[b]; });
+            if (chosen.size() > 8) chosen.resize(8);
+            if (!chosen.empty() && facedCount[chosen.front()] * 100 < 99 * leaves.size())
+                for (std::uint16_t region : chosen) {
+                    std::vector<std::size_t> members;
+                    for (std::size_t i = 0; i < leaves.size(); ++i)
+                        if (regions.touches(leaves[i].x, leaves[i].y, leaves[i].z, region)) members.push_back(i);
+                    auto gv = std::make_unique<GatherVolume>();
+                    gv->own.origin = volume.origin;
+                    gv->own.size = volume.size;
+                    gv->own.depth = volume.depth;
+                    gv->build(gv->own, leaves, std::move(members));
+                    const auto index = static_cast<std::int32_t>(regionVolumes.size());
+                    for (std::size_t i = 0; i < leaves.size(); ++i)
+                        if (faced[i] == region) gatherFrom[i] = index;
+                    regionVolumes.push_back(std::move(gv));
+                }
+        }
+    }
+
+    std::vector<const Light*> lights;
+    for (const Light& light : scene.lights)
+        if (!light.dynamic) lights.push_back(&light);
+    volume.bake = {options.bounces, static_cast<float>(options.shadowApertureDegrees), static_cast<float>(options.aoLambda),
+                   static_cast<std::uint32_t>(options.attenuation), static_cast<std::uint32_t>(lights.size())};
+
+    // Shadow cones need the occlusion of the mips before any light is in them.
+    const bool shadowCones = options.shadowApertureDegrees > 0;
+    if (shadowCones) {
+        Timings::Scope timer(options.timings, "radiance_occlusion_mips");
+        detail::filterMips(volume, field, all.hidden);
+    }
+
+    // Direct light (eq. 2 attenuation, shadow rays or cones).
+    std::vector<Vec3f> direct(leaves.size());
+    {
+        Timings::Scope timer(options.timings, "radiance_direct");
+        const double tanHalf = std::tan(0.5 * options.shadowApertureDegrees * kPi / 180);
+        Progress progress("direct light", leaves.size());
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                const LeafMaterial& v = leaves[i];
+                const Vec3d centre = centreOf(v);
+                const Vec3d n = toVec3d(v.normals.mean);
+                Vec3d e{0, 0, 0};
+                for (const Light* light : lights) {
+                    LightArrival arrival;
+                    if (!lightArrival(*light, centre, arrival)) continue;
+                    const double attenuation = attenuate(options.attenuation, v.normals, arrival.toLight);
+                    if (!(attenuation > 0)) continue;
+                    // Leave the voxel on the side of its surface that faces the light.
+                    const double side = dot(n, arrival.toLight) >= 0 ? 1.0 : -1.0;
+                    double visibility = 1;
+                    if (shadowCones) {
+                        const Vec3d origin = centre + n * (side * kGatherOffsetCells * cell);
+                        const auto cone = field.traceCone({origin, arrival.toLight, tanHalf, 0, arrival.distance}, 0, true);
+                        visibility = 1 - cone.opacity;
+                    } else {
+                        const Vec3d local{v.x + 0.5 + side * n.x, v.y + 0.5 + side * n.y, v.z + 0.5 + side * n.z};
+                        const double maxT = std::isfinite(arrival.distance) ? arrival.distance / cell : 1e30;
+                        if (solid.occluded(local, arrival.toLight, maxT)) visibility = 0;
+                    }
+                    e += arrival.irradiance * (attenuation * visibility);
+                }
+                direct[i] = {static_cast<float>(e.x), static_cast<float>(e.y), static_cast<float>(e.z)};
+            }
+            progress.advance(r.size());
+        });
+    }
+
+    // Level 0's radiance from the irradiance a voxel receives: emission + albedo/π · E.
+    std::vector<Vec3f> radiance(leaves.size());
+    const auto light = [&](const std::vector<Vec3f>* gathered) {
+        tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t i) {
+            const LeafMaterial& v = leaves[i];
+            Vec3f e = direct[i];
+            if (gathered) e = e + (*gathered)[i];
+            const float k = static_cast<float>(1 / kPi);
+            radiance[i] = {v.emission.x + v.albedo.x * k * e.x, v.emission.y + v.albedo.y * k * e.y, v.emission.z + v.albedo.z * k * e.z};
+        });
+        all.update(radiance);
+        for (auto& gv : regionVolumes) gv->update(radiance);
+    };
+    {
+        Timings::Scope timer(options.timings, "radiance_filter");
+        light(nullptr);
+    }
+
+    // Bounces: gather over the volume lit so far, light level 0 again, re-filter.
+    std::vector<Vec3f> gathered(leaves.size()), previous(leaves.size());
+    std::vector<float> occlusion(leaves.size(), 0);
+    if (options.keepVoxelLighting) bake.voxels.resize(leaves.size());
+    const std::uint32_t passes = std::max<std::uint32_t>(options.bounces, 1);  // one pass for AO without bounces
+    for (std::uint32_t b = 0; b < passes; ++b) {
+        Timings::Scope timer(options.timings, "radiance_bounce_" + std::to_string(b + 1));
+        Progress progress("bounce " + std::to_string(b + 1), leaves.size());
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 512), [&](const tbb::blocked_range<std::size_t>& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                const LeafMaterial& v = leaves[i];
+                const RadianceField& from = gatherFrom[i] < 0 ? field : *regionVolumes[static_cast<std::size_t>(gatherFrom[i])]->field;
+                const auto g = from.gatherDiffuse(centreOf(v), toVec3d(v.normals.mean), kGatherOffsetCells * cell, options.aoLambda);
+                gathered[i] = {static_cast<float>(g.irradiance.x), static_cast<float>(g.irradiance.y), static_cast<float>(g.irradiance.z)};
+                if (b == 0) occlusion[i] = static_cast<float>(g.occlusion);
+            }
+            progress.advance(r.size());
+        });
+        if (options.keepVoxelLighting)
+            for (std::size_t i = 0; i < leaves.size(); ++i) bake.voxels[i].indirect.push_back(gathered[i] - previous[i]);
+        previous = gathered;
+        if (b < options.bounces) light(&gathered);
+    }
+
+    if (options.keepVoxelLighting)
+        for (std::size_t i = 0; i < leaves.size(); ++i) {
+            VoxelLighting& out = bake.voxels[i];
+            const LeafMaterial& v = leaves[i];
+            out.x = v.x;
+            out.y = v.y;
+            out.z = v.z;
+            out.centre = centreOf(v);
+            out.normal = v.normals.mean;
+            out.albedo = v.albedo;
+            out.emission = v.emission;
+            out.direct = direct[i];
+            if (options.bounces == 0) out.indirect.clear();
+        }
+
+    const auto attributes = [](const LeafMaterial& v, float ao) {
+        rvol::VoxelAttributes a;
+        a.x = v.x;
+        a.y = v.y;
+        a.z = v.z;
+        a.albedo = {v.albedo.x, v.albedo.y, v.albedo.z};
+        a.coverage = v.coverage;
+        a.normal = {v.normals.mean.x, v.normals.mean.y, v.normals.mean.z};
+        a.emission = {v.emission.x, v.emission.y, v.emission.z};
+        a.occlusion = ao;
+        return a;
+    };
+    volume.staticVoxels.reserve(leaves.size());
+    for (std::size_t i = 0; i < leaves.size(); ++i) volume.staticVoxels.push_back(attributes(leaves[i], occlusion[i]));
+    volume.dynamicVoxels.reserve(dynamicLeaves.size());
+    for (const LeafMaterial& v : dynamicLeaves) volume.dynamicVoxels.push_back(attributes(v, 0));
+    return bake;
+}
+
+}  // namespace vox

@@ -1,0 +1,165 @@
+// Sampling the anisotropic mip chain and tracing cones through it (Gui et al. 2019, 2.3–2.4).
+#include <vox/radiance_field.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace vox {
+
+using rvol::kBlockCells;
+using rvol::kBlockTexels;
+using rvol::Texel;
+
+RadianceField::RadianceField(const rvol::Volume& volume) : volume_(volume), index_(volume.levels.size()) {
+    finestCell_ = volume.cellSize(0);
+    for (std::size_t l = 0; l < volume.levels.size(); ++l) {
+        const rvol::Level& level = volume.levels[l];
+        LevelIndex& index = index_[l];
+        index.blocksPerAxis = std::max<std::uint32_t>(1, (level.resolution + kBlockCells - 1) / kBlockCells);
+        const std::size_t n = std::size_t{index.blocksPerAxis} * index.blocksPerAxis * index.blocksPerAxis;
+        index.blocks.assign(n, -1);
+        for (std::size_t b = 0; b < level.blocks.size(); ++b) {
+            const auto c = rvol::demorton3(level.blocks[b]);
+            index.blocks[(std::size_t{c[2]} * index.blocksPerAxis + c[1]) * index.blocksPerAxis + c[0]] = static_cast<std::int32_t>(b);
+        }
+    }
+}
+
+const Texel* RadianceField::cellTexels(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z) const noexcept {
+    const LevelIndex& index = index_[level];
+    const std::int32_t block =
+        index.blocks[(std::size_t{z / kBlockCells} * index.blocksPerAxis + y / kBlockCells) * index.blocksPerAxis + x / kBlockCells];
+    if (block < 0) return nullptr;
+    const rvol::Level& l = volume_.levels[level];
+    return l.texels.data() + rvol::Level::texelIndex(static_cast<std::size_t>(block), l.channels, 0, x, y, z);
+}
+
+Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexcept {
+    const rvol::Level& l = volume_.levels[level];
+    const double cellSize = volume_.cellSize(level);
+    const double last = l.resolution - 1.0;
+    double u[3];
+    for (int axis = 0; axis < 3; ++axis) u[axis] = std::clamp((p[axis] - volume_.origin[axis]) / cellSize - 0.5, 0.0, last);
+    std::uint32_t c0[3], c1[3];
+    double f[3];
+    for (int axis = 0; axis < 3; ++axis) {
+        const double fl = std::floor(u[axis]);
+        c0[axis] = static_cast<std::uint32_t>(fl);
+        c1[axis] = std::min(c0[axis] + 1, l.resolution - 1);
+        f[axis] = u[axis] - fl;
+    }
+    // Channel offsets and weights: one channel at level 0, else the three facing the direction.
+    std::size_t offsets[3] = {0, 0, 0};
+    double weights[3] = {1, 0, 0};
+    std::uint32_t channelCount = 1;
+    if (l.channels == rvol::kDirections) {
+        channelCount = 3;
+        for (int axis = 0; axis < 3; ++axis) {
+            const std::uint32_t channel = 2 * axis + (dir[axis] < 0 ? 1 : 0);
+            offsets[axis] = std::size_t{channel} * kBlockTexels;
+            weights[axis] = dir[axis] * dir[axis];
+        }
+    }
+    double r = 0, g = 0, b = 0, a = 0;
+    for (int corner = 0; corner < 8; ++corner) {
+        const double w = (corner & 1 ? f[0] : 1 - f[0]) * (corner & 2 ? f[1] : 1 - f[1]) * (corner & 4 ? f[2] : 1 - f[2]);
+        if (w <= 0) continue;
+        const Texel* t = cellTexels(level, corner & 1 ? c1[0] : c0[0], corner & 2 ? c1[1] : c0[1], corner & 4 ? c1[2] : c0[2]);
+        if (!t) continue;
+        for (std::uint32_t c = 0; c < channelCount; ++c) {
+            const Texel& v = t[offsets[c]];
+            const double cw = w * weights[c];
+            r += cw * v.r;
+            g += cw * v.g;
+            b += cw * v.b;
+            a += cw * v.a;
+        }
+    }
+    return {static_cast<float>(r), static_cast<float>(g), static_cast<float>(b), static_cast<float>(a)};
+}
+
+Texel RadianceField::sampleLod(double level, Vec3d p, Vec3d dir) const noexcept {
+    const double top = static_cast<double>(volume_.levels.size() - 1);
+    level = std::clamp(level, 0.0, top);
+    const auto lo = static_cast<std::uint32_t>(std::floor(level));
+    const double f = level - lo;
+    const Texel a = sample(lo, p, dir);
+    if (f <= 0 || lo + 1 >= volume_.levels.size()) return a;
+    const Texel b = sample(lo + 1, p, dir);
+    const auto mix = [f](float x, float y) { return static_cast<float>(x + (y - x) * f); };
+    return {mix(a.r, b.r), mix(a.g, b.g), mix(a.b, b.b), mix(a.a, b.a)};
+}
+
+RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLambda, bool opacityOnly) const noexcept {
+    ConeResult out;
+    const double size = volume_.size;
+    const Vec3d lo{volume_.origin[0], volume_.origin[1], volume_.origin[2]};
+    const Vec3d hi = lo + Vec3d{size, size, size};
+    const double top = static_cast<double>(volume_.levels.size() - 1);
+    double t = std::max(cone.start, 0.5 * finestCell_);
+    double opacity = 0, occlusion = 0;
+    Vec3d radiance{0, 0, 0};
+    const bool clampToPlane = cone.planeNormal.x != 0 || cone.planeNormal.y != 0 || cone.planeNormal.z != 0;
+    while (t < cone.maxDistance && opacity < 0.995) {
+        const Vec3d p = cone.origin + cone.dir * t;
+        const double diameter = std::max(2 * t * cone.tanHalfAngle, finestCell_);
+        // Geometry reaches the cube's faces (the cube encloses the scene's bounds): march until the
+        // footprint has left it, so surfaces on the faces get their full opacity.
+        const double margin = 0.5 * diameter;
+        if (p.x < lo.x - margin || p.y < lo.y - margin || p.z < lo.z - margin || p.x > hi.x + margin || p.y > hi.y + margin ||
+            p.z > hi.z + margin)
+            break;
+        double footprint = diameter;
+        if (clampToPlane) footprint = std::max(finestCell_, std::min(footprint, dot(p - cone.planePoint, cone.planeNormal) / 1.5));
+        const double level = std::log2(footprint / finestCell_);
+        if (level > top) break;
+        const double step = 0.5 * diameter;
+        const Texel s = sampleLod(level, p, cone.dir);
+        if (s.a > 1e-6f) {
+            // The sample's opacity is for a footprint-long path; the step covers half of it.
+            const double a = std::clamp(double(s.a), 0.0, 1.0);
+            const double corrected = 1 - std::pow(1 - std::min(a, 0.999999), step / diameter);
+            if (!opacityOnly) radiance += Vec3d{s.r, s.g, s.b} * ((1 - opacity) * corrected / a);
+            occlusion += (1 - occlusion) * corrected / (1 + aoLambda * 0.5 * diameter / size);
+            opacity += (1 - opacity) * corrected;
+        }
+        t += step;
+    }
+    out.radiance = radiance;
+    out.opacity = opacity;
+    out.occlusion = occlusion;
+    return out;
+}
+
+RadianceField::Gather RadianceField::gatherDiffuse(Vec3d point, Vec3d normal, double offset, double aoLambda) const noexcept {
+    // Cosine-weighted solid angles of a 30° half-angle cone: π·sin²30° along the normal, and
+    // 2π(1 − cos 30°)·cos 60° tilted by 60°; normalised so that the six sum to π.
+    constexpr double kPi = 3.14159265358979323846;
+    const double centre = kPi * 0.25, side = 2 * kPi * (1 - std::cos(kPi / 6)) * 0.5;
+    const double norm = kPi / (centre + 5 * side);
+    const double tanHalf = std::tan(kPi / 6);
+    // A tangent frame that depends only on the normal (deterministic).
+    const Vec3d helper = std::abs(normal.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
+    const Vec3d tangent = normalize(cross(helper, normal));
+    const Vec3d bitangent = cross(normal, tangent);
+    const Vec3d origin = point + normal * offset;
+    Gather out;
+    double weightSum = 0;
+    for (int i = 0; i < 6; ++i) {
+        Vec3d dir = normal;
+        double weight = centre * norm;
+        if (i > 0) {
+            const double phi = 2 * kPi * (i - 1) / 5;
+            dir = normalize(normal * 0.5 + (tangent * std::cos(phi) + bitangent * std::sin(phi)) * (std::sqrt(3.0) / 2));
+            weight = side * norm;
+        }
+        const ConeResult r = traceCone({origin, dir, tanHalf, 0, 1e30, point, normal}, aoLambda);
+        out.irradiance += r.radiance * weight;
+        out.occlusion += r.occlusion * weight;
+        weightSum += weight;
+    }
+    out.occlusion /= weightSum;
+    return out;
+}
+
+}  // namespace vox

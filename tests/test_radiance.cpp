@@ -1,0 +1,212 @@
+// The radiance bake (libvox/src/radiance): physical sanity on the Cornell-like example and on scenes
+// built in code, determinism, and the pieces (direct light, shadows, mips, cones).
+#include <vox/import.h>
+#include <vox/radiance.h>
+#include <vox/radiance_field.h>
+
+#include "cornell_box.h"
+#include "scene_builder.h"
+#include "test_support.h"
+
+#include <tbb/global_control.h>
+
+#include <cmath>
+
+namespace {
+
+using vox::Vec3d;
+using vox::Vec3f;
+constexpr double kPi = 3.14159265358979323846;
+
+double luminance(Vec3f c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
+
+vox::Scene cornellBox(const vox::test::ScratchDir& dir) { return vox::importScene(vox::scenes::writeCornellBox(dir.path())); }
+
+vox::RadianceBake bake(const vox::Scene& scene, std::uint32_t depth, std::uint32_t bounces) {
+    vox::RadianceBakeOptions options;
+    options.depth = depth;
+    options.bounces = bounces;
+    options.keepVoxelLighting = true;
+    return vox::bakeRadiance(scene, options);
+}
+
+/// Mean over the floor's top voxels (normal +y) whose centre lies in the x range, of the indirect
+/// irradiance's red share.
+double floorRedShare(const vox::RadianceBake& b, double xLo, double xHi) {
+    double red = 0, total = 0;
+    for (const auto& v : b.voxels) {
+        if (v.normal.y < 0.9 || v.centre.y > 0.05 || v.centre.x < xLo || v.centre.x > xHi || std::abs(v.centre.z) > 0.5) continue;
+        Vec3f e{0, 0, 0};
+        for (const Vec3f& i : v.indirect) e = e + i;
+        red += e.x;
+        total += e.x + e.y + e.z;
+    }
+    EXPECT_GT(total, 0);
+    return red / total;
+}
+
+}  // namespace
+
+TEST(RadianceBake, FloorBesideTheRedWallIsRedderThanBesideTheGreenWall) {
+    vox::test::ScratchDir dir;
+    const auto b = bake(cornellBox(dir), 6, 2);
+    const double nearRed = floorRedShare(b, -0.95, -0.7), nearGreen = floorRedShare(b, 0.7, 0.95);
+    EXPECT_GT(nearRed, nearGreen * 1.1) << nearRed << " vs " << nearGreen;
+}
+
+TEST(RadianceBake, EachBounceAddsLessThanTheOneBefore) {
+    vox::test::ScratchDir dir;
+    const auto b = bake(cornellBox(dir), 6, 3);
+    std::array<double, 3> energy{};
+    for (const auto& v : b.voxels)
+        for (std::size_t i = 0; i < 3; ++i) energy[i] += luminance(v.indirect.at(i));
+    EXPECT_GT(energy[0], 0);
+    EXPECT_LT(energy[1], energy[0]);
+    EXPECT_LT(energy[2], energy[1]);
+    EXPECT_GT(energy[2], 0);
+}
+
+TEST(RadianceBake, WithAllAlbedosZeroBouncesAddNothing) {
+    vox::test::ScratchDir dir;
+    vox::Scene scene = cornellBox(dir);
+    for (vox::Material& m : scene.materials) {
+        m.baseColorFactor = {0, 0, 0, 1};
+        m.baseColorTexture = {};
+    }
+    const auto none = bake(scene, 5, 0), two = bake(scene, 5, 2);
+    ASSERT_EQ(none.volume.levels.size(), two.volume.levels.size());
+    for (std::size_t l = 0; l < none.volume.levels.size(); ++l) EXPECT_TRUE(none.volume.levels[l].texels == two.volume.levels[l].texels) << l;
+    // Light still arrives (the panel's emission), it just is not reflected.
+    double gathered = 0;
+    for (const auto& v : two.voxels) gathered += luminance(v.indirect.at(0));
+    EXPECT_GT(gathered, 0);
+}
+
+TEST(RadianceBake, ClosedBoxWithTheLightsOutsideStaysBlackInside) {
+    // A box [−1, 1]³ with walls 2 voxels thick at depth 5 (32 cells over 2 + 2t: t = 1/7), lit from
+    // outside by a sun and a point light; nothing may leak in.
+    vox::Scene scene;
+    const double t = 1.0 / 7;
+    const auto white = vox::test::addMaterial(scene, {0.8f, 0.8f, 0.8f});
+    for (int axis = 0; axis < 3; ++axis)
+        for (int side : {-1, 1}) {
+            Vec3d lo{-1 - t, -1 - t, -1 - t}, hi{1 + t, 1 + t, 1 + t};
+            lo[axis] = side < 0 ? -1 - t : 1;
+            hi[axis] = side < 0 ? -1 : 1 + t;
+            vox::test::addBox(scene, lo, hi, white);
+        }
+    vox::Light sun;
+    sun.type = vox::Light::Type::Directional;
+    sun.intensity = 5;
+    sun.direction = {0.3f, -0.8f, -0.52f};
+    scene.lights.push_back(sun);
+    vox::Light point;
+    point.position = {0.5f, 1.6f, 0.2f};
+    point.intensity = 20;
+    scene.lights.push_back(point);
+    const auto b = bake(scene, 5, 2);
+    double outside = 0, inside = 0;
+    std::size_t insideCount = 0;
+    for (const auto& v : b.voxels) {
+        const double e = luminance(v.direct) + luminance(v.indirect[0]) + luminance(v.indirect[1]);
+        // The voxels of the inner faces on the air's side (the slabs overlap, so some faces lie
+        // buried inside the walls; those are neither inside nor lit).
+        if (std::abs(v.centre.x) < 1 && std::abs(v.centre.y) < 1 && std::abs(v.centre.z) < 1) {
+            inside = std::max(inside, e);
+            ++insideCount;
+        } else {
+            outside = std::max(outside, e);
+        }
+    }
+    EXPECT_GT(insideCount, 1000u);
+    EXPECT_GT(outside, 1);
+    EXPECT_EQ(inside, 0) << "light leaked in; brightest outside " << outside;
+}
+
+TEST(RadianceBake, DirectLightOnAFloorIsAlbedoOverPiTimesIntensityOverDistanceSquared) {
+    vox::Scene scene;
+    const Vec3f albedo{0.5f, 0.25f, 0.8f};
+    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4}, vox::test::addMaterial(scene, albedo));
+    vox::Light point;
+    point.position = {0, 1, 0};
+    point.intensity = 3;
+    scene.lights.push_back(point);
+    const auto b = bake(scene, 6, 0);
+    ASSERT_FALSE(b.voxels.empty());
+    for (const auto& v : b.voxels) {
+        const Vec3d toLight = Vec3d{0, 1, 0} - v.centre;
+        const double d = vox::length(toLight);
+        const double expected = 3 * (toLight.y / d) / (d * d);
+        EXPECT_NEAR(v.direct.x, expected, 1e-4 * expected) << v.centre.x << "," << v.centre.z;
+    }
+}
+
+TEST(RadianceBake, AnOccluderCastsAShadowRayShadowAndEmissionStillArrivesThroughCones) {
+    vox::Scene scene;
+    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4}, vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
+    // A black, emissive slab above the floor between it and the light.
+    vox::test::addBox(scene, {-0.5, 0.6, -0.5}, {0.5, 0.7, 0.5}, vox::test::addMaterial(scene, {0, 0, 0}, {2, 2, 2}));
+    vox::Light point;
+    point.position = {0, 2, 0};
+    point.intensity = 4;
+    scene.lights.push_back(point);
+    const auto b = bake(scene, 6, 1);
+    std::size_t shadowed = 0, lit = 0;
+    for (const auto& v : b.voxels) {
+        if (v.normal.y < 0.9 || v.centre.y > 0.05) continue;  // floor only
+        if (std::abs(v.centre.x) < 0.3 && std::abs(v.centre.z) < 0.3) {
+            EXPECT_EQ(v.direct.x, 0) << "under the slab";
+            EXPECT_GT(v.indirect[0].x, 0.5) << "the slab's emission reaches the floor beneath it";
+            ++shadowed;
+        } else if (std::abs(v.centre.x) > 1.2 || std::abs(v.centre.z) > 1.2) {
+            EXPECT_GT(v.direct.x, 0);
+            ++lit;
+        }
+    }
+    EXPECT_GT(shadowed, 10u);
+    EXPECT_GT(lit, 10u);
+}
+
+TEST(RadianceBake, SameVolumeWhateverTheThreadCount) {
+    vox::test::ScratchDir dir;
+    const vox::Scene scene = cornellBox(dir);
+    vox::RadianceBakeOptions options;
+    options.depth = 5;
+    vox::RadianceBake one, two;
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        one = vox::bakeRadiance(scene, options);
+    }
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+        two = vox::bakeRadiance(scene, options);
+    }
+    for (std::size_t l = 0; l < one.volume.levels.size(); ++l) {
+        EXPECT_EQ(one.volume.levels[l].blocks, two.volume.levels[l].blocks);
+        EXPECT_TRUE(one.volume.levels[l].texels == two.volume.levels[l].texels) << l;
+    }
+}
+
+TEST(RadianceBake, DynamicMeshesStayOutOfTheStaticVolumeAndFormTheirOwnLayer) {
+    vox::test::ScratchDir dir;
+    const vox::Scene scene = cornellBox(dir);
+    const auto b = bake(scene, 5, 0);
+    EXPECT_GT(b.dynamicVoxels, 20u);
+    ASSERT_EQ(b.volume.dynamicVoxels.size(), b.dynamicVoxels);
+    // The sphere's voxels are not solid in level 0 unless a static surface shares them.
+    const vox::RadianceField field(b.volume);
+    std::size_t alsoStatic = 0;
+    for (const auto& v : b.volume.dynamicVoxels) alsoStatic += field.cellTexels(0, v.x, v.y, v.z) != nullptr && field.cellTexels(0, v.x, v.y, v.z)->a > 0;
+    EXPECT_LT(alsoStatic, b.dynamicVoxels / 4);
+}
+
+TEST(RadianceField, UniformRadianceGathersPiL) {
+    // A closed emissive box: every cone ends on the walls, whose radiance is Le.
+    vox::Scene scene;
+    vox::test::addBox(scene, {-1, -1, -1}, {1, 1, 1}, vox::test::addMaterial(scene, {0, 0, 0}, {1, 1, 1}), true);
+    const auto b = bake(scene, 5, 1);
+    double sum = 0;
+    for (const auto& v : b.voxels) sum += v.indirect[0].x;
+    const double mean = sum / double(b.voxels.size());
+    EXPECT_NEAR(mean, kPi, 0.1 * kPi);
+}
