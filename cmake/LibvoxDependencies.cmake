@@ -38,3 +38,42 @@ if(NOT LIBVOX_FINDING_FOR_CONSUMER)
   find_path(TINYGLTF_INCLUDE_DIR tiny_gltf.h REQUIRED)
   find_package(CLI11 CONFIG REQUIRED)
 endif()
+
+# OpenVDB (vox::core's .vdb export; linked privately, its headers stay out of libvox's). Debian's
+# libopenvdb-dev ships no config file, only a find module in /usr/lib/<multiarch>/cmake/OpenVDB,
+# outside CMake's module path, and that module needs libboost-iostreams-dev, which the package
+# does not declare. The module also sets BUILD_SHARED_LIBS ON in its caller's scope (which would
+# make vox::formats and vox::core shared libraries) and its directory holds other find modules
+# (FindTBB, FindOpenEXR, ...): so it runs inside a block() that keeps its variables and module path
+# to itself; only the imported targets come out. Without the module: find the library by hand.
+block()
+  if(NOT TARGET OpenVDB::openvdb)
+    find_path(LIBVOX_OPENVDB_MODULE_DIR FindOpenVDB.cmake NO_DEFAULT_PATH
+      PATHS /usr/lib/${CMAKE_LIBRARY_ARCHITECTURE}/cmake/OpenVDB /usr/local/lib/cmake/OpenVDB /usr/lib/cmake/OpenVDB
+      DOC "Directory of OpenVDB's FindOpenVDB.cmake")
+    if(LIBVOX_OPENVDB_MODULE_DIR)
+      list(PREPEND CMAKE_MODULE_PATH "${LIBVOX_OPENVDB_MODULE_DIR}")
+    endif()
+    find_package(OpenVDB QUIET)
+  endif()
+  if(NOT TARGET OpenVDB::openvdb)
+    find_path(LIBVOX_OPENVDB_INCLUDE_DIR openvdb/openvdb.h)
+    find_library(LIBVOX_OPENVDB_LIBRARY openvdb)
+    find_package(Imath CONFIG QUIET)  # OpenVDB >= 9 headers include <Imath/half.h>
+    if(LIBVOX_OPENVDB_INCLUDE_DIR AND LIBVOX_OPENVDB_LIBRARY)
+      add_library(OpenVDB::openvdb UNKNOWN IMPORTED)
+      set_target_properties(OpenVDB::openvdb PROPERTIES
+        IMPORTED_LOCATION "${LIBVOX_OPENVDB_LIBRARY}"
+        INTERFACE_INCLUDE_DIRECTORIES "${LIBVOX_OPENVDB_INCLUDE_DIR}"
+        INTERFACE_LINK_LIBRARIES "TBB::tbb;Threads::Threads;$<TARGET_NAME_IF_EXISTS:Imath::Imath>")
+    endif()
+  endif()
+endblock()
+if(NOT TARGET OpenVDB::openvdb)
+  if(LIBVOX_FINDING_FOR_CONSUMER)
+    set(${CMAKE_FIND_PACKAGE_NAME}_NOT_FOUND_MESSAGE "OpenVDB not found (Debian: libopenvdb-dev libboost-iostreams-dev)")
+    set(${CMAKE_FIND_PACKAGE_NAME}_FOUND FALSE)
+    return()
+  endif()
+  message(FATAL_ERROR "OpenVDB not found (Debian: libopenvdb-dev libboost-iostreams-dev)")
+endif()

@@ -1,6 +1,7 @@
 // voxelize and voxinspect as a content build meets them: exit codes, one-line errors, no
 // output on failure, --stats and --depfile.
 #include <vox/formats/atomic_file.h>
+#include <vox/texture.h>
 
 #include "assimp_models.h"
 #include "cornell_box.h"
@@ -391,4 +392,172 @@ TEST(Tools, ContoursAreOnByDefaultAndRefinementStopsAtTheContourError) {
     // before the leaf depth.
     EXPECT_LT(coarse["voxels"].get<double>(), 0.2 * cubes["voxels"].get<double>());
     EXPECT_LT(coarse["voxels_per_level"][8].get<double>(), 0.2 * cubes["voxels_per_level"][8].get<double>());
+}
+
+// ---- .rvol through the tools ----------------------------------------------------------------
+
+namespace {
+
+/// Bakes the Cornell box's radiance volume at depth 5 with one bounce (well under a second).
+std::filesystem::path bakeCornellRvol(const ScratchDir& dir) {
+    const auto scene = vox::scenes::writeCornellBox(dir.path());
+    const auto rvol = dir / "box.rvol";
+    const ProcessResult r = voxelize({scene.string(), "--radiance", rvol.string(), "--radiance-depth", "5", "--bounces", "1"});
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    return rvol;
+}
+
+nlohmann::json sampleJson(const std::filesystem::path& rvol, const std::vector<std::string>& extra) {
+    std::vector<std::string> args{"sample", rvol.string(), "--json"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const ProcessResult r = voxinspect(args);
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    return r.exitCode == 0 ? nlohmann::json::parse(r.out) : nlohmann::json::object();
+}
+
+}  // namespace
+
+TEST(Tools, RvolInfoAndValidate) {
+    ScratchDir dir;
+    const auto rvol = bakeCornellRvol(dir);
+    const ProcessResult info = voxinspect({"info", rvol.string(), "--json"});
+    ASSERT_EQ(info.exitCode, 0) << info.err;
+    const auto report = nlohmann::json::parse(info.out);
+    EXPECT_EQ(report["depth"], 5);
+    EXPECT_EQ(report["resolution"], 32);
+    EXPECT_GT(report["bricks"].get<int>(), 0);
+    EXPECT_EQ(report["bake"]["bounces"], 1);
+    EXPECT_EQ(report["bake"]["lights"], 3);
+    EXPECT_GT(report["static_voxels"].get<int>(), 0);
+    EXPECT_GT(report["dynamic_voxels"].get<int>(), 0) << "the sphere is dynamic";
+    ASSERT_EQ(report["levels"].size(), 6u);
+    std::uint64_t bricks = 0, levelBytes = 0, parts = 0;
+    for (const auto& level : report["levels"]) {
+        bricks += level["bricks"].get<std::uint64_t>();
+        levelBytes += level["bytes"].get<std::uint64_t>();
+    }
+    EXPECT_EQ(bricks, report["bricks"].get<std::uint64_t>());
+    EXPECT_EQ(levelBytes, report["bytes"]["radiance"].get<std::uint64_t>());
+    for (const auto& [part, bytes] : report["bytes"].items()) parts += bytes.get<std::uint64_t>();
+    EXPECT_EQ(parts, std::filesystem::file_size(rvol)) << "the parts add up to the file";
+    EXPECT_EQ(report["file_bytes"].get<std::uint64_t>(), std::filesystem::file_size(rvol));
+    const ProcessResult text = voxinspect({"info", rvol.string()});
+    EXPECT_EQ(text.exitCode, 0) << text.err;
+    EXPECT_NE(text.out.find("depth 5"), std::string::npos) << text.out;
+
+    const ProcessResult valid = voxinspect({"validate", rvol.string()});
+    EXPECT_EQ(valid.exitCode, 0) << valid.err;
+    EXPECT_NE(valid.out.find("valid"), std::string::npos) << valid.out;
+    // Flip a byte inside the first brick (brickDataOffset: header bytes 176-183).
+    auto bytes = readBytes(rvol);
+    std::uint64_t brickData = 0;
+    std::memcpy(&brickData, bytes.data() + 176, 8);
+    ASSERT_LT(brickData + 100, bytes.size());
+    bytes[brickData + 100] ^= 0x10;
+    const auto corrupt = dir / "corrupt.rvol";
+    vox::test::writeBinary(corrupt, bytes);
+    expectOneLineError(voxinspect({"validate", corrupt.string()}), 3, "checksum mismatch", "voxinspect");
+    expectOneLineError(voxinspect({"info", corrupt.string()}), 3, "brick", "voxinspect");
+    expectOneLineError(voxinspect({"dump", rvol.string()}), 1, ".esvo", "voxinspect");
+}
+
+TEST(Tools, RvolSampleReadsRadianceAndOpacity) {
+    ScratchDir dir;
+    const auto rvol = bakeCornellRvol(dir);
+    // On the floor beside the red wall: lit, and reddened by the wall.
+    const auto floor = sampleJson(rvol, {"--at", "-0.9,0.02,0"});
+    ASSERT_EQ(floor["radiance"].size(), 3u);
+    EXPECT_GT(floor["radiance"][0].get<double>(), floor["radiance"][1].get<double>()) << floor.dump();
+    EXPECT_GT(floor["occlusion"].get<double>(), 0.0);
+    EXPECT_EQ(floor["level"], 0);
+    EXPECT_TRUE(floor["direction"].is_null());
+    EXPECT_NEAR(floor["premultiplied"][0].get<double>(), floor["radiance"][0].get<double>() * floor["occlusion"].get<double>(), 1e-6);
+    // Empty space, far from every surface.
+    const auto air = sampleJson(rvol, {"--at", "0.3,1.5,0.5"});
+    EXPECT_EQ(air["occlusion"].get<double>(), 0.0) << air.dump();
+    EXPECT_EQ(air["radiance"], nlohmann::json({0.0, 0.0, 0.0}));
+    // Coarser levels: one direction, or the mean of the six.
+    const auto directional = sampleJson(rvol, {"--at", "-0.9,1,0", "--level", "2", "--dir", "-x"});
+    EXPECT_EQ(directional["direction"], nlohmann::json({-1.0, 0.0, 0.0}));
+    EXPECT_GT(directional["occlusion"].get<double>(), 0.0) << "the red wall is in the cone's way";
+    EXPECT_EQ(sampleJson(rvol, {"--at", "0,1,0", "--level", "1"})["channel"], "mean of 6 channels");
+    EXPECT_EQ(sampleJson(rvol, {"--at", "0,1,0", "--level", "5", "--dir", "1,1,0"})["direction"].size(), 3u);
+
+    expectOneLineError(voxinspect({"sample", rvol.string(), "--at", "0,1,0", "--level", "9"}), 1, "--level 9", "voxinspect");
+    expectOneLineError(voxinspect({"sample", rvol.string(), "--at", "0,1"}), 1, "--at", "voxinspect");
+    expectOneLineError(voxinspect({"sample", rvol.string(), "--at", "0,1,0", "--level", "1", "--dir", "+w"}), 1, "--dir", "voxinspect");
+    expectOneLineError(voxinspect({"sample", rvol.string(), "--at", "0,1,0", "--level", "1", "--dir", "0,0,0"}), 1, "--dir", "voxinspect");
+}
+
+TEST(Tools, RvolSlicesWriteOnePngPerLevelAndChannel) {
+    ScratchDir dir;
+    const auto rvol = bakeCornellRvol(dir);
+    const auto out = dir / "slices";
+    const ProcessResult r = voxinspect({"slices", rvol.string(), "-o", out.string(), "--axis", "y", "--exposure", "2"});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    std::size_t pngs = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(out)) pngs += entry.path().extension() == ".png";
+    EXPECT_EQ(pngs, 1u + 6u * 5u);
+    EXPECT_TRUE(std::filesystem::exists(out / "L0_iso.png"));
+    EXPECT_TRUE(std::filesystem::exists(out / "L1_px.png"));
+    EXPECT_TRUE(std::filesystem::exists(out / "L5_nz.png"));
+    const vox::Texture level0 = vox::loadTexture(out / "L0_iso.png", vox::ColorSpace::Linear);
+    EXPECT_EQ(level0.width(), 32);
+    EXPECT_EQ(level0.height(), 32);
+    expectOneLineError(voxinspect({"slices", rvol.string(), "-o", out.string(), "--axis", "w"}), 1, "--axis", "voxinspect");
+    expectOneLineError(voxinspect({"slices", rvol.string(), "-o", out.string(), "--index", "32"}), 1, "--index", "voxinspect");
+}
+
+TEST(Tools, RvolRenderFinalGathersTheScene) {
+    ScratchDir dir;
+    const auto rvol = bakeCornellRvol(dir);
+    const auto scene = dir / "cornell_box.gltf";
+    const auto png = dir / "final.png";
+    const std::vector<std::string> camera{"--eye", "0,1,3.2", "--target", "0,1,0", "--fov", "50", "--width", "48", "--height", "36"};
+    const auto render = [&](const std::filesystem::path& out, std::vector<std::string> extra) {
+        std::vector<std::string> args{"render", rvol.string(), "-o", out.string()};
+        args.insert(args.end(), camera.begin(), camera.end());
+        args.insert(args.end(), extra.begin(), extra.end());
+        return voxinspect(args);
+    };
+    const ProcessResult r = render(png, {"--scene", scene.string(), "--threads", "1"});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(r.err.empty()) << r.err;
+    const vox::Texture image = vox::loadTexture(png, vox::ColorSpace::Linear);
+    ASSERT_EQ(image.width(), 48);
+    ASSERT_EQ(image.height(), 36);
+    double mean = 0, leftRed = 0, rightRed = 0;
+    for (int y = 0; y < image.height(); ++y)
+        for (int x = 0; x < image.width(); ++x) {
+            const vox::Vec4f p = image.texel(0, x, y);
+            mean += (p.x + p.y + p.z) / 3;
+            if (x < image.width() / 4) leftRed += p.x - p.y;
+            if (x >= image.width() * 3 / 4) rightRed += p.x - p.y;
+        }
+    mean /= double(image.width()) * image.height();
+    EXPECT_GT(mean, 0.05);
+    EXPECT_GT(leftRed, rightRed + 0.1 * image.height()) << "the red wall is on the left, the green one on the right";
+    // Deterministic whatever the thread count.
+    const auto threaded = dir / "threaded.png";
+    ASSERT_EQ(render(threaded, {"--scene", scene.string(), "--threads", "3"}).exitCode, 0);
+    EXPECT_EQ(readBytes(png), readBytes(threaded));
+    // Every channel, with and without shadow cones.
+    for (const char* channel : {"direct", "indirect", "specular", "ao", "albedo", "normal"})
+        EXPECT_EQ(render(dir / "c.png", {"--scene", scene.string(), "--channel", channel, "--no-shadow-cones"}).exitCode, 0) << channel;
+    // Primary hits from an octree instead: without --scene there are no lights, which it says.
+    const auto esvo = dir / "box.esvo";
+    ASSERT_EQ(voxelize({scene.string(), "-o", esvo.string(), "--depth", "6"}).exitCode, 0);
+    const ProcessResult fromOctree = render(dir / "esvo.png", {"--esvo", esvo.string()});
+    EXPECT_EQ(fromOctree.exitCode, 0) << fromOctree.err;
+    EXPECT_NE(fromOctree.err.find("warning"), std::string::npos) << fromOctree.err;
+    EXPECT_EQ(render(dir / "esvo.png", {"--esvo", esvo.string(), "--scene", scene.string()}).exitCode, 0);
+
+    expectOneLineError(render(png, {}), 1, "--scene", "voxinspect");
+    expectOneLineError(render(png, {"--scene", scene.string(), "--channel", "depth"}), 1, "--channel", "voxinspect");
+    expectOneLineError(render(png, {"--scene", scene.string(), "--beam", "4"}), 1, "--beam", "voxinspect");
+    expectOneLineError(render(png, {"--scene", scene.string(), "--spec-aperture", "0"}), 1, "--spec-aperture", "voxinspect");
+    expectOneLineError(render(png, {"--scene", scene.string(), "--exposure", "-1"}), 1, "--exposure", "voxinspect");
+    std::vector<std::string> esvoArgs{"render", esvo.string(), "-o", png.string(), "--exposure", "2"};
+    esvoArgs.insert(esvoArgs.end(), camera.begin(), camera.end());
+    expectOneLineError(voxinspect(esvoArgs), 1, "--exposure", "voxinspect");
 }

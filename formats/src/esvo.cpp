@@ -1,41 +1,6 @@
 #include <vox/formats/esvo.h>
 
 namespace vox::esvo {
-namespace {
-
-struct Crc32cTable {
-    std::array<std::array<std::uint32_t, 256>, 8> t{};
-    constexpr Crc32cTable() {
-        for (std::uint32_t i = 0; i < 256; ++i) {
-            std::uint32_t c = i;
-            for (int k = 0; k < 8; ++k) c = (c & 1u) ? (c >> 1) ^ 0x82F63B78u : c >> 1;
-            t[0][i] = c;
-        }
-        for (std::uint32_t i = 0; i < 256; ++i)
-            for (std::size_t s = 1; s < 8; ++s) t[s][i] = (t[s - 1][i] >> 8) ^ t[0][t[s - 1][i] & 0xFFu];
-    }
-};
-constexpr Crc32cTable kCrcTable;
-
-}  // namespace
-
-std::uint32_t crc32c(const void* data, std::size_t size, std::uint32_t crc) noexcept {
-    const auto* p = static_cast<const std::uint8_t*>(data);
-    const auto& t = kCrcTable.t;
-    crc = ~crc;
-    // Slicing-by-8: the checksums cover every slice, so this is on the load path.
-    while (size >= 8) {
-        const std::uint32_t lo = load<std::uint32_t>(p) ^ crc;
-        const std::uint32_t hi = load<std::uint32_t>(p + 4);
-        crc = t[7][lo & 0xFF] ^ t[6][(lo >> 8) & 0xFF] ^ t[5][(lo >> 16) & 0xFF] ^ t[4][lo >> 24] ^
-              t[3][hi & 0xFF] ^ t[2][(hi >> 8) & 0xFF] ^ t[1][(hi >> 16) & 0xFF] ^ t[0][hi >> 24];
-        p += 8;
-        size -= 8;
-    }
-    while (size--) crc = (crc >> 8) ^ t[0][(crc ^ *p++) & 0xFFu];
-    return ~crc;
-}
-
 std::array<std::uint8_t, kHeaderBytes> encodeHeader(const Header& h) {
     std::array<std::uint8_t, kHeaderBytes> out{};
     std::uint8_t* p = out.data();

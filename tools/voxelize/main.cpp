@@ -5,7 +5,10 @@
 
 #include <vox/formats/error.h>
 #include <vox/import.h>
+#include <vox/formats/rvol_io.h>
 #include <vox/octree.h>
+#include <vox/radiance.h>
+#include <vox/vdb_export.h>
 #include <vox/util/log.h>
 #include <vox/util/timings.h>
 #include <vox/version.h>
@@ -33,16 +36,88 @@ struct VoxelizeOptions {
     std::vector<std::string> dynamicNames;
     bool strict = false;
     bool noTextures = false;
+    // Radiance volume
+    std::string radiance;
+    unsigned radianceDepth = 8;
+    std::string attenuation = "weighted";
+    double shadowAperture = 0;
+    unsigned bounces = 2;
+    double aoLambda = 8;
+    unsigned brickTexels = 4;
+    bool noStaticAttributes = false;
+    std::string exportVdb;
 };
+
+/// Bakes and writes the .rvol; returns its part of the report.
+nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& scene, vox::Timings& timings) {
+    vox::RadianceBakeOptions bakeOptions;
+    bakeOptions.depth = options.radianceDepth;
+    bakeOptions.attenuation = options.attenuation == "paper"     ? vox::Attenuation::Paper
+                              : options.attenuation == "average" ? vox::Attenuation::Average
+                                                                 : vox::Attenuation::Weighted;
+    bakeOptions.shadowApertureDegrees = options.shadowAperture;
+    bakeOptions.bounces = options.bounces;
+    bakeOptions.aoLambda = options.aoLambda;
+    bakeOptions.timings = &timings;
+    const auto start = std::chrono::steady_clock::now();
+    vox::RadianceBake bake;
+    {
+        vox::Timings::Scope timer(&timings, "radiance_bake");
+        bake = vox::bakeRadiance(scene, bakeOptions);
+    }
+    const double bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    vox::rvol::RvolWriteOptions writeOptions;
+    writeOptions.brickTexels = options.brickTexels;
+    writeOptions.staticAttributes = !options.noStaticAttributes;
+    vox::rvol::RvolWriteResult written;
+    {
+        vox::Timings::Scope timer(&timings, "rvol_write");
+        written = vox::rvol::writeRvol(options.radiance, bake.volume, writeOptions);
+    }
+    if (!options.exportVdb.empty()) {
+        vox::Timings::Scope timer(&timings, "vdb_export");
+        vox::exportVdb(options.exportVdb, bake.volume);
+    }
+    char summary[512];
+    std::snprintf(summary, sizeof summary,
+                  "%s: %u³ cells, %llu static + %llu dynamic voxels, %u bounces, %llu bricks, %.2f MB (radiance %.2f MB) in %.2f s",
+                  options.radiance.c_str(), 1u << options.radianceDepth, static_cast<unsigned long long>(bake.staticVoxels),
+                  static_cast<unsigned long long>(bake.dynamicVoxels), options.bounces, static_cast<unsigned long long>(written.bricks),
+                  double(written.fileBytes) / 1e6, double(written.radianceBytes) / 1e6, bakeSeconds);
+    vox::log::info(summary);
+    return {{"output", options.radiance},
+            {"depth", options.radianceDepth},
+            {"resolution", 1u << options.radianceDepth},
+            {"static_voxels", bake.staticVoxels},
+            {"dynamic_voxels", bake.dynamicVoxels},
+            {"lights", bake.volume.bake.lights},
+            {"bounces", options.bounces},
+            {"attenuation", options.attenuation},
+            {"shadow_aperture_degrees", options.shadowAperture},
+            {"brick_texels", options.brickTexels},
+            {"bricks", written.bricks},
+            {"bricks_per_level", written.bricksPerLevel},
+            {"file_bytes", written.fileBytes},
+            {"radiance_bytes", written.radianceBytes},
+            {"directory_bytes", written.directoryBytes},
+            {"attribute_bytes", written.attributeBytes},
+            {"bake_seconds", bakeSeconds}};
+}
 
 void voxelize(const VoxelizeOptions& options) {
     vox::Timings timings;
     const auto start = std::chrono::steady_clock::now();
-    if (!options.depfile.empty() && options.stats.empty() && options.output.empty())
-        throw vox::UsageError("--depfile needs an output to name as its target (-o or --stats)");
+    if (!options.depfile.empty() && options.stats.empty() && options.output.empty() && options.radiance.empty())
+        throw vox::UsageError("--depfile needs an output to name as its target (-o, --radiance or --stats)");
     const std::filesystem::path output(options.output);
     if (!options.output.empty() && output.extension() != ".esvo")
         throw vox::UsageError("-o: unknown output type '" + output.extension().string() + "' (expected .esvo)");
+    if (!options.radiance.empty() && std::filesystem::path(options.radiance).extension() != ".rvol")
+        throw vox::UsageError("--radiance: unknown output type '" + std::filesystem::path(options.radiance).extension().string() +
+                              "' (expected .rvol)");
+    if (!options.exportVdb.empty() && options.radiance.empty()) throw vox::UsageError("--export-vdb needs --radiance");
+    if (!options.exportVdb.empty() && std::filesystem::path(options.exportVdb).extension() != ".vdb")
+        throw vox::UsageError("--export-vdb: expected a .vdb file name");
 
     vox::ImportOptions importOptions;
     importOptions.dynamicNames = options.dynamicNames;
@@ -118,10 +193,14 @@ void voxelize(const VoxelizeOptions& options) {
                             {"voxels_per_second", double(octree.voxelCount()) / buildSeconds}};
     }
 
+    if (!options.radiance.empty()) report["radiance"] = bakeRadiance(options, scene, timings);
+
     timings.add("total", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
     if (!options.stats.empty()) vox::tools::writeStats(options.stats, report, "voxelize", timings);
     if (!options.depfile.empty())
-        vox::tools::writeDepfile(options.depfile, options.output.empty() ? options.stats : options.output, scene.sourceFiles);
+        vox::tools::writeDepfile(options.depfile,
+                                 !options.output.empty() ? options.output : !options.radiance.empty() ? options.radiance : options.stats,
+                                 scene.sourceFiles);
 }
 
 }  // namespace
@@ -152,6 +231,25 @@ int main(int argc, char** argv) {
     app.add_option("--normal-error", options.normalError,
                    "With --contour-error: keep refining where the normal varies more than this many degrees inside a voxel (0: off)")
         ->check(CLI::Range(0.0, 180.0))->capture_default_str();
+    app.add_option("--radiance", options.radiance, "Bake a mipmapped anisotropic radiance volume here (.rvol)");
+    app.add_option("--radiance-depth", options.radianceDepth, "Radiance volume: 2^N cells along the scene's longest side")
+        ->check(CLI::Range(1, 10))->capture_default_str();
+    app.add_option("--attenuation", options.attenuation,
+                   "Direct light's normal attenuation per voxel: weighted (per axis, by the voxel's own normals), paper "
+                   "(eq. 2 of Gui et al. on the mean normal) or average (cosine of the mean normal)")
+        ->check(CLI::IsMember({"weighted", "paper", "average"}))->capture_default_str();
+    app.add_option("--shadow-aperture", options.shadowAperture,
+                   "Shadows by a cone of this aperture in degrees through the voxels' occlusion (0: shadow rays)")
+        ->check(CLI::Range(0.0, 89.0))->capture_default_str();
+    app.add_option("--bounces", options.bounces, "Indirect bounces gathered with cones")->check(CLI::Range(0, 16))->capture_default_str();
+    app.add_option("--ao-lambda", options.aoLambda,
+                   "Ambient occlusion falloff λ (eq. 4), per scene-cube edge of cone radius")
+        ->check(CLI::Range(0.0, 1e6))->capture_default_str();
+    app.add_option("--brick-texels", options.brickTexels, "Radiance volume: texels per brick edge (bricks share their faces)")
+        ->check(CLI::Range(2, 32))->capture_default_str();
+    app.add_flag("--no-static-attributes", options.noStaticAttributes,
+                 "Radiance volume: leave out the static voxels' albedo/normal/emission layer (dynamic voxels' is always written)");
+    app.add_option("--export-vdb", options.exportVdb, "With --radiance: also write albedo, radiance per direction and occlusion as OpenVDB grids");
     app.add_option("--debug-near-pointer-limit", options.nearPointerLimit,
                    "Largest near child pointer (testing far pointers)")
         ->check(CLI::Range(32, 0x7FFF))->group("");

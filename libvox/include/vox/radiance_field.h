@@ -21,8 +21,10 @@ public:
     [[nodiscard]] const rvol::Volume& volume() const noexcept { return volume_; }
 
     /// Trilinear sample of level @p level at world point @p p, the cone looking along unit @p dir:
-    /// level 0's single channel, or the three directional channels facing @p dir weighted by
-    /// dir_s² (paper 2.3). Cell coordinates are clamped to the level, like a GPU's clamp-to-edge.
+    /// level 0's single channel, or the three directional channels facing @p dir: colour blended
+    /// by dir_s² (paper 2.3), opacity as 1 − Π_s (1 − a_s)^(|dir_s| / Σ|dir|), so a wall opaque
+    /// along its normal stays opaque to oblique cones. Cell coordinates are clamped to the level,
+    /// like a GPU's clamp-to-edge.
     [[nodiscard]] rvol::Texel sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexcept;
     /// Between levels: linear in the fractional level (clamped to [0, depth]).
     [[nodiscard]] rvol::Texel sampleLod(double level, Vec3d p, Vec3d dir) const noexcept;
@@ -55,7 +57,8 @@ public:
     /// Diffuse irradiance at a surface point: six 60° cones over the hemisphere of @p normal (one
     /// along it, five tilted 60° at azimuths 72° apart), weighted by their cosine-weighted solid
     /// angles so that uniform radiance L gives π·L. @p offset: world distance the cones start off
-    /// the surface, along the normal.
+    /// the surface, along the normal; no sample filters behind a plane one level-0 cell above
+    /// @p point (Cone::planePoint).
     struct Gather {
         Vec3d irradiance{0, 0, 0};
         double occlusion = 0;  ///< cosine-weighted mean of the cones' eq. 4 occlusion

@@ -1,15 +1,33 @@
 /// @file triangle_raycast.h
 /// @brief A BVH triangle ray caster: the reference the octree renders are compared against
-/// (geometric truth in the tests, the peer in bench/).
+/// (geometric truth in the tests, the peer in bench/), and the rays of the path-traced radiance
+/// reference (castSurface).
 #pragma once
 
 #include <vox/raycast.h>
 #include <vox/scene.h>
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace vox {
+
+/// The nearest triangle along a ray, unshaded: what a caller that shades or samples the surface
+/// itself (the path-traced reference) needs. Intersection runs in single precision, so the hit
+/// point is accurate to a few float ulps of the scene's coordinates; offset secondary rays
+/// accordingly.
+struct SurfaceHit {
+    bool hit = false;
+    double t = std::numeric_limits<double>::infinity();  ///< distance along the (unit) ray direction
+    std::uint32_t mesh = 0;       ///< index into Scene::meshes
+    std::uint32_t triangle = 0;   ///< triangle within the mesh (indices 3·triangle … 3·triangle + 2)
+    Vec3d barycentric{0, 0, 0};   ///< weights of the triangle's three corners at the hit, summing to 1
+    /// Unit normal of the triangle's winding (counter-clockwise = front), not turned towards the
+    /// ray: callers that treat surfaces as two-sided decide the side from dot(geometricNormal, d).
+    Vec3d geometricNormal{0, 0, 0};
+    std::uint32_t iterations = 0;  ///< BVH nodes visited
+};
 
 /// Casts rays against a scene's triangles (world units) through a bounding volume hierarchy.
 class TriangleRayCaster {
@@ -21,6 +39,8 @@ public:
     /// shading normal come from the material (as the voxel filter evaluates it), textures
     /// filtered over @p footprintAngle × t (a pixel's footprint; 0: finest mip level).
     [[nodiscard]] CastHit cast(const Ray& ray, double tMax = std::numeric_limits<double>::infinity(), double footprintAngle = 0) const;
+    /// Nearest hit with t < @p tMax, without shading (the same traversal as cast()). Thread-safe.
+    [[nodiscard]] SurfaceHit castSurface(const Ray& ray, double tMax = std::numeric_limits<double>::infinity()) const;
     [[nodiscard]] std::size_t triangleCount() const noexcept { return triangles_.size(); }
 
 private:
@@ -32,6 +52,15 @@ private:
         std::uint32_t first;  // leaf: first triangle; inner: right child (left child is this + 1)
         std::uint32_t count;  // leaf: triangle count; inner: 0
     };
+    /// The BVH traversal cast() and castSurface() share: the nearest triangle (index into
+    /// triangles_, or kNone) and its Möller–Trumbore t, u, v.
+    struct Nearest {
+        static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+        std::uint32_t triangle = kNone;
+        float t = 0, u = 0, v = 0;
+        std::uint32_t iterations = 0;
+    };
+    [[nodiscard]] Nearest nearest(const Ray& ray, double tMax) const;
     std::uint32_t build(std::uint32_t first, std::uint32_t count, std::vector<Vec3f>& centroids);
     const Scene& scene_;
     std::vector<Triangle> triangles_;

@@ -48,19 +48,14 @@ Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexc
         c1[axis] = std::min(c0[axis] + 1, l.resolution - 1);
         f[axis] = u[axis] - fl;
     }
-    // Channel offsets and weights: one channel at level 0, else the three facing the direction.
+    // Channel offsets: one channel at level 0, else the three facing the direction.
     std::size_t offsets[3] = {0, 0, 0};
-    double weights[3] = {1, 0, 0};
     std::uint32_t channelCount = 1;
     if (l.channels == rvol::kDirections) {
         channelCount = 3;
-        for (int axis = 0; axis < 3; ++axis) {
-            const std::uint32_t channel = 2 * axis + (dir[axis] < 0 ? 1 : 0);
-            offsets[axis] = std::size_t{channel} * kBlockTexels;
-            weights[axis] = dir[axis] * dir[axis];
-        }
+        for (int axis = 0; axis < 3; ++axis) offsets[axis] = static_cast<std::size_t>(2 * axis + (dir[axis] < 0 ? 1 : 0)) * kBlockTexels;
     }
-    double r = 0, g = 0, b = 0, a = 0;
+    double sums[3][4] = {};
     for (int corner = 0; corner < 8; ++corner) {
         const double w = (corner & 1 ? f[0] : 1 - f[0]) * (corner & 2 ? f[1] : 1 - f[1]) * (corner & 4 ? f[2] : 1 - f[2]);
         if (w <= 0) continue;
@@ -68,14 +63,32 @@ Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexc
         if (!t) continue;
         for (std::uint32_t c = 0; c < channelCount; ++c) {
             const Texel& v = t[offsets[c]];
-            const double cw = w * weights[c];
-            r += cw * v.r;
-            g += cw * v.g;
-            b += cw * v.b;
-            a += cw * v.a;
+            sums[c][0] += w * v.r;
+            sums[c][1] += w * v.g;
+            sums[c][2] += w * v.b;
+            sums[c][3] += w * v.a;
         }
     }
-    return {static_cast<float>(r), static_cast<float>(g), static_cast<float>(b), static_cast<float>(a)};
+    if (channelCount == 1) return {static_cast<float>(sums[0][0]), static_cast<float>(sums[0][1]), static_cast<float>(sums[0][2]),
+                                   static_cast<float>(sums[0][3])};
+    // Colour: the channels blended by dir_s² (paper 2.3). Opacity: transmittances multiplied with
+    // exponents |dir_s| / Σ|dir|. A d²-weighted mean of opacities lets an oblique cone through a
+    // wall that is opaque along its normal's channel (and partly covered seen edge-on); the
+    // product keeps it opaque for any direction crossing it, and equals the mean for a medium
+    // that looks the same along every axis.
+    double rgb[3] = {0, 0, 0}, alphaBlend = 0, logTransmittance = 0;
+    const double l1 = std::abs(dir.x) + std::abs(dir.y) + std::abs(dir.z);
+    for (int axis = 0; axis < 3; ++axis) {
+        const double w2 = dir[axis] * dir[axis];
+        for (int c = 0; c < 3; ++c) rgb[c] += w2 * sums[axis][c];
+        alphaBlend += w2 * sums[axis][3];
+        const double a = std::clamp(sums[axis][3], 0.0, 1.0);
+        if (dir[axis] != 0) logTransmittance += std::abs(dir[axis]) / l1 * std::log(std::max(1 - a, 1e-12));
+    }
+    const double alpha = 1 - std::exp(logTransmittance);
+    const double scale = alphaBlend > 1e-12 ? alpha / alphaBlend : 0.0;
+    return {static_cast<float>(rgb[0] * scale), static_cast<float>(rgb[1] * scale), static_cast<float>(rgb[2] * scale),
+            static_cast<float>(alpha)};
 }
 
 Texel RadianceField::sampleLod(double level, Vec3d p, Vec3d dir) const noexcept {
@@ -142,6 +155,8 @@ RadianceField::Gather RadianceField::gatherDiffuse(Vec3d point, Vec3d normal, do
     const Vec3d helper = std::abs(normal.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
     const Vec3d tangent = normalize(cross(helper, normal));
     const Vec3d bitangent = cross(normal, tangent);
+    // The cones' samples stay in front of a plane one cell above the surface point: clear of the
+    // surface's own voxels, which would otherwise occlude the cones that leave it.
     const Vec3d origin = point + normal * offset;
     Gather out;
     double weightSum = 0;
@@ -153,7 +168,7 @@ RadianceField::Gather RadianceField::gatherDiffuse(Vec3d point, Vec3d normal, do
             dir = normalize(normal * 0.5 + (tangent * std::cos(phi) + bitangent * std::sin(phi)) * (std::sqrt(3.0) / 2));
             weight = side * norm;
         }
-        const ConeResult r = traceCone({origin, dir, tanHalf, 0, 1e30, point, normal}, aoLambda);
+        const ConeResult r = traceCone({origin, dir, tanHalf, 0, 1e30, point + normal * finestCell_, normal}, aoLambda);
         out.irradiance += r.radiance * weight;
         out.occlusion += r.occlusion * weight;
         weightSum += weight;

@@ -82,7 +82,7 @@ void filterMips(rvol::Volume& volume, const RadianceField& field, const std::vec
                                 if (!child[s]) return {};
                                 if (fromBase) {
                                     Texel t = child[s][0];
-                                    if (childHidden[s] & (1u << k)) t = {};
+                                    if (childHidden[s] & (1u << k)) t.r = t.g = t.b = 0;
                                     return t;
                                 }
                                 return child[s][std::size_t{k} * kBlockTexels];

@@ -75,14 +75,13 @@ std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
     return index;
 }
 
-CastHit TriangleRayCaster::cast(const Ray& ray, double tMax, double footprintAngle) const {
-    CastHit result;
+TriangleRayCaster::Nearest TriangleRayCaster::nearest(const Ray& ray, double tMax) const {
+    Nearest result;
     if (nodes_.empty()) return result;
     const Vec3f o{static_cast<float>(ray.origin.x), static_cast<float>(ray.origin.y), static_cast<float>(ray.origin.z)};
     const Vec3f d{static_cast<float>(ray.direction.x), static_cast<float>(ray.direction.y), static_cast<float>(ray.direction.z)};
     const Vec3f inv{1.0f / d.x, 1.0f / d.y, 1.0f / d.z};
     float best = static_cast<float>(std::min(tMax, 3.0e38));
-    std::uint32_t bestTriangle = 0xFFFFFFFFu;
     std::uint32_t stack[64];
     int top = 0;
     stack[top++] = 0;
@@ -116,17 +115,27 @@ CastHit TriangleRayCaster::cast(const Ray& ray, double tMax, double footprintAng
             const float v = dot(d, q) * invDet;
             if (v < 0.0f || u + v > 1.0f) continue;
             const float t = dot(tri.e2, q) * invDet;
-            if (t >= 0.0f && t < best) best = t, bestTriangle = i;
+            if (t >= 0.0f && t < best) best = t, result.triangle = i, result.u = u, result.v = v;
         }
     }
-    if (bestTriangle == 0xFFFFFFFFu) return result;
+    result.t = best;
+    return result;
+}
+
+CastHit TriangleRayCaster::cast(const Ray& ray, double tMax, double footprintAngle) const {
+    CastHit result;
+    const Nearest near = nearest(ray, tMax);
+    result.iterations = near.iterations;
+    if (near.triangle == Nearest::kNone) return result;
+    const float best = near.t;
+    const Vec3f d{static_cast<float>(ray.direction.x), static_cast<float>(ray.direction.y), static_cast<float>(ray.direction.z)};
     result.hit = true;
     result.t = best;
-    Vec3f n = normalize(cross(triangles_[bestTriangle].e1, triangles_[bestTriangle].e2));
+    Vec3f n = normalize(cross(triangles_[near.triangle].e1, triangles_[near.triangle].e2));
     if (dot(n, d) > 0) n = -n;
     result.normal = n;
 
-    const std::uint64_t source = sources_[bestTriangle];
+    const std::uint64_t source = sources_[near.triangle];
     const detail::TriangleSource where{static_cast<std::uint32_t>(source >> 32), static_cast<std::uint32_t>(source)};
     const Mesh& mesh = scene_.meshes[where.mesh];
     std::array<Vec3d, 3> corners;
@@ -139,6 +148,24 @@ CastHit TriangleRayCaster::cast(const Ray& ray, double tMax, double footprintAng
     result.hasAttributes = true;
     result.color = detail::packLinearColor(sample.color);
     result.shadingNormal = {static_cast<float>(sample.normal.x), static_cast<float>(sample.normal.y), static_cast<float>(sample.normal.z)};
+    return result;
+}
+
+SurfaceHit TriangleRayCaster::castSurface(const Ray& ray, double tMax) const {
+    SurfaceHit result;
+    const Nearest near = nearest(ray, tMax);
+    result.iterations = near.iterations;
+    if (near.triangle == Nearest::kNone) return result;
+    result.hit = true;
+    result.t = near.t;
+    const std::uint64_t source = sources_[near.triangle];
+    result.mesh = static_cast<std::uint32_t>(source >> 32);
+    result.triangle = static_cast<std::uint32_t>(source);
+    // Möller–Trumbore's u and v weigh corners 1 and 2 (the stored edges keep the mesh's corner
+    // order), so the weights need no re-projection of the rounded hit point.
+    result.barycentric = {1.0 - double(near.u) - double(near.v), double(near.u), double(near.v)};
+    const Triangle& tri = triangles_[near.triangle];
+    result.geometricNormal = normalize(cross(Vec3d{tri.e1.x, tri.e1.y, tri.e1.z}, Vec3d{tri.e2.x, tri.e2.y, tri.e2.z}));
     return result;
 }
 

@@ -4,6 +4,8 @@
 /// slice directory. All multi-byte values are little-endian.
 #pragma once
 
+#include <vox/formats/checksum.h>
+
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -160,8 +162,8 @@ struct Directory {
     std::vector<SliceEntry> slices;             ///< slices[0] is the root slice
 };
 
-/// CRC-32C (Castagnoli), as used for every checksum in the file.
-[[nodiscard]] std::uint32_t crc32c(const void* data, std::size_t size, std::uint32_t crc = 0) noexcept;
+/// CRC-32C (Castagnoli), as used for every checksum in the file (checksum.h).
+using vox::crc32c;
 
 /// Serialises the header (with its checksum) into 256 bytes.
 [[nodiscard]] std::array<std::uint8_t, kHeaderBytes> encodeHeader(const Header& header);

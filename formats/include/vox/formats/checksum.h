@@ -1,0 +1,16 @@
+/// @file checksum.h
+/// @brief CRC-32C (Castagnoli), the checksum of every part of the .esvo and .rvol files.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace vox {
+
+/// CRC-32C of @p size bytes at @p data: polynomial 0x1EDC6F41 bit-reflected (0x82F63B78), initial
+/// value and final XOR 0xFFFFFFFF; crc32c("123456789") = 0xE3069283. Pass a previous result as
+/// @p crc to continue a checksum over several pieces: crc32c(b, m, crc32c(a, n)) is the checksum
+/// of a followed by b.
+[[nodiscard]] std::uint32_t crc32c(const void* data, std::size_t size, std::uint32_t crc = 0) noexcept;
+
+}  // namespace vox

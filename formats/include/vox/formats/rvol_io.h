@@ -1,0 +1,290 @@
+/// @file rvol_io.h
+/// @brief Writing, reading and validating .rvol radiance volume files (docs/rvol-format.md): the
+/// header, level table and brick directory layouts, the texel and attribute encodings (RGB9E5,
+/// A8, sRGB8, octahedral normals), the writer, a reader that samples bricks the way a GPU's
+/// trilinear filter does, and the validator. All multi-byte values are little-endian.
+#pragma once
+
+#include <vox/formats/rvol.h>
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <span>
+#include <vector>
+
+namespace vox::rvol {
+
+// ---- constants ------------------------------------------------------------------------------
+
+inline constexpr std::array<std::uint8_t, 4> kMagic{'R', 'V', 'O', 'L'};
+inline constexpr std::uint16_t kVersionMajor = 1;  ///< readers reject other majors
+inline constexpr std::uint16_t kVersionMinor = 0;  ///< readers accept any minor of their major
+inline constexpr std::uint32_t kHeaderBytes = 256;
+inline constexpr std::uint32_t kLevelEntryBytes = 32;
+inline constexpr std::uint32_t kBrickEntryBytes = 12;
+inline constexpr std::uint32_t kAttributeRecordBytes = 16;
+inline constexpr std::uint32_t kSectionAlignment = 64;  ///< file offset alignment of every section and level
+/// Deepest level-0 grid: the attribute records' 32-bit Morton codes hold 10 bits per axis.
+inline constexpr std::uint32_t kMaxDepth = 10;
+inline constexpr std::uint32_t kMinBrickTexels = 2;
+inline constexpr std::uint32_t kMaxBrickTexels = 32;
+/// Texel format 1: per channel an RGB9E5 plane (GL_RGB9_E5) then an A8 plane (GL_R8).
+inline constexpr std::uint32_t kTexelFormatRgb9e5A8 = 1;
+/// Header flags.
+inline constexpr std::uint32_t kFlagStaticAttributes = 1;  ///< the static attribute layer was written
+
+// ---- texel and attribute encodings ----------------------------------------------------------
+
+/// Largest value RGB9E5 holds: (2^9 − 1)/2^9 · 2^(31 − 15) = 65408.
+inline constexpr float kRgb9e5Max = 65408.0f;
+
+/// Encodes linear RGB to GL_RGB9_E5 exactly as OpenGL specifies (EXT_texture_shared_exponent):
+/// each channel clamped to [0, 65408] (NaN → 0), a shared exponent with bias 15 chosen from the
+/// largest channel, 9-bit mantissas rounded to nearest (halves up). Red in bits 0–8, green 9–17,
+/// blue 18–26, exponent 27–31.
+[[nodiscard]] std::uint32_t encodeRgb9e5(float r, float g, float b) noexcept;
+/// Decodes GL_RGB9_E5: channel = mantissa · 2^(exponent − 24). Every word is valid.
+[[nodiscard]] std::array<float, 3> decodeRgb9e5(std::uint32_t packed) noexcept;
+/// round(255 · clamp(v, 0, 1)) (NaN → 0): opacity, coverage and occlusion.
+[[nodiscard]] std::uint8_t encodeUnorm8(float v) noexcept;
+[[nodiscard]] inline float decodeUnorm8(std::uint8_t v) noexcept { return static_cast<float>(v) / 255.0f; }
+/// Linear [0, 1] → 8-bit sRGB, round(255 · srgb(clamp(v, 0, 1))) (NaN → 0).
+[[nodiscard]] std::uint8_t encodeSrgb8(float linear) noexcept;
+/// 8-bit sRGB → linear.
+[[nodiscard]] float decodeSrgb8(std::uint8_t srgb) noexcept;
+/// Octahedral encoding of a direction in 24 bits: u in bits 0–11, v in bits 12–23, each a 12-bit
+/// snorm (q = round(2047·c) + 2048). Any vector; zero or non-finite ones encode as +z.
+[[nodiscard]] std::uint32_t encodeOctahedral(const std::array<float, 3>& n) noexcept;
+/// Decodes the low 24 bits of @p packed to a unit vector.
+[[nodiscard]] std::array<float, 3> decodeOctahedral(std::uint32_t packed) noexcept;
+
+// ---- geometry -------------------------------------------------------------------------------
+
+/// Cells per axis of @p level in a volume of @p depth (2^(depth − level)).
+[[nodiscard]] constexpr std::uint32_t levelResolution(std::uint32_t depth, std::uint32_t level) noexcept {
+    return 1u << (depth - level);
+}
+/// Channels of @p level: 1 at level 0, kDirections above.
+[[nodiscard]] constexpr std::uint32_t levelChannels(std::uint32_t level) noexcept { return level == 0 ? 1u : kDirections; }
+/// Bricks per axis covering the cell centres 0 … resolution − 1 with bricks of @p brickTexels
+/// texels that share a face: max(1, ⌈(resolution − 1)/(brickTexels − 1)⌉).
+[[nodiscard]] constexpr std::uint32_t bricksPerAxis(std::uint32_t resolution, std::uint32_t brickTexels) noexcept {
+    const std::uint32_t step = brickTexels - 1;
+    return resolution <= 1 ? 1u : (resolution - 1 + step - 1) / step;
+}
+/// Bytes of one channel of a brick: the RGB9E5 plane (4·N³) then the A8 plane (N³) padded to a
+/// multiple of 4, so that every RGB9E5 plane is 4-byte aligned.
+[[nodiscard]] constexpr std::uint64_t channelBytes(std::uint32_t brickTexels) noexcept {
+    const std::uint64_t texels = std::uint64_t{brickTexels} * brickTexels * brickTexels;
+    return 4 * texels + (texels + 3) / 4 * 4;
+}
+[[nodiscard]] constexpr std::uint64_t brickBytes(std::uint32_t brickTexels, std::uint32_t channels) noexcept {
+    return channels * channelBytes(brickTexels);
+}
+/// The first multiple of kSectionAlignment at or after @p offset.
+[[nodiscard]] constexpr std::uint64_t alignSection(std::uint64_t offset) noexcept {
+    return (offset + kSectionAlignment - 1) / kSectionAlignment * kSectionAlignment;
+}
+
+// ---- header, level table, directory ---------------------------------------------------------
+
+/// The 256-byte file header (docs/rvol-format.md, "Header").
+struct Header {
+    std::uint16_t versionMajor = kVersionMajor;
+    std::uint16_t versionMinor = kVersionMinor;
+    std::uint32_t depth = 0;
+    std::uint32_t levelCount = 1;           ///< depth + 1
+    std::uint32_t brickTexels = 4;          ///< N, texels per brick edge
+    std::uint32_t texelFormat = kTexelFormatRgb9e5A8;
+    std::uint32_t flags = 0;                ///< kFlagStaticAttributes
+    std::array<double, 3> origin{0, 0, 0};  ///< world position of the root cube's minimum corner
+    double size = 1;                        ///< root cube edge, world units
+    std::array<float, 6> sceneBounds{};     ///< min xyz, max xyz (world)
+    BakeInfo bake;
+    std::uint64_t brickCount = 0;
+    std::uint64_t staticVoxelCount = 0;
+    std::uint64_t dynamicVoxelCount = 0;
+    std::uint64_t levelTableOffset = 0, levelTableBytes = 0;
+    std::uint32_t levelTableChecksum = 0;
+    std::uint32_t directoryChecksum = 0;
+    std::uint64_t directoryOffset = 0, directoryBytes = 0;
+    std::uint64_t brickDataOffset = 0, brickDataBytes = 0;
+    std::uint64_t staticAttributesOffset = 0, staticAttributesBytes = 0;
+    std::uint64_t dynamicAttributesOffset = 0, dynamicAttributesBytes = 0;
+    std::uint32_t staticAttributesChecksum = 0;
+    std::uint32_t dynamicAttributesChecksum = 0;
+    std::uint64_t fileBytes = 0;
+
+    [[nodiscard]] double cellSize(std::uint32_t level) const noexcept { return size / double(levelResolution(depth, level)); }
+};
+
+/// One entry of the level table (docs/rvol-format.md, "Level table").
+struct LevelEntry {
+    std::uint32_t resolution = 0;     ///< cells per axis
+    std::uint32_t channels = 0;       ///< 1 at level 0, 6 above
+    std::uint32_t bricksPerAxis = 0;
+    std::uint32_t brickBytes = 0;     ///< bytes of each brick of the level
+    std::uint32_t brickCount = 0;     ///< bricks stored
+    std::uint32_t firstBrick = 0;     ///< index of the level's first entry in the brick directory
+    std::uint64_t dataOffset = 0;     ///< file offset of the level's first brick
+};
+
+/// One brick directory entry (docs/rvol-format.md, "Brick directory").
+struct BrickEntry {
+    std::uint16_t x = 0, y = 0, z = 0;  ///< brick coordinates in the level
+    std::uint16_t padding = 0;          ///< 0 in a valid file
+    std::uint32_t checksum = 0;         ///< CRC-32C of the brick's bytes
+    [[nodiscard]] std::uint64_t morton() const noexcept { return morton3(x, y, z); }
+};
+
+/// Serialises the header (with its checksum) into 256 bytes.
+[[nodiscard]] std::array<std::uint8_t, kHeaderBytes> encodeHeader(const Header& header);
+
+/// One encoded attribute record (docs/rvol-format.md, "Attribute layers").
+struct AttributeRecord {
+    std::uint32_t morton = 0;      ///< morton3(x, y, z) of the level-0 cell
+    std::array<std::uint8_t, 4> albedoCoverage{};  ///< sRGB8 R, G, B, linear coverage
+    std::uint32_t normalOcclusion = 0;  ///< octahedral normal (bits 0–23), occlusion (24–31)
+    std::uint32_t emission = 0;    ///< RGB9E5
+};
+[[nodiscard]] AttributeRecord encodeAttributes(const VoxelAttributes& voxel) noexcept;
+[[nodiscard]] VoxelAttributes decodeAttributes(const AttributeRecord& record) noexcept;
+
+// ---- writing --------------------------------------------------------------------------------
+
+struct RvolWriteOptions {
+    std::uint32_t brickTexels = 4;   ///< N, texels per brick edge, kMinBrickTexels … kMaxBrickTexels
+    bool staticAttributes = true;    ///< write the static attribute layer (the dynamic one is always written)
+};
+
+/// What writeRvol wrote. The byte counts add up to fileBytes.
+struct RvolWriteResult {
+    std::uint64_t fileBytes = 0;
+    std::uint64_t headerBytes = 0;
+    std::uint64_t levelTableBytes = 0;
+    std::uint64_t directoryBytes = 0;
+    std::uint64_t radianceBytes = 0;   ///< brick data (bricks × their size, all levels)
+    std::uint64_t attributeBytes = 0;  ///< static + dynamic attribute layers
+    std::uint64_t paddingBytes = 0;    ///< alignment gaps between sections and levels
+    std::uint64_t bricks = 0;
+    std::vector<std::uint64_t> bricksPerLevel;
+    std::uint64_t staticVoxels = 0, dynamicVoxels = 0;  ///< records written
+};
+
+/// Writes @p volume to @p file atomically (AtomicFile). The same volume and options give the same
+/// bytes. Expects a consistent volume: depth ≤ kMaxDepth; levels[l] with resolution 2^(depth − l)
+/// and levelChannels(l) channels, blocks strictly ascending and inside the level, texels sized
+/// blocks × channels × kBlockTexels; voxel attributes inside level 0 in strictly ascending Morton
+/// order; origin finite, size finite and > 0. Texels of cells ≥ resolution are not stored.
+/// @throws UsageError for bad options, std::invalid_argument for an inconsistent volume, IoError
+/// if the file cannot be written.
+RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volume, const RvolWriteOptions& options = {});
+
+// ---- reading --------------------------------------------------------------------------------
+
+/// An open .rvol file. The constructor reads and checks the header, the level table and the brick
+/// directory (checksums, section sizes and offsets, brick coordinates in range and in strictly
+/// ascending Morton order per level); bricks and attributes are read when asked for. Every
+/// allocation is bounded by the file's size. Errors: IoError (2), InvalidDataError (3) naming the
+/// file and the problem. Every const member function is thread-safe.
+class RvolReader {
+public:
+    explicit RvolReader(std::filesystem::path file);
+    ~RvolReader();
+    RvolReader(const RvolReader&) = delete;
+    RvolReader& operator=(const RvolReader&) = delete;
+
+    [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
+    [[nodiscard]] const Header& header() const noexcept { return header_; }
+    [[nodiscard]] const std::vector<LevelEntry>& levels() const noexcept { return levels_; }
+    [[nodiscard]] const LevelEntry& level(std::uint32_t level) const { return levels_.at(level); }
+    /// Every directory entry, level 0's first.
+    [[nodiscard]] std::span<const BrickEntry> directory() const noexcept { return directory_; }
+    /// The directory entries of @p level, in ascending Morton order. @throws std::out_of_range.
+    [[nodiscard]] std::span<const BrickEntry> bricks(std::uint32_t level) const;
+    /// Index (within the level) of the brick at brick coordinates (x, y, z), or -1 if it is not
+    /// stored (its texels are all zero). @throws std::out_of_range for a bad level.
+    [[nodiscard]] std::int64_t findBrick(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z) const;
+    /// File offset of brick @p index of @p level: dataOffset + index × brickBytes.
+    [[nodiscard]] std::uint64_t brickOffset(std::uint32_t level, std::uint32_t index) const;
+
+    /// The stored bytes of brick @p index of @p level (brickBytes of them, as a GPU would upload
+    /// them), checksum verified. @throws std::out_of_range for a bad level or index,
+    /// InvalidDataError on a checksum mismatch.
+    [[nodiscard]] std::vector<std::uint8_t> readBrickBytes(std::uint32_t level, std::uint32_t index) const;
+    /// Brick @p index of @p level decoded: channels × N³ texels, channel-major, then z, y, x
+    /// (x fastest); texel (i, j, k) is cell (bx·(N−1) + i, by·(N−1) + j, bz·(N−1) + k).
+    [[nodiscard]] std::vector<Texel> readBrick(std::uint32_t level, std::uint32_t index) const;
+
+    /// Trilinear sample of @p channel of @p level at world position @p position, as a GPU's
+    /// filter over the node-centred bricks gives it: u = (p − origin)/cellSize − 0.5 per axis,
+    /// clamped to [0, resolution − 1]; brick min(⌊u/(N−1)⌋, bricksPerAxis − 1); the 8 texels
+    /// around u in that brick, zero if the brick is not stored. Decoded bricks are cached (see
+    /// setCacheBytes). @throws std::out_of_range for a bad level or channel, InvalidDataError if
+    /// a brick read fails its checksum.
+    [[nodiscard]] Texel sample(std::uint32_t level, std::uint32_t channel, const std::array<double, 3>& position) const;
+    /// What a cone travelling along @p direction sees at @p position: Σ over the axes s of
+    /// d_s²/|d|² × sample of the channel of s with d_s's sign (PosX for d_x > 0, NegX for d_x < 0;
+    /// the directional convention of rvol.h). Level 0: the isotropic channel. A zero or
+    /// non-finite @p direction gives zero at levels ≥ 1.
+    [[nodiscard]] Texel sampleDirectional(std::uint32_t level, const std::array<double, 3>& position,
+                                          const std::array<double, 3>& direction) const;
+    /// Bytes of decoded bricks kept for sample() (least recently used go first); 64 MiB by default.
+    void setCacheBytes(std::uint64_t bytes) const;
+
+    /// The static (@p dynamic false) or dynamic attribute layer, decoded, checksum verified.
+    /// @throws InvalidDataError on a checksum mismatch.
+    [[nodiscard]] std::vector<VoxelAttributes> readAttributes(bool dynamic) const;
+    /// The layer's records as stored (checksum verified).
+    [[nodiscard]] std::vector<AttributeRecord> readAttributeRecords(bool dynamic) const;
+
+    /// The whole file as a Volume: every level's cells from the decoded bricks (blocks are the 8³
+    /// blocks holding a non-zero texel), both attribute layers, the header's geometry and bake
+    /// info. Equal to the written volume up to the encodings' precision.
+    [[nodiscard]] Volume readVolume() const;
+
+    /// Reads @p size bytes at file offset @p offset (inside the file). @throws InvalidDataError
+    /// if the file ends early, IoError on a read error.
+    void readBytes(std::uint64_t offset, std::uint8_t* out, std::uint64_t size) const;
+
+private:
+    struct Cache;
+    [[nodiscard]] std::shared_ptr<const std::vector<Texel>> cachedBrick(std::uint32_t level, std::uint32_t index) const;
+
+    std::filesystem::path path_;
+    int fd_ = -1;
+    Header header_;
+    std::vector<LevelEntry> levels_;
+    std::vector<BrickEntry> directory_;
+    std::unique_ptr<Cache> cache_;
+};
+
+/// Decodes the @p channels × N³ texels of a brick's stored bytes (readBrick's order).
+/// @throws std::invalid_argument if @p bytes is not brickBytes(@p brickTexels, @p channels) long.
+[[nodiscard]] std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_t brickTexels, std::uint32_t channels);
+
+// ---- validation -----------------------------------------------------------------------------
+
+/// What validateRvol found. The byte counts add up to fileBytes.
+struct RvolReport {
+    std::uint64_t fileBytes = 0;
+    std::uint64_t headerBytes = 0, levelTableBytes = 0, directoryBytes = 0;
+    std::uint64_t radianceBytes = 0;   ///< brick data
+    std::uint64_t staticAttributeBytes = 0, dynamicAttributeBytes = 0;
+    std::uint64_t paddingBytes = 0;    ///< alignment gaps (all zero)
+    std::uint64_t bricks = 0;
+    std::vector<std::uint64_t> bricksPerLevel;
+    std::vector<std::uint64_t> nonZeroTexelsPerLevel;  ///< distinct cells with a non-zero texel in any channel
+    std::uint64_t staticVoxels = 0, dynamicVoxels = 0;
+};
+
+/// Reads and checks every brick and attribute record of an open file: brick checksums, no stored
+/// brick all zero, zero texels for cells outside the level, zero padding, equal shared faces
+/// between neighbouring bricks (and zero faces towards bricks that are not stored), attribute
+/// checksums, Morton codes strictly ascending and inside level 0, zero gaps between sections.
+/// @throws InvalidDataError "FILE: where: what" at the first problem.
+RvolReport validateRvol(const RvolReader& reader);
+
+}  // namespace vox::rvol

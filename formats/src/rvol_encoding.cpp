@@ -1,0 +1,136 @@
+// The .rvol texel and attribute encodings (docs/rvol-format.md, "Encodings"): RGB9E5, A8, sRGB8,
+// octahedral normals, the attribute record, and brick decoding.
+#include <vox/formats/rvol_io.h>
+
+#include "rvol_internal.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace vox::rvol {
+namespace {
+
+constexpr int kExponentBias = 15;
+constexpr int kMantissaBits = 9;
+constexpr int kMaxBiasedExponent = 31;
+
+// Clamps to [0, 65408]; NaN (every comparison false) becomes 0, as in OpenGL.
+double clampRgb9e5(float v) noexcept { return v > 0 ? std::min(static_cast<double>(v), double{kRgb9e5Max}) : 0.0; }
+
+// floor(x · 2^shift + 0.5): the spec's round-to-nearest; exact in double for these magnitudes.
+std::uint32_t roundScaled(double x, int shift) noexcept { return static_cast<std::uint32_t>(std::floor(std::ldexp(x, shift) + 0.5)); }
+
+std::uint32_t snorm12(double c) noexcept {
+    return static_cast<std::uint32_t>(std::lround(std::clamp(c, -1.0, 1.0) * 2047.0) + 2048);
+}
+double unsnorm12(std::uint32_t q) noexcept { return std::max(-1.0, (static_cast<double>(q & 0xFFFu) - 2048.0) / 2047.0); }
+double signNotZero(double v) noexcept { return v < 0 ? -1.0 : 1.0; }
+
+}  // namespace
+
+std::uint32_t encodeRgb9e5(float r, float g, float b) noexcept {
+    const double rc = clampRgb9e5(r), gc = clampRgb9e5(g), bc = clampRgb9e5(b);
+    const double maxc = std::max({rc, gc, bc});
+    // exp_shared_p = max(−B − 1, ⌊log2(max_c)⌋) + 1 + B; frexp gives ⌊log2⌋ exactly (max_c =
+    // m·2^e with m in [0.5, 1), so ⌊log2⌋ = e − 1). max_c = 0 takes the −B − 1 branch.
+    int floorLog2 = -kExponentBias - 1;
+    if (maxc > 0) {
+        int e = 0;
+        (void)std::frexp(maxc, &e);
+        floorLog2 = std::max(floorLog2, e - 1);
+    }
+    int exponent = floorLog2 + 1 + kExponentBias;
+    // A maximum that rounds up to 2^9 needs the next exponent.
+    if (roundScaled(maxc, kExponentBias + kMantissaBits - exponent) == (1u << kMantissaBits)) ++exponent;
+    exponent = std::min(exponent, kMaxBiasedExponent);  // unreachable after the clamp to 65408; kept for safety
+    const int shift = kExponentBias + kMantissaBits - exponent;
+    return roundScaled(rc, shift) | roundScaled(gc, shift) << 9 | roundScaled(bc, shift) << 18 |
+           static_cast<std::uint32_t>(exponent) << 27;
+}
+
+std::array<float, 3> decodeRgb9e5(std::uint32_t packed) noexcept {
+    const int shift = static_cast<int>(packed >> 27) - kExponentBias - kMantissaBits;
+    return {std::ldexp(static_cast<float>(packed & 0x1FFu), shift), std::ldexp(static_cast<float>((packed >> 9) & 0x1FFu), shift),
+            std::ldexp(static_cast<float>((packed >> 18) & 0x1FFu), shift)};
+}
+
+std::uint8_t encodeUnorm8(float v) noexcept {
+    const double c = v > 0 ? std::min(static_cast<double>(v), 1.0) : 0.0;
+    return static_cast<std::uint8_t>(std::floor(c * 255.0 + 0.5));
+}
+
+std::uint8_t encodeSrgb8(float linear) noexcept {
+    const double c = linear > 0 ? std::min(static_cast<double>(linear), 1.0) : 0.0;
+    const double s = c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055;
+    return static_cast<std::uint8_t>(std::floor(std::clamp(s, 0.0, 1.0) * 255.0 + 0.5));
+}
+
+float decodeSrgb8(std::uint8_t srgb) noexcept {
+    const double s = srgb / 255.0;
+    return static_cast<float>(s <= 0.04045 ? s / 12.92 : std::pow((s + 0.055) / 1.055, 2.4));
+}
+
+std::uint32_t encodeOctahedral(const std::array<float, 3>& n) noexcept {
+    double x = n[0], y = n[1], z = n[2];
+    const double l1 = std::abs(x) + std::abs(y) + std::abs(z);
+    if (!(l1 > 0) || !std::isfinite(l1)) return snorm12(0) | snorm12(0) << 12;  // +z
+    x /= l1, y /= l1, z /= l1;
+    if (z < 0) {
+        // Fold the lower hemisphere over the diagonals of the octahedron's square.
+        const double fx = (1 - std::abs(y)) * signNotZero(x), fy = (1 - std::abs(x)) * signNotZero(y);
+        x = fx, y = fy;
+    }
+    return snorm12(x) | snorm12(y) << 12;
+}
+
+std::array<float, 3> decodeOctahedral(std::uint32_t packed) noexcept {
+    double x = unsnorm12(packed), y = unsnorm12(packed >> 12);
+    const double z = 1 - std::abs(x) - std::abs(y);
+    if (z < 0) {
+        const double fx = (1 - std::abs(y)) * signNotZero(x), fy = (1 - std::abs(x)) * signNotZero(y);
+        x = fx, y = fy;
+    }
+    const double length = std::sqrt(x * x + y * y + z * z);  // ≥ 1/√3: |x| + |y| + |z| = 1
+    return {static_cast<float>(x / length), static_cast<float>(y / length), static_cast<float>(z / length)};
+}
+
+AttributeRecord encodeAttributes(const VoxelAttributes& v) noexcept {
+    AttributeRecord r;
+    r.morton = static_cast<std::uint32_t>(morton3(v.x, v.y, v.z));
+    for (int c = 0; c < 3; ++c) r.albedoCoverage[c] = encodeSrgb8(v.albedo[c]);
+    r.albedoCoverage[3] = encodeUnorm8(v.coverage);
+    r.normalOcclusion = encodeOctahedral(v.normal) | std::uint32_t{encodeUnorm8(v.occlusion)} << 24;
+    r.emission = encodeRgb9e5(v.emission[0], v.emission[1], v.emission[2]);
+    return r;
+}
+
+VoxelAttributes decodeAttributes(const AttributeRecord& r) noexcept {
+    VoxelAttributes v;
+    const auto [x, y, z] = demorton3(r.morton);
+    v.x = x, v.y = y, v.z = z;
+    for (int c = 0; c < 3; ++c) v.albedo[c] = decodeSrgb8(r.albedoCoverage[c]);
+    v.coverage = decodeUnorm8(r.albedoCoverage[3]);
+    v.normal = decodeOctahedral(r.normalOcclusion);
+    v.occlusion = decodeUnorm8(static_cast<std::uint8_t>(r.normalOcclusion >> 24));
+    v.emission = decodeRgb9e5(r.emission);
+    return v;
+}
+
+std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_t brickTexels, std::uint32_t channels) {
+    if (brickTexels < kMinBrickTexels || brickTexels > kMaxBrickTexels || bytes.size() != brickBytes(brickTexels, channels))
+        throw std::invalid_argument("decodeBrick: byte count does not match the brick size");
+    const std::size_t n3 = std::size_t{brickTexels} * brickTexels * brickTexels;
+    std::vector<Texel> texels(channels * n3);
+    for (std::uint32_t c = 0; c < channels; ++c) {
+        const std::uint8_t* rgb = bytes.data() + c * channelBytes(brickTexels);
+        const std::uint8_t* alpha = rgb + 4 * n3;
+        for (std::size_t i = 0; i < n3; ++i) {
+            const auto [r, g, b] = decodeRgb9e5(detail::load<std::uint32_t>(rgb + 4 * i));
+            texels[c * n3 + i] = {r, g, b, decodeUnorm8(alpha[i])};
+        }
+    }
+    return texels;
+}
+
+}  // namespace vox::rvol

@@ -1,0 +1,978 @@
+// The .rvol radiance volume format (formats/src/rvol*.cpp, docs/rvol-format.md): Morton codes and
+// the in-memory levels; the RGB9E5, A8, sRGB8 and octahedral encodings; round trips of synthetic
+// volumes; the node-centred brick geometry with shared faces; sampling equal to trilinear
+// interpolation of the in-memory level; deterministic output; corrupted files rejected with
+// InvalidDataError and never a crash.
+#include <vox/formats/checksum.h>
+#include <vox/formats/error.h>
+#include <vox/formats/rvol.h>
+#include <vox/formats/rvol_io.h>
+
+#include "test_support.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <random>
+#include <set>
+#include <thread>
+#include <vector>
+
+namespace fs = std::filesystem;
+namespace rvol = vox::rvol;
+using vox::test::ScratchDir;
+
+namespace {
+
+template <typename T>
+T load(const std::uint8_t* p) {
+    T v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
+template <typename T>
+void store(std::uint8_t* p, T v) {
+    std::memcpy(p, &v, sizeof v);
+}
+
+std::vector<std::uint8_t> readBytes(const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// A texel whose every component RGB9E5 and A8 store exactly (mantissa · 2^(e − 24), k/255), or
+/// zero with probability @p zeroChance.
+rvol::Texel representableTexel(std::mt19937& rng, double zeroChance = 0.3) {
+    if (std::uniform_real_distribution<double>(0, 1)(rng) < zeroChance) return {};
+    std::uniform_int_distribution<int> mantissa(0, 511), exponent(8, 22), alpha(0, 255);
+    const int e = exponent(rng) - 24;
+    return {std::ldexp(static_cast<float>(mantissa(rng)), e), std::ldexp(static_cast<float>(mantissa(rng)), e),
+            std::ldexp(static_cast<float>(mantissa(rng)), e), static_cast<float>(alpha(rng)) / 255.0f};
+}
+
+/// Any texel: RGB in [0, 40), alpha in [0, 1].
+rvol::Texel anyTexel(std::mt19937& rng, double zeroChance = 0.3) {
+    if (std::uniform_real_distribution<double>(0, 1)(rng) < zeroChance) return {};
+    std::uniform_real_distribution<float> rgb(0, 40), alpha(0, 1);
+    return {rgb(rng), rgb(rng), rgb(rng), alpha(rng)};
+}
+
+/// A volume of @p depth with random sparse blocks (each present with @p blockChance, each of its
+/// cells inside the level non-zero at random, at least one per block), and random static and
+/// dynamic voxels.
+rvol::Volume makeVolume(std::uint32_t depth, std::uint32_t seed, bool representable = true, double blockChance = 0.35) {
+    std::mt19937 rng(seed);
+    rvol::Volume v;
+    v.depth = depth;
+    v.origin = {-1.5, 0.25, 2.0};
+    v.size = 3.0;
+    v.sceneBounds = {-1.4f, 0.3f, 2.1f, 1.2f, 3.0f, 4.5f};
+    v.bake = {2, 3.5f, 8.0f, 1, 7};
+    for (std::uint32_t l = 0; l <= depth; ++l) {
+        rvol::Level level;
+        level.resolution = 1u << (depth - l);
+        level.channels = l == 0 ? 1 : rvol::kDirections;
+        const std::uint32_t blocksPerAxis = (level.resolution + rvol::kBlockCells - 1) / rvol::kBlockCells;
+        std::vector<std::uint64_t> codes;
+        for (std::uint32_t z = 0; z < blocksPerAxis; ++z)
+            for (std::uint32_t y = 0; y < blocksPerAxis; ++y)
+                for (std::uint32_t x = 0; x < blocksPerAxis; ++x)
+                    if (blocksPerAxis == 1 || std::uniform_real_distribution<double>(0, 1)(rng) < blockChance)
+                        codes.push_back(rvol::morton3(x, y, z));
+        std::sort(codes.begin(), codes.end());
+        level.blocks = codes;
+        level.texels.assign(codes.size() * level.channels * rvol::kBlockTexels, rvol::Texel{});
+        for (std::size_t b = 0; b < codes.size(); ++b) {
+            const auto block = rvol::demorton3(codes[b]);
+            bool any = false;
+            for (std::uint32_t i = 0; i < rvol::kBlockTexels; ++i) {
+                const std::uint32_t x = block[0] * 8 + i % 8, y = block[1] * 8 + i / 8 % 8, z = block[2] * 8 + i / 64;
+                if (x >= level.resolution || y >= level.resolution || z >= level.resolution) continue;  // stays zero
+                for (std::uint32_t c = 0; c < level.channels; ++c) {
+                    rvol::Texel t = representable ? representableTexel(rng) : anyTexel(rng);
+                    if (!any && i == 0 && c == 0 && t == rvol::Texel{}) t = {0.5f, 0.25f, 1.0f, 1.0f};  // no empty block
+                    any = any || t != rvol::Texel{};
+                    level.texels[rvol::Level::texelIndex(b, level.channels, c, x, y, z)] = t;
+                }
+            }
+        }
+        v.levels.push_back(std::move(level));
+    }
+    const std::uint32_t res = 1u << depth;
+    for (auto* voxels : {&v.staticVoxels, &v.dynamicVoxels}) {
+        std::set<std::uint64_t> used;
+        std::uniform_int_distribution<std::uint32_t> cell(0, res - 1);
+        std::uniform_real_distribution<float> unit(0, 1), signedUnit(-1, 1), emission(0, 20);
+        for (int i = 0; i < (voxels == &v.staticVoxels ? 60 : 25); ++i) used.insert(rvol::morton3(cell(rng), cell(rng), cell(rng)));
+        for (std::uint64_t code : used) {
+            rvol::VoxelAttributes a;
+            const auto c = rvol::demorton3(code);
+            a.x = c[0], a.y = c[1], a.z = c[2];
+            a.albedo = {unit(rng), unit(rng), unit(rng)};
+            a.coverage = unit(rng);
+            std::array<float, 3> n{signedUnit(rng), signedUnit(rng), signedUnit(rng)};
+            const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            a.normal = len > 0.01f ? std::array<float, 3>{n[0] / len, n[1] / len, n[2] / len} : std::array<float, 3>{0, 0, 1};
+            a.emission = code % 3 == 0 ? std::array<float, 3>{emission(rng), emission(rng), emission(rng)} : std::array<float, 3>{0, 0, 0};
+            a.occlusion = unit(rng);
+            voxels->push_back(a);
+        }
+    }
+    return v;
+}
+
+/// Trilinear interpolation of @p channel of @p level at world @p p, straight from the in-memory
+/// level: the reference that RvolReader::sample must reproduce.
+rvol::Texel trilinear(const rvol::Volume& v, std::uint32_t l, std::uint32_t channel, const std::array<double, 3>& p) {
+    const rvol::Level& level = v.levels[l];
+    std::array<std::uint32_t, 3> i0{};
+    std::array<double, 3> f{};
+    for (int a = 0; a < 3; ++a) {
+        const double u = std::clamp((p[a] - v.origin[a]) / v.cellSize(l) - 0.5, 0.0, double(level.resolution - 1));
+        i0[a] = level.resolution == 1 ? 0 : std::min(static_cast<std::uint32_t>(u), level.resolution - 2);
+        f[a] = u - i0[a];
+    }
+    double sum[4] = {0, 0, 0, 0};
+    for (std::uint32_t corner = 0; corner < 8; ++corner) {
+        const std::uint32_t d[3] = {corner & 1u, (corner >> 1) & 1u, (corner >> 2) & 1u};
+        double w = 1;
+        for (int a = 0; a < 3; ++a) w *= d[a] ? f[a] : 1 - f[a];
+        if (w == 0) continue;
+        const rvol::Texel t = level.at(i0[0] + d[0], i0[1] + d[1], i0[2] + d[2], channel);
+        sum[0] += w * t.r, sum[1] += w * t.g, sum[2] += w * t.b, sum[3] += w * t.a;
+    }
+    return {float(sum[0]), float(sum[1]), float(sum[2]), float(sum[3])};
+}
+
+/// The largest error RGB9E5 may make on (r, g, b): half a mantissa step of the shared exponent
+/// (at most max/511.5, or 2^-25 near zero), plus float rounding.
+float rgb9e5Tolerance(const rvol::Texel& t) {
+    const float m = std::max({t.r, t.g, t.b});
+    return std::max(m / 511.5f, 0x1p-25f) * 1.0001f;
+}
+
+void expectTexelNear(const rvol::Texel& got, const rvol::Texel& want, float rgbTolerance, float alphaTolerance, const std::string& what) {
+    EXPECT_NEAR(got.r, want.r, rgbTolerance) << what;
+    EXPECT_NEAR(got.g, want.g, rgbTolerance) << what;
+    EXPECT_NEAR(got.b, want.b, rgbTolerance) << what;
+    EXPECT_NEAR(got.a, want.a, alphaTolerance) << what;
+}
+
+enum class Outcome { Valid, Invalid };
+
+/// Opens, validates and reads all of @p file. InvalidDataError must name the file; any other
+/// exception type fails the test (it propagates).
+Outcome openAndValidate(const fs::path& file) {
+    try {
+        const rvol::RvolReader reader(file);
+        (void)rvol::validateRvol(reader);
+        return Outcome::Valid;
+    } catch (const vox::InvalidDataError& e) {
+        EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
+        EXPECT_EQ(e.exitCode(), vox::ExitCode::InvalidData);
+        return Outcome::Invalid;
+    }
+}
+
+/// Recomputes every checksum of a file (bricks, directory, level table, attribute layers,
+/// header) from its header's offsets, so that only structural checks can catch an edit. Parts
+/// the (possibly edited) header places outside the file are left alone.
+void fixChecksums(std::vector<std::uint8_t>& bytes) {
+    std::uint8_t* h = bytes.data();
+    const auto inside = [&](std::uint64_t offset, std::uint64_t size) { return offset <= bytes.size() && size <= bytes.size() - offset; };
+    const auto crcAt = [&](std::size_t field, std::uint64_t offset, std::uint64_t size) {
+        if (inside(offset, size)) store<std::uint32_t>(h + field, vox::crc32c(h + offset, size));
+    };
+    const auto levelCount = load<std::uint32_t>(h + 16);
+    const auto directoryOffset = load<std::uint64_t>(h + 160);
+    const auto directoryBytes = load<std::uint64_t>(h + 168);
+    if (levelCount <= 11 && inside(directoryOffset, directoryBytes))
+        for (std::uint32_t l = 0; l < levelCount; ++l) {
+            const std::uint8_t* e = h + 256 + 32 * l;
+            const auto brickBytes = load<std::uint32_t>(e + 12), count = load<std::uint32_t>(e + 16), first = load<std::uint32_t>(e + 20);
+            const auto dataOffset = load<std::uint64_t>(e + 24);
+            for (std::uint32_t i = 0; i < count; ++i)
+                if (inside(directoryOffset + 12 * (std::uint64_t{first} + i), 12))
+                    crcAt(directoryOffset + 12 * (first + i) + 8, dataOffset + std::uint64_t{i} * brickBytes, brickBytes);
+        }
+    if (levelCount <= 11) crcAt(152, 256, 32 * levelCount);
+    crcAt(156, directoryOffset, directoryBytes);
+    crcAt(224, load<std::uint64_t>(h + 192), load<std::uint64_t>(h + 200));
+    crcAt(228, load<std::uint64_t>(h + 208), load<std::uint64_t>(h + 216));
+    crcAt(252, 0, 252);
+}
+
+}  // namespace
+
+// ---- model ------------------------------------------------------------------------------------
+
+TEST(Rvol, MortonCodesInterleaveXFirst) {
+    EXPECT_EQ(rvol::morton3(1, 0, 0), 1u);
+    EXPECT_EQ(rvol::morton3(0, 1, 0), 2u);
+    EXPECT_EQ(rvol::morton3(0, 0, 1), 4u);
+    EXPECT_EQ(rvol::morton3(3, 5, 6), 427u);  // x = 011, y = 101, z = 110: 0b110'101'011 (bit i of x, y, z at 3i, 3i+1, 3i+2)
+    EXPECT_EQ(rvol::morton3(0x1FFFFF, 0x1FFFFF, 0x1FFFFF), (std::uint64_t{1} << 63) - 1);
+    std::mt19937 rng(5);
+    std::uniform_int_distribution<std::uint32_t> coord(0, 0x1FFFFF);
+    for (int i = 0; i < 1000; ++i) {
+        const std::uint32_t x = coord(rng), y = coord(rng), z = coord(rng);
+        std::uint64_t expected = 0;
+        for (int b = 0; b < 21; ++b)
+            expected |= std::uint64_t{(x >> b) & 1u} << (3 * b) | std::uint64_t{(y >> b) & 1u} << (3 * b + 1) |
+                        std::uint64_t{(z >> b) & 1u} << (3 * b + 2);
+        ASSERT_EQ(rvol::morton3(x, y, z), expected);
+        ASSERT_EQ(rvol::demorton3(expected), (std::array<std::uint32_t, 3>{x, y, z}));
+    }
+}
+
+TEST(Rvol, LevelFindsBlocksAndCells) {
+    rvol::Level level;
+    level.resolution = 32;
+    level.channels = 2;
+    level.blocks = {rvol::morton3(0, 0, 0), rvol::morton3(1, 2, 0), rvol::morton3(3, 3, 3)};
+    std::sort(level.blocks.begin(), level.blocks.end());
+    level.texels.assign(level.blocks.size() * 2 * rvol::kBlockTexels, {});
+    const std::int64_t b = level.findBlock(9, 17, 5);
+    ASSERT_GE(b, 0);
+    EXPECT_EQ(level.blocks[static_cast<std::size_t>(b)], rvol::morton3(1, 2, 0));
+    level.texels[rvol::Level::texelIndex(static_cast<std::size_t>(b), 2, 1, 9, 17, 5)] = {1, 2, 3, 0.5f};
+    EXPECT_EQ(level.at(9, 17, 5, 1), (rvol::Texel{1, 2, 3, 0.5f}));
+    EXPECT_EQ(level.at(9, 17, 5, 0), rvol::Texel{});
+    EXPECT_EQ(level.at(10, 17, 5, 1), rvol::Texel{});
+    EXPECT_EQ(level.findBlock(8, 0, 0), -1);          // block (1,0,0) absent
+    EXPECT_EQ(level.findBlock(31, 31, 31), 2);        // block (3,3,3)
+    EXPECT_EQ(level.findBlock(32, 0, 0), -1);         // outside the level
+    EXPECT_EQ(level.at(9, 17, 5, 2), rvol::Texel{});  // no such channel
+}
+
+// ---- encodings --------------------------------------------------------------------------------
+
+TEST(Rvol, Rgb9e5FollowsOpenGl) {
+    const auto word = [](std::uint32_t r, std::uint32_t g, std::uint32_t b, std::uint32_t e) { return r | g << 9 | b << 18 | e << 27; };
+    EXPECT_EQ(rvol::encodeRgb9e5(0, 0, 0), 0u);
+    EXPECT_EQ(rvol::decodeRgb9e5(0), (std::array<float, 3>{0, 0, 0}));
+    // 1.0: ⌊log2 1⌋ = 0, exponent 16, mantissa 1 · 2^(24 − 16) = 256.
+    EXPECT_EQ(rvol::encodeRgb9e5(1, 1, 1), word(256, 256, 256, 16));
+    EXPECT_EQ(rvol::decodeRgb9e5(word(256, 256, 256, 16)), (std::array<float, 3>{1, 1, 1}));
+    // The largest value, 511 · 2^7, and everything above it (infinity too) clamps to it.
+    EXPECT_EQ(rvol::encodeRgb9e5(65408, 0, 0), word(511, 0, 0, 31));
+    EXPECT_EQ(rvol::encodeRgb9e5(1e9f, INFINITY, 65408), word(511, 511, 511, 31));
+    EXPECT_EQ(rvol::decodeRgb9e5(word(511, 0, 0, 31))[0], 65408.0f);
+    EXPECT_EQ(rvol::kRgb9e5Max, 65408.0f);
+    // Negative and NaN are zero.
+    EXPECT_EQ(rvol::encodeRgb9e5(-3, NAN, 0), 0u);
+    // Tiny values: the smallest step is 2^-24 (exponent 0, mantissa 1); halves round up.
+    EXPECT_EQ(rvol::encodeRgb9e5(0x1p-24f, 0, 0), word(1, 0, 0, 0));
+    EXPECT_EQ(rvol::encodeRgb9e5(0x1p-25f, 0, 0), word(1, 0, 0, 0));
+    EXPECT_EQ(rvol::encodeRgb9e5(0x1.fp-26f, 0, 0), 0u);
+    EXPECT_EQ(rvol::encodeRgb9e5(0x1p-16f, 0, 0), word(256, 0, 0, 0));  // still exponent 0
+    EXPECT_EQ(rvol::decodeRgb9e5(word(1, 0, 0, 0))[0], 0x1p-24f);
+    // Rounding to nearest: 1 + 2^-9 is half a step (2^-8) above 1 and rounds up; 1 + 2^-10 rounds down.
+    EXPECT_EQ(rvol::encodeRgb9e5(1 + 0x1p-9f, 0, 0), word(257, 0, 0, 16));
+    EXPECT_EQ(rvol::encodeRgb9e5(1 + 0x1p-10f, 0, 0), word(256, 0, 0, 16));
+    // A maximum that rounds up to 2^9 moves to the next exponent: 511.5/256 → 2.0.
+    EXPECT_EQ(rvol::encodeRgb9e5(511.5f / 256, 0, 0), word(256, 0, 0, 17));
+    // Shared exponent: smaller channels lose precision relative to the largest.
+    EXPECT_EQ(rvol::encodeRgb9e5(4, 1, 0.5f), word(256, 64, 32, 18));
+    EXPECT_EQ(rvol::encodeRgb9e5(1, 0.001f, 0), word(256, 0, 0, 16));  // 0.001 · 256 = 0.256 → 0
+    EXPECT_EQ(rvol::encodeRgb9e5(1, 0.003f, 0), word(256, 1, 0, 16));  // 0.768 → 1
+
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> value(0, 1000);
+    std::uniform_int_distribution<std::uint32_t> any;
+    for (int i = 0; i < 20000; ++i) {
+        // Error at most half a step of the chosen exponent.
+        const float r = value(rng), g = value(rng) * 0.01f, b = std::ldexp(value(rng), -20);
+        const std::uint32_t w = rvol::encodeRgb9e5(r, g, b);
+        const float halfStep = std::ldexp(0.5f, static_cast<int>(w >> 27) - 24);
+        const auto d = rvol::decodeRgb9e5(w);
+        ASSERT_LE(std::abs(d[0] - r), halfStep) << r;
+        ASSERT_LE(std::abs(d[1] - g), halfStep) << g;
+        ASSERT_LE(std::abs(d[2] - b), halfStep) << b;
+        // Relative to the largest channel: at most max/511.5 (a maximum of 511.5 steps rounds up
+        // to the next exponent, whose half step is 1/511.5 of it).
+        const float m = std::max({r, g, b});
+        ASSERT_LE(std::abs(d[0] - r), m / 511.5f);
+        ASSERT_LE(std::abs(d[1] - g), m / 511.5f);
+        // Every decoded value encodes back to itself.
+        const auto e = rvol::decodeRgb9e5(any(rng));
+        ASSERT_EQ(rvol::decodeRgb9e5(rvol::encodeRgb9e5(e[0], e[1], e[2])), e);
+    }
+}
+
+TEST(Rvol, Unorm8AndSrgb8) {
+    EXPECT_EQ(rvol::encodeUnorm8(0), 0);
+    EXPECT_EQ(rvol::encodeUnorm8(1), 255);
+    EXPECT_EQ(rvol::encodeUnorm8(0.5f), 128);  // 127.5 rounds up
+    EXPECT_EQ(rvol::encodeUnorm8(0.2f), 51);
+    EXPECT_EQ(rvol::encodeUnorm8(2), 255);
+    EXPECT_EQ(rvol::encodeUnorm8(-1), 0);
+    EXPECT_EQ(rvol::encodeUnorm8(NAN), 0);
+    for (int k = 0; k < 256; ++k) EXPECT_EQ(rvol::encodeUnorm8(rvol::decodeUnorm8(static_cast<std::uint8_t>(k))), k);
+
+    EXPECT_EQ(rvol::encodeSrgb8(0), 0);
+    EXPECT_EQ(rvol::encodeSrgb8(1), 255);
+    EXPECT_EQ(rvol::encodeSrgb8(0.5f), 188);      // 1.055 · 0.5^(1/2.4) − 0.055 = 0.7354
+    EXPECT_EQ(rvol::encodeSrgb8(0.002f), 7);      // linear segment: 12.92 · 0.002 · 255 = 6.59
+    EXPECT_NEAR(rvol::decodeSrgb8(188), 0.5029f, 1e-4f);
+    EXPECT_NEAR(rvol::decodeSrgb8(10), 10 / 255.0f / 12.92f, 1e-7f);
+    for (int k = 0; k < 256; ++k) EXPECT_EQ(rvol::encodeSrgb8(rvol::decodeSrgb8(static_cast<std::uint8_t>(k))), k) << k;
+}
+
+TEST(Rvol, OctahedralNormals) {
+    // Axes are exact; q = round(2047·c) + 2048.
+    EXPECT_EQ(rvol::encodeOctahedral({0, 0, 1}), 2048u | 2048u << 12);
+    EXPECT_EQ(rvol::encodeOctahedral({1, 0, 0}), 4095u | 2048u << 12);
+    EXPECT_EQ(rvol::encodeOctahedral({0, -1, 0}), 2048u | 1u << 12);
+    EXPECT_EQ(rvol::encodeOctahedral({0, 0, -1}), 4095u | 4095u << 12);  // folded to the corner (1, 1)
+    EXPECT_EQ(rvol::encodeOctahedral({0, 0, 0}), 2048u | 2048u << 12);   // degenerate: +z
+    for (const std::array<float, 3>& axis : {std::array<float, 3>{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}})
+        EXPECT_EQ(rvol::decodeOctahedral(rvol::encodeOctahedral(axis)), axis);
+    // Bits 24–31 are ignored (the occlusion byte shares the word).
+    EXPECT_EQ(rvol::decodeOctahedral(0xAB000000u | rvol::encodeOctahedral({0, 1, 0})), (std::array<float, 3>{0, 1, 0}));
+
+    std::mt19937 rng(3);
+    std::normal_distribution<float> gauss;
+    double worst = 0;
+    for (int i = 0; i < 100000; ++i) {
+        std::array<float, 3> n{gauss(rng), gauss(rng), gauss(rng)};
+        const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        for (float& c : n) c /= len;
+        const auto d = rvol::decodeOctahedral(rvol::encodeOctahedral(n));
+        ASSERT_NEAR(d[0] * d[0] + d[1] * d[1] + d[2] * d[2], 1.0f, 1e-5f);
+        const double dot = std::min(1.0, double(d[0]) * n[0] + double(d[1]) * n[1] + double(d[2]) * n[2]);
+        worst = std::max(worst, std::acos(dot));
+    }
+    std::printf("octahedral 12+12: worst angular error %.4f degrees\n", worst * 180 / 3.14159265358979);
+    EXPECT_LT(worst * 180 / 3.14159265358979, 0.08);
+}
+
+// ---- brick geometry ---------------------------------------------------------------------------
+
+TEST(Rvol, BricksShareFacesAndEmptyOnesAreNotStored) {
+    // Depth 3: level 0 has 8 cells per axis, 4-texel bricks step 3 cells: brick b holds cells
+    // 3b … 3b + 3, so 3 bricks per axis, the last holding cells 6, 7 and two zero texels.
+    ScratchDir dir;
+    rvol::Volume v = makeVolume(3, 1);
+    for (rvol::Level& level : v.levels) level.blocks.clear(), level.texels.clear();
+    rvol::Level& l0 = v.levels[0];
+    l0.blocks = {0};
+    l0.texels.assign(rvol::kBlockTexels, {});
+    const rvol::Texel a{0.5f, 1.0f, 2.0f, 128 / 255.0f}, b{3.0f, 0.0f, 0.25f, 1.0f};
+    l0.texels[rvol::Level::texelIndex(0, 1, 0, 3, 0, 0)] = a;  // on the face shared by bricks 0 and 1
+    l0.texels[rvol::Level::texelIndex(0, 1, 0, 7, 7, 7)] = b;  // inside the last brick only
+    const rvol::RvolWriteResult result = rvol::writeRvol(dir / "v.rvol", v);
+    EXPECT_EQ(result.bricks, 3u);
+    EXPECT_EQ(result.bricksPerLevel, (std::vector<std::uint64_t>{3, 0, 0, 0}));
+
+    const rvol::RvolReader reader(dir / "v.rvol");
+    const rvol::LevelEntry& e = reader.level(0);
+    EXPECT_EQ(e.resolution, 8u);
+    EXPECT_EQ(e.bricksPerAxis, 3u);
+    EXPECT_EQ(e.brickBytes, 320u);  // 64 texels × (4 + 1) bytes
+    const auto bricks = reader.bricks(0);
+    ASSERT_EQ(bricks.size(), 3u);
+    // Morton order: (0,0,0) = 0, (1,0,0) = 1, (2,2,2) = 56.
+    EXPECT_EQ(bricks[0].morton(), 0u);
+    EXPECT_EQ(bricks[1].morton(), 1u);
+    EXPECT_EQ(bricks[2].morton(), 56u);
+    EXPECT_EQ(reader.findBrick(0, 2, 2, 2), 2);
+    EXPECT_EQ(reader.findBrick(0, 0, 1, 0), -1);
+    EXPECT_EQ(reader.brickOffset(0, 2), e.dataOffset + 640);
+    EXPECT_EQ(e.dataOffset % 64, 0u);
+
+    const auto texelAt = [](std::uint32_t i, std::uint32_t j, std::uint32_t k) { return (k * 4 + j) * 4 + i; };
+    const std::vector<rvol::Texel> b0 = reader.readBrick(0, 0), b1 = reader.readBrick(0, 1), b2 = reader.readBrick(0, 2);
+    for (std::uint32_t t = 0; t < 64; ++t) {
+        EXPECT_EQ(b0[t], t == texelAt(3, 0, 0) ? a : rvol::Texel{}) << t;  // cell 3 is brick 0's last texel …
+        EXPECT_EQ(b1[t], t == texelAt(0, 0, 0) ? a : rvol::Texel{}) << t;  // … and brick 1's first
+        EXPECT_EQ(b2[t], t == texelAt(1, 1, 1) ? b : rvol::Texel{}) << t;  // cell 7 = 6 + 1
+    }
+    // The stored bytes: per channel the RGB9E5 plane, then the A8 plane.
+    const std::vector<std::uint8_t> raw = reader.readBrickBytes(0, 0);
+    ASSERT_EQ(raw.size(), 320u);
+    EXPECT_EQ(load<std::uint32_t>(raw.data() + 4 * texelAt(3, 0, 0)), rvol::encodeRgb9e5(0.5f, 1.0f, 2.0f));
+    EXPECT_EQ(raw[256 + texelAt(3, 0, 0)], 128);
+    std::vector<std::uint8_t> rest = raw;  // everything else is zero
+    std::fill_n(rest.begin() + 4 * texelAt(3, 0, 0), 4, 0);
+    rest[256 + texelAt(3, 0, 0)] = 0;
+    EXPECT_TRUE(std::all_of(rest.begin(), rest.end(), [](std::uint8_t byte) { return byte == 0; }));
+
+    // Sampling across the shared face is continuous, and the cell centre gives the texel.
+    const double cell = v.cellSize(0);
+    const auto world = [&](double ux, double uy, double uz) {
+        return std::array<double, 3>{v.origin[0] + (ux + 0.5) * cell, v.origin[1] + (uy + 0.5) * cell, v.origin[2] + (uz + 0.5) * cell};
+    };
+    EXPECT_EQ(reader.sample(0, 0, world(3, 0, 0)), a);
+    const rvol::Texel left = reader.sample(0, 0, world(3 - 1e-9, 0, 0)), right = reader.sample(0, 0, world(3 + 1e-9, 0, 0));
+    EXPECT_NEAR(left.r, a.r, 1e-6);
+    EXPECT_NEAR(right.r, a.r, 1e-6);
+    const rvol::Texel half = reader.sample(0, 0, world(3.5, 0, 0));  // halfway to the zero cell 4, in brick 1
+    EXPECT_NEAR(half.g, 0.5f, 1e-6);
+    EXPECT_NEAR(reader.sample(0, 0, world(2.75, 0, 0)).b, 1.5f, 1e-6);  // brick 0, 3/4 of the way to cell 3
+    EXPECT_EQ(reader.sample(0, 0, world(0, 4, 0)), rvol::Texel{});      // brick (0,1,0) not stored
+    // Outside the cube: clamped to the edge cells.
+    EXPECT_EQ(reader.sample(0, 0, world(100, 100, 100)), b);
+    EXPECT_EQ(reader.sample(0, 0, world(3, -50, -50)), a);
+    EXPECT_EQ(rvol::validateRvol(reader).nonZeroTexelsPerLevel, (std::vector<std::uint64_t>{2, 0, 0, 0}));
+}
+
+TEST(Rvol, WorkedExampleOfTheSpec) {
+    // docs/rvol-format.md, "Worked example": the same volume gives the bytes the spec lists.
+    ScratchDir dir;
+    rvol::Volume v;
+    v.depth = 1;
+    v.size = 2;
+    v.sceneBounds = {0.1f, 0.0f, 0.1f, 1.9f, 1.0f, 1.9f};
+    v.bake = {2, 0, 8, 1, 1};
+    rvol::Level l0{2, 1, {0}, std::vector<rvol::Texel>(rvol::kBlockTexels)};
+    l0.texels[0] = {0.5f, 0, 0, 0.5f};
+    l0.texels[1] = {0, 1, 0, 1};
+    rvol::Level l1{1, 6, {0}, std::vector<rvol::Texel>(6 * rvol::kBlockTexels)};
+    for (std::uint32_t c = 0; c < 6; ++c) l1.texels[rvol::Level::texelIndex(0, 6, c, 0, 0, 0)] = {0.125f, 0.25f, 0, 0.375f};
+    l1.texels[rvol::Level::texelIndex(0, 6, 0, 0, 0, 0)] = {0.125f, 0.125f, 0, 0.25f};
+    l1.texels[rvol::Level::texelIndex(0, 6, 1, 0, 0, 0)] = {0, 0.25f, 0, 0.25f};
+    v.levels = {l0, l1};
+    rvol::VoxelAttributes a;
+    a.x = 1;
+    a.albedo = {0.5f, 0.5f, 0.5f};
+    a.coverage = 1;
+    a.normal = {0, 1, 0};
+    a.occlusion = 0.25f;
+    v.staticVoxels = {a};
+    EXPECT_EQ(rvol::writeRvol(dir / "ex.rvol", v).fileBytes, 2688u);
+    const std::vector<std::uint8_t> b = readBytes(dir / "ex.rvol");
+    ASSERT_EQ(b.size(), 2688u);
+    EXPECT_EQ(load<std::uint32_t>(b.data() + 152), 0x1E3DD111u);  // level table checksum
+    EXPECT_EQ(load<std::uint32_t>(b.data() + 156), 0xA7D0F10Fu);  // directory checksum
+    EXPECT_EQ(load<std::uint32_t>(b.data() + 224), 0x1F01AA95u);  // static layer checksum
+    EXPECT_EQ(load<std::uint32_t>(b.data() + 252), 0x4A94F900u);  // header checksum
+    EXPECT_EQ(load<std::uint32_t>(b.data() + 328), 0xAF98C607u);  // level 0's brick
+    EXPECT_EQ(load<std::uint32_t>(b.data() + 340), 0xF1FC7DCAu);  // level 1's brick
+    EXPECT_EQ(load<std::uint32_t>(b.data() + 384), 0x78000100u);
+    EXPECT_EQ(load<std::uint32_t>(b.data() + 388), 0x80020000u);
+    EXPECT_EQ(load<std::uint16_t>(b.data() + 384 + 256), 0xFF80u);
+    EXPECT_EQ(load<std::uint32_t>(b.data() + 704), 0x68020100u);
+    EXPECT_EQ(load<std::uint32_t>(b.data() + 704 + 320), 0x70020000u);
+    EXPECT_EQ(load<std::uint32_t>(b.data() + 704 + 640), 0x70020080u);
+    EXPECT_EQ(b[704 + 640 + 256], 96);
+    EXPECT_EQ(load<std::uint32_t>(b.data() + 2624 + 8), 0x40FFF800u);
+    const rvol::RvolReader reader(dir / "ex.rvol");
+    EXPECT_EQ(rvol::validateRvol(reader).paddingBytes, 88u);
+    const rvol::Texel t = reader.sample(0, 0, {1.0, 0.5, 0.5});
+    EXPECT_FLOAT_EQ(t.g, 0.5f);
+    EXPECT_FLOAT_EQ(t.a, (128 / 255.0f + 1) / 2);
+    EXPECT_NEAR(reader.sampleDirectional(1, {1, 1, 1}, {0.6, 0.8, 0}).g, 0.205f, 1e-6f);
+}
+
+// ---- round trips ------------------------------------------------------------------------------
+
+TEST(Rvol, RoundTripIsExactForRepresentableTexels) {
+    ScratchDir dir;
+    for (std::uint32_t n : {2u, 3u, 4u, 5u}) {
+        SCOPED_TRACE("brick texels " + std::to_string(n));
+        const rvol::Volume v = makeVolume(5, 100 + n);
+        const fs::path file = dir / ("v" + std::to_string(n) + ".rvol");
+        const rvol::RvolWriteResult result = rvol::writeRvol(file, v, {n, true});
+        EXPECT_EQ(result.fileBytes, fs::file_size(file));
+        EXPECT_EQ(result.headerBytes + result.levelTableBytes + result.directoryBytes + result.radianceBytes + result.attributeBytes +
+                      result.paddingBytes,
+                  result.fileBytes);
+        EXPECT_EQ(result.staticVoxels, v.staticVoxels.size());
+        EXPECT_EQ(result.dynamicVoxels, v.dynamicVoxels.size());
+
+        const rvol::RvolReader reader(file);
+        const rvol::Header& h = reader.header();
+        EXPECT_EQ(h.depth, 5u);
+        EXPECT_EQ(h.levelCount, 6u);
+        EXPECT_EQ(h.brickTexels, n);
+        EXPECT_EQ(h.origin, v.origin);
+        EXPECT_EQ(h.size, v.size);
+        EXPECT_EQ(h.sceneBounds, v.sceneBounds);
+        EXPECT_EQ(h.bake.lights, 7u);
+        EXPECT_EQ(h.bake.shadowApertureDegrees, 3.5f);
+        EXPECT_EQ(h.flags, rvol::kFlagStaticAttributes);
+        EXPECT_EQ(h.brickCount, result.bricks);
+        for (std::uint32_t l = 0; l <= 5; ++l) {
+            EXPECT_EQ(reader.level(l).channels, l == 0 ? 1u : 6u);
+            EXPECT_EQ(reader.level(l).brickBytes, (l == 0 ? 1 : 6) * rvol::channelBytes(n));
+            EXPECT_EQ(reader.level(l).brickCount, result.bricksPerLevel[l]);
+        }
+
+        const rvol::RvolReport report = rvol::validateRvol(reader);
+        EXPECT_EQ(report.bricksPerLevel, result.bricksPerLevel);
+        EXPECT_EQ(report.radianceBytes, result.radianceBytes);
+        EXPECT_EQ(report.paddingBytes, result.paddingBytes);
+        EXPECT_EQ(report.headerBytes + report.levelTableBytes + report.directoryBytes + report.radianceBytes + report.staticAttributeBytes +
+                      report.dynamicAttributeBytes + report.paddingBytes,
+                  report.fileBytes);
+        // Distinct non-zero cells equal the in-memory count.
+        for (std::uint32_t l = 0; l <= 5; ++l) {
+            const rvol::Level& level = v.levels[l];
+            std::uint64_t cells = 0;
+            for (std::uint32_t z = 0; z < level.resolution; ++z)
+                for (std::uint32_t y = 0; y < level.resolution; ++y)
+                    for (std::uint32_t x = 0; x < level.resolution; ++x) {
+                        bool any = false;
+                        for (std::uint32_t c = 0; c < level.channels; ++c) any = any || level.at(x, y, z, c) != rvol::Texel{};
+                        cells += any;
+                    }
+            EXPECT_EQ(report.nonZeroTexelsPerLevel[l], cells) << "level " << l;
+        }
+
+        // Texels round-trip exactly; blocks are those with a non-zero cell, as generated.
+        const rvol::Volume back = reader.readVolume();
+        ASSERT_EQ(back.levels.size(), v.levels.size());
+        for (std::uint32_t l = 0; l <= 5; ++l) {
+            EXPECT_EQ(back.levels[l].resolution, v.levels[l].resolution);
+            EXPECT_EQ(back.levels[l].channels, v.levels[l].channels);
+            EXPECT_EQ(back.levels[l].blocks, v.levels[l].blocks) << "level " << l;
+            EXPECT_TRUE(back.levels[l].texels == v.levels[l].texels) << "level " << l;
+        }
+        EXPECT_EQ(back.origin, v.origin);
+        EXPECT_EQ(back.size, v.size);
+        EXPECT_EQ(back.depth, v.depth);
+        EXPECT_EQ(back.bake.bounces, v.bake.bounces);
+        EXPECT_EQ(back.bake.aoLambda, v.bake.aoLambda);
+
+        // Attributes within their encodings' precision.
+        for (const bool dynamic : {false, true}) {
+            const auto& original = dynamic ? v.dynamicVoxels : v.staticVoxels;
+            const auto& got = dynamic ? back.dynamicVoxels : back.staticVoxels;
+            ASSERT_EQ(got.size(), original.size());
+            for (std::size_t i = 0; i < got.size(); ++i) {
+                const rvol::VoxelAttributes &a = got[i], &o = original[i];
+                EXPECT_EQ(std::tie(a.x, a.y, a.z), std::tie(o.x, o.y, o.z));
+                for (int c = 0; c < 3; ++c) {
+                    EXPECT_NEAR(a.albedo[c], o.albedo[c], 0.0046f);  // half an sRGB8 step, × the curve's slope ≤ 2.3
+                    EXPECT_NEAR(a.emission[c], o.emission[c], std::max({o.emission[0], o.emission[1], o.emission[2]}) / 511.5f + 1e-6f);
+                }
+                EXPECT_NEAR(a.coverage, o.coverage, 0.5f / 255 + 1e-6f);
+                EXPECT_NEAR(a.occlusion, o.occlusion, 0.5f / 255 + 1e-6f);
+                const float dot = a.normal[0] * o.normal[0] + a.normal[1] * o.normal[1] + a.normal[2] * o.normal[2];
+                EXPECT_GT(dot, std::cos(0.08f * 3.14159265f / 180));
+            }
+        }
+    }
+}
+
+TEST(Rvol, ArbitraryTexelsRoundTripWithinEncodingPrecision) {
+    ScratchDir dir;
+    const rvol::Volume v = makeVolume(4, 7, false);
+    rvol::writeRvol(dir / "v.rvol", v);
+    const rvol::RvolReader reader(dir / "v.rvol");
+    const rvol::Volume back = reader.readVolume();
+    std::uint64_t compared = 0, inexact = 0;
+    for (std::uint32_t l = 0; l <= v.depth; ++l) {
+        const rvol::Level &a = v.levels[l], &b = back.levels[l];
+        for (std::uint32_t z = 0; z < a.resolution; ++z)
+            for (std::uint32_t y = 0; y < a.resolution; ++y)
+                for (std::uint32_t x = 0; x < a.resolution; ++x)
+                    for (std::uint32_t c = 0; c < a.channels; ++c) {
+                        const rvol::Texel want = a.at(x, y, z, c), got = b.at(x, y, z, c);
+                        expectTexelNear(got, want, rgb9e5Tolerance(want), 0.5f / 255 + 1e-7f,
+                                        "level " + std::to_string(l) + " cell " + std::to_string(x) + "," + std::to_string(y) + "," +
+                                            std::to_string(z) + " channel " + std::to_string(c));
+                        ++compared;
+                        inexact += got != want;
+                    }
+    }
+    EXPECT_GT(compared, 5000u);
+    EXPECT_GT(inexact, compared / 10);  // the values really were quantised
+}
+
+TEST(Rvol, OutputIsDeterministic) {
+    ScratchDir dir;
+    const rvol::Volume v = makeVolume(5, 42);
+    const rvol::Volume copy = v;
+    rvol::writeRvol(dir / "a.rvol", v);
+    rvol::writeRvol(dir / "b.rvol", copy);
+    const auto a = readBytes(dir / "a.rvol");
+    EXPECT_GT(a.size(), 10000u);
+    EXPECT_TRUE(a == readBytes(dir / "b.rvol"));
+    EXPECT_TRUE(std::equal(rvol::kMagic.begin(), rvol::kMagic.end(), a.begin()));
+    // Reading and writing again gives the same file: the encodings are idempotent.
+    rvol::writeRvol(dir / "c.rvol", rvol::RvolReader(dir / "a.rvol").readVolume());
+    EXPECT_TRUE(a == readBytes(dir / "c.rvol"));
+    EXPECT_EQ(dir.files(), (std::vector<std::string>{"a.rvol", "b.rvol", "c.rvol"}));  // no temporaries left
+}
+
+TEST(Rvol, StaticAttributesCanBeLeftOut) {
+    ScratchDir dir;
+    const rvol::Volume v = makeVolume(3, 9);
+    const auto result = rvol::writeRvol(dir / "v.rvol", v, {4, false});
+    EXPECT_EQ(result.staticVoxels, 0u);
+    EXPECT_EQ(result.attributeBytes, 16 * v.dynamicVoxels.size());
+    const rvol::RvolReader reader(dir / "v.rvol");
+    EXPECT_EQ(reader.header().flags & rvol::kFlagStaticAttributes, 0u);
+    EXPECT_TRUE(reader.readAttributes(false).empty());
+    EXPECT_EQ(reader.readAttributes(true).size(), v.dynamicVoxels.size());
+    EXPECT_NO_THROW((void)rvol::validateRvol(reader));
+}
+
+TEST(Rvol, EmptyVolume) {
+    ScratchDir dir;
+    rvol::Volume v = makeVolume(2, 1);
+    for (rvol::Level& level : v.levels) level.blocks.clear(), level.texels.clear();
+    v.staticVoxels.clear();
+    v.dynamicVoxels.clear();
+    const auto result = rvol::writeRvol(dir / "v.rvol", v);
+    EXPECT_EQ(result.bricks, 0u);
+    const rvol::RvolReader reader(dir / "v.rvol");
+    EXPECT_EQ(rvol::validateRvol(reader).bricks, 0u);
+    EXPECT_EQ(reader.sample(0, 0, {0, 1, 2}), rvol::Texel{});
+    EXPECT_TRUE(reader.readVolume().levels[0].blocks.empty());
+    EXPECT_EQ(result.fileBytes, 384u);  // header 256, level table 3 × 32 = 96 → 352, padded to 384, nothing else
+}
+
+// ---- sampling ---------------------------------------------------------------------------------
+
+TEST(Rvol, SampleEqualsTrilinearInterpolationOfTheLevel) {
+    ScratchDir dir;
+    for (std::uint32_t n : {2u, 3u, 4u, 6u}) {
+        SCOPED_TRACE("brick texels " + std::to_string(n));
+        const rvol::Volume v = makeVolume(5, 200 + n);
+        const fs::path file = dir / "v.rvol";
+        rvol::writeRvol(file, v, {n, true});
+        const rvol::RvolReader reader(file);
+        std::mt19937 rng(n);
+        std::uniform_real_distribution<double> inside(-0.05, 1.05);
+        for (std::uint32_t l = 0; l <= v.depth; ++l) {
+            const std::uint32_t res = v.levels[l].resolution, step = n - 1;
+            std::vector<std::array<double, 3>> points;
+            for (int i = 0; i < 300; ++i)
+                points.push_back({v.origin[0] + v.size * inside(rng), v.origin[1] + v.size * inside(rng), v.origin[2] + v.size * inside(rng)});
+            // Exactly on brick boundaries and cell centres, and just either side of a boundary.
+            std::uniform_int_distribution<std::uint32_t> brick(0, reader.level(l).bricksPerAxis);
+            for (int i = 0; i < 100; ++i) {
+                std::array<double, 3> p{};
+                const double eps = (i % 3 - 1) * 1e-7;
+                for (int a = 0; a < 3; ++a) p[a] = v.origin[a] + ((brick(rng) * step) + 0.5 + eps) * v.cellSize(l);
+                points.push_back(p);
+            }
+            for (const auto& p : points)
+                for (std::uint32_t c = 0; c < v.levels[l].channels; ++c) {
+                    const rvol::Texel want = trilinear(v, l, c, p), got = reader.sample(l, c, p);
+                    const float tol = std::max({want.r, want.g, want.b, want.a, 1e-3f}) * 2e-6f;
+                    ASSERT_NEAR(got.r, want.r, tol) << "level " << l << " channel " << c << " res " << res;
+                    ASSERT_NEAR(got.g, want.g, tol);
+                    ASSERT_NEAR(got.b, want.b, tol);
+                    ASSERT_NEAR(got.a, want.a, 2e-6f);
+                }
+        }
+    }
+}
+
+TEST(Rvol, SampleOfQuantisedTexelsIsWithinPrecision) {
+    ScratchDir dir;
+    const rvol::Volume v = makeVolume(4, 31, false);
+    rvol::writeRvol(dir / "v.rvol", v);
+    const rvol::RvolReader reader(dir / "v.rvol");
+    std::mt19937 rng(1);
+    std::uniform_real_distribution<double> inside(0, 1);
+    for (int i = 0; i < 2000; ++i) {
+        const std::array<double, 3> p{v.origin[0] + v.size * inside(rng), v.origin[1] + v.size * inside(rng), v.origin[2] + v.size * inside(rng)};
+        const std::uint32_t l = static_cast<std::uint32_t>(i % (v.depth + 1)), c = static_cast<std::uint32_t>(i % v.levels[l].channels);
+        const rvol::Texel want = trilinear(v, l, c, p), got = reader.sample(l, c, p);
+        // A convex combination of texels each off by at most 40/511.5 and 0.5/255.
+        expectTexelNear(got, want, 40 / 511.5f * 1.0001f, 0.5f / 255 + 1e-6f, "sample " + std::to_string(i));
+    }
+}
+
+TEST(Rvol, DirectionalSamplesWeightTheAxisChannelsBySquaredCosines) {
+    ScratchDir dir;
+    rvol::Volume v = makeVolume(3, 2);
+    // Level 1 (4 cells): every cell of channel c holds (c + 1, 10·(c + 1), 0.5, (c + 1)/10) exactly.
+    rvol::Level& l1 = v.levels[1];
+    l1.blocks = {0};
+    l1.texels.assign(6 * rvol::kBlockTexels, {});
+    for (std::uint32_t c = 0; c < 6; ++c)
+        for (std::uint32_t z = 0; z < 4; ++z)
+            for (std::uint32_t y = 0; y < 4; ++y)
+                for (std::uint32_t x = 0; x < 4; ++x)
+                    l1.texels[rvol::Level::texelIndex(0, 6, c, x, y, z)] = {float(c + 1), float(10 * (c + 1)), 0.5f, (c + 1) / 10.0f};
+    rvol::writeRvol(dir / "v.rvol", v);
+    const rvol::RvolReader reader(dir / "v.rvol");
+    const std::array<double, 3> p{v.origin[0] + 1.3, v.origin[1] + 0.7, v.origin[2] + 2.2};
+    const auto channelValue = [&](std::uint32_t c) { return reader.sample(1, c, p); };
+    // Decoded values of the constant channels (alpha quantised to 8 bits).
+    EXPECT_NEAR(channelValue(0).r, 1, 1e-6);
+    EXPECT_NEAR(channelValue(static_cast<std::uint32_t>(rvol::Direction::NegY)).g, 40, 1e-5);
+    const auto expectMix = [&](std::array<double, 3> d, std::array<std::pair<rvol::Direction, double>, 3> mix) {
+        double r = 0, a = 0;
+        for (const auto& [channel, w] : mix) {
+            r += w * channelValue(static_cast<std::uint32_t>(channel)).r;
+            a += w * channelValue(static_cast<std::uint32_t>(channel)).a;
+        }
+        const rvol::Texel t = reader.sampleDirectional(1, p, d);
+        EXPECT_NEAR(t.r, r, 1e-5) << d[0] << "," << d[1] << "," << d[2];
+        EXPECT_NEAR(t.a, a, 1e-6);
+    };
+    using D = rvol::Direction;
+    expectMix({1, 0, 0}, {{{D::PosX, 1}, {D::PosY, 0}, {D::PosZ, 0}}});
+    expectMix({-1, 0, 0}, {{{D::NegX, 1}, {D::PosY, 0}, {D::PosZ, 0}}});
+    expectMix({0, 0, -2}, {{{D::NegZ, 1}, {D::PosY, 0}, {D::PosX, 0}}});  // not unit: normalised
+    expectMix({0, -0.6, 0.8}, {{{D::NegY, 0.36}, {D::PosZ, 0.64}, {D::PosX, 0}}});
+    const double s = 1 / std::sqrt(3.0);
+    expectMix({-s, s, -s}, {{{D::NegX, 1 / 3.0}, {D::PosY, 1 / 3.0}, {D::NegZ, 1 / 3.0}}});
+    // PosX → r = 1, NegZ → r = 6: a cone along +x must not see the −z channel.
+    EXPECT_NEAR(reader.sampleDirectional(1, p, {1, 0, 0}).r, 1, 1e-6);
+    EXPECT_NEAR(reader.sampleDirectional(1, p, {0, 0, -1}).r, 6, 1e-6);
+    EXPECT_EQ(reader.sampleDirectional(1, p, {0, 0, 0}), rvol::Texel{});
+    // Level 0 is isotropic: every direction gives channel 0.
+    EXPECT_EQ(reader.sampleDirectional(0, p, {0, -1, 0}), reader.sample(0, 0, p));
+    EXPECT_THROW((void)reader.sample(0, 1, p), std::out_of_range);
+    EXPECT_THROW((void)reader.sample(4, 0, p), std::out_of_range);
+}
+
+TEST(Rvol, SamplingIsThreadSafeWithASmallCache) {
+    ScratchDir dir;
+    const rvol::Volume v = makeVolume(5, 77);
+    rvol::writeRvol(dir / "v.rvol", v);
+    const rvol::RvolReader reader(dir / "v.rvol");
+    reader.setCacheBytes(20000);  // a handful of bricks: constant eviction
+    std::vector<std::array<double, 3>> points;
+    std::mt19937 rng(4);
+    std::uniform_real_distribution<double> inside(0, 1);
+    for (int i = 0; i < 4000; ++i) points.push_back({v.origin[0] + 3 * inside(rng), v.origin[1] + 3 * inside(rng), v.origin[2] + 3 * inside(rng)});
+    std::vector<rvol::Texel> expected;
+    for (std::size_t i = 0; i < points.size(); ++i) expected.push_back(trilinear(v, i % 3, i % 3 == 0 ? 0 : i % 6, points[i]));
+    std::vector<std::thread> threads;
+    std::vector<int> mismatches(4, 0);
+    for (int t = 0; t < 4; ++t)
+        threads.emplace_back([&, t] {
+            for (std::size_t i = static_cast<std::size_t>(t); i < points.size() * 4; i += 3) {
+                const std::size_t k = i % points.size();
+                const rvol::Texel got = reader.sample(static_cast<std::uint32_t>(k % 3), k % 3 == 0 ? 0 : static_cast<std::uint32_t>(k % 6), points[k]);
+                const float tol = std::max({expected[k].r, expected[k].g, expected[k].b, 1e-3f}) * 2e-6f;
+                if (std::abs(got.r - expected[k].r) > tol || std::abs(got.a - expected[k].a) > 2e-6f) ++mismatches[t];
+            }
+        });
+    for (auto& t : threads) t.join();
+    EXPECT_EQ(mismatches, (std::vector<int>{0, 0, 0, 0}));
+}
+
+// ---- errors -----------------------------------------------------------------------------------
+
+TEST(Rvol, CorruptedFilesAreInvalidData) {
+    ScratchDir dir;
+    const fs::path good = dir / "good.rvol";
+    rvol::writeRvol(good, makeVolume(4, 5));
+    const std::vector<std::uint8_t> bytes = readBytes(good);
+    ASSERT_EQ(openAndValidate(good), Outcome::Valid);
+    const rvol::RvolReader reader(good);
+    const rvol::Header& h = reader.header();
+    ASSERT_GT(h.brickCount, 10u);
+    ASSERT_GT(h.staticVoxelCount, 10u);
+    const fs::path bad = dir / "bad.rvol";
+    std::uint64_t tried = 0;
+    const auto expectInvalid = [&](const std::vector<std::uint8_t>& data, const std::string& what) {
+        // Removed first: rewriting a truncated file in place makes ext4 flush it on close (auto_da_alloc).
+        fs::remove(bad);
+        vox::test::writeBinary(bad, data);
+        ++tried;
+        EXPECT_EQ(openAndValidate(bad), Outcome::Invalid) << what;
+    };
+    // One bit flipped: every byte of the header, level table, directory and the padding after
+    // them; a spread of bytes of the bricks and the attribute records (every byte of the file
+    // is covered by a checksum or by the zero-padding check).
+    for (std::uint64_t i = 0; i < bytes.size(); i += i < h.brickDataOffset ? 1 : 29) {
+        std::vector<std::uint8_t> data = bytes;
+        data[i] ^= static_cast<std::uint8_t>(1u << (i % 8));
+        expectInvalid(data, "byte " + std::to_string(i) + " flipped");
+    }
+    for (std::uint64_t i = h.staticAttributesOffset - 1; i < bytes.size(); i += 5) {  // every attribute record, and the gap before it
+        std::vector<std::uint8_t> data = bytes;
+        data[i] ^= 0x80;
+        expectInvalid(data, "attribute byte " + std::to_string(i) + " flipped");
+    }
+    std::printf("%llu corrupted variants of a %zu-byte file\n", static_cast<unsigned long long>(tried), bytes.size());
+    EXPECT_GT(tried, 1500u);
+    // Truncated (inside the header, level table, directory, bricks, attributes; a byte short) and appended to.
+    for (std::uint64_t size : {std::uint64_t{0}, std::uint64_t{4}, std::uint64_t{255}, std::uint64_t{256}, std::uint64_t{300},
+                               h.directoryOffset + 5, h.brickDataOffset + 1000, h.staticAttributesOffset + 16, std::uint64_t{bytes.size() - 1}})
+        expectInvalid(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(size)),
+                      "truncated to " + std::to_string(size));
+    std::vector<std::uint8_t> appended = bytes;
+    appended.push_back(0);
+    expectInvalid(appended, "a byte appended");
+    expectInvalid(std::vector<std::uint8_t>(4096, 0x41), "not an .rvol file");
+}
+
+TEST(Rvol, ErrorMessagesSayWhere) {
+    ScratchDir dir;
+    const fs::path good = dir / "good.rvol";
+    rvol::writeRvol(good, makeVolume(4, 5));
+    const std::vector<std::uint8_t> bytes = readBytes(good);
+    const rvol::RvolReader reader(good);
+    const rvol::Header& h = reader.header();
+    const fs::path bad = dir / "bad.rvol";
+    const auto message = [&](const std::vector<std::uint8_t>& data) -> std::string {
+        vox::test::writeBinary(bad, data);
+        try {
+            const rvol::RvolReader r(bad);
+            (void)rvol::validateRvol(r);
+        } catch (const vox::InvalidDataError& e) {
+            return e.what();
+        }
+        return "accepted";
+    };
+    const auto flipped = [&](std::uint64_t at) {
+        std::vector<std::uint8_t> data = bytes;
+        data[at] ^= 0x10;
+        return data;
+    };
+    EXPECT_EQ(message(flipped(40)), bad.string() + ": header: checksum mismatch");
+    EXPECT_EQ(message(flipped(h.levelTableOffset + 3)), bad.string() + ": level table: checksum mismatch");
+    EXPECT_EQ(message(flipped(h.directoryOffset + 13)), bad.string() + ": brick directory: checksum mismatch");
+    const rvol::LevelEntry& l1 = reader.level(1);
+    const rvol::BrickEntry& b = reader.bricks(1)[2];
+    EXPECT_EQ(message(flipped(reader.brickOffset(1, 2) + 100)),
+              bad.string() + ": level 1, brick 2 (" + std::to_string(b.x) + "," + std::to_string(b.y) + "," + std::to_string(b.z) +
+                  "), file offset " + std::to_string(l1.dataOffset + 2 * l1.brickBytes) + ": checksum mismatch");
+    EXPECT_EQ(message(flipped(h.staticAttributesOffset + 16 * 3 + 5)), bad.string() + ": static attribute layer: checksum mismatch");
+    EXPECT_EQ(message(flipped(h.dynamicAttributesOffset + 1)), bad.string() + ": dynamic attribute layer: checksum mismatch");
+    EXPECT_EQ(message(std::vector<std::uint8_t>(bytes.begin(), bytes.end() - 1)),
+              bad.string() + ": header says " + std::to_string(bytes.size()) + " bytes but the file has " + std::to_string(bytes.size() - 1) +
+                  " (truncated or appended to)");
+    std::vector<std::uint8_t> version = bytes;
+    version[4] = 2;
+    EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version 2.0 (this reader reads 1.x)");
+}
+
+TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
+    ScratchDir dir;
+    const fs::path good = dir / "good.rvol";
+    rvol::writeRvol(good, makeVolume(4, 5));
+    const std::vector<std::uint8_t> bytes = readBytes(good);
+    const rvol::RvolReader reader(good);
+    const rvol::Header& h = reader.header();
+    const fs::path bad = dir / "bad.rvol";
+    const auto rejectedWith = [&](std::vector<std::uint8_t> data, const std::string& expected) {
+        fixChecksums(data);
+        vox::test::writeBinary(bad, data);
+        try {
+            const rvol::RvolReader r(bad);
+            (void)rvol::validateRvol(r);
+            ADD_FAILURE() << "accepted; expected: " << expected;
+        } catch (const vox::InvalidDataError& e) {
+            EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+        }
+    };
+    {   // The fix-up leaves a good file as it is.
+        std::vector<std::uint8_t> same = bytes;
+        fixChecksums(same);
+        EXPECT_TRUE(same == bytes);
+    }
+    const rvol::LevelEntry& l0 = reader.level(0);
+    ASSERT_GT(l0.brickCount, 3u);
+    {   // Two directory entries swapped: no longer in Morton order.
+        std::vector<std::uint8_t> data = bytes;
+        std::swap_ranges(data.begin() + static_cast<std::ptrdiff_t>(h.directoryOffset),
+                         data.begin() + static_cast<std::ptrdiff_t>(h.directoryOffset + 12),
+                         data.begin() + static_cast<std::ptrdiff_t>(h.directoryOffset + 12));
+        rejectedWith(data, "not in strictly ascending Morton order");
+    }
+    {   // A brick coordinate past the level.
+        std::vector<std::uint8_t> data = bytes;
+        const std::uint64_t last = h.directoryOffset + 12 * (l0.brickCount - 1);
+        store<std::uint16_t>(data.data() + last + 4, static_cast<std::uint16_t>(l0.bricksPerAxis));
+        rejectedWith(data, "outside the level's");
+    }
+    {   // Non-zero directory padding.
+        std::vector<std::uint8_t> data = bytes;
+        data[h.directoryOffset + 6] = 1;
+        rejectedWith(data, "directory entry padding is not zero");
+    }
+    {   // One texel of a shared face changed in only one of the two bricks.
+        bool found = false;
+        for (std::uint32_t i = 0; i < l0.brickCount && !found; ++i) {
+            const rvol::BrickEntry& b = reader.bricks(0)[i];
+            if (reader.findBrick(0, b.x + 1u, b.y, b.z) < 0) continue;
+            std::vector<std::uint8_t> data = bytes;
+            const std::uint64_t texel = 3 + 4 * (1 + 4 * 2);  // (3, 1, 2): on the +x face
+            data[reader.brickOffset(0, i) + 4 * texel] ^= 0x01;
+            rejectedWith(data, "shared face with brick (" + std::to_string(b.x + 1) + "," + std::to_string(b.y) + "," + std::to_string(b.z) + ") differs");
+            found = true;
+        }
+        EXPECT_TRUE(found);
+    }
+    {   // A brick made all zero.
+        std::vector<std::uint8_t> data = bytes;
+        std::fill_n(data.begin() + static_cast<std::ptrdiff_t>(reader.brickOffset(0, 0)), l0.brickBytes, 0);
+        rejectedWith(data, "level 0, brick 0");
+    }
+    {   // Two attribute records swapped.
+        std::vector<std::uint8_t> data = bytes;
+        const auto at = data.begin() + static_cast<std::ptrdiff_t>(h.staticAttributesOffset);
+        std::swap_ranges(at, at + 16, at + 16);
+        rejectedWith(data, "static attribute layer, record 1, file offset " + std::to_string(h.staticAttributesOffset + 16) +
+                               ": Morton codes not strictly ascending");
+    }
+    {   // A Morton code outside level 0 (depth 4: 12 bits).
+        std::vector<std::uint8_t> data = bytes;
+        store<std::uint32_t>(data.data() + h.dynamicAttributesOffset + 16 * (h.dynamicVoxelCount - 1), 1u << 12);
+        rejectedWith(data, "outside level 0");
+    }
+    {   // Padding between sections.
+        std::vector<std::uint8_t> data = bytes;
+        ASSERT_GT(h.directoryOffset, h.levelTableOffset + h.levelTableBytes);
+        data[h.directoryOffset - 1] = 0xFF;
+        rejectedWith(data, "padding at file offset " + std::to_string(h.directoryOffset - 1) + " is not zero");
+    }
+    {   // A header claiming far more than the file holds: rejected before any allocation.
+        std::vector<std::uint8_t> data = bytes;
+        store<std::uint64_t>(data.data() + 112, std::uint64_t{1} << 60);  // brickCount
+        store<std::uint64_t>(data.data() + 168, std::uint64_t{12} << 60);
+        rejectedWith(data, "brick directory misplaced");
+        data = bytes;
+        store<std::uint64_t>(data.data() + 120, std::uint64_t{1} << 40);  // static voxels
+        rejectedWith(data, "static attribute layer misplaced");
+        data = bytes;
+        store<std::uint32_t>(data.data() + 12, 11);  // depth 11
+        rejectedWith(data, "depth 11 above 10");
+        data = bytes;
+        store<std::uint32_t>(data.data() + 20, 1);  // 1-texel bricks
+        rejectedWith(data, "brick size 1 outside 2..32");
+        data = bytes;
+        store<std::uint32_t>(data.data() + 256 + 32 + 16, l0.brickCount + 1);  // level 1 claims a brick more
+        rejectedWith(data, "level table, level 1");
+    }
+}
+
+TEST(Rvol, MissingFileIsIoError) {
+    ScratchDir dir;
+    try {
+        const rvol::RvolReader reader(dir / "missing.rvol");
+        ADD_FAILURE() << "opened a file that does not exist";
+    } catch (const vox::IoError& e) {
+        EXPECT_NE(std::string(e.what()).find("missing.rvol"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(rvol::RvolReader{dir.path()}, vox::IoError);
+}
+
+TEST(Rvol, WriterRejectsBadOptionsAndInconsistentVolumes) {
+    ScratchDir dir;
+    const rvol::Volume v = makeVolume(3, 1);
+    EXPECT_THROW(rvol::writeRvol(dir / "x.rvol", v, {1, true}), vox::UsageError);
+    EXPECT_THROW(rvol::writeRvol(dir / "x.rvol", v, {33, true}), vox::UsageError);
+    rvol::Volume w = v;
+    w.levels.pop_back();
+    EXPECT_THROW(rvol::writeRvol(dir / "x.rvol", w, {}), std::invalid_argument);
+    w = v;
+    w.levels[1].channels = 1;
+    EXPECT_THROW(rvol::writeRvol(dir / "x.rvol", w, {}), std::invalid_argument);
+    w = v;
+    w.levels[0].texels.pop_back();
+    EXPECT_THROW(rvol::writeRvol(dir / "x.rvol", w, {}), std::invalid_argument);
+    w = v;
+    std::swap(w.staticVoxels[0], w.staticVoxels[1]);
+    EXPECT_THROW(rvol::writeRvol(dir / "x.rvol", w, {}), std::invalid_argument);
+    w = v;
+    w.size = 0;
+    EXPECT_THROW(rvol::writeRvol(dir / "x.rvol", w, {}), std::invalid_argument);
+    EXPECT_TRUE(dir.files().empty());
+}
