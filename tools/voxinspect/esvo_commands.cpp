@@ -1,5 +1,6 @@
 #include "esvo_commands.h"
 
+#include "../common/camera_options.h"
 #include "../common/reports.h"
 
 #include <vox/formats/error.h>
@@ -15,15 +16,6 @@
 
 namespace vox::tools {
 namespace {
-
-Vec3d parseVector(const std::string& text, const char* option) {
-    Vec3d v;
-    char tail = 0;
-    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v.x, &v.y, &v.z, &tail) != 3 || !std::isfinite(v.x) ||
-        !std::isfinite(v.y) || !std::isfinite(v.z))
-        throw UsageError(std::string(option) + " expects x,y,z (got '" + text + "')");
-    return v;
-}
 
 void printInfo(const std::string& file, bool json) {
     const esvo::EsvoReader reader(file);
@@ -201,14 +193,7 @@ std::array<std::uint8_t, 3> levelColour(std::uint32_t level) {
 }
 
 void render(const EsvoCommands& c) {
-    PinholeCamera camera;
-    camera.eye = parseVector(c.eye, "--eye");
-    camera.target = parseVector(c.target, "--target");
-    camera.up = parseVector(c.up, "--up");
-    camera.fovYDegrees = c.fov;
-    camera.width = c.width;
-    camera.height = c.height;
-    camera.validate();
+    const PinholeCamera camera = c.camera.camera();
     static const std::array<std::string, 7> kChannels{"depth", "normal", "iterations", "level", "color", "shaded", "face-normal"};
     if (std::find(kChannels.begin(), kChannels.end(), c.channel) == kChannels.end())
         throw UsageError("--channel must be depth, normal, face-normal, color, shaded, iterations or level");
@@ -307,30 +292,26 @@ void render(const EsvoCommands& c) {
 }  // namespace
 
 void EsvoCommands::add(CLI::App& app) {
-    info = app.add_subcommand("info", "Levels, voxels per level, slices and bytes per voxel of an .esvo file");
-    info->add_option("file", file, ".esvo file")->required();
+    info = app.add_subcommand("info", "Levels, voxels per level, slices and bytes per voxel of an .esvo file (or an .rvol file's levels)");
+    info->add_option("file", file, ".esvo or .rvol file")->required();
     info->add_flag("--json", json, "Print JSON");
 
-    validate = app.add_subcommand("validate", "Check every invariant of an .esvo file; exit 3 at the first violation");
-    validate->add_option("file", file, ".esvo file")->required();
+    validate = app.add_subcommand("validate", "Check every invariant of an .esvo or .rvol file; exit 3 at the first violation");
+    validate->add_option("file", file, ".esvo or .rvol file")->required();
 
     dump = app.add_subcommand("dump", "Print the header and slice directory, or one slice's blocks");
     dump->add_option("file", file, ".esvo file")->required();
     dump->add_option("--slice", slice, "Dump this slice's descriptor area unit by unit")->check(CLI::NonNegativeNumber);
     dump->add_flag("--json", json, "Print JSON");
 
-    render = app.add_subcommand("render", "Ray cast an .esvo file to a PNG (and a PFM depth map)");
-    render->add_option("file", file, ".esvo file")->required();
+    render = app.add_subcommand("render", "Ray cast an .esvo file to a PNG (and a PFM depth map), or final-gather an .rvol file");
+    render->add_option("file", file, ".esvo or .rvol file")->required();
     render->add_option("-o,--output", output, "PNG to write")->required();
-    render->add_option("--eye", eye, "Camera position x,y,z (world units)")->required();
-    render->add_option("--target", target, "Point looked at x,y,z")->required();
-    render->add_option("--up", up, "Up vector x,y,z")->capture_default_str();
-    render->add_option("--fov", fov, "Vertical field of view, degrees")->capture_default_str();
-    render->add_option("--width", width, "Image width")->capture_default_str();
-    render->add_option("--height", height, "Image height")->capture_default_str();
+    camera.add(*render);
     render->add_option("--channel", channel,
                        "shaded (headlight Phong on the voxels' colours and normals), color, normal (shading normal), "
-                       "face-normal (of the cube face or contour hit), depth, iterations or level")
+                       "face-normal (of the cube face or contour hit), depth, iterations or level; .rvol: final (default), direct, "
+                       "indirect, specular, ao, albedo or normal")
         ->capture_default_str();
     render->add_flag("--filter", filter, "Post-process filter (Laine & Karras 6.3): blur each pixel over its voxel's projected size");
     render->add_option("--depth-out", depthOut, "Write distances as PFM (+inf where rays miss)");

@@ -1,5 +1,8 @@
-// voxinspect's .esvo commands: info, validate, dump, render.
+// voxinspect's .esvo commands: info, validate, dump, render (RvolCommands takes info, validate and
+// render over for .rvol files and adds options of its own to render).
 #pragma once
+
+#include "../common/camera_options.h"
 
 #include <CLI/CLI.hpp>
 
@@ -14,9 +17,7 @@ struct EsvoCommands {
     long long slice = -1;
     // render
     std::string output, depthOut, stats, channel = "depth";
-    std::string eye, target, up = "0,1,0";
-    double fov = 60;
-    int width = 512, height = 512;
+    CameraOptions camera;  // --eye --target --up --fov --width --height
     unsigned maxLevel = 0xFFFFFFFFu;
     unsigned loadLevels = 0xFFFFFFFFu;
     double lodScale = 1.0;

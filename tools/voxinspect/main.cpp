@@ -1,8 +1,10 @@
 // voxinspect: looks inside the files libvox reads and writes. `scene` shows what the importer
-// makes of a scene file; info, validate, dump and render work on .esvo files.
+// makes of a scene file; info, validate and render work on .esvo and .rvol files (by extension),
+// dump on .esvo files, sample and slices on .rvol files.
 #include "../common/reports.h"
 #include "../common/tool_main.h"
 #include "esvo_commands.h"
+#include "rvol_commands.h"
 
 #include <vox/formats/error.h>
 #include <vox/import.h>
@@ -92,9 +94,11 @@ int main(int argc, char** argv) {
 
     vox::tools::EsvoCommands esvo;
     esvo.add(app);
+    vox::tools::RvolCommands rvol;
+    rvol.add(app, esvo);
 
     return vox::tools::runTool("voxinspect", app, argc, argv, common, [&] {
         if (sceneApp->parsed()) inspectScene(scene);
-        else esvo.run();
+        else if (!rvol.run()) esvo.run();
     });
 }
