@@ -11,16 +11,21 @@ out=build/example
 rm -rf "$out"
 mkdir -p "$out"
 scene=$(build/examples/make_example_scene cornell-box -o "$out/scene")
-build/tools/voxelize "$scene" -o "$out/cornell_box.esvo" --depth 10 -v \
+build/tools/voxelize "$scene" -o "$out/cornell_box.esvo" --depth 10 --radiance "$out/cornell_box.rvol" -v \
     --stats "$out/cornell_box.stats.json" --depfile "$out/cornell_box.d"
 build/tools/voxinspect validate "$out/cornell_box.esvo" -v
+build/tools/voxinspect validate "$out/cornell_box.rvol" -v
+build/tools/voxinspect render "$out/cornell_box.rvol" --scene "$scene" -o "$out/cornell_box.gi.png" \
+    --eye 0,1,3.4 --target 0,1,0 --fov 45 --width 480 --height 480 -v
 build/tools/voxinspect render "$out/cornell_box.esvo" -o "$out/cornell_box.png" --channel shaded \
     --eye 0,1,3.4 --target 0,1,0 --fov 45 --width 640 --height 640 --depth-out "$out/cornell_box.depth.pfm" -v
 
 echo
 echo "Example scene:  $scene"
 echo "Octree:         $out/cornell_box.esvo   (voxinspect info $out/cornell_box.esvo)"
+echo "Radiance:       $out/cornell_box.rvol   (voxinspect info $out/cornell_box.rvol; 256³, 2 bounces)"
 echo "Render:         $out/cornell_box.png (colours and normals under a headlight), depth $out/cornell_box.depth.pfm"
+echo "GI render:      $out/cornell_box.gi.png (the triangles lit by a cone-traced final gather over the .rvol)"
 echo "Stats (JSON):   $out/cornell_box.stats.json"
 echo "Depfile:        $out/cornell_box.d"
 echo "Inspect it:     build/tools/voxinspect scene $scene"

@@ -417,6 +417,28 @@ nlohmann::json sampleJson(const std::filesystem::path& rvol, const std::vector<s
 
 }  // namespace
 
+TEST(Tools, RadianceBakeIsByteIdenticalWhateverTheThreadCountAndRejectsBadOptions) {
+    ScratchDir dir;
+    const auto scene = vox::scenes::writeCornellBox(dir.path());
+    std::vector<std::vector<std::uint8_t>> rvols, vdbs;
+    for (const char* threads : {"1", "2"}) {
+        const auto rvol = dir / (std::string("t") + threads + ".rvol");
+        const auto vdb = dir / (std::string("t") + threads + ".vdb");
+        const ProcessResult r = voxelize({scene.string(), "--radiance", rvol.string(), "--radiance-depth", "5", "--bounces", "2",
+                                          "--export-vdb", vdb.string(), "--threads", threads});
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        rvols.push_back(readBytes(rvol));
+        vdbs.push_back(readBytes(vdb));
+    }
+    EXPECT_TRUE(rvols[0] == rvols[1]);
+    EXPECT_TRUE(vdbs[0] == vdbs[1]);
+    expectOneLineError(voxelize({scene.string(), "--radiance", (dir / "x.txt").string()}), 1, ".rvol");
+    expectOneLineError(voxelize({scene.string(), "--export-vdb", (dir / "x.vdb").string()}), 1, "--export-vdb needs --radiance");
+    expectOneLineError(voxelize({scene.string(), "--radiance", (dir / "x.rvol").string(), "--radiance-depth", "11"}), 1,
+                       "--radiance-depth");
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.rvol"));
+}
+
 TEST(Tools, RvolInfoAndValidate) {
     ScratchDir dir;
     const auto rvol = bakeCornellRvol(dir);
