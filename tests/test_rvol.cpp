@@ -19,6 +19,7 @@
 #include <random>
 #include <set>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -62,7 +63,8 @@ rvol::Texel anyTexel(std::mt19937& rng, double zeroChance = 0.3) {
 
 /// A volume of @p depth with random sparse blocks (each present with @p blockChance, each of its
 /// cells inside the level non-zero at random, at least one per block), and random static and
-/// dynamic voxels.
+/// dynamic voxels. As in a baked volume, the ± channels of an axis have the same opacity (the
+/// format stores it once per axis).
 rvol::Volume makeVolume(std::uint32_t depth, std::uint32_t seed, bool representable = true, double blockChance = 0.35) {
     std::mt19937 rng(seed);
     rvol::Volume v;
@@ -94,6 +96,7 @@ rvol::Volume makeVolume(std::uint32_t depth, std::uint32_t seed, bool representa
                 for (std::uint32_t c = 0; c < level.channels; ++c) {
                     rvol::Texel t = representable ? representableTexel(rng) : anyTexel(rng);
                     if (!any && i == 0 && c == 0 && t == rvol::Texel{}) t = {0.5f, 0.25f, 1.0f, 1.0f};  // no empty block
+                    if (c % 2 == 1) t.a = level.texels[rvol::Level::texelIndex(b, level.channels, c - 1, x, y, z)].a;  // NegX = PosX …
                     any = any || t != rvol::Texel{};
                     level.texels[rvol::Level::texelIndex(b, level.channels, c, x, y, z)] = t;
                 }
@@ -443,29 +446,182 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     a.normal = {0, 1, 0};
     a.occlusion = 0.25f;
     v.staticVoxels = {a};
-    EXPECT_EQ(rvol::writeRvol(dir / "ex.rvol", v).fileBytes, 2688u);
+    EXPECT_EQ(rvol::writeRvol(dir / "ex.rvol", v).fileBytes, 2496u);
     const std::vector<std::uint8_t> b = readBytes(dir / "ex.rvol");
-    ASSERT_EQ(b.size(), 2688u);
-    EXPECT_EQ(load<std::uint32_t>(b.data() + 152), 0x1E3DD111u);  // level table checksum
-    EXPECT_EQ(load<std::uint32_t>(b.data() + 156), 0xA7D0F10Fu);  // directory checksum
-    EXPECT_EQ(load<std::uint32_t>(b.data() + 224), 0x1F01AA95u);  // static layer checksum
-    EXPECT_EQ(load<std::uint32_t>(b.data() + 252), 0x4A94F900u);  // header checksum
-    EXPECT_EQ(load<std::uint32_t>(b.data() + 328), 0xAF98C607u);  // level 0's brick
-    EXPECT_EQ(load<std::uint32_t>(b.data() + 340), 0xF1FC7DCAu);  // level 1's brick
-    EXPECT_EQ(load<std::uint32_t>(b.data() + 384), 0x78000100u);
-    EXPECT_EQ(load<std::uint32_t>(b.data() + 388), 0x80020000u);
-    EXPECT_EQ(load<std::uint16_t>(b.data() + 384 + 256), 0xFF80u);
-    EXPECT_EQ(load<std::uint32_t>(b.data() + 704), 0x68020100u);
-    EXPECT_EQ(load<std::uint32_t>(b.data() + 704 + 320), 0x70020000u);
-    EXPECT_EQ(load<std::uint32_t>(b.data() + 704 + 640), 0x70020080u);
-    EXPECT_EQ(b[704 + 640 + 256], 96);
-    EXPECT_EQ(load<std::uint32_t>(b.data() + 2624 + 8), 0x40FFF800u);
+    ASSERT_EQ(b.size(), 2496u);
+
+    // The whole file, byte for byte, as the spec lists it (every byte not set here is zero).
+    std::vector<std::uint8_t> want(2496, 0);
+    std::uint8_t* w = want.data();
+    // Header.
+    std::memcpy(w, "RVOL", 4);
+    store<std::uint16_t>(w + 4, 2);  // version 2.0
+    store<std::uint32_t>(w + 8, 256);
+    store<std::uint32_t>(w + 12, 1);  // depth
+    store<std::uint32_t>(w + 16, 2);  // levels
+    store<std::uint32_t>(w + 20, 4);  // N
+    store<std::uint32_t>(w + 24, 2);  // texel format 2
+    store<std::uint32_t>(w + 28, 1);  // flags: static layer written
+    store<double>(w + 56, 2.0);       // size (origin 0)
+    for (int i = 0; i < 6; ++i) store<float>(w + 64 + 4 * i, v.sceneBounds[i]);
+    EXPECT_EQ(load<std::uint32_t>(w + 64), 0x3DCCCCCDu);  // 0.1f
+    EXPECT_EQ(load<std::uint32_t>(w + 76), 0x3FF33333u);  // 1.9f
+    store<std::uint32_t>(w + 88, 2);  // bounces
+    store<float>(w + 96, 8.0f);       // λ (aperture 0)
+    store<std::uint32_t>(w + 100, 1);  // attenuation
+    store<std::uint32_t>(w + 104, 1);  // lights
+    store<std::uint64_t>(w + 112, 2);  // bricks
+    store<std::uint64_t>(w + 120, 1);  // static voxels (0 dynamic)
+    store<std::uint64_t>(w + 136, 256);
+    store<std::uint64_t>(w + 144, 64);
+    store<std::uint32_t>(w + 152, 0x4AC5680Bu);  // level table checksum
+    store<std::uint32_t>(w + 156, 0xCC0F3D9Eu);  // directory checksum
+    store<std::uint64_t>(w + 160, 320);
+    store<std::uint64_t>(w + 168, 24);
+    store<std::uint64_t>(w + 176, 384);
+    store<std::uint64_t>(w + 184, 2048);
+    store<std::uint64_t>(w + 192, 2432);
+    store<std::uint64_t>(w + 200, 16);
+    store<std::uint64_t>(w + 208, 2496);  // dynamic layer, 0 bytes
+    store<std::uint32_t>(w + 224, 0x1F01AA95u);  // static layer checksum (dynamic: 0)
+    store<std::uint64_t>(w + 232, 2496);
+    store<std::uint32_t>(w + 252, 0xE78FD062u);  // header checksum
+    // Level table: resolution, channels, bricks per axis, brick bytes, bricks, first entry, data offset.
+    for (const auto& [at, entry, offset] : {std::tuple{256, std::array<std::uint32_t, 6>{2, 1, 1, 320, 1, 0}, 384},
+                                            std::tuple{288, std::array<std::uint32_t, 6>{1, 6, 1, 1728, 1, 1}, 704}}) {
+        for (int i = 0; i < 6; ++i) store<std::uint32_t>(w + at + 4 * i, entry[i]);
+        store<std::uint64_t>(w + at + 24, static_cast<std::uint64_t>(offset));
+    }
+    // Directory: bricks (0,0,0) of both levels.
+    store<std::uint32_t>(w + 320 + 8, 0xAF98C607u);
+    store<std::uint32_t>(w + 332 + 8, 0xD6D289A3u);
+    // Level 0's brick: RGB9E5 plane, then the A8 plane at brick byte 256.
+    store<std::uint32_t>(w + 384, 0x78000100u);  // red (0.5, 0, 0)
+    store<std::uint32_t>(w + 388, 0x80020000u);  // green (0, 1, 0)
+    w[384 + 256] = 128;
+    w[384 + 257] = 255;
+    // Level 1's brick: the RGB9E5 planes of PosX … NegZ at brick byte 256·c, then the A8 planes
+    // of the x, y and z axes at 1536, 1600, 1664.
+    for (std::uint32_t c = 0; c < 6; ++c)
+        store<std::uint32_t>(w + 704 + 256 * c, c == 0 ? 0x68020100u : c == 1 ? 0x70020000u : 0x70020080u);
+    w[704 + 1536] = 64;
+    w[704 + 1600] = 96;
+    w[704 + 1664] = 96;
+    // Static layer: Morton code 1, albedo sRGB 188 ×3 and coverage 255, normal +y with occlusion 64.
+    store<std::uint32_t>(w + 2432, 1);
+    store<std::uint32_t>(w + 2436, 0xFFBCBCBCu);
+    store<std::uint32_t>(w + 2440, 0x40FFF800u);
+    const auto mismatch = std::mismatch(b.begin(), b.end(), want.begin());
+    EXPECT_TRUE(mismatch.first == b.end()) << "first difference at byte " << (mismatch.first - b.begin());
+
     const rvol::RvolReader reader(dir / "ex.rvol");
     EXPECT_EQ(rvol::validateRvol(reader).paddingBytes, 88u);
     const rvol::Texel t = reader.sample(0, 0, {1.0, 0.5, 0.5});
     EXPECT_FLOAT_EQ(t.g, 0.5f);
     EXPECT_FLOAT_EQ(t.a, (128 / 255.0f + 1) / 2);
-    EXPECT_NEAR(reader.sampleDirectional(1, {1, 1, 1}, {0.6, 0.8, 0}).g, 0.205f, 1e-6f);
+    const rvol::Texel along = reader.sampleDirectional(1, {1, 1, 1}, {0.6, 0.8, 0});
+    const rvol::Texel against = reader.sampleDirectional(1, {1, 1, 1}, {-0.6, 0.8, 0});
+    EXPECT_NEAR(along.r, 0.125f, 1e-6f);
+    EXPECT_NEAR(along.g, 0.205f, 1e-6f);
+    EXPECT_NEAR(along.a, 0.331294f, 1e-6f);
+    EXPECT_NEAR(against.r, 0.08f, 1e-6f);  // NegX instead of PosX: other light …
+    EXPECT_NEAR(against.g, 0.25f, 1e-6f);
+    EXPECT_EQ(against.a, along.a);          // … the same opacity
+}
+
+TEST(Rvol, OpacityIsStoredOncePerAxis) {
+    // Front-to-back compositing's opacity a_f + (1 − a_f)·a_b is symmetric in front and back, so
+    // the ± channels of an axis always have the same opacity: bricks of levels ≥ 1 hold six
+    // RGB9E5 planes and three A8 planes (x, y, z), level 0's one RGB9E5 and one A8 plane.
+    EXPECT_EQ(rvol::brickBytes(4, 6), 6u * 256 + 3 * 64);
+    EXPECT_EQ(rvol::brickBytes(4, 6), 1728u);                // 1.x: 6 × 320 = 1920
+    EXPECT_EQ(rvol::brickBytes(4, 1), 320u);                 // unchanged
+    EXPECT_EQ(rvol::brickBytes(5, 6), 6u * 500 + 3 * 128);  // 125 opacities padded to 128; 1.x: 6 × 628 = 3768
+    EXPECT_EQ(rvol::brickBytes(5, 1), 628u);
+    EXPECT_EQ(rvol::brickBytes(3, 6), 6u * 108 + 3 * 28);
+    EXPECT_EQ(rvol::alphaPlanes(1), 1u);
+    EXPECT_EQ(rvol::alphaPlanes(6), 3u);
+    EXPECT_EQ(rvol::alphaPlaneOf(static_cast<std::uint32_t>(rvol::Direction::NegX)), 0u);
+    EXPECT_EQ(rvol::alphaPlaneOf(static_cast<std::uint32_t>(rvol::Direction::PosY)), 1u);
+    EXPECT_EQ(rvol::alphaPlaneOf(static_cast<std::uint32_t>(rvol::Direction::NegZ)), 2u);
+    EXPECT_EQ(rvol::alphaPlaneOffset(4, 6, 2), 6u * 256 + 2 * 64);
+
+    ScratchDir dir;
+    rvol::Volume v = makeVolume(2, 3);
+    // Level 1 (2 cells per axis, one brick): cell (1,0,0) with a different radiance per channel
+    // and one opacity per axis; cell (0,1,0) with PosX and NegX opacities that differ (no bake
+    // makes that): stored as their mean.
+    rvol::Level& l1 = v.levels[1];
+    l1.blocks = {0};
+    l1.texels.assign(6 * rvol::kBlockTexels, {});
+    const float axisAlpha[3] = {51 / 255.0f, 153 / 255.0f, 1.0f};
+    for (std::uint32_t c = 0; c < 6; ++c)
+        l1.texels[rvol::Level::texelIndex(0, 6, c, 1, 0, 0)] = {float(c + 1), 0.5f * float(c), 0.25f, axisAlpha[c / 2]};
+    l1.texels[rvol::Level::texelIndex(0, 6, 0, 0, 1, 0)] = {1, 0, 0, 0.2f};
+    l1.texels[rvol::Level::texelIndex(0, 6, 1, 0, 1, 0)] = {0, 1, 0, 0.6f};
+    const rvol::RvolWriteResult result = rvol::writeRvol(dir / "v.rvol", v);
+    const rvol::RvolReader reader(dir / "v.rvol");
+    const rvol::LevelEntry& e = reader.level(1);
+    EXPECT_EQ(e.channels, 6u);
+    EXPECT_EQ(e.brickBytes, 1728u);
+    ASSERT_EQ(e.brickCount, 1u);
+    EXPECT_EQ(reader.level(0).brickBytes, 320u);
+    EXPECT_EQ(result.radianceBytes, reader.level(0).brickCount * 320u + 1728u + reader.level(2).brickCount * 1728u);
+    EXPECT_EQ(result.radianceBytes, rvol::validateRvol(reader).radianceBytes);
+
+    // The stored bytes: RGB9E5 planes of PosX … NegZ at 256·c, then the x, y, z A8 planes at
+    // 1536 + 64·p.
+    const std::vector<std::uint8_t> raw = reader.readBrickBytes(1, 0);
+    ASSERT_EQ(raw.size(), 1728u);
+    const std::size_t t = 1, u = 4;  // texels (1,0,0) and (0,1,0)
+    for (std::uint32_t c = 0; c < 6; ++c)
+        EXPECT_EQ(load<std::uint32_t>(raw.data() + 256 * c + 4 * t), rvol::encodeRgb9e5(float(c + 1), 0.5f * float(c), 0.25f)) << c;
+    for (std::uint32_t p = 0; p < 3; ++p) EXPECT_EQ(raw[1536 + 64 * p + t], rvol::encodeUnorm8(axisAlpha[p])) << p;
+    EXPECT_EQ(raw[1536 + u], 102);  // (0.2 + 0.6)/2 = 0.4 → 102
+    EXPECT_EQ(raw[1536 + 64 + u], 0);
+    EXPECT_EQ(raw[1536 + 128 + u], 0);
+
+    // Decoded: each ± pair reads the same opacity and its own radiance.
+    const std::vector<rvol::Texel> texels = reader.readBrick(1, 0);
+    ASSERT_EQ(texels.size(), 6u * 64);
+    for (std::uint32_t a = 0; a < 3; ++a) {
+        const rvol::Texel pos = texels[2 * a * 64 + t], neg = texels[(2 * a + 1) * 64 + t];
+        EXPECT_EQ(pos.a, neg.a) << "axis " << a;
+        EXPECT_EQ(pos.a, axisAlpha[a]) << "axis " << a;
+        EXPECT_EQ(pos.r, float(2 * a + 1));
+        EXPECT_EQ(neg.r, float(2 * a + 2));
+    }
+    EXPECT_EQ(texels[u], (rvol::Texel{1, 0, 0, 102 / 255.0f}));
+    EXPECT_EQ(texels[64 + u], (rvol::Texel{0, 1, 0, 102 / 255.0f}));
+
+    // Sampled at the cell's centre, and directionally: +x and −x see the same opacity, not the
+    // same light.
+    const double cell = v.cellSize(1);
+    const std::array<double, 3> p{v.origin[0] + 1.5 * cell, v.origin[1] + 0.5 * cell, v.origin[2] + 0.5 * cell};
+    const rvol::Texel posX = reader.sample(1, 0, p), negX = reader.sample(1, 1, p);
+    EXPECT_EQ(posX.a, negX.a);
+    EXPECT_FLOAT_EQ(posX.a, 0.2f);
+    EXPECT_FLOAT_EQ(posX.r, 1);
+    EXPECT_FLOAT_EQ(negX.r, 2);
+    const rvol::Texel along = reader.sampleDirectional(1, p, {0.6, 0.8, 0}), against = reader.sampleDirectional(1, p, {-0.6, -0.8, 0});
+    EXPECT_FLOAT_EQ(along.a, against.a);
+    EXPECT_FLOAT_EQ(along.a, 0.36f * 0.2f + 0.64f * 0.6f);
+    EXPECT_NE(along.r, against.r);
+
+    // readVolume: the cell whose opacities differed comes back with their mean in both channels;
+    // writing it again gives the same file.
+    const rvol::Volume back = reader.readVolume();
+    EXPECT_EQ(back.levels[1].at(1, 0, 0, 3), (rvol::Texel{4, 1.5f, 0.25f, 153 / 255.0f}));
+    EXPECT_EQ(back.levels[1].at(0, 1, 0, 0), (rvol::Texel{1, 0, 0, 102 / 255.0f}));
+    EXPECT_EQ(back.levels[1].at(0, 1, 0, 1), (rvol::Texel{0, 1, 0, 102 / 255.0f}));
+    rvol::writeRvol(dir / "again.rvol", back);
+    EXPECT_TRUE(readBytes(dir / "again.rvol") == readBytes(dir / "v.rvol"));
+    EXPECT_NO_THROW((void)rvol::validateRvol(reader));
+
+    // decodeBrick takes 1 or 6 channels and exactly brickBytes.
+    EXPECT_THROW((void)rvol::decodeBrick(raw, 4, 2), std::invalid_argument);
+    EXPECT_THROW((void)rvol::decodeBrick(std::vector<std::uint8_t>(1920), 4, 6), std::invalid_argument);  // 1.x's size
+    EXPECT_EQ(rvol::decodeBrick(raw, 4, 6), texels);
 }
 
 // ---- round trips ------------------------------------------------------------------------------
@@ -498,7 +654,8 @@ TEST(Rvol, RoundTripIsExactForRepresentableTexels) {
         EXPECT_EQ(h.brickCount, result.bricks);
         for (std::uint32_t l = 0; l <= 5; ++l) {
             EXPECT_EQ(reader.level(l).channels, l == 0 ? 1u : 6u);
-            EXPECT_EQ(reader.level(l).brickBytes, (l == 0 ? 1 : 6) * rvol::channelBytes(n));
+            // Level 0: an RGB9E5 and an A8 plane; above: six RGB9E5 planes and three A8 planes.
+            EXPECT_EQ(reader.level(l).brickBytes, (l == 0 ? 1 : 6) * rvol::rgbPlaneBytes(n) + (l == 0 ? 1 : 3) * rvol::alphaPlaneBytes(n));
             EXPECT_EQ(reader.level(l).brickCount, result.bricksPerLevel[l]);
         }
 
@@ -685,7 +842,8 @@ TEST(Rvol, SampleOfQuantisedTexelsIsWithinPrecision) {
 TEST(Rvol, DirectionalSamplesWeightTheAxisChannelsBySquaredCosines) {
     ScratchDir dir;
     rvol::Volume v = makeVolume(3, 2);
-    // Level 1 (4 cells): every cell of channel c holds (c + 1, 10·(c + 1), 0.5, (c + 1)/10) exactly.
+    // Level 1 (4 cells): every cell of channel c holds (c + 1, 10·(c + 1), 0.5, (axis + 1)/10)
+    // exactly, axis = c/2 (the ± channels of an axis share their opacity).
     rvol::Level& l1 = v.levels[1];
     l1.blocks = {0};
     l1.texels.assign(6 * rvol::kBlockTexels, {});
@@ -693,7 +851,7 @@ TEST(Rvol, DirectionalSamplesWeightTheAxisChannelsBySquaredCosines) {
         for (std::uint32_t z = 0; z < 4; ++z)
             for (std::uint32_t y = 0; y < 4; ++y)
                 for (std::uint32_t x = 0; x < 4; ++x)
-                    l1.texels[rvol::Level::texelIndex(0, 6, c, x, y, z)] = {float(c + 1), float(10 * (c + 1)), 0.5f, (c + 1) / 10.0f};
+                    l1.texels[rvol::Level::texelIndex(0, 6, c, x, y, z)] = {float(c + 1), float(10 * (c + 1)), 0.5f, (c / 2 + 1) / 10.0f};
     rvol::writeRvol(dir / "v.rvol", v);
     const rvol::RvolReader reader(dir / "v.rvol");
     const std::array<double, 3> p{v.origin[0] + 1.3, v.origin[1] + 0.7, v.origin[2] + 2.2};
@@ -838,9 +996,12 @@ TEST(Rvol, ErrorMessagesSayWhere) {
     EXPECT_EQ(message(std::vector<std::uint8_t>(bytes.begin(), bytes.end() - 1)),
               bad.string() + ": header says " + std::to_string(bytes.size()) + " bytes but the file has " + std::to_string(bytes.size() - 1) +
                   " (truncated or appended to)");
+    // A 1.x file (one A8 plane per channel) is rejected by its version, never misread.
     std::vector<std::uint8_t> version = bytes;
-    version[4] = 2;
-    EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version 2.0 (this reader reads 1.x)");
+    version[4] = 1;
+    EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version 1.0 (this reader reads 2.x)");
+    version[4] = 3;
+    EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version 3.0 (this reader reads 2.x)");
 }
 
 TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
@@ -900,6 +1061,21 @@ TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
         }
         EXPECT_TRUE(found);
     }
+    {   // One opacity of a shared face changed in only one of two level-1 bricks (the x axis' A8 plane).
+        bool found = false;
+        const rvol::LevelEntry& l1 = reader.level(1);
+        for (std::uint32_t i = 0; i < l1.brickCount && !found; ++i) {
+            const rvol::BrickEntry& b = reader.bricks(1)[i];
+            if (reader.findBrick(1, b.x + 1u, b.y, b.z) < 0) continue;
+            std::vector<std::uint8_t> data = bytes;
+            const std::uint64_t texel = 3 + 4 * (1 + 4 * 2);  // (3, 1, 2): on the +x face
+            data[reader.brickOffset(1, i) + rvol::alphaPlaneOffset(4, 6, 0) + texel] ^= 0x01;
+            rejectedWith(data, "shared face with brick (" + std::to_string(b.x + 1) + "," + std::to_string(b.y) + "," +
+                                   std::to_string(b.z) + ") differs (x-axis A8 plane)");
+            found = true;
+        }
+        EXPECT_TRUE(found);
+    }
     {   // A brick made all zero.
         std::vector<std::uint8_t> data = bytes;
         std::fill_n(data.begin() + static_cast<std::ptrdiff_t>(reader.brickOffset(0, 0)), l0.brickBytes, 0);
@@ -938,9 +1114,46 @@ TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
         store<std::uint32_t>(data.data() + 20, 1);  // 1-texel bricks
         rejectedWith(data, "brick size 1 outside 2..32");
         data = bytes;
+        store<std::uint32_t>(data.data() + 24, 1);  // 1.x's texel format: an A8 plane per channel
+        rejectedWith(data, "header: unknown texel format 1");
+        data = bytes;
         store<std::uint32_t>(data.data() + 256 + 32 + 16, l0.brickCount + 1);  // level 1 claims a brick more
         rejectedWith(data, "level table, level 1");
     }
+}
+
+TEST(Rvol, AlphaPlanePaddingMustBeZero) {
+    // N = 3: 27 opacities per A8 plane, padded to 28 bytes.
+    ScratchDir dir;
+    const fs::path good = dir / "good.rvol", bad = dir / "bad.rvol";
+    rvol::writeRvol(good, makeVolume(3, 8), {3, true});
+    const std::vector<std::uint8_t> bytes = readBytes(good);
+    const rvol::RvolReader reader(good);
+    ASSERT_EQ(openAndValidate(good), Outcome::Valid);
+    ASSERT_GT(reader.level(0).brickCount, 0u);
+    ASSERT_GT(reader.level(1).brickCount, 0u);
+    EXPECT_EQ(reader.level(0).brickBytes, 108u + 28);
+    EXPECT_EQ(reader.level(1).brickBytes, 6u * 108 + 3 * 28);
+    const auto rejectedWith = [&](std::uint32_t level, std::uint32_t plane, const std::string& expected) {
+        std::vector<std::uint8_t> data = bytes;
+        const std::uint32_t channels = reader.level(level).channels;
+        data[reader.brickOffset(level, 0) + rvol::alphaPlaneOffset(3, channels, plane) + 27] = 1;
+        fixChecksums(data);
+        vox::test::writeBinary(bad, data);
+        try {
+            const rvol::RvolReader r(bad);
+            (void)rvol::validateRvol(r);
+            ADD_FAILURE() << "accepted; expected: " << expected;
+        } catch (const vox::InvalidDataError& e) {
+            EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+        }
+    };
+    const rvol::BrickEntry& first = reader.bricks(0)[0];
+    rejectedWith(0, 0, "level 0, brick 0 (" + std::to_string(first.x) + "," + std::to_string(first.y) + "," + std::to_string(first.z) +
+                           "), file offset " + std::to_string(reader.brickOffset(0, 0)) + ": A8 plane padding is not zero");
+    rejectedWith(1, 0, "level 1, brick 0");
+    rejectedWith(1, 0, "x-axis A8 plane padding is not zero");
+    rejectedWith(1, 2, "z-axis A8 plane padding is not zero");
 }
 
 TEST(Rvol, MissingFileIsIoError) {

@@ -118,13 +118,15 @@ VoxelAttributes decodeAttributes(const AttributeRecord& r) noexcept {
 }
 
 std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_t brickTexels, std::uint32_t channels) {
+    if (channels != 1 && channels != kDirections) throw std::invalid_argument("decodeBrick: a brick has 1 or 6 channels");
     if (brickTexels < kMinBrickTexels || brickTexels > kMaxBrickTexels || bytes.size() != brickBytes(brickTexels, channels))
         throw std::invalid_argument("decodeBrick: byte count does not match the brick size");
     const std::size_t n3 = std::size_t{brickTexels} * brickTexels * brickTexels;
     std::vector<Texel> texels(channels * n3);
     for (std::uint32_t c = 0; c < channels; ++c) {
-        const std::uint8_t* rgb = bytes.data() + c * channelBytes(brickTexels);
-        const std::uint8_t* alpha = rgb + 4 * n3;
+        const std::uint8_t* rgb = bytes.data() + rgbPlaneOffset(brickTexels, c);
+        // The ± channels of an axis share its opacity plane.
+        const std::uint8_t* alpha = bytes.data() + alphaPlaneOffset(brickTexels, channels, alphaPlaneOf(c));
         for (std::size_t i = 0; i < n3; ++i) {
             const auto [r, g, b] = decodeRgb9e5(detail::load<std::uint32_t>(rgb + 4 * i));
             texels[c * n3 + i] = {r, g, b, decodeUnorm8(alpha[i])};

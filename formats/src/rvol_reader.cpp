@@ -75,7 +75,7 @@ Header decodeHeader(const std::filesystem::path& file, const std::uint8_t* p, st
     if (h.levelCount != h.depth + 1) invalid(file, "header: level count is not depth + 1");
     if (h.brickTexels < kMinBrickTexels || h.brickTexels > kMaxBrickTexels)
         invalid(file, "header: brick size " + str(h.brickTexels) + " outside " + str(kMinBrickTexels) + ".." + str(kMaxBrickTexels));
-    if (h.texelFormat != kTexelFormatRgb9e5A8) invalid(file, "header: unknown texel format " + str(h.texelFormat));
+    if (h.texelFormat != kTexelFormatRgb9e5AxisA8) invalid(file, "header: unknown texel format " + str(h.texelFormat));
     if (!std::isfinite(h.origin[0]) || !std::isfinite(h.origin[1]) || !std::isfinite(h.origin[2]) || !std::isfinite(h.size) || !(h.size > 0))
         invalid(file, "header: root cube origin or size not finite, or size not positive");
     if (h.fileBytes != fileSize)

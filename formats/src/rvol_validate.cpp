@@ -17,7 +17,7 @@ class LevelChecker {
 public:
     LevelChecker(const RvolReader& reader, std::uint32_t level)
         : reader_(reader), level_(level), e_(reader.level(level)), n_(reader.header().brickTexels),
-          n3_(std::size_t{n_} * n_ * n_), channelBytes_(channelBytes(n_)), entries_(reader.bricks(level)) {}
+          n3_(std::size_t{n_} * n_ * n_), planes_(alphaPlanes(e_.channels)), entries_(reader.bricks(level)) {}
 
     /// Returns the level's distinct non-zero cells.
     std::uint64_t run() {
@@ -28,9 +28,9 @@ public:
             const std::vector<std::uint8_t> bytes = reader_.readBrickBytes(level_, i);  // checks the CRC
             if (std::all_of(bytes.begin(), bytes.end(), [](std::uint8_t v) { return v == 0; }))
                 fail(i, "all texels zero (an empty brick must not be stored)");
-            for (std::uint32_t c = 0; c < e_.channels; ++c)
-                for (std::uint64_t at = 5 * n3_; at < channelBytes_; ++at)
-                    if (bytes[c * channelBytes_ + at] != 0) fail(i, "channel " + str(c) + " alpha plane padding is not zero");
+            for (std::uint32_t p = 0; p < planes_; ++p)
+                for (std::uint64_t at = n3_; at < alphaPlaneBytes(n_); ++at)
+                    if (bytes[alphaOffset(p) + at] != 0) fail(i, planeName(p) + " padding is not zero");
             const std::array<std::uint32_t, 3> coords{b.x, b.y, b.z};
             const std::uint32_t step = n_ - 1;
             for (std::uint32_t k = 0; k < n_; ++k)
@@ -81,11 +81,20 @@ private:
     [[nodiscard]] std::size_t texelIndex(const std::array<std::uint32_t, 3>& t) const noexcept {
         return (std::size_t{t[2]} * n_ + t[1]) * n_ + t[0];
     }
+    [[nodiscard]] std::uint64_t rgbOffset(std::uint32_t channel) const noexcept { return rgbPlaneOffset(n_, channel); }
+    [[nodiscard]] std::uint64_t alphaOffset(std::uint32_t plane) const noexcept { return alphaPlaneOffset(n_, e_.channels, plane); }
+    /// "A8 plane" at level 0, "x-axis A8 plane" (y, z) above.
+    [[nodiscard]] std::string planeName(std::uint32_t plane) const {
+        if (planes_ == 1) return "A8 plane";
+        std::string name(1, static_cast<char>('x' + plane));
+        name += "-axis A8 plane";
+        return name;
+    }
     [[nodiscard]] bool texelZero(const std::vector<std::uint8_t>& bytes, std::size_t t) const noexcept {
-        for (std::uint32_t c = 0; c < e_.channels; ++c) {
-            const std::uint8_t* plane = bytes.data() + c * channelBytes_;
-            if (detail::load<std::uint32_t>(plane + 4 * t) != 0 || plane[4 * n3_ + t] != 0) return false;
-        }
+        for (std::uint32_t c = 0; c < e_.channels; ++c)
+            if (detail::load<std::uint32_t>(bytes.data() + rgbOffset(c) + 4 * t) != 0) return false;
+        for (std::uint32_t p = 0; p < planes_; ++p)
+            if (bytes[alphaOffset(p) + t] != 0) return false;
         return true;
     }
     [[nodiscard]] static std::string coordsText(const std::array<std::uint32_t, 3>& c) {
@@ -117,11 +126,14 @@ private:
             t[axis] = 0;
             const std::size_t there = texelIndex(t);
             for (std::uint32_t c = 0; c < e_.channels; ++c) {
-                const std::uint8_t* a = bytes.data() + c * channelBytes_;
-                const std::uint8_t* b = other.data() + c * channelBytes_;
-                if (!std::equal(a + 4 * here, a + 4 * here + 4, b + 4 * there) || a[4 * n3_ + here] != b[4 * n3_ + there])
+                const std::uint8_t* a = bytes.data() + rgbOffset(c);
+                const std::uint8_t* b = other.data() + rgbOffset(c);
+                if (!std::equal(a + 4 * here, a + 4 * here + 4, b + 4 * there))
                     fail(index, "shared face with brick " + coordsText(neighbour) + " differs (channel " + str(c) + ")");
             }
+            for (std::uint32_t p = 0; p < planes_; ++p)
+                if (bytes[alphaOffset(p) + here] != other[alphaOffset(p) + there])
+                    fail(index, "shared face with brick " + coordsText(neighbour) + " differs (" + planeName(p) + ")");
         });
     }
     void requireZeroFace(std::uint32_t index, const std::vector<std::uint8_t>& bytes, int axis, std::uint32_t layer,
@@ -137,7 +149,7 @@ private:
     const LevelEntry& e_;
     std::uint32_t n_;
     std::size_t n3_;
-    std::uint64_t channelBytes_;
+    std::uint32_t planes_;  ///< A8 planes per brick
     std::span<const BrickEntry> entries_;
 };
 

@@ -97,6 +97,9 @@ void checkVolume(const Volume& v) {
     }
 }
 
+/// clamp(v, 0, 1), NaN → 0 (as encodeUnorm8 clamps).
+float clamp01(float v) noexcept { return v > 0 ? std::min(v, 1.0f) : 0.0f; }
+
 /// One level's stored bricks.
 struct EncodedLevel {
     LevelEntry entry;
@@ -130,8 +133,7 @@ EncodedLevel encodeLevel(const Level& level, std::uint32_t n) {
     std::sort(candidates.begin(), candidates.end());
     candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
 
-    const std::size_t n3 = std::size_t{n} * n * n;
-    const std::uint64_t chBytes = channelBytes(n);
+    const std::uint32_t planes = alphaPlanes(channels);
     std::vector<std::uint8_t> brick(out.entry.brickBytes);
     for (std::uint64_t code : candidates) {
         const auto b = demorton3(code);
@@ -152,14 +154,22 @@ EncodedLevel encodeLevel(const Level& level, std::uint32_t n) {
                     }
                     if (lastBlock < 0) continue;
                     const std::size_t t = (std::size_t{k} * n + j) * n + i;
+                    const auto texel = [&](std::uint32_t c) -> const Texel& {
+                        return level.texels[Level::texelIndex(static_cast<std::size_t>(lastBlock), channels, c, x, y, z)];
+                    };
                     for (std::uint32_t c = 0; c < channels; ++c) {
-                        const Texel& v = level.texels[Level::texelIndex(static_cast<std::size_t>(lastBlock), channels, c, x, y, z)];
+                        const Texel& v = texel(c);
                         const std::uint32_t rgb = encodeRgb9e5(v.r, v.g, v.b);
-                        const std::uint8_t alpha = encodeUnorm8(v.a);
-                        std::uint8_t* plane = brick.data() + c * chBytes;
-                        store<std::uint32_t>(plane + 4 * t, rgb);
-                        plane[4 * n3 + t] = alpha;
-                        nonZero = nonZero || rgb != 0 || alpha != 0;
+                        store<std::uint32_t>(brick.data() + rgbPlaneOffset(n, c) + 4 * t, rgb);
+                        nonZero = nonZero || rgb != 0;
+                    }
+                    for (std::uint32_t p = 0; p < planes; ++p) {
+                        // Level 0: the channel's opacity; above: the mean of the axis' ± channels
+                        // (equal in a baked volume: compositing's opacity is symmetric).
+                        const float a = channels == 1 ? texel(0).a : 0.5f * (clamp01(texel(2 * p).a) + clamp01(texel(2 * p + 1).a));
+                        const std::uint8_t alpha = encodeUnorm8(a);
+                        brick[alphaPlaneOffset(n, channels, p) + t] = alpha;
+                        nonZero = nonZero || alpha != 0;
                     }
                 }
         if (!nonZero) continue;  // empty space: absent bricks read as zero

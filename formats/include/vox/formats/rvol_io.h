@@ -19,7 +19,8 @@ namespace vox::rvol {
 // ---- constants ------------------------------------------------------------------------------
 
 inline constexpr std::array<std::uint8_t, 4> kMagic{'R', 'V', 'O', 'L'};
-inline constexpr std::uint16_t kVersionMajor = 1;  ///< readers reject other majors
+/// 2.0: bricks of levels ≥ 1 hold one A8 opacity plane per axis instead of one per channel (1.x).
+inline constexpr std::uint16_t kVersionMajor = 2;  ///< readers reject other majors
 inline constexpr std::uint16_t kVersionMinor = 0;  ///< readers accept any minor of their major
 inline constexpr std::uint32_t kHeaderBytes = 256;
 inline constexpr std::uint32_t kLevelEntryBytes = 32;
@@ -30,8 +31,10 @@ inline constexpr std::uint32_t kSectionAlignment = 64;  ///< file offset alignme
 inline constexpr std::uint32_t kMaxDepth = 10;
 inline constexpr std::uint32_t kMinBrickTexels = 2;
 inline constexpr std::uint32_t kMaxBrickTexels = 32;
-/// Texel format 1: per channel an RGB9E5 plane (GL_RGB9_E5) then an A8 plane (GL_R8).
-inline constexpr std::uint32_t kTexelFormatRgb9e5A8 = 1;
+/// Texel format 2 (the only one of 2.x): per channel an RGB9E5 plane (GL_RGB9_E5), then the A8
+/// opacity planes (GL_R8): one at level 0, one per axis (x, y, z) above, shared by the axis' ±
+/// channels. (Texel format 1, per channel an RGB9E5 and an A8 plane, was 1.x's.)
+inline constexpr std::uint32_t kTexelFormatRgb9e5AxisA8 = 2;
 /// Header flags.
 inline constexpr std::uint32_t kFlagStaticAttributes = 1;  ///< the static attribute layer was written
 
@@ -74,14 +77,33 @@ inline constexpr float kRgb9e5Max = 65408.0f;
     const std::uint32_t step = brickTexels - 1;
     return resolution <= 1 ? 1u : (resolution - 1 + step - 1) / step;
 }
-/// Bytes of one channel of a brick: the RGB9E5 plane (4·N³) then the A8 plane (N³) padded to a
-/// multiple of 4, so that every RGB9E5 plane is 4-byte aligned.
-[[nodiscard]] constexpr std::uint64_t channelBytes(std::uint32_t brickTexels) noexcept {
-    const std::uint64_t texels = std::uint64_t{brickTexels} * brickTexels * brickTexels;
-    return 4 * texels + (texels + 3) / 4 * 4;
+/// Bytes of one RGB9E5 plane of a brick: N³ 32-bit words.
+[[nodiscard]] constexpr std::uint64_t rgbPlaneBytes(std::uint32_t brickTexels) noexcept {
+    return 4 * std::uint64_t{brickTexels} * brickTexels * brickTexels;
 }
+/// Bytes of one A8 plane of a brick: N³ bytes padded to a multiple of 4.
+[[nodiscard]] constexpr std::uint64_t alphaPlaneBytes(std::uint32_t brickTexels) noexcept {
+    return (std::uint64_t{brickTexels} * brickTexels * brickTexels + 3) / 4 * 4;
+}
+/// A8 planes of a brick of @p channels channels: 1 for level 0's isotropic channel, one per axis
+/// (3) for the six directional channels, whose ± pair shares its opacity (front-to-back
+/// compositing's opacity a_f + (1 − a_f)·a_b is symmetric in front and back).
+[[nodiscard]] constexpr std::uint32_t alphaPlanes(std::uint32_t channels) noexcept { return channels == 1 ? 1u : channels / 2; }
+/// The A8 plane holding the opacity of @p channel: channel/2 (PosX, NegX → 0 (x); PosY, NegY → 1
+/// (y); PosZ, NegZ → 2 (z); level 0's channel 0 → 0).
+[[nodiscard]] constexpr std::uint32_t alphaPlaneOf(std::uint32_t channel) noexcept { return channel / 2; }
+/// Byte offset in a brick of @p channel's RGB9E5 plane: channel · 4N³.
+[[nodiscard]] constexpr std::uint64_t rgbPlaneOffset(std::uint32_t brickTexels, std::uint32_t channel) noexcept {
+    return channel * rgbPlaneBytes(brickTexels);
+}
+/// Byte offset in a brick of @p channels channels of A8 plane @p plane: after every RGB9E5 plane.
+[[nodiscard]] constexpr std::uint64_t alphaPlaneOffset(std::uint32_t brickTexels, std::uint32_t channels, std::uint32_t plane) noexcept {
+    return channels * rgbPlaneBytes(brickTexels) + plane * alphaPlaneBytes(brickTexels);
+}
+/// Bytes of a brick of @p channels channels: the RGB9E5 planes then the A8 planes (N = 4: 320 at
+/// level 0, 6·256 + 3·64 = 1728 above).
 [[nodiscard]] constexpr std::uint64_t brickBytes(std::uint32_t brickTexels, std::uint32_t channels) noexcept {
-    return channels * channelBytes(brickTexels);
+    return alphaPlaneOffset(brickTexels, channels, alphaPlanes(channels));
 }
 /// The first multiple of kSectionAlignment at or after @p offset.
 [[nodiscard]] constexpr std::uint64_t alignSection(std::uint64_t offset) noexcept {
@@ -97,7 +119,7 @@ struct Header {
     std::uint32_t depth = 0;
     std::uint32_t levelCount = 1;           ///< depth + 1
     std::uint32_t brickTexels = 4;          ///< N, texels per brick edge
-    std::uint32_t texelFormat = kTexelFormatRgb9e5A8;
+    std::uint32_t texelFormat = kTexelFormatRgb9e5AxisA8;
     std::uint32_t flags = 0;                ///< kFlagStaticAttributes
     std::array<double, 3> origin{0, 0, 0};  ///< world position of the root cube's minimum corner
     double size = 1;                        ///< root cube edge, world units
@@ -174,8 +196,10 @@ struct RvolWriteResult {
 };
 
 /// Writes @p volume to @p file atomically (AtomicFile). The same volume and options give the same
-/// bytes. Expects a consistent volume: depth ≤ kMaxDepth; levels[l] with resolution 2^(depth − l)
-/// and levelChannels(l) channels, blocks strictly ascending and inside the level, texels sized
+/// bytes. Each axis' A8 plane at levels ≥ 1 holds the mean of its two channels' opacities (each
+/// clamped to [0, 1] first); they are equal for volumes the bake produces, so a volume whose ±
+/// opacities differ reads back with both replaced by their mean. Expects a consistent volume:
+/// depth ≤ kMaxDepth; levels[l] with resolution 2^(depth − l) and levelChannels(l) channels, blocks strictly ascending and inside the level, texels sized
 /// blocks × channels × kBlockTexels; voxel attributes inside level 0 in strictly ascending Morton
 /// order; origin finite, size finite and > 0. Texels of cells ≥ resolution are not stored.
 /// @throws UsageError for bad options, std::invalid_argument for an inconsistent volume, IoError
@@ -215,7 +239,8 @@ public:
     /// InvalidDataError on a checksum mismatch.
     [[nodiscard]] std::vector<std::uint8_t> readBrickBytes(std::uint32_t level, std::uint32_t index) const;
     /// Brick @p index of @p level decoded: channels × N³ texels, channel-major, then z, y, x
-    /// (x fastest); texel (i, j, k) is cell (bx·(N−1) + i, by·(N−1) + j, bz·(N−1) + k).
+    /// (x fastest); texel (i, j, k) is cell (bx·(N−1) + i, by·(N−1) + j, bz·(N−1) + k). Each
+    /// channel's opacity comes from its axis' A8 plane, so ± channels read the same opacity.
     [[nodiscard]] std::vector<Texel> readBrick(std::uint32_t level, std::uint32_t index) const;
 
     /// Trilinear sample of @p channel of @p level at world position @p position, as a GPU's
@@ -261,8 +286,10 @@ private:
     std::unique_ptr<Cache> cache_;
 };
 
-/// Decodes the @p channels × N³ texels of a brick's stored bytes (readBrick's order).
-/// @throws std::invalid_argument if @p bytes is not brickBytes(@p brickTexels, @p channels) long.
+/// Decodes the @p channels × N³ texels of a brick's stored bytes (readBrick's order), channel c's
+/// opacity from A8 plane alphaPlaneOf(c).
+/// @throws std::invalid_argument if @p channels is neither 1 nor kDirections, or @p bytes is not
+/// brickBytes(@p brickTexels, @p channels) long.
 [[nodiscard]] std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_t brickTexels, std::uint32_t channels);
 
 // ---- validation -----------------------------------------------------------------------------
@@ -281,7 +308,7 @@ struct RvolReport {
 };
 
 /// Reads and checks every brick and attribute record of an open file: brick checksums, no stored
-/// brick all zero, zero texels for cells outside the level, zero padding, equal shared faces
+/// brick all zero, zero texels for cells outside the level, zero A8 plane padding, equal shared faces
 /// between neighbouring bricks (and zero faces towards bricks that are not stored), attribute
 /// checksums, Morton codes strictly ascending and inside level 0, zero gaps between sections.
 /// @throws InvalidDataError "FILE: where: what" at the first problem.
