@@ -26,6 +26,9 @@ namespace fs = std::filesystem;
 namespace rvol = vox::rvol;
 using vox::test::ScratchDir;
 
+// The tests below were laid out for bricks of 4 texels (the writer's default is 5).
+const vox::rvol::RvolWriteOptions kFourTexels{4, true};
+
 namespace {
 
 template <typename T>
@@ -367,7 +370,7 @@ TEST(Rvol, BricksShareFacesAndEmptyOnesAreNotStored) {
     const rvol::Texel a{0.5f, 1.0f, 2.0f, 128 / 255.0f}, b{3.0f, 0.0f, 0.25f, 1.0f};
     l0.texels[rvol::Level::texelIndex(0, 1, 0, 3, 0, 0)] = a;  // on the face shared by bricks 0 and 1
     l0.texels[rvol::Level::texelIndex(0, 1, 0, 7, 7, 7)] = b;  // inside the last brick only
-    const rvol::RvolWriteResult result = rvol::writeRvol(dir / "v.rvol", v);
+    const rvol::RvolWriteResult result = rvol::writeRvol(dir / "v.rvol", v, kFourTexels);
     EXPECT_EQ(result.bricks, 3u);
     EXPECT_EQ(result.bricksPerLevel, (std::vector<std::uint64_t>{3, 0, 0, 0}));
 
@@ -446,7 +449,7 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     a.normal = {0, 1, 0};
     a.occlusion = 0.25f;
     v.staticVoxels = {a};
-    EXPECT_EQ(rvol::writeRvol(dir / "ex.rvol", v).fileBytes, 2496u);
+    EXPECT_EQ(rvol::writeRvol(dir / "ex.rvol", v, kFourTexels).fileBytes, 2496u);
     const std::vector<std::uint8_t> b = readBytes(dir / "ex.rvol");
     ASSERT_EQ(b.size(), 2496u);
 
@@ -559,7 +562,7 @@ TEST(Rvol, OpacityIsStoredOncePerAxis) {
         l1.texels[rvol::Level::texelIndex(0, 6, c, 1, 0, 0)] = {float(c + 1), 0.5f * float(c), 0.25f, axisAlpha[c / 2]};
     l1.texels[rvol::Level::texelIndex(0, 6, 0, 0, 1, 0)] = {1, 0, 0, 0.2f};
     l1.texels[rvol::Level::texelIndex(0, 6, 1, 0, 1, 0)] = {0, 1, 0, 0.6f};
-    const rvol::RvolWriteResult result = rvol::writeRvol(dir / "v.rvol", v);
+    const rvol::RvolWriteResult result = rvol::writeRvol(dir / "v.rvol", v, kFourTexels);
     const rvol::RvolReader reader(dir / "v.rvol");
     const rvol::LevelEntry& e = reader.level(1);
     EXPECT_EQ(e.channels, 6u);
@@ -614,7 +617,7 @@ TEST(Rvol, OpacityIsStoredOncePerAxis) {
     EXPECT_EQ(back.levels[1].at(1, 0, 0, 3), (rvol::Texel{4, 1.5f, 0.25f, 153 / 255.0f}));
     EXPECT_EQ(back.levels[1].at(0, 1, 0, 0), (rvol::Texel{1, 0, 0, 102 / 255.0f}));
     EXPECT_EQ(back.levels[1].at(0, 1, 0, 1), (rvol::Texel{0, 1, 0, 102 / 255.0f}));
-    rvol::writeRvol(dir / "again.rvol", back);
+    rvol::writeRvol(dir / "again.rvol", back, kFourTexels);
     EXPECT_TRUE(readBytes(dir / "again.rvol") == readBytes(dir / "v.rvol"));
     EXPECT_NO_THROW((void)rvol::validateRvol(reader));
 
@@ -719,7 +722,7 @@ TEST(Rvol, RoundTripIsExactForRepresentableTexels) {
 TEST(Rvol, ArbitraryTexelsRoundTripWithinEncodingPrecision) {
     ScratchDir dir;
     const rvol::Volume v = makeVolume(4, 7, false);
-    rvol::writeRvol(dir / "v.rvol", v);
+    rvol::writeRvol(dir / "v.rvol", v, kFourTexels);
     const rvol::RvolReader reader(dir / "v.rvol");
     const rvol::Volume back = reader.readVolume();
     std::uint64_t compared = 0, inexact = 0;
@@ -745,14 +748,14 @@ TEST(Rvol, OutputIsDeterministic) {
     ScratchDir dir;
     const rvol::Volume v = makeVolume(5, 42);
     const rvol::Volume copy = v;
-    rvol::writeRvol(dir / "a.rvol", v);
-    rvol::writeRvol(dir / "b.rvol", copy);
+    rvol::writeRvol(dir / "a.rvol", v, kFourTexels);
+    rvol::writeRvol(dir / "b.rvol", copy, kFourTexels);
     const auto a = readBytes(dir / "a.rvol");
     EXPECT_GT(a.size(), 10000u);
     EXPECT_TRUE(a == readBytes(dir / "b.rvol"));
     EXPECT_TRUE(std::equal(rvol::kMagic.begin(), rvol::kMagic.end(), a.begin()));
     // Reading and writing again gives the same file: the encodings are idempotent.
-    rvol::writeRvol(dir / "c.rvol", rvol::RvolReader(dir / "a.rvol").readVolume());
+    rvol::writeRvol(dir / "c.rvol", rvol::RvolReader(dir / "a.rvol").readVolume(), kFourTexels);
     EXPECT_TRUE(a == readBytes(dir / "c.rvol"));
     EXPECT_EQ(dir.files(), (std::vector<std::string>{"a.rvol", "b.rvol", "c.rvol"}));  // no temporaries left
 }
@@ -776,7 +779,7 @@ TEST(Rvol, EmptyVolume) {
     for (rvol::Level& level : v.levels) level.blocks.clear(), level.texels.clear();
     v.staticVoxels.clear();
     v.dynamicVoxels.clear();
-    const auto result = rvol::writeRvol(dir / "v.rvol", v);
+    const auto result = rvol::writeRvol(dir / "v.rvol", v, kFourTexels);
     EXPECT_EQ(result.bricks, 0u);
     const rvol::RvolReader reader(dir / "v.rvol");
     EXPECT_EQ(rvol::validateRvol(reader).bricks, 0u);
@@ -826,7 +829,7 @@ TEST(Rvol, SampleEqualsTrilinearInterpolationOfTheLevel) {
 TEST(Rvol, SampleOfQuantisedTexelsIsWithinPrecision) {
     ScratchDir dir;
     const rvol::Volume v = makeVolume(4, 31, false);
-    rvol::writeRvol(dir / "v.rvol", v);
+    rvol::writeRvol(dir / "v.rvol", v, kFourTexels);
     const rvol::RvolReader reader(dir / "v.rvol");
     std::mt19937 rng(1);
     std::uniform_real_distribution<double> inside(0, 1);
@@ -852,7 +855,7 @@ TEST(Rvol, DirectionalSamplesWeightTheAxisChannelsBySquaredCosines) {
             for (std::uint32_t y = 0; y < 4; ++y)
                 for (std::uint32_t x = 0; x < 4; ++x)
                     l1.texels[rvol::Level::texelIndex(0, 6, c, x, y, z)] = {float(c + 1), float(10 * (c + 1)), 0.5f, (c / 2 + 1) / 10.0f};
-    rvol::writeRvol(dir / "v.rvol", v);
+    rvol::writeRvol(dir / "v.rvol", v, kFourTexels);
     const rvol::RvolReader reader(dir / "v.rvol");
     const std::array<double, 3> p{v.origin[0] + 1.3, v.origin[1] + 0.7, v.origin[2] + 2.2};
     const auto channelValue = [&](std::uint32_t c) { return reader.sample(1, c, p); };
@@ -889,7 +892,7 @@ TEST(Rvol, DirectionalSamplesWeightTheAxisChannelsBySquaredCosines) {
 TEST(Rvol, SamplingIsThreadSafeWithASmallCache) {
     ScratchDir dir;
     const rvol::Volume v = makeVolume(5, 77);
-    rvol::writeRvol(dir / "v.rvol", v);
+    rvol::writeRvol(dir / "v.rvol", v, kFourTexels);
     const rvol::RvolReader reader(dir / "v.rvol");
     reader.setCacheBytes(20000);  // a handful of bricks: constant eviction
     std::vector<std::array<double, 3>> points;
@@ -918,7 +921,7 @@ TEST(Rvol, SamplingIsThreadSafeWithASmallCache) {
 TEST(Rvol, CorruptedFilesAreInvalidData) {
     ScratchDir dir;
     const fs::path good = dir / "good.rvol";
-    rvol::writeRvol(good, makeVolume(4, 5));
+    rvol::writeRvol(good, makeVolume(4, 5), kFourTexels);
     const std::vector<std::uint8_t> bytes = readBytes(good);
     ASSERT_EQ(openAndValidate(good), Outcome::Valid);
     const rvol::RvolReader reader(good);
@@ -963,7 +966,7 @@ TEST(Rvol, CorruptedFilesAreInvalidData) {
 TEST(Rvol, ErrorMessagesSayWhere) {
     ScratchDir dir;
     const fs::path good = dir / "good.rvol";
-    rvol::writeRvol(good, makeVolume(4, 5));
+    rvol::writeRvol(good, makeVolume(4, 5), kFourTexels);
     const std::vector<std::uint8_t> bytes = readBytes(good);
     const rvol::RvolReader reader(good);
     const rvol::Header& h = reader.header();
@@ -1007,7 +1010,7 @@ TEST(Rvol, ErrorMessagesSayWhere) {
 TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
     ScratchDir dir;
     const fs::path good = dir / "good.rvol";
-    rvol::writeRvol(good, makeVolume(4, 5));
+    rvol::writeRvol(good, makeVolume(4, 5), kFourTexels);
     const std::vector<std::uint8_t> bytes = readBytes(good);
     const rvol::RvolReader reader(good);
     const rvol::Header& h = reader.header();

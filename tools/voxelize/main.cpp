@@ -43,7 +43,7 @@ struct VoxelizeOptions {
     double shadowAperture = 0;
     unsigned bounces = 2;
     double aoLambda = 8;
-    unsigned brickTexels = 4;
+    unsigned brickTexels = 5;
     bool noStaticAttributes = false;
     std::string exportVdb;
 };
