@@ -1,11 +1,9 @@
 #include <vox/formats/error.h>
 #include <vox/formats/esvo_reader.h>
 
-#include <cerrno>
+#include "read_only_file.h"
+
 #include <cmath>
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include <string>
 
@@ -14,20 +12,6 @@ namespace {
 
 [[noreturn]] void invalid(const std::filesystem::path& file, const std::string& problem) {
     throw InvalidDataError(file, problem);
-}
-
-void readExactly(int fd, const std::filesystem::path& file, std::uint64_t offset, std::uint8_t* out, std::size_t size) {
-    while (size > 0) {
-        const ssize_t got = ::pread(fd, out, size, static_cast<off_t>(offset));
-        if (got < 0) {
-            if (errno == EINTR) continue;
-            throw IoError(file, "cannot read: " + errnoMessage(errno));
-        }
-        if (got == 0) invalid(file, "file ends early at byte " + std::to_string(offset));
-        out += got;
-        offset += static_cast<std::uint64_t>(got);
-        size -= static_cast<std::size_t>(got);
-    }
 }
 
 Header decodeHeader(const std::filesystem::path& file, const std::uint8_t* p, std::uint64_t fileSize) {
@@ -152,36 +136,25 @@ Directory decodeDirectory(const std::filesystem::path& file, const Header& h, co
 
 }  // namespace
 
-EsvoReader::EsvoReader(std::filesystem::path file) : path_(std::move(file)) {
-    fd_ = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd_ < 0) throw IoError(path_, "cannot open: " + errnoMessage(errno));
-    try {
-        struct stat st {};
-        if (::fstat(fd_, &st) != 0) throw IoError(path_, "cannot stat: " + errnoMessage(errno));
-        if (!S_ISREG(st.st_mode)) throw IoError(path_, "not a regular file");
-        const auto fileSize = static_cast<std::uint64_t>(st.st_size);
-        if (fileSize < kHeaderBytes) invalid(path_, "too short for an .esvo header (" + std::to_string(fileSize) + " bytes)");
-        std::array<std::uint8_t, kHeaderBytes> headerBytes{};
-        readExactly(fd_, path_, 0, headerBytes.data(), headerBytes.size());
-        header_ = decodeHeader(path_, headerBytes.data(), fileSize);
-        std::vector<std::uint8_t> directoryBytes(header_.directoryBytes);  // bounded by the file size above
-        readExactly(fd_, path_, header_.directoryOffset, directoryBytes.data(), directoryBytes.size());
-        directory_ = decodeDirectory(path_, header_, directoryBytes.data());
-    } catch (...) {
-        ::close(fd_);
-        throw;
-    }
+EsvoReader::EsvoReader(std::filesystem::path file)
+    : path_(std::move(file)), file_(std::make_unique<vox::detail::ReadOnlyFile>(path_)) {
+    const std::uint64_t fileSize = file_->size();
+    if (fileSize < kHeaderBytes) invalid(path_, "too short for an .esvo header (" + std::to_string(fileSize) + " bytes)");
+    std::array<std::uint8_t, kHeaderBytes> headerBytes{};
+    file_->read(0, headerBytes.data(), headerBytes.size());
+    header_ = decodeHeader(path_, headerBytes.data(), fileSize);
+    std::vector<std::uint8_t> directoryBytes(header_.directoryBytes);  // bounded by the file size above
+    file_->read(header_.directoryOffset, directoryBytes.data(), directoryBytes.size());
+    directory_ = decodeDirectory(path_, header_, directoryBytes.data());
 }
 
-EsvoReader::~EsvoReader() {
-    if (fd_ >= 0) ::close(fd_);
-}
+EsvoReader::~EsvoReader() = default;
 
 void EsvoReader::readSlice(std::uint32_t index, std::span<std::uint8_t> destination) const {
     if (index >= sliceCount()) throw InvalidDataError(path_, "slice " + std::to_string(index) + " does not exist");
     const SliceEntry& s = directory_.slices[index];
     if (destination.size() != s.byteSize) throw std::invalid_argument("readSlice: destination size differs from the slice's");
-    readExactly(fd_, path_, s.fileOffset, destination.data(), destination.size());
+    file_->read(s.fileOffset, destination.data(), destination.size());
     if (crc32c(destination.data(), destination.size()) != s.checksum)
         invalid(path_, "slice " + std::to_string(index) + ", byte " + std::to_string(s.fileOffset) + ": checksum mismatch");
 }

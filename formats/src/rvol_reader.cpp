@@ -4,18 +4,15 @@
 #include <vox/formats/error.h>
 #include <vox/formats/rvol_io.h>
 
+#include "read_only_file.h"
 #include "rvol_internal.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <fcntl.h>
 #include <list>
 #include <mutex>
 #include <stdexcept>
 #include <string>
-#include <sys/stat.h>
-#include <unistd.h>
 #include <unordered_map>
 
 namespace vox::rvol {
@@ -187,47 +184,24 @@ struct RvolReader::Cache {
     }
 };
 
-RvolReader::RvolReader(std::filesystem::path file) : path_(std::move(file)), cache_(std::make_unique<Cache>()) {
-    fd_ = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd_ < 0) throw IoError(path_, "cannot open: " + errnoMessage(errno));
-    try {
-        struct stat st {};
-        if (::fstat(fd_, &st) != 0) throw IoError(path_, "cannot stat: " + errnoMessage(errno));
-        if (!S_ISREG(st.st_mode)) throw IoError(path_, "not a regular file");
-        const auto fileSize = static_cast<std::uint64_t>(st.st_size);
-        if (fileSize < kHeaderBytes) invalid(path_, "too short for an .rvol header (" + str(fileSize) + " bytes)");
-        std::array<std::uint8_t, kHeaderBytes> headerBytes{};
-        readBytes(0, headerBytes.data(), headerBytes.size());
-        header_ = decodeHeader(path_, headerBytes.data(), fileSize);
-        std::vector<std::uint8_t> table(header_.levelTableBytes);  // ≤ 11 entries
-        readBytes(header_.levelTableOffset, table.data(), table.size());
-        levels_ = decodeLevelTable(path_, header_, table.data());
-        std::vector<std::uint8_t> directoryBytes(header_.directoryBytes);  // inside the file, checked above
-        readBytes(header_.directoryOffset, directoryBytes.data(), directoryBytes.size());
-        directory_ = decodeDirectory(path_, header_, levels_, directoryBytes.data());
-    } catch (...) {
-        ::close(fd_);
-        throw;
-    }
+RvolReader::RvolReader(std::filesystem::path file)
+    : path_(std::move(file)), file_(std::make_unique<vox::detail::ReadOnlyFile>(path_)), cache_(std::make_unique<Cache>()) {
+    const std::uint64_t fileSize = file_->size();
+    if (fileSize < kHeaderBytes) invalid(path_, "too short for an .rvol header (" + str(fileSize) + " bytes)");
+    std::array<std::uint8_t, kHeaderBytes> headerBytes{};
+    readBytes(0, headerBytes.data(), headerBytes.size());
+    header_ = decodeHeader(path_, headerBytes.data(), fileSize);
+    std::vector<std::uint8_t> table(header_.levelTableBytes);  // ≤ 11 entries
+    readBytes(header_.levelTableOffset, table.data(), table.size());
+    levels_ = decodeLevelTable(path_, header_, table.data());
+    std::vector<std::uint8_t> directoryBytes(header_.directoryBytes);  // inside the file, checked above
+    readBytes(header_.directoryOffset, directoryBytes.data(), directoryBytes.size());
+    directory_ = decodeDirectory(path_, header_, levels_, directoryBytes.data());
 }
 
-RvolReader::~RvolReader() {
-    if (fd_ >= 0) ::close(fd_);
-}
+RvolReader::~RvolReader() = default;
 
-void RvolReader::readBytes(std::uint64_t offset, std::uint8_t* out, std::uint64_t size) const {
-    while (size > 0) {
-        const ssize_t got = ::pread(fd_, out, size, static_cast<off_t>(offset));
-        if (got < 0) {
-            if (errno == EINTR) continue;
-            throw IoError(path_, "cannot read: " + errnoMessage(errno));
-        }
-        if (got == 0) invalid(path_, "file ends early at byte " + str(offset));
-        out += got;
-        offset += static_cast<std::uint64_t>(got);
-        size -= static_cast<std::uint64_t>(got);
-    }
-}
+void RvolReader::readBytes(std::uint64_t offset, std::uint8_t* out, std::uint64_t size) const { file_->read(offset, out, size); }
 
 std::span<const BrickEntry> RvolReader::bricks(std::uint32_t level) const {
     const LevelEntry& e = levels_.at(level);

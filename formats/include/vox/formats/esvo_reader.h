@@ -15,6 +15,10 @@
 #include <span>
 #include <vector>
 
+namespace vox::detail {
+class ReadOnlyFile;  // private to vox::formats (formats/src/read_only_file.h)
+}  // namespace vox::detail
+
 namespace vox::esvo {
 
 /// An open .esvo file. The constructor reads and checks the header and the directory (checksums,
@@ -41,7 +45,7 @@ public:
 
 private:
     std::filesystem::path path_;
-    int fd_ = -1;
+    std::unique_ptr<vox::detail::ReadOnlyFile> file_;  // opened by the constructor, never null
     Header header_;
     Directory directory_;
 };

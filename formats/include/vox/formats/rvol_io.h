@@ -14,6 +14,10 @@
 #include <span>
 #include <vector>
 
+namespace vox::detail {
+class ReadOnlyFile;  // private to vox::formats (formats/src/read_only_file.h)
+}  // namespace vox::detail
+
 namespace vox::rvol {
 
 // ---- constants ------------------------------------------------------------------------------
@@ -281,7 +285,7 @@ private:
     [[nodiscard]] std::shared_ptr<const std::vector<Texel>> cachedBrick(std::uint32_t level, std::uint32_t index) const;
 
     std::filesystem::path path_;
-    int fd_ = -1;
+    std::unique_ptr<vox::detail::ReadOnlyFile> file_;  // opened by the constructor, never null
     Header header_;
     std::vector<LevelEntry> levels_;
     std::vector<BrickEntry> directory_;
