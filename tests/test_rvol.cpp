@@ -524,11 +524,11 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     EXPECT_FLOAT_EQ(t.a, (128 / 255.0f + 1) / 2);
     const rvol::Texel along = reader.sampleDirectional(1, {1, 1, 1}, {0.6, 0.8, 0});
     const rvol::Texel against = reader.sampleDirectional(1, {1, 1, 1}, {-0.6, 0.8, 0});
-    EXPECT_NEAR(along.r, 0.125f, 1e-6f);
-    EXPECT_NEAR(along.g, 0.205f, 1e-6f);
-    EXPECT_NEAR(along.a, 0.331294f, 1e-6f);
-    EXPECT_NEAR(against.r, 0.08f, 1e-6f);  // NegX instead of PosX: other light …
-    EXPECT_NEAR(against.g, 0.25f, 1e-6f);
+    EXPECT_NEAR(along.r, 0.122811f, 1e-6f);
+    EXPECT_NEAR(along.g, 0.201410f, 1e-6f);
+    EXPECT_NEAR(along.a, 0.325493f, 1e-6f);
+    EXPECT_NEAR(against.r, 0.078599f, 1e-6f);  // NegX instead of PosX: other light …
+    EXPECT_NEAR(against.g, 0.245622f, 1e-6f);
     EXPECT_EQ(against.a, along.a);          // … the same opacity
 }
 
@@ -608,7 +608,8 @@ TEST(Rvol, OpacityIsStoredOncePerAxis) {
     EXPECT_FLOAT_EQ(negX.r, 2);
     const rvol::Texel along = reader.sampleDirectional(1, p, {0.6, 0.8, 0}), against = reader.sampleDirectional(1, p, {-0.6, -0.8, 0});
     EXPECT_FLOAT_EQ(along.a, against.a);
-    EXPECT_FLOAT_EQ(along.a, 0.36f * 0.2f + 0.64f * 0.6f);
+    // 1 − Π (1 − a)^(|d_a| / Σ|d|), not the d²-weighted mean 0.36·0.2 + 0.64·0.6 = 0.456.
+    EXPECT_NEAR(along.a, 1 - std::pow(0.8, 0.6 / 1.4) * std::pow(0.4, 0.8 / 1.4), 1e-6);
     EXPECT_NE(along.r, against.r);
 
     // readVolume: the cell whose opacities differed comes back with their mean in both channels;
@@ -842,7 +843,7 @@ TEST(Rvol, SampleOfQuantisedTexelsIsWithinPrecision) {
     }
 }
 
-TEST(Rvol, DirectionalSamplesWeightTheAxisChannelsBySquaredCosines) {
+TEST(Rvol, DirectionalSamplesBlendColourBySquaredCosinesAndMultiplyTransmittances) {
     ScratchDir dir;
     rvol::Volume v = makeVolume(3, 2);
     // Level 1 (4 cells): every cell of channel c holds (c + 1, 10·(c + 1), 0.5, (axis + 1)/10)
@@ -862,12 +863,19 @@ TEST(Rvol, DirectionalSamplesWeightTheAxisChannelsBySquaredCosines) {
     // Decoded values of the constant channels (alpha quantised to 8 bits).
     EXPECT_NEAR(channelValue(0).r, 1, 1e-6);
     EXPECT_NEAR(channelValue(static_cast<std::uint32_t>(rvol::Direction::NegY)).g, 40, 1e-5);
+    // The spec's directional sample: colour blended by d_a²/|d|², opacity 1 − Π (1 − a)^(|d_a|/Σ|d|),
+    // the colour rescaled to that opacity.
     const auto expectMix = [&](std::array<double, 3> d, std::array<std::pair<rvol::Direction, double>, 3> mix) {
-        double r = 0, a = 0;
+        double r = 0, blend = 0, transmittance = 1;
+        const double sumAbs = std::abs(d[0]) + std::abs(d[1]) + std::abs(d[2]);
         for (const auto& [channel, w] : mix) {
-            r += w * channelValue(static_cast<std::uint32_t>(channel)).r;
-            a += w * channelValue(static_cast<std::uint32_t>(channel)).a;
+            const auto c = static_cast<std::uint32_t>(channel);
+            r += w * channelValue(c).r;
+            blend += w * channelValue(c).a;
+            transmittance *= std::pow(1 - double(channelValue(c).a), std::abs(d[c / 2]) / sumAbs);
         }
+        const double a = 1 - transmittance;
+        r *= blend > 0 ? a / blend : 0.0;
         const rvol::Texel t = reader.sampleDirectional(1, p, d);
         EXPECT_NEAR(t.r, r, 1e-5) << d[0] << "," << d[1] << "," << d[2];
         EXPECT_NEAR(t.a, a, 1e-6);

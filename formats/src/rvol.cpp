@@ -1,7 +1,9 @@
-// The in-memory radiance volume (rvol.h): Morton codes and cell lookup in sparse levels.
+// The in-memory radiance volume (rvol.h): Morton codes, cell lookup in sparse levels, and the
+// directional sample that combines a cone's three facing channels.
 #include <vox/formats/rvol.h>
 
 #include <algorithm>
+#include <cmath>
 
 namespace vox::rvol {
 namespace {
@@ -54,6 +56,27 @@ Texel Level::at(std::uint32_t x, std::uint32_t y, std::uint32_t z, std::uint32_t
     // A level whose texel array is shorter than its block list is malformed; read it as empty
     // rather than past the end.
     return index < texels.size() ? texels[index] : Texel{};
+}
+
+Texel combineDirectional(const std::array<Texel, 3>& facing, const std::array<double, 3>& direction) noexcept {
+    const double length2 = direction[0] * direction[0] + direction[1] * direction[1] + direction[2] * direction[2];
+    const double sumAbs = std::abs(direction[0]) + std::abs(direction[1]) + std::abs(direction[2]);
+    if (!(length2 > 0) || !std::isfinite(length2)) return {};
+    double rgb[3] = {0, 0, 0}, alphaBlend = 0, logTransmittance = 0;
+    for (int a = 0; a < 3; ++a) {
+        if (direction[a] == 0) continue;
+        const double w = direction[a] * direction[a] / length2;
+        const Texel& t = facing[a];
+        rgb[0] += w * t.r;
+        rgb[1] += w * t.g;
+        rgb[2] += w * t.b;
+        alphaBlend += w * t.a;
+        logTransmittance += std::abs(direction[a]) / sumAbs * std::log(std::max(1.0 - std::clamp(double(t.a), 0.0, 1.0), 1e-12));
+    }
+    const double alpha = 1 - std::exp(logTransmittance);
+    const double scale = alphaBlend > 1e-12 ? alpha / alphaBlend : 0.0;
+    return {static_cast<float>(rgb[0] * scale), static_cast<float>(rgb[1] * scale), static_cast<float>(rgb[2] * scale),
+            static_cast<float>(alpha)};
 }
 
 }  // namespace vox::rvol

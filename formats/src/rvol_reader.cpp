@@ -307,15 +307,11 @@ Texel RvolReader::sampleDirectional(std::uint32_t level, const std::array<double
     if (level == 0) return sample(0, 0, position);
     const double length2 = direction[0] * direction[0] + direction[1] * direction[1] + direction[2] * direction[2];
     if (!(length2 > 0) || !std::isfinite(length2)) return {};
-    double sum[4] = {0, 0, 0, 0};
-    for (std::uint32_t a = 0; a < 3; ++a) {
-        const double w = direction[a] * direction[a] / length2;
-        if (w == 0) continue;
+    std::array<Texel, 3> facing{};
+    for (std::uint32_t a = 0; a < 3; ++a)
         // Channel 2a looks along +axis (PosX, PosY, PosZ), 2a + 1 along −axis.
-        const Texel t = sample(level, 2 * a + (direction[a] < 0 ? 1u : 0u), position);
-        sum[0] += w * t.r, sum[1] += w * t.g, sum[2] += w * t.b, sum[3] += w * t.a;
-    }
-    return {static_cast<float>(sum[0]), static_cast<float>(sum[1]), static_cast<float>(sum[2]), static_cast<float>(sum[3])};
+        if (direction[a] != 0) facing[a] = sample(level, 2 * a + (direction[a] < 0 ? 1u : 0u), position);
+    return combineDirectional(facing, direction);
 }
 
 std::vector<AttributeRecord> RvolReader::readAttributeRecords(bool dynamic) const {

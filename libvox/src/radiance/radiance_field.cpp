@@ -71,24 +71,11 @@ Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexc
     }
     if (channelCount == 1) return {static_cast<float>(sums[0][0]), static_cast<float>(sums[0][1]), static_cast<float>(sums[0][2]),
                                    static_cast<float>(sums[0][3])};
-    // Colour: the channels blended by dir_s² (paper 2.3). Opacity: transmittances multiplied with
-    // exponents |dir_s| / Σ|dir|. A d²-weighted mean of opacities lets an oblique cone through a
-    // wall that is opaque along its normal's channel (and partly covered seen edge-on); the
-    // product keeps it opaque for any direction crossing it, and equals the mean for a medium
-    // that looks the same along every axis.
-    double rgb[3] = {0, 0, 0}, alphaBlend = 0, logTransmittance = 0;
-    const double l1 = std::abs(dir.x) + std::abs(dir.y) + std::abs(dir.z);
-    for (int axis = 0; axis < 3; ++axis) {
-        const double w2 = dir[axis] * dir[axis];
-        for (int c = 0; c < 3; ++c) rgb[c] += w2 * sums[axis][c];
-        alphaBlend += w2 * sums[axis][3];
-        const double a = std::clamp(sums[axis][3], 0.0, 1.0);
-        if (dir[axis] != 0) logTransmittance += std::abs(dir[axis]) / l1 * std::log(std::max(1 - a, 1e-12));
-    }
-    const double alpha = 1 - std::exp(logTransmittance);
-    const double scale = alphaBlend > 1e-12 ? alpha / alphaBlend : 0.0;
-    return {static_cast<float>(rgb[0] * scale), static_cast<float>(rgb[1] * scale), static_cast<float>(rgb[2] * scale),
-            static_cast<float>(alpha)};
+    std::array<Texel, 3> facing{};
+    for (int axis = 0; axis < 3; ++axis)
+        facing[axis] = {static_cast<float>(sums[axis][0]), static_cast<float>(sums[axis][1]), static_cast<float>(sums[axis][2]),
+                        static_cast<float>(sums[axis][3])};
+    return rvol::combineDirectional(facing, {dir.x, dir.y, dir.z});
 }
 
 Texel RadianceField::sampleLod(double level, Vec3d p, Vec3d dir) const noexcept {

@@ -30,6 +30,13 @@ constexpr std::uint32_t kDirections = 6;
 constexpr std::uint32_t kBlockCells = 8;
 constexpr std::uint32_t kBlockTexels = kBlockCells * kBlockCells * kBlockCells;
 
+/// What a cone travelling along @p direction (any length, not zero) sees, from the samples of the
+/// three channels facing it (@p facing[a]: the channel of axis a with direction[a]'s sign; ignored
+/// where direction[a] = 0): colour blended by d_a²/|d|², opacity 1 − Π_a (1 − a_a)^(|d_a| / Σ|d|),
+/// the colour rescaled to that opacity (docs/rvol-format.md, "Directional sample"). The one
+/// definition the reader, the bake's cones and the final gather share.
+[[nodiscard]] Texel combineDirectional(const std::array<Texel, 3>& facing, const std::array<double, 3>& direction) noexcept;
+
 /// Morton code of (x, y, z) (x in bit 0), up to 21 bits per axis.
 [[nodiscard]] std::uint64_t morton3(std::uint32_t x, std::uint32_t y, std::uint32_t z) noexcept;
 /// Inverse of morton3.
