@@ -458,7 +458,7 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     std::uint8_t* w = want.data();
     // Header.
     std::memcpy(w, "RVOL", 4);
-    store<std::uint16_t>(w + 4, 2);  // version 2.0
+    store<std::uint16_t>(w + 4, 3);  // version 3.0
     store<std::uint32_t>(w + 8, 256);
     store<std::uint32_t>(w + 12, 1);  // depth
     store<std::uint32_t>(w + 16, 2);  // levels
@@ -488,7 +488,7 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     store<std::uint64_t>(w + 208, 2496);  // dynamic layer, 0 bytes
     store<std::uint32_t>(w + 224, 0x1F01AA95u);  // static layer checksum (dynamic: 0)
     store<std::uint64_t>(w + 232, 2496);
-    store<std::uint32_t>(w + 252, 0xE78FD062u);  // header checksum
+    store<std::uint32_t>(w + 252, 0x5E6FFBE4u);  // header checksum
     // Level table: resolution, channels, bricks per axis, brick bytes, bricks, first entry, data offset.
     for (const auto& [at, entry, offset] : {std::tuple{256, std::array<std::uint32_t, 6>{2, 1, 1, 320, 1, 0}, 384},
                                             std::tuple{288, std::array<std::uint32_t, 6>{1, 6, 1, 1728, 1, 1}, 704}}) {
@@ -544,6 +544,13 @@ TEST(Rvol, OpacityIsStoredOncePerAxis) {
     EXPECT_EQ(rvol::brickBytes(3, 6), 6u * 108 + 3 * 28);
     EXPECT_EQ(rvol::alphaPlanes(1), 1u);
     EXPECT_EQ(rvol::alphaPlanes(6), 3u);
+    // Binary level-0 opacity (3.0) drops level 0's A8 plane only.
+    EXPECT_EQ(rvol::alphaPlanes(1, true), 0u);
+    EXPECT_EQ(rvol::alphaPlanes(6, true), 3u);
+    EXPECT_EQ(rvol::brickBytes(5, 1, true), 500u);
+    EXPECT_EQ(rvol::brickBytes(4, 1, true), 256u);
+    EXPECT_EQ(rvol::brickBytes(3, 1, true), 108u);
+    EXPECT_EQ(rvol::brickBytes(5, 6, true), rvol::brickBytes(5, 6));
     EXPECT_EQ(rvol::alphaPlaneOf(static_cast<std::uint32_t>(rvol::Direction::NegX)), 0u);
     EXPECT_EQ(rvol::alphaPlaneOf(static_cast<std::uint32_t>(rvol::Direction::PosY)), 1u);
     EXPECT_EQ(rvol::alphaPlaneOf(static_cast<std::uint32_t>(rvol::Direction::NegZ)), 2u);
@@ -626,6 +633,260 @@ TEST(Rvol, OpacityIsStoredOncePerAxis) {
     EXPECT_THROW((void)rvol::decodeBrick(raw, 4, 2), std::invalid_argument);
     EXPECT_THROW((void)rvol::decodeBrick(std::vector<std::uint8_t>(1920), 4, 6), std::invalid_argument);  // 1.x's size
     EXPECT_EQ(rvol::decodeBrick(raw, 4, 6), texels);
+}
+
+// ---- binary level-0 opacity ----------------------------------------------------------------------
+
+namespace {
+
+/// makeVolume with level 0 as a bake makes it: every non-zero cell solid (opacity 1), every third
+/// of them black (radiance 0); empty cells stay (0, 0, 0, 0). Levels ≥ 1 keep fractional opacities.
+rvol::Volume makeBinaryVolume(std::uint32_t depth, std::uint32_t seed) {
+    rvol::Volume v = makeVolume(depth, seed);
+    std::size_t solid = 0;
+    for (rvol::Texel& t : v.levels[0].texels)
+        if (t != rvol::Texel{}) t = solid++ % 3 == 0 ? rvol::Texel{0, 0, 0, 1} : rvol::Texel{t.r, t.g, t.b, 1};
+    return v;
+}
+
+/// What a reader returns for @p v written with binary level-0 opacity: solid black cells hold the
+/// smallest RGB9E5 value, (2^-24, 0, 0), the decoded kSolidBlackWord.
+rvol::Volume decodedBinary(rvol::Volume v) {
+    for (rvol::Texel& t : v.levels[0].texels)
+        if (t == rvol::Texel{0, 0, 0, 1}) t = {0x1p-24f, 0, 0, 1};
+    return v;
+}
+
+}  // namespace
+
+TEST(Rvol, BinaryLevel0OpacityWorkedExampleOfTheSpec) {
+    // docs/rvol-format.md, "Worked example", second file: level 0 with binary opacity (N = 5, the
+    // writer's defaults): a solid black cell and an opaque green one.
+    ScratchDir dir;
+    rvol::Volume v;
+    v.depth = 1;
+    v.size = 2;
+    v.bake = {1, 0, 8, 1, 1};
+    rvol::Level l0{2, 1, {0}, std::vector<rvol::Texel>(rvol::kBlockTexels)};
+    l0.texels[0] = {0, 0, 0, 1};  // cell (0,0,0): solid black
+    l0.texels[1] = {0, 1, 0, 1};  // cell (1,0,0): opaque green
+    v.levels = {l0, rvol::Level{1, 6, {}, {}}};
+    const rvol::RvolWriteResult result = rvol::writeRvol(dir / "ex.rvol", v);
+    EXPECT_TRUE(result.binaryLevel0Opacity);
+    EXPECT_EQ(result.fileBytes, 896u);
+    EXPECT_EQ(result.radianceBytes, 500u);
+    EXPECT_EQ(result.paddingBytes, 896u - 256 - 64 - 12 - 500);
+    const std::vector<std::uint8_t> b = readBytes(dir / "ex.rvol");
+    ASSERT_EQ(b.size(), 896u);
+
+    std::vector<std::uint8_t> want(896, 0);
+    std::uint8_t* w = want.data();
+    std::memcpy(w, "RVOL", 4);
+    store<std::uint16_t>(w + 4, 3);  // version 3.0
+    store<std::uint32_t>(w + 8, 256);
+    store<std::uint32_t>(w + 12, 1);  // depth
+    store<std::uint32_t>(w + 16, 2);  // levels
+    store<std::uint32_t>(w + 20, 5);  // N
+    store<std::uint32_t>(w + 24, 2);  // texel format 2
+    store<std::uint32_t>(w + 28, 3);  // flags: static layer written (empty), binary level-0 opacity
+    store<double>(w + 56, 2.0);
+    store<std::uint32_t>(w + 88, 1);   // bounces
+    store<float>(w + 96, 8.0f);        // λ
+    store<std::uint32_t>(w + 100, 1);  // attenuation
+    store<std::uint32_t>(w + 104, 1);  // lights
+    store<std::uint64_t>(w + 112, 1);  // bricks (no voxels)
+    store<std::uint64_t>(w + 136, 256);
+    store<std::uint64_t>(w + 144, 64);
+    store<std::uint32_t>(w + 152, 0xFDA07A27u);  // level table checksum
+    store<std::uint32_t>(w + 156, 0x90CD92DAu);  // directory checksum
+    store<std::uint64_t>(w + 160, 320);
+    store<std::uint64_t>(w + 168, 12);
+    store<std::uint64_t>(w + 176, 384);
+    store<std::uint64_t>(w + 184, 512);  // level 0's 500 bytes, the gap to level 1's (empty) data at 896
+    store<std::uint64_t>(w + 192, 896);  // static layer, 0 bytes
+    store<std::uint64_t>(w + 208, 896);  // dynamic layer, 0 bytes
+    store<std::uint64_t>(w + 232, 896);
+    store<std::uint32_t>(w + 252, 0x82BF50A6u);  // header checksum
+    for (const auto& [at, entry, offset] : {std::tuple{256, std::array<std::uint32_t, 6>{2, 1, 1, 500, 1, 0}, 384},
+                                            std::tuple{288, std::array<std::uint32_t, 6>{1, 6, 1, 3384, 0, 1}, 896}}) {
+        for (int i = 0; i < 6; ++i) store<std::uint32_t>(w + at + 4 * i, entry[i]);
+        store<std::uint64_t>(w + at + 24, static_cast<std::uint64_t>(offset));
+    }
+    store<std::uint32_t>(w + 320 + 8, 0x92C74FC6u);  // brick (0,0,0) of level 0
+    // Level 0's brick: the RGB9E5 plane alone, 125 words.
+    store<std::uint32_t>(w + 384, rvol::kSolidBlackWord);  // solid black: the smallest non-zero word
+    store<std::uint32_t>(w + 388, 0x80020000u);            // green (0, 1, 0)
+    EXPECT_EQ(rvol::kSolidBlackWord, 1u);
+    EXPECT_EQ(rvol::encodeRgb9e5(0x1p-24f, 0, 0), rvol::kSolidBlackWord);
+    const auto mismatch = std::mismatch(b.begin(), b.end(), want.begin());
+    EXPECT_TRUE(mismatch.first == b.end()) << "first difference at byte " << (mismatch.first - b.begin());
+
+    const rvol::RvolReader reader(dir / "ex.rvol");
+    EXPECT_EQ(rvol::validateRvol(reader).paddingBytes, 64u);
+    const std::vector<rvol::Texel> texels = reader.readBrick(0, 0);
+    EXPECT_EQ(texels[0], (rvol::Texel{0x1p-24f, 0, 0, 1}));  // solid, radiance ≈ 6e-8
+    EXPECT_EQ(texels[1], (rvol::Texel{0, 1, 0, 1}));
+    EXPECT_EQ(texels[5], rvol::Texel{});  // cell (0,1,0): empty
+    // Halfway between the black and the green cell; halfway between the black cell and empty space.
+    const rvol::Texel between = reader.sample(0, 0, {1.0, 0.5, 0.5}), edge = reader.sample(0, 0, {0.5, 1.0, 0.5});
+    EXPECT_EQ(between, (rvol::Texel{0x1p-25f, 0.5f, 0, 1}));
+    EXPECT_EQ(edge, (rvol::Texel{0x1p-25f, 0, 0, 0.5f}));
+    EXPECT_EQ(reader.sampleDirectional(0, {0.5, 1.0, 0.5}, {0, 1, 0}), edge);
+}
+
+TEST(Rvol, BinaryLevel0OpacityIsChosenOnlyWhenEveryOpacityIs0Or1) {
+    ScratchDir dir;
+    const auto write = [&](const rvol::Volume& v, rvol::RvolWriteOptions options = {}) {
+        const rvol::RvolWriteResult result = rvol::writeRvol(dir / "v.rvol", v, options);
+        const rvol::RvolReader reader(dir / "v.rvol");
+        const bool binary = (reader.header().flags & rvol::kFlagBinaryLevel0Opacity) != 0;
+        EXPECT_EQ(binary, result.binaryLevel0Opacity);
+        EXPECT_EQ(binary, reader.header().binaryLevel0Opacity());
+        EXPECT_EQ(reader.header().versionMajor, 3u);
+        EXPECT_EQ(reader.level(0).brickBytes, rvol::brickBytes(options.brickTexels, 1, binary));
+        EXPECT_EQ(reader.level(1).brickBytes, rvol::brickBytes(options.brickTexels, 6));  // unchanged above level 0
+        const rvol::RvolReport report = rvol::validateRvol(reader);
+        EXPECT_EQ(report.radianceBytes, result.radianceBytes);
+        EXPECT_EQ(report.paddingBytes, result.paddingBytes);
+        return std::pair{binary, result};
+    };
+    const rvol::Volume v = makeBinaryVolume(4, 12);
+    const auto [binary, result] = write(v);
+    EXPECT_TRUE(binary);
+    // At N = 5, 500 bytes per level-0 brick instead of 628: the same bricks, 128 bytes less each.
+    {
+        const rvol::RvolReader reader(dir / "v.rvol");
+        EXPECT_EQ(reader.level(0).brickBytes, 500u);
+        EXPECT_EQ(reader.readBrickBytes(0, 0).size(), 500u);
+    }
+    rvol::RvolWriteOptions a8;
+    a8.binaryLevel0Opacity = false;
+    const auto [notAsked, withA8] = write(v, a8);
+    EXPECT_FALSE(notAsked);
+    EXPECT_EQ(withA8.bricksPerLevel, result.bricksPerLevel);
+    EXPECT_EQ(withA8.radianceBytes - result.radianceBytes, 128 * result.bricksPerLevel[0]);
+    EXPECT_EQ(withA8.bricks, result.bricks);
+    {   // The A8 layout reads black solid cells back as (0, 0, 0, 1); the binary one (below) as (2^-24, 0, 0, 1).
+        const rvol::Volume back = rvol::RvolReader(dir / "v.rvol").readVolume();
+        EXPECT_TRUE(back.levels[0].texels == v.levels[0].texels);
+        write(v);
+        EXPECT_TRUE(rvol::RvolReader(dir / "v.rvol").readVolume().levels[0].texels == decodedBinary(v).levels[0].texels);
+    }
+
+    const auto withCell = [&](rvol::Texel t) {
+        rvol::Volume w = v;
+        w.levels[0].texels[rvol::Level::texelIndex(0, 1, 0, 1, 2, 3)] = t;
+        return w;
+    };
+    EXPECT_FALSE(write(withCell({1, 1, 1, 0.5f})).first);   // a fractional opacity
+    EXPECT_FALSE(write(withCell({1, 0, 0, 0})).first);      // radiance without opacity: a word ≠ 0 would read as solid
+    EXPECT_FALSE(write(withCell({0, 0, 0, 0.01f})).first);  // A8 3
+    EXPECT_TRUE(write(withCell({1e-9f, 0, 0, 0})).first);   // encodes to word 0 and A8 0: empty
+    EXPECT_TRUE(write(withCell({0, 0, 0, 0.999f})).first);  // A8 255, as the A8 layout stores it: solid
+    EXPECT_TRUE(write(withCell({0.5f, 0, 0, 1.5f})).first); // clamped to 1
+    // Fractional opacities of levels ≥ 1 do not matter (makeVolume has them); other brick sizes.
+    for (std::uint32_t n : {2u, 3u, 4u, 8u}) EXPECT_TRUE(write(v, {n, true}).first) << n;
+    // A volume with nothing at level 0 qualifies trivially.
+    rvol::Volume empty = v;
+    empty.levels[0].blocks.clear();
+    empty.levels[0].texels.clear();
+    EXPECT_TRUE(write(empty).first);
+    // The spec's first worked example has opacity 128/255 at level 0: the A8 layout.
+}
+
+TEST(Rvol, BinaryLevel0OpacityRoundTripsAndSamplesAsTrilinear) {
+    ScratchDir dir;
+    for (std::uint32_t n : {2u, 3u, 4u, 5u, 6u}) {
+        SCOPED_TRACE("brick texels " + std::to_string(n));
+        const rvol::Volume v = makeBinaryVolume(5, 300 + n), expected = decodedBinary(v);
+        const fs::path file = dir / "v.rvol";
+        const rvol::RvolWriteResult result = rvol::writeRvol(file, v, {n, true});
+        ASSERT_TRUE(result.binaryLevel0Opacity);
+        EXPECT_EQ(result.headerBytes + result.levelTableBytes + result.directoryBytes + result.radianceBytes + result.attributeBytes +
+                      result.paddingBytes,
+                  result.fileBytes);
+        const rvol::RvolReader reader(file);
+        EXPECT_EQ(reader.header().flags, rvol::kFlagStaticAttributes | rvol::kFlagBinaryLevel0Opacity);
+        EXPECT_EQ(reader.level(0).brickBytes, 4u * n * n * n);
+        const rvol::RvolReport report = rvol::validateRvol(reader);
+        EXPECT_EQ(report.radianceBytes, result.radianceBytes);
+        EXPECT_EQ(report.bricksPerLevel, result.bricksPerLevel);
+
+        // Level 0's words: 0 for empty cells, kSolidBlackWord for solid black ones, the radiance
+        // otherwise; decoded with opacity 1 for every non-zero word.
+        const std::uint32_t step = n - 1;
+        std::uint64_t black = 0, empty = 0, solid = 0;
+        for (std::uint32_t i = 0; i < reader.level(0).brickCount; ++i) {
+            const rvol::BrickEntry& e = reader.bricks(0)[i];
+            const std::vector<std::uint8_t> raw = reader.readBrickBytes(0, i);
+            const std::vector<rvol::Texel> texels = reader.readBrick(0, i);
+            ASSERT_EQ(texels.size(), std::size_t{n} * n * n);
+            EXPECT_EQ(rvol::decodeBrick(raw, n, 1, true), texels);
+            EXPECT_THROW((void)rvol::decodeBrick(raw, n, 1), std::invalid_argument);  // the A8 layout's size differs
+            for (std::uint32_t k = 0; k < n; ++k)
+                for (std::uint32_t j = 0; j < n; ++j)
+                    for (std::uint32_t ii = 0; ii < n; ++ii) {
+                        const std::size_t t = (std::size_t{k} * n + j) * n + ii;
+                        const rvol::Texel cell = v.levels[0].at(e.x * step + ii, e.y * step + j, e.z * step + k, 0);
+                        const std::uint32_t word = load<std::uint32_t>(raw.data() + 4 * t);
+                        if (cell == rvol::Texel{}) {
+                            ASSERT_EQ(word, 0u);
+                            ASSERT_EQ(texels[t], rvol::Texel{});
+                            ++empty;
+                        } else if (cell == rvol::Texel{0, 0, 0, 1}) {
+                            ASSERT_EQ(word, rvol::kSolidBlackWord);
+                            ASSERT_EQ(texels[t].a, 1.0f);
+                            ASSERT_LE(std::max({texels[t].r, texels[t].g, texels[t].b}), 6e-8f);  // 2^-24 ≈ 5.96e-8
+                            ++black;
+                        } else {
+                            ASSERT_EQ(word, rvol::encodeRgb9e5(cell.r, cell.g, cell.b));
+                            ASSERT_EQ(texels[t], cell);
+                            ++solid;
+                        }
+                    }
+        }
+        EXPECT_GT(black, 50u);
+        EXPECT_GT(empty, 50u);
+        EXPECT_GT(solid, 50u);
+
+        // readVolume gives the volume back (solid black as (2^-24, 0, 0, 1)); the same cells count
+        // as non-zero.
+        const rvol::Volume back = reader.readVolume();
+        for (std::uint32_t l = 0; l <= v.depth; ++l) {
+            EXPECT_EQ(back.levels[l].blocks, v.levels[l].blocks) << "level " << l;
+            EXPECT_TRUE(back.levels[l].texels == expected.levels[l].texels) << "level " << l;
+        }
+
+        // Trilinear sampling at level 0 interpolates the implicit opacities like stored ones.
+        std::mt19937 rng(n);
+        std::uniform_real_distribution<double> inside(-0.05, 1.05);
+        for (std::uint32_t l = 0; l <= 2; ++l)
+            for (int i = 0; i < 400; ++i) {
+                std::array<double, 3> p{};
+                for (int a = 0; a < 3; ++a) p[a] = v.origin[a] + v.size * inside(rng);
+                if (i % 4 == 0)  // on cell centres and brick faces
+                    for (int a = 0; a < 3; ++a)
+                        p[a] = v.origin[a] + (std::floor(inside(rng) * v.levels[l].resolution / step) * step + 0.5) * v.cellSize(l);
+                for (std::uint32_t c = 0; c < v.levels[l].channels; ++c) {
+                    const rvol::Texel want = trilinear(expected, l, c, p), got = reader.sample(l, c, p);
+                    const float tol = std::max({want.r, want.g, want.b, 1e-3f}) * 2e-6f;
+                    ASSERT_NEAR(got.r, want.r, tol) << "level " << l;
+                    ASSERT_NEAR(got.g, want.g, tol);
+                    ASSERT_NEAR(got.b, want.b, tol);
+                    ASSERT_NEAR(got.a, want.a, 2e-6f);
+                    if (l == 0) {
+                        ASSERT_EQ(reader.sampleDirectional(0, p, {0.3, -0.4, 0.5}), got);
+                    }
+                }
+            }
+
+        // Deterministic, and reading and writing again gives the same file.
+        const std::vector<std::uint8_t> bytes = readBytes(file);
+        rvol::writeRvol(dir / "again.rvol", v, {n, true});
+        EXPECT_TRUE(readBytes(dir / "again.rvol") == bytes);
+        rvol::writeRvol(dir / "again.rvol", back, {n, true});
+        EXPECT_TRUE(readBytes(dir / "again.rvol") == bytes);
+    }
 }
 
 // ---- round trips ------------------------------------------------------------------------------
@@ -926,17 +1187,19 @@ TEST(Rvol, SamplingIsThreadSafeWithASmallCache) {
 
 // ---- errors -----------------------------------------------------------------------------------
 
-TEST(Rvol, CorruptedFilesAreInvalidData) {
-    ScratchDir dir;
-    const fs::path good = dir / "good.rvol";
-    rvol::writeRvol(good, makeVolume(4, 5), kFourTexels);
+namespace {
+
+/// Every single-bit flip of @p good's header, level table, directory and the padding after them,
+/// a spread of flips in its bricks and attribute records, truncations and an appended byte: each
+/// rejected as InvalidData (a corrupt file written next to @p good).
+void expectCorruptionsRejected(const fs::path& good) {
     const std::vector<std::uint8_t> bytes = readBytes(good);
     ASSERT_EQ(openAndValidate(good), Outcome::Valid);
     const rvol::RvolReader reader(good);
     const rvol::Header& h = reader.header();
     ASSERT_GT(h.brickCount, 10u);
     ASSERT_GT(h.staticVoxelCount, 10u);
-    const fs::path bad = dir / "bad.rvol";
+    const fs::path bad = good.parent_path() / "bad.rvol";
     std::uint64_t tried = 0;
     const auto expectInvalid = [&](const std::vector<std::uint8_t>& data, const std::string& what) {
         // Removed first: rewriting a truncated file in place makes ext4 flush it on close (auto_da_alloc).
@@ -969,6 +1232,77 @@ TEST(Rvol, CorruptedFilesAreInvalidData) {
     appended.push_back(0);
     expectInvalid(appended, "a byte appended");
     expectInvalid(std::vector<std::uint8_t>(4096, 0x41), "not an .rvol file");
+}
+
+}  // namespace
+
+TEST(Rvol, CorruptedFilesAreInvalidData) {
+    ScratchDir dir;
+    rvol::writeRvol(dir / "good.rvol", makeVolume(4, 5), kFourTexels);
+    ASSERT_EQ(rvol::RvolReader(dir / "good.rvol").header().flags & rvol::kFlagBinaryLevel0Opacity, 0u);  // fractional opacities: A8
+    expectCorruptionsRejected(dir / "good.rvol");
+}
+
+TEST(Rvol, BinaryLevel0OpacityCorruptionIsInvalidData) {
+    ScratchDir dir;
+    const fs::path good = dir / "good.rvol";
+    ASSERT_TRUE(rvol::writeRvol(good, makeBinaryVolume(4, 5), kFourTexels).binaryLevel0Opacity);
+    expectCorruptionsRejected(good);
+
+    // Structural edits behind valid checksums.
+    const std::vector<std::uint8_t> bytes = readBytes(good);
+    const rvol::RvolReader reader(good);
+    const rvol::LevelEntry& l0 = reader.level(0);
+    ASSERT_EQ(l0.brickBytes, 256u);
+    const fs::path bad = dir / "bad.rvol";
+    const auto rejectedWith = [&](std::vector<std::uint8_t> data, const std::string& expected) {
+        fixChecksums(data);
+        vox::test::writeBinary(bad, data);
+        try {
+            const rvol::RvolReader r(bad);
+            (void)rvol::validateRvol(r);
+            ADD_FAILURE() << "accepted; expected: " << expected;
+        } catch (const vox::InvalidDataError& e) {
+            EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+        }
+    };
+    {   // The flag cleared (or set on an A8 file): level 0's brick size no longer matches.
+        std::vector<std::uint8_t> data = bytes;
+        data[28] &= static_cast<std::uint8_t>(~rvol::kFlagBinaryLevel0Opacity);
+        rejectedWith(data, "level table, level 0: bricks per axis or brick size wrong");
+    }
+    {   // A shared face's word changed in one brick only (a solid cell made empty, or the reverse).
+        bool found = false;
+        for (std::uint32_t i = 0; i < l0.brickCount && !found; ++i) {
+            const rvol::BrickEntry& b = reader.bricks(0)[i];
+            if (reader.findBrick(0, b.x + 1u, b.y, b.z) < 0) continue;
+            std::vector<std::uint8_t> data = bytes;
+            const std::uint64_t texel = 3 + 4 * (1 + 4 * 2);  // (3, 1, 2): on the +x face
+            data[reader.brickOffset(0, i) + 4 * texel] ^= 0x01;
+            rejectedWith(data, "shared face with brick (" + std::to_string(b.x + 1) + "," + std::to_string(b.y) + "," + std::to_string(b.z) +
+                                   ") differs (channel 0)");
+            found = true;
+        }
+        EXPECT_TRUE(found);
+    }
+    {   // A brick made all zero: every word 0, every cell empty.
+        std::vector<std::uint8_t> data = bytes;
+        std::fill_n(data.begin() + static_cast<std::ptrdiff_t>(reader.brickOffset(0, 0)), l0.brickBytes, 0);
+        rejectedWith(data, "level 0, brick 0");
+    }
+    {   // A non-zero word (a solid cell) on a face towards a brick that is not stored.
+        bool found = false;
+        for (std::uint32_t i = 0; i < l0.brickCount && !found; ++i) {
+            const rvol::BrickEntry& b = reader.bricks(0)[i];
+            if (b.x + 1u >= l0.bricksPerAxis || reader.findBrick(0, b.x + 1u, b.y, b.z) >= 0) continue;
+            std::vector<std::uint8_t> data = bytes;
+            const std::uint64_t texel = 3 + 4 * (1 + 4 * 2);
+            store<std::uint32_t>(data.data() + reader.brickOffset(0, i) + 4 * texel, rvol::kSolidBlackWord);
+            rejectedWith(data, "which is not stored, is not zero");
+            found = true;
+        }
+        EXPECT_TRUE(found);
+    }
 }
 
 TEST(Rvol, ErrorMessagesSayWhere) {
@@ -1007,12 +1341,20 @@ TEST(Rvol, ErrorMessagesSayWhere) {
     EXPECT_EQ(message(std::vector<std::uint8_t>(bytes.begin(), bytes.end() - 1)),
               bad.string() + ": header says " + std::to_string(bytes.size()) + " bytes but the file has " + std::to_string(bytes.size() - 1) +
                   " (truncated or appended to)");
-    // A 1.x file (one A8 plane per channel) is rejected by its version, never misread.
+    // A 1.x file (one A8 plane per channel) and a 2.x file (always an A8 plane at level 0) are
+    // rejected by their version, never misread.
     std::vector<std::uint8_t> version = bytes;
     version[4] = 1;
-    EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version 1.0 (this reader reads 2.x)");
-    version[4] = 3;
-    EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version 3.0 (this reader reads 2.x)");
+    EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version 1.0 (this reader reads 3.x)");
+    version[4] = 2;
+    EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version 2.0 (this reader reads 3.x)");
+    version[4] = 4;
+    EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version 4.0 (this reader reads 3.x)");
+    // Any minor of the reader's major is accepted (the header checksum made right).
+    version = bytes;
+    version[6] = 7;
+    store<std::uint32_t>(version.data() + 252, vox::crc32c(version.data(), 252));
+    EXPECT_EQ(message(version), "accepted");
 }
 
 TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {

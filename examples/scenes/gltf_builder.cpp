@@ -166,7 +166,7 @@ void GltfBuilder::write(const std::filesystem::path& file, BufferStorage storage
         doc["buffers"] = nlohmann::json::array({buffer});
     }
     if (storage != BufferStorage::Glb) {
-        const std::string text = doc.dump(1);
+        const std::string text = compactJson_ ? doc.dump() : doc.dump(1);
         writeBytes(file, {reinterpret_cast<const std::uint8_t*>(text.data()), text.size()});
         return;
     }

@@ -84,6 +84,10 @@ public:
     /// The document, to edit before write().
     nlohmann::json& json() { return root_; }
 
+    /// Writes a .gltf's JSON on one line (as a .glb's always is) instead of indented: for
+    /// documents with thousands of nodes and lights.
+    void setCompactJson(bool compact) { compactJson_ = compact; }
+
     /// Writes @p file (.gltf or .glb); with External storage also "<stem>.bin" beside it.
     void write(const std::filesystem::path& file, BufferStorage storage) const;
 
@@ -93,6 +97,7 @@ private:
 
     nlohmann::json root_;
     std::vector<std::uint8_t> buffer_;
+    bool compactJson_ = false;
 };
 
 }  // namespace vox::scenes

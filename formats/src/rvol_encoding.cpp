@@ -117,12 +117,21 @@ VoxelAttributes decodeAttributes(const AttributeRecord& r) noexcept {
     return v;
 }
 
-std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_t brickTexels, std::uint32_t channels) {
+std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_t brickTexels, std::uint32_t channels, bool binaryOpacity) {
     if (channels != 1 && channels != kDirections) throw std::invalid_argument("decodeBrick: a brick has 1 or 6 channels");
-    if (brickTexels < kMinBrickTexels || brickTexels > kMaxBrickTexels || bytes.size() != brickBytes(brickTexels, channels))
+    if (brickTexels < kMinBrickTexels || brickTexels > kMaxBrickTexels || bytes.size() != brickBytes(brickTexels, channels, binaryOpacity))
         throw std::invalid_argument("decodeBrick: byte count does not match the brick size");
     const std::size_t n3 = std::size_t{brickTexels} * brickTexels * brickTexels;
     std::vector<Texel> texels(channels * n3);
+    if (alphaPlanes(channels, binaryOpacity) == 0) {
+        // Level 0 with binary opacity: the RGB9E5 plane alone; a non-zero word is a solid cell.
+        for (std::size_t i = 0; i < n3; ++i) {
+            const std::uint32_t word = detail::load<std::uint32_t>(bytes.data() + 4 * i);
+            const auto [r, g, b] = decodeRgb9e5(word);
+            texels[i] = {r, g, b, word != 0 ? 1.0f : 0.0f};
+        }
+        return texels;
+    }
     for (std::uint32_t c = 0; c < channels; ++c) {
         const std::uint8_t* rgb = bytes.data() + rgbPlaneOffset(brickTexels, c);
         // The ± channels of an axis share its opacity plane.

@@ -116,7 +116,8 @@ std::vector<LevelEntry> decodeLevelTable(const std::filesystem::path& file, cons
         const std::string where = "level table, level " + str(l) + ": ";
         if (e.resolution != levelResolution(h.depth, l) || e.channels != levelChannels(l))
             invalid(file, where + "resolution or channel count wrong for depth " + str(h.depth));
-        if (e.bricksPerAxis != bricksPerAxis(e.resolution, h.brickTexels) || e.brickBytes != brickBytes(h.brickTexels, e.channels))
+        if (e.bricksPerAxis != bricksPerAxis(e.resolution, h.brickTexels) ||
+            e.brickBytes != brickBytes(h.brickTexels, e.channels, h.binaryLevel0Opacity()))
             invalid(file, where + "bricks per axis or brick size wrong for " + str(h.brickTexels) + "-texel bricks");
         const std::uint64_t perAxis = e.bricksPerAxis;
         if (e.brickCount > perAxis * perAxis * perAxis) invalid(file, where + "more bricks than the level has");
@@ -238,7 +239,7 @@ std::vector<std::uint8_t> RvolReader::readBrickBytes(std::uint32_t level, std::u
 }
 
 std::vector<Texel> RvolReader::readBrick(std::uint32_t level, std::uint32_t index) const {
-    return decodeBrick(readBrickBytes(level, index), header_.brickTexels, levels_.at(level).channels);
+    return decodeBrick(readBrickBytes(level, index), header_.brickTexels, levels_.at(level).channels, header_.binaryLevel0Opacity());
 }
 
 void RvolReader::setCacheBytes(std::uint64_t bytes) const {

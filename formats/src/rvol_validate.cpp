@@ -17,7 +17,8 @@ class LevelChecker {
 public:
     LevelChecker(const RvolReader& reader, std::uint32_t level)
         : reader_(reader), level_(level), e_(reader.level(level)), n_(reader.header().brickTexels),
-          n3_(std::size_t{n_} * n_ * n_), planes_(alphaPlanes(e_.channels)), entries_(reader.bricks(level)) {}
+          n3_(std::size_t{n_} * n_ * n_), planes_(alphaPlanes(e_.channels, reader.header().binaryLevel0Opacity())),
+          entries_(reader.bricks(level)) {}
 
     /// Returns the level's distinct non-zero cells.
     std::uint64_t run() {
@@ -26,6 +27,7 @@ public:
             const BrickEntry& b = entries_[i];
             if (b.padding != 0) fail(i, "directory entry padding is not zero");
             const std::vector<std::uint8_t> bytes = reader_.readBrickBytes(level_, i);  // checks the CRC
+            // In the binary-opacity layout a non-zero byte is a non-zero word: a solid cell.
             if (std::all_of(bytes.begin(), bytes.end(), [](std::uint8_t v) { return v == 0; }))
                 fail(i, "all texels zero (an empty brick must not be stored)");
             for (std::uint32_t p = 0; p < planes_; ++p)
@@ -149,7 +151,7 @@ private:
     const LevelEntry& e_;
     std::uint32_t n_;
     std::size_t n3_;
-    std::uint32_t planes_;  ///< A8 planes per brick
+    std::uint32_t planes_;  ///< A8 planes per brick (none at level 0 with binary opacity)
     std::span<const BrickEntry> entries_;
 };
 

@@ -100,6 +100,27 @@ void checkVolume(const Volume& v) {
 /// clamp(v, 0, 1), NaN → 0 (as encodeUnorm8 clamps).
 float clamp01(float v) noexcept { return v > 0 ? std::min(v, 1.0f) : 0.0f; }
 
+/// Whether level 0 can take the binary-opacity layout without changing a decoded texel: every
+/// texel of a cell inside the level encodes its opacity as A8 0 or 255, and every texel of A8 0
+/// has RGB9E5 word 0 (there a = 0 must mean "empty": a zero word). Texels of cells outside every
+/// block are zero, which qualifies.
+bool binaryOpacityFits(const Level& level) noexcept {
+    const std::uint32_t res = level.resolution;
+    for (std::size_t b = 0; b < level.blocks.size(); ++b) {
+        const auto block = demorton3(level.blocks[b]);
+        for (std::uint32_t i = 0; i < kBlockTexels; ++i) {
+            const std::uint32_t x = block[0] * kBlockCells + i % kBlockCells, y = block[1] * kBlockCells + i / kBlockCells % kBlockCells,
+                                z = block[2] * kBlockCells + i / (kBlockCells * kBlockCells);
+            if (x >= res || y >= res || z >= res) continue;  // not stored
+            const Texel& t = level.texels[Level::texelIndex(b, level.channels, 0, x, y, z)];
+            const std::uint8_t alpha = encodeUnorm8(t.a);
+            if (alpha != 0 && alpha != 255) return false;
+            if (alpha == 0 && encodeRgb9e5(t.r, t.g, t.b) != 0) return false;
+        }
+    }
+    return true;
+}
+
 /// One level's stored bricks.
 struct EncodedLevel {
     LevelEntry entry;
@@ -108,12 +129,15 @@ struct EncodedLevel {
 };
 
 /// Cuts @p level into bricks of @p n texels per edge sharing their faces and encodes those with a
-/// non-zero byte, in ascending Morton order of their coordinates.
-EncodedLevel encodeLevel(const Level& level, std::uint32_t n) {
+/// non-zero byte, in ascending Morton order of their coordinates. @p binaryOpacity: level 0 in the
+/// binary-opacity layout (binaryOpacityFits(level) holds).
+EncodedLevel encodeLevel(const Level& level, std::uint32_t n, bool binaryOpacity) {
     EncodedLevel out;
     const std::uint32_t step = n - 1, res = level.resolution, channels = level.channels;
     const std::uint32_t perAxis = bricksPerAxis(res, n);
-    out.entry = {res, channels, perAxis, static_cast<std::uint32_t>(brickBytes(n, channels)), 0, 0, 0};
+    // Only level 0 (one channel) has a binary-opacity layout.
+    const bool binary = binaryOpacity && channels == 1;
+    out.entry = {res, channels, perAxis, static_cast<std::uint32_t>(brickBytes(n, channels, binary)), 0, 0, 0};
 
     // Candidate bricks: those overlapping a stored block. Brick b covers cells b·s … b·s + s
     // (s = N − 1), so it meets block cells 8B … 8B + 7 when ⌈8B/s⌉ − 1 ≤ b ≤ ⌊(8B + 7)/s⌋.
@@ -133,7 +157,7 @@ EncodedLevel encodeLevel(const Level& level, std::uint32_t n) {
     std::sort(candidates.begin(), candidates.end());
     candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
 
-    const std::uint32_t planes = alphaPlanes(channels);
+    const std::uint32_t planes = alphaPlanes(channels, binary);
     std::vector<std::uint8_t> brick(out.entry.brickBytes);
     for (std::uint64_t code : candidates) {
         const auto b = demorton3(code);
@@ -159,7 +183,11 @@ EncodedLevel encodeLevel(const Level& level, std::uint32_t n) {
                     };
                     for (std::uint32_t c = 0; c < channels; ++c) {
                         const Texel& v = texel(c);
-                        const std::uint32_t rgb = encodeRgb9e5(v.r, v.g, v.b);
+                        std::uint32_t rgb = encodeRgb9e5(v.r, v.g, v.b);
+                        // Binary opacity: the word carries the opacity too, so a solid cell (A8 255;
+                        // binaryOpacityFits left only 255, or 0 with word 0) whose radiance encodes
+                        // to 0 takes the smallest non-zero word.
+                        if (binary && rgb == 0 && encodeUnorm8(v.a) != 0) rgb = kSolidBlackWord;
                         store<std::uint32_t>(brick.data() + rgbPlaneOffset(n, c) + 4 * t, rgb);
                         nonZero = nonZero || rgb != 0;
                     }
@@ -204,9 +232,10 @@ RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volum
     checkVolume(volume);
     const std::uint32_t n = options.brickTexels;
 
+    const bool binaryOpacity = options.binaryLevel0Opacity && binaryOpacityFits(volume.levels[0]);
     std::vector<EncodedLevel> levels;
     levels.reserve(volume.levels.size());
-    for (const Level& level : volume.levels) levels.push_back(encodeLevel(level, n));
+    for (const Level& level : volume.levels) levels.push_back(encodeLevel(level, n, binaryOpacity));
     const std::vector<std::uint8_t> staticLayer =
         options.staticAttributes ? encodeLayer(volume.staticVoxels) : std::vector<std::uint8_t>{};
     const std::vector<std::uint8_t> dynamicLayer = encodeLayer(volume.dynamicVoxels);
@@ -216,7 +245,7 @@ RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volum
     h.depth = volume.depth;
     h.levelCount = volume.depth + 1;
     h.brickTexels = n;
-    h.flags = options.staticAttributes ? kFlagStaticAttributes : 0;
+    h.flags = (options.staticAttributes ? kFlagStaticAttributes : 0) | (binaryOpacity ? kFlagBinaryLevel0Opacity : 0);
     h.origin = volume.origin;
     h.size = volume.size;
     h.sceneBounds = volume.sceneBounds;
@@ -310,6 +339,7 @@ RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volum
     r.bricks = bricks;
     r.staticVoxels = h.staticVoxelCount;
     r.dynamicVoxels = h.dynamicVoxelCount;
+    r.binaryLevel0Opacity = binaryOpacity;
     return r;
 }
 

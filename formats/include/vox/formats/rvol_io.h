@@ -24,7 +24,11 @@ namespace vox::rvol {
 
 inline constexpr std::array<std::uint8_t, 4> kMagic{'R', 'V', 'O', 'L'};
 /// 2.0: bricks of levels ≥ 1 hold one A8 opacity plane per axis instead of one per channel (1.x).
-inline constexpr std::uint16_t kVersionMajor = 2;  ///< readers reject other majors
+/// 3.0: level-0 bricks may drop their A8 plane (kFlagBinaryLevel0Opacity). A new major, not 2.1:
+/// readers check only the major and accept any minor, so 2.x readers would have taken a 2.1 file
+/// for their own (libvox's 2.0 reader happens to fail on the level table's brick sizes, but
+/// nothing promised that).
+inline constexpr std::uint16_t kVersionMajor = 3;  ///< readers reject other majors
 inline constexpr std::uint16_t kVersionMinor = 0;  ///< readers accept any minor of their major
 inline constexpr std::uint32_t kHeaderBytes = 256;
 inline constexpr std::uint32_t kLevelEntryBytes = 32;
@@ -35,12 +39,21 @@ inline constexpr std::uint32_t kSectionAlignment = 64;  ///< file offset alignme
 inline constexpr std::uint32_t kMaxDepth = 10;
 inline constexpr std::uint32_t kMinBrickTexels = 2;
 inline constexpr std::uint32_t kMaxBrickTexels = 32;
-/// Texel format 2 (the only one of 2.x): per channel an RGB9E5 plane (GL_RGB9_E5), then the A8
-/// opacity planes (GL_R8): one at level 0, one per axis (x, y, z) above, shared by the axis' ±
-/// channels. (Texel format 1, per channel an RGB9E5 and an A8 plane, was 1.x's.)
+/// Texel format 2 (the only one of 2.x and 3.x): per channel an RGB9E5 plane (GL_RGB9_E5), then
+/// the A8 opacity planes (GL_R8): one per axis (x, y, z) at levels ≥ 1, shared by the axis' ±
+/// channels; at level 0 one, or none with kFlagBinaryLevel0Opacity. (Texel format 1, per channel
+/// an RGB9E5 and an A8 plane, was 1.x's.)
 inline constexpr std::uint32_t kTexelFormatRgb9e5AxisA8 = 2;
 /// Header flags.
 inline constexpr std::uint32_t kFlagStaticAttributes = 1;  ///< the static attribute layer was written
+/// Level-0 bricks are their RGB9E5 plane only (4·N³ bytes, no A8 plane), the opacity implicit: a
+/// word ≠ 0 is opacity 1, a word = 0 opacity 0 (docs/rvol-format.md, "Level 0 with binary
+/// opacity"). The writer sets it when every level-0 opacity is 0 or 1 (RvolWriteOptions).
+inline constexpr std::uint32_t kFlagBinaryLevel0Opacity = 2;
+/// In the binary-opacity layout, the word of a solid cell whose radiance encodes to 0 (black): the
+/// smallest non-zero RGB9E5 word, red mantissa 1 with exponent 0, i.e. (2^-24, 0, 0) ≈ (6e-8, 0,
+/// 0), far below any visible radiance. Decoded as that value (what GL_RGB9_E5 gives a GPU).
+inline constexpr std::uint32_t kSolidBlackWord = 0x00000001;
 
 // ---- texel and attribute encodings ----------------------------------------------------------
 
@@ -89,10 +102,13 @@ inline constexpr float kRgb9e5Max = 65408.0f;
 [[nodiscard]] constexpr std::uint64_t alphaPlaneBytes(std::uint32_t brickTexels) noexcept {
     return (std::uint64_t{brickTexels} * brickTexels * brickTexels + 3) / 4 * 4;
 }
-/// A8 planes of a brick of @p channels channels: 1 for level 0's isotropic channel, one per axis
-/// (3) for the six directional channels, whose ± pair shares its opacity (front-to-back
-/// compositing's opacity a_f + (1 − a_f)·a_b is symmetric in front and back).
-[[nodiscard]] constexpr std::uint32_t alphaPlanes(std::uint32_t channels) noexcept { return channels == 1 ? 1u : channels / 2; }
+/// A8 planes of a brick of @p channels channels: 1 for level 0's isotropic channel (0 when
+/// @p binaryOpacity: a file with kFlagBinaryLevel0Opacity), one per axis (3) for the six
+/// directional channels, whose ± pair shares its opacity (front-to-back compositing's opacity
+/// a_f + (1 − a_f)·a_b is symmetric in front and back); @p binaryOpacity does not change those.
+[[nodiscard]] constexpr std::uint32_t alphaPlanes(std::uint32_t channels, bool binaryOpacity = false) noexcept {
+    return channels == 1 ? (binaryOpacity ? 0u : 1u) : channels / 2;
+}
 /// The A8 plane holding the opacity of @p channel: channel/2 (PosX, NegX → 0 (x); PosY, NegY → 1
 /// (y); PosZ, NegZ → 2 (z); level 0's channel 0 → 0).
 [[nodiscard]] constexpr std::uint32_t alphaPlaneOf(std::uint32_t channel) noexcept { return channel / 2; }
@@ -105,9 +121,10 @@ inline constexpr float kRgb9e5Max = 65408.0f;
     return channels * rgbPlaneBytes(brickTexels) + plane * alphaPlaneBytes(brickTexels);
 }
 /// Bytes of a brick of @p channels channels: the RGB9E5 planes then the A8 planes (N = 4: 320 at
-/// level 0, 6·256 + 3·64 = 1728 above).
-[[nodiscard]] constexpr std::uint64_t brickBytes(std::uint32_t brickTexels, std::uint32_t channels) noexcept {
-    return alphaPlaneOffset(brickTexels, channels, alphaPlanes(channels));
+/// level 0, 256 with @p binaryOpacity, 6·256 + 3·64 = 1728 above; N = 5: 628, 500, 3384).
+/// @p binaryOpacity: the file has kFlagBinaryLevel0Opacity (it changes level 0's bricks only).
+[[nodiscard]] constexpr std::uint64_t brickBytes(std::uint32_t brickTexels, std::uint32_t channels, bool binaryOpacity = false) noexcept {
+    return alphaPlaneOffset(brickTexels, channels, alphaPlanes(channels, binaryOpacity));
 }
 /// The first multiple of kSectionAlignment at or after @p offset.
 [[nodiscard]] constexpr std::uint64_t alignSection(std::uint64_t offset) noexcept {
@@ -124,7 +141,7 @@ struct Header {
     std::uint32_t levelCount = 1;           ///< depth + 1
     std::uint32_t brickTexels = 4;          ///< N, texels per brick edge
     std::uint32_t texelFormat = kTexelFormatRgb9e5AxisA8;
-    std::uint32_t flags = 0;                ///< kFlagStaticAttributes
+    std::uint32_t flags = 0;                ///< kFlagStaticAttributes, kFlagBinaryLevel0Opacity
     std::array<double, 3> origin{0, 0, 0};  ///< world position of the root cube's minimum corner
     double size = 1;                        ///< root cube edge, world units
     std::array<float, 6> sceneBounds{};     ///< min xyz, max xyz (world)
@@ -144,6 +161,8 @@ struct Header {
     std::uint64_t fileBytes = 0;
 
     [[nodiscard]] double cellSize(std::uint32_t level) const noexcept { return size / double(levelResolution(depth, level)); }
+    /// Level-0 bricks are stored without their A8 plane (kFlagBinaryLevel0Opacity).
+    [[nodiscard]] bool binaryLevel0Opacity() const noexcept { return (flags & kFlagBinaryLevel0Opacity) != 0; }
 };
 
 /// One entry of the level table (docs/rvol-format.md, "Level table").
@@ -185,6 +204,12 @@ struct RvolWriteOptions {
     /// stored the fewest bytes of N = 3 … 8 on the Cornell box and on 2CylinderEngine at 256³.
     std::uint32_t brickTexels = 5;
     bool staticAttributes = true;    ///< write the static attribute layer (the dynamic one is always written)
+    /// Store level 0 in the binary-opacity layout (kFlagBinaryLevel0Opacity, 4·N³ instead of
+    /// 4·N³ + ⌈N³/4⌉·4 bytes per brick) when the volume allows it without changing a decoded
+    /// texel: every level-0 texel's opacity encodes as A8 0 or 255, and every texel of A8 0 has
+    /// RGB9E5 word 0. Solid cells whose radiance encodes to 0 are stored as kSolidBlackWord. False:
+    /// always the A8 layout.
+    bool binaryLevel0Opacity = true;
 };
 
 /// What writeRvol wrote. The byte counts add up to fileBytes.
@@ -199,11 +224,13 @@ struct RvolWriteResult {
     std::uint64_t bricks = 0;
     std::vector<std::uint64_t> bricksPerLevel;
     std::uint64_t staticVoxels = 0, dynamicVoxels = 0;  ///< records written
+    bool binaryLevel0Opacity = false;  ///< level 0 was stored in the binary-opacity layout (kFlagBinaryLevel0Opacity)
 };
 
 /// Writes @p volume to @p file atomically (AtomicFile). The same volume and options give the same
-/// bytes. Each axis' A8 plane at levels ≥ 1 holds the mean of its two channels' opacities (each
-/// clamped to [0, 1] first); they are equal for volumes the bake produces, so a volume whose ±
+/// bytes. Level 0 takes the binary-opacity layout when RvolWriteOptions::binaryLevel0Opacity
+/// allows and the volume qualifies (see there). Each axis' A8 plane at levels ≥ 1 holds the mean
+/// of its two channels' opacities (each clamped to [0, 1] first); they are equal for volumes the bake produces, so a volume whose ±
 /// opacities differ reads back with both replaced by their mean. Expects a consistent volume:
 /// depth ≤ kMaxDepth; levels[l] with resolution 2^(depth − l) and levelChannels(l) channels, blocks strictly ascending and inside the level, texels sized
 /// blocks × channels × kBlockTexels; voxel attributes inside level 0 in strictly ascending Morton
@@ -246,7 +273,8 @@ public:
     [[nodiscard]] std::vector<std::uint8_t> readBrickBytes(std::uint32_t level, std::uint32_t index) const;
     /// Brick @p index of @p level decoded: channels × N³ texels, channel-major, then z, y, x
     /// (x fastest); texel (i, j, k) is cell (bx·(N−1) + i, by·(N−1) + j, bz·(N−1) + k). Each
-    /// channel's opacity comes from its axis' A8 plane, so ± channels read the same opacity.
+    /// channel's opacity comes from its axis' A8 plane, so ± channels read the same opacity; at
+    /// level 0 of a binary-opacity file it is 1 for a non-zero RGB9E5 word, 0 for word 0.
     [[nodiscard]] std::vector<Texel> readBrick(std::uint32_t level, std::uint32_t index) const;
 
     /// Trilinear sample of @p channel of @p level at world position @p position, as a GPU's
@@ -293,10 +321,14 @@ private:
 };
 
 /// Decodes the @p channels × N³ texels of a brick's stored bytes (readBrick's order), channel c's
-/// opacity from A8 plane alphaPlaneOf(c).
+/// opacity from A8 plane alphaPlaneOf(c); with @p binaryOpacity (the file's
+/// kFlagBinaryLevel0Opacity) a level-0 brick (1 channel) has no A8 plane and a texel's opacity is
+/// 1 where its RGB9E5 word is not 0, else 0 (the word decoded as usual: kSolidBlackWord gives
+/// (2^-24, 0, 0)). @p binaryOpacity does not change 6-channel bricks.
 /// @throws std::invalid_argument if @p channels is neither 1 nor kDirections, or @p bytes is not
-/// brickBytes(@p brickTexels, @p channels) long.
-[[nodiscard]] std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_t brickTexels, std::uint32_t channels);
+/// brickBytes(@p brickTexels, @p channels, @p binaryOpacity) long.
+[[nodiscard]] std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_t brickTexels, std::uint32_t channels,
+                                             bool binaryOpacity = false);
 
 // ---- validation -----------------------------------------------------------------------------
 
@@ -314,8 +346,8 @@ struct RvolReport {
 };
 
 /// Reads and checks every brick and attribute record of an open file: brick checksums, no stored
-/// brick all zero, zero texels for cells outside the level, zero A8 plane padding, equal shared faces
-/// between neighbouring bricks (and zero faces towards bricks that are not stored), attribute
+/// brick all zero (in the binary-opacity layout: a non-zero word), zero texels for cells outside
+/// the level, zero A8 plane padding, equal shared faces between neighbouring bricks (and zero faces towards bricks that are not stored), attribute
 /// checksums, Morton codes strictly ascending and inside level 0, zero gaps between sections.
 /// @throws InvalidDataError "FILE: where: what" at the first problem.
 RvolReport validateRvol(const RvolReader& reader);
