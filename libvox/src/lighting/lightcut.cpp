@@ -1,0 +1,473 @@
+// Lightcuts' cut selection (Walter et al. 2005) on a light tree or forest, and the cut reuse of
+// the paper's section 1.4 (LightcutCursor).
+#include <vox/lightcuts.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <unordered_map>
+
+namespace vox {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kInvPi = 1.0 / kPi;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+Vec3d toDouble(Vec3f v) { return {v.x, v.y, v.z}; }
+
+/// The callback's visibility, clamped to [0, 1] (NaN: 0).
+double visibilityOf(const LightVisibility& visibility, const Light& light, const LightArrival& arrival) {
+    const double v = visibility(light, arrival);
+    return v > 0 ? std::min(v, 1.0) : 0.0;
+}
+
+bool contains(const Bounds3f& b, Vec3d p) {
+    return p.x >= b.min.x && p.x <= b.max.x && p.y >= b.min.y && p.y <= b.max.y && p.z >= b.min.z && p.z <= b.max.z;
+}
+
+/// An orthonormal frame with @p n as its third axis (Duff et al. 2017).
+struct Frame {
+    Vec3d t, b, n;
+    explicit Frame(Vec3d normal) : n(normal) {
+        const double sign = std::copysign(1.0, n.z);
+        const double a = -1.0 / (sign + n.z);
+        const double c = n.x * n.y * a;
+        t = {1.0 + sign * n.x * n.x * a, sign * c, -sign * n.x};
+        b = {c, sign + n.y * n.y * a, -n.y};
+    }
+};
+
+/// An upper bound on max over v in the box [lo, hi] of dot(f.n, v) / |v| (Walter 2005: the box
+/// rotated into the frame, z/√(x² + y² + z²) maximised over the rotated box's bounding box). It
+/// may be negative (every v points away from n); 1 where the box holds the origin.
+double maxCosine(const Frame& f, Vec3d lo, Vec3d hi) {
+    const Vec3d c = (lo + hi) * 0.5, h = (hi - lo) * 0.5;
+    double range[3][2];
+    const Vec3d axes[3] = {f.t, f.b, f.n};
+    for (int k = 0; k < 3; ++k) {
+        const Vec3d a = axes[k];
+        const double centre = dot(a, c);
+        const double half = std::abs(a.x) * h.x + std::abs(a.y) * h.y + std::abs(a.z) * h.z;
+        // A little slack for the rounding of the frame and of these sums.
+        const double slack = 1e-12 * (std::abs(centre) + half);
+        range[k][0] = centre - half - slack;
+        range[k][1] = centre + half + slack;
+    }
+    const double zmax = range[2][1];
+    auto minSquare = [&](int k) { return range[k][0] <= 0 && range[k][1] >= 0 ? 0.0 : std::min(range[k][0] * range[k][0], range[k][1] * range[k][1]); };
+    auto maxSquare = [&](int k) { return std::max(range[k][0] * range[k][0], range[k][1] * range[k][1]); };
+    if (zmax > 0) {
+        const double r2 = minSquare(0) + minSquare(1);
+        return std::min(1.0, zmax / std::sqrt(r2 + zmax * zmax));
+    }
+    const double r2 = maxSquare(0) + maxSquare(1);
+    const double len = std::sqrt(r2 + zmax * zmax);
+    return len > 0 ? zmax / len : 1.0;
+}
+
+/// The scalar G of lightcutBound (before intensity and albedo); +∞ where the point lies in the box.
+double geometricBound(const LightTreeNode& node, const Frame& frame, Vec3d point) {
+    const Vec3d lo = toDouble(node.bounds.min), hi = toDouble(node.bounds.max);
+    if (node.directional) return std::max(0.0, maxCosine(frame, lo, hi));
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+        const double g = std::max({0.0, lo[k] - point[k], point[k] - hi[k]});
+        d2 += g * g;
+    }
+    const double range = node.maxRange;
+    if (std::isfinite(range) && d2 >= range * range) return 0;
+    const double cosBound = std::max(0.0, maxCosine(frame, lo - point, hi - point));
+    if (!(cosBound > 0)) return 0;
+    if (node.hasSpot && !node.hasOmni) {
+        // Directions from the lights to the point, x − p for p in the box, against the cone of
+        // spot axes widened by the largest outer angle.
+        const Frame axis(normalize(toDouble(node.coneAxis)));
+        const double c = std::clamp(maxCosine(axis, point - hi, point - lo), -1.0, 1.0);
+        if (std::acos(c) > double(node.coneHalfAngle) + double(node.maxOuterAngle) + 1e-6) return 0;
+    }
+    if (!(d2 > 0)) return kInf;
+    double window = 1;
+    if (std::isfinite(range)) {
+        const double r2 = d2 / (range * range);
+        const double w = std::clamp(1.0 - r2 * r2, 0.0, 1.0);
+        window = w * w;
+    }
+    return cosBound * window / d2;
+}
+
+Vec3d boundOf(const LightTreeNode& node, const Frame& frame, Vec3d point, Vec3d albedoOverPi) {
+    const double g = geometricBound(node, frame, point);
+    if (!(g > 0)) return {0, 0, 0};
+    Vec3d out;
+    for (int k = 0; k < 3; ++k) {
+        const double i = albedoOverPi[k] * node.intensity[k];
+        out[k] = i > 0 ? i * g * (1 + 1e-9) : 0.0;
+    }
+    return out;
+}
+
+/// Everything one cut evaluation needs, shared by the fresh cut and the cursor.
+struct Context {
+    const LightTree& tree;
+    Frame frame;
+    Vec3d point, normal, albedoOverPi;
+    const LightcutOptions& options;
+    const LightVisibility& visibility;
+    LightcutStats& stats;
+
+    /// falloff × max(0, n·l) × visibility of light @p index: the representative's factor.
+    double factor(std::uint32_t index) const {
+        const Light& light = tree.lights()[index];
+        ++stats.lightEvaluations;
+        LightArrival arrival;
+        if (!lightArrival(light, point, arrival)) return 0;
+        const double cosine = dot(normal, arrival.toLight);
+        if (!(cosine > 0)) return 0;
+        const Vec3d rgb = toDouble(light.color) * double(light.intensity);
+        const double peak = std::max({rgb.x, rgb.y, rgb.z});
+        if (!(peak > 0)) return 0;
+        // irradiance = colour × intensity × falloff channel by channel: the brightest channel's
+        // ratio is the falloff.
+        const double irr = std::max({arrival.irradiance.x, arrival.irradiance.y, arrival.irradiance.z});
+        double v = 1;
+        if (visibility) {
+            ++stats.visibilityEvaluations;
+            v = visibilityOf(visibility, light, arrival);
+        }
+        return irr / peak * cosine * v;
+    }
+};
+
+/// One node of a cut at the current point.
+struct Entry {
+    double key;         // luminance of the error bound; −1 for leaves (exact, never split)
+    double boundLum;    // luminance of lightcutBound, leaves included
+    std::uint32_t node;
+    double g;           // the representative's factor
+    Vec3d estimate;     // albedo/π × intensity × g
+};
+
+bool heapLess(const Entry& a, const Entry& b) {
+    if (a.key != b.key) return a.key < b.key;
+    return a.node > b.node;
+}
+
+Entry makeEntry(const Context& ctx, std::uint32_t index, double g) {
+    const LightTreeNode& node = ctx.tree.nodes()[index];
+    ++ctx.stats.searchSteps;
+    Entry e;
+    e.node = index;
+    e.g = g;
+    e.estimate = ctx.albedoOverPi * node.intensity * g;
+    const Vec3d bound = boundOf(node, ctx.frame, ctx.point, ctx.albedoOverPi);
+    e.boundLum = lightLuminance(bound);
+    if (std::isnan(e.boundLum)) e.boundLum = kInf;
+    e.key = node.leaf() ? -1.0 : e.boundLum;
+    return e;
+}
+
+double thresholdOf(const LightcutOptions& o, Vec3d total) {
+    return std::max(o.relativeError * std::max(0.0, lightLuminance(total)), o.absoluteError);
+}
+
+/// The error measure the criterion compares with the threshold, kept over the cut's keys (leaves,
+/// key −1, count as 0).
+struct Budget {
+    LightcutCriterion criterion;
+    double sum = 0, sum2 = 0;  // over the finite keys
+    int infinite = 0;          // keys of +∞ (the point inside a node's box)
+
+    explicit Budget(LightcutCriterion c) : criterion(c) {}
+    void add(double key) {
+        if (!(key > 0)) return;
+        if (std::isinf(key)) {
+            ++infinite;
+            return;
+        }
+        sum += key;
+        sum2 += key * key;
+    }
+    void remove(double key) {
+        if (!(key > 0)) return;
+        if (std::isinf(key)) {
+            --infinite;
+            return;
+        }
+        sum -= key;
+        sum2 -= key * key;
+    }
+    /// Recomputed from scratch (after removing a large key, against cancellation).
+    void reset(const std::vector<Entry>& entries) {
+        sum = sum2 = 0;
+        infinite = 0;
+        for (const Entry& e : entries) add(e.key);
+    }
+    /// The measure with the largest key @p top (PerNode looks at it alone).
+    [[nodiscard]] double measure(double top) const {
+        if (infinite > 0) return kInf;
+        switch (criterion) {
+        case LightcutCriterion::PerNode: return top;
+        case LightcutCriterion::Sum: return sum;
+        case LightcutCriterion::RootSumSquare: return std::sqrt(std::max(0.0, sum2));
+        }
+        return top;
+    }
+    /// Whether the cut still meets @p threshold with keys @p a and @p b replaced by @p parent.
+    [[nodiscard]] bool acceptsReplacing(double a, double b, double parent, double threshold) const {
+        if (!(parent <= threshold)) return false;  // (every criterion; also +∞ and NaN)
+        if (infinite > 0 && criterion != LightcutCriterion::PerNode) return false;
+        const double p = std::max(parent, 0.0), x = std::max(a, 0.0), y = std::max(b, 0.0);
+        switch (criterion) {
+        case LightcutCriterion::PerNode: return parent <= threshold;
+        case LightcutCriterion::Sum: return sum - x - y + p <= threshold;
+        case LightcutCriterion::RootSumSquare: return std::sqrt(std::max(0.0, sum2 - x * x - y * y + p * p)) <= threshold;
+        }
+        return false;
+    }
+};
+
+/// Refines the cut in @p heap (a max-heap by key) until it meets the options; fills @p result.
+void refine(const Context& ctx, std::vector<Entry>& heap, LightcutResult& result) {
+    const auto& nodes = ctx.tree.nodes();
+    Vec3d total{0, 0, 0};
+    Budget budget(ctx.options.criterion);
+    for (const Entry& e : heap) {
+        total += e.estimate;
+        budget.add(e.key);
+    }
+    std::make_heap(heap.begin(), heap.end(), heapLess);
+    while (!heap.empty()) {
+        const Entry& top = heap.front();
+        // The largest key is split first; leaves (−1) and nodes without a bound never are.
+        if (!(top.key > 0) || !(budget.measure(top.key) > thresholdOf(ctx.options, total))) break;
+        if (heap.size() + 1 > ctx.options.maxCutSize) {
+            ctx.stats.truncated = true;
+            break;
+        }
+        std::pop_heap(heap.begin(), heap.end(), heapLess);
+        const Entry parent = heap.back();
+        heap.pop_back();
+        total = total - parent.estimate;
+        if (parent.key > 0.5 * budget.sum) budget.reset(heap);  // (parent no longer in heap)
+        else budget.remove(parent.key);
+        const LightTreeNode& p = nodes[parent.node];
+        for (std::uint32_t child : {p.left, p.right}) {
+            const std::uint32_t rep = nodes[child].representative;
+            const double g = rep == p.representative ? parent.g : ctx.factor(rep);
+            const Entry e = makeEntry(ctx, child, g);
+            total += e.estimate;
+            budget.add(e.key);
+            heap.push_back(e);
+            std::push_heap(heap.begin(), heap.end(), heapLess);
+        }
+    }
+    result.radiance = {0, 0, 0};
+    result.errorBound = 0;
+    result.cut.clear();
+    result.cut.reserve(heap.size());
+    for (const Entry& e : heap) {
+        result.radiance += e.estimate;
+        if (e.key > 0) result.errorBound += e.key;
+        result.cut.push_back(e.node);
+    }
+    ctx.stats.cutSize = std::uint32_t(heap.size());
+}
+
+/// Roots to search: (root index, node) of the trees in @p roots whose influence holds the point.
+/// The trees to search at the point, ascending (indices into LightTree::roots()): with @p all,
+/// those whose influence contains it (through the tree's root index), else those of @p roots
+/// that do; counts searched and skipped trees.
+std::vector<std::uint32_t> treesAt(const Context& ctx, std::span<const std::uint32_t> roots, bool all) {
+    std::vector<std::uint32_t> out;
+    const auto& treeRoots = ctx.tree.roots();
+    if (all) {
+        ctx.tree.rootsContaining(ctx.point, out);
+        ctx.stats.treesSkipped += std::uint32_t(treeRoots.size() - out.size());
+    } else {
+        for (std::uint32_t t : roots) {
+            if (t >= treeRoots.size()) continue;
+            if (contains(ctx.tree.nodes()[treeRoots[t].node].influence, ctx.point)) out.push_back(t);
+            else ++ctx.stats.treesSkipped;
+        }
+        std::sort(out.begin(), out.end());
+        out.erase(std::unique(out.begin(), out.end()), out.end());
+    }
+    ctx.stats.treesSearched += std::uint32_t(out.size());
+    return out;
+}
+
+void startTree(const Context& ctx, std::uint32_t t, std::vector<Entry>& heap) {
+    const std::uint32_t node = ctx.tree.roots()[t].node;
+    heap.push_back(makeEntry(ctx, node, ctx.factor(ctx.tree.nodes()[node].representative)));
+}
+
+LightcutResult freshCut(const LightTree& tree, std::span<const std::uint32_t> roots, bool all, Vec3d point, Vec3d normal,
+                        Vec3d albedo, const LightcutOptions& options, const LightVisibility& visibility) {
+    LightcutResult result;
+    normal = normalize(normal);
+    const Context ctx{tree, Frame(normal), point, normal, albedo * kInvPi, options, visibility, result.stats};
+    std::vector<Entry> heap;
+    for (std::uint32_t t : treesAt(ctx, roots, all)) startTree(ctx, t, heap);
+    refine(ctx, heap, result);
+    return result;
+}
+
+}  // namespace
+
+Vec3d lightcutBound(const LightTree& tree, std::uint32_t node, Vec3d point, Vec3d normal, Vec3d albedo) {
+    return boundOf(tree.nodes().at(node), Frame(normalize(normal)), point, albedo * kInvPi);
+}
+
+Vec3d lightContribution(const Light& light, Vec3d point, Vec3d normal, Vec3d albedo, const LightVisibility& visibility) {
+    normal = normalize(normal);
+    LightArrival arrival;
+    if (!lightArrival(light, point, arrival)) return {0, 0, 0};
+    const double cosine = dot(normal, arrival.toLight);
+    if (!(cosine > 0)) return {0, 0, 0};
+    const double v = visibility ? visibilityOf(visibility, light, arrival) : 1.0;
+    return albedo * kInvPi * arrival.irradiance * (cosine * v);
+}
+
+LightcutResult evaluateCut(const LightTree& tree, Vec3d point, Vec3d normal, Vec3d albedo, const LightcutOptions& options,
+                           const LightVisibility& visibility) {
+    return freshCut(tree, {}, true, point, normal, albedo, options, visibility);
+}
+
+LightcutResult evaluateCut(const LightTree& tree, std::span<const std::uint32_t> roots, Vec3d point, Vec3d normal, Vec3d albedo,
+                           const LightcutOptions& options, const LightVisibility& visibility) {
+    return freshCut(tree, roots, false, point, normal, albedo, options, visibility);
+}
+
+LightcutResult bruteForce(const LightTree& tree, Vec3d point, Vec3d normal, Vec3d albedo, const LightVisibility& visibility) {
+    LightcutResult result;
+    normal = normalize(normal);
+    const auto& lights = tree.lights();
+    for (std::uint32_t i = 0; i < lights.size(); ++i) {
+        if (tree.leafOf(i) == kNoLightNode) continue;
+        ++result.stats.lightEvaluations;
+        ++result.stats.cutSize;
+        LightArrival arrival;
+        if (!lightArrival(lights[i], point, arrival)) continue;
+        const double cosine = dot(normal, arrival.toLight);
+        if (!(cosine > 0)) continue;
+        double v = 1;
+        if (visibility) {
+            ++result.stats.visibilityEvaluations;
+            v = visibilityOf(visibility, lights[i], arrival);
+        }
+        result.radiance += albedo * kInvPi * arrival.irradiance * (cosine * v);
+    }
+    return result;
+}
+
+LightcutCursor::LightcutCursor(const LightTree& tree, const LightcutOptions& options) : tree_(&tree), options_(options) {}
+
+void LightcutCursor::setRoots(std::vector<std::uint32_t> roots) {
+    roots_ = std::move(roots);
+    allRoots_ = false;
+    reset();
+}
+
+void LightcutCursor::clearRoots() {
+    roots_.clear();
+    allRoots_ = true;
+    reset();
+}
+
+void LightcutCursor::reset() {
+    previous_.clear();
+    havePrevious_ = false;
+}
+
+LightcutResult LightcutCursor::evaluate(Vec3d point, Vec3d normal, Vec3d albedo, const LightVisibility& visibility) {
+    const LightTree& tree = *tree_;
+    if (!havePrevious_) {
+        LightcutResult result = freshCut(tree, roots_, allRoots_, point, normal, albedo, options_, visibility);
+        previous_ = result.cut;
+        havePrevious_ = true;
+        return result;
+    }
+    LightcutResult result;
+    normal = normalize(normal);
+    const Context ctx{tree, Frame(normal), point, normal, albedo * kInvPi, options_, visibility, result.stats};
+    const auto& nodes = tree.nodes();
+
+    // The previous cut's nodes in trees still searched, evaluated here; trees entered since start
+    // from their roots.
+    const std::vector<std::uint32_t> here = treesAt(ctx, roots_, allRoots_);
+    std::vector<std::uint32_t> present;
+    std::vector<Entry> entries;
+    entries.reserve(previous_.size() + 8);
+    for (std::uint32_t node : previous_) {
+        const std::uint32_t t = tree.treeOf(node);
+        if (!std::binary_search(here.begin(), here.end(), t)) continue;
+        present.push_back(t);
+        entries.push_back(makeEntry(ctx, node, ctx.factor(nodes[node].representative)));
+    }
+    std::sort(present.begin(), present.end());
+    for (std::uint32_t t : here)
+        if (!std::binary_search(present.begin(), present.end(), t)) startTree(ctx, t, entries);
+
+    // Backtrack over-split parts: a parent replaces its two children when both are in the cut and
+    // the cut still meets the criterion with it, against the threshold of the cut's total here;
+    // repeatedly, so the cut climbs to the highest such ancestor.
+    Vec3d total{0, 0, 0};
+    Budget budget(options_.criterion);
+    for (const Entry& e : entries) {
+        total += e.estimate;
+        budget.add(e.key);
+    }
+    const double threshold = thresholdOf(options_, total);
+    std::unordered_map<std::uint32_t, std::uint32_t> where;  // node → entry
+    where.reserve(entries.size() * 2);
+    for (std::uint32_t i = 0; i < entries.size(); ++i) where.emplace(entries[i].node, i);
+    std::vector<char> dead(entries.size(), 0);
+    std::vector<std::uint32_t> work;
+    for (std::uint32_t i = 0; i < entries.size(); ++i)
+        if (entries[i].key <= threshold) work.push_back(i);
+    while (!work.empty()) {
+        const std::uint32_t i = work.back();
+        work.pop_back();
+        if (dead[i]) continue;
+        const std::uint32_t u = entries[i].node;
+        const std::uint32_t p = nodes[u].parent;
+        if (p == kNoLightNode) continue;
+        const std::uint32_t s = nodes[p].left == u ? nodes[p].right : nodes[p].left;
+        const auto it = where.find(s);
+        if (it == where.end() || dead[it->second]) continue;
+        const std::uint32_t j = it->second;
+        if (entries[j].key > threshold) continue;
+        // A parent's bound is at least the sum of its children's: where even that fails the
+        // criterion, the parent need not be evaluated.
+        if (!budget.acceptsReplacing(entries[i].key, entries[j].key, entries[i].boundLum + entries[j].boundLum, threshold))
+            continue;
+        const LightTreeNode& parent = nodes[p];
+        const double g = parent.representative == nodes[u].representative ? entries[i].g : entries[j].g;
+        const Entry e = makeEntry(ctx, p, g);
+        if (!budget.acceptsReplacing(entries[i].key, entries[j].key, e.key, threshold)) continue;
+        budget.remove(entries[i].key);
+        budget.remove(entries[j].key);
+        budget.add(e.key);
+        dead[i] = dead[j] = 1;
+        where.erase(u);
+        where.erase(s);
+        ++result.stats.mergedBack;
+        where.emplace(p, std::uint32_t(entries.size()));
+        entries.push_back(e);
+        dead.push_back(0);
+        work.push_back(std::uint32_t(entries.size() - 1));
+    }
+    std::vector<Entry> heap;
+    heap.reserve(entries.size());
+    for (std::uint32_t i = 0; i < entries.size(); ++i)
+        if (!dead[i]) heap.push_back(entries[i]);
+
+    // Split what is under-split, as a fresh cut does.
+    refine(ctx, heap, result);
+    previous_ = result.cut;
+    return result;
+}
+
+}  // namespace vox

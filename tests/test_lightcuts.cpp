@@ -1,0 +1,635 @@
+// Lightcuts (libvox/src/lighting/light_tree.cpp, lightcut.cpp): the light tree's invariants, the
+// forest, conservative error bounds, cuts against brute force with and without visibility, cut
+// reuse, determinism, and a 10 000-light build.
+#include <vox/lightcuts.h>
+#include <vox/triangle_raycast.h>
+#include <vox/util/parallel.h>
+
+#include "scene_builder.h"
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace {
+
+using vox::Light;
+using vox::LightTree;
+using vox::Vec3d;
+using vox::Vec3f;
+constexpr double kPi = 3.14159265358979323846;
+
+struct Rng {
+    std::mt19937_64 engine;
+    explicit Rng(std::uint64_t seed) : engine(seed) {}
+    double uniform(double lo = 0, double hi = 1) { return std::uniform_real_distribution<double>(lo, hi)(engine); }
+    Vec3d unit() {
+        for (;;) {
+            const Vec3d v{uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)};
+            const double l = vox::length(v);
+            if (l > 0.1 && l <= 1) return v / l;
+        }
+    }
+    /// Unit vector within @p maxAngle of @p axis (roughly uniform).
+    Vec3d around(Vec3d axis, double maxAngle) {
+        for (;;) {
+            const Vec3d v = unit();
+            if (vox::dot(v, axis) >= std::cos(maxAngle)) return v;
+        }
+    }
+};
+
+Vec3f f(Vec3d v) { return {float(v.x), float(v.y), float(v.z)}; }
+Vec3d d(Vec3f v) { return {v.x, v.y, v.z}; }
+
+struct LightMix {
+    double spotShare = 0.3;       ///< of the point/spot lights
+    double rangedShare = 0.5;     ///< of the point/spot lights
+    double rangeLo = 2, rangeHi = 6;
+    int directional = 0;
+    Vec3d lo{-10, 1, -10}, hi{10, 6, 10};
+    double intensityLo = 5, intensityHi = 100;
+};
+
+std::vector<Light> randomLights(std::size_t n, std::uint64_t seed, const LightMix& mix = {}) {
+    Rng rng(seed);
+    std::vector<Light> lights;
+    for (std::size_t i = 0; i < n; ++i) {
+        Light l;
+        l.color = f({rng.uniform(0.2, 1), rng.uniform(0.2, 1), rng.uniform(0.2, 1)});
+        l.intensity = float(rng.uniform(mix.intensityLo, mix.intensityHi));
+        if (int(i) < mix.directional) {
+            l.type = Light::Type::Directional;
+            l.direction = f(rng.around({0, -1, 0}, 1.2));
+            l.intensity = float(rng.uniform(0.5, 3));
+        } else {
+            l.type = rng.uniform() < mix.spotShare ? Light::Type::Spot : Light::Type::Point;
+            l.position = f({rng.uniform(mix.lo.x, mix.hi.x), rng.uniform(mix.lo.y, mix.hi.y), rng.uniform(mix.lo.z, mix.hi.z)});
+            if (rng.uniform() < mix.rangedShare) l.range = float(rng.uniform(mix.rangeLo, mix.rangeHi));
+            if (l.type == Light::Type::Spot) {
+                l.direction = f(rng.around({0, -1, 0}, 1.0));
+                l.outerConeAngle = float(rng.uniform(0.3, 1.2));
+                l.innerConeAngle = float(rng.uniform(0, l.outerConeAngle));
+            }
+        }
+        lights.push_back(l);
+    }
+    return lights;
+}
+
+bool within(const vox::Bounds3f& outer, const vox::Bounds3f& inner) {
+    for (int k = 0; k < 3; ++k)
+        if (inner.min[k] < outer.min[k] || inner.max[k] > outer.max[k]) return false;
+    return true;
+}
+
+double angleBetween(Vec3d a, Vec3d b) { return std::acos(std::clamp(vox::dot(vox::normalize(a), vox::normalize(b)), -1.0, 1.0)); }
+
+/// Every structural invariant of a light tree.
+void expectInvariants(const LightTree& tree) {
+    const auto& nodes = tree.nodes();
+    const auto& lights = tree.lights();
+    std::vector<int> seen(lights.size(), 0);
+    std::size_t reached = 0;
+    for (const LightTree::Root& root : tree.roots()) {
+        ASSERT_LT(root.node, nodes.size());
+        EXPECT_EQ(nodes[root.node].parent, vox::kNoLightNode);
+        std::vector<std::uint32_t> stack{root.node};
+        while (!stack.empty()) {
+            const std::uint32_t k = stack.back();
+            stack.pop_back();
+            const vox::LightTreeNode& n = nodes[k];
+            EXPECT_EQ(n.directional, root.directional);
+            EXPECT_EQ(tree.treeOf(k), std::uint32_t(&root - tree.roots().data()));
+            // The representative is a light of the subtree: walking up from its leaf reaches k.
+            std::uint32_t up = tree.leafOf(n.representative);
+            while (up != vox::kNoLightNode && up != k) up = nodes[up].parent;
+            EXPECT_EQ(up, k) << "representative outside node " << k;
+            if (n.leaf()) {
+                ++reached;
+                ++seen.at(n.representative);
+                EXPECT_EQ(tree.leafOf(n.representative), k);
+                EXPECT_EQ(n.lightCount, 1u);
+                continue;
+            }
+            const vox::LightTreeNode& a = nodes[n.left];
+            const vox::LightTreeNode& b = nodes[n.right];
+            EXPECT_EQ(a.parent, k);
+            EXPECT_EQ(b.parent, k);
+            EXPECT_EQ(n.lightCount, a.lightCount + b.lightCount);
+            for (int c = 0; c < 3; ++c) EXPECT_NEAR(n.intensity[c], a.intensity[c] + b.intensity[c], 1e-12 * n.intensity[c]);
+            EXPECT_NEAR(n.luminance, a.luminance + b.luminance, 1e-12 * n.luminance);
+            EXPECT_TRUE(within(n.bounds, a.bounds) && within(n.bounds, b.bounds)) << k;
+            EXPECT_TRUE(within(n.influence, a.influence) && within(n.influence, b.influence)) << k;
+            EXPECT_GE(n.maxRange, std::max(a.maxRange, b.maxRange));
+            EXPECT_GE(n.maxOuterAngle, std::max(a.maxOuterAngle, b.maxOuterAngle));
+            EXPECT_EQ(n.hasSpot, a.hasSpot || b.hasSpot);
+            EXPECT_EQ(n.hasOmni, a.hasOmni || b.hasOmni);
+            if (n.hasSpot && !n.hasOmni) {
+                for (const vox::LightTreeNode* c : {&a, &b})
+                    EXPECT_LE(angleBetween(d(n.coneAxis), d(c->coneAxis)) + c->coneHalfAngle, n.coneHalfAngle + 1e-5) << k;
+            }
+            stack.push_back(n.left);
+            stack.push_back(n.right);
+        }
+    }
+    EXPECT_EQ(reached, tree.leafCount());
+    for (std::size_t i = 0; i < lights.size(); ++i) {
+        const int expected = tree.leafOf(std::uint32_t(i)) == vox::kNoLightNode ? 0 : 1;
+        EXPECT_EQ(seen[i], expected) << "light " << i << " is in " << seen[i] << " leaves";
+    }
+}
+
+std::size_t directionalRoots(const LightTree& tree) {
+    return std::size_t(std::count_if(tree.roots().begin(), tree.roots().end(), [](const LightTree::Root& r) { return r.directional; }));
+}
+
+double relativeError(Vec3d estimate, Vec3d exact) {
+    const double e = vox::lightLuminance(exact);
+    const double a = vox::lightLuminance(estimate);
+    if (e <= 0) return a <= 0 ? 0.0 : 1.0;
+    return std::abs(a - e) / e;
+}
+
+/// The result's cut meets its criterion (unless it was truncated), checked from the bounds anew.
+void expectCutMeetsCriterion(const LightTree& tree, const vox::LightcutResult& r, Vec3d p, Vec3d n, Vec3d albedo,
+                             const vox::LightcutOptions& o) {
+    EXPECT_EQ(r.stats.cutSize, r.cut.size());
+    if (r.stats.truncated) return;
+    const double threshold = std::max(o.relativeError * vox::lightLuminance(r.radiance), o.absoluteError);
+    double largest = 0, sum = 0, sum2 = 0;
+    for (std::uint32_t k : r.cut) {
+        if (tree.nodes()[k].leaf()) continue;
+        const double b = vox::lightLuminance(vox::lightcutBound(tree, k, p, n, albedo));
+        largest = std::max(largest, b);
+        sum += b;
+        sum2 += b * b;
+    }
+    EXPECT_NEAR(sum, r.errorBound, 1e-9 * sum + 1e-300);
+    const double measure = o.criterion == vox::LightcutCriterion::PerNode ? largest
+                           : o.criterion == vox::LightcutCriterion::Sum   ? sum
+                                                                          : std::sqrt(sum2);
+    EXPECT_LE(measure, threshold * (1 + 1e-9)) << "criterion " << int(o.criterion);
+}
+
+const char* name(vox::LightcutCriterion c) {
+    switch (c) {
+    case vox::LightcutCriterion::PerNode: return "per-node";
+    case vox::LightcutCriterion::Sum: return "sum";
+    case vox::LightcutCriterion::RootSumSquare: return "root-sum-square";
+    }
+    return "?";
+}
+
+constexpr vox::LightcutCriterion kCriteria[] = {vox::LightcutCriterion::PerNode, vox::LightcutCriterion::Sum,
+                                                vox::LightcutCriterion::RootSumSquare};
+
+}  // namespace
+
+TEST(LightTree, InvariantsHoldForMixedLights) {
+    LightMix mix;
+    mix.directional = 5;
+    std::vector<Light> lights = randomLights(500, 1, mix);
+    lights[7].dynamic = true;                                        // left out
+    lights[8].intensity = std::numeric_limits<float>::quiet_NaN();   // left out
+    for (bool forest : {true, false}) {
+        vox::LightTreeOptions options;
+        options.forest = forest;
+        const LightTree tree(lights, options);
+        EXPECT_EQ(tree.leafCount(), 498u);
+        EXPECT_EQ(tree.leafOf(7), vox::kNoLightNode);
+        EXPECT_EQ(tree.leafOf(8), vox::kNoLightNode);
+        EXPECT_EQ(tree.nodes().size(), 2 * 498 - tree.roots().size());
+        EXPECT_EQ(directionalRoots(tree), 1u);
+        if (!forest) {
+            EXPECT_EQ(tree.roots().size(), 2u);
+        }
+        expectInvariants(tree);
+    }
+}
+
+TEST(LightTree, ForestSplitsLightsWhoseInfluencesDoNotOverlap) {
+    // Three groups of ranged lights, 100 m apart, and five lone lights 10 m apart with 1 m ranges.
+    std::vector<Light> lights;
+    Rng rng(2);
+    for (int g = 0; g < 3; ++g)
+        for (int i = 0; i < 20; ++i) {
+            Light l;
+            l.position = f({100.0 * g + rng.uniform(-2, 2), rng.uniform(1, 3), rng.uniform(-2, 2)});
+            l.range = 3;
+            l.intensity = float(rng.uniform(10, 50));
+            lights.push_back(l);
+        }
+    for (int i = 0; i < 5; ++i) {
+        Light l;
+        l.position = f({-100.0 - 10.0 * i, 2, 0});
+        l.range = 1;
+        lights.push_back(l);
+    }
+    const LightTree forest(lights);
+    EXPECT_EQ(forest.roots().size(), 8u);
+    expectInvariants(forest);
+    for (const auto& root : forest.roots()) {
+        const auto& n = forest.nodes()[root.node];
+        EXPECT_TRUE(n.lightCount == 20 || n.lightCount == 1) << n.lightCount;
+    }
+    // Clustering stopped because no two trees may merge: the diagonal of their union's position
+    // box exceeds the reach of their representatives' influence spheres (the paper's threshold).
+    auto expectNoAllowedPair = [](const LightTree& tree) {
+        for (std::size_t i = 0; i < tree.roots().size(); ++i)
+            for (std::size_t j = i + 1; j < tree.roots().size(); ++j) {
+                const auto& a = tree.nodes()[tree.roots()[i].node];
+                const auto& b = tree.nodes()[tree.roots()[j].node];
+                vox::Bounds3f both = a.bounds;
+                both.add(b.bounds);
+                EXPECT_GT(vox::length(d(both.extent())), tree.influenceRadius(a.representative) + tree.influenceRadius(b.representative));
+            }
+    };
+    expectNoAllowedPair(forest);
+    // The root index finds exactly the trees whose influence box holds a point.
+    Rng points(3);
+    std::vector<std::uint32_t> found;
+    for (int i = 0; i < 200; ++i) {
+        const Vec3d p{points.uniform(-160, 210), points.uniform(-2, 6), points.uniform(-5, 5)};
+        forest.rootsContaining(p, found);
+        std::vector<std::uint32_t> expected;
+        for (std::uint32_t t = 0; t < forest.roots().size(); ++t) {
+            const auto& b = forest.nodes()[forest.roots()[t].node].influence;
+            if (p.x >= b.min.x && p.x <= b.max.x && p.y >= b.min.y && p.y <= b.max.y && p.z >= b.min.z && p.z <= b.max.z) expected.push_back(t);
+        }
+        EXPECT_EQ(found, expected);
+    }
+    // The paper's Cubes scene: 16 × 16 lights 2 m apart, all of range 5 m. Every light overlaps
+    // its neighbours, yet the forest holds many small trees, none wider than 10 m (two ranges).
+    std::vector<Light> grid;
+    for (int i = 0; i < 16; ++i)
+        for (int j = 0; j < 16; ++j) {
+            Light l;
+            l.position = f({-15.0 + 2 * i, 4, -15.0 + 2 * j});
+            l.range = 5;
+            l.intensity = float(20 + (i * 7 + j * 3) % 11);
+            grid.push_back(l);
+        }
+    const LightTree cubes(grid);
+    expectInvariants(cubes);
+    expectNoAllowedPair(cubes);
+    EXPECT_GE(cubes.roots().size(), 9u);
+    for (const auto& root : cubes.roots()) EXPECT_LE(vox::length(d(cubes.nodes()[root.node].bounds.extent())), 10.0 + 1e-5);
+    std::printf("[lightcuts] 16 x 16 grid of 5 m lights 2 m apart: %zu trees\n", cubes.roots().size());
+
+    vox::LightTreeOptions classic;
+    classic.forest = false;
+    const LightTree single(lights, classic);
+    EXPECT_EQ(single.roots().size(), 1u);
+    expectInvariants(single);
+
+    // Lights without a range: the default influence (1e-3 of the brightest at 1 m: ≈ 31.6 m for
+    // equal lights) splits groups 1 km apart; with relativeInfluence = 0 they reach everywhere.
+    std::vector<Light> unranged(4);
+    for (std::size_t i = 0; i < 4; ++i) unranged[i].position = f({i < 2 ? 0.0 : 1000.0, 2, double(i % 2)});
+    const LightTree split(unranged);
+    EXPECT_EQ(split.roots().size(), 2u);
+    EXPECT_NEAR(split.influenceRadius(0), std::sqrt(1000.0), 1e-9);
+    vox::LightTreeOptions everywhere;
+    everywhere.relativeInfluence = 0;
+    EXPECT_EQ(LightTree(unranged, everywhere).roots().size(), 1u);
+}
+
+TEST(Lightcuts, BoundIsConservative) {
+    LightMix mix;
+    mix.directional = 4;
+    mix.lo = {-4, -1, -4};
+    mix.hi = {4, 4, 4};
+    for (bool forest : {true, false}) {
+        vox::LightTreeOptions options;
+        options.forest = forest;
+        const LightTree tree(randomLights(300, forest ? 3 : 4, mix), options);
+        const auto& nodes = tree.nodes();
+        Rng rng(5);
+        std::vector<Vec3d> exact(nodes.size());
+        for (int trial = 0; trial < 150; ++trial) {
+            // Points among the lights too (inside their boxes), any normal, coloured albedo.
+            const Vec3d p{rng.uniform(-6, 6), rng.uniform(-2, 5), rng.uniform(-6, 6)};
+            const Vec3d n = rng.unit();
+            const Vec3d albedo{rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(0, 1)};
+            // Children come before their parents in nodes(): sum the subtree totals upwards.
+            for (std::size_t k = 0; k < nodes.size(); ++k)
+                exact[k] = nodes[k].leaf() ? vox::lightContribution(tree.lights()[nodes[k].representative], p, n, albedo)
+                                           : exact[nodes[k].left] + exact[nodes[k].right];
+            for (std::size_t k = 0; k < nodes.size(); ++k) {
+                const Vec3d bound = vox::lightcutBound(tree, std::uint32_t(k), p, n, albedo);
+                for (int c = 0; c < 3; ++c)
+                    ASSERT_GE(bound[c], exact[k][c] * (1 - 1e-12)) << "node " << k << " channel " << c << " trial " << trial;
+            }
+        }
+    }
+}
+
+namespace {
+
+struct AccuracyStats {
+    int points = 0, within = 0, withinBound = 0;
+    double worst = 0, cutSize = 0, visibility = 0, bruteVisibility = 0;
+
+    void add(const vox::LightcutResult& cut, const vox::LightcutResult& exact, double threshold) {
+        const double e = relativeError(cut.radiance, exact.radiance);
+        ++points;
+        within += e <= threshold;
+        worst = std::max(worst, e);
+        // The guaranteed bound: |estimate − exact| ≤ Σ bounds of the cut's clusters.
+        withinBound += std::abs(vox::lightLuminance(cut.radiance) - vox::lightLuminance(exact.radiance)) <=
+                       cut.errorBound * (1 + 1e-9) + 1e-12 * vox::lightLuminance(exact.radiance);
+        cutSize += cut.stats.cutSize;
+        visibility += cut.stats.visibilityEvaluations;
+        bruteVisibility += exact.stats.visibilityEvaluations;
+    }
+    /// What every criterion guarantees, and the accuracy the bounded ones give.
+    void expectAccuracy(vox::LightcutCriterion criterion, const char* what) const {
+        EXPECT_EQ(withinBound, points) << what;
+        switch (criterion) {
+        case vox::LightcutCriterion::Sum: EXPECT_EQ(within, points) << what << ", worst " << worst; break;
+        case vox::LightcutCriterion::RootSumSquare: EXPECT_GE(within, points * 99 / 100) << what << ", worst " << worst; break;
+        // Per node (Walter 2005): each cluster within the threshold, the sum of their errors not;
+        // a sanity check only.
+        case vox::LightcutCriterion::PerNode: EXPECT_LE(worst, 0.2) << what; break;
+        }
+        std::printf("[lightcuts] %-34s %-16s %3d/%d points within 2%%, worst %.4f, mean cut %.1f, visibility calls %.1f (brute %.1f)\n",
+                    what, name(criterion), within, points, worst, cutSize / points, visibility / points, bruteVisibility / points);
+    }
+};
+
+/// Cuts at random points on the floor (y ∈ [0, 0.5], half of them tilted) against brute force.
+AccuracyStats accuracy(const LightTree& tree, double extent, int count, vox::LightcutCriterion criterion) {
+    Rng rng(8);
+    AccuracyStats s;
+    vox::LightcutOptions options;
+    options.criterion = criterion;
+    for (int i = 0; i < count; ++i) {
+        const Vec3d p{rng.uniform(-extent, extent), rng.uniform(0, 0.5), rng.uniform(-extent, extent)};
+        const Vec3d n = rng.uniform() < 0.5 ? Vec3d{0, 1, 0} : rng.around({0, 1, 0}, 1.3);
+        const Vec3d albedo{rng.uniform(0.2, 1), rng.uniform(0.2, 1), rng.uniform(0.2, 1)};
+        const auto cut = vox::evaluateCut(tree, p, n, albedo, options);
+        s.add(cut, vox::bruteForce(tree, p, n, albedo), options.relativeError);
+        expectCutMeetsCriterion(tree, cut, p, n, albedo, options);
+    }
+    return s;
+}
+
+}  // namespace
+
+TEST(Lightcuts, AgainstBruteForceWithoutVisibility) {
+    // A forest: 500 ranged lights (3 … 8 m) in four 10 m blocks 30 m apart; points anywhere,
+    // between the blocks too (where every tree is skipped and the light is exactly 0).
+    LightMix ranged;
+    ranged.rangedShare = 1;
+    ranged.rangeLo = 3;
+    ranged.rangeHi = 8;
+    ranged.lo = {-5, 1, -5};
+    ranged.hi = {5, 5, 5};
+    std::vector<Light> blocks = randomLights(500, 6, ranged);
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+        blocks[i].position.x += (i % 2 ? 15.0f : -15.0f);
+        blocks[i].position.z += (i % 4 < 2 ? 15.0f : -15.0f);
+    }
+    const LightTree forest(blocks);
+    EXPECT_GE(forest.roots().size(), 4u);  // at least one per block: the blocks are 20 m apart
+    // A classic tree over 500 point and spot lights, half of them without a range.
+    vox::LightTreeOptions classicOptions;
+    classicOptions.forest = false;
+    const LightTree classic(randomLights(500, 7), classicOptions);
+    for (vox::LightcutCriterion criterion : kCriteria) {
+        accuracy(forest, 22, 400, criterion).expectAccuracy(criterion, "forest, 4 blocks");
+        accuracy(classic, 11, 400, criterion).expectAccuracy(criterion, "classic");
+    }
+}
+
+TEST(Lightcuts, AgainstBruteForceWithVisibility) {
+    // Boxes on a floor as occluders, shadow rays through the triangle ray caster.
+    vox::Scene scene;
+    const std::uint32_t m = vox::test::addMaterial(scene, {0.7f, 0.7f, 0.7f});
+    Rng rng(9);
+    std::vector<std::pair<Vec3d, Vec3d>> boxes;
+    for (int i = 0; i < 12; ++i) {
+        const Vec3d lo{rng.uniform(-10, 8), 0, rng.uniform(-10, 8)};
+        const Vec3d hi = lo + Vec3d{rng.uniform(0.5, 2), rng.uniform(0.5, 3), rng.uniform(0.5, 2)};
+        vox::test::addBox(scene, lo, hi, m);
+        boxes.emplace_back(lo, hi);
+    }
+    const vox::TriangleRayCaster caster(scene);
+    LightMix mix;
+    mix.lo = {-12, 3.2, -12};
+    mix.hi = {12, 6, 12};
+    const LightTree tree(randomLights(500, 10, mix));
+    for (vox::LightcutCriterion criterion : kCriteria) {
+        vox::LightcutOptions options;
+        options.criterion = criterion;
+        Rng pointRng(12);
+        AccuracyStats s;
+        while (s.points < 250) {
+            const Vec3d p{pointRng.uniform(-11, 11), 0, pointRng.uniform(-11, 11)};
+            bool inside = false;
+            for (const auto& [lo, hi] : boxes)
+                inside = inside || (p.x >= lo.x - 0.01 && p.x <= hi.x + 0.01 && p.z >= lo.z - 0.01 && p.z <= hi.z + 0.01);
+            if (inside) continue;
+            const Vec3d n{0, 1, 0}, albedo{0.8, 0.6, 0.4};
+            const vox::LightVisibility shadow = [&](const Light&, const vox::LightArrival& a) -> double {
+                const double tMax = std::isinf(a.distance) ? std::numeric_limits<double>::infinity() : a.distance - 1e-3;
+                return caster.castSurface({p + n * 1e-4, a.toLight}, tMax).hit ? 0.0 : 1.0;
+            };
+            const auto cut = vox::evaluateCut(tree, p, n, albedo, options, shadow);
+            s.add(cut, vox::bruteForce(tree, p, n, albedo, shadow), options.relativeError);
+            expectCutMeetsCriterion(tree, cut, p, n, albedo, options);
+        }
+        s.expectAccuracy(criterion, "shadow rays");
+        // Fewer shadow rays than brute force (per node: under half).
+        EXPECT_LT(s.visibility * (criterion == vox::LightcutCriterion::PerNode ? 2 : 1), s.bruteVisibility);
+    }
+}
+
+TEST(Lightcuts, CutReuseMatchesFreshCutsWithFewerSearchSteps) {
+    // A plane of points under 200 lights, visited row by row (serpentine): a coherent run.
+    LightMix mix;
+    mix.lo = {-6, 1, -6};
+    mix.hi = {6, 3, 6};
+    mix.rangeLo = 3;
+    mix.rangeHi = 8;
+    for (bool forest : {true, false})
+        for (vox::LightcutCriterion criterion : {vox::LightcutCriterion::PerNode, vox::LightcutCriterion::RootSumSquare}) {
+            vox::LightTreeOptions treeOptions;
+            treeOptions.forest = forest;
+            const LightTree tree(randomLights(200, forest ? 13 : 14, mix), treeOptions);
+            vox::LightcutOptions options;
+            options.criterion = criterion;
+            vox::LightcutCursor cursor(tree, options);
+            const Vec3d n{0, 1, 0}, albedo{0.9, 0.8, 0.7};
+            std::uint64_t freshSteps = 0, reuseSteps = 0, freshCut = 0, reuseCut = 0, mergedBack = 0;
+            int agree = 0;
+            AccuracyStats fresh, reuse;
+            double worstPair = 0;
+            constexpr int kSide = 32;
+            for (int row = 0; row < kSide; ++row)
+                for (int c = 0; c < kSide; ++c) {
+                    const int col = row % 2 ? kSide - 1 - c : c;
+                    const Vec3d p{-5 + 10.0 * (col + 0.5) / kSide, 0, -5 + 10.0 * (row + 0.5) / kSide};
+                    const auto f = vox::evaluateCut(tree, p, n, albedo, options);
+                    const auto r = cursor.evaluate(p, n, albedo);
+                    const auto exact = vox::bruteForce(tree, p, n, albedo);
+                    expectCutMeetsCriterion(tree, r, p, n, albedo, options);
+                    freshSteps += f.stats.searchSteps;
+                    reuseSteps += r.stats.searchSteps;
+                    freshCut += f.stats.cutSize;
+                    reuseCut += r.stats.cutSize;
+                    mergedBack += r.stats.mergedBack;
+                    const double pair = relativeError(r.radiance, f.radiance);
+                    worstPair = std::max(worstPair, pair);
+                    agree += pair <= 2 * options.relativeError;
+                    fresh.add(f, exact, options.relativeError);
+                    reuse.add(r, exact, options.relativeError);
+                }
+            const int points = kSide * kSide;
+            EXPECT_EQ(agree, points) << "worst relative difference " << worstPair;
+            const std::string what = std::string(forest ? "forest" : "classic") + ", plane, fresh";
+            fresh.expectAccuracy(criterion, what.c_str());
+            reuse.expectAccuracy(criterion, (std::string(forest ? "forest" : "classic") + ", plane, reused").c_str());
+            EXPECT_LT(double(reuseSteps), 0.8 * double(freshSteps));
+            std::printf("[lightcuts] reuse, %s, %s: search steps %.1f vs %.1f fresh per point (%.1f %% fewer), cut %.1f vs %.1f, "
+                        "%.2f merged back per point, worst reuse/fresh difference %.4f\n",
+                        forest ? "forest" : "classic", name(criterion), double(reuseSteps) / points, double(freshSteps) / points,
+                        100.0 * (1.0 - double(reuseSteps) / double(freshSteps)), double(reuseCut) / points,
+                        double(freshCut) / points, double(mergedBack) / points, worstPair);
+        }
+}
+
+TEST(Lightcuts, CursorAfterResetIsAFreshCut) {
+    const LightTree tree(randomLights(200, 15));
+    vox::LightcutCursor cursor(tree);
+    const Vec3d n{0, 1, 0}, albedo{0.5, 0.5, 0.5};
+    (void)cursor.evaluate({1, 0, 1}, n, albedo);
+    cursor.reset();
+    const auto a = cursor.evaluate({-2, 0, 3}, n, albedo);
+    const auto b = vox::evaluateCut(tree, {-2, 0, 3}, n, albedo);
+    EXPECT_EQ(a.radiance, b.radiance);
+    EXPECT_EQ(a.stats.searchSteps, b.stats.searchSteps);
+    EXPECT_EQ(a.cut, b.cut);
+}
+
+TEST(Lightcuts, DirectionalLightsAreCutToo) {
+    LightMix mix;
+    mix.directional = 50;
+    const LightTree tree(randomLights(50, 16, mix));
+    ASSERT_EQ(tree.roots().size(), 1u);
+    EXPECT_TRUE(tree.roots()[0].directional);
+    expectInvariants(tree);
+    Rng rng(17);
+    for (int i = 0; i < 50; ++i) {
+        const Vec3d n = rng.around({0, 1, 0}, 1.4), albedo{1, 1, 1};
+        const auto cut = vox::evaluateCut(tree, {0, 0, 0}, n, albedo);
+        const auto exact = vox::bruteForce(tree, {0, 0, 0}, n, albedo);
+        EXPECT_LE(std::abs(vox::lightLuminance(cut.radiance) - vox::lightLuminance(exact.radiance)), cut.errorBound * (1 + 1e-9) + 1e-12);
+        EXPECT_LE(relativeError(cut.radiance, exact.radiance), 0.05);
+    }
+}
+
+TEST(LightTree, SameTreeWhateverTheThreadCount) {
+    LightMix mix;
+    mix.directional = 3;
+    const std::vector<Light> lights = randomLights(3000, 18, mix);
+    auto build = [&](int threads) {
+        vox::ThreadLimit limit(threads);
+        return LightTree(lights);
+    };
+    const LightTree a = build(1), b = build(0);
+    ASSERT_EQ(a.nodes().size(), b.nodes().size());
+    ASSERT_EQ(a.roots().size(), b.roots().size());
+    for (std::size_t i = 0; i < a.roots().size(); ++i) EXPECT_EQ(a.roots()[i].node, b.roots()[i].node);
+    for (std::size_t k = 0; k < a.nodes().size(); ++k) {
+        const auto& x = a.nodes()[k];
+        const auto& y = b.nodes()[k];
+        ASSERT_TRUE(x.left == y.left && x.right == y.right && x.parent == y.parent && x.representative == y.representative &&
+                    x.intensity == y.intensity && x.bounds.min == y.bounds.min && x.bounds.max == y.bounds.max &&
+                    x.coneAxis == y.coneAxis && x.coneHalfAngle == y.coneHalfAngle)
+            << k;
+    }
+    // And the same cuts.
+    Rng rng(19);
+    for (int i = 0; i < 20; ++i) {
+        const Vec3d p{rng.uniform(-10, 10), 0, rng.uniform(-10, 10)};
+        const auto ca = vox::evaluateCut(a, p, {0, 1, 0}, {1, 1, 1});
+        const auto cb = vox::evaluateCut(b, p, {0, 1, 0}, {1, 1, 1});
+        EXPECT_EQ(ca.radiance, cb.radiance);
+        EXPECT_EQ(ca.cut, cb.cut);
+    }
+}
+
+TEST(LightTree, TenThousandLightsBuild) {
+    // A sanity check that the clustering is not quadratic: it runs, it is not timed against a limit.
+    LightMix mix;
+    mix.lo = {-100, 1, -100};
+    mix.hi = {100, 10, 100};
+    mix.directional = 2;
+    const std::vector<Light> lights = randomLights(10000, 20, mix);
+    for (bool forest : {true, false}) {
+        vox::LightTreeOptions options;
+        options.forest = forest;
+        const auto start = std::chrono::steady_clock::now();
+        const LightTree tree(lights, options);
+        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        EXPECT_EQ(tree.leafCount(), lights.size());
+        EXPECT_EQ(tree.nodes().size(), 2 * lights.size() - tree.roots().size());
+        std::printf("[lightcuts] 10 000 lights, %s: %zu trees, built in %.1f ms\n", forest ? "forest" : "classic", tree.roots().size(), ms);
+        ::testing::Test::RecordProperty(forest ? "forest_build_ms" : "classic_build_ms", std::to_string(ms));
+        const auto cut = vox::evaluateCut(tree, {0, 0, 0}, {0, 1, 0}, {1, 1, 1});
+        EXPECT_GT(cut.stats.cutSize, 0u);
+    }
+}
+
+TEST(Lightcuts, EdgeCases) {
+    const Vec3d n{0, 1, 0}, albedo{1, 1, 1};
+    // No lights; only dynamic ones.
+    const LightTree empty(std::span<const Light>{});
+    EXPECT_TRUE(empty.roots().empty());
+    EXPECT_EQ(vox::evaluateCut(empty, {0, 0, 0}, n, albedo).radiance, (Vec3d{0, 0, 0}));
+    std::vector<Light> lights(3);
+    for (Light& l : lights) l.dynamic = true;
+    EXPECT_EQ(LightTree(lights).leafCount(), 0u);
+    // One light: its exact contribution, one node, no error.
+    Light one;
+    one.position = {0, 2, 0};
+    one.intensity = 4;
+    const LightTree single(std::span<const Light>(&one, 1));
+    const auto cut = vox::evaluateCut(single, {0, 0, 0}, n, albedo);
+    EXPECT_NEAR(cut.radiance.x, 1.0 / kPi, 1e-12);  // 4 cd at 2 m: 1 lux, white Lambertian: 1/π
+    EXPECT_EQ(cut.stats.cutSize, 1u);
+    EXPECT_EQ(cut.errorBound, 0.0);
+    // Coincident lights, the point on them and just beside them: no NaN, the exact answer.
+    std::vector<Light> same(8, one);
+    const LightTree stacked(same);
+    expectInvariants(stacked);
+    for (Vec3d p : {Vec3d{0, 2, 0}, Vec3d{0, 1.999, 0}, Vec3d{0.5, 0, 0}}) {
+        const auto c = vox::evaluateCut(stacked, p, n, albedo);
+        const auto b = vox::bruteForce(stacked, p, n, albedo);
+        EXPECT_NEAR(c.radiance.x, b.radiance.x, 1e-12 * b.radiance.x) << p.y;
+        EXPECT_TRUE(std::isfinite(c.errorBound));
+    }
+    // A surface facing away from every light: nothing, and no refinement.
+    const LightTree many(randomLights(100, 21));
+    const auto away = vox::evaluateCut(many, {0, 0, 0}, {0, -1, 0}, albedo);
+    EXPECT_EQ(away.radiance, (Vec3d{0, 0, 0}));
+    EXPECT_EQ(away.stats.cutSize, many.roots().size());
+    // maxCutSize stops refinement (a cut still holds every searched tree's root).
+    vox::LightcutOptions tight;
+    tight.maxCutSize = 5;
+    vox::LightTreeOptions classic;
+    classic.forest = false;
+    const auto small = vox::evaluateCut(LightTree(randomLights(100, 21), classic), {0, 0, 0}, n, albedo, tight);
+    EXPECT_EQ(small.stats.cutSize, 5u);
+    EXPECT_TRUE(small.stats.truncated);
+    const auto forestCut = vox::evaluateCut(many, {0, 0, 0}, n, albedo, tight);
+    EXPECT_LE(forestCut.stats.cutSize, std::max(5u, forestCut.stats.treesSearched));
+}
