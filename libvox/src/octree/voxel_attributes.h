@@ -28,7 +28,7 @@ struct AttributeSums {
     double alpha = 0;       ///< × weight
     Vec3d normal{0, 0, 0};  ///< unit shading normal × weight
     Vec3d emission{0, 0, 0};  ///< linear emitted radiance × weight
-    /// What the normal-weighted attenuation (vox::normalWeightedAttenuation) needs of the normals:
+    /// What the normal-weighted attenuation (vox::Attenuation::Weighted, lighting.h) needs of the normals:
     /// per axis direction (+x, −x, +y, −y, +z, −z), the sum of weight × |n_s| over fragments whose
     /// normal points that way.
     std::array<double, 6> normalMoments{};

@@ -92,7 +92,7 @@ public:
         : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), contours_(options.contours), contourError_(options.contourError),
           colorError_(options.colorError), normalError_(options.normalErrorDegrees), attributes_(attributes), scratch_(depth + 1),
           masks_(depth - rootLevel), contourOut_(options.contours ? depth + 1 - rootLevel : 0),
-          attributeOut_(attributes ? depth + 1 - rootLevel : 0), keepLeafMaterials_(options.leafMaterials) {}
+          attributeOut_(options.attributes ? depth + 1 - rootLevel : 0), keepLeafMaterials_(options.leafMaterials) {}
 
     /// Returns the node's mask; a node none of whose children a triangle touches (possible only
     /// where rounding made the parent's test pass) is left out: nothing is appended.
@@ -162,7 +162,8 @@ public:
                 const auto slot = static_cast<unsigned>(__builtin_ctz(bits));
                 if (contours_) contourOut_[level + 1 - rootLevel_].push_back(childContours[slot]);
                 if (attributes_) {
-                    attributeOut_[level + 1 - rootLevel_].push_back(childSums[slot].pack());
+                    // Packed words only for SparseOctree::attributes; the radiance bake wants the leaves' sums alone.
+                    if (!attributeOut_.empty()) attributeOut_[level + 1 - rootLevel_].push_back(childSums[slot].pack());
                     if (keepLeafMaterials_ && level + 1 == depth_)
                         leafMaterials_.push_back(leafMaterial(childSums[slot], 2 * x + (slot & 1u), 2 * y + ((slot >> 1) & 1u), 2 * z + (slot >> 2)));
                     if (sums) *sums += childSums[slot];

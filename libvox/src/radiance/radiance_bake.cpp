@@ -259,7 +259,7 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
             }
             progress.advance(r.size());
         });
-        if (options.keepVoxelLighting)
+        if (options.keepVoxelLighting && b < options.bounces)
             for (std::size_t i = 0; i < leaves.size(); ++i) bake.voxels[i].indirect.push_back(gathered[i] - previous[i]);
         previous = gathered;
         if (b < options.bounces) light(&gathered);
@@ -277,7 +277,6 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
             out.albedo = v.albedo;
             out.emission = v.emission;
             out.direct = direct[i];
-            if (options.bounces == 0) out.indirect.clear();
         }
 
     const auto attributes = [](const LeafMaterial& v, float ao) {

@@ -55,7 +55,6 @@ void filterMips(rvol::Volume& volume, const RadianceField& field, const std::vec
     const rvol::Level& base = volume.levels[0];
     for (std::uint32_t l = 1; l <= volume.depth; ++l) {
         rvol::Level& level = volume.levels[l];
-        const rvol::Level& childLevel = volume.levels[l - 1];
         const bool fromBase = l == 1;
         tbb::parallel_for(std::size_t{0}, level.blocks.size(), [&](std::size_t b) {
             const auto bc = rvol::demorton3(level.blocks[b]);
@@ -110,7 +109,6 @@ void filterMips(rvol::Volume& volume, const RadianceField& field, const std::vec
                         }
                     }
         });
-        (void)childLevel;
     }
 }
 
