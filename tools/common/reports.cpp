@@ -139,4 +139,57 @@ void writeDepfile(const std::filesystem::path& file, const std::filesystem::path
     writeFileAtomically(file, depfileText(target, dependencies));
 }
 
+namespace {
+
+nlohmann::json manyLightStats(const ManyLightStats& s) {
+    return {{"method", s.method},
+            {"points", s.points},
+            {"lights", s.lights},
+            {"trees", s.trees},
+            {"clusters", s.clusters},
+            {"runs", s.runs},
+            {"mean_cut_size", s.meanCutSize()},
+            {"mean_search_steps", s.meanSearchSteps()},
+            {"light_evaluations", s.lightEvaluations},
+            {"visibility_evaluations", s.visibilityEvaluations},
+            {"mean_trees_searched", s.points ? double(s.treesSearched) / double(s.points) : 0.0},
+            {"truncated_points", s.truncated},
+            {"seconds", s.seconds},
+            {"tree_seconds", s.treeSeconds},
+            {"cluster_seconds", s.clusterSeconds}};
+}
+
+nlohmann::json errorStats(const LightcutErrorStats& e) {
+    return {{"threshold", e.threshold},
+            {"points", e.points},
+            {"within", e.within},
+            {"fraction_within", e.fractionWithin()},
+            {"max_relative", e.maxRelative},
+            {"mean_relative", e.meanRelative}};
+}
+
+}  // namespace
+
+nlohmann::json directLightReport(const ManyLightReport& report, const LightcutOptions& options) {
+    nlohmann::json out = manyLightStats(report.used);
+    out["relative_error"] = options.relativeError;
+    out["criterion"] = lightcutCriterionName(options.criterion);
+    out["max_cut_size"] = options.maxCutSize;
+    if (!report.compared) return out;
+    nlohmann::json compare;
+    compare["lightcuts"] = manyLightStats(report.lightcuts);
+    compare["lightcuts"]["error"] = errorStats(report.lightcutsError);
+    compare["classic"] = manyLightStats(report.classic);
+    compare["classic"]["error"] = errorStats(report.classicError);
+    compare["brute_force"] = manyLightStats(report.bruteForce);
+    const auto change = [](double ours, double theirs) { return theirs > 0 ? ours / theirs - 1 : 0.0; };
+    compare["search_steps_vs_classic"] = change(report.lightcuts.meanSearchSteps(), report.classic.meanSearchSteps());
+    compare["cut_size_vs_classic"] = change(report.lightcuts.meanCutSize(), report.classic.meanCutSize());
+    compare["time_vs_classic"] = change(report.lightcuts.seconds, report.classic.seconds);
+    compare["speedup_vs_brute_force"] = report.lightcuts.seconds > 0 ? report.bruteForce.seconds / report.lightcuts.seconds : 0.0;
+    compare["classic_speedup_vs_brute_force"] = report.classic.seconds > 0 ? report.bruteForce.seconds / report.classic.seconds : 0.0;
+    out["compare"] = std::move(compare);
+    return out;
+}
+
 }  // namespace vox::tools

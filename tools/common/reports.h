@@ -2,6 +2,7 @@
 #pragma once
 
 #include <vox/formats/esvo_reader.h>
+#include <vox/many_lights.h>
 #include <vox/scene.h>
 #include <vox/util/timings.h>
 
@@ -31,6 +32,12 @@ inline constexpr std::array<const char*, 10> kEsvoByteParts{"hierarchy",        
 /// far_pointers, file_bytes, contours, attributes, bytes and bytes_per_voxel (total and each of
 /// kEsvoByteParts) (docs/cli.md).
 [[nodiscard]] nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakdown& breakdown);
+
+/// The direct light's part of a stats report (docs/cli.md, "direct_light"): the method used with
+/// its lights, trees, clusters, mean cut size and search steps, time; with a comparison the same
+/// for "lightcuts", "classic" and "brute_force", both Lightcuts' errors against brute force and
+/// the ratios of the paper's table 1.
+[[nodiscard]] nlohmann::json directLightReport(const ManyLightReport& report, const LightcutOptions& options);
 
 /// Adds timings_ms, peak_rss_bytes, threads, tool and version to @p report and writes it
 /// atomically to @p file.

@@ -46,6 +46,11 @@ struct VoxelizeOptions {
     unsigned brickTexels = 5;
     bool noStaticAttributes = false;
     std::string exportVdb;
+    std::string lightcuts = "auto";
+    double lightcutError = 0.02;
+    std::string lightcutCriterion = "rss";
+    unsigned lightcutMaxCut = 1000;
+    bool lightcutsCompare = false;
 };
 
 /// Bakes and writes the .rvol; returns its part of the report.
@@ -59,6 +64,11 @@ nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& sc
     bakeOptions.bounces = options.bounces;
     bakeOptions.aoLambda = options.aoLambda;
     bakeOptions.timings = &timings;
+    bakeOptions.lightcuts = vox::parseLightcutsMode(options.lightcuts);
+    bakeOptions.lightcut.relativeError = options.lightcutError;
+    bakeOptions.lightcut.criterion = vox::parseLightcutCriterion(options.lightcutCriterion);
+    bakeOptions.lightcut.maxCutSize = options.lightcutMaxCut;
+    bakeOptions.lightcutsCompare = options.lightcutsCompare;
     const auto start = std::chrono::steady_clock::now();
     vox::RadianceBake bake;
     {
@@ -101,7 +111,8 @@ nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& sc
             {"radiance_bytes", written.radianceBytes},
             {"directory_bytes", written.directoryBytes},
             {"attribute_bytes", written.attributeBytes},
-            {"bake_seconds", bakeSeconds}};
+            {"bake_seconds", bakeSeconds},
+            {"direct_light", vox::tools::directLightReport(bake.directLight, bakeOptions.lightcut)}};
 }
 
 void voxelize(const VoxelizeOptions& options) {
@@ -250,6 +261,21 @@ int main(int argc, char** argv) {
     app.add_flag("--no-static-attributes", options.noStaticAttributes,
                  "Radiance volume: leave out the static voxels' albedo/normal/emission layer (dynamic voxels' is always written)");
     app.add_option("--export-vdb", options.exportVdb, "With --radiance: also write albedo, radiance per direction and occlusion as OpenVDB grids");
+    app.add_option("--lightcuts", options.lightcuts,
+                   "Radiance volume's direct light through Lightcuts: on, off (every light at every voxel) or auto (on from " +
+                       std::to_string(vox::kLightcutsAutoLights) + " static lights)")
+        ->check(CLI::IsMember({"auto", "on", "off"}))->capture_default_str();
+    app.add_option("--lightcut-error", options.lightcutError, "Lightcuts: relative error of each voxel's direct light")
+        ->check(CLI::Range(0.0001, 1.0))->capture_default_str();
+    app.add_option("--lightcut-criterion", options.lightcutCriterion,
+                   "Lightcuts: what must stay within the error: rss (root of the sum of the clusters' squared bounds), sum, or "
+                   "per-node (each cluster's bound, as published)")
+        ->check(CLI::IsMember({"rss", "sum", "per-node"}))->capture_default_str();
+    app.add_option("--lightcut-max-cut", options.lightcutMaxCut, "Lightcuts: most clusters in one cut")
+        ->check(CLI::Range(1, 1000000))->capture_default_str();
+    app.add_flag("--lightcuts-compare", options.lightcutsCompare,
+                 "Also light every voxel with classic Lightcuts (one tree, no clusters, no reuse) and brute force, and report "
+                 "both in --stats (direct_light.compare)");
     app.add_option("--debug-near-pointer-limit", options.nearPointerLimit,
                    "Largest near child pointer (testing far pointers)")
         ->check(CLI::Range(32, 0x7FFF))->group("");

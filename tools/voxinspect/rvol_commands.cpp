@@ -1,6 +1,7 @@
 #include "rvol_commands.h"
 
 #include "../common/camera_options.h"
+#include "../common/reports.h"
 
 #include <vox/final_gather.h>
 #include <vox/formats/error.h>
@@ -271,6 +272,11 @@ void render(const RvolCommands& r, const EsvoCommands& c) {
     options.shadowApertureDegrees = r.shadowAperture;
     options.shadowCones = !r.noShadowCones;
     options.aoLambda = reader.header().bake.aoLambda;
+    options.lightcuts = parseLightcutsMode(r.lightcuts);
+    options.lightcut.relativeError = r.lightcutError;
+    options.lightcut.criterion = parseLightcutCriterion(r.lightcutCriterion);
+    options.lightcut.maxCutSize = r.lightcutMaxCut;
+    options.lightcutsCompare = r.lightcutsCompare;
 
     Scene scene;
     if (!r.scene.empty()) scene = importScene(r.scene);
@@ -279,8 +285,8 @@ void render(const RvolCommands& r, const EsvoCommands& c) {
         if (reader.header().bake.lights > 0)
             log::warning(r.esvo + ": no lights without --scene: the direct term is 0 (the bake had " +
                          std::to_string(reader.header().bake.lights) + ")");
-    } else if (gather.lightCount() != reader.header().bake.lights) {
-        log::warning(r.scene + ": " + std::to_string(gather.lightCount()) + " static lights, but " + c.file + " was baked with " +
+    } else if (gather.staticLightCount() != reader.header().bake.lights) {
+        log::warning(r.scene + ": " + std::to_string(gather.staticLightCount()) + " static lights, but " + c.file + " was baked with " +
                      std::to_string(reader.header().bake.lights));
     }
 
@@ -323,7 +329,21 @@ void render(const RvolCommands& r, const EsvoCommands& c) {
     }
     writePng(c.output, image.width, image.height, 3, rgb);
     log::info(c.output + ": " + std::to_string(image.width) + "x" + std::to_string(image.height) + ", " + std::to_string(image.hits) +
-              " hits, " + std::to_string(gather.lightCount()) + " lights, " + std::to_string(image.seconds) + " s");
+              " hits, " + std::to_string(gather.lightCount()) + " lights (" + image.directLight.used.method + "), " +
+              std::to_string(image.seconds) + " s");
+    if (!c.stats.empty()) {
+        const nlohmann::json report{{"file", c.file},
+                                    {"width", image.width},
+                                    {"height", image.height},
+                                    {"hits", image.hits},
+                                    {"seconds", image.seconds},
+                                    {"direct_seconds", image.directSeconds},
+                                    {"direct_light", directLightReport(image.directLight, options.lightcut)}};
+        Timings timings;
+        timings.add("render", image.seconds * 1000.0);
+        timings.add("direct", image.directSeconds * 1000.0);
+        writeStats(c.stats, report, "voxinspect render", timings);
+    }
 }
 
 /// The first of @p names that was given on @p command, or null.
@@ -360,6 +380,16 @@ void RvolCommands::add(CLI::App& app, EsvoCommands& esvoCommands) {
     render.add_option("--spec-aperture", specAperture, ".rvol: specular cone aperture, degrees")->capture_default_str();
     render.add_option("--shadow-aperture", shadowAperture, ".rvol: shadow cone aperture, degrees")->capture_default_str();
     render.add_flag("--no-shadow-cones", noShadowCones, ".rvol: lights unshadowed");
+    render.add_option("--lightcuts", lightcuts, ".rvol: direct light through Lightcuts: on, off or auto (on from " +
+                                                    std::to_string(kLightcutsAutoLights) + " lights)")
+        ->check(CLI::IsMember({"auto", "on", "off"}))->capture_default_str();
+    render.add_option("--lightcut-error", lightcutError, ".rvol: Lightcuts' relative error per pixel")
+        ->check(CLI::Range(0.0001, 1.0))->capture_default_str();
+    render.add_option("--lightcut-criterion", lightcutCriterion, ".rvol: Lightcuts' error criterion: rss, sum or per-node")
+        ->check(CLI::IsMember({"rss", "sum", "per-node"}))->capture_default_str();
+    render.add_option("--lightcut-max-cut", lightcutMaxCut, ".rvol: most clusters in one cut")->check(CLI::Range(1, 1000000))->capture_default_str();
+    render.add_flag("--lightcuts-compare", lightcutsCompare,
+                    ".rvol: also light every pixel with classic Lightcuts and brute force; compared in --stats");
 }
 
 bool RvolCommands::run() {
@@ -377,11 +407,11 @@ bool RvolCommands::run() {
     const bool rvolFile = isRvolFile(c.file);
     if (c.render->parsed()) {
         if (rvolFile) {
-            if (const char* option = firstGiven(*c.render, {"--filter", "--depth-out", "--max-level", "--load-levels", "--lod-scale", "--beam",
-                                                            "--stats"}))
+            if (const char* option = firstGiven(*c.render, {"--filter", "--depth-out", "--max-level", "--load-levels", "--lod-scale", "--beam"}))
                 throw UsageError(std::string(option) + " applies to .esvo files");
         } else if (const char* option = firstGiven(*c.render, {"--scene", "--esvo", "--exposure", "--spec-aperture", "--shadow-aperture",
-                                                                "--no-shadow-cones"})) {
+                                                                "--no-shadow-cones", "--lightcuts", "--lightcut-error",
+                                                                "--lightcut-criterion", "--lightcut-max-cut", "--lightcuts-compare"})) {
             throw UsageError(std::string(option) + " applies to .rvol files");
         }
     }

@@ -23,6 +23,10 @@ struct RvolCommands {
     std::string scene, esvo;
     double specAperture = 10, shadowAperture = 10;
     bool noShadowCones = false;
+    std::string lightcuts = "auto", lightcutCriterion = "rss";
+    double lightcutError = 0.02;
+    unsigned lightcutMaxCut = 1000;
+    bool lightcutsCompare = false;
 
     CLI::App* sample = nullptr;
     CLI::App* slices = nullptr;

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <vox/lighting.h>
+#include <vox/many_lights.h>
 #include <vox/math.h>
 #include <vox/radiance_field.h>
 #include <vox/raycast.h>
@@ -44,6 +45,14 @@ struct FinalGatherOptions {
     double aoLambda = 8;
     /// Reflectance at normal incidence of the specular term (Schlick): 0.04, a dielectric.
     double specularF0 = 0.04;
+    /// renderFinalGather's direct light through Lightcuts (many_lights.h): the pixels' surface
+    /// points are the render points, clustered by the paper's view-frustum subdivision
+    /// (clusterPixelPoints), each point's cut within lightcut.relativeError of its direct light.
+    LightcutsMode lightcuts = LightcutsMode::Auto;
+    LightcutOptions lightcut;
+    /// renderFinalGather also lights every pixel with classic Lightcuts and brute force and
+    /// reports them (FinalGatherImage::directLight).
+    bool lightcutsCompare = false;
 };
 
 /// The terms of one shaded point, linear radiance towards the viewer.
@@ -59,12 +68,18 @@ struct FinalGatherParts {
 /// (shade() only reads); the field (and its volume) must outlive it.
 class FinalGather {
 public:
-    /// Keeps the static lights of @p lights (Light::dynamic false): the volume holds no light
-    /// from dynamic ones either. @throws UsageError for an aperture outside (0, 90) degrees or a
-    /// negative or non-finite offset, λ or F0.
+    /// Lights the direct term with every light of @p lights, static and dynamic: the volume holds
+    /// the static lights' bounces, and neither the bounces of dynamic lights nor anyone's direct
+    /// light, so a dynamic light (a moving lamp) is lit here, frame by frame, without its
+    /// bounces. @throws UsageError for an aperture outside (0, 90) degrees or a negative or
+    /// non-finite offset, λ or F0.
     FinalGather(const RadianceField& field, std::span<const Light> lights, const FinalGatherOptions& options = {});
 
+    /// Every term of @p point, the direct one by summing every light.
     [[nodiscard]] FinalGatherParts shade(const ShadingPoint& point) const noexcept;
+    /// Every term of @p point with the direct light (radiance) given: what renderFinalGather
+    /// does once Lightcuts has lit its pixels.
+    [[nodiscard]] FinalGatherParts shade(const ShadingPoint& point, Vec3d direct) const noexcept;
     /// Visibility of one light from @p point (1 − the opacity a shadow cone from the offset point
     /// towards the light accumulates up to the light's distance); 1 without shadow cones.
     [[nodiscard]] double visibility(const ShadingPoint& point, const LightArrival& arrival) const noexcept;
@@ -72,6 +87,8 @@ public:
     [[nodiscard]] const RadianceField& field() const noexcept { return field_; }
     [[nodiscard]] const FinalGatherOptions& options() const noexcept { return options_; }
     [[nodiscard]] std::size_t lightCount() const noexcept { return lights_.size(); }
+    [[nodiscard]] std::size_t staticLightCount() const noexcept;
+    [[nodiscard]] const std::vector<Light>& lights() const noexcept { return lights_; }
 
 private:
     const RadianceField& field_;
@@ -104,14 +121,18 @@ struct FinalGatherImage {
     std::vector<Vec3f> albedo, normal;  ///< the shading point's albedo and unit normal
     std::uint64_t hits = 0;
     double seconds = 0;              ///< wall time of hits and shading
+    double directSeconds = 0;        ///< of which the direct light (FinalGatherImage::directLight)
+    ManyLightReport directLight;     ///< how the direct light was computed (FinalGatherOptions::lightcuts)
 };
 
 /// Finds the surface a primary ray hits (false: a miss). Called concurrently.
 using ShadingPointFunction = std::function<bool(const Ray& ray, ShadingPoint& out)>;
 
 /// One primary ray per pixel through its centre (PinholeCamera::rayThrough), @p surface for the
-/// hit, then @p gather's shade(), in parallel over rows (TBB). Deterministic: the same inputs
-/// give the same image whatever the thread count. @throws UsageError for a bad camera.
+/// hit; the direct light of all hit points through directLight (Lightcuts over view-frustum
+/// clusters, or brute force, as FinalGatherOptions say); then @p gather's shade() for the other
+/// terms, in parallel (TBB). Deterministic: the same inputs give the same image whatever the
+/// thread count. @throws UsageError for a bad camera.
 [[nodiscard]] FinalGatherImage renderFinalGather(const FinalGather& gather, const PinholeCamera& camera, const ShadingPointFunction& surface);
 
 }  // namespace vox

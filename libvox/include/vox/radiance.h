@@ -8,6 +8,7 @@
 
 #include <vox/formats/rvol.h>
 #include <vox/lighting.h>
+#include <vox/many_lights.h>
 #include <vox/math.h>
 #include <vox/scene.h>
 #include <vox/util/timings.h>
@@ -28,6 +29,14 @@ struct RadianceBakeOptions {
     double aoLambda = 8;
     /// Keep per-voxel irradiance per bounce in RadianceBake::voxels (tests and the accuracy bench).
     bool keepVoxelLighting = false;
+    /// Direct light through Lightcuts (many_lights.h): the voxels are the render points,
+    /// clustered by an octree subdivision of the volume (clusterVoxelPoints), each voxel's cut
+    /// within lightcut.relativeError of its irradiance under the cut's criterion.
+    LightcutsMode lightcuts = LightcutsMode::Auto;
+    LightcutOptions lightcut;
+    /// Also light every voxel with classic Lightcuts and brute force, for RadianceBake::directLight's
+    /// comparison (the bake keeps the method lightcuts chose).
+    bool lightcutsCompare = false;
     Timings* timings = nullptr;
 };
 
@@ -50,6 +59,9 @@ struct RadianceBake {
     rvol::Volume volume;
     std::vector<VoxelLighting> voxels;   ///< with keepVoxelLighting: every static voxel, Morton order
     std::uint64_t staticVoxels = 0, dynamicVoxels = 0;
+    /// How the direct light was computed: method, lights, trees, clusters, cut sizes, search steps,
+    /// time; with lightcutsCompare the same for classic Lightcuts and brute force, and the errors.
+    ManyLightReport directLight;
 };
 
 /// Bakes the radiance volume of @p scene. Same scene and options → the same volume, whatever the

@@ -67,10 +67,41 @@ double maxCosine(const Frame& f, Vec3d lo, Vec3d hi) {
     return len > 0 ? zmax / len : 1.0;
 }
 
+/// max over v in the box [lo, hi] of sign × v_axis / |v| where that is positive, else 0: exact,
+/// since the largest v_axis and the smallest perpendicular part can be picked independently.
+double axisCosine(Vec3d lo, Vec3d hi, int axis, double sign) {
+    const double along = sign > 0 ? hi[axis] : -lo[axis];
+    if (!(along > 0)) return 0;
+    double across = 0;
+    for (int k = 0; k < 3; ++k) {
+        if (k == axis) continue;
+        const double g = lo[k] > 0 ? lo[k] : (hi[k] < 0 ? -hi[k] : 0.0);
+        across += g * g;
+    }
+    return std::min(1.0, along / std::sqrt(along * along + across) * (1 + 1e-12));
+}
+
+/// The surface response of a render point, bounded over a box of directions.
+struct Response {
+    Frame frame;
+    bool axisWeighted;
+    std::array<double, 6> weights;
+
+    explicit Response(const LightcutPoint& p) : frame(p.normal), axisWeighted(p.axisWeighted), weights(p.axisWeights) {}
+    /// An upper bound of the response over the directions v / |v|, v in [lo, hi]; ≥ 0.
+    [[nodiscard]] double bound(Vec3d lo, Vec3d hi) const {
+        if (!axisWeighted) return std::max(0.0, maxCosine(frame, lo, hi));
+        double sum = 0;
+        for (int axis = 0; axis < 3; ++axis)
+            sum += std::max(weights[2 * axis] * axisCosine(lo, hi, axis, 1), weights[2 * axis + 1] * axisCosine(lo, hi, axis, -1));
+        return sum;
+    }
+};
+
 /// The scalar G of lightcutBound (before intensity and albedo); +∞ where the point lies in the box.
-double geometricBound(const LightTreeNode& node, const Frame& frame, Vec3d point) {
+double geometricBound(const LightTreeNode& node, const Response& response, Vec3d point) {
     const Vec3d lo = toDouble(node.bounds.min), hi = toDouble(node.bounds.max);
-    if (node.directional) return std::max(0.0, maxCosine(frame, lo, hi));
+    if (node.directional) return response.bound(lo, hi);
     double d2 = 0;
     for (int k = 0; k < 3; ++k) {
         const double g = std::max({0.0, lo[k] - point[k], point[k] - hi[k]});
@@ -78,7 +109,7 @@ double geometricBound(const LightTreeNode& node, const Frame& frame, Vec3d point
     }
     const double range = node.maxRange;
     if (std::isfinite(range) && d2 >= range * range) return 0;
-    const double cosBound = std::max(0.0, maxCosine(frame, lo - point, hi - point));
+    const double cosBound = response.bound(lo - point, hi - point);
     if (!(cosBound > 0)) return 0;
     if (node.hasSpot && !node.hasOmni) {
         // Directions from the lights to the point, x − p for p in the box, against the cone of
@@ -97,8 +128,8 @@ double geometricBound(const LightTreeNode& node, const Frame& frame, Vec3d point
     return cosBound * window / d2;
 }
 
-Vec3d boundOf(const LightTreeNode& node, const Frame& frame, Vec3d point, Vec3d albedoOverPi) {
-    const double g = geometricBound(node, frame, point);
+Vec3d boundOf(const LightTreeNode& node, const Response& response, Vec3d point, Vec3d albedoOverPi) {
+    const double g = geometricBound(node, response, point);
     if (!(g > 0)) return {0, 0, 0};
     Vec3d out;
     for (int k = 0; k < 3; ++k) {
@@ -111,19 +142,23 @@ Vec3d boundOf(const LightTreeNode& node, const Frame& frame, Vec3d point, Vec3d 
 /// Everything one cut evaluation needs, shared by the fresh cut and the cursor.
 struct Context {
     const LightTree& tree;
-    Frame frame;
-    Vec3d point, normal, albedoOverPi;
+    const LightcutPoint& at;
+    Response response;
+    Vec3d point, albedoOverPi;
     const LightcutOptions& options;
     const LightVisibility& visibility;
     LightcutStats& stats;
 
-    /// falloff × max(0, n·l) × visibility of light @p index: the representative's factor.
+    Context(const LightTree& t, const LightcutPoint& p, const LightcutOptions& o, const LightVisibility& v, LightcutStats& s)
+        : tree(t), at(p), response(p), point(p.position), albedoOverPi(p.albedo * kInvPi), options(o), visibility(v), stats(s) {}
+
+    /// falloff × response × visibility of light @p index: the representative's factor.
     double factor(std::uint32_t index) const {
         const Light& light = tree.lights()[index];
         ++stats.lightEvaluations;
         LightArrival arrival;
         if (!lightArrival(light, point, arrival)) return 0;
-        const double cosine = dot(normal, arrival.toLight);
+        const double cosine = at.response(arrival.toLight);
         if (!(cosine > 0)) return 0;
         const Vec3d rgb = toDouble(light.color) * double(light.intensity);
         const double peak = std::max({rgb.x, rgb.y, rgb.z});
@@ -161,7 +196,7 @@ Entry makeEntry(const Context& ctx, std::uint32_t index, double g) {
     e.node = index;
     e.g = g;
     e.estimate = ctx.albedoOverPi * node.intensity * g;
-    const Vec3d bound = boundOf(node, ctx.frame, ctx.point, ctx.albedoOverPi);
+    const Vec3d bound = boundOf(node, ctx.response, ctx.point, ctx.albedoOverPi);
     e.boundLum = lightLuminance(bound);
     if (std::isnan(e.boundLum)) e.boundLum = kInf;
     e.key = node.leaf() ? -1.0 : e.boundLum;
@@ -303,11 +338,10 @@ void startTree(const Context& ctx, std::uint32_t t, std::vector<Entry>& heap) {
     heap.push_back(makeEntry(ctx, node, ctx.factor(ctx.tree.nodes()[node].representative)));
 }
 
-LightcutResult freshCut(const LightTree& tree, std::span<const std::uint32_t> roots, bool all, Vec3d point, Vec3d normal,
-                        Vec3d albedo, const LightcutOptions& options, const LightVisibility& visibility) {
+LightcutResult freshCut(const LightTree& tree, std::span<const std::uint32_t> roots, bool all, const LightcutPoint& point,
+                        const LightcutOptions& options, const LightVisibility& visibility) {
     LightcutResult result;
-    normal = normalize(normal);
-    const Context ctx{tree, Frame(normal), point, normal, albedo * kInvPi, options, visibility, result.stats};
+    const Context ctx(tree, point, options, visibility, result.stats);
     std::vector<Entry> heap;
     for (std::uint32_t t : treesAt(ctx, roots, all)) startTree(ctx, t, heap);
     refine(ctx, heap, result);
@@ -316,48 +350,84 @@ LightcutResult freshCut(const LightTree& tree, std::span<const std::uint32_t> ro
 
 }  // namespace
 
-Vec3d lightcutBound(const LightTree& tree, std::uint32_t node, Vec3d point, Vec3d normal, Vec3d albedo) {
-    return boundOf(tree.nodes().at(node), Frame(normalize(normal)), point, albedo * kInvPi);
+double LightcutPoint::response(Vec3d toLight) const noexcept {
+    if (!axisWeighted) return std::max(0.0, dot(normal, toLight));
+    double v = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+        const double l = toLight[axis];
+        v += l > 0 ? axisWeights[std::size_t(2 * axis)] * l : axisWeights[std::size_t(2 * axis + 1)] * -l;
+    }
+    return v;
 }
 
-Vec3d lightContribution(const Light& light, Vec3d point, Vec3d normal, Vec3d albedo, const LightVisibility& visibility) {
-    normal = normalize(normal);
+LightcutPoint LightcutPoint::lambertian(Vec3d position, Vec3d normal, Vec3d albedo) {
+    LightcutPoint p;
+    p.position = position;
+    p.normal = normalize(normal);
+    p.albedo = albedo;
+    return p;
+}
+
+LightcutPoint LightcutPoint::voxel(Vec3d position, const VoxelNormals& normals, Attenuation mode, Vec3d albedo) {
+    LightcutPoint p = lambertian(position, toDouble(normals.mean), albedo);
+    switch (mode) {
+    case Attenuation::Weighted:
+        p.axisWeighted = true;
+        for (std::size_t k = 0; k < 6; ++k) p.axisWeights[k] = std::max(0.0f, normals.moments[k]);
+        break;
+    case Attenuation::Paper:
+        // V = Σ n_s² max(sign(n_s) L_s, 0): the weight n_s² on the side n_s points to.
+        p.axisWeighted = true;
+        for (int axis = 0; axis < 3; ++axis) {
+            const double n = p.normal[axis];
+            p.axisWeights[std::size_t(2 * axis + (n < 0 ? 1 : 0))] = n * n;
+        }
+        break;
+    case Attenuation::Average: break;
+    }
+    return p;
+}
+
+Vec3d lightcutBound(const LightTree& tree, std::uint32_t node, const LightcutPoint& point) {
+    return boundOf(tree.nodes().at(node), Response(point), point.position, point.albedo * kInvPi);
+}
+
+Vec3d lightContribution(const Light& light, const LightcutPoint& point, const LightVisibility& visibility) {
     LightArrival arrival;
-    if (!lightArrival(light, point, arrival)) return {0, 0, 0};
-    const double cosine = dot(normal, arrival.toLight);
-    if (!(cosine > 0)) return {0, 0, 0};
+    if (!lightArrival(light, point.position, arrival)) return {0, 0, 0};
+    const double response = point.response(arrival.toLight);
+    if (!(response > 0)) return {0, 0, 0};
     const double v = visibility ? visibilityOf(visibility, light, arrival) : 1.0;
-    return albedo * kInvPi * arrival.irradiance * (cosine * v);
+    return point.albedo * kInvPi * arrival.irradiance * (response * v);
 }
 
-LightcutResult evaluateCut(const LightTree& tree, Vec3d point, Vec3d normal, Vec3d albedo, const LightcutOptions& options,
+LightcutResult evaluateCut(const LightTree& tree, const LightcutPoint& point, const LightcutOptions& options,
                            const LightVisibility& visibility) {
-    return freshCut(tree, {}, true, point, normal, albedo, options, visibility);
+    return freshCut(tree, {}, true, point, options, visibility);
 }
 
-LightcutResult evaluateCut(const LightTree& tree, std::span<const std::uint32_t> roots, Vec3d point, Vec3d normal, Vec3d albedo,
+LightcutResult evaluateCut(const LightTree& tree, std::span<const std::uint32_t> roots, const LightcutPoint& point,
                            const LightcutOptions& options, const LightVisibility& visibility) {
-    return freshCut(tree, roots, false, point, normal, albedo, options, visibility);
+    return freshCut(tree, roots, false, point, options, visibility);
 }
 
-LightcutResult bruteForce(const LightTree& tree, Vec3d point, Vec3d normal, Vec3d albedo, const LightVisibility& visibility) {
+LightcutResult bruteForce(const LightTree& tree, const LightcutPoint& point, const LightVisibility& visibility) {
     LightcutResult result;
-    normal = normalize(normal);
     const auto& lights = tree.lights();
     for (std::uint32_t i = 0; i < lights.size(); ++i) {
         if (tree.leafOf(i) == kNoLightNode) continue;
         ++result.stats.lightEvaluations;
         ++result.stats.cutSize;
         LightArrival arrival;
-        if (!lightArrival(lights[i], point, arrival)) continue;
-        const double cosine = dot(normal, arrival.toLight);
-        if (!(cosine > 0)) continue;
+        if (!lightArrival(lights[i], point.position, arrival)) continue;
+        const double response = point.response(arrival.toLight);
+        if (!(response > 0)) continue;
         double v = 1;
         if (visibility) {
             ++result.stats.visibilityEvaluations;
             v = visibilityOf(visibility, lights[i], arrival);
         }
-        result.radiance += albedo * kInvPi * arrival.irradiance * (cosine * v);
+        result.radiance += point.albedo * kInvPi * arrival.irradiance * (response * v);
     }
     return result;
 }
@@ -381,17 +451,16 @@ void LightcutCursor::reset() {
     havePrevious_ = false;
 }
 
-LightcutResult LightcutCursor::evaluate(Vec3d point, Vec3d normal, Vec3d albedo, const LightVisibility& visibility) {
+LightcutResult LightcutCursor::evaluate(const LightcutPoint& point, const LightVisibility& visibility) {
     const LightTree& tree = *tree_;
     if (!havePrevious_) {
-        LightcutResult result = freshCut(tree, roots_, allRoots_, point, normal, albedo, options_, visibility);
+        LightcutResult result = freshCut(tree, roots_, allRoots_, point, options_, visibility);
         previous_ = result.cut;
         havePrevious_ = true;
         return result;
     }
     LightcutResult result;
-    normal = normalize(normal);
-    const Context ctx{tree, Frame(normal), point, normal, albedo * kInvPi, options_, visibility, result.stats};
+    const Context ctx(tree, point, options_, visibility, result.stats);
     const auto& nodes = tree.nodes();
 
     // The previous cut's nodes in trees still searched, evaluated here; trees entered since start

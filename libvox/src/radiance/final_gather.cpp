@@ -13,7 +13,6 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -39,8 +38,7 @@ FinalGather::FinalGather(const RadianceField& field, std::span<const Light> ligh
     if (!(options.offsetCells >= 0) || !std::isfinite(options.offsetCells)) throw UsageError("final gather: the cone offset must be ≥ 0");
     if (!(options.aoLambda >= 0) || !std::isfinite(options.aoLambda)) throw UsageError("final gather: λ must be a finite number ≥ 0");
     if (!(options.specularF0 >= 0 && options.specularF0 <= 1)) throw UsageError("final gather: F0 must be between 0 and 1");
-    for (const Light& light : lights)
-        if (!light.dynamic) lights_.push_back(light);
+    lights_.assign(lights.begin(), lights.end());
     offset_ = options.offsetCells * field.finestCell();
 }
 
@@ -62,22 +60,29 @@ double FinalGather::visibility(const ShadingPoint& point, const LightArrival& ar
     return 1 - field_.traceCone(cone, 0, true).opacity;
 }
 
-FinalGatherParts FinalGather::shade(const ShadingPoint& point) const noexcept {
-    FinalGatherParts out;
-    const Vec3d n = point.normal;
-    const Vec3d albedoOverPi = point.albedo / kPi;
+std::size_t FinalGather::staticLightCount() const noexcept {
+    return static_cast<std::size_t>(std::count_if(lights_.begin(), lights_.end(), [](const Light& l) { return !l.dynamic; }));
+}
 
+FinalGatherParts FinalGather::shade(const ShadingPoint& point) const noexcept {
     Vec3d irradiance{0, 0, 0};  // direct, after the cosine and visibility
     for (const Light& light : lights_) {
         LightArrival arrival;
         if (!lightArrival(light, point.position, arrival)) continue;
-        const double cosine = dot(n, arrival.toLight);
+        const double cosine = dot(point.normal, arrival.toLight);
         if (!(cosine > 0)) continue;
         const double v = visibility(point, arrival);
         if (!(v > 0)) continue;
         irradiance += arrival.irradiance * (cosine * v);
     }
-    out.direct = albedoOverPi * irradiance;
+    return shade(point, point.albedo / kPi * irradiance);
+}
+
+FinalGatherParts FinalGather::shade(const ShadingPoint& point, Vec3d direct) const noexcept {
+    FinalGatherParts out;
+    const Vec3d n = point.normal;
+    const Vec3d albedoOverPi = point.albedo / kPi;
+    out.direct = direct;
 
     const RadianceField::Gather gather = field_.gatherDiffuse(point.position, n, offset_, options_.aoLambda);
     out.indirect = albedoOverPi * gather.irradiance;
@@ -155,29 +160,63 @@ FinalGatherImage renderFinalGather(const FinalGather& gather, const PinholeCamer
     image.ao.assign(pixels, 0.0f);
     image.albedo.assign(pixels, Vec3f{0, 0, 0});
     image.normal.assign(pixels, Vec3f{0, 0, 0});
-    std::atomic<std::uint64_t> hits{0};
     const auto start = std::chrono::steady_clock::now();
+    std::vector<ShadingPoint> points(pixels);
     tbb::parallel_for(tbb::blocked_range<int>(0, camera.height), [&](const tbb::blocked_range<int>& rows) {
-        std::uint64_t local = 0;
         for (int y = rows.begin(); y != rows.end(); ++y)
             for (int x = 0; x < camera.width; ++x) {
                 const std::size_t i = std::size_t(y) * std::size_t(camera.width) + std::size_t(x);
-                ShadingPoint point;
-                if (!surface(camera.rayThrough(x, y), point)) continue;
-                const FinalGatherParts parts = gather.shade(point);
-                image.hit[i] = 1;
-                image.final[i] = toFloat(parts.final);
-                image.direct[i] = toFloat(parts.direct);
-                image.indirect[i] = toFloat(parts.indirect);
-                image.specular[i] = toFloat(parts.specular);
-                image.ao[i] = static_cast<float>(parts.ao);
-                image.albedo[i] = toFloat(point.albedo);
-                image.normal[i] = toFloat(point.normal);
-                ++local;
+                if (surface(camera.rayThrough(x, y), points[i])) image.hit[i] = 1;
             }
-        hits += local;
     });
-    image.hits = hits.load();
+
+    // Direct light at every hit point: the render points of Lightcuts.
+    std::vector<std::size_t> hitPixels;
+    for (std::size_t i = 0; i < pixels; ++i)
+        if (image.hit[i]) hitPixels.push_back(i);
+    std::vector<LightcutPoint> renderPoints(hitPixels.size());
+    for (std::size_t k = 0; k < hitPixels.size(); ++k) {
+        const ShadingPoint& p = points[hitPixels[k]];
+        renderPoints[k] = LightcutPoint::lambertian(p.position, p.normal, p.albedo);
+    }
+    const auto directStart = std::chrono::steady_clock::now();
+    const auto clusters = [&] {
+        std::vector<std::array<std::uint32_t, 2>> where(hitPixels.size());
+        std::vector<double> depths(hitPixels.size());
+        const Vec3d forward = normalize(camera.target - camera.eye);
+        for (std::size_t k = 0; k < hitPixels.size(); ++k) {
+            where[k] = {std::uint32_t(hitPixels[k] % std::size_t(camera.width)), std::uint32_t(hitPixels[k] / std::size_t(camera.width))};
+            depths[k] = dot(renderPoints[k].position - camera.eye, forward);
+        }
+        return clusterPixelPoints(renderPoints, where, depths, camera);
+    };
+    const PointVisibility visibility = [&](std::size_t k, const Light&, const LightArrival& arrival) {
+        return gather.visibility(points[hitPixels[k]], arrival);
+    };
+    std::vector<Vec3d> direct(hitPixels.size());
+    const FinalGatherOptions& options = gather.options();
+    // Dynamic lights are lit here like static ones (directLight would leave them out, as a bake must).
+    std::vector<Light> lights = gather.lights();
+    for (Light& light : lights) light.dynamic = false;
+    image.directLight = directLight(lights, renderPoints, options.lightcuts, options.lightcut, options.lightcutsCompare, clusters,
+                                    visibility, direct);
+    image.directSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - directStart).count();
+
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, hitPixels.size(), 256), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+            const std::size_t i = hitPixels[k];
+            const ShadingPoint& point = points[i];
+            const FinalGatherParts parts = gather.shade(point, direct[k]);
+            image.final[i] = toFloat(parts.final);
+            image.direct[i] = toFloat(parts.direct);
+            image.indirect[i] = toFloat(parts.indirect);
+            image.specular[i] = toFloat(parts.specular);
+            image.ao[i] = static_cast<float>(parts.ao);
+            image.albedo[i] = toFloat(point.albedo);
+            image.normal[i] = toFloat(point.normal);
+        }
+    });
+    image.hits = hitPixels.size();
     image.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return image;
 }

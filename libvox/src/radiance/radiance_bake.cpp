@@ -32,6 +32,9 @@ constexpr double kGatherOffsetCells = 2;
 /// A voxel shows no light to a cone looking along an axis direction when under this share of its
 /// surface on that axis faces the cone (it is the back of a surface there).
 constexpr float kHiddenShare = 0.1f;
+/// Most voxels in one spatial cluster of the direct light's Lightcuts: small enough that a
+/// cluster's list skips the trees far from it, large enough for cut reuse to pay.
+constexpr std::uint32_t kClusterVoxels = 512;
 
 /// Per level-0 voxel: the bits of the channels that see only the back of its surface.
 std::uint8_t hiddenChannels(const VoxelNormals& normals) {
@@ -186,41 +189,42 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         detail::filterMips(volume, field, all.hidden);
     }
 
-    // Direct light (eq. 2 attenuation, shadow rays or cones).
+    // Direct light (eq. 2 attenuation, shadow rays or cones), through Lightcuts when there are
+    // many lights. The render points' albedo is π so that their "radiance" is the irradiance the
+    // bounces need too; the cut's error is then relative to the irradiance.
     std::vector<Vec3f> direct(leaves.size());
     {
         Timings::Scope timer(options.timings, "radiance_direct");
         const double tanHalf = std::tan(0.5 * options.shadowApertureDegrees * kPi / 180);
-        Progress progress("direct light", leaves.size());
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                const LeafMaterial& v = leaves[i];
-                const Vec3d centre = centreOf(v);
-                const Vec3d n = toVec3d(v.normals.mean);
-                Vec3d e{0, 0, 0};
-                for (const Light* light : lights) {
-                    LightArrival arrival;
-                    if (!lightArrival(*light, centre, arrival)) continue;
-                    const double attenuation = attenuate(options.attenuation, v.normals, arrival.toLight);
-                    if (!(attenuation > 0)) continue;
-                    // Leave the voxel on the side of its surface that faces the light.
-                    const double side = dot(n, arrival.toLight) >= 0 ? 1.0 : -1.0;
-                    double visibility = 1;
-                    if (shadowCones) {
-                        const Vec3d origin = centre + n * (side * kGatherOffsetCells * cell);
-                        const auto cone = field.traceCone({origin, arrival.toLight, tanHalf, 0, arrival.distance}, 0, true);
-                        visibility = 1 - cone.opacity;
-                    } else {
-                        const Vec3d local{v.x + 0.5 + side * n.x, v.y + 0.5 + side * n.y, v.z + 0.5 + side * n.z};
-                        const double maxT = std::isfinite(arrival.distance) ? arrival.distance / cell : 1e30;
-                        if (solid.occluded(local, arrival.toLight, maxT)) visibility = 0;
-                    }
-                    e += arrival.irradiance * (attenuation * visibility);
-                }
-                direct[i] = {static_cast<float>(e.x), static_cast<float>(e.y), static_cast<float>(e.z)};
-            }
-            progress.advance(r.size());
+        std::vector<LightcutPoint> points(leaves.size());
+        tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t i) {
+            points[i] = LightcutPoint::voxel(centreOf(leaves[i]), leaves[i].normals, options.attenuation, {kPi, kPi, kPi});
         });
+        const PointVisibility visibility = [&](std::size_t i, const Light&, const LightArrival& arrival) -> double {
+            const LeafMaterial& v = leaves[i];
+            const Vec3d n = toVec3d(v.normals.mean);
+            // Leave the voxel on the side of its surface that faces the light.
+            const double side = dot(n, arrival.toLight) >= 0 ? 1.0 : -1.0;
+            if (shadowCones) {
+                const Vec3d origin = points[i].position + n * (side * kGatherOffsetCells * cell);
+                return 1 - field.traceCone({origin, arrival.toLight, tanHalf, 0, arrival.distance}, 0, true).opacity;
+            }
+            const Vec3d local{v.x + 0.5 + side * n.x, v.y + 0.5 + side * n.y, v.z + 0.5 + side * n.z};
+            const double maxT = std::isfinite(arrival.distance) ? arrival.distance / cell : 1e30;
+            return solid.occluded(local, arrival.toLight, maxT) ? 0.0 : 1.0;
+        };
+        // Clusters for the cluster–light lists and cut reuse: octree nodes of similar voxels (the
+        // same material, normals within 10°), at most kClusterVoxels each.
+        const auto clusters = [&] {
+            std::vector<LightcutPoint> materials(points);
+            for (std::size_t i = 0; i < leaves.size(); ++i) materials[i].albedo = toVec3d(leaves[i].albedo);
+            return clusterVoxelPoints(materials, cells, options.depth, kClusterVoxels);
+        };
+        std::vector<Vec3d> irradiance(leaves.size());
+        bake.directLight = directLight(scene.lights, points, options.lightcuts, options.lightcut, options.lightcutsCompare, clusters,
+                                       visibility, irradiance);
+        for (std::size_t i = 0; i < leaves.size(); ++i)
+            direct[i] = {static_cast<float>(irradiance[i].x), static_cast<float>(irradiance[i].y), static_cast<float>(irradiance[i].z)};
     }
 
     // Level 0's radiance from the irradiance a voxel receives: emission + albedo/π · E.
