@@ -5,6 +5,7 @@
 #include <vox/radiance_field.h>
 
 #include "cornell_box.h"
+#include "light_grid.h"
 #include "scene_builder.h"
 #include "test_support.h"
 
@@ -185,6 +186,90 @@ TEST(RadianceBake, SameVolumeWhateverTheThreadCount) {
         EXPECT_EQ(one.volume.levels[l].blocks, two.volume.levels[l].blocks);
         EXPECT_TRUE(one.volume.levels[l].texels == two.volume.levels[l].texels) << l;
     }
+}
+
+TEST(RadianceBake, LightcutsDirectLightStaysWithinTwoPercentOfEveryLightOnTheLightGrid) {
+    vox::test::ScratchDir dir;
+    const vox::Scene scene = vox::importScene(vox::scenes::writeLightGrid(dir.path()));
+    ASSERT_EQ(scene.lights.size(), 256u);
+    vox::RadianceBakeOptions options;
+    options.depth = 6;
+    options.bounces = 0;
+    options.keepVoxelLighting = true;
+    options.lightcuts = vox::LightcutsMode::Off;
+    const auto exact = vox::bakeRadiance(scene, options);
+    EXPECT_EQ(exact.directLight.used.method, "brute-force");
+    options.lightcuts = vox::LightcutsMode::On;
+    options.lightcutsCompare = true;
+    const auto cut = vox::bakeRadiance(scene, options);
+    const vox::ManyLightReport& report = cut.directLight;
+    EXPECT_EQ(report.used.method, "lightcuts");
+    ASSERT_TRUE(report.compared);
+    ASSERT_EQ(cut.voxels.size(), exact.voxels.size());
+
+    // Voxel by voxel against the brute-force bake: the root-sum-square criterion keeps nearly
+    // every voxel within the 2 % threshold.
+    std::size_t lit = 0, within = 0;
+    double worst = 0;
+    for (std::size_t i = 0; i < exact.voxels.size(); ++i) {
+        const double ref = luminance(exact.voxels[i].direct);
+        if (!(ref > 0)) {
+            EXPECT_EQ(luminance(cut.voxels[i].direct), 0.0) << i;
+            continue;
+        }
+        const double rel = std::abs(luminance(cut.voxels[i].direct) - ref) / ref;
+        ++lit;
+        within += rel <= 0.02 * (1 + 1e-6);
+        worst = std::max(worst, rel);
+    }
+    EXPECT_GT(lit, exact.voxels.size() / 2);
+    EXPECT_GE(double(within), 0.99 * double(lit)) << "worst " << worst;
+    EXPECT_LT(worst, 0.1);
+    // The report agrees: the same points, Lightcuts and classic Lightcuts within 2 %.
+    EXPECT_EQ(report.lightcutsError.points, lit);
+    EXPECT_EQ(report.lightcutsError.within, within);
+    EXPECT_GE(report.classicError.fractionWithin(), 0.99);
+    EXPECT_EQ(report.bruteForce.lights, 256u);
+    EXPECT_EQ(report.classic.trees, 1u);
+    EXPECT_GT(report.lightcuts.trees, 10u);  // the 5 m ranges split the 30 m grid into a forest
+    EXPECT_GT(report.lightcuts.clusters, 0u);
+    EXPECT_GE(report.lightcuts.runs, report.lightcuts.clusters);
+    // The forest, the lists and cut reuse search fewer nodes than one tree searched afresh.
+    EXPECT_LT(report.lightcuts.meanSearchSteps(), 0.8 * report.classic.meanSearchSteps());
+    EXPECT_LT(report.lightcuts.meanCutSize(), 256);
+}
+
+TEST(RadianceBake, LightcutsGiveTheSameVolumeWhateverTheThreadCount) {
+    vox::test::ScratchDir dir;
+    const vox::Scene scene = vox::importScene(vox::scenes::writeLightGrid(dir.path()));
+    vox::RadianceBakeOptions options;
+    options.depth = 5;
+    options.bounces = 1;
+    options.lightcuts = vox::LightcutsMode::On;
+    vox::RadianceBake one, two;
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        one = vox::bakeRadiance(scene, options);
+    }
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+        two = vox::bakeRadiance(scene, options);
+    }
+    EXPECT_EQ(one.directLight.used.searchSteps, two.directLight.used.searchSteps);
+    for (std::size_t l = 0; l < one.volume.levels.size(); ++l) EXPECT_TRUE(one.volume.levels[l].texels == two.volume.levels[l].texels) << l;
+}
+
+TEST(RadianceBake, LightcutsAutoTurnsOnWithManyLights) {
+    vox::test::ScratchDir dir;
+    vox::RadianceBakeOptions options;
+    options.depth = 4;
+    options.bounces = 0;
+    const auto few = vox::bakeRadiance(cornellBox(dir), options);
+    EXPECT_EQ(few.directLight.used.method, "brute-force");
+    EXPECT_EQ(few.directLight.used.lights, few.volume.bake.lights);
+    const auto many = vox::bakeRadiance(vox::importScene(vox::scenes::writeLightGrid(dir.path())), options);
+    EXPECT_EQ(many.directLight.used.method, "lightcuts");
+    EXPECT_EQ(many.directLight.used.lights, 256u);
 }
 
 TEST(RadianceBake, DynamicMeshesStayOutOfTheStaticVolumeAndFormTheirOwnLayer) {

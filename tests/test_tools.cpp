@@ -5,6 +5,8 @@
 
 #include "assimp_models.h"
 #include "cornell_box.h"
+#include "corridor.h"
+#include "light_grid.h"
 #include "test_support.h"
 
 #include <nlohmann/json.hpp>
@@ -582,4 +584,84 @@ TEST(Tools, RvolRenderFinalGathersTheScene) {
     std::vector<std::string> esvoArgs{"render", esvo.string(), "-o", png.string(), "--exposure", "2"};
     esvoArgs.insert(esvoArgs.end(), camera.begin(), camera.end());
     expectOneLineError(voxinspect(esvoArgs), 1, "--exposure", "voxinspect");
+}
+
+TEST(Tools, LightcutsLightTheBakeAndTheRenderAndReportTheirStatistics) {
+    ScratchDir dir;
+    const auto scene = vox::scenes::writeLightGrid(dir.path());
+    const auto rvol = dir / "grid.rvol";
+    const auto stats = dir / "bake.json";
+    const ProcessResult bake = voxelize({scene.string(), "--radiance", rvol.string(), "--radiance-depth", "5", "--bounces", "0",
+                                         "--lightcuts", "on", "--lightcuts-compare", "--stats", stats.string()});
+    ASSERT_EQ(bake.exitCode, 0) << bake.err;
+    const auto report = nlohmann::json::parse(vox::test::readText(stats))["radiance"]["direct_light"];
+    EXPECT_EQ(report["method"], "lightcuts");
+    EXPECT_EQ(report["lights"], 256);
+    EXPECT_EQ(report["criterion"], "rss");
+    EXPECT_DOUBLE_EQ(report["relative_error"].get<double>(), 0.02);
+    EXPECT_GT(report["trees"].get<int>(), 10);
+    const auto& compare = report["compare"];
+    EXPECT_EQ(compare["brute_force"]["method"], "brute-force");
+    EXPECT_EQ(compare["classic"]["trees"], 1);
+    EXPECT_GE(compare["lightcuts"]["error"]["fraction_within"].get<double>(), 0.99);
+    EXPECT_LT(compare["search_steps_vs_classic"].get<double>(), -0.2);
+    EXPECT_EQ(compare["lightcuts"]["points"], report["points"]);
+
+    // The render's direct light through Lightcuts and summed over every light: the same image
+    // within the error, and the statistics of the one used.
+    const std::vector<std::string> camera{"--eye", "0,20,28", "--target", "0,0,0", "--width", "40", "--height", "30"};
+    const auto render = [&](const std::filesystem::path& out, std::vector<std::string> extra) {
+        std::vector<std::string> args{"render", rvol.string(), "--scene", scene.string(), "-o", out.string(), "--channel", "direct"};
+        args.insert(args.end(), camera.begin(), camera.end());
+        args.insert(args.end(), extra.begin(), extra.end());
+        return voxinspect(args);
+    };
+    const auto renderStats = dir / "render.json";
+    ASSERT_EQ(render(dir / "on.png", {"--lightcuts", "on", "--stats", renderStats.string()}).exitCode, 0);
+    ASSERT_EQ(render(dir / "off.png", {"--lightcuts", "off"}).exitCode, 0);
+    const auto rendered = nlohmann::json::parse(vox::test::readText(renderStats));
+    EXPECT_EQ(rendered["direct_light"]["method"], "lightcuts");
+    EXPECT_EQ(rendered["direct_light"]["points"], rendered["hits"]);
+    EXPECT_GT(rendered["direct_light"]["clusters"].get<int>(), 0);
+    const vox::Texture on = vox::loadTexture(dir / "on.png", vox::ColorSpace::Linear);
+    const vox::Texture off = vox::loadTexture(dir / "off.png", vox::ColorSpace::Linear);
+    double diff = 0, sum = 0;
+    for (int y = 0; y < on.height(); ++y)
+        for (int x = 0; x < on.width(); ++x) {
+            const vox::Vec4f a = on.texel(0, x, y), b = off.texel(0, x, y);
+            diff += std::abs(a.x - b.x) + std::abs(a.y - b.y) + std::abs(a.z - b.z);
+            sum += b.x + b.y + b.z;
+        }
+    EXPECT_GT(sum, 0.05 * on.width() * on.height());
+    EXPECT_LT(diff, 0.01 * sum);
+
+    expectOneLineError(voxelize({scene.string(), "--radiance", (dir / "x.rvol").string(), "--lightcuts", "always"}), 1, "--lightcuts");
+    expectOneLineError(voxelize({scene.string(), "--radiance", (dir / "x.rvol").string(), "--lightcut-criterion", "max"}), 1,
+                       "--lightcut-criterion");
+    expectOneLineError(render(dir / "x.png", {"--lightcut-error", "0"}), 1, "--lightcut-error", "voxinspect");
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.rvol"));
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
+}
+
+TEST(Tools, RenderLightsTheMovingLightsTheBakeLeavesOut) {
+    ScratchDir dir;
+    const auto still = vox::scenes::writeCorridor(dir.path());
+    const auto moving = vox::scenes::writeCorridorMoving(dir.path(), 0);
+    const auto rvol = dir / "corridor.rvol";
+    ASSERT_EQ(voxelize({moving.string(), "--radiance", rvol.string(), "--radiance-depth", "5", "--bounces", "0"}).exitCode, 0);
+    const std::vector<std::string> camera{"--eye", "-29,1.6,0", "--target", "29,1.4,0", "--width", "32", "--height", "32"};
+    const auto direct = [&](const std::filesystem::path& scene, const std::string& name) {
+        std::vector<std::string> args{"render", rvol.string(), "--scene", scene.string(), "-o", (dir / name).string(), "--channel", "direct"};
+        args.insert(args.end(), camera.begin(), camera.end());
+        const ProcessResult r = voxinspect(args);
+        EXPECT_EQ(r.exitCode, 0) << r.err;
+        EXPECT_TRUE(r.err.empty()) << r.err;  // 30 static lights in both: the bake's count
+        const vox::Texture image = vox::loadTexture(dir / name, vox::ColorSpace::Linear);
+        double sum = 0;
+        for (int y = 0; y < image.height(); ++y)
+            for (int x = 0; x < image.width(); ++x) sum += image.texel(0, x, y).x;
+        return sum;
+    };
+    // The two dynamic lights add direct light the still corridor lacks.
+    EXPECT_GT(direct(moving, "moving.png"), 1.02 * direct(still, "still.png"));
 }
