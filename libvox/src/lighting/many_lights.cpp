@@ -3,6 +3,7 @@
 // force for comparison.
 #include <vox/formats/error.h>
 #include <vox/many_lights.h>
+#include <vox/util/progress.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -245,16 +246,19 @@ ManyLightStats lightPoints(const LightTree& tree, std::span<const LightcutPoint>
     if (clusters.count() == 0) {
         // Every point on its own: a fresh cut over every tree whose influence holds it.
         std::vector<LightcutStats> stats(points.size());
+        Progress progress("direct light (" + total.method + ")", points.size());
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256), [&](const tbb::blocked_range<std::size_t>& r) {
             for (std::size_t i = r.begin(); i != r.end(); ++i) {
                 LightcutResult result = evaluateCut(tree, points[i], options.cut, visibilityAt(visibility, i));
                 out[i] = result.radiance;
                 stats[i] = result.stats;
             }
+            progress.advance(r.size());
         });
         for (const LightcutStats& s : stats) addStats(total, s);
     } else {
         std::vector<ManyLightStats> perCluster(clusters.count());
+        Progress progress("direct light (" + total.method + ")", points.size());
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, clusters.count(), 1), [&](const tbb::blocked_range<std::size_t>& r) {
             LightcutCursor cursor(tree, options.cut);
             for (std::size_t c = r.begin(); c != r.end(); ++c) {
@@ -286,6 +290,7 @@ ManyLightStats lightPoints(const LightTree& tree, std::span<const LightcutPoint>
                     out[i] = result.radiance;
                     addStats(s, result.stats);
                 }
+                progress.advance(last - first);
             }
         });
         for (const ManyLightStats& s : perCluster) addStats(total, s);
@@ -306,6 +311,7 @@ ManyLightStats lightPointsBruteForce(std::span<const Light> lights, std::span<co
     total.points = points.size();
     total.lights = used.size();
     std::vector<std::uint64_t> visibilityCalls(points.size(), 0);
+    Progress progress("direct light (every light)", points.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256), [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
             const LightcutPoint& p = points[i];
@@ -326,6 +332,7 @@ ManyLightStats lightPointsBruteForce(std::span<const Light> lights, std::span<co
             }
             out[i] = p.albedo * (1 / kPi) * sum;
         }
+        progress.advance(r.size());
     });
     total.cutNodes = total.lightEvaluations = std::uint64_t(points.size()) * used.size();
     for (std::uint64_t v : visibilityCalls) total.visibilityEvaluations += v;
