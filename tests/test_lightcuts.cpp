@@ -1,16 +1,18 @@
 // Lightcuts (libvox/src/lighting/light_tree.cpp, lightcut.cpp): the light tree's invariants, the
 // forest, conservative error bounds, cuts against brute force with and without visibility, cut
-// reuse, determinism, and a 10 000-light build.
+// reuse, determinism, a 10 000-light build, and the axis-weighted response of voxel render points.
 #include <vox/lightcuts.h>
 #include <vox/triangle_raycast.h>
 #include <vox/util/parallel.h>
 
 #include "scene_builder.h"
+#include "test_random.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <random>
@@ -25,25 +27,7 @@ using vox::Vec3d;
 using vox::Vec3f;
 constexpr double kPi = 3.14159265358979323846;
 
-struct Rng {
-    std::mt19937_64 engine;
-    explicit Rng(std::uint64_t seed) : engine(seed) {}
-    double uniform(double lo = 0, double hi = 1) { return std::uniform_real_distribution<double>(lo, hi)(engine); }
-    Vec3d unit() {
-        for (;;) {
-            const Vec3d v{uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)};
-            const double l = vox::length(v);
-            if (l > 0.1 && l <= 1) return v / l;
-        }
-    }
-    /// Unit vector within @p maxAngle of @p axis (roughly uniform).
-    Vec3d around(Vec3d axis, double maxAngle) {
-        for (;;) {
-            const Vec3d v = unit();
-            if (vox::dot(v, axis) >= std::cos(maxAngle)) return v;
-        }
-    }
-};
+using vox::test::Rng;
 
 Vec3f f(Vec3d v) { return {float(v.x), float(v.y), float(v.z)}; }
 Vec3d d(Vec3f v) { return {v.x, v.y, v.z}; }
@@ -632,4 +616,194 @@ TEST(Lightcuts, EdgeCases) {
     EXPECT_TRUE(small.stats.truncated);
     const auto forestCut = vox::evaluateCut(many, {0, 0, 0}, n, albedo, tight);
     EXPECT_LE(forestCut.stats.cutSize, std::max(5u, forestCut.stats.treesSearched));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Axis-weighted render points (LightcutPoint::voxel): the radiance bake's voxel responses.
+
+namespace {
+
+constexpr vox::Attenuation kAttenuations[] = {vox::Attenuation::Weighted, vox::Attenuation::Paper, vox::Attenuation::Average};
+
+const char* name(vox::Attenuation a) {
+    switch (a) {
+    case vox::Attenuation::Weighted: return "weighted";
+    case vox::Attenuation::Paper: return "paper";
+    case vox::Attenuation::Average: return "average";
+    }
+    return "?";
+}
+
+/// Normals of a voxel as the bake computes them: a few fragments (area, unit normal) around
+/// @p up, sometimes the far side of a thin wall too; mean = normalised area-weighted sum,
+/// moments = area shares of |n_s| per axis direction.
+vox::VoxelNormals fragmentNormals(Rng& rng, Vec3d up, double spread) {
+    const int fragments = 1 + int(rng.uniform(0, 3));
+    Vec3d sum{0, 0, 0};
+    std::array<double, 6> moments{};
+    double area = 0;
+    auto add = [&](Vec3d n, double a) {
+        sum += n * a;
+        area += a;
+        for (int axis = 0; axis < 3; ++axis) moments[std::size_t(2 * axis + (n[axis] < 0 ? 1 : 0))] += a * std::abs(n[axis]);
+    };
+    for (int i = 0; i < fragments; ++i) add(rng.around(up, spread), rng.uniform(0.1, 1));
+    if (rng.uniform() < 0.15) add(-rng.around(up, spread), rng.uniform(0.1, 1));  // the wall's back
+    vox::VoxelNormals n;
+    n.mean = f(vox::normalize(sum));
+    for (std::size_t k = 0; k < 6; ++k) n.moments[k] = float(moments[k] / area);
+    return n;
+}
+
+/// Random normals: a random unit mean and random non-negative moments (some zero), unrelated.
+vox::VoxelNormals randomNormals(Rng& rng) {
+    vox::VoxelNormals n;
+    n.mean = f(rng.unit());
+    for (float& m : n.moments) m = rng.uniform() < 0.25 ? 0.0f : float(rng.uniform(0, 1.2));
+    return n;
+}
+
+}  // namespace
+
+TEST(LightcutPoint, VoxelResponseMatchesAttenuate) {
+    // The largest |response − attenuate| per mode, with where it happened.
+    struct Worst {
+        double difference = 0, got = 0, expected = 0;
+        Vec3d mean{0, 0, 0}, l{0, 0, 0};
+    };
+    Worst worst[3];
+    Rng rng(40);
+    for (int trial = 0; trial < 400; ++trial) {
+        const vox::VoxelNormals normals = trial % 2 ? randomNormals(rng) : fragmentNormals(rng, rng.unit(), 1.2);
+        const Vec3d position{rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-5, 5)};
+        const Vec3d albedo{rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(0, 1)};
+        for (int m = 0; m < 3; ++m) {
+            const vox::Attenuation mode = kAttenuations[m];
+            const vox::LightcutPoint p = vox::LightcutPoint::voxel(position, normals, mode, albedo);
+            EXPECT_EQ(p.position, position);
+            EXPECT_EQ(p.albedo, albedo);
+            EXPECT_EQ(p.axisWeighted, mode != vox::Attenuation::Average) << name(mode);
+            std::vector<Vec3d> directions;
+            for (int k = 0; k < 20; ++k) directions.push_back(rng.unit());
+            // The axis directions themselves (one axis weight each) too.
+            for (int axis = 0; axis < 3; ++axis)
+                for (double sign : {1.0, -1.0}) {
+                    Vec3d l{0, 0, 0};
+                    l[axis] = sign;
+                    directions.push_back(l);
+                }
+            for (const Vec3d& l : directions) {
+                const double expected = vox::attenuate(mode, normals, l);
+                const double got = p.response(l);
+                if (std::abs(got - expected) > worst[m].difference) worst[m] = {std::abs(got - expected), got, expected, d(normals.mean), l};
+            }
+        }
+    }
+    for (int m = 0; m < 3; ++m) {
+        const Worst& w = worst[m];
+        std::printf("[lightcuts] voxel response vs attenuate, %-8s largest difference %.3g\n", name(kAttenuations[m]), w.difference);
+        EXPECT_LE(w.difference, 1e-12) << name(kAttenuations[m]) << ": response " << w.got << " vs attenuate " << w.expected
+                                       << " for mean normal (" << w.mean.x << ", " << w.mean.y << ", " << w.mean.z << "), l = (" << w.l.x
+                                       << ", " << w.l.y << ", " << w.l.z << ")";
+    }
+    // The plain Lambertian point is max(0, n·l).
+    const vox::LightcutPoint lambert = vox::LightcutPoint::lambertian({0, 0, 0}, {0, 0, 2}, {1, 1, 1});
+    EXPECT_EQ(lambert.normal, (Vec3d{0, 0, 1}));
+    EXPECT_FALSE(lambert.axisWeighted);
+    EXPECT_NEAR(lambert.response(vox::normalize(Vec3d{1, 0, 1})), std::sqrt(0.5), 1e-15);
+    EXPECT_EQ(lambert.response({0, 0, -1}), 0.0);
+    // A thin wall (both sides, mean normal cancelled): Weighted still lights the side facing the light.
+    vox::VoxelNormals wall;
+    wall.mean = {0, 0, 0};
+    wall.moments = {0, 0, 0, 0, 0.5f, 0.5f};
+    const auto w = vox::LightcutPoint::voxel({0, 0, 0}, wall, vox::Attenuation::Weighted, {1, 1, 1});
+    EXPECT_DOUBLE_EQ(w.response({0, 0, 1}), 0.5);
+    EXPECT_DOUBLE_EQ(w.response({0, 0, -1}), 0.5);
+    EXPECT_EQ(w.response({1, 0, 0}), 0.0);
+}
+
+TEST(LightcutBound, AxisWeightedIsConservative) {
+    LightMix mix;
+    mix.directional = 4;
+    mix.lo = {-4, -1, -4};
+    mix.hi = {4, 4, 4};
+    int positive = 0, checked = 0;
+    for (bool forest : {true, false}) {
+        vox::LightTreeOptions options;
+        options.forest = forest;
+        const LightTree tree(randomLights(300, forest ? 41 : 42, mix), options);
+        const auto& nodes = tree.nodes();
+        Rng rng(43);
+        std::vector<Vec3d> exact(nodes.size());
+        for (int trial = 0; trial < 150; ++trial) {
+            // Points among the lights too (inside their boxes), any normals, coloured albedo.
+            const Vec3d p{rng.uniform(-6, 6), rng.uniform(-2, 5), rng.uniform(-6, 6)};
+            const vox::VoxelNormals normals = trial % 3 == 0 ? randomNormals(rng) : fragmentNormals(rng, rng.unit(), 1.0);
+            const Vec3d albedo{rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(0, 1)};
+            const vox::Attenuation mode = trial % 4 == 3 ? vox::Attenuation::Paper : vox::Attenuation::Weighted;
+            const vox::LightcutPoint point = vox::LightcutPoint::voxel(p, normals, mode, albedo);
+            ASSERT_TRUE(point.axisWeighted);
+            // Children come before their parents in nodes(): sum the subtree totals upwards.
+            for (std::size_t k = 0; k < nodes.size(); ++k)
+                exact[k] = nodes[k].leaf() ? vox::lightContribution(tree.lights()[nodes[k].representative], point)
+                                           : exact[nodes[k].left] + exact[nodes[k].right];
+            for (std::size_t k = 0; k < nodes.size(); ++k) {
+                const Vec3d bound = vox::lightcutBound(tree, std::uint32_t(k), point);
+                ++checked;
+                positive += vox::lightLuminance(exact[k]) > 0;
+                for (int c = 0; c < 3; ++c)
+                    ASSERT_GE(bound[c], exact[k][c] * (1 - 1e-12))
+                        << "node " << k << " channel " << c << " trial " << trial << (forest ? " forest" : " classic");
+            }
+        }
+    }
+    // Not vacuous: most subtrees light the points.
+    EXPECT_GT(positive, checked / 2);
+}
+
+TEST(Lightcuts, AxisWeightedAgainstBruteForce) {
+    // Voxel points on a floor (y ∈ [0, 0.5]): mostly the bake's Weighted response, some Paper and
+    // Average; the default options (root-sum-square criterion, 2 %).
+    LightMix ranged;
+    ranged.rangedShare = 1;
+    ranged.rangeLo = 3;
+    ranged.rangeHi = 8;
+    const LightTree forest(randomLights(300, 44, ranged));
+    LightMix mixed;
+    mixed.directional = 3;
+    vox::LightTreeOptions classicOptions;
+    classicOptions.forest = false;
+    const LightTree classic(randomLights(300, 45, mixed), classicOptions);
+    const vox::LightcutOptions options;
+    ASSERT_EQ(options.criterion, vox::LightcutCriterion::RootSumSquare);
+    for (const LightTree* tree : {&forest, &classic}) {
+        Rng rng(46);
+        AccuracyStats s;
+        int lit = 0;
+        for (int i = 0; i < 300; ++i) {
+            const Vec3d p{rng.uniform(-11, 11), rng.uniform(0, 0.5), rng.uniform(-11, 11)};
+            const vox::VoxelNormals normals = fragmentNormals(rng, {0, 1, 0}, i % 2 ? 0.3 : 1.2);
+            const Vec3d albedo{rng.uniform(0.2, 1), rng.uniform(0.2, 1), rng.uniform(0.2, 1)};
+            const vox::Attenuation mode = i % 5 == 3 ? vox::Attenuation::Paper : i % 5 == 4 ? vox::Attenuation::Average : vox::Attenuation::Weighted;
+            const vox::LightcutPoint point = vox::LightcutPoint::voxel(p, normals, mode, albedo);
+            const auto cut = vox::evaluateCut(*tree, point, options);
+            const auto exact = vox::bruteForce(*tree, point);
+            lit += vox::lightLuminance(exact.radiance) > 0;
+            s.add(cut, exact, options.relativeError);
+            // The cut meets the criterion, from the axis-weighted bounds anew.
+            if (!cut.stats.truncated) {
+                double sum = 0, sum2 = 0;
+                for (std::uint32_t k : cut.cut) {
+                    if (tree->nodes()[k].leaf()) continue;
+                    const double b = vox::lightLuminance(vox::lightcutBound(*tree, k, point));
+                    sum += b;
+                    sum2 += b * b;
+                }
+                EXPECT_NEAR(sum, cut.errorBound, 1e-9 * sum + 1e-300);
+                EXPECT_LE(std::sqrt(sum2), options.relativeError * vox::lightLuminance(cut.radiance) * (1 + 1e-9));
+            }
+        }
+        EXPECT_GT(lit, 250);
+        s.expectAccuracy(options.criterion, tree == &forest ? "axis-weighted voxels, forest" : "axis-weighted voxels, classic");
+    }
 }

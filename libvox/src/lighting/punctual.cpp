@@ -42,7 +42,9 @@ bool lightArrival(const Light& light, Vec3d point, LightArrival& out) {
 }
 
 double attenuate(Attenuation mode, const VoxelNormals& normals, Vec3d toLight) {
-    const Vec3d n{normals.mean.x, normals.mean.y, normals.mean.z};
+    // Renormalised in double: a float unit vector is 1 ± 3e-8 long, and Lightcuts' bounds
+    // (LightcutPoint::voxel) must see exactly the normal this does.
+    const Vec3d n = normalize(Vec3d{normals.mean.x, normals.mean.y, normals.mean.z});
     double v = 0;
     switch (mode) {
     case Attenuation::Weighted:
