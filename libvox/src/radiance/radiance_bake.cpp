@@ -176,11 +176,9 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     }
     const RadianceField& field = *all.field;
 
-    std::vector<const Light*> lights;
-    for (const Light& light : scene.lights)
-        if (!light.dynamic) lights.push_back(&light);
+    const auto staticLights = std::count_if(scene.lights.begin(), scene.lights.end(), [](const Light& l) { return !l.dynamic; });
     volume.bake = {options.bounces, static_cast<float>(options.shadowApertureDegrees), static_cast<float>(options.aoLambda),
-                   static_cast<std::uint32_t>(options.attenuation), static_cast<std::uint32_t>(lights.size())};
+                   static_cast<std::uint32_t>(options.attenuation), static_cast<std::uint32_t>(staticLights)};
 
     // Shadow cones need the occlusion of the mips before any light is in them.
     const bool shadowCones = options.shadowApertureDegrees > 0;
