@@ -1,0 +1,378 @@
+// The OpenGL runtime against the CPU reference, on real GL (Mesa llvmpipe in CI): the headless
+// context, KHR_debug error collection, and the compute-shader ray caster's images against
+// EsvoRayCaster's on the same cameras (hit mask, depth, normals, colours, shaded PSNR).
+#include <vox/formats/error.h>
+#include <vox/formats/esvo_reader.h>
+#include <vox/import.h>
+#include <vox/octree.h>
+#include <vox/raycast.h>
+#include <vox/texture.h>
+#include <vox/runtime/channels.h>
+#include <vox/runtime/esvo_gpu_pool.h>
+#include <vox/runtime/esvo_gpu_raycaster.h>
+#include <vox/runtime/gl_context.h>
+#include <vox/runtime/shader.h>
+
+#include "cornell_box.h"
+#include "test_support.h"
+
+#include <GL/glcorearb.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+
+namespace fs = std::filesystem;
+namespace rt = vox::runtime;
+
+namespace {
+
+/// One context for the whole test program (creating one is the slow part on llvmpipe); null
+/// with the reason when this machine has no OpenGL 4.5 at all.
+rt::HeadlessGlContext* context(std::string* whyNot = nullptr) {
+    static std::string reason;
+    static std::unique_ptr<rt::HeadlessGlContext> ctx = [] {
+        try {
+            return std::make_unique<rt::HeadlessGlContext>();
+        } catch (const rt::RuntimeError& e) {
+            reason = e.what();
+            return std::unique_ptr<rt::HeadlessGlContext>();
+        }
+    }();
+    if (whyNot != nullptr) *whyNot = reason;
+    return ctx.get();
+}
+
+#define REQUIRE_GL()                                                          \
+    std::string whyNoGl;                                                      \
+    rt::HeadlessGlContext* gl = context(&whyNoGl);                            \
+    if (gl == nullptr) GTEST_SKIP() << "no OpenGL 4.5 context: " << whyNoGl;  \
+    gl->clearDebugMessages()
+
+/// The Cornell box voxelized once per depth (contours and attributes on).
+const vox::SparseOctree& cornellOctree(std::uint32_t depth) {
+    static std::map<std::uint32_t, vox::SparseOctree> cache;
+    static vox::test::ScratchDir dir;
+    auto it = cache.find(depth);
+    if (it != cache.end()) return it->second;
+    static const vox::Scene scene = vox::importScene(vox::scenes::writeCornellBox(dir.path()));
+    vox::SurfaceVoxelizeOptions options;
+    options.depth = depth;
+    options.contours = true;
+    options.attributes = true;
+    return cache.emplace(depth, vox::voxelizeSurface(scene, options)).first->second;
+}
+
+fs::path writeOctree(const fs::path& file, std::uint32_t depth, vox::AttributeEncoding encoding, std::uint32_t sliceBytes = 1u << 20,
+                     std::uint32_t nearLimit = 0x7FFF) {
+    vox::EsvoWriteOptions options;
+    options.attributes = encoding;
+    options.sliceBytes = sliceBytes;
+    options.nearPointerLimit = nearLimit;
+    vox::writeEsvo(file, cornellOctree(depth), options);
+    return file;
+}
+
+struct View {
+    vox::Vec3d eye, target;
+    int width = 128, height = 96;
+};
+// Front (the box's opening), and oblique from above: grazing rays, contours seen edge-on.
+const View kViews[] = {{{0, 1, 3.2}, {0, 1, 0}}, {{1.3, 1.7, 2.4}, {-0.2, 0.8, -0.3}}};
+
+vox::PinholeCamera cpuCamera(const View& v) {
+    vox::PinholeCamera c;
+    c.eye = v.eye, c.target = v.target, c.width = v.width, c.height = v.height;
+    return c;
+}
+rt::Camera gpuCamera(const View& v) {
+    rt::Camera c;
+    c.eye = {v.eye.x, v.eye.y, v.eye.z}, c.target = {v.target.x, v.target.y, v.target.z}, c.width = v.width, c.height = v.height;
+    return c;
+}
+
+/// What differs between the CPU and GPU images of one view.
+struct Comparison {
+    std::size_t pixels = 0, cpuHits = 0, maskAgree = 0, bothHit = 0, depthExact = 0, levelAgree = 0, normalAgree = 0,
+                colorExact = 0, iterationsExact = 0;
+    double maxRelDepth = 0, maxNormalDiff = 0, shadedPsnr = 0, colorPsnr = 0;
+};
+
+double psnr(double sumSquared, std::size_t count) {
+    if (count == 0) return 0;
+    if (sumSquared == 0) return std::numeric_limits<double>::infinity();
+    return 10.0 * std::log10(255.0 * 255.0 / (sumSquared / double(count)));
+}
+
+/// 8-bit sRGB of libvox's linear image, as voxinspect render writes it.
+std::vector<std::uint8_t> toBytes(const std::vector<vox::Vec3f>& linear) {
+    std::vector<std::uint8_t> out(3 * linear.size());
+    for (std::size_t i = 0; i < linear.size(); ++i)
+        for (int k = 0; k < 3; ++k)
+            out[3 * i + std::size_t(k)] = static_cast<std::uint8_t>(std::lround(255.0f * vox::linearToSrgb(std::clamp(linear[i][k], 0.0f, 1.0f))));
+    return out;
+}
+
+Comparison compare(const vox::RenderBuffers& cpu, const rt::GpuFrame& gpu, const vox::PinholeCamera& cpuCam, const rt::Camera& gpuCam) {
+    Comparison c;
+    c.pixels = cpu.depth.size();
+    const std::vector<std::uint8_t> cpuShaded = toBytes(vox::shadeHeadlight(cpu, cpuCam));
+    const std::vector<std::uint8_t> gpuShaded = rt::composeChannel(gpu, gpuCam, "shaded");
+    const std::vector<std::uint8_t> cpuColor = toBytes(vox::albedoImage(cpu));
+    const std::vector<std::uint8_t> gpuColor = rt::composeChannel(gpu, gpuCam, "color");
+    double shadedSq = 0, colorSq = 0;
+    for (std::size_t i = 0; i < c.pixels; ++i) {
+        const bool ch = std::isfinite(cpu.depth[i]), gh = gpu.hit(i);
+        c.cpuHits += ch;
+        c.maskAgree += ch == gh;
+        c.iterationsExact += cpu.iterations[i] == gpu.iterations[i];
+        if (!(ch && gh)) continue;
+        ++c.bothHit;
+        c.depthExact += cpu.depth[i] == gpu.depth[i];
+        c.maxRelDepth = std::max(c.maxRelDepth, double(std::abs(cpu.depth[i] - gpu.depth[i]) / cpu.depth[i]));
+        c.levelAgree += cpu.level[i] == gpu.level[i];
+        const float dn = std::abs(cpu.normal[i].x - gpu.normal[3 * i]) + std::abs(cpu.normal[i].y - gpu.normal[3 * i + 1]) +
+                         std::abs(cpu.normal[i].z - gpu.normal[3 * i + 2]);
+        c.normalAgree += dn < 1e-6f;
+        c.maxNormalDiff = std::max(c.maxNormalDiff, double(dn));
+        c.colorExact += cpu.color[i] == gpu.color[i] && vox::hasAttributes(cpu, i) == gpu.hasAttributes(i);
+        for (std::size_t k = 0; k < 3; ++k) {
+            const double ds = double(cpuShaded[3 * i + k]) - double(gpuShaded[3 * i + k]);
+            const double dc = double(cpuColor[3 * i + k]) - double(gpuColor[3 * i + k]);
+            shadedSq += ds * ds, colorSq += dc * dc;
+        }
+    }
+    c.shadedPsnr = psnr(shadedSq, 3 * c.bothHit);
+    c.colorPsnr = psnr(colorSq, 3 * c.bothHit);
+    return c;
+}
+
+void report(const std::string& what, const Comparison& c, double gpuMs) {
+    std::printf("[ runtime  ] %s: %zu px, %zu hits; mask %zu/%zu; of %zu common hits: depth exact %zu (max rel %.2g), level %zu, "
+                "normal %zu (max %.2g), colour word %zu; iterations exact %zu; shaded PSNR %.1f dB, colour PSNR %.1f dB; %.2f ms wall\n",
+                what.c_str(), c.pixels, c.cpuHits, c.maskAgree, c.pixels, c.bothHit, c.depthExact, c.maxRelDepth, c.levelAgree,
+                c.normalAgree, c.maxNormalDiff, c.colorExact, c.iterationsExact, c.shadedPsnr, c.colorPsnr, gpuMs);
+}
+
+/// The acceptance bar, and tighter checks on what must agree where both hit.
+void expectEquivalent(const Comparison& c) {
+    EXPECT_GT(c.cpuHits, c.pixels / 4) << "the view must show the scene";
+    EXPECT_GE(double(c.maskAgree), 0.999 * double(c.pixels)) << "hit masks differ";
+    EXPECT_GE(c.shadedPsnr, 40.0);
+    EXPECT_GE(c.colorPsnr, 40.0);
+    EXPECT_LE(c.maxRelDepth, 1e-3);
+    EXPECT_GE(double(c.levelAgree), 0.999 * double(c.bothHit));
+    EXPECT_GE(double(c.normalAgree), 0.999 * double(c.bothHit));
+    EXPECT_GE(double(c.colorExact), 0.999 * double(c.bothHit));
+}
+
+}  // namespace
+
+TEST(RuntimeContext, CreatesOpenGl45Core) {
+    REQUIRE_GL();
+    EXPECT_GE(gl->majorVersion() * 10 + gl->minorVersion(), 45) << gl->version();
+    EXPECT_FALSE(gl->renderer().empty());
+    EXPECT_FALSE(gl->version().empty());
+    GLint flags = 0, profile = 0;
+    glGetIntegerv(GL_CONTEXT_FLAGS, &flags);
+    glGetIntegerv(GL_CONTEXT_PROFILE_MASK, &profile);
+    EXPECT_TRUE(flags & GL_CONTEXT_FLAG_DEBUG_BIT) << "the context must be a debug context (KHR_debug output)";
+    EXPECT_TRUE(profile & GL_CONTEXT_CORE_PROFILE_BIT);
+    std::printf("[ runtime  ] %s | %s | EGL %s\n", gl->renderer().c_str(), gl->version().c_str(), gl->platformName());
+    EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
+}
+
+TEST(RuntimeContext, DebugCallbackCatchesGlErrors) {
+    REQUIRE_GL();
+    ASSERT_EQ(gl->errorCount(), 0u);
+    glEnable(0x7FFF);  // no such capability: GL_INVALID_ENUM
+    EXPECT_EQ(gl->errorCount(), 1u) << "KHR_debug must report the error synchronously";
+    EXPECT_NE(gl->errorSummary().find("error"), std::string::npos) << gl->errorSummary();
+    EXPECT_THROW(gl->throwOnErrors("deliberate"), rt::RuntimeError);
+    GLuint buffer = 0;
+    glCreateBuffers(1, &buffer);
+    glNamedBufferStorage(buffer, 16, nullptr, 0);
+    const std::uint32_t data[4]{};
+    glNamedBufferSubData(buffer, 0, 16, data);  // immutable storage without DYNAMIC_STORAGE_BIT: GL_INVALID_OPERATION
+    glDeleteBuffers(1, &buffer);
+    EXPECT_EQ(gl->errorCount(), 2u);
+    gl->clearDebugMessages();
+    EXPECT_EQ(gl->errorCount(), 0u);
+    EXPECT_NO_THROW(gl->throwOnErrors("after clearing"));
+}
+
+TEST(RuntimeContext, ShaderCompileErrorCarriesTheLog) {
+    REQUIRE_GL();
+    try {
+        rt::ComputeProgram bad("broken shader", "#version 450 core\nlayout(local_size_x = 1) in;\nvoid main() { undefined_thing = 1; }\n");
+        FAIL() << "compiled a broken shader";
+    } catch (const rt::RuntimeError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("broken shader: compile failed:"), std::string::npos) << what;
+        EXPECT_NE(what.find("undefined_thing"), std::string::npos) << what;
+        EXPECT_EQ(what.find('\n'), std::string::npos) << "one line";
+    }
+    gl->clearDebugMessages();  // the compiler may also report through KHR_debug
+}
+
+class RuntimeRaycast : public ::testing::TestWithParam<vox::AttributeEncoding> {};
+
+TEST_P(RuntimeRaycast, MatchesCpuReference) {
+    REQUIRE_GL();
+    vox::test::ScratchDir dir;
+    const fs::path file = writeOctree(dir / "cornell.esvo", 6, GetParam());
+    const vox::esvo::EsvoReader reader(file);
+    vox::esvo::EsvoPool pool(reader);
+    pool.loadAll();
+    const vox::EsvoRayCaster cpu(pool);
+    rt::EsvoGpuPool gpuPool(*gl, pool);
+    rt::EsvoGpuRaycaster gpu(*gl, gpuPool);
+    for (const View& view : kViews) {
+        for (const double lodScale : {1.0, 0.0, 6.0}) {
+            const vox::PinholeCamera cc = cpuCamera(view);
+            const rt::Camera gc = gpuCamera(view);
+            vox::CastOptions options;
+            options.lodAngle = cc.pixelAngle() * lodScale;
+            options.attributes = true;
+            rt::GpuCastOptions gpuOptions;
+            gpuOptions.lodAngle = gc.pixelAngle() * lodScale;
+            ASSERT_EQ(options.lodAngle, gpuOptions.lodAngle);
+            const vox::RenderBuffers reference = vox::renderEsvo(cpu, cc, options);
+            const rt::GpuFrame frame = gpu.render(gc, gpuOptions);
+            ASSERT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
+            const Comparison c = compare(reference, frame, cc, gc);
+            report(std::string("encoding ") + std::to_string(int(GetParam())) + " lod " + std::to_string(lodScale), c, frame.wallMilliseconds);
+            expectEquivalent(c);
+            if (lodScale == 6.0) {
+                // Voxels of 6 pixels: the level-of-detail cut must stop above the leaves somewhere.
+                EXPECT_LT(*std::max_element(frame.level.begin(), frame.level.end()), reader.header().leafDepth);
+            }
+        }
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Encodings, RuntimeRaycast,
+                         ::testing::Values(vox::AttributeEncoding::Raw, vox::AttributeEncoding::Compressed,
+                                           vox::AttributeEncoding::CompressedLookup),
+                         [](const auto& param) {
+                             switch (param.param) {
+                                 case vox::AttributeEncoding::Raw: return std::string("raw");
+                                 case vox::AttributeEncoding::Compressed: return std::string("dxt");
+                                 default: return std::string("dxt_lookup");
+                             }
+                         });
+
+// Depth 7 in 16 KB slices with far pointers: loads part of the tree (coarser levels stop where
+// child slices are missing, in both casters), then the rest, which EsvoGpuPool::sync() uploads
+// page by page.
+TEST(RuntimeRaycastStreaming, PartialLoadThenSyncMatchesCpu) {
+    REQUIRE_GL();
+    vox::test::ScratchDir dir;
+    const fs::path file = writeOctree(dir / "sliced.esvo", 7, vox::AttributeEncoding::Compressed, 16384, 64);
+    const vox::esvo::EsvoReader reader(file);
+    ASSERT_GT(reader.sliceCount(), 4u);
+    vox::esvo::EsvoPool pool(reader);
+    pool.loadAll(4);
+    const std::uint32_t partial = pool.loadedSliceCount();
+    ASSERT_LT(partial, reader.sliceCount());
+    rt::EsvoGpuPool gpuPool(*gl, pool, 4u << 20);
+    rt::EsvoGpuRaycaster gpu(*gl, gpuPool);
+    const vox::EsvoRayCaster cpu(pool);
+    const View view = kViews[1];
+    vox::CastOptions options;
+    options.lodAngle = 0;
+    options.attributes = true;
+    const auto check = [&](const std::string& what) -> vox::RenderBuffers {
+        const vox::RenderBuffers reference = vox::renderEsvo(cpu, cpuCamera(view), options);
+        const rt::GpuFrame frame = gpu.render(gpuCamera(view), rt::GpuCastOptions{0, 0xFFFFFFFFu, true, true});
+        EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
+        const Comparison c = compare(reference, frame, cpuCamera(view), gpuCamera(view));
+        report(what, c, frame.wallMilliseconds);
+        expectEquivalent(c);
+        return reference;
+    };
+    const vox::RenderBuffers coarse = check("streaming: " + std::to_string(partial) + " slices");
+    pool.loadAll();
+    const std::uint64_t uploaded = gpuPool.sync();
+    EXPECT_GT(uploaded, 0u);
+    EXPECT_LE(uploaded, pool.wordCount() * 4);
+    EXPECT_EQ(gpuPool.sync(), 0u) << "nothing changed: nothing to upload";
+    const vox::RenderBuffers fine = check("streaming: all " + std::to_string(pool.loadedSliceCount()) + " slices");
+    // The loaded slices made a difference (finer levels appear), so the upload mattered.
+    std::size_t finer = 0;
+    for (std::size_t i = 0; i < fine.level.size(); ++i) finer += fine.level[i] > coarse.level[i];
+    EXPECT_GT(finer, 0u);
+}
+
+TEST(RuntimeRaycast, SameImageTwice) {
+    REQUIRE_GL();
+    vox::test::ScratchDir dir;
+    const fs::path file = writeOctree(dir / "cornell.esvo", 6, vox::AttributeEncoding::Compressed);
+    const vox::esvo::EsvoReader reader(file);
+    vox::esvo::EsvoPool pool(reader);
+    pool.loadAll();
+    rt::EsvoGpuPool gpuPool(*gl, pool);
+    rt::EsvoGpuRaycaster gpu(*gl, gpuPool);
+    const rt::Camera camera = gpuCamera(kViews[0]);
+    rt::GpuCastOptions options;
+    options.lodAngle = camera.pixelAngle();
+    const rt::GpuFrame a = gpu.render(camera, options), b = gpu.render(camera, options);
+    EXPECT_EQ(rt::composeChannel(a, camera, "shaded"), rt::composeChannel(b, camera, "shaded"));
+    EXPECT_EQ(a.iterations, b.iterations);
+    EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
+}
+
+// voxview as a process against voxinspect render on the same file and camera: the same PNG
+// pixels for every channel; and its errors: one line, the tools' exit codes.
+TEST(Voxview, MatchesVoxinspectRenderAndReportsErrors) {
+    REQUIRE_GL();
+    vox::test::ScratchDir dir;
+    const fs::path file = writeOctree(dir / "cornell.esvo", 7, vox::AttributeEncoding::Compressed);
+    const std::vector<std::string> camera{"--eye", "1.3,1.7,2.4", "--target", "-0.2,0.8,-0.3", "--width", "96", "--height", "72"};
+    for (const std::string channel : {"shaded", "color", "normal", "depth", "iterations"}) {
+        const fs::path cpuPng = dir / ("cpu_" + channel + ".png"), gpuPng = dir / ("gpu_" + channel + ".png");
+        std::vector<std::string> args{"render", file.string(), "-o", cpuPng.string(), "--channel", channel, "-q"};
+        args.insert(args.end(), camera.begin(), camera.end());
+        const vox::test::ProcessResult cpuRun = vox::test::runProcess(vox::test::voxinspectPath(), args);
+        ASSERT_EQ(cpuRun.exitCode, 0) << cpuRun.err;
+        std::vector<std::string> viewArgs{file.string(), "--headless", "-o", gpuPng.string(), "--channel", channel, "-q",
+                                          "--stats", (dir / "stats.json").string()};
+        viewArgs.insert(viewArgs.end(), camera.begin(), camera.end());
+        const vox::test::ProcessResult gpuRun = vox::test::runProcess(LIBVOX_VOXVIEW, viewArgs);
+        ASSERT_EQ(gpuRun.exitCode, 0) << gpuRun.err;
+        EXPECT_TRUE(gpuRun.err.empty()) << gpuRun.err;
+        const vox::Texture a = vox::loadTexture(cpuPng, vox::ColorSpace::Linear), b = vox::loadTexture(gpuPng, vox::ColorSpace::Linear);
+        ASSERT_EQ(b.width(), 96);
+        ASSERT_EQ(b.height(), 72);
+        std::size_t differing = 0;
+        for (int y = 0; y < 72; ++y)
+            for (int x = 0; x < 96; ++x) {
+                const vox::Vec4f p = a.texel(0, x, y), q = b.texel(0, x, y);
+                differing += p.x != q.x || p.y != q.y || p.z != q.z;
+            }
+        EXPECT_LE(double(differing), 0.001 * 96 * 72) << channel << ": " << differing << " pixels differ";
+    }
+    const std::string stats = vox::test::readText(dir / "stats.json");
+    for (const char* key : {"\"renderer\"", "\"gl_version\"", "\"gpu_ms_per_frame\"", "\"wall_ms_per_frame\"", "\"resident_bytes\"", "\"hits\""})
+        EXPECT_NE(stats.find(key), std::string::npos) << key;
+    EXPECT_NE(stats.find("\"gl_errors\": 0"), std::string::npos) << stats;
+
+    const auto expectError = [&](std::vector<std::string> args, int code, const std::string& text) {
+        const vox::test::ProcessResult r = vox::test::runProcess(LIBVOX_VOXVIEW, args);
+        EXPECT_EQ(r.exitCode, code) << r.err;
+        ASSERT_EQ(r.errLines().size(), 1u) << r.err;
+        EXPECT_EQ(r.errLines()[0].rfind("voxview: error: ", 0), 0u) << r.err;
+        EXPECT_NE(r.err.find(text), std::string::npos) << r.err;
+    };
+    const std::string out = (dir / "x.png").string();
+    expectError({file.string(), "--headless", "-o", out, "--eye", "0,1,3", "--target", "0,1,0", "--channel", "nope"}, 1, "--channel");
+    expectError({file.string(), "-o", out, "--eye", "0,1,3", "--target", "0,1,0"}, 1, "--headless");
+    expectError({file.string(), "--headless", "-o", out, "--eye", "0,1", "--target", "0,1,0"}, 1, "--eye expects x,y,z");
+    expectError({(dir / "missing.esvo").string(), "--headless", "-o", out, "--eye", "0,1,3", "--target", "0,1,0"}, 2, "missing.esvo");
+    vox::test::writeText(dir / "bad.esvo", "not an octree");
+    expectError({(dir / "bad.esvo").string(), "--headless", "-o", out, "--eye", "0,1,3", "--target", "0,1,0"}, 3, "bad.esvo");
+    EXPECT_FALSE(fs::exists(dir / "x.png"));
+}
