@@ -10,10 +10,12 @@
 #include <vox/runtime/channels.h>
 #include <vox/runtime/esvo_gpu_pool.h>
 #include <vox/runtime/esvo_gpu_raycaster.h>
+#include <vox/runtime/esvo_stream.h>
 #include <vox/runtime/gl_context.h>
 #include <vox/runtime/shader.h>
 
 #include "cornell_box.h"
+#include "gl_test_context.h"
 #include "test_support.h"
 
 #include <GL/glcorearb.h>
@@ -30,27 +32,6 @@ namespace rt = vox::runtime;
 
 namespace {
 
-/// One context for the whole test program (creating one is the slow part on llvmpipe); null
-/// with the reason when this machine has no OpenGL 4.5 at all.
-rt::HeadlessGlContext* context(std::string* whyNot = nullptr) {
-    static std::string reason;
-    static std::unique_ptr<rt::HeadlessGlContext> ctx = [] {
-        try {
-            return std::make_unique<rt::HeadlessGlContext>();
-        } catch (const rt::RuntimeError& e) {
-            reason = e.what();
-            return std::unique_ptr<rt::HeadlessGlContext>();
-        }
-    }();
-    if (whyNot != nullptr) *whyNot = reason;
-    return ctx.get();
-}
-
-#define REQUIRE_GL()                                                          \
-    std::string whyNoGl;                                                      \
-    rt::HeadlessGlContext* gl = context(&whyNoGl);                            \
-    if (gl == nullptr) GTEST_SKIP() << "no OpenGL 4.5 context: " << whyNoGl;  \
-    gl->clearDebugMessages()
 
 /// The Cornell box voxelized once per depth (contours and attributes on).
 const vox::SparseOctree& cornellOctree(std::uint32_t depth) {
@@ -305,6 +286,56 @@ TEST(RuntimeRaycastStreaming, PartialLoadThenSyncMatchesCpu) {
     std::size_t finer = 0;
     for (std::size_t i = 0; i < fine.level.size(); ++i) finer += fine.level[i] > coarse.level[i];
     EXPECT_GT(finer, 0u);
+}
+
+TEST(EsvoStream, AFlightStaysUnderTheBudgetWithoutHolesAndMatchesTheCpuOnTheResidentSlices) {
+    REQUIRE_GL();
+    vox::test::ScratchDir dir;
+    const fs::path file = writeOctree(dir / "flight.esvo", 7, vox::AttributeEncoding::Compressed, 16384, 64);
+    const vox::esvo::EsvoReader full(file);
+    vox::esvo::EsvoPool everything(full);
+    everything.loadAll();
+    const vox::EsvoRayCaster reference(everything);  // full detail: what a hole would be missing
+    rt::EsvoStreamOptions options;
+    options.budgetBytes = everything.residentBytes() * 2 / 5;
+    options.frameLoadBytes = 96 << 10;
+    options.ringBytes = 1 << 20;
+    rt::EsvoStream stream(*gl, file, options);
+    const vox::EsvoRayCaster cpu(stream.pool());
+    std::uint64_t loaded = 0, evicted = 0, uploaded = 0;
+    for (int frame = 0; frame < 10; ++frame) {
+        // Round the box and in close, then a jump back to the front.
+        const double a = frame < 9 ? 0.6 * frame : 0.0, d = frame < 9 ? 3.4 - 0.2 * frame : 3.6;
+        const View view{{d * std::sin(a), 1.2, d * std::cos(a)}, {0, 1, 0}, 96, 72};
+        stream.setCamera(gpuCamera(view));
+        const rt::EsvoStreamUpdate update = stream.update();
+        loaded += update.loaded, evicted += update.evicted, uploaded += update.uploadedBytes;
+        EXPECT_LE(update.residentBytes, options.budgetBytes) << frame;
+        EXPECT_LE(update.loadedBytes, std::uint64_t(options.frameLoadBytes)) << frame;
+        // What is uploaded: the loaded slices, and a page per parent whose far pointers were patched.
+        EXPECT_GE(update.uploadedBytes, update.loadedBytes) << frame;
+        EXPECT_LE(update.uploadedBytes, update.loadedBytes + 8192u * (update.loaded + update.evicted)) << frame;
+        std::printf("[ runtime  ] flight frame %d: %u loaded (%llu B), %u evicted, %llu B uploaded, %llu B resident, %u pending\n", frame,
+                    update.loaded, (unsigned long long)update.loadedBytes, update.evicted, (unsigned long long)update.uploadedBytes,
+                    (unsigned long long)update.residentBytes, update.pending);
+        const rt::GpuFrame gpu = stream.render(stream.castOptions());
+        ASSERT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
+        // The same image as the CPU reference on the same resident slices ...
+        vox::CastOptions cast;
+        cast.lodAngle = cpuCamera(view).pixelAngle() * options.lodScale;
+        cast.attributes = true;
+        const Comparison c = compare(vox::renderEsvo(cpu, cpuCamera(view), cast), gpu, cpuCamera(view), gpuCamera(view));
+        expectEquivalent(c);
+        // ... and no holes: every pixel that hits at full detail hits here (coarser voxels cover
+        // their children).
+        const vox::RenderBuffers fine = vox::renderEsvo(reference, cpuCamera(view), cast);
+        std::size_t holes = 0;
+        for (std::size_t i = 0; i < fine.depth.size(); ++i) holes += std::isfinite(fine.depth[i]) && !gpu.hit(i);
+        EXPECT_EQ(holes, 0u) << frame;
+    }
+    EXPECT_GT(loaded, 0u);
+    EXPECT_GT(evicted, 0u) << "a budget of 40 % of the file must evict along the flight";
+    EXPECT_EQ(uploaded, stream.ring().bytesUploaded());
 }
 
 TEST(RuntimeRaycast, SameImageTwice) {

@@ -34,9 +34,9 @@ std::filesystem::path smallSliceOctree(const vox::test::ScratchDir& dir) {
 
 StreamingView view(std::array<double, 3> eye, std::array<double, 3> target, int size = 256) {
     StreamingView v;
-    v.eye = eye;
-    v.target = target;
-    v.width = v.height = size;
+    v.camera.eye = eye;
+    v.camera.target = target;
+    v.camera.width = v.camera.height = size;
     return v;
 }
 

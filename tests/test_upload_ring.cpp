@@ -4,26 +4,16 @@
 #include <vox/runtime/gl_context.h>
 #include <vox/runtime/upload_ring.h>
 
+#include "gl_test_context.h"
+
 #include <GL/glcorearb.h>
 #include <gtest/gtest.h>
 
 #include <cstring>
-#include <memory>
-#include <optional>
 #include <random>
 #include <vector>
 
 namespace {
-
-/// The context, or a skip with the reason where this machine has no OpenGL 4.5 at all.
-std::unique_ptr<vox::runtime::HeadlessGlContext> makeContext(std::string& why) {
-    try {
-        return std::make_unique<vox::runtime::HeadlessGlContext>();
-    } catch (const std::exception& e) {
-        why = e.what();
-        return nullptr;
-    }
-}
 
 std::vector<std::byte> randomBytes(std::size_t n, std::uint64_t seed) {
     std::mt19937_64 rng(seed);
@@ -58,22 +48,18 @@ void roundTrip(vox::runtime::HeadlessGlContext& context, vox::runtime::UploadRin
 }  // namespace
 
 TEST(UploadRing, PersistentRingDeliversEveryByteAcrossWraps) {
-    std::string why;
-    auto context = makeContext(why);
-    if (!context) GTEST_SKIP() << "no OpenGL 4.5 context: " << why;
+    REQUIRE_GL();
     // A 256 KB ring under 1.6 MB of uploads: it wraps several times, and uploads bigger than a
     // quarter of it go in parts.
-    vox::runtime::UploadRing ring(*context, 256 << 10, vox::runtime::UploadPath::PersistentRing);
+    vox::runtime::UploadRing ring(*gl, 256 << 10, vox::runtime::UploadPath::PersistentRing);
     EXPECT_EQ(ring.path(), vox::runtime::UploadPath::PersistentRing);
-    roundTrip(*context, ring);
+    roundTrip(*gl, ring);
     EXPECT_GT(ring.bytesUploaded(), 2 * ring.ringBytes());
 }
 
 TEST(UploadRing, BufferSubDataFallbackDeliversTheSameBytes) {
-    std::string why;
-    auto context = makeContext(why);
-    if (!context) GTEST_SKIP() << "no OpenGL 4.5 context: " << why;
-    vox::runtime::UploadRing ring(*context, 0, vox::runtime::UploadPath::BufferSubData);
-    roundTrip(*context, ring);
+    REQUIRE_GL();
+    vox::runtime::UploadRing ring(*gl, 0, vox::runtime::UploadPath::BufferSubData);
+    roundTrip(*gl, ring);
     EXPECT_EQ(ring.fenceWaits(), 0u);
 }

@@ -10,6 +10,7 @@
 #include <vox/runtime/channels.h>
 #include <vox/runtime/esvo_gpu_pool.h>
 #include <vox/runtime/esvo_gpu_raycaster.h>
+#include <vox/runtime/esvo_stream.h>
 #include <vox/runtime/gl_context.h>
 
 #include <CLI/CLI.hpp>
@@ -19,6 +20,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 #include <new>
 
@@ -40,7 +42,43 @@ struct Options {
     int width = 512, height = 512, frames = 1;
     unsigned maxLevel = 0xFFFFFFFFu;
     bool headless = false, quiet = false;
+    double budgetMb = 256, frameLoadMb = 0;
+    std::string cameraPath, upload = "ring";
 };
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// The camera of each frame: the given one, an orbit around the target at the eye's distance and
+/// height ("orbit"), or a file of lines "ex,ey,ez tx,ty,tz" (one per frame, repeated if short).
+std::vector<vox::runtime::Camera> cameraPath(const Options& o, const vox::runtime::Camera& camera) {
+    std::vector<vox::runtime::Camera> path;
+    if (o.cameraPath.empty()) return std::vector<vox::runtime::Camera>(std::size_t(o.frames), camera);
+    if (o.cameraPath == "orbit") {
+        const double dx = camera.eye[0] - camera.target[0], dz = camera.eye[2] - camera.target[2];
+        const double radius = std::hypot(dx, dz), start = std::atan2(dx, dz);
+        for (int f = 0; f < o.frames; ++f) {
+            vox::runtime::Camera c = camera;
+            const double a = start + 2 * kPi * f / o.frames;
+            c.eye = {camera.target[0] + radius * std::sin(a), camera.eye[1], camera.target[2] + radius * std::cos(a)};
+            path.push_back(c);
+        }
+        return path;
+    }
+    std::ifstream in(o.cameraPath);
+    if (!in) throw vox::IoError(o.cameraPath, "cannot open the camera path");
+    std::string eye, target;
+    std::vector<vox::runtime::Camera> keys;
+    while (in >> eye >> target) {
+        vox::runtime::Camera c = camera;
+        c.eye = parseVector(eye, "--camera-path");
+        c.target = parseVector(target, "--camera-path");
+        c.validate();
+        keys.push_back(c);
+    }
+    if (keys.empty()) throw vox::InvalidDataError(o.cameraPath, "no camera in the path (lines: ex,ey,ez tx,ty,tz)");
+    for (int f = 0; f < o.frames; ++f) path.push_back(keys[std::size_t(f) % keys.size()]);
+    return path;
+}
 
 void run(const Options& o) {
     if (!o.headless) throw vox::UsageError("--headless is required: this voxview has no window (it renders to -o FILE.png)");
@@ -56,28 +94,57 @@ void run(const Options& o) {
     camera.height = o.height;
     camera.validate();
 
+    if (!(o.budgetMb > 0) || !(o.frameLoadMb >= 0)) throw vox::UsageError("--budget must be positive and --frame-load 0 or more");
+    if (o.upload != "ring" && o.upload != "subdata") throw vox::UsageError("--upload must be ring or subdata");
+    const std::vector<vox::runtime::Camera> path = cameraPath(o, camera);
+
     const auto start = std::chrono::steady_clock::now();
-    const vox::esvo::EsvoReader reader(o.file);
-    vox::esvo::EsvoPool pool(reader);
-    pool.loadAll();  // streaming by budget comes with the streaming issue; load everything for now
+    vox::runtime::HeadlessGlContext context;
+    vox::runtime::EsvoStreamOptions streamOptions;
+    streamOptions.budgetBytes = std::uint64_t(o.budgetMb * 1048576.0);
+    streamOptions.frameLoadBytes = std::uint64_t(o.frameLoadMb * 1048576.0);
+    streamOptions.lodScale = o.lodScale > 0 ? o.lodScale : 1.0;
+    streamOptions.uploadPath = o.upload == "ring" ? vox::runtime::UploadPath::PersistentRing : vox::runtime::UploadPath::BufferSubData;
+    vox::runtime::EsvoStream stream(context, o.file, streamOptions);
+    const vox::esvo::EsvoReader& reader = stream.reader();
     if ((o.channel == "color") && !reader.header().hasAttributes())
         throw vox::UsageError(o.file + ": no colours in this file (voxelize --attributes none)");
     const auto loaded = std::chrono::steady_clock::now();
 
-    vox::runtime::HeadlessGlContext context;
-    vox::runtime::EsvoGpuPool gpuPool(context, pool);
-    vox::runtime::EsvoGpuRaycaster caster(context, gpuPool);
     vox::runtime::GpuCastOptions options;
-    options.lodAngle = camera.pixelAngle() * o.lodScale;
     options.maxLevel = o.maxLevel;
     options.attributes = vox::runtime::channelNeedsAttributes(o.channel);
     vox::runtime::GpuFrame frame;
-    std::vector<double> gpuMs, wallMs;
+    std::vector<double> gpuMs, wallMs, updateMs;
+    nlohmann::json perFrame = nlohmann::json::array();
+    std::uint64_t maxResident = 0, slicesLoaded = 0, slicesEvicted = 0;
+    int fullDetailFrame = -1;
     for (int f = 0; f < o.frames; ++f) {
-        frame = caster.render(camera, options);
+        stream.setCamera(path[std::size_t(f)]);
+        const vox::runtime::EsvoStreamUpdate update = stream.update();
+        options.lodAngle = path[std::size_t(f)].pixelAngle() * o.lodScale;
+        frame = stream.render(options);
         gpuMs.push_back(frame.gpuMilliseconds);
         wallMs.push_back(frame.wallMilliseconds);
+        updateMs.push_back(update.seconds * 1e3);
+        maxResident = std::max(maxResident, update.residentBytes);
+        slicesLoaded += update.loaded;
+        slicesEvicted += update.evicted;
+        if (fullDetailFrame < 0 && update.pending == 0) fullDetailFrame = f;
+        perFrame.push_back({{"resident_bytes", update.residentBytes},
+                            {"uploaded_bytes", update.uploadedBytes},
+                            {"slices_loaded", update.loaded},
+                            {"slices_evicted", update.evicted},
+                            {"slices_pending", update.pending},
+                            {"slices_over_budget", update.neededNotFitting},
+                            {"update_ms", update.seconds * 1e3},
+                            {"cast_wall_ms", frame.wallMilliseconds},
+                            {"cast_gpu_ms", frame.gpuMilliseconds},
+                            {"hits", frame.hits}});
+        context.throwOnErrors("frame " + std::to_string(f));
     }
+    const vox::esvo::EsvoPool& pool = stream.pool();
+    const vox::runtime::EsvoGpuPool& gpuPool = stream.gpuPool();
     const auto rendered = std::chrono::steady_clock::now();
     voxview::writePngRgb8(o.output, frame.width, frame.height, vox::runtime::composeChannel(frame, camera, o.channel));
     if (!o.quiet)
@@ -115,8 +182,16 @@ void run(const Options& o) {
             {"mrays_per_second", pixels / (median(wallMs) * 1e-3) / 1e6},
             {"loaded_slices", pool.loadedSliceCount()},
             {"resident_bytes", pool.residentBytes()},
+            {"max_resident_bytes", maxResident},
+            {"budget_bytes", streamOptions.budgetBytes},
+            {"slices_loaded", slicesLoaded},
+            {"slices_evicted", slicesEvicted},
+            // The first frame whose view had every slice it needs (within the budget); -1: none.
+            {"full_detail_frame", fullDetailFrame},
+            {"upload_path", o.upload},
+            {"update_ms_per_frame", updateMs},
+            {"per_frame", perFrame},
             {"gpu_pool_bytes", gpuPool.capacityBytes()},
-            {"gpu_output_bytes", caster.outputBytes()},
             {"uploaded_bytes", gpuPool.uploadedBytesTotal()},
             {"gl_errors", context.errorCount()},
             {"timings_ms",
@@ -146,7 +221,14 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     app.add_option("--max-level", o.maxLevel, "Treat voxels of this level as leaves");
     app.add_option("--frames", o.frames, "Render this many frames (timing); the last is written")->check(CLI::Range(1, 10000));
-    app.add_option("--stats", o.stats, "Write a JSON report: renderer, GPU ms per frame, hits, resident bytes");
+    app.add_option("--budget", o.budgetMb, "GPU memory budget for the octree's slices, MB")->capture_default_str();
+    app.add_option("--frame-load", o.frameLoadMb, "Most MB of slices loaded per frame (0: all the view needs)")->capture_default_str();
+    app.add_option("--camera-path", o.cameraPath,
+                   "Camera per frame: 'orbit' (around --target at --eye's distance and height, over --frames) or a file of "
+                   "lines 'ex,ey,ez tx,ty,tz'");
+    app.add_option("--upload", o.upload, "Upload path: ring (persistently mapped staging ring with fences) or subdata (glBufferSubData)")
+        ->capture_default_str();
+    app.add_option("--stats", o.stats, "Write a JSON report: renderer, frame times, hits, resident and uploaded bytes per frame");
     app.add_flag("-q,--quiet", o.quiet, "Print errors only");
     try {
         app.parse(argc, argv);

@@ -1,10 +1,12 @@
 #include <vox/runtime/esvo_gpu_pool.h>
 #include <vox/runtime/gl_context.h>
+#include <vox/runtime/upload_ring.h>
 
 #include <GL/glcorearb.h>
 
 #include <algorithm>
 #include <cstring>
+#include <span>
 
 namespace vox::runtime {
 namespace {
@@ -40,7 +42,7 @@ void EsvoGpuPool::allocate(std::uint64_t bytes) {
     context_.throwOnErrors("esvo pool: allocating " + std::to_string(bytes) + " bytes");
 }
 
-std::uint64_t EsvoGpuPool::sync() {
+std::uint64_t EsvoGpuPool::sync(UploadRing* ring) {
     const std::size_t words = pool_.wordCount();
     if (words * 4 > capacityBytes_) allocate(roundToPages(words * 4 + words * 2));  // grow by half again
     const std::uint32_t* source = pool_.words();
@@ -50,8 +52,11 @@ std::uint64_t EsvoGpuPool::sync() {
     std::size_t runStart = 0, runEnd = 0;
     const auto flush = [&] {
         if (runEnd > runStart) {
-            glNamedBufferSubData(buffer_, static_cast<GLintptr>(runStart * 4), static_cast<GLsizeiptr>((runEnd - runStart) * 4),
-                                 source + runStart);
+            if (ring != nullptr)
+                ring->upload(buffer_, runStart * 4, std::as_bytes(std::span(source + runStart, runEnd - runStart)));
+            else
+                glNamedBufferSubData(buffer_, static_cast<GLintptr>(runStart * 4), static_cast<GLsizeiptr>((runEnd - runStart) * 4),
+                                     source + runStart);
             uploaded += (runEnd - runStart) * 4;
         }
         runStart = runEnd = 0;

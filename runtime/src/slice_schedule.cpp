@@ -46,17 +46,17 @@ struct RootView {
         const auto direction = [&](V3 d) {
             return V3{m[0] * d[0] + m[1] * d[1] + m[2] * d[2], m[4] * d[0] + m[5] * d[1] + m[6] * d[2], m[8] * d[0] + m[9] * d[1] + m[10] * d[2]};
         };
-        if (!(view.fovYDegrees > 0 && view.fovYDegrees < 180) || view.width <= 0 || view.height <= 0 || !(view.lodScale > 0))
-            throw UsageError("streaming view: the field of view must be in (0, 180) degrees, the size and LOD scale positive");
-        eye = point(view.eye);
-        const V3 forward = unit(direction(sub(view.target, view.eye)));
-        const V3 right = unit(cross(forward, unit(direction(view.up))));
-        if (dot(forward, forward) == 0 || dot(right, right) == 0) throw UsageError("streaming view: the eye, target and up vector do not define a view");
+        const Camera& camera = view.camera;
+        camera.validate();
+        if (!(view.lodScale > 0)) throw UsageError("streaming view: the LOD scale must be positive");
+        eye = point(camera.eye);
+        const V3 forward = unit(direction(sub(camera.target, camera.eye)));
+        const V3 right = unit(cross(forward, unit(direction(camera.up))));
         const V3 up = cross(right, forward);
-        const double ty = std::tan(0.5 * view.fovYDegrees * kPi / 180);
-        const double tx = ty * double(view.width) / double(view.height);
+        const double ty = std::tan(0.5 * camera.fovYDegrees * kPi / 180);
+        const double tx = ty * double(camera.width) / double(camera.height);
         planes = {forward, sub(scale(forward, tx), right), add(scale(forward, tx), right), sub(scale(forward, ty), up), add(scale(forward, ty), up)};
-        pixelAngle = 2 * ty / double(view.height);
+        pixelAngle = camera.pixelAngle();
         lodScale = view.lodScale;
     }
 

@@ -11,6 +11,7 @@
 namespace vox::runtime {
 
 class HeadlessGlContext;
+class UploadRing;
 
 /// Mirrors an EsvoPool's arena (EsvoPool::words(), wordCount()) into an immutable-storage SSBO
 /// (GL_DYNAMIC_STORAGE_BIT). The buffer is sized to a capacity fixed at construction (at least
@@ -28,8 +29,9 @@ public:
     EsvoGpuPool(const EsvoGpuPool&) = delete;
     EsvoGpuPool& operator=(const EsvoGpuPool&) = delete;
 
-    /// Uploads the pages that differ from what the GPU holds. Returns the bytes uploaded.
-    std::uint64_t sync();
+    /// Uploads the pages that differ from what the GPU holds, through @p ring (the streaming
+    /// path) or, without one, with glNamedBufferSubData. Returns the bytes uploaded.
+    std::uint64_t sync(UploadRing* ring = nullptr);
 
     [[nodiscard]] const esvo::EsvoPool& pool() const noexcept { return pool_; }
     [[nodiscard]] unsigned buffer() const noexcept { return buffer_; }  ///< the SSBO name

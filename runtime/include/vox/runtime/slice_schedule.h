@@ -13,6 +13,7 @@
 
 #include <vox/formats/esvo.h>
 #include <vox/formats/esvo_reader.h>
+#include <vox/runtime/camera.h>
 
 #include <array>
 #include <cstdint>
@@ -20,13 +21,11 @@
 
 namespace vox::runtime {
 
-/// A pinhole view in world units, as vox::PinholeCamera describes it.
+/// A view to stream for: the camera, and the detail wanted.
 struct StreamingView {
-    std::array<double, 3> eye{0, 0, 1}, target{0, 0, 0}, up{0, 1, 0};
-    double fovYDegrees = 60;
-    int width = 512, height = 512;
-    /// Detail wanted: a slice is needed while its frontier voxels look bigger than lodScale
-    /// pixels (1: about one voxel per pixel).
+    Camera camera;
+    /// A slice is needed while its frontier voxels look bigger than lodScale pixels (1: about
+    /// one voxel per pixel, as the ray caster's LOD cut at the pixel angle).
     double lodScale = 1;
 };
 

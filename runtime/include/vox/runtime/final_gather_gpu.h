@@ -1,0 +1,93 @@
+/// @file final_gather_gpu.h
+/// @brief The cone-traced final gather of vox::FinalGather (libvox/include/vox/final_gather.h) as
+/// an OpenGL compute shader over an RvolGpuVolume: direct light from punctual lights through
+/// shadow cones, six diffuse cones (indirect light and AO) and a specular cone per shading point.
+#pragma once
+
+#include <vox/runtime/rvol_gpu_volume.h>
+#include <vox/runtime/shader.h>
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace vox::runtime {
+
+class HeadlessGlContext;
+
+/// A punctual light (vox::Light's fields; the runtime does not link libvox).
+struct GpuPunctualLight {
+    enum class Type : std::uint32_t { Directional = 0, Point = 1, Spot = 2 };
+    Type type = Type::Point;
+    std::array<float, 3> color{1, 1, 1};  ///< linear
+    float intensity = 1;                  ///< candela (point, spot) or lux (directional)
+    float range = 0;                      ///< 0: unlimited
+    float innerConeAngle = 0;             ///< radians (spot)
+    float outerConeAngle = 0.78539816f;   ///< radians (spot)
+    std::array<float, 3> position{0, 0, 0};
+    std::array<float, 3> direction{0, 0, -1};  ///< the way light travels
+};
+
+/// One surface point to shade (vox::ShadingPoint in float).
+struct GpuShadingPoint {
+    std::array<float, 3> position{0, 0, 0};
+    std::array<float, 3> normal{0, 0, 1};  ///< unit, on the viewer's side
+    std::array<float, 3> albedo{0, 0, 0};
+    std::array<float, 3> emission{0, 0, 0};
+    std::array<float, 3> view{0, 0, 1};    ///< unit, towards the viewer
+};
+
+/// The terms of one point (vox::FinalGatherParts in float).
+struct GpuGatherParts {
+    std::array<float, 3> final{0, 0, 0}, direct{0, 0, 0}, indirect{0, 0, 0}, specular{0, 0, 0};
+    float ao = 1;
+};
+
+/// vox::FinalGatherOptions' shading constants (the same defaults), and the filter.
+struct FinalGatherGpuOptions {
+    double specularApertureDegrees = 10;  ///< full apex angle, (0, 90)
+    double shadowApertureDegrees = 10;    ///< full apex angle, (0, 90)
+    bool shadowCones = true;
+    double offsetCells = 2;               ///< cone start off the surface, level-0 cells
+    double aoLambda = 8;                  ///< eq. 4's λ (the bake's: rvol BakeInfo::aoLambda)
+    double specularF0 = 0.04;
+    /// true: the texture unit's trilinear filter over the atlas slots (one fetch per plane);
+    /// false: eight texelFetch per plane with float weights (exactly the CPU's interpolation).
+    bool hardwareFilter = true;
+};
+
+/// Compiles the shader (shade and sample variants) once; shade() runs it over a volume.
+class FinalGatherGpu {
+public:
+    /// @throws RuntimeError for options outside their ranges (as FinalGather's UsageError) or a
+    /// shader that does not compile.
+    explicit FinalGatherGpu(HeadlessGlContext& context, const FinalGatherGpuOptions& options = {});
+    ~FinalGatherGpu();
+    FinalGatherGpu(const FinalGatherGpu&) = delete;
+    FinalGatherGpu& operator=(const FinalGatherGpu&) = delete;
+
+    /// Every term of each point, the direct one summed over @p lights with shadow cones, through
+    /// one dispatch (64 points per work group). Blocks until the results are read back.
+    [[nodiscard]] std::vector<GpuGatherParts> shade(const RvolGpuVolume& volume, std::span<const GpuShadingPoint> points,
+                                                    std::span<const GpuPunctualLight> lights);
+    /// RadianceField::sample(level, position, direction) on the GPU for each query (tests).
+    struct SampleQuery {
+        std::uint32_t level = 0;
+        std::array<float, 3> position{0, 0, 0};
+        std::array<float, 3> direction{0, 0, 1};
+    };
+    [[nodiscard]] std::vector<std::array<float, 4>> sample(const RvolGpuVolume& volume, std::span<const SampleQuery> queries);
+
+    [[nodiscard]] const FinalGatherGpuOptions& options() const noexcept { return options_; }
+    /// Seconds the last shade() took on the GPU, upload and read-back included (glFinish).
+    [[nodiscard]] double lastSeconds() const noexcept { return lastSeconds_; }
+
+private:
+    HeadlessGlContext& context_;
+    FinalGatherGpuOptions options_;
+    ComputeProgram shadeProgram_, sampleProgram_;
+    double lastSeconds_ = 0;
+};
+
+}  // namespace vox::runtime

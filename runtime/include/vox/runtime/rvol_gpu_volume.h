@@ -1,0 +1,144 @@
+/// @file rvol_gpu_volume.h
+/// @brief An .rvol radiance volume on the GPU: its bricks in 3D texture atlases (GL_RGB9_E5
+/// radiance, GL_R8 opacity) and an indirection table from brick coordinates to atlas slots, so
+/// that a shader samples any level and channel with the hardware's trilinear filter (no sparse
+/// textures). docs/runtime.md, "The radiance volume on the GPU".
+#pragma once
+
+#include <vox/formats/rvol_io.h>
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+namespace vox::runtime {
+
+class HeadlessGlContext;
+
+/// Fixed-size slots of an atlas, handed out from a free list (the lowest freed slot first is not
+/// promised: last freed, first reused). Slot 0 is reserved: the all-zero slot that absent bricks
+/// point at, never handed out.
+class AtlasSlotAllocator {
+public:
+    explicit AtlasSlotAllocator(std::uint32_t capacity = 1) : capacity_(capacity) {}
+    /// A free slot (≥ 1), or nothing when all capacity − 1 usable slots are taken.
+    [[nodiscard]] std::optional<std::uint32_t> allocate();
+    /// Gives @p slot back (it must have come from allocate() and not been released since).
+    void release(std::uint32_t slot);
+    [[nodiscard]] std::uint32_t capacity() const noexcept { return capacity_; }
+    [[nodiscard]] std::uint32_t used() const noexcept { return next_ - 1 - static_cast<std::uint32_t>(free_.size()); }
+
+private:
+    std::uint32_t capacity_;
+    std::uint32_t next_ = 1;  // slots below next_ have been handed out at least once
+    std::vector<std::uint32_t> free_;
+};
+
+/// Where RvolGpuVolume::bind() puts its objects; the GLSL of final_gather_gpu.cpp declares the
+/// same bindings (a shader of its own must too).
+struct RvolGpuBindings {
+    std::uint32_t rgbAtlasUnit = 0;    ///< sampler3D: the GL_RGB9_E5 radiance atlas, GL_LINEAR
+    std::uint32_t wordAtlasUnit = 1;   ///< usampler3D: the same storage as GL_R32UI (texture view), GL_NEAREST
+    std::uint32_t alphaAtlasUnit = 2;  ///< sampler3D: the GL_R8 opacity atlas, GL_LINEAR
+    std::uint32_t infoBinding = 4;     ///< SSBO: volume geometry and the level table
+    std::uint32_t indirectionBinding = 5;  ///< SSBO: per level, brick and plane, the packed atlas slot
+};
+
+struct RvolGpuVolumeOptions {
+    /// Slots to reserve in each atlas beyond what the file's bricks need (room for streaming).
+    std::uint32_t extraRgbSlots = 0, extraAlphaSlots = 0;
+    /// Upload every brick of every level in the constructor. false: an empty volume (every brick
+    /// absent) to be filled with uploadBrick().
+    bool uploadAll = true;
+    /// The opacity atlas as GL_R16 instead of GL_R8: each A8 value k expanded to k·257 on upload
+    /// (k/255 exactly), twice the opacity bytes. Worth it where the texture unit returns a
+    /// filtered GL_R8 at 8 bits (llvmpipe does: up to 1/255 off), since the directional
+    /// opacity's log(1 − a) is steep near 1; irrelevant with FinalGatherGpuOptions::hardwareFilter
+    /// false (texelFetch reads the exact value either way).
+    bool alpha16 = false;
+};
+
+/// The radiance of an .rvol file in GL (OpenGL 4.5). Layout (docs/runtime.md):
+/// - **RGB atlas**: one GL_RGB9_E5 3D texture of slots of N×N×N texels (N = brickTexels); a
+///   level-0 brick takes one slot (its RGB plane), a brick of levels ≥ 1 six (one per
+///   directional channel). The planes are uploaded as stored (GL_UNSIGNED_INT_5_9_9_9_REV).
+/// - **Opacity atlas**: one GL_R8 3D texture of N³ slots: one per level-0 brick (none with
+///   binary level-0 opacity, kFlagBinaryLevel0Opacity: the shader reads the RGB words through a
+///   GL_R32UI view of the RGB atlas and counts non-zero corners), three per brick above (x, y, z).
+/// - **Indirection**: an SSBO of u32, per level K³ bricks × P planes (P = 2 at level 0: RGB,
+///   opacity; 9 above: six RGB channels then the x, y, z opacities), each the slot's grid
+///   coordinates packed 10 bits each (x | y << 10 | z << 20). 0 is slot (0, 0, 0), the all-zero
+///   slot: an absent brick, or an absent plane, samples (0, 0, 0, 0) without a branch.
+/// - **Info**: an SSBO with the volume's origin and size, depth, N, flags, atlas sizes and per
+///   level the table offset, bricks per axis, resolution and planes per brick.
+/// The reader must outlive the object (uploadBrick reads from it).
+class RvolGpuVolume {
+public:
+    /// Allocates the atlases for every brick of @p reader (plus the options' extra slots) and, by
+    /// default, uploads them all. @throws RuntimeError when an atlas needs more slots than
+    /// GL_MAX_3D_TEXTURE_SIZE allows, or on a GL error; InvalidDataError for a corrupt brick.
+    RvolGpuVolume(HeadlessGlContext& context, const rvol::RvolReader& reader, const RvolGpuVolumeOptions& options = {});
+    ~RvolGpuVolume();
+    RvolGpuVolume(const RvolGpuVolume&) = delete;
+    RvolGpuVolume& operator=(const RvolGpuVolume&) = delete;
+
+    /// Uploads brick @p index of @p level (its directory entry) into free slots and points the
+    /// indirection at them; nothing if it is resident. Returns false when an atlas is full
+    /// (nothing changed): evict first.
+    bool uploadBrick(std::uint32_t level, std::uint32_t index);
+    /// Frees the brick's slots and points its indirection entries at the zero slot (it then
+    /// samples as empty). Nothing if it is not resident.
+    void evictBrick(std::uint32_t level, std::uint32_t index);
+    [[nodiscard]] bool resident(std::uint32_t level, std::uint32_t index) const;
+
+    /// Binds the atlases, the view and both SSBOs at @p bindings.
+    void bind(const RvolGpuBindings& bindings = {}) const;
+
+    [[nodiscard]] const rvol::RvolReader& reader() const noexcept { return reader_; }
+    [[nodiscard]] std::uint32_t brickTexels() const noexcept { return n_; }
+    /// Bytes per opacity texel: 1 (GL_R8) or 2 (GL_R16, RvolGpuVolumeOptions::alpha16).
+    [[nodiscard]] std::uint32_t alphaTexelBytes() const noexcept { return alpha16_ ? 2u : 1u; }
+    [[nodiscard]] std::array<std::uint32_t, 3> rgbSlotGrid() const noexcept { return rgbGrid_; }
+    [[nodiscard]] std::array<std::uint32_t, 3> alphaSlotGrid() const noexcept { return alphaGrid_; }
+    [[nodiscard]] const AtlasSlotAllocator& rgbSlots() const noexcept { return rgbSlots_; }
+    [[nodiscard]] const AtlasSlotAllocator& alphaSlots() const noexcept { return alphaSlots_; }
+    [[nodiscard]] std::uint64_t residentBricks() const noexcept { return residentBricks_; }
+    /// GPU memory held: both atlases (all slots, used or not), the indirection and the info SSBOs.
+    [[nodiscard]] std::uint64_t residentBytes() const noexcept;
+    /// Of the atlases, the bytes of slots holding a brick's plane.
+    [[nodiscard]] std::uint64_t usedAtlasBytes() const noexcept;
+    [[nodiscard]] std::uint64_t indirectionBytes() const noexcept { return indirection_.size() * 4; }
+    [[nodiscard]] std::uint64_t uploadedBytesTotal() const noexcept { return uploadedTotal_; }
+
+    [[nodiscard]] unsigned rgbAtlas() const noexcept { return rgbAtlas_; }
+    [[nodiscard]] unsigned wordView() const noexcept { return wordView_; }
+    [[nodiscard]] unsigned alphaAtlas() const noexcept { return alphaAtlas_; }
+    [[nodiscard]] unsigned infoBuffer() const noexcept { return infoBuffer_; }
+    [[nodiscard]] unsigned indirectionBuffer() const noexcept { return indirectionBuffer_; }
+
+    /// Planes per brick entry of the indirection: 2 at level 0, 9 above.
+    [[nodiscard]] static std::uint32_t planesPerBrick(std::uint32_t level) noexcept { return level == 0 ? 2u : 9u; }
+
+private:
+    [[nodiscard]] std::uint64_t entryOffset(std::uint32_t level, std::uint32_t index) const;
+    void createAtlas(unsigned& texture, const std::array<std::uint32_t, 3>& grid, bool rgb);
+    [[nodiscard]] std::array<std::uint32_t, 3> slotOrigin(const std::array<std::uint32_t, 3>& grid, std::uint32_t slot) const noexcept;
+
+    HeadlessGlContext& context_;
+    const rvol::RvolReader& reader_;
+    std::uint32_t n_ = 0;
+    bool binaryLevel0_ = false;
+    bool alpha16_ = false;
+    unsigned rgbAtlas_ = 0, wordView_ = 0, alphaAtlas_ = 0, infoBuffer_ = 0, indirectionBuffer_ = 0;
+    std::array<std::uint32_t, 3> rgbGrid_{1, 1, 1}, alphaGrid_{1, 1, 1};
+    AtlasSlotAllocator rgbSlots_, alphaSlots_;
+    std::vector<std::uint64_t> levelBase_;       // per level: first u32 of its indirection entries
+    std::vector<std::uint32_t> indirection_;     // host copy of the indirection SSBO (packed slot coordinates)
+    std::vector<std::vector<std::uint8_t>> residentFlags_;  // per level, per directory index
+    std::uint64_t residentBricks_ = 0;
+    std::uint64_t infoBytes_ = 0;
+    std::uint64_t uploadedTotal_ = 0;
+};
+
+}  // namespace vox::runtime
