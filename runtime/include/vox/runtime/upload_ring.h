@@ -15,8 +15,8 @@ class HeadlessGlContext;
 /// How UploadRing moves bytes to the GPU.
 enum class UploadPath : std::uint8_t {
     /// A staging buffer mapped once (GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT): the CPU writes
-    /// into the ring while the GPU copies earlier parts out (glCopyNamedBufferSubData), each part
-    /// guarded by a fence that is waited on only when the ring wraps onto it.
+    /// into the ring while the GPU copies earlier parts out (glCopyNamedBufferSubData), each
+    /// quarter of the ring guarded by a fence that is waited on only when the ring wraps onto it.
     PersistentRing,
     /// glNamedBufferSubData straight into the target: the driver copies (and may stall).
     BufferSubData,
@@ -49,12 +49,13 @@ private:
         void* sync;                // GLsync
     };
     void waitFor(std::uint64_t begin, std::uint64_t end);
+    void closeSegment();  // fences the ring bytes written since the last fence
 
     HeadlessGlContext& context_;
     UploadPath path_;
     unsigned ring_ = 0;
     std::byte* mapped_ = nullptr;
-    std::uint64_t size_ = 0, head_ = 0;
+    std::uint64_t size_ = 0, head_ = 0, segmentStart_ = 0;
     std::vector<Fenced> fences_;
     std::uint64_t uploaded_ = 0, waits_ = 0;
 };
