@@ -11,6 +11,7 @@
 #include <vox/runtime/final_gather_gpu.h>
 #include <vox/runtime/gl_context.h>
 #include <vox/runtime/rvol_gpu_volume.h>
+#include <vox/runtime/rvol_residency.h>
 
 #include "cornell_box.h"
 #include "gl_test_context.h"
@@ -98,7 +99,7 @@ struct Psnr {
 
 }  // namespace
 
-TEST(RvolGpuVolume, UploadsEveryBrickIntoAtlasSlotsAndEvictsToTheZeroSlot) {
+TEST(RvolGpuVolume, UploadsEveryBrickIntoAtlasSlotsAndEvictedBricksFallBackToTheLevelAbove) {
     REQUIRE_GL();
     const Baked& b = baked();
     rt::RvolGpuVolume volume(*gl, *b.reader);
@@ -121,8 +122,8 @@ TEST(RvolGpuVolume, UploadsEveryBrickIntoAtlasSlotsAndEvictsToTheZeroSlot) {
                 static_cast<unsigned long long>(volume.usedAtlasBytes()), static_cast<unsigned long long>(volume.indirectionBytes()),
                 static_cast<unsigned long long>(volume.uploadedBytesTotal()));
 
-    // Evicting a level-1 brick frees its 6 + 3 slots and makes it sample as empty; uploading it
-    // again reuses them and restores the samples.
+    // Evicting a level-1 brick frees its 6 + 3 slots and makes it sample as the level above;
+    // uploading it again reuses them and restores the samples.
     rt::FinalGatherGpu gather(*gl, {.hardwareFilter = false});
     const vox::rvol::BrickEntry e = b.reader->bricks(1)[0];
     const double cell = b.reader->header().cellSize(1);
@@ -143,7 +144,13 @@ TEST(RvolGpuVolume, UploadsEveryBrickIntoAtlasSlotsAndEvictsToTheZeroSlot) {
     EXPECT_FALSE(volume.resident(1, 0));
     EXPECT_EQ(volume.rgbSlots().used(), rgbUsed - 6);
     EXPECT_EQ(volume.alphaSlots().used(), alphaUsed - 3);
-    for (const auto& s : gather.sample(volume, queries)) EXPECT_EQ(s[0] + s[1] + s[2] + s[3], 0.0f);
+    // A missing brick is not empty: samples there fall back to the level above, which holds.
+    std::vector<rt::FinalGatherGpu::SampleQuery> coarser = queries;
+    for (auto& q : coarser) q.level = 2;
+    EXPECT_EQ(gather.sample(volume, queries), gather.sample(volume, coarser));
+    double fallback = 0;
+    for (const auto& s : gather.sample(volume, queries)) fallback += s[0] + s[1] + s[2] + s[3];
+    EXPECT_GT(fallback, 0);
     ASSERT_TRUE(volume.uploadBrick(1, 0));
     EXPECT_EQ(volume.rgbSlots().used(), rgbUsed);
     EXPECT_EQ(gather.sample(volume, queries), before);
@@ -289,5 +296,70 @@ TEST(FinalGatherGpu, FinalGatherMatchesTheCpuAtA64x48CamerasSurfacePoints) {
         EXPECT_GE(specularP.db(), 40.0);
         EXPECT_GE(aoP.db(), 40.0);
     }
+    EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
+}
+
+TEST(RvolResidency, AClipmapAroundTheEyeWithinTheBudgetFallsBackToCoarserLevelsAndNeverToEmpty) {
+    REQUIRE_GL();
+    const Baked& b = baked();
+    const auto& h = b.reader->header();
+    const rt::RvolGpuVolume full(*gl, *b.reader);
+    std::uint64_t fullBytes = 0;
+    for (std::uint32_t l = 0; l < h.levelCount; ++l) fullBytes += b.reader->level(l).brickCount * full.brickBytes(l);
+    const std::uint64_t budget = fullBytes / 4;
+    rt::RvolGpuVolume streamed(*gl, *b.reader, {.uploadAll = false, .atlasBytes = budget});
+    EXPECT_LT(streamed.residentBytes(), full.residentBytes()) << "the atlas is sized for the budget";
+    rt::RvolResidency residency(streamed, budget, 4);
+    // An eye in a lower corner of the box: fine bricks there, coarse ones elsewhere.
+    rt::Camera camera;
+    camera.eye = {h.origin[0] + 0.2 * h.size, h.origin[1] + 0.2 * h.size, h.origin[2] + 0.7 * h.size};
+    camera.target = {h.origin[0] + 0.5 * h.size, h.origin[1] + 0.4 * h.size, h.origin[2] + 0.5 * h.size};
+    const auto update = residency.update(camera);
+    EXPECT_GT(update.uploaded, 0u);
+    EXPECT_GT(update.neededNotFitting, 0u) << "the budget must leave needed bricks out";
+    EXPECT_LE(update.residentBytes, budget);
+    EXPECT_EQ(update.residentBytes, residency.residentBytes());
+    // The top level is whole, and every resident brick's level above is resident where it samples.
+    const std::uint32_t top = h.levelCount - 1;
+    for (std::uint32_t i = 0; i < b.reader->level(top).brickCount; ++i) EXPECT_TRUE(streamed.resident(top, i));
+    std::uint32_t fine = 0;
+    for (std::uint32_t i = 0; i < b.reader->level(0).brickCount; ++i) fine += streamed.resident(0, i);
+    EXPECT_GT(fine, 0u);
+    EXPECT_LT(fine, b.reader->level(0).brickCount);
+
+    // Samples at level 0: near the eye the same as the full volume; everywhere, never empty where
+    // the full volume is not (a missing brick falls back to a coarser level, not to nothing).
+    rt::FinalGatherGpu gather(*gl, {.hardwareFilter = false});
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> pos(0.02, 0.98), near(-0.04, 0.04);
+    std::vector<rt::FinalGatherGpu::SampleQuery> anywhere, close;
+    for (int i = 0; i < 3000; ++i) {
+        anywhere.push_back({0, f3({h.origin[0] + pos(rng) * h.size, h.origin[1] + pos(rng) * h.size, h.origin[2] + pos(rng) * h.size}),
+                            {0.3f, 0.5f, -0.8f}});
+        close.push_back({0, f3({camera.eye[0] + near(rng) * h.size, camera.eye[1] + near(rng) * h.size, camera.eye[2] + near(rng) * h.size}),
+                         {0.3f, 0.5f, -0.8f}});
+    }
+    EXPECT_EQ(gather.sample(streamed, close), gather.sample(full, close));
+    const auto streamedSamples = gather.sample(streamed, anywhere), fullSamples = gather.sample(full, anywhere);
+    std::size_t solid = 0, holes = 0, coarser = 0;
+    for (std::size_t i = 0; i < anywhere.size(); ++i) {
+        if (!(fullSamples[i][3] > 0)) continue;
+        ++solid;
+        holes += !(streamedSamples[i][3] > 0);
+        coarser += streamedSamples[i] != fullSamples[i];
+    }
+    EXPECT_GT(solid, 100u);
+    EXPECT_EQ(holes, 0u);
+    EXPECT_GT(coarser, solid / 10) << "far from the eye the samples come from coarser levels";
+    std::printf("[ rvol gpu ] residency: %u of %u needed bricks within %llu of %llu bytes, %u level-0 bricks of %u; %zu of %zu solid "
+                "samples from coarser levels, no holes\n",
+                update.selected, update.selected + update.neededNotFitting, static_cast<unsigned long long>(budget),
+                static_cast<unsigned long long>(fullBytes), fine, b.reader->level(0).brickCount, coarser, solid);
+    // Moving the eye to the opposite corner moves the fine bricks, within the budget.
+    camera.eye = {h.origin[0] + 0.8 * h.size, h.origin[1] + 0.8 * h.size, h.origin[2] + 0.3 * h.size};
+    const auto moved = residency.update(camera);
+    EXPECT_GT(moved.evicted, 0u);
+    EXPECT_GT(moved.uploaded, 0u);
+    EXPECT_LE(moved.residentBytes, budget);
     EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
 }

@@ -161,14 +161,27 @@ vec4 sampleLevel(uint level, vec3 p, vec3 dir) {
     return combineDirectional(facing, transmittance, dir);
 }
 
-// RadianceField::sampleLod.
+// Whether the brick holding p at level is one the GPU does not hold (kMissingBrick: streamed out).
+bool missingAt(uint level, vec3 p) {
+    uint entry;
+    vec3 t;
+    locate(level, p, entry, t);
+    return slots[entry] == 0x80000000u;
+}
+
+// RadianceField::sampleLod; where streaming left the brick at the level missing, the finest
+// coarser level present (a residency keeps a brick's coarser cover whenever it keeps the brick).
 vec4 sampleLod(float level, vec3 p, vec3 dir) {
     float top = float(volGeometry.z - 1u);
     level = clamp(level, 0.0, top);
     uint lo = uint(floor(level));
+    while (lo + 1u < volGeometry.z && missingAt(lo, p)) {
+        ++lo;
+        level = max(level, float(lo));
+    }
     float f = level - float(lo);
     vec4 a = sampleLevel(lo, p, dir);
-    if (f <= 0.0 || lo + 1u >= volGeometry.z) return a;
+    if (f <= 0.0 || lo + 1u >= volGeometry.z || missingAt(lo + 1u, p)) return a;
     vec4 b = sampleLevel(lo + 1u, p, dir);
     return a + (b - a) * f;
 }
@@ -368,7 +381,8 @@ void main() {
     uint index = gl_GlobalInvocationID.x;
     if (index >= uCount) return;
     SampleQuery q = queries[index];
-    samples[index] = sampleLevel(uint(q.positionLevel.w), q.positionLevel.xyz, q.direction.xyz);
+    // Through sampleLod: an integer level samples that level alone, or, streamed out, the coarser one.
+    samples[index] = sampleLod(q.positionLevel.w, q.positionLevel.xyz, q.direction.xyz);
 }
 #endif
 )GLSL";

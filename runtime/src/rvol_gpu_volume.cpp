@@ -71,10 +71,26 @@ RvolGpuVolume::RvolGpuVolume(HeadlessGlContext& context, const rvol::RvolReader&
         entries += k * k * k * planesPerBrick(l);
         residentFlags_[l].assign(bricks, 0);
     }
+    if (!options.uploadAll && options.atlasBytes > 0) {
+        // Sized for the budget: 6 RGB slots (4 bytes a texel) to 3 opacity slots a brick.
+        const std::uint64_t slot = std::uint64_t{n_} * n_ * n_;
+        const std::uint64_t perBrick = 6 * 4 * slot + 3 * (alpha16_ ? 2 : 1) * slot;
+        const std::uint64_t bricks = options.atlasBytes / perBrick + 1;
+        rgbNeeded = std::min<std::uint64_t>(rgbNeeded, 1 + 6 * bricks + 8);
+        alphaNeeded = std::min<std::uint64_t>(alphaNeeded, 1 + 3 * bricks + 8);
+    }
     rgbNeeded += options.extraRgbSlots;
     alphaNeeded += options.extraAlphaSlots;
     if (entries > (1ull << 30)) throw RuntimeError(reader.path().string() + ": the indirection table would hold " + std::to_string(entries) + " entries");
     indirection_.assign(entries, 0);
+    if (!options.uploadAll)  // every brick the file has is missing until uploaded
+        for (std::uint32_t l = 0; l < levels.size(); ++l)
+            for (std::uint32_t i = 0; i < levels[l].brickCount; ++i) {
+                const std::uint64_t k = levels[l].bricksPerAxis;
+                const rvol::BrickEntry& e = reader.bricks(l)[i];
+                const std::uint64_t entry = levelBase_[l] + ((e.z * k + e.y) * k + e.x) * planesPerBrick(l);
+                std::fill_n(indirection_.begin() + static_cast<std::ptrdiff_t>(entry), planesPerBrick(l), kMissingBrick);
+            }
 
     GLint max3d = 0;
     glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
@@ -241,7 +257,7 @@ void RvolGpuVolume::evictBrick(std::uint32_t level, std::uint32_t index) {
     for (std::uint32_t c = 0; c < channels; ++c) rgbSlots_.release(unpack(indirection_[entry + c], rgbGrid_));
     for (std::uint32_t p = 0; p < alphaPlanes; ++p) alphaSlots_.release(unpack(indirection_[entry + channels + p], alphaGrid_));
     const std::uint32_t planes = planesPerBrick(level);
-    std::fill_n(indirection_.begin() + static_cast<std::ptrdiff_t>(entry), planes, 0u);
+    std::fill_n(indirection_.begin() + static_cast<std::ptrdiff_t>(entry), planes, kMissingBrick);
     glNamedBufferSubData(indirectionBuffer_, static_cast<GLintptr>(entry * 4), static_cast<GLsizeiptr>(planes * 4), indirection_.data() + entry);
     residentFlags_[level][index] = 0;
     --residentBricks_;
@@ -254,6 +270,12 @@ void RvolGpuVolume::bind(const RvolGpuBindings& bindings) const {
     glBindTextureUnit(bindings.alphaAtlasUnit, alphaAtlas_);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, bindings.infoBinding, infoBuffer_);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, bindings.indirectionBinding, indirectionBuffer_);
+}
+
+std::uint64_t RvolGpuVolume::brickBytes(std::uint32_t level) const noexcept {
+    const std::uint64_t slot = std::uint64_t{n_} * n_ * n_;
+    const std::uint32_t channels = rvol::levelChannels(level);
+    return channels * 4 * slot + rvol::alphaPlanes(channels, level == 0 && binaryLevel0_) * alphaTexelBytes() * slot;
 }
 
 std::uint64_t RvolGpuVolume::residentBytes() const noexcept {

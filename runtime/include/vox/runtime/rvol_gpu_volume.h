@@ -48,9 +48,14 @@ struct RvolGpuBindings {
 struct RvolGpuVolumeOptions {
     /// Slots to reserve in each atlas beyond what the file's bricks need (room for streaming).
     std::uint32_t extraRgbSlots = 0, extraAlphaSlots = 0;
-    /// Upload every brick of every level in the constructor. false: an empty volume (every brick
-    /// absent) to be filled with uploadBrick().
+    /// Upload every brick of every level in the constructor. false: a volume with every brick
+    /// *missing* (indirection kMissingBrick: samples fall back to coarser levels) to be filled
+    /// with uploadBrick(), as RvolResidency does.
     bool uploadAll = true;
+    /// With uploadAll false and > 0: size the atlases for about this many bytes of bricks
+    /// instead of the whole file (six RGB9E5 slots to three A8 slots, as a directional brick
+    /// needs), so that a streaming budget bounds GPU memory too.
+    std::uint64_t atlasBytes = 0;
     /// The opacity atlas as GL_R16 instead of GL_R8: each A8 value k expanded to k·257 on upload
     /// (k/255 exactly), twice the opacity bytes. Worth it where the texture unit returns a
     /// filtered GL_R8 at 8 bits (llvmpipe does: up to 1/255 off), since the directional
@@ -58,6 +63,11 @@ struct RvolGpuVolumeOptions {
     /// false (texelFetch reads the exact value either way).
     bool alpha16 = false;
 };
+
+/// The indirection entry of a brick the file has but the GPU does not hold (not yet streamed in,
+/// or evicted): the shader samples the next coarser level there instead (whose brick a residency
+/// keeps whenever it keeps a finer one). Slot words use the low 30 bits, so bit 31 is free.
+inline constexpr std::uint32_t kMissingBrick = 0x80000000u;
 
 /// The radiance of an .rvol file in GL (OpenGL 4.5). Layout (docs/runtime.md):
 /// - **RGB atlas**: one GL_RGB9_E5 3D texture of slots of N×N×N texels (N = brickTexels); a
@@ -87,8 +97,8 @@ public:
     /// indirection at them; nothing if it is resident. Returns false when an atlas is full
     /// (nothing changed): evict first.
     bool uploadBrick(std::uint32_t level, std::uint32_t index);
-    /// Frees the brick's slots and points its indirection entries at the zero slot (it then
-    /// samples as empty). Nothing if it is not resident.
+    /// Frees the brick's slots and marks its indirection entries kMissingBrick (samples there fall
+    /// back to the coarser level). Nothing if it is not resident.
     void evictBrick(std::uint32_t level, std::uint32_t index);
     [[nodiscard]] bool resident(std::uint32_t level, std::uint32_t index) const;
 
@@ -117,6 +127,8 @@ public:
     [[nodiscard]] unsigned infoBuffer() const noexcept { return infoBuffer_; }
     [[nodiscard]] unsigned indirectionBuffer() const noexcept { return indirectionBuffer_; }
 
+    /// GPU bytes of the slots brick @p level holds: what a residency budget counts.
+    [[nodiscard]] std::uint64_t brickBytes(std::uint32_t level) const noexcept;
     /// Planes per brick entry of the indirection: 2 at level 0, 9 above.
     [[nodiscard]] static std::uint32_t planesPerBrick(std::uint32_t level) noexcept { return level == 0 ? 2u : 9u; }
 
