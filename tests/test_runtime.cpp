@@ -3,8 +3,10 @@
 // EsvoRayCaster's on the same cameras (hit mask, depth, normals, colours, shaded PSNR).
 #include <vox/formats/error.h>
 #include <vox/formats/esvo_reader.h>
+#include <vox/formats/rvol_io.h>
 #include <vox/import.h>
 #include <vox/octree.h>
+#include <vox/radiance.h>
 #include <vox/raycast.h>
 #include <vox/texture.h>
 #include <vox/runtime/channels.h>
@@ -22,6 +24,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -406,4 +409,74 @@ TEST(Voxview, MatchesVoxinspectRenderAndReportsErrors) {
     vox::test::writeText(dir / "bad.esvo", "not an octree");
     expectError({(dir / "bad.esvo").string(), "--headless", "-o", out, "--eye", "0,1,3", "--target", "0,1,0"}, 3, "bad.esvo");
     EXPECT_FALSE(fs::exists(dir / "x.png"));
+}
+
+// voxview --rvol (the final gather on the GPU: EsvoStream's primary hits, shading points built on
+// the host, FinalGatherGpu over an RvolGpuVolume) against `voxinspect render FILE.rvol --esvo
+// FILE.esvo --scene SCENE` (the CPU's) on the same Cornell box and camera: the hit masks
+// (non-black pixels) and the tone-mapped PNGs of the final, direct and indirect channels.
+TEST(Voxview, FinalGatherMatchesVoxinspectRender) {
+    REQUIRE_GL();
+    vox::test::ScratchDir dir;
+    const fs::path gltf = vox::scenes::writeCornellBox(dir.path());
+    const fs::path esvo = writeOctree(dir / "box.esvo", 6, vox::AttributeEncoding::Compressed);
+    const fs::path rvol = dir / "box.rvol";
+    {
+        vox::RadianceBakeOptions options;
+        options.depth = 5;
+        options.bounces = 1;
+        vox::rvol::writeRvol(rvol, vox::bakeRadiance(vox::importScene(gltf), options).volume);
+    }
+    const int width = 96, height = 72;
+    const std::vector<std::string> camera{"--eye", "1.3,1.7,2.4", "--target", "-0.2,0.8,-0.3", "--width", std::to_string(width), "--height",
+                                          std::to_string(height)};
+    for (const std::string channel : {"final", "direct", "indirect"}) {
+        const fs::path cpuPng = dir / ("cpu_" + channel + ".png"), gpuPng = dir / ("gpu_" + channel + ".png");
+        std::vector<std::string> args{"render", rvol.string(), "--esvo", esvo.string(), "--scene", gltf.string(), "-o", cpuPng.string(),
+                                      "--channel", channel, "-q"};
+        args.insert(args.end(), camera.begin(), camera.end());
+        const auto cpuStart = std::chrono::steady_clock::now();
+        const vox::test::ProcessResult cpuRun = vox::test::runProcess(vox::test::voxinspectPath(), args);
+        const double cpuMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - cpuStart).count();
+        ASSERT_EQ(cpuRun.exitCode, 0) << cpuRun.err;
+        std::vector<std::string> viewArgs{esvo.string(), "--rvol", rvol.string(), "--scene", gltf.string(), "--headless", "-o",
+                                          gpuPng.string(), "--channel", channel, "-q", "--stats", (dir / "stats.json").string()};
+        viewArgs.insert(viewArgs.end(), camera.begin(), camera.end());
+        const auto gpuStart = std::chrono::steady_clock::now();
+        const vox::test::ProcessResult gpuRun = vox::test::runProcess(LIBVOX_VOXVIEW, viewArgs);
+        const double gpuMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - gpuStart).count();
+        ASSERT_EQ(gpuRun.exitCode, 0) << gpuRun.err;
+        EXPECT_TRUE(gpuRun.err.empty()) << gpuRun.err;
+        const vox::Texture a = vox::loadTexture(cpuPng, vox::ColorSpace::Linear), b = vox::loadTexture(gpuPng, vox::ColorSpace::Linear);
+        ASSERT_EQ(b.width(), width);
+        ASSERT_EQ(b.height(), height);
+        std::size_t cpuHits = 0, maskAgree = 0, shown = 0, exact = 0;
+        double sumSq = 0;
+        for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x) {
+                const vox::Vec4f p = a.texel(0, x, y), q = b.texel(0, x, y);
+                const bool ph = p.x > 0 || p.y > 0 || p.z > 0, qh = q.x > 0 || q.y > 0 || q.z > 0;
+                cpuHits += ph;
+                maskAgree += ph == qh;
+                exact += p.x == q.x && p.y == q.y && p.z == q.z;
+                if (!(ph || qh)) continue;
+                ++shown;  // PSNR over the pixels either image shows, in 8-bit steps
+                for (int k = 0; k < 3; ++k) {
+                    const double d = 255.0 * (double(p[k]) - double(q[k]));
+                    sumSq += d * d;
+                }
+            }
+        const double db = psnr(sumSq, 3 * shown);
+        const std::size_t pixels = std::size_t(width) * std::size_t(height);
+        std::printf("[ runtime  ] voxview --rvol %s: %zu px, %zu non-black (CPU); mask %zu/%zu; exact %zu; PSNR %.1f dB over %zu px; "
+                    "voxinspect %.0f ms, voxview %.0f ms (processes)\n",
+                    channel.c_str(), pixels, cpuHits, maskAgree, pixels, exact, db, shown, cpuMs, gpuMs);
+        EXPECT_GT(cpuHits, pixels / 4) << channel << ": the view must show the lit box";
+        EXPECT_GE(double(maskAgree), 0.999 * double(pixels)) << channel << ": hit masks differ";
+        EXPECT_GE(db, 40.0) << channel;
+    }
+    const std::string stats = vox::test::readText(dir / "stats.json");
+    for (const char* key : {"\"final_gather\"", "\"gather_ms_median\"", "\"points\"", "\"lights\""})
+        EXPECT_NE(stats.find(key), std::string::npos) << key;
+    EXPECT_NE(stats.find("\"gl_errors\": 0"), std::string::npos) << stats;
 }

@@ -1,27 +1,41 @@
 // voxview: renders an .esvo octree with the OpenGL runtime (vox::runtime), headless through EGL,
 // to a PNG. Its camera options and channels are voxinspect render's, so the two images of the
-// same view compare pixel for pixel. Exit codes as the tools: 0 ok, 1 usage, 2 cannot read or
-// write a file, 3 invalid input data, 4 no usable OpenGL 4.5 or an internal error.
+// same view compare pixel for pixel. With --rvol FILE.rvol it draws the radiance volume's final
+// gather at the octree's primary hits (FinalGatherGpu over an RvolGpuVolume), as
+// `voxinspect render FILE.rvol --esvo FILE.esvo --scene SCENE` does on the CPU. Exit codes as the
+// tools: 0 ok, 1 usage, 2 cannot read or write a file, 3 invalid input data, 4 no usable OpenGL
+// 4.5 or an internal error.
+//
+// The lights: the runtime library takes punctual lights (GpuPunctualLight) and links no scene
+// importer; an application brings its own. voxview reads them from --scene with libvox's
+// vox::importScene, which is why this example (not vox::runtime) links vox::core.
 #include "png_writer.h"
 
 #include <vox/formats/atomic_file.h>
 #include <vox/formats/error.h>
+#include <vox/formats/esvo_attributes.h>
 #include <vox/formats/esvo_reader.h>
+#include <vox/formats/rvol_io.h>
+#include <vox/import.h>  // vox::core: the lights of --scene
 #include <vox/runtime/channels.h>
 #include <vox/runtime/esvo_gpu_pool.h>
 #include <vox/runtime/esvo_gpu_raycaster.h>
 #include <vox/runtime/esvo_stream.h>
+#include <vox/runtime/final_gather_gpu.h>
 #include <vox/runtime/gl_context.h>
+#include <vox/runtime/rvol_gpu_volume.h>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <new>
 
 namespace {
@@ -44,7 +58,116 @@ struct Options {
     bool headless = false, quiet = false;
     double budgetMb = 256, frameLoadMb = 0;
     std::string cameraPath, upload = "ring";
+    // The final gather (--rvol).
+    std::string rvol, scene, gatherFilter = "hardware";
+    double exposure = 1, specAperture = 10, shadowAperture = 10;
+    bool noShadowCones = false, channelGiven = false;
 };
+
+namespace rt = vox::runtime;
+
+/// The final gather's channels (voxinspect render FILE.rvol's): with --rvol, "normal" is the
+/// shading point's normal as there; the octree's other channels stay available.
+const std::array<std::string, 7> kGatherChannels{"final", "direct", "indirect", "specular", "ao", "albedo", "normal"};
+bool isGatherChannel(const std::string& channel) {
+    return std::find(kGatherChannels.begin(), kGatherChannels.end(), channel) != kGatherChannels.end();
+}
+
+/// voxinspect's 8-bit conversions (tools/voxinspect/rvol_commands.cpp), to the bit.
+std::uint8_t toByte(float v) { return static_cast<std::uint8_t>(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f))); }
+/// exposure × linear radiance, Reinhard x/(1 + x) per channel, sRGB-encoded to 8 bits.
+std::uint8_t toneMap(double linear, double exposure) {
+    const double x = std::max(0.0, exposure * linear);
+    return toByte(rt::linearToSrgb(static_cast<float>(x / (1 + x))));
+}
+
+rt::GpuPunctualLight toGpuLight(const vox::Light& l) {
+    rt::GpuPunctualLight g;
+    g.type = l.type == vox::Light::Type::Directional ? rt::GpuPunctualLight::Type::Directional
+             : l.type == vox::Light::Type::Spot      ? rt::GpuPunctualLight::Type::Spot
+                                                     : rt::GpuPunctualLight::Type::Point;
+    g.color = {l.color.x, l.color.y, l.color.z};
+    g.intensity = l.intensity;
+    g.range = l.range;
+    g.innerConeAngle = l.innerConeAngle;
+    g.outerConeAngle = l.outerConeAngle;
+    g.position = {l.position.x, l.position.y, l.position.z};
+    g.direction = {l.direction.x, l.direction.y, l.direction.z};
+    return g;
+}
+
+/// The shading points of a frame's hits, built as libvox's esvoShadingPoint builds them from a
+/// CPU hit (libvox/src/radiance/final_gather.cpp), in double then rounded to float: position =
+/// eye + direction·t (t the float depth), normal = the shading normal where the voxel has
+/// attributes, else the face normal, turned to face the ray and normalised; albedo = the colour
+/// word's sRGB → linear, or 0.8 grey without attributes; no emission; view = −direction.
+struct ShadingPoints {
+    std::vector<std::size_t> pixels;  ///< the hit pixels, in order
+    std::vector<rt::GpuShadingPoint> points;
+};
+
+ShadingPoints shadingPoints(const rt::GpuFrame& frame, const rt::Camera& camera) {
+    using V = rt::Vec3d;
+    const auto dot = [](const V& a, const V& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+    const auto f3 = [](const V& v) { return std::array<float, 3>{float(v[0]), float(v[1]), float(v[2])}; };
+    const rt::CameraBasis basis(camera);
+    ShadingPoints out;
+    out.pixels.reserve(frame.hits);
+    out.points.reserve(frame.hits);
+    for (int y = 0; y < frame.height; ++y)
+        for (int x = 0; x < frame.width; ++x) {
+            const std::size_t i = std::size_t(y) * std::size_t(frame.width) + std::size_t(x);
+            if (!frame.hit(i)) continue;
+            const V d = basis.direction(x, y);
+            const double t = double(frame.depth[i]);
+            rt::GpuShadingPoint p;
+            p.position = f3({basis.eye[0] + d[0] * t, basis.eye[1] + d[1] * t, basis.eye[2] + d[2] * t});
+            V side{double(frame.normal[3 * i]), double(frame.normal[3 * i + 1]), double(frame.normal[3 * i + 2])};
+            if (dot(side, d) > 0) side = {-side[0], -side[1], -side[2]};
+            const bool attributes = frame.hasAttributes(i);
+            V n = attributes ? V{double(frame.shadingNormal[3 * i]), double(frame.shadingNormal[3 * i + 1]), double(frame.shadingNormal[3 * i + 2])}
+                             : side;
+            if (dot(n, side) < 0) n = {-n[0], -n[1], -n[2]};
+            const double len = std::sqrt(dot(n, n));
+            p.normal = len > 0 ? f3({n[0] / len, n[1] / len, n[2] / len}) : std::array<float, 3>{0, 0, 0};
+            if (attributes) {
+                for (unsigned k = 0; k < 3; ++k)
+                    p.albedo[k] = rt::srgbToLinear(float(vox::esvo::colorChannel(frame.color[i], k)) / 255.0f);
+            } else {
+                p.albedo = {0.8f, 0.8f, 0.8f};
+            }
+            p.emission = {0, 0, 0};
+            p.view = f3({-d[0], -d[1], -d[2]});
+            out.pixels.push_back(i);
+            out.points.push_back(p);
+        }
+    return out;
+}
+
+/// voxinspect render's pixels for a final-gather channel: black where nothing is hit.
+std::vector<std::uint8_t> composeGather(const rt::GpuFrame& frame, const ShadingPoints& sp, const std::vector<rt::GpuGatherParts>& parts,
+                                        const std::string& channel, double exposure) {
+    std::vector<std::uint8_t> rgb(3 * std::size_t(frame.width) * std::size_t(frame.height), 0);
+    for (std::size_t k = 0; k < sp.pixels.size(); ++k) {
+        std::uint8_t* p = &rgb[3 * sp.pixels[k]];
+        const rt::GpuGatherParts& g = parts[k];
+        const std::array<float, 3>* radiance = channel == "final"      ? &g.final
+                                               : channel == "direct"   ? &g.direct
+                                               : channel == "indirect" ? &g.indirect
+                                               : channel == "specular" ? &g.specular
+                                                                       : nullptr;
+        if (radiance) {
+            for (std::size_t c = 0; c < 3; ++c) p[c] = toneMap(double((*radiance)[c]), exposure);
+        } else if (channel == "ao") {
+            p[0] = p[1] = p[2] = toByte(g.ao);
+        } else if (channel == "albedo") {
+            for (std::size_t c = 0; c < 3; ++c) p[c] = toByte(rt::linearToSrgb(std::clamp(sp.points[k].albedo[c], 0.0f, 1.0f)));
+        } else {  // normal
+            for (std::size_t c = 0; c < 3; ++c) p[c] = toByte(0.5f * (sp.points[k].normal[c] + 1));
+        }
+    }
+    return rgb;
+}
 
 constexpr double kPi = 3.14159265358979323846;
 
@@ -80,10 +203,26 @@ std::vector<vox::runtime::Camera> cameraPath(const Options& o, const vox::runtim
     return path;
 }
 
-void run(const Options& o) {
+void run(Options o) {
     if (!o.headless) throw vox::UsageError("--headless is required: this voxview has no window (it renders to -o FILE.png)");
-    if (!vox::runtime::isChannel(o.channel))
-        throw vox::UsageError("--channel must be depth, normal, face-normal, color, shaded, iterations or level");
+    const bool gatherMode = !o.rvol.empty();
+    if (gatherMode && !o.channelGiven) o.channel = "final";
+    if (gatherMode) {
+        if (!isGatherChannel(o.channel) && !vox::runtime::isChannel(o.channel))
+            throw vox::UsageError("--channel with --rvol must be final, direct, indirect, specular, ao, albedo or normal (or an octree "
+                                  "channel: depth, face-normal, color, shaded, iterations, level)");
+    } else {
+        if (isGatherChannel(o.channel) && !vox::runtime::isChannel(o.channel))
+            throw vox::UsageError("--channel " + o.channel + " needs --rvol FILE.rvol (the radiance volume's final gather)");
+        if (!vox::runtime::isChannel(o.channel))
+            throw vox::UsageError("--channel must be depth, normal, face-normal, color, shaded, iterations or level");
+        if (!o.scene.empty()) throw vox::UsageError("--scene (the lights) applies with --rvol FILE.rvol");
+    }
+    const bool gatherChannel = gatherMode && isGatherChannel(o.channel);
+    if (!(o.exposure > 0) || !std::isfinite(o.exposure)) throw vox::UsageError("--exposure must be a finite number > 0");
+    for (const double aperture : {o.specAperture, o.shadowAperture})
+        if (!(aperture > 0 && aperture < 90)) throw vox::UsageError("--spec-aperture and --shadow-aperture must be between 0 and 90 degrees (exclusive)");
+    if (o.gatherFilter != "hardware" && o.gatherFilter != "fetch") throw vox::UsageError("--gather-filter must be hardware or fetch");
     if (!(o.lodScale >= 0)) throw vox::UsageError("--lod-scale must be 0 or more");
     vox::runtime::Camera camera;
     camera.eye = parseVector(o.eye, "--eye");
@@ -109,11 +248,49 @@ void run(const Options& o) {
     const vox::esvo::EsvoReader& reader = stream.reader();
     if ((o.channel == "color") && !reader.header().hasAttributes())
         throw vox::UsageError(o.file + ": no colours in this file (voxelize --attributes none)");
+
+    // The radiance volume, every brick uploaded, and the lights: all of the scene's, static and
+    // dynamic, as voxinspect render lights them.
+    std::unique_ptr<vox::rvol::RvolReader> rvolReader;
+    std::unique_ptr<rt::RvolGpuVolume> volume;
+    std::unique_ptr<rt::FinalGatherGpu> gather;
+    std::vector<rt::GpuPunctualLight> lights;
+    std::size_t staticLights = 0;
+    if (gatherChannel) {
+        rvolReader = std::make_unique<vox::rvol::RvolReader>(o.rvol);
+        if (!o.scene.empty()) {
+            const vox::Scene scene = vox::importScene(o.scene);
+            for (const vox::Light& light : scene.lights) {
+                lights.push_back(toGpuLight(light));
+                staticLights += !light.dynamic;
+            }
+        }
+        const std::uint32_t baked = rvolReader->header().bake.lights;
+        if (!o.quiet && o.scene.empty() && baked > 0)
+            std::fprintf(stderr, "voxview: warning: no lights without --scene: the direct term is 0 (the bake had %u)\n", baked);
+        else if (!o.quiet && !o.scene.empty() && staticLights != baked)
+            std::fprintf(stderr, "voxview: warning: %s: %zu static lights, but %s was baked with %u\n", o.scene.c_str(), staticLights,
+                         o.rvol.c_str(), baked);
+        volume = std::make_unique<rt::RvolGpuVolume>(context, *rvolReader);
+        rt::FinalGatherGpuOptions gatherOptions;
+        gatherOptions.specularApertureDegrees = o.specAperture;
+        gatherOptions.shadowApertureDegrees = o.shadowAperture;
+        gatherOptions.shadowCones = !o.noShadowCones;
+        gatherOptions.aoLambda = rvolReader->header().bake.aoLambda;
+        gatherOptions.hardwareFilter = o.gatherFilter == "hardware";
+        gather = std::make_unique<rt::FinalGatherGpu>(context, gatherOptions);
+        context.throwOnErrors("uploading " + o.rvol);
+    }
     const auto loaded = std::chrono::steady_clock::now();
 
     vox::runtime::GpuCastOptions options;
     options.maxLevel = o.maxLevel;
-    options.attributes = vox::runtime::channelNeedsAttributes(o.channel);
+    // The final gather's shading points need the colours and shading normals (esvoShadingPoint
+    // casts with attributes whatever it is given).
+    options.attributes = gatherChannel || vox::runtime::channelNeedsAttributes(o.channel);
+    ShadingPoints points;
+    std::vector<rt::GpuGatherParts> parts;
+    std::vector<double> pointsMs, gatherMs;
     vox::runtime::GpuFrame frame;
     std::vector<double> gpuMs, wallMs, updateMs;
     nlohmann::json perFrame = nlohmann::json::array();
@@ -124,6 +301,13 @@ void run(const Options& o) {
         const vox::runtime::EsvoStreamUpdate update = stream.update();
         options.lodAngle = path[std::size_t(f)].pixelAngle() * o.lodScale;
         frame = stream.render(options);
+        if (gatherChannel) {
+            const auto pointsStart = std::chrono::steady_clock::now();
+            points = shadingPoints(frame, path[std::size_t(f)]);
+            pointsMs.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - pointsStart).count());
+            parts = gather->shade(*volume, points.points, lights);
+            gatherMs.push_back(gather->lastSeconds() * 1e3);
+        }
         gpuMs.push_back(frame.gpuMilliseconds);
         wallMs.push_back(frame.wallMilliseconds);
         updateMs.push_back(update.seconds * 1e3);
@@ -140,22 +324,31 @@ void run(const Options& o) {
                             {"update_ms", update.seconds * 1e3},
                             {"cast_wall_ms", frame.wallMilliseconds},
                             {"cast_gpu_ms", frame.gpuMilliseconds},
-                            {"hits", frame.hits}});
+                            {"hits", frame.hits},
+                            {"gather_ms", gatherChannel ? gatherMs.back() : 0.0}});
         context.throwOnErrors("frame " + std::to_string(f));
     }
     const vox::esvo::EsvoPool& pool = stream.pool();
     const vox::runtime::EsvoGpuPool& gpuPool = stream.gpuPool();
     const auto rendered = std::chrono::steady_clock::now();
-    voxview::writePngRgb8(o.output, frame.width, frame.height, vox::runtime::composeChannel(frame, camera, o.channel));
+    // The last frame's camera: what the image shows (the rays the points were built from).
+    const rt::Camera& lastCamera = path.back();
+    voxview::writePngRgb8(o.output, frame.width, frame.height,
+                          gatherChannel ? composeGather(frame, points, parts, o.channel, o.exposure)
+                                        : vox::runtime::composeChannel(frame, lastCamera, o.channel));
     if (!o.quiet)
         std::fprintf(stderr, "voxview: %s: %dx%d, %llu hits, %.3f ms GPU timer, %.3f ms wall (%s, EGL %s)\n", o.output.c_str(),
                      frame.width, frame.height, static_cast<unsigned long long>(frame.hits), frame.gpuMilliseconds,
                      frame.wallMilliseconds, context.renderer().c_str(), context.platformName());
+    if (!o.quiet && gatherChannel)
+        std::fprintf(stderr, "voxview: final gather: %zu points, %zu lights, %.3f ms (%s filter)\n", points.points.size(), lights.size(),
+                     gatherMs.back(), o.gatherFilter.c_str());
+    const auto median = [](std::vector<double> v) {
+        if (v.empty()) return 0.0;
+        std::sort(v.begin(), v.end());
+        return v[v.size() / 2];
+    };
     if (!o.stats.empty()) {
-        const auto median = [](std::vector<double> v) {
-            std::sort(v.begin(), v.end());
-            return v[v.size() / 2];
-        };
         std::uint64_t iterations = 0;
         for (std::uint32_t it : frame.iterations) iterations += it;
         const double pixels = double(frame.width) * double(frame.height);
@@ -194,6 +387,23 @@ void run(const Options& o) {
             {"gpu_pool_bytes", gpuPool.capacityBytes()},
             {"uploaded_bytes", gpuPool.uploadedBytesTotal()},
             {"gl_errors", context.errorCount()},
+            {"rvol", o.rvol},
+            {"final_gather",
+             gatherChannel ? nlohmann::json{{"points", points.points.size()},
+                                            {"lights", lights.size()},
+                                            {"static_lights", staticLights},
+                                            {"filter", o.gatherFilter},
+                                            {"exposure", o.exposure},
+                                            {"ao_lambda", rvolReader->header().bake.aoLambda},
+                                            {"volume_resident_bytes", volume->residentBytes()},
+                                            {"volume_uploaded_bytes", volume->uploadedBytesTotal()},
+                                            // FinalGatherGpu::shade: upload, dispatch, glFinish, read-back.
+                                            {"gather_ms_per_frame", gatherMs},
+                                            {"gather_ms_median", median(gatherMs)},
+                                            // Shading points built on the host from the read-back frame.
+                                            {"points_ms_per_frame", pointsMs},
+                                            {"points_ms_median", median(pointsMs)}}
+                           : nlohmann::json(nullptr)},
             {"timings_ms",
              {{"load", std::chrono::duration<double, std::milli>(loaded - start).count()},
               {"gl_and_render", std::chrono::duration<double, std::milli>(rendered - loaded).count()}}}};
@@ -215,7 +425,9 @@ int main(int argc, char** argv) {
     app.add_option("--fov", o.fov, "Vertical field of view, degrees")->capture_default_str();
     app.add_option("--width", o.width, "Image width")->capture_default_str();
     app.add_option("--height", o.height, "Image height")->capture_default_str();
-    app.add_option("--channel", o.channel, "shaded, color, normal, face-normal, depth, iterations or level (as voxinspect render)")
+    app.add_option("--channel", o.channel,
+                   "shaded, color, normal, face-normal, depth, iterations or level (as voxinspect render); with --rvol final (the "
+                   "default), direct, indirect, specular, ao, albedo or normal (as voxinspect render FILE.rvol)")
         ->capture_default_str();
     app.add_option("--lod-scale", o.lodScale, "Stop at voxels smaller than this many pixels; 0: always to the leaves")
         ->capture_default_str();
@@ -229,9 +441,19 @@ int main(int argc, char** argv) {
     app.add_option("--upload", o.upload, "Upload path: ring (persistently mapped staging ring with fences) or subdata (glBufferSubData)")
         ->capture_default_str();
     app.add_option("--stats", o.stats, "Write a JSON report: renderer, frame times, hits, resident and uploaded bytes per frame");
+    app.add_option("--rvol", o.rvol, "Draw this radiance volume's final gather at the octree's hits (GPU cone tracing)");
+    app.add_option("--scene", o.scene, "--rvol: the lights of this scene (glTF, OBJ; all of them, static and dynamic)");
+    app.add_option("--exposure", o.exposure, "--rvol: radiance scale before tone mapping")->capture_default_str();
+    app.add_option("--spec-aperture", o.specAperture, "--rvol: specular cone aperture, degrees")->capture_default_str();
+    app.add_option("--shadow-aperture", o.shadowAperture, "--rvol: shadow cone aperture, degrees")->capture_default_str();
+    app.add_flag("--no-shadow-cones", o.noShadowCones, "--rvol: lights unshadowed");
+    app.add_option("--gather-filter", o.gatherFilter,
+                   "--rvol: hardware (one trilinear texture() per plane) or fetch (eight texelFetch, the CPU's interpolation)")
+        ->capture_default_str();
     app.add_flag("-q,--quiet", o.quiet, "Print errors only");
     try {
         app.parse(argc, argv);
+        o.channelGiven = app.get_option("--channel")->count() > 0;
     } catch (const CLI::Success& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
