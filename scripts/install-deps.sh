@@ -12,7 +12,8 @@ packages=(
   libopenimageio-dev openimageio-tools
   libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libegl-dev libopengl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri
+  libegl-dev libopengl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libglx-mesa0
+  libglfw3-dev xvfb xauth
   assimp-testmodels
 )
 

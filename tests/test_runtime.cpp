@@ -403,12 +403,42 @@ TEST(Voxview, MatchesVoxinspectRenderAndReportsErrors) {
     };
     const std::string out = (dir / "x.png").string();
     expectError({file.string(), "--headless", "-o", out, "--eye", "0,1,3", "--target", "0,1,0", "--channel", "nope"}, 1, "--channel");
-    expectError({file.string(), "-o", out, "--eye", "0,1,3", "--target", "0,1,0"}, 1, "--headless");
+    {
+        // Without --headless and without a display to open a window on (whatever this shell has).
+        const vox::test::ProcessResult r = vox::test::runProcess(
+            "/usr/bin/env", {"-u", "DISPLAY", "-u", "WAYLAND_DISPLAY", LIBVOX_VOXVIEW, file.string(), "-o", out, "--eye", "0,1,3", "--target", "0,1,0"});
+        EXPECT_EQ(r.exitCode, 1) << r.err;
+        EXPECT_NE(r.err.find("no display"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("--headless"), std::string::npos) << r.err;
+    }
     expectError({file.string(), "--headless", "-o", out, "--eye", "0,1", "--target", "0,1,0"}, 1, "--eye expects x,y,z");
     expectError({(dir / "missing.esvo").string(), "--headless", "-o", out, "--eye", "0,1,3", "--target", "0,1,0"}, 2, "missing.esvo");
     vox::test::writeText(dir / "bad.esvo", "not an octree");
     expectError({(dir / "bad.esvo").string(), "--headless", "-o", out, "--eye", "0,1,3", "--target", "0,1,0"}, 3, "bad.esvo");
     EXPECT_FALSE(fs::exists(dir / "x.png"));
+}
+
+// voxview's window (GLFW, X11) on a virtual display (Xvfb, Mesa's GLX): the runtime works in the
+// window's context, adopted (CurrentGlContext), and shows the same image it writes headless.
+TEST(Voxview, AWindowOnAVirtualDisplayShowsWhatHeadlessWrites) {
+    REQUIRE_GL();
+    if (!fs::exists("/usr/bin/xvfb-run")) GTEST_SKIP() << "no xvfb-run (Debian package xvfb) to give the window a display";
+    vox::test::ScratchDir dir;
+    const fs::path file = writeOctree(dir / "cornell.esvo", 6, vox::AttributeEncoding::Compressed);
+    const std::vector<std::string> camera{"--eye", "0,1,3.2", "--target", "0,1,0", "--width", "80", "--height", "60", "--channel", "shaded"};
+    std::vector<std::string> headless{file.string(), "--headless", "-o", (dir / "headless.png").string(), "-q"};
+    headless.insert(headless.end(), camera.begin(), camera.end());
+    ASSERT_EQ(vox::test::runProcess(LIBVOX_VOXVIEW, headless).exitCode, 0);
+    std::vector<std::string> windowed{"-a", LIBVOX_VOXVIEW, file.string(), "-o", (dir / "window.png").string(), "--frames", "3", "-q",
+                                      "--stats", (dir / "window.json").string()};
+    windowed.insert(windowed.end(), camera.begin(), camera.end());
+    const vox::test::ProcessResult r = vox::test::runProcess("/usr/bin/xvfb-run", windowed);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(vox::test::readText(dir / "headless.png"), vox::test::readText(dir / "window.png"));
+    const std::string stats = vox::test::readText(dir / "window.json");
+    EXPECT_NE(stats.find("\"egl_platform\": \"current\""), std::string::npos) << stats;
+    EXPECT_NE(stats.find("\"frames\": 3"), std::string::npos) << stats;
+    EXPECT_NE(stats.find("\"gl_errors\": 0"), std::string::npos) << stats;
 }
 
 // voxview --rvol (the final gather on the GPU: EsvoStream's primary hits, shading points built on

@@ -10,6 +10,7 @@
 // importer; an application brings its own. voxview reads them from --scene with libvox's
 // vox::importScene, which is why this example (not vox::runtime) links vox::core.
 #include "png_writer.h"
+#include "window.h"
 
 #include <vox/formats/atomic_file.h>
 #include <vox/formats/error.h>
@@ -55,7 +56,7 @@ struct Options {
     double fov = 60, lodScale = 1.0;
     int width = 512, height = 512, frames = 1;
     unsigned maxLevel = 0xFFFFFFFFu;
-    bool headless = false, quiet = false;
+    bool headless = false, quiet = false, framesGiven = false;
     double budgetMb = 256, frameLoadMb = 0;
     std::string cameraPath, upload = "ring";
     // The final gather (--rvol).
@@ -204,7 +205,9 @@ std::vector<vox::runtime::Camera> cameraPath(const Options& o, const vox::runtim
 }
 
 void run(Options o) {
-    if (!o.headless) throw vox::UsageError("--headless is required: this voxview has no window (it renders to -o FILE.png)");
+    if (!o.headless && !voxview::displayAvailable())
+        throw vox::UsageError("no display to open a window on (DISPLAY and WAYLAND_DISPLAY are unset): pass --headless -o FILE.png");
+    if (o.headless && o.output.empty()) throw vox::UsageError("--headless needs -o FILE.png");
     const bool gatherMode = !o.rvol.empty();
     if (gatherMode && !o.channelGiven) o.channel = "final";
     if (gatherMode) {
@@ -238,7 +241,16 @@ void run(Options o) {
     const std::vector<vox::runtime::Camera> path = cameraPath(o, camera);
 
     const auto start = std::chrono::steady_clock::now();
-    vox::runtime::HeadlessGlContext context;
+    // Headless: a context of our own through EGL. With a window: the window's context, adopted.
+    std::unique_ptr<voxview::Window> window;
+    std::unique_ptr<rt::GlContext> contextHolder;
+    if (o.headless) {
+        contextHolder = std::make_unique<rt::HeadlessGlContext>();
+    } else {
+        window = std::make_unique<voxview::Window>(o.width, o.height, "voxview " + o.file);
+        contextHolder = std::make_unique<rt::CurrentGlContext>();
+    }
+    rt::GlContext& context = *contextHolder;
     vox::runtime::EsvoStreamOptions streamOptions;
     streamOptions.budgetBytes = std::uint64_t(o.budgetMb * 1048576.0);
     streamOptions.frameLoadBytes = std::uint64_t(o.frameLoadMb * 1048576.0);
@@ -296,14 +308,18 @@ void run(Options o) {
     nlohmann::json perFrame = nlohmann::json::array();
     std::uint64_t maxResident = 0, slicesLoaded = 0, slicesEvicted = 0;
     int fullDetailFrame = -1;
-    for (int f = 0; f < o.frames; ++f) {
-        stream.setCamera(path[std::size_t(f)]);
+    int lastFrame = 0;
+    // With a window and no --frames, the camera (or path) repeats until the window is closed.
+    const bool untilClosed = window && !o.framesGiven;
+    for (int f = 0; f < o.frames || untilClosed; ++f) {
+        const std::size_t at = std::size_t(f) % path.size();
+        stream.setCamera(path[at]);
         const vox::runtime::EsvoStreamUpdate update = stream.update();
-        options.lodAngle = path[std::size_t(f)].pixelAngle() * o.lodScale;
+        options.lodAngle = path[at].pixelAngle() * o.lodScale;
         frame = stream.render(options);
         if (gatherChannel) {
             const auto pointsStart = std::chrono::steady_clock::now();
-            points = shadingPoints(frame, path[std::size_t(f)]);
+            points = shadingPoints(frame, path[at]);
             pointsMs.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - pointsStart).count());
             parts = gather->shade(*volume, points.points, lights);
             gatherMs.push_back(gather->lastSeconds() * 1e3);
@@ -315,7 +331,7 @@ void run(Options o) {
         slicesLoaded += update.loaded;
         slicesEvicted += update.evicted;
         if (fullDetailFrame < 0 && update.pending == 0) fullDetailFrame = f;
-        perFrame.push_back({{"resident_bytes", update.residentBytes},
+        if (perFrame.size() < 10000) perFrame.push_back({{"resident_bytes", update.residentBytes},
                             {"uploaded_bytes", update.uploadedBytes},
                             {"slices_loaded", update.loaded},
                             {"slices_evicted", update.evicted},
@@ -327,17 +343,26 @@ void run(Options o) {
                             {"hits", frame.hits},
                             {"gather_ms", gatherChannel ? gatherMs.back() : 0.0}});
         context.throwOnErrors("frame " + std::to_string(f));
+        lastFrame = int(at);
+        if (window) {
+            const bool open = window->present(gatherChannel ? composeGather(frame, points, parts, o.channel, o.exposure)
+                                                             : vox::runtime::composeChannel(frame, path[at], o.channel),
+                                              frame.width, frame.height);
+            context.throwOnErrors("presenting frame " + std::to_string(f));
+            if (!open) break;
+        }
     }
     const vox::esvo::EsvoPool& pool = stream.pool();
     const vox::runtime::EsvoGpuPool& gpuPool = stream.gpuPool();
     const auto rendered = std::chrono::steady_clock::now();
     // The last frame's camera: what the image shows (the rays the points were built from).
-    const rt::Camera& lastCamera = path.back();
-    voxview::writePngRgb8(o.output, frame.width, frame.height,
-                          gatherChannel ? composeGather(frame, points, parts, o.channel, o.exposure)
-                                        : vox::runtime::composeChannel(frame, lastCamera, o.channel));
+    const rt::Camera& lastCamera = path[std::size_t(lastFrame)];
+    if (!o.output.empty())
+        voxview::writePngRgb8(o.output, frame.width, frame.height,
+                              gatherChannel ? composeGather(frame, points, parts, o.channel, o.exposure)
+                                            : vox::runtime::composeChannel(frame, lastCamera, o.channel));
     if (!o.quiet)
-        std::fprintf(stderr, "voxview: %s: %dx%d, %llu hits, %.3f ms GPU timer, %.3f ms wall (%s, EGL %s)\n", o.output.c_str(),
+        std::fprintf(stderr, "voxview: %s: %dx%d, %llu hits, %.3f ms GPU timer, %.3f ms wall (%s, %s context)\n", o.output.c_str(),
                      frame.width, frame.height, static_cast<unsigned long long>(frame.hits), frame.gpuMilliseconds,
                      frame.wallMilliseconds, context.renderer().c_str(), context.platformName());
     if (!o.quiet && gatherChannel)
@@ -365,7 +390,7 @@ void run(Options o) {
             {"rays", frame.width * frame.height},
             {"hits", frame.hits},
             {"mean_iterations", double(iterations) / pixels},
-            {"frames", o.frames},
+            {"frames", gpuMs.size()},
             {"gpu_ms_per_frame", gpuMs},
             {"gpu_ms_median", median(gpuMs)},
             // Dispatch to glFinish on the host: what llvmpipe can be timed by (its GL_TIME_ELAPSED
@@ -417,8 +442,8 @@ int main(int argc, char** argv) {
     Options o;
     CLI::App app{"voxview: render an .esvo octree with the OpenGL 4.5 runtime (headless, EGL) to a PNG"};
     app.add_option("file", o.file, ".esvo file")->required();
-    app.add_flag("--headless", o.headless, "Render without a window, through EGL (required)");
-    app.add_option("-o,--output", o.output, "PNG to write")->required();
+    app.add_flag("--headless", o.headless, "Render without a window, through EGL (else a window through GLFW, which needs a display)");
+    app.add_option("-o,--output", o.output, "PNG to write (the last frame; required with --headless)");
     app.add_option("--eye", o.eye, "Camera position x,y,z (world units)")->required();
     app.add_option("--target", o.target, "Point looked at x,y,z")->required();
     app.add_option("--up", o.up, "Up vector x,y,z")->capture_default_str();
@@ -462,6 +487,7 @@ int main(int argc, char** argv) {
         return static_cast<int>(vox::ExitCode::Usage);
     }
     try {
+        o.framesGiven = app.get_option("--frames")->count() > 0;
         run(o);
         return 0;
     } catch (const vox::Error& e) {

@@ -14,7 +14,7 @@ constexpr std::uint64_t kPageWords = esvo::kPageBytes / 4;
 std::uint64_t roundToPages(std::uint64_t bytes) { return (bytes + esvo::kPageBytes - 1) / esvo::kPageBytes * esvo::kPageBytes; }
 }  // namespace
 
-EsvoGpuPool::EsvoGpuPool(HeadlessGlContext& context, const esvo::EsvoPool& pool, std::uint64_t capacityBytes)
+EsvoGpuPool::EsvoGpuPool(GlContext& context, const esvo::EsvoPool& pool, std::uint64_t capacityBytes)
     : context_(context), pool_(pool) {
     allocate(std::max<std::uint64_t>({roundToPages(capacityBytes), roundToPages(pool.wordCount() * 4), esvo::kPageBytes}));
     sync();

@@ -24,7 +24,7 @@ static_assert(esvo::kPageBytes / 4 == 2048 && esvo::kCompressedBlockWords == 6);
 static_assert(esvo::info::kFirstDescriptor == 2 && esvo::info::kAttachmentCount == 3 && esvo::info::kAttachments == 4);
 }  // namespace
 
-EsvoGpuRaycaster::EsvoGpuRaycaster(HeadlessGlContext& context, const EsvoGpuPool& pool)
+EsvoGpuRaycaster::EsvoGpuRaycaster(GlContext& context, const EsvoGpuPool& pool)
     : context_(context), pool_(pool), program_("esvo ray caster", detail::kEsvoRaycastShader) {
     const esvo::EsvoReader& reader = pool.pool().reader();
     // The CPU caster's constructor (EsvoRayCaster), in the same arithmetic.

@@ -9,7 +9,7 @@
 
 namespace vox::runtime {
 
-EsvoStream::EsvoStream(HeadlessGlContext& context, const std::filesystem::path& file, const EsvoStreamOptions& options)
+EsvoStream::EsvoStream(GlContext& context, const std::filesystem::path& file, const EsvoStreamOptions& options)
     : context_(context),
       options_(options),
       reader_(std::make_unique<esvo::EsvoReader>(file)),

@@ -56,7 +56,7 @@ void put3(float* out, const std::array<float, 3>& v, float w = 0) {
 
 }  // namespace
 
-FinalGatherGpu::FinalGatherGpu(HeadlessGlContext& context, const FinalGatherGpuOptions& options)
+FinalGatherGpu::FinalGatherGpu(GlContext& context, const FinalGatherGpuOptions& options)
     : context_(context),
       options_(checked(options)),
       shadeProgram_("final gather", shaderSource(options, "VOX_MODE_SHADE")),

@@ -53,7 +53,7 @@ const char* debugTypeName(GLenum type) {
 void APIENTRY debugCallback(GLenum source, GLenum type, GLuint id, GLenum severity, GLsizei length, const GLchar* message,
                               const void* user) {
     const std::string text = length >= 0 ? std::string(message, static_cast<std::size_t>(length)) : std::string(message);
-    static_cast<HeadlessGlContext*>(const_cast<void*>(user))->onDebugMessage(source, type, id, severity, text.c_str());
+    static_cast<GlContext*>(const_cast<void*>(user))->onDebugMessage(source, type, id, severity, text.c_str());
 }
 
 /// Tries to initialise @p display; terminates it again on failure.
@@ -134,6 +134,30 @@ HeadlessGlContext::HeadlessGlContext() {
     EGLSurface surface = surface_ != nullptr ? surface_ : EGL_NO_SURFACE;
     if (eglMakeCurrent(display, surface, surface, context_) != EGL_TRUE) fail("cannot make the OpenGL context current");
 
+    attachToCurrent(fail);
+}
+
+HeadlessGlContext::~HeadlessGlContext() {
+    auto display = static_cast<EGLDisplay>(display_);
+    detachFromCurrent();
+    eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    if (surface_ != nullptr) eglDestroySurface(display, surface_);
+    eglDestroyContext(display, context_);
+    eglTerminate(display);
+    eglReleaseThread();
+}
+
+const char* HeadlessGlContext::platformName() const noexcept {
+    switch (platform_) {
+        case EglPlatform::Surfaceless: return "surfaceless";
+        case EglPlatform::Device: return "device";
+        default: return "default";
+    }
+}
+
+GlContext::~GlContext() = default;
+
+void GlContext::attachToCurrent(const std::function<void(const std::string&)>& fail) {
     const auto str = [](GLenum name) {
         const auto* s = reinterpret_cast<const char*>(glGetString(name));
         return std::string(s != nullptr ? s : "");
@@ -151,44 +175,41 @@ HeadlessGlContext::HeadlessGlContext() {
     glEnable(GL_DEBUG_OUTPUT_SYNCHRONOUS);
     glDebugMessageCallback(debugCallback, this);
     glDebugMessageControl(GL_DONT_CARE, GL_DONT_CARE, GL_DONT_CARE, 0, nullptr, GL_TRUE);
+    attached_ = true;
 }
 
-HeadlessGlContext::~HeadlessGlContext() {
-    auto display = static_cast<EGLDisplay>(display_);
-    glDebugMessageCallback(nullptr, nullptr);
-    eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-    if (surface_ != nullptr) eglDestroySurface(display, surface_);
-    eglDestroyContext(display, context_);
-    eglTerminate(display);
-    eglReleaseThread();
+void GlContext::detachFromCurrent() noexcept {
+    if (attached_) glDebugMessageCallback(nullptr, nullptr);
+    attached_ = false;
 }
 
-const char* HeadlessGlContext::platformName() const noexcept {
-    switch (platform_) {
-        case EglPlatform::Surfaceless: return "surfaceless";
-        case EglPlatform::Device: return "device";
-        default: return "default";
-    }
+CurrentGlContext::CurrentGlContext() {
+    // (With no context current, glvnd's dispatch returns null: the toolkit's may be GLX, not EGL.)
+    if (glGetString(GL_VERSION) == nullptr)
+        throw RuntimeError("OpenGL: no context is current on this thread");
+    attachToCurrent([](const std::string& what) -> void { throw RuntimeError("OpenGL: " + what); });
 }
 
-void HeadlessGlContext::onDebugMessage(std::uint32_t source, std::uint32_t type, std::uint32_t id, std::uint32_t severity,
+CurrentGlContext::~CurrentGlContext() { detachFromCurrent(); }
+
+void GlContext::onDebugMessage(std::uint32_t source, std::uint32_t type, std::uint32_t id, std::uint32_t severity,
                                        const char* text) {
     std::lock_guard lock(mutex_);
     if (type == GL_DEBUG_TYPE_ERROR) ++errors_;
     if (messages_.size() < 256) messages_.push_back({source, type, id, severity, text});
 }
 
-std::uint64_t HeadlessGlContext::errorCount() const {
+std::uint64_t GlContext::errorCount() const {
     std::lock_guard lock(mutex_);
     return errors_;
 }
 
-std::vector<GlDebugMessage> HeadlessGlContext::debugMessages() const {
+std::vector<GlDebugMessage> GlContext::debugMessages() const {
     std::lock_guard lock(mutex_);
     return messages_;
 }
 
-std::string HeadlessGlContext::errorSummary() const {
+std::string GlContext::errorSummary() const {
     std::lock_guard lock(mutex_);
     std::string out;
     for (const GlDebugMessage& m : messages_) {
@@ -201,13 +222,13 @@ std::string HeadlessGlContext::errorSummary() const {
     return out;
 }
 
-void HeadlessGlContext::clearDebugMessages() {
+void GlContext::clearDebugMessages() {
     std::lock_guard lock(mutex_);
     messages_.clear();
     errors_ = 0;
 }
 
-void HeadlessGlContext::throwOnErrors(const std::string& what) const {
+void GlContext::throwOnErrors(const std::string& what) const {
     if (errorCount() == 0) return;
     std::string summary = errorSummary();
     for (char& c : summary)

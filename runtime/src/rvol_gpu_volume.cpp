@@ -49,7 +49,7 @@ void AtlasSlotAllocator::release(std::uint32_t slot) {
     if (slot != 0 && slot < next_) free_.push_back(slot);
 }
 
-RvolGpuVolume::RvolGpuVolume(HeadlessGlContext& context, const rvol::RvolReader& reader, const RvolGpuVolumeOptions& options)
+RvolGpuVolume::RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader, const RvolGpuVolumeOptions& options)
     : context_(context), reader_(reader) {
     const rvol::Header& header = reader.header();
     n_ = header.brickTexels;

@@ -9,7 +9,7 @@
 
 namespace vox::runtime {
 
-UploadRing::UploadRing(HeadlessGlContext& context, std::uint64_t ringBytes, UploadPath path) : context_(context), path_(path) {
+UploadRing::UploadRing(GlContext& context, std::uint64_t ringBytes, UploadPath path) : context_(context), path_(path) {
     if (path_ == UploadPath::BufferSubData) return;
     size_ = std::max<std::uint64_t>((ringBytes + 255) / 256 * 256, 4096);
     constexpr GLbitfield flags = GL_MAP_WRITE_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;

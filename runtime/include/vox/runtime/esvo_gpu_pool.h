@@ -10,7 +10,7 @@
 
 namespace vox::runtime {
 
-class HeadlessGlContext;
+class GlContext;
 class UploadRing;
 
 /// Mirrors an EsvoPool's arena (EsvoPool::words(), wordCount()) into an immutable-storage SSBO
@@ -24,7 +24,7 @@ public:
     /// @param capacityBytes GPU buffer size to reserve (rounded up to whole 8 KB pages; at least
     /// the arena's current size). @throws RuntimeError when it exceeds
     /// GL_MAX_SHADER_STORAGE_BLOCK_SIZE (128 MiB on llvmpipe).
-    EsvoGpuPool(HeadlessGlContext& context, const esvo::EsvoPool& pool, std::uint64_t capacityBytes = 0);
+    EsvoGpuPool(GlContext& context, const esvo::EsvoPool& pool, std::uint64_t capacityBytes = 0);
     ~EsvoGpuPool();
     EsvoGpuPool(const EsvoGpuPool&) = delete;
     EsvoGpuPool& operator=(const EsvoGpuPool&) = delete;
@@ -43,7 +43,7 @@ public:
 private:
     void allocate(std::uint64_t bytes);
 
-    HeadlessGlContext& context_;
+    GlContext& context_;
     const esvo::EsvoPool& pool_;
     unsigned buffer_ = 0;
     std::uint64_t capacityBytes_ = 0;

@@ -14,7 +14,7 @@
 
 namespace vox::runtime {
 
-class HeadlessGlContext;
+class GlContext;
 class EsvoGpuPool;
 
 /// What to cast; the fields of libvox's CastOptions that the GPU caster supports.
@@ -52,7 +52,7 @@ class EsvoGpuRaycaster {
 public:
     /// Compiles the shader. @throws RuntimeError (compile log) or InvalidDataError (a singular
     /// world-to-root transform, as the CPU caster).
-    EsvoGpuRaycaster(HeadlessGlContext& context, const EsvoGpuPool& pool);
+    EsvoGpuRaycaster(GlContext& context, const EsvoGpuPool& pool);
     ~EsvoGpuRaycaster();
     EsvoGpuRaycaster(const EsvoGpuRaycaster&) = delete;
     EsvoGpuRaycaster& operator=(const EsvoGpuRaycaster&) = delete;
@@ -67,7 +67,7 @@ public:
     [[nodiscard]] std::uint64_t outputBytes() const noexcept { return outputBytes_; }
 
 private:
-    HeadlessGlContext& context_;
+    GlContext& context_;
     const EsvoGpuPool& pool_;
     ComputeProgram program_;
     double a_[12];

@@ -48,7 +48,7 @@ struct EsvoStreamUpdate {
 class EsvoStream {
 public:
     /// Opens @p file (header, directory, root slice). @throws IoError, InvalidDataError, RuntimeError.
-    EsvoStream(HeadlessGlContext& context, const std::filesystem::path& file, const EsvoStreamOptions& options = {});
+    EsvoStream(GlContext& context, const std::filesystem::path& file, const EsvoStreamOptions& options = {});
 
     void setCamera(const Camera& camera);
     /// A new budget, at most the one the stream was opened with (its GPU buffer is that big).
@@ -69,7 +69,7 @@ public:
     [[nodiscard]] const EsvoStreamOptions& options() const noexcept { return options_; }
 
 private:
-    HeadlessGlContext& context_;
+    GlContext& context_;
     EsvoStreamOptions options_;
     std::unique_ptr<esvo::EsvoReader> reader_;
     std::unique_ptr<esvo::EsvoPool> pool_;

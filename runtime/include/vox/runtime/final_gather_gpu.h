@@ -14,7 +14,7 @@
 
 namespace vox::runtime {
 
-class HeadlessGlContext;
+class GlContext;
 
 /// A punctual light (vox::Light's fields; the runtime does not link libvox).
 struct GpuPunctualLight {
@@ -62,7 +62,7 @@ class FinalGatherGpu {
 public:
     /// @throws RuntimeError for options outside their ranges (as FinalGather's UsageError) or a
     /// shader that does not compile.
-    explicit FinalGatherGpu(HeadlessGlContext& context, const FinalGatherGpuOptions& options = {});
+    explicit FinalGatherGpu(GlContext& context, const FinalGatherGpuOptions& options = {});
     ~FinalGatherGpu();
     FinalGatherGpu(const FinalGatherGpu&) = delete;
     FinalGatherGpu& operator=(const FinalGatherGpu&) = delete;
@@ -84,7 +84,7 @@ public:
     [[nodiscard]] double lastSeconds() const noexcept { return lastSeconds_; }
 
 private:
-    HeadlessGlContext& context_;
+    GlContext& context_;
     FinalGatherGpuOptions options_;
     ComputeProgram shadeProgram_, sampleProgram_;
     double lastSeconds_ = 0;

@@ -5,6 +5,7 @@
 #include <vox/formats/error.h>
 
 #include <cstdint>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -28,29 +29,25 @@ struct GlDebugMessage {
 /// Which EGL display the context came from.
 enum class EglPlatform { Surfaceless, Device, Default };
 
-/// An OpenGL 4.5 core profile context without a window, made current on the constructing
-/// thread. Displays are tried in order: Mesa's surfaceless platform (EGL_MESA_platform_surfaceless:
-/// llvmpipe in CI, any Mesa driver), the device platform (EGL_EXT_platform_device: NVIDIA's
-/// headless path; the first device that initialises), then EGL_DEFAULT_DISPLAY. The context is
-/// a debug context with synchronous KHR_debug output, so every GL error is counted where it
-/// happens. Not copyable or movable (the debug callback holds its address). One at a time per
-/// process: EGL displays are per-process singletons and the destructor terminates the display.
-class HeadlessGlContext {
+/// An OpenGL 4.5 core context the runtime works in, current on the calling thread: what every
+/// runtime object takes. It reports the implementation (renderer, version) and collects KHR_debug
+/// output (synchronous: the callback runs inside the failing call), so a GL error is never
+/// silent. Two kinds: HeadlessGlContext makes its own through EGL; CurrentGlContext adopts the one
+/// an application made (GLFW, SDL, Qt ...). Not copyable or movable (the debug callback holds its
+/// address).
+class GlContext {
 public:
-    /// @throws RuntimeError naming why no OpenGL 4.5 core context could be made (no EGL display,
-    /// no OpenGL API, version below 4.5 ...), in one line.
-    HeadlessGlContext();
-    ~HeadlessGlContext();
-    HeadlessGlContext(const HeadlessGlContext&) = delete;
-    HeadlessGlContext& operator=(const HeadlessGlContext&) = delete;
+    virtual ~GlContext();
+    GlContext(const GlContext&) = delete;
+    GlContext& operator=(const GlContext&) = delete;
 
     [[nodiscard]] const std::string& renderer() const noexcept { return renderer_; }  ///< GL_RENDERER
     [[nodiscard]] const std::string& version() const noexcept { return version_; }    ///< GL_VERSION
     [[nodiscard]] const std::string& vendor() const noexcept { return vendor_; }      ///< GL_VENDOR
     [[nodiscard]] int majorVersion() const noexcept { return major_; }
     [[nodiscard]] int minorVersion() const noexcept { return minor_; }
-    [[nodiscard]] EglPlatform platform() const noexcept { return platform_; }
-    [[nodiscard]] const char* platformName() const noexcept;
+    /// How the context came about: "surfaceless", "device" or "default" (EGL), "current" (adopted).
+    [[nodiscard]] virtual const char* platformName() const noexcept = 0;
 
     /// GL errors (KHR_debug messages of type GL_DEBUG_TYPE_ERROR) since construction or the
     /// last clearDebugMessages(). Tests assert this is 0 after every frame.
@@ -68,16 +65,55 @@ public:
     /// KHR_debug callback target (public for the C callback only).
     void onDebugMessage(std::uint32_t source, std::uint32_t type, std::uint32_t id, std::uint32_t severity, const char* text);
 
+protected:
+    GlContext() = default;
+    /// Reads the current context's version and strings and installs the debug callback.
+    /// @throws RuntimeError (via @p fail, which must throw) below OpenGL 4.5.
+    void attachToCurrent(const std::function<void(const std::string&)>& fail);
+    /// Removes the debug callback (before the context goes).
+    void detachFromCurrent() noexcept;
+
+private:
+    std::string renderer_, version_, vendor_;
+    int major_ = 0, minor_ = 0;
+    bool attached_ = false;
+    mutable std::mutex mutex_;  // GL may call back from a driver thread when output is not synchronous
+    std::vector<GlDebugMessage> messages_;
+    std::uint64_t errors_ = 0;
+};
+
+/// An OpenGL 4.5 core profile context without a window, made current on the constructing
+/// thread. Displays are tried in order: Mesa's surfaceless platform (EGL_MESA_platform_surfaceless:
+/// llvmpipe in CI, any Mesa driver), the device platform (EGL_EXT_platform_device: NVIDIA's
+/// headless path; the first device that initialises), then EGL_DEFAULT_DISPLAY. The context is
+/// a debug context. EGL displays are per process and the destructor terminates the display: one
+/// HeadlessGlContext at a time per process.
+class HeadlessGlContext final : public GlContext {
+public:
+    /// @throws RuntimeError naming why no OpenGL 4.5 core context could be made (no EGL display,
+    /// no OpenGL API, version below 4.5 ...), in one line.
+    HeadlessGlContext();
+    ~HeadlessGlContext() override;
+
+    [[nodiscard]] EglPlatform platform() const noexcept { return platform_; }
+    [[nodiscard]] const char* platformName() const noexcept override;
+
 private:
     void* display_ = nullptr;   // EGLDisplay
     void* context_ = nullptr;   // EGLContext
     void* surface_ = nullptr;   // EGLSurface: a 1×1 pbuffer when EGL_KHR_surfaceless_context is missing
     EglPlatform platform_ = EglPlatform::Default;
-    std::string renderer_, version_, vendor_;
-    int major_ = 0, minor_ = 0;
-    mutable std::mutex mutex_;  // GL may call back from a driver thread when output is not synchronous
-    std::vector<GlDebugMessage> messages_;
-    std::uint64_t errors_ = 0;
+};
+
+/// The OpenGL context current on the constructing thread, made by the application (a window
+/// toolkit's): the runtime works in it. Debug output is enabled on it; errors are counted fully
+/// only where the application made a debug context.
+class CurrentGlContext final : public GlContext {
+public:
+    /// @throws RuntimeError when no context is current or it is below OpenGL 4.5 core.
+    CurrentGlContext();
+    ~CurrentGlContext() override;
+    [[nodiscard]] const char* platformName() const noexcept override { return "current"; }
 };
 
 }  // namespace vox::runtime

@@ -14,7 +14,7 @@
 
 namespace vox::runtime {
 
-class HeadlessGlContext;
+class GlContext;
 
 /// Fixed-size slots of an atlas, handed out from a free list (the lowest freed slot first is not
 /// promised: last freed, first reused). Slot 0 is reserved: the all-zero slot that absent bricks
@@ -88,7 +88,7 @@ public:
     /// Allocates the atlases for every brick of @p reader (plus the options' extra slots) and, by
     /// default, uploads them all. @throws RuntimeError when an atlas needs more slots than
     /// GL_MAX_3D_TEXTURE_SIZE allows, or on a GL error; InvalidDataError for a corrupt brick.
-    RvolGpuVolume(HeadlessGlContext& context, const rvol::RvolReader& reader, const RvolGpuVolumeOptions& options = {});
+    RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader, const RvolGpuVolumeOptions& options = {});
     ~RvolGpuVolume();
     RvolGpuVolume(const RvolGpuVolume&) = delete;
     RvolGpuVolume& operator=(const RvolGpuVolume&) = delete;
@@ -137,7 +137,7 @@ private:
     void createAtlas(unsigned& texture, const std::array<std::uint32_t, 3>& grid, bool rgb);
     [[nodiscard]] std::array<std::uint32_t, 3> slotOrigin(const std::array<std::uint32_t, 3>& grid, std::uint32_t slot) const noexcept;
 
-    HeadlessGlContext& context_;
+    GlContext& context_;
     const rvol::RvolReader& reader_;
     std::uint32_t n_ = 0;
     bool binaryLevel0_ = false;

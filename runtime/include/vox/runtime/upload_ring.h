@@ -10,7 +10,7 @@
 
 namespace vox::runtime {
 
-class HeadlessGlContext;
+class GlContext;
 
 /// How UploadRing moves bytes to the GPU.
 enum class UploadPath : std::uint8_t {
@@ -27,7 +27,7 @@ class UploadRing {
 public:
     /// @p ringBytes: the staging ring's size (rounded up to 256 bytes; uploads larger than a
     /// quarter of it go in several parts). @throws RuntimeError on a GL error.
-    UploadRing(HeadlessGlContext& context, std::uint64_t ringBytes = 8u << 20, UploadPath path = UploadPath::PersistentRing);
+    UploadRing(GlContext& context, std::uint64_t ringBytes = 8u << 20, UploadPath path = UploadPath::PersistentRing);
     ~UploadRing();
     UploadRing(const UploadRing&) = delete;
     UploadRing& operator=(const UploadRing&) = delete;
@@ -51,7 +51,7 @@ private:
     void waitFor(std::uint64_t begin, std::uint64_t end);
     void closeSegment();  // fences the ring bytes written since the last fence
 
-    HeadlessGlContext& context_;
+    GlContext& context_;
     UploadPath path_;
     unsigned ring_ = 0;
     std::byte* mapped_ = nullptr;
