@@ -309,7 +309,7 @@ TEST(RvolResidency, AClipmapAroundTheEyeWithinTheBudgetFallsBackToCoarserLevelsA
     const std::uint64_t budget = fullBytes / 4;
     rt::RvolGpuVolume streamed(*gl, *b.reader, {.uploadAll = false, .atlasBytes = budget});
     EXPECT_LT(streamed.residentBytes(), full.residentBytes()) << "the atlas is sized for the budget";
-    rt::RvolResidency residency(streamed, budget, 4);
+    rt::RvolResidency residency(streamed, budget);
     // An eye in a lower corner of the box: fine bricks there, coarse ones elsewhere.
     rt::Camera camera;
     camera.eye = {h.origin[0] + 0.2 * h.size, h.origin[1] + 0.2 * h.size, h.origin[2] + 0.7 * h.size};

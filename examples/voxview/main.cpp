@@ -24,6 +24,7 @@
 #include <vox/runtime/esvo_stream.h>
 #include <vox/runtime/final_gather_gpu.h>
 #include <vox/runtime/gl_context.h>
+#include <vox/runtime/rvol_residency.h>
 #include <vox/runtime/rvol_gpu_volume.h>
 
 #include <CLI/CLI.hpp>
@@ -57,7 +58,7 @@ struct Options {
     int width = 512, height = 512, frames = 1;
     unsigned maxLevel = 0xFFFFFFFFu;
     bool headless = false, quiet = false, framesGiven = false;
-    double budgetMb = 256, frameLoadMb = 0;
+    double budgetMb = 256, frameLoadMb = 0, rvolBudgetMb = 0;
     std::string cameraPath, upload = "ring";
     // The final gather (--rvol).
     std::string rvol, scene, gatherFilter = "hardware";
@@ -266,6 +267,8 @@ void run(Options o) {
     std::unique_ptr<vox::rvol::RvolReader> rvolReader;
     std::unique_ptr<rt::RvolGpuVolume> volume;
     std::unique_ptr<rt::FinalGatherGpu> gather;
+    std::unique_ptr<rt::RvolResidency> bricks;
+    nlohmann::json brickFrames = nlohmann::json::array();
     std::vector<rt::GpuPunctualLight> lights;
     std::size_t staticLights = 0;
     if (gatherChannel) {
@@ -283,7 +286,14 @@ void run(Options o) {
         else if (!o.quiet && !o.scene.empty() && staticLights != baked)
             std::fprintf(stderr, "voxview: warning: %s: %zu static lights, but %s was baked with %u\n", o.scene.c_str(), staticLights,
                          o.rvol.c_str(), baked);
-        volume = std::make_unique<rt::RvolGpuVolume>(context, *rvolReader);
+        // Every brick, or (--rvol-budget) a clipmap around the eye streamed frame by frame.
+        rt::RvolGpuVolumeOptions volumeOptions;
+        if (o.rvolBudgetMb > 0) {
+            volumeOptions.uploadAll = false;
+            volumeOptions.atlasBytes = std::uint64_t(o.rvolBudgetMb * 1048576.0);
+        }
+        volume = std::make_unique<rt::RvolGpuVolume>(context, *rvolReader, volumeOptions);
+        if (o.rvolBudgetMb > 0) bricks = std::make_unique<rt::RvolResidency>(*volume, volumeOptions.atlasBytes);
         rt::FinalGatherGpuOptions gatherOptions;
         gatherOptions.specularApertureDegrees = o.specAperture;
         gatherOptions.shadowApertureDegrees = o.shadowAperture;
@@ -321,6 +331,12 @@ void run(Options o) {
             const auto pointsStart = std::chrono::steady_clock::now();
             points = shadingPoints(frame, path[at]);
             pointsMs.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - pointsStart).count());
+            if (bricks) {
+                const rt::RvolResidency::Update u = bricks->update(path[at]);
+                if (brickFrames.size() < 10000)
+                    brickFrames.push_back({{"uploaded", u.uploaded}, {"evicted", u.evicted}, {"selected", u.selected},
+                                           {"over_budget", u.neededNotFitting}, {"resident_bytes", u.residentBytes}});
+            }
             parts = gather->shade(*volume, points.points, lights);
             gatherMs.push_back(gather->lastSeconds() * 1e3);
         }
@@ -422,6 +438,9 @@ void run(Options o) {
                                             {"ao_lambda", rvolReader->header().bake.aoLambda},
                                             {"volume_resident_bytes", volume->residentBytes()},
                                             {"volume_uploaded_bytes", volume->uploadedBytesTotal()},
+                                            {"rvol_budget_bytes", bricks ? bricks->budget() : 0},
+                                            // With --rvol-budget, per frame: bricks uploaded, evicted, kept, left out, resident bytes.
+                                            {"bricks_per_frame", brickFrames},
                                             // FinalGatherGpu::shade: upload, dispatch, glFinish, read-back.
                                             {"gather_ms_per_frame", gatherMs},
                                             {"gather_ms_median", median(gatherMs)},
@@ -459,6 +478,9 @@ int main(int argc, char** argv) {
     app.add_option("--max-level", o.maxLevel, "Treat voxels of this level as leaves");
     app.add_option("--frames", o.frames, "Render this many frames (timing); the last is written")->check(CLI::Range(1, 10000));
     app.add_option("--budget", o.budgetMb, "GPU memory budget for the octree's slices, MB")->capture_default_str();
+    app.add_option("--rvol-budget", o.rvolBudgetMb,
+                   "With --rvol: stream the radiance bricks around the eye within this many MB (0: upload every brick)")
+        ->capture_default_str();
     app.add_option("--frame-load", o.frameLoadMb, "Most MB of slices loaded per frame (0: all the view needs)")->capture_default_str();
     app.add_option("--camera-path", o.cameraPath,
                    "Camera per frame: 'orbit' (around --target at --eye's distance and height, over --frames) or a file of "

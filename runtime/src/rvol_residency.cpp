@@ -8,8 +8,8 @@
 
 namespace vox::runtime {
 
-RvolResidency::RvolResidency(RvolGpuVolume& volume, std::uint64_t budgetBytes, double radiusBricks)
-    : volume_(volume), budget_(budgetBytes), radius_(radiusBricks) {
+RvolResidency::RvolResidency(RvolGpuVolume& volume, std::uint64_t budgetBytes, double lodScale)
+    : volume_(volume), budget_(budgetBytes), lodScale_(lodScale) {
     const auto& levels = volume.reader().levels();
     lastUsed_.resize(levels.size());
     for (std::uint32_t l = 0; l < levels.size(); ++l) {
@@ -26,6 +26,8 @@ RvolResidency::Update RvolResidency::update(const Camera& camera) {
     const auto& levels = reader.levels();
     const std::uint32_t top = static_cast<std::uint32_t>(levels.size()) - 1;
     const double span = double(volume_.brickTexels() - 1);
+    camera.validate();
+    const double pixel = lodScale_ * camera.pixelAngle();
 
     // Needed bricks with their priority S / distance (the top level's: infinite, coarse first).
     struct Candidate {
@@ -46,7 +48,7 @@ RvolResidency::Update RvolResidency::update(const Camera& camera) {
                 d2 += g * g;
             }
             const double d = std::sqrt(d2);
-            if (l < top && d > radius_ * edge) continue;
+            if (l < top && !(cell > pixel * d)) continue;  // its cells look smaller than lodScale pixels
             const double priority = l == top ? std::numeric_limits<double>::max() : edge / std::max(d, 1e-9 * header.size);
             candidates.push_back({priority, l, i});
         }

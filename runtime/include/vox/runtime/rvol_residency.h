@@ -2,10 +2,12 @@
 /// @brief Which .rvol bricks a camera needs on the GPU, under a memory budget: the radiance
 /// volume's streaming policy (the .esvo one is slice_schedule.h).
 ///
-/// Cones sample fine levels near their start and coarser ones further out, so what a view needs
-/// is a clipmap around the eye: a brick of level l (edge S_l = (N − 1) cells of that level) is
-/// needed while the eye is within radius × S_l of it; the top level always. Needed bricks are
-/// taken in order of S_l / distance (coarse and near first), and the selection stops at the first
+/// Every shaded point starts its cones at the finest level, so a level's bricks are needed as far
+/// as its cells would still look bigger than lodScale pixels from the eye (as an octree slice's
+/// voxels, slice_schedule.h): a brick of level l with cells of c_l is needed while its distance d
+/// to the eye has c_l / d > lodScale × the camera's pixel angle; the top level always. Beyond that
+/// the level above serves (a clipmap around the eye). Needed bricks are taken in order of
+/// S_l / d (S_l the brick's edge: coarse and near first), and the selection stops at the first
 /// brick that does not fit, so that every selected brick's coarser cover is selected too: a
 /// missing brick (kMissingBrick) then always has a resident level above it to fall back to.
 #pragma once
@@ -22,8 +24,7 @@ namespace vox::runtime {
 class RvolResidency {
 public:
     /// @p volume must outlive this (create it with uploadAll false and atlasBytes ≈ the budget).
-    /// @p radiusBricks: how many of its own edges around the eye a level's bricks are kept.
-    RvolResidency(RvolGpuVolume& volume, std::uint64_t budgetBytes, double radiusBricks = 4);
+    RvolResidency(RvolGpuVolume& volume, std::uint64_t budgetBytes, double lodScale = 1);
 
     struct Update {
         std::uint32_t uploaded = 0, evicted = 0;  ///< bricks
@@ -40,7 +41,7 @@ public:
 private:
     RvolGpuVolume& volume_;
     std::uint64_t budget_;
-    double radius_;
+    double lodScale_;
     std::uint64_t frame_ = 0, residentBytes_ = 0;
     std::vector<std::vector<std::uint64_t>> lastUsed_;  // per level, per brick
 };
