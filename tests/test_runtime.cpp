@@ -510,3 +510,81 @@ TEST(Voxview, FinalGatherMatchesVoxinspectRender) {
         EXPECT_NE(stats.find(key), std::string::npos) << key;
     EXPECT_NE(stats.find("\"gl_errors\": 0"), std::string::npos) << stats;
 }
+
+// Issue 10: a slice corrupted on disk is rejected by the stream, which reports it (file and
+// slice) and renders the rest, rays stopping at its parent's level there; it is never retried.
+TEST(EsvoStream, ACorruptSliceIsReportedAndSkippedAndTheRestRenders) {
+    REQUIRE_GL();
+    vox::test::ScratchDir dir;
+    const fs::path file = writeOctree(dir / "corrupt.esvo", 7, vox::AttributeEncoding::Compressed, 16384, 64);
+    const View view = kViews[0];
+    const double lodScale = 1e-3;  // finer than any voxel: the view needs every slice it sees
+    std::vector<std::uint32_t> needed;
+    std::uint32_t victim = 0;
+    std::vector<char> below;  // per slice: the victim or under it
+    {
+        const vox::esvo::EsvoReader reader(file);
+        const auto regions = rt::sliceRegions(reader.directory());
+        needed = rt::selectSlices(reader, regions, {gpuCamera(view), lodScale}, ~std::uint64_t{0}).slices;
+        ASSERT_GT(needed.size(), 4u);
+        // A needed non-root slice with needed children, so that its subtree is left out too.
+        for (std::uint32_t s : needed)
+            if (s != 0 && victim == 0 && reader.slice(s).childCount > 0 &&
+                std::any_of(needed.begin(), needed.end(), [&](std::uint32_t c) { return c != 0 && reader.slice(c).parent == s; }))
+                victim = s;
+        ASSERT_NE(victim, 0u);
+        below.assign(reader.sliceCount(), 0);
+        below[victim] = 1;
+        for (std::uint32_t s = 1; s < reader.sliceCount(); ++s) below[s] = below[s] || below[reader.slice(s).parent];
+        // Flip one byte in the middle of the victim's block on disk.
+        const vox::esvo::SliceEntry& e = reader.slice(victim);
+        std::FILE* f = std::fopen(file.c_str(), "r+b");
+        ASSERT_NE(f, nullptr);
+        const long at = long(e.fileOffset + e.byteSize / 2);
+        ASSERT_EQ(std::fseek(f, at, SEEK_SET), 0);
+        const int byte = std::fgetc(f);
+        ASSERT_NE(byte, EOF);
+        ASSERT_EQ(std::fseek(f, at, SEEK_SET), 0);
+        std::fputc(byte ^ 0xFF, f);
+        std::fclose(f);
+    }
+    rt::EsvoStreamOptions options;
+    options.lodScale = lodScale;
+    rt::EsvoStream stream(*gl, file, options);
+    stream.setCamera(gpuCamera(view));
+    rt::EsvoStreamUpdate update;
+    ASSERT_NO_THROW(update = stream.update());
+    std::printf("[ runtime  ] corrupt slice %u: %u loaded, %u bad, %zu error(s): %s\n", victim, update.loaded, update.badSlices,
+                update.errors.size(), update.errors.empty() ? "" : update.errors[0].c_str());
+    EXPECT_EQ(update.badSlices, 1u);
+    ASSERT_EQ(update.errors.size(), 1u);
+    EXPECT_NE(update.errors[0].find(file.string()), std::string::npos) << update.errors[0];
+    EXPECT_NE(update.errors[0].find("slice " + std::to_string(victim) + " "), std::string::npos) << update.errors[0];
+    EXPECT_EQ(update.errors[0].find('\n'), std::string::npos) << "one line";
+    EXPECT_EQ(update.pending, 0u);
+    std::size_t resident = 0;
+    for (std::uint32_t s : needed) {
+        EXPECT_EQ(stream.pool().loaded(s), !below[s]) << "slice " << s;
+        resident += !below[s];
+    }
+    EXPECT_EQ(stream.pool().loadedSliceCount(), resident);
+    EXPECT_LT(resident, needed.size());
+    // Never retried: a second update loads nothing and reports nothing new.
+    const rt::EsvoStreamUpdate again = stream.update();
+    EXPECT_EQ(again.loaded, 0u);
+    EXPECT_TRUE(again.errors.empty());
+    EXPECT_EQ(again.badSlices, 1u);
+    EXPECT_EQ(again.pending, 0u);
+    // The GPU image on what is resident matches the CPU reference on the same pool.
+    const rt::GpuFrame gpu = stream.render(stream.castOptions());
+    ASSERT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
+    const vox::EsvoRayCaster cpu(stream.pool());
+    vox::CastOptions cast;
+    cast.lodAngle = cpuCamera(view).pixelAngle() * lodScale;
+    cast.attributes = true;
+    const vox::RenderBuffers reference = vox::renderEsvo(cpu, cpuCamera(view), cast);
+    const Comparison c = compare(reference, gpu, cpuCamera(view), gpuCamera(view));
+    report("corrupt slice " + std::to_string(victim) + " skipped", c, gpu.wallMilliseconds);
+    expectEquivalent(c);
+    EXPECT_GT(c.cpuHits, 0u);
+}

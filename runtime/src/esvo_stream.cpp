@@ -51,6 +51,8 @@ EsvoStreamUpdate EsvoStream::update() {
     out.loadedBytes = u.loadedBytes;
     out.pending = u.pending;
     out.neededNotFitting = u.selection.neededNotFitting;
+    out.badSlices = static_cast<std::uint32_t>(residency_->badSlices().size());
+    out.errors = u.errors;
     // The pool's words change only where slices were loaded or unloaded; comparing the whole
     // arena with the GPU's copy costs a pass over it (≈ 19 ms for 120 MB), so skip it otherwise.
     if (!u.loaded.empty() || !u.evicted.empty()) out.uploadedBytes = gpuPool_->sync(&ring_);

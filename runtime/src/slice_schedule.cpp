@@ -118,9 +118,10 @@ std::uint64_t residentBytesOf(const esvo::SliceEntry& entry) noexcept {
 }
 
 SliceSelection selectSlices(const esvo::EsvoReader& reader, const std::vector<SliceRegion>& regions, const StreamingView& view,
-                            std::uint64_t budgetBytes) {
+                            std::uint64_t budgetBytes, const std::vector<char>* excluded) {
     const esvo::Directory& directory = reader.directory();
     if (regions.size() != directory.slices.size()) throw UsageError("selectSlices: one region per slice");
+    if (excluded != nullptr && excluded->size() != directory.slices.size()) throw UsageError("selectSlices: one exclusion flag per slice");
     const RootView root(reader.header(), view);
     SliceSelection out;
     if (directory.slices.empty()) return out;
@@ -133,6 +134,7 @@ SliceSelection selectSlices(const esvo::EsvoReader& reader, const std::vector<Sl
     const auto offerChildren = [&](std::uint32_t slice) {
         const esvo::SliceEntry& e = directory.slices[slice];
         for (std::uint32_t c = e.firstChild; c < e.firstChild + e.childCount && c < directory.slices.size(); ++c) {
+            if (excluded != nullptr && (*excluded)[c]) continue;  // nor is anything below it offered
             const double angle = root.need(directory.slices[c], regions[c]);
             if (angle > 0) queue.push({angle, c});
         }
@@ -156,12 +158,13 @@ SliceSelection selectSlices(const esvo::EsvoReader& reader, const std::vector<Sl
 }
 
 SliceResidency::SliceResidency(esvo::EsvoPool& pool, std::uint64_t budgetBytes)
-    : pool_(pool), regions_(sliceRegions(pool.reader().directory())), lastUsed_(regions_.size(), 0), budget_(budgetBytes) {}
+    : pool_(pool), regions_(sliceRegions(pool.reader().directory())), lastUsed_(regions_.size(), 0), bad_(regions_.size(), 0),
+      budget_(budgetBytes) {}
 
 SliceResidency::Update SliceResidency::update(const StreamingView& view) {
     ++frame_;
     Update out;
-    out.selection = selectSlices(pool_.reader(), regions_, view, budget_);
+    out.selection = selectSlices(pool_.reader(), regions_, view, budget_, &bad_);
     const std::uint32_t count = pool_.reader().sliceCount();
     std::vector<char> selected(count, 0);
     std::uint64_t missing = 0;
@@ -186,19 +189,44 @@ SliceResidency::Update SliceResidency::update(const StreamingView& view) {
             if (!pool_.loaded(s)) out.evicted.push_back(s);
     }
     // Load in selection order (coarse and near first; parents before children), up to the
-    // per-frame limit; a child whose parent had to wait waits too.
+    // per-frame limit; a child whose parent had to wait waits too. A slice that fails to load is
+    // marked bad and skipped with everything below it; the rest go on loading.
     for (std::uint32_t s : out.selection.slices) {
         if (pool_.loaded(s)) continue;
+        const std::uint32_t parent = s == 0 ? 0 : pool_.reader().slice(s).parent;
+        if (s != 0 && bad_[parent]) {
+            bad_[s] = 2;  // below a slice that failed in this update: not bad itself, just unreachable
+            continue;
+        }
         const std::uint64_t bytes = residentBytesOf(pool_.reader().slice(s));
-        const bool parentReady = s == 0 || pool_.loaded(pool_.reader().slice(s).parent);
+        const bool parentReady = s == 0 || pool_.loaded(parent);
         if (!parentReady || (frameLimit_ > 0 && !out.loaded.empty() && out.loadedBytes + bytes > frameLimit_)) {
             ++out.pending;
             continue;
         }
-        pool_.load(s);
+        try {
+            pool_.load(s);
+        } catch (const Error& e) {
+            if (dynamic_cast<const InvalidDataError*>(&e) == nullptr && dynamic_cast<const IoError*>(&e) == nullptr) throw;
+            bad_[s] = 1;
+            badList_.push_back(s);
+            out.failed.push_back(s);
+            const esvo::SliceEntry& entry = pool_.reader().slice(s);
+            std::string problem = e.what();
+            const std::string path = pool_.reader().path().string();
+            if (problem.rfind(path + ": ", 0) == 0) problem.erase(0, path.size() + 2);  // named once, in front
+            out.errors.push_back(path + ": slice " + std::to_string(s) + " (levels " +
+                                 std::to_string(entry.firstLevel) + "-" + std::to_string(entry.endLevel) + ", " +
+                                 std::to_string(entry.byteSize) + " bytes at file offset " + std::to_string(entry.fileOffset) +
+                                 ") rejected, not loaded again; rays stop at its parent there: " + problem);
+            continue;
+        }
         out.loaded.push_back(s);
         out.loadedBytes += bytes;
     }
+    // Slices only unreachable below one that failed stay selectable (their parent never is again).
+    for (char& b : bad_)
+        if (b == 2) b = 0;
     return out;
 }
 

@@ -13,6 +13,8 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <string>
+#include <vector>
 
 namespace vox::runtime {
 
@@ -37,6 +39,11 @@ struct EsvoStreamUpdate {
     std::uint64_t uploadedBytes = 0;            ///< bytes sent to the GPU
     std::uint64_t residentBytes = 0;            ///< slice bytes resident after the update
     double seconds = 0;                         ///< reading, validating and uploading
+    /// Slices found corrupt or unreadable so far (this update and earlier ones): each is left out
+    /// with everything below it, never retried, and rays stop at its parent's level there.
+    std::uint32_t badSlices = 0;
+    /// One line per slice that failed in this update, naming the file, the slice and the problem.
+    std::vector<std::string> errors;
 };
 
 /// An .esvo file on the GPU, streamed slice by slice: each update() selects the slices the
@@ -53,8 +60,9 @@ public:
     void setCamera(const Camera& camera);
     /// A new budget, at most the one the stream was opened with (its GPU buffer is that big).
     void setBudget(std::uint64_t bytes);
-    /// Brings the resident slices to what the camera needs. @throws InvalidDataError for a
-    /// corrupt slice (naming it), RuntimeError on a GL error.
+    /// Brings the resident slices to what the camera needs. A slice that fails to load (checksum,
+    /// structure or read error) does not stop the update: it is reported in errors, counted in
+    /// badSlices and never loaded again; the rest stream on. @throws RuntimeError on a GL error.
     EsvoStreamUpdate update();
     /// Cast options matching the streamed detail: the LOD cut at lodScale pixels.
     [[nodiscard]] GpuCastOptions castOptions() const;

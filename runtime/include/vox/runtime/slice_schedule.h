@@ -17,6 +17,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace vox::runtime {
@@ -53,13 +54,18 @@ struct SliceSelection {
 
 /// Selects the slices @p view needs from @p reader's file, at most @p budgetBytes in all (the
 /// root slice always, even over the budget). Deterministic: ties go to the lower slice index.
+/// @p excluded (one flag per slice, or null): slices never to select, nor anything below them
+/// (slices found corrupt).
 [[nodiscard]] SliceSelection selectSlices(const esvo::EsvoReader& reader, const std::vector<SliceRegion>& regions,
-                                          const StreamingView& view, std::uint64_t budgetBytes);
+                                          const StreamingView& view, std::uint64_t budgetBytes,
+                                          const std::vector<char>* excluded = nullptr);
 
 /// Keeps an EsvoPool's resident slices to what successive views select, under a budget: loads
 /// what is selected and missing (parents first), and evicts least-recently-selected slices (the
 /// deepest first among equals) only as far as needed to stay within the budget, so slices a
-/// view stops needing stay cached while memory allows.
+/// view stops needing stay cached while memory allows. A slice that fails to load (IoError or
+/// InvalidDataError: unreadable, checksum or structure wrong) is marked bad: never retried, never
+/// selected again, nor anything below it, so rays stop at its parent's level there.
 class SliceResidency {
 public:
     /// @p pool must outlive this; it starts with the root slice.
@@ -74,6 +80,10 @@ public:
         /// the detail the budget allows).
         std::uint32_t pending = 0;
         SliceSelection selection;
+        /// Slices that failed to load in this update (now bad), and why: one line each naming the
+        /// file and the slice.
+        std::vector<std::uint32_t> failed;
+        std::vector<std::string> errors;
     };
     /// Selects for @p view, evicts to make room, loads what is missing.
     Update update(const StreamingView& view);
@@ -84,11 +94,15 @@ public:
     void setFrameLoadLimit(std::uint64_t bytes) noexcept { frameLimit_ = bytes; }
     [[nodiscard]] std::uint64_t budget() const noexcept { return budget_; }
     [[nodiscard]] std::uint64_t frame() const noexcept { return frame_; }
+    /// Slices found bad so far (see the class), in the order found.
+    [[nodiscard]] const std::vector<std::uint32_t>& badSlices() const noexcept { return badList_; }
 
 private:
     esvo::EsvoPool& pool_;
     std::vector<SliceRegion> regions_;
     std::vector<std::uint64_t> lastUsed_;  // per slice: the frame that last selected it
+    std::vector<char> bad_;                // per slice: failed to load once, never retried
+    std::vector<std::uint32_t> badList_;
     std::uint64_t budget_;
     std::uint64_t frameLimit_ = 0;
     std::uint64_t frame_ = 0;
