@@ -3,6 +3,8 @@
 #include <vox/formats/esvo_attributes.h>
 #include <vox/formats/esvo_reader.h>
 
+#include "read_only_file.h"
+
 #include <algorithm>
 #include <string>
 
@@ -337,6 +339,18 @@ FileBreakdown validateFile(const EsvoReader& reader) {
     std::vector<std::uint64_t> voxelsPerLevel(h.leafDepth + 1, 0);
     voxelsPerLevel[0] = 1;
     std::uint64_t used = total.headerAndDirectoryBytes;
+    // The alignment gaps before each slice must be zero, as the writer leaves them: a flipped
+    // byte there is corruption too, even if no reader reads it.
+    const detail::ReadOnlyFile file(reader.path());
+    std::uint64_t previousEnd = total.headerAndDirectoryBytes;
+    const auto checkGap = [&](std::uint64_t from, std::uint64_t to) {
+        if (to <= from) return;
+        std::vector<std::uint8_t> gap(to - from);
+        file.read(from, gap.data(), gap.size());
+        for (std::size_t k = 0; k < gap.size(); ++k)
+            if (gap[k] != 0)
+                throw InvalidDataError(reader.path(), "byte " + std::to_string(from + k) + ": the alignment gap before a slice is not zero");
+    };
     const FrontierDescriptor rootParent{1, {}};
     for (std::uint32_t i = 0; i < d.slices.size(); ++i) {
         const SliceEntry& s = d.slices[i];
@@ -361,6 +375,8 @@ FileBreakdown validateFile(const EsvoReader& reader) {
                                                               ": a root group lies outside the slice's region");
             }
         }
+        checkGap(previousEnd, s.fileOffset);
+        previousEnd = std::max(previousEnd, s.fileOffset + s.byteSize);
         const std::vector<std::uint8_t> bytes = reader.readSlice(i);
         BlockSummary summary = validateBlock(reader.path(), h, i, s, bytes, parents);
         std::uint64_t consumed = 0;
