@@ -1,7 +1,7 @@
 #include <vox/formats/error.h>
 #include <vox/formats/esvo_reader.h>
 
-#include "read_only_file.h"
+#include <vox/formats/read_only_file.h>
 
 #include <cmath>
 
@@ -137,7 +137,7 @@ Directory decodeDirectory(const std::filesystem::path& file, const Header& h, co
 }  // namespace
 
 EsvoReader::EsvoReader(std::filesystem::path file)
-    : path_(std::move(file)), file_(std::make_unique<vox::detail::ReadOnlyFile>(path_)) {
+    : path_(std::move(file)), file_(std::make_unique<vox::ReadOnlyFile>(path_)) {
     const std::uint64_t fileSize = file_->size();
     if (fileSize < kHeaderBytes) invalid(path_, "too short for an .esvo header (" + std::to_string(fileSize) + " bytes)");
     std::array<std::uint8_t, kHeaderBytes> headerBytes{};

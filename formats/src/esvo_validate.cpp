@@ -3,7 +3,7 @@
 #include <vox/formats/esvo_attributes.h>
 #include <vox/formats/esvo_reader.h>
 
-#include "read_only_file.h"
+#include <vox/formats/read_only_file.h>
 
 #include <algorithm>
 #include <string>
@@ -341,7 +341,7 @@ FileBreakdown validateFile(const EsvoReader& reader) {
     std::uint64_t used = total.headerAndDirectoryBytes;
     // The alignment gaps before each slice must be zero, as the writer leaves them: a flipped
     // byte there is corruption too, even if no reader reads it.
-    const detail::ReadOnlyFile file(reader.path());
+    const ReadOnlyFile file(reader.path());
     std::uint64_t previousEnd = total.headerAndDirectoryBytes;
     const auto checkGap = [&](std::uint64_t from, std::uint64_t to) {
         if (to <= from) return;

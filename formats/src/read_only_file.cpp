@@ -1,4 +1,4 @@
-#include "read_only_file.h"
+#include <vox/formats/read_only_file.h>
 
 #include <vox/formats/error.h>
 
@@ -9,7 +9,7 @@
 #include <unistd.h>
 #include <utility>
 
-namespace vox::detail {
+namespace vox {
 
 ReadOnlyFile::ReadOnlyFile(std::filesystem::path file) : path_(std::move(file)) {
     fd_ = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
@@ -56,4 +56,4 @@ void ReadOnlyFile::read(std::uint64_t offset, std::uint8_t* out, std::uint64_t s
     }
 }
 
-}  // namespace vox::detail
+}  // namespace vox

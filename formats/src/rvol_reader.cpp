@@ -4,7 +4,7 @@
 #include <vox/formats/error.h>
 #include <vox/formats/rvol_io.h>
 
-#include "read_only_file.h"
+#include <vox/formats/read_only_file.h>
 #include "rvol_internal.h"
 
 #include <algorithm>
@@ -186,7 +186,7 @@ struct RvolReader::Cache {
 };
 
 RvolReader::RvolReader(std::filesystem::path file)
-    : path_(std::move(file)), file_(std::make_unique<vox::detail::ReadOnlyFile>(path_)), cache_(std::make_unique<Cache>()) {
+    : path_(std::move(file)), file_(std::make_unique<vox::ReadOnlyFile>(path_)), cache_(std::make_unique<Cache>()) {
     const std::uint64_t fileSize = file_->size();
     if (fileSize < kHeaderBytes) invalid(path_, "too short for an .rvol header (" + str(fileSize) + " bytes)");
     std::array<std::uint8_t, kHeaderBytes> headerBytes{};

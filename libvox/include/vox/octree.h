@@ -104,6 +104,10 @@ enum class AttributeEncoding : std::uint8_t {
     CompressedLookup,
 };
 
+/// The default partition level for leaf depth @p leafDepth: leafDepth − 9 (at most 10), or 0
+/// (no partitions) up to depth 9. See EsvoWriteOptions::partitionLevel.
+[[nodiscard]] std::uint32_t defaultPartitionLevel(std::uint32_t leafDepth);
+
 /// Options for writeEsvo.
 struct EsvoWriteOptions {
     /// Ignored (None) when the octree has no attributes.
@@ -112,6 +116,12 @@ struct EsvoWriteOptions {
     /// Largest near child pointer (64-bit units). 32767 is the format's; tests lower it to force
     /// far pointers.
     std::uint32_t nearPointerLimit = 0x7FFF;
+    /// Slices never span two voxels of this level (the partitions): the slices below each of
+    /// them are laid out from its subtree alone, those above from the levels down to it (the
+    /// top). That is what lets buildEsvo lay a file out one partition at a time, and in
+    /// separate processes, with the same bytes. 0: no partitions; −1: defaultPartitionLevel.
+    /// For buildEsvo at most the voxelizer's cell level (4, or deeper from depth 14).
+    std::int32_t partitionLevel = -1;
     Bounds3f sceneBounds;
     Timings* timings = nullptr;
 };
@@ -125,7 +135,60 @@ struct EsvoWriteResult {
 };
 
 /// Lays @p octree out as ESVO blocks in slices and writes the .esvo file atomically. The same
-/// octree and options always give the same bytes.
+/// octree and options always give the same bytes, and the same as buildEsvo from the scene the
+/// octree was voxelized from.
 EsvoWriteResult writeEsvo(const std::filesystem::path& file, const SparseOctree& octree, const EsvoWriteOptions& options);
+
+/// Which partitions a build makes: the partitions (voxels of the partition level holding
+/// triangles, in Morton order) are split into `count` runs of about equal work, and a build
+/// makes run `index` (0-based) only.
+struct PartitionSelection {
+    std::uint32_t index = 0;
+    std::uint32_t count = 1;  ///< 1: the whole octree, written as an .esvo file
+};
+
+/// Options for buildEsvo.
+struct EsvoBuildOptions {
+    SurfaceVoxelizeOptions voxelize;  ///< `cube` and `leafMaterials` are not used
+    EsvoWriteOptions write;
+    /// Bytes the build may use: it builds as many partitions at a time as fit, and keeps at
+    /// most a quarter of it of finished slices in memory (the rest waits in a scratch file
+    /// beside the output). 0: defaultMemoryLimit().
+    std::uint64_t memoryLimit = 0;
+    PartitionSelection partitions;
+};
+
+/// What buildEsvo did.
+struct EsvoBuildResult {
+    std::uint32_t leafDepth = 0;
+    std::uint32_t partitionLevel = 0;
+    std::vector<std::uint64_t> voxelsPerLevel;  ///< of the whole octree (a part file: of its partitions and the levels above)
+    std::uint64_t partitionsBuilt = 0;          ///< partitions of this build (all of them unless selected)
+    std::uint64_t partitionsTotal = 0;          ///< partitions of the octree
+    std::uint32_t batches = 0;                  ///< rounds of partitions built together
+    std::uint64_t scratchBytes = 0;             ///< finished slices that waited on disk
+    std::uint64_t memoryLimit = 0;
+    EsvoWriteResult written;                    ///< the .esvo or the part file
+    double voxelizeSeconds = 0, layoutSeconds = 0;
+    [[nodiscard]] std::uint64_t voxelCount() const noexcept;
+};
+
+/// Half the physical memory (capped by the cgroup's limit where there is one).
+[[nodiscard]] std::uint64_t defaultMemoryLimit();
+
+/// Voxelizes @p scene and writes its octree as an .esvo file, partition by partition within the
+/// memory limit: the same bytes as voxelizeSurface then writeEsvo with the same options, for any
+/// memory limit and thread count. With a partition selection of more than one run, writes a
+/// part file of the selected partitions instead (docs/esvo-part-format.md), for mergeEsvoParts.
+/// @throws InvalidDataError (no triangles), UsageError (bad options, memory limit below what
+/// the scene itself takes), IoError.
+EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene, const EsvoBuildOptions& options);
+
+/// Joins the part files of every run of one partitioned build into the .esvo file the
+/// unpartitioned build writes, byte for byte.
+/// @throws InvalidDataError if a part is corrupt, from another build, or runs are missing or
+/// repeated; IoError.
+EsvoBuildResult mergeEsvoParts(const std::filesystem::path& file, const std::vector<std::filesystem::path>& parts,
+                               std::uint64_t memoryLimit = 0, Timings* timings = nullptr);
 
 }  // namespace vox

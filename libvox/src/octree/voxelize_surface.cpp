@@ -1,6 +1,8 @@
 // Surface voxelization: triangles are binned into the cells of a coarse level, then every cell's
 // subtree is built top-down in parallel, each node filtering its parent's triangle list with the
 // exact triangle/box test. Per-level mask arrays come out in Morton order (see SparseOctree).
+#include "surface_voxelizer.h"
+
 #include "contours.h"
 #include "triangle_box.h"
 #include "voxel_attributes.h"
@@ -211,10 +213,50 @@ private:
 
 }  // namespace
 
-SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& options) {
+std::uint32_t detail::cellLevel(std::uint32_t depth) {
+    return std::max(std::min<std::uint32_t>(depth - 1, 4), defaultPartitionLevel(depth));
+}
+
+std::uint32_t defaultPartitionLevel(std::uint32_t leafDepth) {
+    // Partitions of at most 9 levels (512³ leaf cells); never deeper than 10, the cell level's bound.
+    return leafDepth > 9 ? std::min<std::uint32_t>(leafDepth - 9, 10) : 0;
+}
+
+detail::UpperLevels detail::buildUpperLevels(std::vector<std::uint32_t> codes, std::vector<AttributeSums> sums, std::uint32_t level,
+                                             std::uint32_t rootLevel) {
+    UpperLevels out;
+    const bool withSums = !sums.empty();
+    out.masks.resize(level - rootLevel);
+    out.sums.resize(withSums ? level - rootLevel + 1 : 0);
+    out.codes.resize(level - rootLevel + 1);
+    for (std::uint32_t l = level; l-- > rootLevel;) {
+        std::vector<std::uint32_t> parents;
+        std::vector<AttributeSums> parentSums;
+        auto& masks = out.masks[l - rootLevel];
+        for (std::size_t i = 0; i < codes.size(); ++i) {
+            const std::uint32_t code = codes[i];
+            if (parents.empty() || parents.back() != (code >> 3)) {
+                parents.push_back(code >> 3);
+                masks.push_back(0);
+                if (withSums) parentSums.emplace_back();
+            }
+            masks.back() = static_cast<std::uint8_t>(masks.back() | (1u << (code & 7u)));
+            if (withSums) parentSums.back() += sums[i];
+        }
+        out.codes[l + 1 - rootLevel] = std::move(codes);
+        if (withSums) out.sums[l + 1 - rootLevel] = std::move(sums);
+        codes = std::move(parents);
+        sums = std::move(parentSums);
+    }
+    out.codes[0] = std::move(codes);
+    if (withSums) out.sums[0] = std::move(sums);
+    return out;
+}
+
+detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene, const SurfaceVoxelizeOptions& options) : scene_(scene), options_(options) {
     if (options.depth < 1 || options.depth > esvo::kMaxLeafDepth)
         throw UsageError("--depth must be between 1 and " + std::to_string(esvo::kMaxLeafDepth));
-    const std::uint32_t depth = options.depth;
+    depth_ = options.depth;
     const auto selected = [&](const Mesh& mesh) { return options.onlyDynamic ? mesh.dynamic : (!mesh.dynamic || options.includeDynamic); };
     const bool attributes = options.attributes || options.leafMaterials;
 
@@ -228,21 +270,17 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
     const std::filesystem::path source = scene.sourceFiles.empty() ? std::filesystem::path("scene") : scene.sourceFiles.front();
     if (triangleCount == 0) throw InvalidDataError(source, options.onlyDynamic ? "no dynamic triangles to voxelize" : "no static triangles to voxelize");
     if (triangleCount >= 0xFFFFFFFFull) throw InvalidDataError(source, "more than 2^32 triangles");
-
-    SparseOctree octree;
-    octree.cube = options.cube ? *options.cube : RootCube::enclosing(bounds);
-    octree.leafDepth = depth;
+    cube_ = options.cube ? *options.cube : RootCube::enclosing(bounds);
 
     // Triangles in leaf-voxel units: the cube is [0, 2^depth]³.
-    std::vector<BoxTestTriangle> triangles;
-    triangles.reserve(triangleCount);
-    std::vector<detail::TriangleSource> sources;
+    triangles_.reserve(triangleCount);
+    std::vector<TriangleSource> sources;
     if (attributes) sources.reserve(triangleCount);
     {
         Timings::Scope timer(options.timings, "voxelize_prepare");
-        const double scale = std::ldexp(1.0, static_cast<int>(depth)) / octree.cube.size;
+        const double scale = std::ldexp(1.0, static_cast<int>(depth_)) / cube_.size;
         const auto toLeaf = [&](Vec3f p) {
-            return Vec3d{(p.x - octree.cube.origin.x) * scale, (p.y - octree.cube.origin.y) * scale, (p.z - octree.cube.origin.z) * scale};
+            return Vec3d{(p.x - cube_.origin.x) * scale, (p.y - cube_.origin.y) * scale, (p.z - cube_.origin.z) * scale};
         };
         for (std::uint32_t m = 0; m < scene.meshes.size(); ++m) {
             const Mesh& mesh = scene.meshes[m];
@@ -250,24 +288,25 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
             if (attributes)
                 for (std::size_t t = 0; t < mesh.triangleCount(); ++t) sources.push_back({m, static_cast<std::uint32_t>(t)});
             for (std::size_t t = 0; t < mesh.triangleCount(); ++t)
-                triangles.push_back(detail::prepareBoxTest(toLeaf(mesh.positions[mesh.indices[3 * t]]),
-                                                           toLeaf(mesh.positions[mesh.indices[3 * t + 1]]),
-                                                           toLeaf(mesh.positions[mesh.indices[3 * t + 2]])));
+                triangles_.push_back(detail::prepareBoxTest(toLeaf(mesh.positions[mesh.indices[3 * t]]),
+                                                            toLeaf(mesh.positions[mesh.indices[3 * t + 1]]),
+                                                            toLeaf(mesh.positions[mesh.indices[3 * t + 2]])));
         }
     }
+    if (attributes) sampler_.emplace(scene, triangles_, std::move(sources));
 
-    // Bin triangles into the cells of level k: (Morton code << 32 | triangle), sorted.
-    const std::uint32_t k = std::min<std::uint32_t>(depth - 1, 4);
+    // Bin triangles into the cells of the cell level k: (Morton code << 32 | triangle), sorted.
+    const std::uint32_t k = cellLevel_ = detail::cellLevel(depth_);
     const std::uint32_t cellsPerAxis = 1u << k;
-    const double cellSize = std::ldexp(1.0, static_cast<int>(depth - k));
-    std::vector<std::uint64_t> pairs;
+    const double cellSize = std::ldexp(1.0, static_cast<int>(depth_ - k));
+    std::vector<float> cellShare(triangles_.size());  // area per cell of each triangle
     {
         Timings::Scope timer(options.timings, "voxelize_bin");
         tbb::enumerable_thread_specific<std::vector<std::uint64_t>> local;
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles_.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
             auto& out = local.local();
             for (std::size_t t = r.begin(); t != r.end(); ++t) {
-                const BoxTestTriangle& tri = triangles[t];
+                const BoxTestTriangle& tri = triangles_[t];
                 std::uint32_t first[3], last[3];
                 for (int axis = 0; axis < 3; ++axis) {
                     const double lo = std::min({tri.v0[axis], tri.v1[axis], tri.v2[axis]}) / cellSize;
@@ -276,160 +315,158 @@ SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& o
                     first[axis] = static_cast<std::uint32_t>(std::clamp(std::ceil(lo) - 1.0, 0.0, double(cellsPerAxis - 1)));
                     last[axis] = static_cast<std::uint32_t>(std::clamp(std::floor(hi), 0.0, double(cellsPerAxis - 1)));
                 }
+                std::size_t binned = 0;
                 for (std::uint32_t z = first[2]; z <= last[2]; ++z)
                     for (std::uint32_t y = first[1]; y <= last[1]; ++y)
                         for (std::uint32_t x = first[0]; x <= last[0]; ++x) {
                             const Vec3d centre{(x + 0.5) * cellSize, (y + 0.5) * cellSize, (z + 0.5) * cellSize};
-                            if (detail::triangleOverlapsCube(tri, centre, 0.5 * cellSize))
+                            if (detail::triangleOverlapsCube(tri, centre, 0.5 * cellSize)) {
                                 out.push_back((std::uint64_t{mortonCell(x, y, z, k)} << 32) | t);
+                                ++binned;
+                            }
                         }
+                if (binned) cellShare[t] = static_cast<float>(0.5 * length(tri.normal) / double(binned));
             }
         });
-        for (auto& part : local) pairs.insert(pairs.end(), part.begin(), part.end());
-        tbb::parallel_sort(pairs.begin(), pairs.end());
+        for (auto& part : local) pairs_.insert(pairs_.end(), part.begin(), part.end());
+        tbb::parallel_sort(pairs_.begin(), pairs_.end());
     }
-
-    struct Cell {
-        std::uint32_t code;
-        std::size_t begin, end;  // range in pairs
-    };
-    std::vector<Cell> cells;
-    for (std::size_t i = 0; i < pairs.size();) {
-        const auto code = static_cast<std::uint32_t>(pairs[i] >> 32);
+    for (std::size_t i = 0; i < pairs_.size();) {
+        const auto code = static_cast<std::uint32_t>(pairs_[i] >> 32);
         std::size_t j = i;
-        while (j < pairs.size() && static_cast<std::uint32_t>(pairs[j] >> 32) == code) ++j;
-        cells.push_back({code, i, j});
+        double area = 0;
+        for (; j < pairs_.size() && static_cast<std::uint32_t>(pairs_[j] >> 32) == code; ++j) area += cellShare[static_cast<std::uint32_t>(pairs_[j])];
+        cells_.push_back({code, i, j, area});
         i = j;
     }
+}
 
-    // Subtrees of the cells, in parallel; results are joined in Morton order.
-    std::vector<std::vector<std::vector<std::uint8_t>>> subtrees(cells.size());
-    std::vector<std::vector<std::vector<std::uint32_t>>> subtreeContours(cells.size());
-    std::vector<std::vector<std::vector<std::uint64_t>>> subtreeAttributes(cells.size());
-    std::vector<detail::AttributeSums> cellSums(cells.size());
-    std::vector<std::uint8_t> occupied(cells.size(), 0);
-    std::optional<detail::AttributeSampler> sampler;
-    if (attributes) sampler.emplace(scene, triangles, std::move(sources));
-    std::vector<std::vector<LeafMaterial>> subtreeLeaves(options.leafMaterials ? cells.size() : 0);
-    {
-        Timings::Scope timer(options.timings, "voxelize_subtrees");
-        Progress progress("voxelizing", cells.size());
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 1), [&](const tbb::blocked_range<std::size_t>& r) {
-            for (std::size_t c = r.begin(); c != r.end(); ++c) {
-                std::vector<std::uint32_t> list;
-                list.reserve(cells[c].end - cells[c].begin);
-                for (std::size_t i = cells[c].begin; i < cells[c].end; ++i) list.push_back(static_cast<std::uint32_t>(pairs[i]));
-                std::uint32_t x = 0, y = 0, z = 0;
-                for (std::uint32_t bit = 0; bit < k; ++bit) {
-                    x |= ((cells[c].code >> (3 * bit)) & 1u) << bit;
-                    y |= ((cells[c].code >> (3 * bit + 1)) & 1u) << bit;
-                    z |= ((cells[c].code >> (3 * bit + 2)) & 1u) << bit;
-                }
-                SubtreeBuilder builder(triangles, depth, k, options, sampler ? &*sampler : nullptr);
-                occupied[c] = builder.build(k, x, y, z, list, 0, &cellSums[c]) != 0;
-                subtrees[c] = std::move(builder.masks());
-                subtreeContours[c] = std::move(builder.contours());
-                subtreeAttributes[c] = std::move(builder.attributes());
-                if (options.leafMaterials) subtreeLeaves[c] = std::move(builder.leafMaterials());
-                progress.advance();
+std::vector<detail::CellSubtree> detail::SurfaceVoxelizer::buildCells(std::size_t first, std::size_t last, Progress* progress) const {
+    const std::uint32_t k = cellLevel_;
+    std::vector<CellSubtree> out(last - first);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(first, last, 1), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t c = r.begin(); c != r.end(); ++c) {
+            const Cell& cell = cells_[c];
+            std::vector<std::uint32_t> list;
+            list.reserve(cell.end - cell.begin);
+            for (std::size_t i = cell.begin; i < cell.end; ++i) list.push_back(static_cast<std::uint32_t>(pairs_[i]));
+            std::uint32_t x = 0, y = 0, z = 0;
+            for (std::uint32_t bit = 0; bit < k; ++bit) {
+                x |= ((cell.code >> (3 * bit)) & 1u) << bit;
+                y |= ((cell.code >> (3 * bit + 1)) & 1u) << bit;
+                z |= ((cell.code >> (3 * bit + 2)) & 1u) << bit;
             }
-        });
-    }
-    pairs.clear();
-    pairs.shrink_to_fit();
+            CellSubtree& subtree = out[c - first];
+            subtree.code = cell.code;
+            SubtreeBuilder builder(triangles_, depth_, k, options_, sampler_ ? &*sampler_ : nullptr);
+            subtree.occupied = builder.build(k, x, y, z, list, 0, &subtree.sums) != 0;
+            subtree.masks = std::move(builder.masks());
+            subtree.contours = std::move(builder.contours());
+            subtree.attributes = std::move(builder.attributes());
+            if (options_.leafMaterials) subtree.leafMaterials = std::move(builder.leafMaterials());
+            if (progress) progress->advance();
+        }
+    });
+    return out;
+}
 
-    octree.masks.resize(depth);
-    // Levels above k from the set of occupied cells.
+SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells, std::uint32_t rootLevel, AttributeSums* rootSums) const {
+    const std::uint32_t depth = depth_, k = cellLevel_;
+    std::erase_if(cells, [](const CellSubtree& c) { return !c.occupied; });
+    SparseOctree octree;
+    if (cells.empty()) return octree;
+    if (rootLevel == 0) octree.cube = cube_;
+    const std::uint32_t levels = depth - rootLevel;  // the joined octree's leaf depth
+    octree.leafDepth = levels;
+
+    // Levels from the root level down to k from the occupied cells' codes.
     std::vector<std::uint32_t> codes;
-    std::vector<detail::AttributeSums> sums;  // with attributes: per entry of codes
+    std::vector<AttributeSums> sums;  // with attributes: per entry of codes
     codes.reserve(cells.size());
-    for (std::size_t c = 0; c < cells.size(); ++c)
-        if (occupied[c]) {
-            codes.push_back(cells[c].code);
-            if (options.attributes) sums.push_back(cellSums[c]);
-        }
-    if (options.attributes) {
-        octree.attributes.resize(depth + 1);
-        for (const auto& s : sums) octree.attributes[k].push_back(s.pack());
+    for (const CellSubtree& c : cells) {
+        codes.push_back(c.code);
+        if (options_.attributes) sums.push_back(c.sums);
     }
-    for (std::uint32_t level = k; level-- > 0;) {
-        std::vector<std::uint32_t> parents;
-        std::vector<detail::AttributeSums> parentSums;
-        auto& masks = octree.masks[level];
-        for (std::size_t i = 0; i < codes.size(); ++i) {
-            const std::uint32_t code = codes[i];
-            if (parents.empty() || parents.back() != (code >> 3)) {
-                parents.push_back(code >> 3);
-                masks.push_back(0);
-                if (options.attributes) parentSums.emplace_back();
-            }
-            masks.back() = static_cast<std::uint8_t>(masks.back() | (1u << (code & 7u)));
-            if (options.attributes) parentSums.back() += sums[i];
-        }
-        codes = std::move(parents);
-        sums = std::move(parentSums);
-        if (options.attributes)
-            for (const auto& s : sums) octree.attributes[level].push_back(s.pack());
+    UpperLevels upper = buildUpperLevels(std::move(codes), std::move(sums), k, rootLevel);
+    if (upper.codes[0].size() != 1) throw std::logic_error("SurfaceVoxelizer::join: cells under more than one root");
+    octree.masks.resize(levels);
+    for (std::uint32_t level = rootLevel; level < k; ++level) octree.masks[level - rootLevel] = std::move(upper.masks[level - rootLevel]);
+    if (options_.attributes) {
+        octree.attributes.resize(levels + 1);
+        for (std::uint32_t level = rootLevel; level <= k; ++level)
+            for (const auto& s : upper.sums[level - rootLevel]) octree.attributes[level - rootLevel].push_back(s.pack());
+        if (rootSums) *rootSums = upper.sums[0].front();
     }
     for (std::uint32_t level = k; level < depth; ++level) {
         std::size_t total = 0;
-        for (const auto& s : subtrees) total += s[level - k].size();
-        auto& masks = octree.masks[level];
+        for (const auto& c : cells) total += c.masks[level - k].size();
+        auto& masks = octree.masks[level - rootLevel];
         masks.reserve(total);
-        for (auto& s : subtrees) {
-            masks.insert(masks.end(), s[level - k].begin(), s[level - k].end());
-            s[level - k] = {};
+        for (auto& c : cells) {
+            masks.insert(masks.end(), c.masks[level - k].begin(), c.masks[level - k].end());
+            c.masks[level - k] = {};
         }
     }
-    octree.voxelsPerLevel.assign(depth + 1, 0);
+    octree.voxelsPerLevel.assign(levels + 1, 0);
     octree.voxelsPerLevel[0] = 1;
-    for (std::uint32_t level = 0; level < depth; ++level) {
+    for (std::uint32_t level = 0; level < levels; ++level) {
         std::uint64_t children = 0;
         for (std::uint8_t m : octree.masks[level]) children += esvo::popc8(m);
         octree.voxelsPerLevel[level + 1] = children;
-        if (level + 1 < depth && octree.masks[level + 1].size() != children)
+        if (level + 1 < levels && octree.masks[level + 1].size() != children)
             throw std::logic_error("voxelizeSurface: level sizes inconsistent");
     }
-    if (options.contours) {
+    if (options_.contours) {
         // Levels down to k come from the binning and carry no contours; below, the subtrees'.
-        octree.contours.resize(depth + 1);
-        for (std::uint32_t level = 0; level <= k; ++level) octree.contours[level].assign(octree.voxelsPerLevel[level], 0u);
+        octree.contours.resize(levels + 1);
+        for (std::uint32_t level = rootLevel; level <= k; ++level)
+            octree.contours[level - rootLevel].assign(octree.voxelsPerLevel[level - rootLevel], 0u);
         for (std::uint32_t level = k + 1; level <= depth; ++level) {
-            auto& out = octree.contours[level];
-            for (std::size_t c = 0; c < cells.size(); ++c) {
-                if (!occupied[c]) continue;
-                auto& part = subtreeContours[c][level - k];
+            auto& out = octree.contours[level - rootLevel];
+            for (auto& c : cells) {
+                auto& part = c.contours[level - k];
                 out.insert(out.end(), part.begin(), part.end());
                 part = {};
             }
-            if (out.size() != octree.voxelsPerLevel[level]) throw std::logic_error("voxelizeSurface: contour count inconsistent");
+            if (out.size() != octree.voxelsPerLevel[level - rootLevel]) throw std::logic_error("voxelizeSurface: contour count inconsistent");
         }
     }
-    if (options.leafMaterials) {
-        octree.leafMaterials.reserve(octree.voxelsPerLevel[depth]);
-        for (auto& part : subtreeLeaves) {
-            octree.leafMaterials.insert(octree.leafMaterials.end(), part.begin(), part.end());
-            part = {};
+    if (options_.leafMaterials) {
+        octree.leafMaterials.reserve(octree.voxelsPerLevel[levels]);
+        for (auto& c : cells) {
+            octree.leafMaterials.insert(octree.leafMaterials.end(), c.leafMaterials.begin(), c.leafMaterials.end());
+            c.leafMaterials = {};
         }
-        if (!options.contours && octree.leafMaterials.size() != octree.voxelsPerLevel[depth])
+        if (!options_.contours && octree.leafMaterials.size() != octree.voxelsPerLevel[levels])
             throw std::logic_error("voxelizeSurface: leaf material count inconsistent");
     }
-    if (options.attributes) {
+    if (options_.attributes) {
         for (std::uint32_t level = k + 1; level <= depth; ++level) {
-            auto& out = octree.attributes[level];
-            out.reserve(octree.voxelsPerLevel[level]);
-            for (std::size_t c = 0; c < cells.size(); ++c) {
-                if (!occupied[c]) continue;
-                auto& part = subtreeAttributes[c][level - k];
+            auto& out = octree.attributes[level - rootLevel];
+            out.reserve(octree.voxelsPerLevel[level - rootLevel]);
+            for (auto& c : cells) {
+                auto& part = c.attributes[level - k];
                 out.insert(out.end(), part.begin(), part.end());
                 part = {};
             }
         }
-        for (std::uint32_t level = 0; level <= depth; ++level)
+        for (std::uint32_t level = 0; level <= levels; ++level)
             if (octree.attributes[level].size() != octree.voxelsPerLevel[level])
                 throw std::logic_error("voxelizeSurface: attribute count inconsistent");
     }
+    cells.clear();
     return octree;
+}
+
+SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& options) {
+    const detail::SurfaceVoxelizer voxelizer(scene, options);
+    std::vector<detail::CellSubtree> cells;
+    {
+        Timings::Scope timer(options.timings, "voxelize_subtrees");
+        Progress progress("voxelizing", voxelizer.cellCount());
+        cells = voxelizer.buildCells(0, voxelizer.cellCount(), &progress);
+    }
+    return voxelizer.join(std::move(cells), 0);
 }
 
 }  // namespace vox

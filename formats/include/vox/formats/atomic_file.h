@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <string_view>
 #include <vector>
@@ -23,6 +24,9 @@ public:
     /// Appends bytes. @throws IoError on a write failure (disk full, ...).
     void write(const void* data, std::size_t size);
     void write(std::string_view text) { write(text.data(), text.size()); }
+    /// Overwrites @p size bytes already written, at file offset @p offset: for a header whose
+    /// checksums are known only once the data after it is written. @throws IoError.
+    void writeAt(std::uint64_t offset, const void* data, std::size_t size);
 
     /// Flushes, syncs and renames the temporary onto the target. @throws IoError.
     void commit();

@@ -15,9 +15,9 @@
 #include <span>
 #include <vector>
 
-namespace vox::detail {
-class ReadOnlyFile;  // private to vox::formats (formats/src/read_only_file.h)
-}  // namespace vox::detail
+namespace vox {
+class ReadOnlyFile;  // vox/formats/read_only_file.h
+}  // namespace vox
 
 namespace vox::esvo {
 
@@ -45,7 +45,7 @@ public:
 
 private:
     std::filesystem::path path_;
-    std::unique_ptr<vox::detail::ReadOnlyFile> file_;  // opened by the constructor, never null
+    std::unique_ptr<vox::ReadOnlyFile> file_;  // opened by the constructor, never null
     Header header_;
     Directory directory_;
 };

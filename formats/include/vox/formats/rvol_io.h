@@ -14,9 +14,9 @@
 #include <span>
 #include <vector>
 
-namespace vox::detail {
-class ReadOnlyFile;  // private to vox::formats (formats/src/read_only_file.h)
-}  // namespace vox::detail
+namespace vox {
+class ReadOnlyFile;  // vox/formats/read_only_file.h
+}  // namespace vox
 
 namespace vox::rvol {
 
@@ -313,7 +313,7 @@ private:
     [[nodiscard]] std::shared_ptr<const std::vector<Texel>> cachedBrick(std::uint32_t level, std::uint32_t index) const;
 
     std::filesystem::path path_;
-    std::unique_ptr<vox::detail::ReadOnlyFile> file_;  // opened by the constructor, never null
+    std::unique_ptr<vox::ReadOnlyFile> file_;  // opened by the constructor, never null
     Header header_;
     std::vector<LevelEntry> levels_;
     std::vector<BrickEntry> directory_;

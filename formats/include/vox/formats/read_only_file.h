@@ -1,10 +1,12 @@
-// Private to vox::formats: a file opened for reading, shared by the .esvo and .rvol readers.
+/// @file read_only_file.h
+/// @brief A file opened for reading with pread, shared by the .esvo and .rvol readers and the
+/// partitioned octree build's part files.
 #pragma once
 
 #include <cstdint>
 #include <filesystem>
 
-namespace vox::detail {
+namespace vox {
 
 /// A regular file open for reading (O_RDONLY | O_CLOEXEC), closed on destruction. Move-only.
 /// read() uses pread, so any number of threads may read at once.
@@ -34,4 +36,4 @@ private:
     std::uint64_t size_ = 0;
 };
 
-}  // namespace vox::detail
+}  // namespace vox
