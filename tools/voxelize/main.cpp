@@ -51,7 +51,70 @@ struct VoxelizeOptions {
     std::string lightcutCriterion = "rss";
     unsigned lightcutMaxCut = 1000;
     bool lightcutsCompare = false;
+    // Partitioned and out-of-core builds
+    std::string memoryLimit;       // empty: vox::defaultMemoryLimit()
+    std::string partition;         // "K/N"
+    int partitionLevel = -1;
+    // voxelize merge
+    std::vector<std::string> mergeParts;
 };
+
+/// "8G", "512M", "1.5GiB", "123456" (bytes) → bytes. @throws UsageError.
+std::uint64_t parseByteSize(const std::string& text, const std::string& option) {
+    std::size_t used = 0;
+    double value = 0;
+    try {
+        value = std::stod(text, &used);
+    } catch (const std::exception&) {
+        used = 0;
+    }
+    std::string unit = text.substr(used);
+    if (!unit.empty() && (unit.back() == 'B' || unit.back() == 'b')) unit.pop_back();
+    if (unit.size() == 2 && unit[1] == 'i') unit.pop_back();
+    double scale = 0;
+    if (unit.empty()) scale = 1;
+    else if (unit == "K" || unit == "k") scale = 1024.0;
+    else if (unit == "M" || unit == "m") scale = 1024.0 * 1024;
+    else if (unit == "G" || unit == "g") scale = 1024.0 * 1024 * 1024;
+    else if (unit == "T" || unit == "t") scale = 1024.0 * 1024 * 1024 * 1024;
+    if (used == 0 || scale == 0 || !(value > 0) || value * scale > 1e18)
+        throw vox::UsageError(option + ": '" + text + "' is not a size (bytes, or a number with K, M, G or T)");
+    return static_cast<std::uint64_t>(value * scale);
+}
+
+/// "K/N" with 1 ≤ K ≤ N → the 0-based selection. @throws UsageError.
+vox::PartitionSelection parsePartition(const std::string& text) {
+    unsigned k = 0, n = 0;
+    char tail = 0;
+    if (std::sscanf(text.c_str(), "%u/%u%c", &k, &n, &tail) != 2 || k < 1 || k > n || n > 65536)
+        throw vox::UsageError("--partition: '" + text + "' is not K/N with 1 ≤ K ≤ N ≤ 65536");
+    return {k - 1, n};
+}
+
+/// The octree part of --stats for a build or a merge.
+nlohmann::json octreeReport(const std::string& output, const vox::EsvoBuildResult& built, const std::string& attributes,
+                            double buildSeconds, double voxelizeSeconds) {
+    const double voxels = double(built.voxelCount());
+    return {{"output", output},
+            {"depth", built.leafDepth},
+            {"voxels", built.voxelCount()},
+            {"voxels_per_level", built.voxelsPerLevel},
+            {"descriptors", built.written.descriptors},
+            {"slices", built.written.slices},
+            {"far_pointers", built.written.farPointers},
+            {"file_bytes", built.written.fileBytes},
+            {"attributes", attributes},
+            {"bytes_per_voxel", voxels > 0 ? double(built.written.fileBytes) / voxels : 0.0},
+            {"voxelize_seconds", voxelizeSeconds},
+            {"build_seconds", buildSeconds},
+            {"voxels_per_second", voxels / buildSeconds},
+            {"partition_level", built.partitionLevel},
+            {"partitions", built.partitionsTotal},
+            {"partitions_built", built.partitionsBuilt},
+            {"batches", built.batches},
+            {"memory_limit_bytes", built.memoryLimit},
+            {"scratch_bytes", built.scratchBytes}};
+}
 
 /// Bakes and writes the .rvol; returns its part of the report.
 nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& scene, vox::Timings& timings) {
@@ -121,8 +184,13 @@ void voxelize(const VoxelizeOptions& options) {
     if (!options.depfile.empty() && options.stats.empty() && options.output.empty() && options.radiance.empty())
         throw vox::UsageError("--depfile needs an output to name as its target (-o, --radiance or --stats)");
     const std::filesystem::path output(options.output);
-    if (!options.output.empty() && output.extension() != ".esvo")
-        throw vox::UsageError("-o: unknown output type '" + output.extension().string() + "' (expected .esvo)");
+    const vox::PartitionSelection partitions = options.partition.empty() ? vox::PartitionSelection{} : parsePartition(options.partition);
+    const char* expected = partitions.count > 1 ? ".esvopart" : ".esvo";
+    if (!options.output.empty() && output.extension() != expected)
+        throw vox::UsageError("-o: unknown output type '" + output.extension().string() + "' (expected " + expected + ")");
+    if (partitions.count > 1 && options.output.empty()) throw vox::UsageError("--partition needs -o FILE.esvopart");
+    if (partitions.count > 1 && !options.radiance.empty()) throw vox::UsageError("--partition builds octrees only: no --radiance");
+    const std::uint64_t memoryLimit = options.memoryLimit.empty() ? 0 : parseByteSize(options.memoryLimit, "--memory-limit");
     if (!options.radiance.empty() && std::filesystem::path(options.radiance).extension() != ".rvol")
         throw vox::UsageError("--radiance: unknown output type '" + std::filesystem::path(options.radiance).extension().string() +
                               "' (expected .rvol)");
@@ -152,56 +220,44 @@ void voxelize(const VoxelizeOptions& options) {
 
     nlohmann::json report = vox::tools::sceneReport(scene);
     if (!options.output.empty()) {
-        vox::SurfaceVoxelizeOptions voxelizeOptions;
-        voxelizeOptions.depth = options.depth;
-        voxelizeOptions.includeDynamic = options.includeDynamic;
-        voxelizeOptions.contours = !options.noContours;
-        voxelizeOptions.contourError = options.contourError;
-        voxelizeOptions.attributes = options.attributes != "none";
-        voxelizeOptions.colorError = options.colorError;
-        voxelizeOptions.normalErrorDegrees = options.normalError;
-        voxelizeOptions.timings = &timings;
+        vox::EsvoBuildOptions build;
+        build.voxelize.depth = options.depth;
+        build.voxelize.includeDynamic = options.includeDynamic;
+        build.voxelize.contours = !options.noContours;
+        build.voxelize.contourError = options.contourError;
+        build.voxelize.attributes = options.attributes != "none";
+        build.voxelize.colorError = options.colorError;
+        build.voxelize.normalErrorDegrees = options.normalError;
+        build.voxelize.timings = &timings;
+        build.write.sliceBytes = options.sliceBytes;
+        build.write.nearPointerLimit = options.nearPointerLimit;
+        build.write.attributes = options.attributes == "raw"          ? vox::AttributeEncoding::Raw
+                               : options.attributes == "dxt"        ? vox::AttributeEncoding::Compressed
+                               : options.attributes == "dxt-lookup" ? vox::AttributeEncoding::CompressedLookup
+                                                                    : vox::AttributeEncoding::None;
+        build.write.partitionLevel = options.partitionLevel;
+        build.write.sceneBounds = bounds;
+        build.write.timings = &timings;
+        build.memoryLimit = memoryLimit;
+        build.partitions = partitions;
         const auto buildStart = std::chrono::steady_clock::now();
-        vox::SparseOctree octree;
+        vox::EsvoBuildResult built;
         {
-            vox::Timings::Scope timer(&timings, "voxelize");
-            octree = vox::voxelizeSurface(scene, voxelizeOptions);
-        }
-        const double voxelizeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - buildStart).count();
-        vox::EsvoWriteOptions writeOptions;
-        writeOptions.sliceBytes = options.sliceBytes;
-        writeOptions.nearPointerLimit = options.nearPointerLimit;
-        writeOptions.attributes = options.attributes == "raw"          ? vox::AttributeEncoding::Raw
-                                : options.attributes == "dxt"        ? vox::AttributeEncoding::Compressed
-                                : options.attributes == "dxt-lookup" ? vox::AttributeEncoding::CompressedLookup
-                                                                     : vox::AttributeEncoding::None;
-        writeOptions.sceneBounds = bounds;
-        writeOptions.timings = &timings;
-        vox::EsvoWriteResult written;
-        {
-            vox::Timings::Scope timer(&timings, "esvo");
-            written = vox::writeEsvo(output, octree, writeOptions);
+            vox::Timings::Scope timer(&timings, "esvo_build");
+            built = vox::buildEsvo(output, scene, build);
         }
         const double buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - buildStart).count();
-        std::snprintf(summary, sizeof summary, "%s: depth %u, %llu voxels (%llu leaves), %u slices, %llu far pointers, %llu bytes (%.3f bytes/voxel)",
-                      options.output.c_str(), octree.leafDepth, static_cast<unsigned long long>(octree.voxelCount()),
-                      static_cast<unsigned long long>(octree.voxelsPerLevel.back()), written.slices,
-                      static_cast<unsigned long long>(written.farPointers), static_cast<unsigned long long>(written.fileBytes),
-                      double(written.fileBytes) / double(octree.voxelCount()));
+        std::snprintf(summary, sizeof summary,
+                      "%s: depth %u, %llu voxels (%llu leaves), %u slices, %llu far pointers, %llu bytes (%.3f bytes/voxel); "
+                      "%llu of %llu partitions at level %u in %u rounds",
+                      options.output.c_str(), built.leafDepth, static_cast<unsigned long long>(built.voxelCount()),
+                      static_cast<unsigned long long>(built.voxelsPerLevel.back()), built.written.slices,
+                      static_cast<unsigned long long>(built.written.farPointers), static_cast<unsigned long long>(built.written.fileBytes),
+                      double(built.written.fileBytes) / double(built.voxelCount()), static_cast<unsigned long long>(built.partitionsBuilt),
+                      static_cast<unsigned long long>(built.partitionsTotal), built.partitionLevel, built.batches);
         vox::log::info(summary);
-        report["octree"] = {{"output", options.output},
-                            {"depth", octree.leafDepth},
-                            {"voxels", octree.voxelCount()},
-                            {"voxels_per_level", octree.voxelsPerLevel},
-                            {"descriptors", written.descriptors},
-                            {"slices", written.slices},
-                            {"far_pointers", written.farPointers},
-                            {"file_bytes", written.fileBytes},
-                            {"attributes", options.attributes},
-                            {"bytes_per_voxel", double(written.fileBytes) / double(octree.voxelCount())},
-                            {"voxelize_seconds", voxelizeSeconds},
-                            {"build_seconds", buildSeconds},
-                            {"voxels_per_second", double(octree.voxelCount()) / buildSeconds}};
+        report["octree"] = octreeReport(options.output, built, options.attributes, buildSeconds, built.voxelizeSeconds);
+        if (partitions.count > 1) report["octree"]["partition"] = {{"run", partitions.index + 1}, {"runs", partitions.count}};
     }
 
     if (!options.radiance.empty()) report["radiance"] = bakeRadiance(options, scene, timings);
@@ -214,13 +270,48 @@ void voxelize(const VoxelizeOptions& options) {
                                  scene.sourceFiles);
 }
 
+/// voxelize merge PARTS… -o OUT.esvo
+void merge(const VoxelizeOptions& options) {
+    vox::Timings timings;
+    const auto start = std::chrono::steady_clock::now();
+    if (options.output.empty()) throw vox::UsageError("merge needs -o OUT.esvo");
+    if (std::filesystem::path(options.output).extension() != ".esvo")
+        throw vox::UsageError("-o: unknown output type '" + std::filesystem::path(options.output).extension().string() + "' (expected .esvo)");
+    std::vector<std::filesystem::path> parts(options.mergeParts.begin(), options.mergeParts.end());
+    const std::uint64_t memoryLimit = options.memoryLimit.empty() ? 0 : parseByteSize(options.memoryLimit, "--memory-limit");
+    vox::EsvoBuildResult merged;
+    {
+        vox::Timings::Scope timer(&timings, "merge");
+        merged = vox::mergeEsvoParts(options.output, parts, memoryLimit, &timings);
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    char summary[512];
+    std::snprintf(summary, sizeof summary, "%s: %zu parts, depth %u, %llu voxels, %u slices, %llu bytes in %.2f s", options.output.c_str(),
+                  parts.size(), merged.leafDepth, static_cast<unsigned long long>(merged.voxelCount()), merged.written.slices,
+                  static_cast<unsigned long long>(merged.written.fileBytes), seconds);
+    vox::log::info(summary);
+    timings.add("total", seconds * 1000);
+    nlohmann::json report;
+    report["inputs"] = options.mergeParts;
+    report["octree"] = octreeReport(options.output, merged, "", seconds, 0);
+    if (!options.stats.empty()) vox::tools::writeStats(options.stats, report, "voxelize merge", timings);
+    if (!options.depfile.empty()) vox::tools::writeDepfile(options.depfile, options.output, parts);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
     VoxelizeOptions options;
     CLI::App app{"Turns a triangle scene (glTF/GLB, OBJ, PLY, STL, OFF, Draco) into voxel assets.", "voxelize"};
     app.set_version_flag("--version", std::string("voxelize (libvox) ") + LIBVOX_VERSION_STRING);
-    app.add_option("input", options.input, "Scene file: .gltf .glb .obj .ply .stl .off .drc")->required();
+    CLI::App* mergeApp = app.add_subcommand("merge", "Join the part files of every run of a --partition K/N build into one .esvo file");
+    mergeApp->add_option("parts", options.mergeParts, "Part files (.esvopart), one per run, any order")->required();
+    mergeApp->add_option("-o,--output", options.output, "The .esvo file to write")->required();
+    mergeApp->add_option("--memory-limit", options.memoryLimit, "Bytes the merge may use (as for the build)");
+    mergeApp->add_option("--stats", options.stats, "Write a JSON report");
+    mergeApp->add_option("--depfile", options.depfile, "Write a Make/Ninja depfile listing the parts");
+    vox::tools::addCommonOptions(*mergeApp, options.common);
+    app.add_option("input", options.input, "Scene file: .gltf .glb .obj .ply .stl .off .drc");
     app.add_option("-o,--output", options.output, "Write the sparse voxel octree here (.esvo)");
     app.add_option("--depth", options.depth, "Leaf level: 2^N voxels along the scene's longest side")
         ->check(CLI::Range(1, 20))->capture_default_str();
@@ -276,6 +367,16 @@ int main(int argc, char** argv) {
     app.add_flag("--lightcuts-compare", options.lightcutsCompare,
                  "Also light every voxel with classic Lightcuts (one tree, no clusters, no reuse) and brute force, and report "
                  "both in --stats (direct_light.compare)");
+    app.add_option("--memory-limit", options.memoryLimit,
+                   "Bytes the octree build may use, e.g. 8G (default: half the memory): it builds as many partitions at a "
+                   "time as fit and keeps finished slices beyond a quarter of it in a scratch file beside the output");
+    app.add_option("--partition", options.partition,
+                   "Build only run K of N of the octree's partitions into a part file (-o FILE.esvopart); "
+                   "'voxelize merge' joins the N part files into the file the whole build makes");
+    app.add_option("--partition-level", options.partitionLevel,
+                   "Level of the partitions: no slice spans two of its voxels (default: depth − 9, none below depth 10; "
+                   "at most 4, or depth − 9 from depth 14)")
+        ->check(CLI::Range(0, 10));
     app.add_option("--debug-near-pointer-limit", options.nearPointerLimit,
                    "Largest near child pointer (testing far pointers)")
         ->check(CLI::Range(32, 0x7FFF))->group("");
@@ -287,5 +388,9 @@ int main(int argc, char** argv) {
     app.add_flag("--strict", options.strict, "Treat repaired input (degenerate triangles, bad normals, ...) as an error");
     app.add_flag("--no-textures", options.noTextures, "Do not read or decode textures");
     vox::tools::addCommonOptions(app, options.common);
-    return vox::tools::runTool("voxelize", app, argc, argv, options.common, [&] { voxelize(options); });
+    return vox::tools::runTool("voxelize", app, argc, argv, options.common, [&] {
+        if (mergeApp->parsed()) return merge(options);
+        if (options.input.empty()) throw vox::UsageError("input is required (see --help)");
+        voxelize(options);
+    });
 }

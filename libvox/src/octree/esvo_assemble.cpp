@@ -20,7 +20,7 @@ SliceStore::Location SliceStore::add(std::vector<std::uint64_t>&& units) {
     if (memoryBytes_ + bytes <= memoryBudget_) {
         memoryBytes_ += bytes;
         memory_.push_back(std::move(units));
-        return {-1, memory_.size() - 1, bytes};
+        return {kMemory, memory_.size() - 1, bytes};
     }
     if (!scratch_) scratch_ = std::make_unique<ScratchFile>(scratchDirectory_);
     const std::uint64_t offset = scratch_->append(units.data(), bytes);
@@ -28,10 +28,11 @@ SliceStore::Location SliceStore::add(std::vector<std::uint64_t>&& units) {
     return {kScratch, offset, bytes};
 }
 
-SliceStore::Location SliceStore::external(const std::shared_ptr<const ReadOnlyFile>& file, std::uint64_t offset, std::uint64_t bytes) {
+SliceStore::Location SliceStore::external(const std::shared_ptr<const ReadOnlyFile>& file, std::uint64_t offset, std::uint64_t bytes,
+                                          std::uint32_t checksum) {
     std::lock_guard lock(mutex_);
     if (files_.empty() || files_.back() != file) files_.push_back(file);
-    return {static_cast<std::int32_t>(files_.size() - 1), offset, bytes};
+    return {static_cast<std::int32_t>(files_.size() - 1), offset, bytes, checksum};
 }
 
 void SliceStore::read(const Location& where, std::vector<std::uint64_t>& out) const {
@@ -42,7 +43,10 @@ void SliceStore::read(const Location& where, std::vector<std::uint64_t>& out) co
         std::lock_guard lock(mutex_);
         out = memory_[where.offset];
     } else {
-        files_[static_cast<std::size_t>(where.file)]->read(where.offset, reinterpret_cast<std::uint8_t*>(out.data()), where.bytes);
+        const ReadOnlyFile& file = *files_[static_cast<std::size_t>(where.file)];
+        file.read(where.offset, reinterpret_cast<std::uint8_t*>(out.data()), where.bytes);
+        if (crc32c(out.data(), where.bytes) != where.checksum)
+            throw InvalidDataError(file.path(), "the slice at byte " + std::to_string(where.offset) + " does not match its checksum");
     }
 }
 

@@ -31,6 +31,7 @@ public:
         std::int32_t file = -1;
         std::uint64_t offset = 0;
         std::uint64_t bytes = 0;
+        std::uint32_t checksum = 0;  ///< an external block's CRC-32C, checked when it is read
     };
     static constexpr std::int32_t kMemory = -1, kScratch = -2;
 
@@ -38,9 +39,12 @@ public:
 
     /// Takes a block. Thread-safe.
     Location add(std::vector<std::uint64_t>&& units);
-    /// A block of @p bytes at @p offset in @p file (kept open by the store).
-    Location external(const std::shared_ptr<const ReadOnlyFile>& file, std::uint64_t offset, std::uint64_t bytes);
-    /// Reads a block into @p out (resized to its units).
+    /// A block of @p bytes at @p offset in @p file (kept open by the store), whose CRC-32C is
+    /// @p checksum.
+    Location external(const std::shared_ptr<const ReadOnlyFile>& file, std::uint64_t offset, std::uint64_t bytes,
+                      std::uint32_t checksum);
+    /// Reads a block into @p out (resized to its units). @throws InvalidDataError if an
+    /// external block does not match its checksum.
     void read(const Location& where, std::vector<std::uint64_t>& out) const;
 
     [[nodiscard]] std::uint64_t memoryBytes() const noexcept { return memoryBytes_; }

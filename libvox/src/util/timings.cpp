@@ -1,7 +1,9 @@
 #include <vox/util/timings.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <sys/resource.h>
+#include <unistd.h>
 
 namespace vox {
 
@@ -38,6 +40,15 @@ std::uint64_t peakRssBytes() {
     rusage usage{};
     getrusage(RUSAGE_SELF, &usage);
     return static_cast<std::uint64_t>(usage.ru_maxrss) * 1024u;  // Linux reports kilobytes
+}
+
+std::uint64_t currentRssBytes() {
+    std::FILE* statm = std::fopen("/proc/self/statm", "r");
+    if (!statm) return 0;
+    unsigned long long pages = 0, resident = 0;
+    const int read = std::fscanf(statm, "%llu %llu", &pages, &resident);
+    std::fclose(statm);
+    return read == 2 ? resident * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE)) : 0;
 }
 
 }  // namespace vox

@@ -39,5 +39,7 @@ private:
 
 /// Largest resident set size the process has had so far, in bytes.
 [[nodiscard]] std::uint64_t peakRssBytes();
+/// The process's resident set size now, in bytes (0 where /proc is not there).
+[[nodiscard]] std::uint64_t currentRssBytes();
 
 }  // namespace vox
