@@ -156,6 +156,9 @@ struct EsvoBuildOptions {
     /// beside the output). 0: defaultMemoryLimit().
     std::uint64_t memoryLimit = 0;
     PartitionSelection partitions;
+    /// For tests: bytes of partitions to build at a time, and of finished slices to keep in
+    /// memory, instead of the shares of the memory limit (0: those shares).
+    std::uint64_t roundBytes = 0, memorySliceBytes = 0;
 };
 
 /// What buildEsvo did.

@@ -175,8 +175,8 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
     if (baseline >= result.memoryLimit / 2)
         throw UsageError("--memory-limit " + megabytes(result.memoryLimit) + " is too small: the scene and its triangles already take " +
                          megabytes(baseline));
-    const std::uint64_t storeBudget = result.memoryLimit / 4;
-    const std::uint64_t partitionBudget = result.memoryLimit - baseline - storeBudget;
+    const std::uint64_t storeBudget = options.memorySliceBytes ? options.memorySliceBytes : result.memoryLimit / 4;
+    const std::uint64_t partitionBudget = options.roundBytes ? options.roundBytes : result.memoryLimit - baseline - result.memoryLimit / 4;
     detail::SliceStore store(storeBudget, file.parent_path());
 
     // Partition level 0: the whole octree is one partition, laid out from the file's root.

@@ -145,10 +145,13 @@ public:
             auto& out = bytes_[l];
             out.assign(tree.levelSize(l), 0);
             if (l + 1 >= depth) {
-                // Children are leaves: only their contours.
+                // Children are leaves: only their contours. (In a top view these are partition
+                // roots, whose children are the partitions': what stays is the contours and,
+                // where it has non-leaf children, the frontier descriptor's far slot.)
+                const bool top = l == tree.partitionLevel();
                 for (std::uint64_t i = 0; i < out.size(); ++i) {
                     const std::uint32_t valid = tree.validMask(l, i);
-                    std::uint64_t child = tree.firstChild(l, i), sum = 0;
+                    std::uint64_t child = tree.firstChild(l, i), sum = top && tree.nonLeafMask(l, i) ? 8 : 0;
                     for (std::uint32_t slot = 0; slot < 8; ++slot)
                         if (valid & (1u << slot)) sum += tree.contour(l + 1, child++) ? 4 : 0;
                     out[i] = static_cast<std::uint32_t>(sum);
@@ -624,7 +627,10 @@ private:
                     break;
                 }
             }
-            if (!block) throw std::logic_error("esvo layout: the root groups of a slice do not fit it");
+            if (!block) {
+                if (parents.size() < 2) throw std::logic_error("esvo layout: the root groups of a slice do not fit it");
+                return nullptr;  // the caller splits the run
+            }
         }
         auto node = std::make_unique<PlanNode>();
         node->region = region;
@@ -633,9 +639,25 @@ private:
         std::vector<ChildJob> jobs;
         const auto& frontier = node->block.frontier;
         if (!frontier.empty()) partition(region, frontier, 0, frontier.size(), jobs);
-        node->children.resize(jobs.size());
-        tbb::parallel_for(std::size_t{0}, jobs.size(), [&](std::size_t i) { node->children[i] = makeSlice(jobs[i].region, jobs[i].parents); });
+        std::vector<std::vector<std::unique_ptr<PlanNode>>> children(jobs.size());
+        tbb::parallel_for(std::size_t{0}, jobs.size(), [&](std::size_t i) { children[i] = makeSlices(jobs[i].region, jobs[i].parents); });
+        for (auto& run : children)
+            for (auto& child : run) node->children.push_back(std::move(child));
         return node;
+    }
+
+    /// One slice for the run @p parents, or, where its root groups together do not fit a slice
+    /// (the estimate let too many of them into one run), slices for its halves.
+    std::vector<std::unique_ptr<PlanNode>> makeSlices(const Node& region, const std::vector<Node>& parents) const {
+        std::vector<std::unique_ptr<PlanNode>> out;
+        if (std::unique_ptr<PlanNode> node = makeSlice(region, parents)) {
+            out.push_back(std::move(node));
+            return out;
+        }
+        const auto middle = parents.begin() + std::ptrdiff_t(parents.size() / 2);
+        for (auto half : {std::vector<Node>(parents.begin(), middle), std::vector<Node>(middle, parents.end())})
+            for (auto& node : makeSlices(region, half)) out.push_back(std::move(node));
+        return out;
     }
 
     static void flatten(PlanNode& node, std::uint32_t parent, std::vector<std::pair<LaidOutSlice, SliceBlock>>& out) {
