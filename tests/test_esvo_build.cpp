@@ -122,7 +122,7 @@ TEST(EsvoBuild, TheThreadCountDoesNotChangeTheBytes) {
 
 TEST(EsvoBuild, EightRunsMergeIntoTheBytesOfTheWholeBuild) {
     ScratchDir dir;
-    for (const auto [level, runs] : {std::pair{3, 8u}, std::pair{3, 3u}, std::pair{2, 100u}}) {  // 100: more runs than partitions
+    for (const auto& [level, runs] : {std::pair{3, 8u}, std::pair{3, 3u}, std::pair{2, 100u}}) {  // 100: more runs than partitions
         SCOPED_TRACE(runs);
         const auto options = buildOptions(7, level);
         const auto whole = vox::buildEsvo(dir / "whole.esvo", cornellBox(), options);
