@@ -13,6 +13,7 @@
 #include "test_support.h"
 
 #include <fstream>
+#include <unistd.h>
 #include <iterator>
 
 namespace fs = std::filesystem;
@@ -25,11 +26,15 @@ std::vector<char> bytesOf(const fs::path& file) {
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-/// The Cornell box example: walls, two boxes (one checkered), an emissive panel.
+/// The Cornell box example: walls, two boxes (one checkered), an emissive panel; written and
+/// imported once per process, outside the tests' scratch directories.
 const vox::Scene& cornellBox() {
     static const vox::Scene scene = [] {
-        static ScratchDir dir;
-        return vox::importScene(vox::scenes::writeCornellBox(dir.path()));
+        const fs::path dir = fs::temp_directory_path() / ("libvox-test-esvo-build-" + std::to_string(::getpid()));
+        fs::create_directories(dir);
+        vox::Scene imported = vox::importScene(vox::scenes::writeCornellBox(dir));
+        fs::remove_all(dir);
+        return imported;
     }();
     return scene;
 }

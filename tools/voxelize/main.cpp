@@ -242,10 +242,7 @@ void voxelize(const VoxelizeOptions& options) {
         build.partitions = partitions;
         const auto buildStart = std::chrono::steady_clock::now();
         vox::EsvoBuildResult built;
-        {
-            vox::Timings::Scope timer(&timings, "esvo_build");
-            built = vox::buildEsvo(output, scene, build);
-        }
+        built = vox::buildEsvo(output, scene, build);
         const double buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - buildStart).count();
         std::snprintf(summary, sizeof summary,
                       "%s: depth %u, %llu voxels (%llu leaves), %u slices, %llu far pointers, %llu bytes (%.3f bytes/voxel); "

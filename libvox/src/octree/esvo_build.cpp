@@ -156,7 +156,9 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
     result.memoryLimit = options.memoryLimit ? options.memoryLimit : defaultMemoryLimit();
     if (options.partitions.count == 0 || options.partitions.index >= options.partitions.count)
         throw UsageError("--partition K/N needs 1 ≤ K ≤ N");
+    const auto voxelizerStart = Clock::now();
     const detail::SurfaceVoxelizer voxelizer(scene, vo);
+    if (vo.timings) vo.timings->add("voxelize", 1000 * secondsSince(voxelizerStart));
     const std::uint32_t depth = voxelizer.depth();
     const std::uint32_t p = detail::resolvePartitionLevel(options.write.partitionLevel, depth);
     if (p > voxelizer.cellLevel())
@@ -204,6 +206,7 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
         const auto voxelizeStart = Clock::now();
         std::vector<detail::CellSubtree> cells;
         {
+            Timings::Scope voxelizeTimer(vo.timings, "voxelize");
             Timings::Scope timer(vo.timings, "voxelize_subtrees");
             cells = voxelizer.buildCells(firstCell, endCell, &progress);
         }
@@ -248,10 +251,12 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
                 partitionSlices.push_back(std::move(roundSlices[n]));
             }
         result.layoutSeconds += secondsSince(layoutStart);
+        if (options.write.timings) options.write.timings->add("esvo", 1000 * secondsSince(layoutStart));
         i = j;
     }
     result.scratchBytes = store.scratchBytes();
 
+    const auto finishStart = Clock::now();
     if (p == 0) {
         if (roots.empty()) throw InvalidDataError(scene.sourceFiles.empty() ? "scene" : scene.sourceFiles.front(), "no voxels");
         result.voxelsPerLevel = roots.front().voxelsPerLevel;
@@ -283,6 +288,7 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
             }
         }
     }
+    if (options.write.timings) options.write.timings->add("esvo", 1000 * secondsSince(finishStart));
     if (peakRssBytes() > result.memoryLimit)
         log::warning("peak memory " + megabytes(peakRssBytes()) + " exceeded --memory-limit " + megabytes(result.memoryLimit));
     return result;
