@@ -293,6 +293,64 @@ TEST(Tools, EsvoIsByteIdenticalWhateverTheThreadCount) {
     EXPECT_EQ(readBytes(dir / "dxt-lookup1.esvo"), readBytes(dir / "dxt-lookup2.esvo"));
 }
 
+TEST(Tools, EightPartitionRunsMergeIntoTheBytesOfOneBuild) {
+    ScratchDir dir;
+    const auto scene = vox::scenes::writeCornellBox(dir.path());
+    const std::vector<std::string> build{scene.string(), "--depth", "7", "--partition-level", "3", "--slice-bytes", "16384"};
+    const auto with = [&](std::vector<std::string> extra) {
+        std::vector<std::string> args = build;
+        args.insert(args.end(), extra.begin(), extra.end());
+        return voxelize(args);
+    };
+    ASSERT_EQ(with({"-o", (dir / "whole.esvo").string(), "--stats", (dir / "whole.json").string()}).exitCode, 0);
+    std::vector<std::string> merge{"merge"};
+    for (int k = 1; k <= 8; ++k) {
+        const auto part = dir / ("run" + std::to_string(k) + ".esvopart");
+        const ProcessResult r = with({"-o", part.string(), "--partition", std::to_string(k) + "/8", "-q"});
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        EXPECT_EQ(r.err, "");
+        merge.push_back(part.string());
+    }
+    const auto mergedStats = dir / "merged.json";
+    std::vector<std::string> mergeAll = merge;
+    mergeAll.insert(mergeAll.end(), {"-o", (dir / "merged.esvo").string(), "--stats", mergedStats.string()});
+    const ProcessResult merged = voxelize(mergeAll);
+    ASSERT_EQ(merged.exitCode, 0) << merged.err;
+    EXPECT_EQ(readBytes(dir / "merged.esvo"), readBytes(dir / "whole.esvo"));
+    const auto whole = nlohmann::json::parse(vox::test::readText(dir / "whole.json"));
+    const auto report = nlohmann::json::parse(vox::test::readText(mergedStats));
+    EXPECT_EQ(report["octree"]["voxels"], whole["octree"]["voxels"]);
+    EXPECT_EQ(report["octree"]["slices"], whole["octree"]["slices"]);
+    EXPECT_EQ(whole["octree"]["partition_level"], 3);
+    EXPECT_GT(whole["octree"]["partitions"].get<int>(), 8);
+
+    // A missing run, a corrupt part: one line, exit 3, no output.
+    std::vector<std::string> missing(merge.begin(), merge.begin() + 8);  // runs 1-7
+    missing.insert(missing.end(), {"-o", (dir / "bad.esvo").string()});
+    expectOneLineError(voxelize(missing), 3, "run 8 of 8 is missing");
+    auto bytes = readBytes(dir / "run4.esvopart");
+    bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 1);
+    vox::test::writeBinary(dir / "run4.esvopart", std::vector<std::uint8_t>(bytes.begin(), bytes.end()));
+    std::vector<std::string> corrupt = merge;
+    corrupt.insert(corrupt.end(), {"-o", (dir / "bad.esvo").string()});
+    expectOneLineError(voxelize(corrupt), 3, "run4.esvopart");
+    EXPECT_FALSE(std::filesystem::exists(dir / "bad.esvo"));
+
+    // Usage: K outside 1 … N, a part file without the part extension, runs without partitions,
+    // a size that is no size, a limit below what the scene takes.
+    expectOneLineError(with({"-o", (dir / "x.esvopart").string(), "--partition", "0/8"}), 1, "--partition");
+    expectOneLineError(with({"-o", (dir / "x.esvopart").string(), "--partition", "9/8"}), 1, "--partition");
+    expectOneLineError(with({"-o", (dir / "x.esvo").string(), "--partition", "2/8"}), 1, ".esvopart");
+    expectOneLineError(voxelize({scene.string(), "--depth", "7", "-o", (dir / "x.esvopart").string(), "--partition", "2/8"}), 1,
+                       "--partition");
+    expectOneLineError(with({"-o", (dir / "x.esvo").string(), "--memory-limit", "lots"}), 1, "--memory-limit");
+    expectOneLineError(with({"-o", (dir / "x.esvo").string(), "--memory-limit", "1M"}), 1, "--memory-limit");
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.esvo"));
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.esvopart"));
+    ASSERT_EQ(with({"-o", (dir / "limited.esvo").string(), "--memory-limit", "4G"}).exitCode, 0);
+    EXPECT_EQ(readBytes(dir / "limited.esvo"), readBytes(dir / "whole.esvo"));
+}
+
 TEST(Tools, SmallSlicesAndShortPointersStillValidate) {
     ScratchDir dir;
     const auto scene = vox::scenes::writeCornellBox(dir.path());
