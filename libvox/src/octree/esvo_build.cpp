@@ -339,11 +339,7 @@ EsvoBuildResult mergeEsvoParts(const std::filesystem::path& file, const std::vec
     EsvoWriteOptions writeOptions;
     writeOptions.sliceBytes = head.header.sliceBytesLimit;
     writeOptions.nearPointerLimit = head.header.nearPointerLimit;
-    const std::uint32_t kinds = head.header.attachmentKinds;
-    writeOptions.attributes = kinds & (1u << 1)   ? AttributeEncoding::Raw
-                              : kinds & (1u << 2) ? AttributeEncoding::Compressed
-                              : kinds & (1u << 6) ? AttributeEncoding::CompressedLookup
-                                                  : AttributeEncoding::None;
+    writeOptions.attributes = detail::attributeEncoding(head.header.attachmentKinds);
     writeOptions.timings = timings;
     result.leafDepth = head.header.leafDepth;
     result.partitionLevel = head.partitionLevel;

@@ -82,16 +82,6 @@ private:
 /// A DxtLookup slot no lookup entry references (never a value: its normal's axis field is 3).
 constexpr std::uint64_t kPaddingValue = ~std::uint64_t{0};
 
-/// The attachment kind that stores @p encoding (not None).
-esvo::AttachmentKind attachmentKind(AttributeEncoding encoding) {
-    switch (encoding) {
-    case AttributeEncoding::Raw: return esvo::AttachmentKind::Palette;
-    case AttributeEncoding::Compressed: return esvo::AttachmentKind::Dxt;
-    case AttributeEncoding::CompressedLookup: return esvo::AttachmentKind::DxtLookup;
-    case AttributeEncoding::None: break;
-    }
-    throw std::logic_error("attachmentKind: no attributes");
-}
 
 using Node = LayoutNode;
 
@@ -712,6 +702,22 @@ private:
 };
 
 }  // namespace
+
+esvo::AttachmentKind attachmentKind(AttributeEncoding encoding) {
+    switch (encoding) {
+    case AttributeEncoding::Raw: return esvo::AttachmentKind::Palette;
+    case AttributeEncoding::Compressed: return esvo::AttachmentKind::Dxt;
+    case AttributeEncoding::CompressedLookup: return esvo::AttachmentKind::DxtLookup;
+    case AttributeEncoding::None: break;
+    }
+    throw std::logic_error("attachmentKind: no attributes");
+}
+
+AttributeEncoding attributeEncoding(std::uint32_t attachmentKinds) {
+    for (const auto encoding : {AttributeEncoding::Raw, AttributeEncoding::Compressed, AttributeEncoding::CompressedLookup})
+        if (attachmentKinds & (1u << static_cast<unsigned>(attachmentKind(encoding)))) return encoding;
+    return AttributeEncoding::None;
+}
 
 OctreeView viewOf(const SparseOctree& octree) {
     OctreeView view;

@@ -5,6 +5,7 @@
 // that voxel's subtree alone, and the slices above it (the top) from the levels down to it.
 #pragma once
 
+#include <vox/formats/esvo.h>
 #include <vox/octree.h>
 #include <vox/util/progress.h>
 
@@ -29,6 +30,11 @@ struct OctreeView {
 
     [[nodiscard]] std::uint64_t levelSize(std::uint32_t level) const { return masks[level].size(); }
 };
+
+/// The attachment kind that stores @p encoding (not None). @throws std::logic_error for None.
+[[nodiscard]] esvo::AttachmentKind attachmentKind(AttributeEncoding encoding);
+/// The encoding whose attachment kind bit is set in header @p attachmentKinds (None: none).
+[[nodiscard]] AttributeEncoding attributeEncoding(std::uint32_t attachmentKinds);
 
 /// The whole of @p octree.
 [[nodiscard]] OctreeView viewOf(const SparseOctree& octree);

@@ -22,20 +22,6 @@ std::uint32_t resolvePartitionLevel(std::int32_t requested, std::uint32_t leafDe
     return static_cast<std::uint32_t>(requested);
 }
 
-namespace {
-
-/// The attachment kind that stores @p encoding (not None).
-esvo::AttachmentKind attachmentKind(AttributeEncoding encoding) {
-    switch (encoding) {
-    case AttributeEncoding::Raw: return esvo::AttachmentKind::Palette;
-    case AttributeEncoding::Compressed: return esvo::AttachmentKind::Dxt;
-    case AttributeEncoding::CompressedLookup: return esvo::AttachmentKind::DxtLookup;
-    case AttributeEncoding::None: break;
-    }
-    throw std::logic_error("attachmentKind: no attributes");
-}
-
-}  // namespace
 
 esvo::Header esvoHeader(const RootCube& cube, std::uint32_t leafDepth, bool contours, bool attributes, const EsvoWriteOptions& options) {
     if (options.sliceBytes < esvo::kMinSliceBytes)
