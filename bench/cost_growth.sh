@@ -65,7 +65,7 @@ for i, r in enumerate(rows):
     print(f'{r["depth"]:>5} {r["voxels"]:>11} {r["leaves"]:>11} {r["build_seconds"]:>8.3f} {r["cpu_seconds"]:>8.2f} {r["peak_rss_bytes"]/MB:>8.0f} '
           f'{r["file_bytes"]/MB:>8.1f} {f("voxels")} {f("build_seconds")} {f("peak_rss_bytes")}')
 fits = {}
-for label, subset in (("all", rows), ("last3", rows[-3:])):
+for label, subset in (("all", rows), ("last3", rows[-3:])) if len(rows) > 3 else (("all", rows),):
     fits[label] = {k: slope(k, subset) for k in ("voxels", "build_seconds", "cpu_seconds", "peak_rss_bytes", "file_bytes")}
     span = f'{subset[0]["depth"]}..{subset[-1]["depth"]}'
     print(f'fit {span:>6} (log2 slope per level, factor 2^slope): ' +
