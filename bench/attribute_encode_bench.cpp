@@ -193,49 +193,21 @@ nlohmann::json normalSuite(const std::vector<NormalBlock>& blocks) {
             {"us_per_block", 1e6 * best / static_cast<double>(blocks.size())}};
 }
 
-/// The 16-slot blocks writeEsvo forms from @p octree: each parent's children that have
-/// descriptors, in slot order, paired consecutively (an odd one out pairs with padding).
+/// The 16-slot blocks writeEsvo forms from @p octree (vox::corpus::sceneBlocks), as colour and
+/// normal blocks: colours opaque, normals decoded from the cube-face words.
 void sceneBlocks(const vox::SparseOctree& octree, std::vector<ColorBlock>& colors, std::vector<NormalBlock>& normals) {
-    std::vector<std::vector<std::uint64_t>> firstChild(octree.leafDepth);
-    for (std::uint32_t l = 0; l < octree.leafDepth; ++l) {
-        std::uint64_t sum = 0;
-        for (std::uint8_t m : octree.masks[l]) firstChild[l].push_back(sum), sum += static_cast<unsigned>(std::popcount(unsigned(m)));
-    }
-    const auto fill = [&](std::uint32_t level, std::uint64_t index, unsigned base, ColorBlock& c, NormalBlock& n) {
-        const std::uint32_t valid = octree.masks[level][index];
-        std::uint64_t child = firstChild[level][index];
-        for (unsigned slot = 0; slot < 8; ++slot)
-            if (valid & (1u << slot)) {
-                const std::uint64_t value = octree.attributes[level + 1][child++];
-                c.colors[base + slot] = static_cast<std::uint32_t>(value) | 0xFF000000u;
-                n.normals[base + slot] = esvo::decodeUnitNormal(static_cast<std::uint32_t>(value >> 32));
-                c.mask |= 1u << (base + slot);
+    for (const vox::corpus::SceneBlock& block : vox::corpus::sceneBlocks(octree)) {
+        ColorBlock c;
+        NormalBlock n;
+        c.mask = n.mask = block.mask;
+        for (unsigned slot = 0; slot < 16; ++slot)
+            if (block.mask & (1u << slot)) {
+                c.colors[slot] = static_cast<std::uint32_t>(block.values[slot]) | 0xFF000000u;
+                n.normals[slot] = esvo::decodeUnitNormal(static_cast<std::uint32_t>(block.values[slot] >> 32));
             }
-        n.mask = c.mask;
-    };
-    const auto emit = [&](std::uint32_t level, const std::vector<std::uint64_t>& group) {
-        for (std::size_t i = 0; i < group.size(); i += 2) {
-            ColorBlock c;
-            NormalBlock n;
-            c.mask = 0;
-            fill(level, group[i], 0, c, n);
-            if (i + 1 < group.size()) fill(level, group[i + 1], 8, c, n);
-            colors.push_back(c);
-            normals.push_back(n);
-        }
-    };
-    emit(0, {0});  // the root descriptor is a group of its own
-    for (std::uint32_t l = 0; l + 1 < octree.leafDepth; ++l)
-        for (std::uint64_t p = 0; p < octree.masks[l].size(); ++p) {
-            std::vector<std::uint64_t> group;
-            std::uint64_t child = firstChild[l][p];
-            for (unsigned slot = 0; slot < 8; ++slot)
-                if (octree.masks[l][p] & (1u << slot)) {
-                    if (octree.masks[l + 1][child]) group.push_back(child);
-                    ++child;
-                }
-            emit(l + 1, group);
-        }
+        colors.push_back(c);
+        normals.push_back(n);
+    }
 }
 
 int sceneMode(int argc, char** argv) {

@@ -510,6 +510,46 @@ TEST(Tools, RadianceBakeIsByteIdenticalWhateverTheThreadCountAndRejectsBadOption
     EXPECT_FALSE(std::filesystem::exists(dir / "x.rvol"));
 }
 
+// Determinism (issue 9): the default thread count (no --threads: all cores) and a repeated run
+// give the very bytes of --threads 1, for every attribute encoding with contours (and with
+// contour-driven refinement), and for a radiance bake with bounces through Lightcuts' light
+// forest (256 lights). Whole files are compared; a control shows that differing options do
+// give differing bytes, so the comparison can fail.
+TEST(Tools, OutputsAreByteIdenticalForTheDefaultThreadCountAndRepeatedRuns) {
+    ScratchDir dir;
+    const auto cornell = vox::scenes::writeCornellBox(dir.path());
+    // --threads 1, then the default twice (or only --threads 1 for a control); returns the bytes.
+    const auto runs = [&](const std::filesystem::path& scene, const std::string& name, const std::string& outputOption,
+                          std::vector<std::string> options, bool control = false) {
+        std::vector<std::vector<std::uint8_t>> bytes;
+        for (const char* run : {"threads1", "default", "again"}) {
+            if (control && bytes.size() == 1) break;
+            const auto file = dir / (name + "-" + run + (outputOption == "-o" ? ".esvo" : ".rvol"));
+            std::vector<std::string> args{scene.string(), outputOption, file.string()};
+            args.insert(args.end(), options.begin(), options.end());
+            if (std::string(run) == "threads1") args.insert(args.end(), {"--threads", "1"});
+            const ProcessResult r = voxelize(args);
+            EXPECT_EQ(r.exitCode, 0) << name << ": " << r.err;
+            bytes.push_back(readBytes(file));
+        }
+        EXPECT_GT(bytes[0].size(), 1000u) << name;
+        if (control) return bytes[0];
+        EXPECT_TRUE(bytes[1] == bytes[0]) << name << ": the default thread count changed the bytes";
+        EXPECT_TRUE(bytes[2] == bytes[1]) << name << ": a repeated run changed the bytes";
+        return bytes[0];
+    };
+    std::vector<std::vector<std::uint8_t>> esvos;
+    for (const char* attributes : {"dxt", "dxt-lookup", "raw", "none"})
+        esvos.push_back(runs(cornell, attributes, "-o", {"--depth", "7", "--slice-bytes", "16384", "--attributes", attributes}));
+    runs(cornell, "contour-error", "-o", {"--depth", "7", "--contour-error", "1", "--color-error", "8", "--normal-error", "10"});
+    for (std::size_t i = 1; i < esvos.size(); ++i) EXPECT_FALSE(esvos[i] == esvos[0]) << "control: encodings differ";
+    const auto grid = vox::scenes::writeLightGrid(dir.path());
+    const auto lightcuts = runs(grid, "lightcuts", "--radiance", {"--radiance-depth", "5", "--bounces", "2", "--lightcuts", "on"});
+    const auto bruteForce = runs(grid, "brute-force", "--radiance", {"--radiance-depth", "5", "--bounces", "2", "--lightcuts", "off"}, true);
+    EXPECT_EQ(lightcuts.size(), bruteForce.size()) << "the same bricks";
+    EXPECT_FALSE(lightcuts == bruteForce) << "control: Lightcuts' light is not brute force's to the bit";
+}
+
 TEST(Tools, RvolInfoAndValidate) {
     ScratchDir dir;
     const auto rvol = bakeCornellRvol(dir);

@@ -3,6 +3,7 @@
 #include <vox/texture.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>  // stb_dxt uses memcpy without including it
 #include <numbers>
@@ -107,6 +108,46 @@ std::array<std::uint32_t, 2> stbEncode(const ColorBlock& b, bool highQuality) {
         return std::uint32_t{out[o]} | (std::uint32_t{out[o + 1]} << 8) | (std::uint32_t{out[o + 2]} << 16) | (std::uint32_t{out[o + 3]} << 24);
     };
     return {word(0), word(4)};
+}
+
+std::vector<SceneBlock> sceneBlocks(const SparseOctree& octree) {
+    std::vector<std::vector<std::uint64_t>> firstChild(octree.leafDepth);
+    for (std::uint32_t l = 0; l < octree.leafDepth; ++l) {
+        std::uint64_t sum = 0;
+        for (std::uint8_t m : octree.masks[l]) firstChild[l].push_back(sum), sum += static_cast<unsigned>(std::popcount(unsigned(m)));
+    }
+    const auto fill = [&](std::uint32_t level, std::uint64_t index, unsigned base, SceneBlock& block) {
+        const std::uint32_t valid = octree.masks[level][index];
+        std::uint64_t child = firstChild[level][index];
+        for (unsigned slot = 0; slot < 8; ++slot)
+            if (valid & (1u << slot)) {
+                block.values[base + slot] = octree.attributes[level + 1][child++];
+                block.mask |= 1u << (base + slot);
+            }
+    };
+    std::vector<SceneBlock> blocks;
+    const auto emit = [&](std::uint32_t level, const std::vector<std::uint64_t>& group) {
+        for (std::size_t i = 0; i < group.size(); i += 2) {
+            SceneBlock block;
+            fill(level, group[i], 0, block);
+            if (i + 1 < group.size()) fill(level, group[i + 1], 8, block);
+            blocks.push_back(block);
+        }
+    };
+    emit(0, {0});  // the root descriptor is a group of its own
+    std::vector<std::uint64_t> group;
+    for (std::uint32_t l = 0; l + 1 < octree.leafDepth; ++l)
+        for (std::uint64_t p = 0; p < octree.masks[l].size(); ++p) {
+            group.clear();
+            std::uint64_t child = firstChild[l][p];
+            for (unsigned slot = 0; slot < 8; ++slot)
+                if (octree.masks[l][p] & (1u << slot)) {
+                    if (octree.masks[l + 1][child]) group.push_back(child);
+                    ++child;
+                }
+            emit(l + 1, group);
+        }
+    return blocks;
 }
 
 }  // namespace vox::corpus

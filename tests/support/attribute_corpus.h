@@ -4,6 +4,7 @@
 #pragma once
 
 #include <vox/formats/esvo_attributes.h>
+#include <vox/octree.h>
 
 #include <array>
 #include <cstdint>
@@ -36,6 +37,19 @@ struct ColorBlock {
 /// texture, spread over it. Files that do not exist are skipped; @p used lists those read.
 [[nodiscard]] std::vector<ColorBlock> textureTiles(std::span<const std::filesystem::path> files, std::size_t perTexture,
                                                    std::vector<std::string>* used = nullptr);
+
+/// A compressed attribute block's 16 slots as writeEsvo fills them from an octree: values as
+/// SparseOctree::attributes holds them (colour word | cube-face normal word << 32) and the slots
+/// that hold a voxel.
+struct SceneBlock {
+    std::array<std::uint64_t, 16> values{};
+    std::uint32_t mask = 0;
+};
+
+/// The blocks writeEsvo forms from @p octree (which must have attributes) for
+/// AttributeEncoding::Compressed: each parent's children that have descriptors, in slot order,
+/// paired consecutively (an odd one out pairs with padding), the root descriptor alone.
+[[nodiscard]] std::vector<SceneBlock> sceneBlocks(const SparseOctree& octree);
 
 /// stb_dxt's (Debian's libstb-dev) block for the used slots, the unused ones filled with the
 /// first used colour, as our words 0 and 1 (the same layout); @p highQuality: STB_DXT_HIGHQUAL.
