@@ -7,6 +7,13 @@
 #include <numbers>
 #include <span>
 
+#if defined(__SSE2__) && !defined(VOX_ENCODE_NO_SIMD)  // the scalar fallback computes the same values
+#include <emmintrin.h>
+#define VOX_ENCODE_SSE2 1
+#else
+#define VOX_ENCODE_SSE2 0
+#endif
+
 namespace vox::detail {
 namespace {
 
@@ -354,15 +361,108 @@ struct NormalPoints {
     std::array<float, 16> px{}, py{}, weight{};  ///< in-plane coordinates (axis+1, axis+2) and LS weights
 };
 
+#if defined(__GNUC__)
+#define VOX_ENCODE_INLINE [[gnu::always_inline]] inline
+#else
+#define VOX_ENCODE_INLINE inline
+#endif
+
+/// The lattice weights (cu, cv) of combo k = uIndex + 4·vIndex, as arrays the compiler can
+/// vectorise loops over the 16 combos with.
+constexpr std::array<float, 16> kComboU = [] {
+    std::array<float, 16> w{};
+    for (unsigned k = 0; k < 16; ++k) w[k] = esvo::kAxisWeights[k & 3];
+    return w;
+}();
+constexpr std::array<float, 16> kComboV = [] {
+    std::array<float, 16> w{};
+    for (unsigned k = 0; k < 16; ++k) w[k] = esvo::kAxisWeights[k >> 2];
+    return w;
+}();
+
 /// Index of the smallest of 16 non-negative values, the lowest on (near) ties: the index is put
 /// in the low 4 mantissa bits, which keeps the order of non-negative floats, so that a plain
-/// min reduction (vectorisable, unlike an argmin loop) finds both.
-unsigned argmin16(std::array<float, 16>& d) {
-    for (unsigned k = 0; k < 16; ++k) d[k] = std::bit_cast<float>((std::bit_cast<std::uint32_t>(d[k]) & ~15u) | k);
-    for (unsigned k = 0; k < 8; ++k) d[k] = std::min(d[k], d[k + 8]);
-    for (unsigned k = 0; k < 4; ++k) d[k] = std::min(d[k], d[k + 4]);
-    for (unsigned k = 0; k < 2; ++k) d[k] = std::min(d[k], d[k + 2]);
-    return std::bit_cast<std::uint32_t>(std::min(d[0], d[1])) & 15u;
+/// min reduction (vectorisable, unlike an argmin loop) finds both. Inlined into its callers'
+/// loops (a call, with @p d stored and reloaded, cost as much as the distances).
+VOX_ENCODE_INLINE unsigned argmin16(const std::array<float, 16>& d) {
+    std::array<float, 16> t{};
+    for (unsigned k = 0; k < 16; ++k) t[k] = std::bit_cast<float>((std::bit_cast<std::uint32_t>(d[k]) & ~15u) | k);
+    for (unsigned k = 0; k < 8; ++k) t[k] = std::min(t[k], t[k + 8]);
+    for (unsigned k = 0; k < 4; ++k) t[k] = std::min(t[k], t[k + 4]);
+    for (unsigned k = 0; k < 2; ++k) t[k] = std::min(t[k], t[k + 2]);
+    return std::bit_cast<std::uint32_t>(std::min(t[0], t[1])) & 15u;
+}
+
+/// 16 points (the lattice points of the combos, in combo order), one array per coordinate.
+struct alignas(16) Points16 {
+    std::array<float, 16> x{}, y{}, z{};
+};
+
+#if VOX_ENCODE_SSE2
+/// The lane of the smallest of four vectors of non-negative squared distances (as argmin16,
+/// whose result it equals: the values carry their index in their low mantissa bits, so all are
+/// distinct and the order of reduction does not matter).
+VOX_ENCODE_INLINE unsigned argmin16(__m128 d0, __m128 d1, __m128 d2, __m128 d3) {
+    const __m128i keep = _mm_set1_epi32(~15);
+    const auto tag = [&](__m128 d, int k) {
+        return _mm_castsi128_ps(_mm_or_si128(_mm_and_si128(_mm_castps_si128(d), keep), _mm_setr_epi32(k, k + 1, k + 2, k + 3)));
+    };
+    __m128 m = _mm_min_ps(_mm_min_ps(tag(d0, 0), tag(d1, 4)), _mm_min_ps(tag(d2, 8), tag(d3, 12)));
+    m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
+    m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
+    return static_cast<unsigned>(_mm_cvtsi128_si32(_mm_castps_si128(m))) & 15u;
+}
+#endif
+
+/// The nearest of the 16 points @p l to (x, y) in the plane (their z ignored), the lowest index
+/// on (near) ties; its squared distance dx² + dy² goes to @p distance.
+VOX_ENCODE_INLINE unsigned nearest2(const Points16& l, float x, float y, float& distance) {
+    unsigned k = 0;
+#if VOX_ENCODE_SSE2
+    const __m128 px = _mm_set1_ps(x), py = _mm_set1_ps(y);
+    __m128 d[4];
+    for (unsigned j = 0; j < 4; ++j) {
+        const __m128 dx = _mm_sub_ps(px, _mm_load_ps(l.x.data() + 4 * j)), dy = _mm_sub_ps(py, _mm_load_ps(l.y.data() + 4 * j));
+        d[j] = _mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy));
+    }
+    k = argmin16(d[0], d[1], d[2], d[3]);
+#else
+    std::array<float, 16> d{};
+    for (unsigned j = 0; j < 16; ++j) {
+        const float dx = x - l.x[j], dy = y - l.y[j];
+        d[j] = dx * dx + dy * dy;
+    }
+    k = argmin16(d);
+#endif
+    const float dx = x - l.x[k], dy = y - l.y[k];
+    distance = dx * dx + dy * dy;
+    return k;
+}
+
+/// The nearest of the 16 points @p l to (x, y, z), the lowest index on (near) ties; its squared
+/// distance dx² + dy² + dz² goes to @p distance.
+VOX_ENCODE_INLINE unsigned nearest3(const Points16& l, float x, float y, float z, float& distance) {
+    unsigned k = 0;
+#if VOX_ENCODE_SSE2
+    const __m128 px = _mm_set1_ps(x), py = _mm_set1_ps(y), pz = _mm_set1_ps(z);
+    __m128 d[4];
+    for (unsigned j = 0; j < 4; ++j) {
+        const __m128 dx = _mm_sub_ps(px, _mm_load_ps(l.x.data() + 4 * j)), dy = _mm_sub_ps(py, _mm_load_ps(l.y.data() + 4 * j)),
+                     dz = _mm_sub_ps(pz, _mm_load_ps(l.z.data() + 4 * j));
+        d[j] = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+    }
+    k = argmin16(d[0], d[1], d[2], d[3]);
+#else
+    std::array<float, 16> d{};
+    for (unsigned j = 0; j < 16; ++j) {
+        const float dx = x - l.x[j], dy = y - l.y[j], dz = z - l.z[j];
+        d[j] = dx * dx + dy * dy + dz * dz;
+    }
+    k = argmin16(d);
+#endif
+    const float dx = x - l.x[k], dy = y - l.y[k], dz = z - l.z[k];
+    distance = dx * dx + dy * dy + dz * dz;
+    return k;
 }
 
 /// A fit in the face plane: p ≈ b + cu·u + cv·v, combo k = uIndex + 4·vIndex.
@@ -374,25 +474,19 @@ struct PlaneFit {
 
 /// Assigns every point its nearest of the 16 lattice points; true when a combo changed.
 bool assignPlane(const NormalPoints& p, PlaneFit& f) {
-    std::array<float, 16> lx{}, ly{};
+    Points16 l;
     for (unsigned k = 0; k < 16; ++k) {
-        const float cu = esvo::kAxisWeights[k & 3], cv = esvo::kAxisWeights[k >> 2];
-        lx[k] = f.bx + cu * f.ux + cv * f.vx;
-        ly[k] = f.by + cu * f.uy + cv * f.vy;
+        l.x[k] = f.bx + kComboU[k] * f.ux + kComboV[k] * f.vx;
+        l.y[k] = f.by + kComboU[k] * f.uy + kComboV[k] * f.vy;
     }
     bool changed = false;
     double error = 0;
     for (unsigned i = 0; i < p.count; ++i) {
-        std::array<float, 16> d{};
-        for (unsigned k = 0; k < 16; ++k) {
-            const float dx = p.px[i] - lx[k], dy = p.py[i] - ly[k];
-            d[k] = dx * dx + dy * dy;
-        }
-        const std::array<float, 16> exact = d;
-        const unsigned bestK = argmin16(d);
+        float d = 0;
+        const unsigned bestK = nearest2(l, p.px[i], p.py[i], d);
         changed = changed || f.combo[i] != bestK;
         f.combo[i] = static_cast<std::uint8_t>(bestK);
-        error += double(p.weight[i]) * exact[bestK];
+        error += double(p.weight[i]) * d;
     }
     f.error = error;
     return changed;
@@ -458,36 +552,34 @@ struct NormalState {
 /// them; the nearest one's combo goes to @p combo. Stops early beyond @p bound.
 double evalLattice(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v, std::array<std::uint8_t, 16>& combo, double bound) {
     // The 16 decoded directions, in arrays the compiler can vectorise over.
-    std::array<float, 16> dx{}, dy{}, dz{};
+    Points16 l;
+    auto& dx = l.x;
+    auto& dy = l.y;
+    auto& dz = l.z;
     for (unsigned k = 0; k < 16; ++k) {
-        const float cu = esvo::kAxisWeights[k & 3], cv = esvo::kAxisWeights[k >> 2];
-        dx[k] = b[0] + cu * u[0] + cv * v[0];
-        dy[k] = b[1] + cu * u[1] + cv * v[1];
-        dz[k] = b[2] + cu * u[2] + cv * v[2];
+        dx[k] = b[0] + kComboU[k] * u[0] + kComboV[k] * v[0];
+        dy[k] = b[1] + kComboU[k] * u[1] + kComboV[k] * v[1];
+        dz[k] = b[2] + kComboU[k] * u[2] + kComboV[k] * v[2];
     }
     for (unsigned k = 0; k < 16; ++k) {
         const float len2 = dx[k] * dx[k] + dy[k] * dy[k] + dz[k] * dz[k];
         // A zero vector decodes as +z (lattices through the origin are among the 3-D fit's).
+        // Branch-free, and std::sqrt of a non-negative value (built with -fno-math-errno), so
+        // that the loop vectorises.
         const bool zero = !(len2 > 0);
-        const float inv = zero ? 0.0f : 1.0f / std::sqrt(len2);
-        dx[k] *= inv;
-        dy[k] *= inv;
+        const float inv = 1.0f / std::sqrt(zero ? 1.0f : len2);
+        dx[k] = zero ? 0.0f : dx[k] * inv;
+        dy[k] = zero ? 0.0f : dy[k] * inv;
         dz[k] = zero ? 1.0f : dz[k] * inv;
     }
     // |n − d|² = 2 (1 − cos): the same order, but precise for tiny angles, where 1 − cos in
     // float is not.
     double total = 0;
     for (unsigned i = 0; i < p.count; ++i) {
-        const float nx = p.n[i][0], ny = p.n[i][1], nz = p.n[i][2];
-        std::array<float, 16> d{};
-        for (unsigned k = 0; k < 16; ++k) {
-            const float ex = nx - dx[k], ey = ny - dy[k], ez = nz - dz[k];
-            d[k] = ex * ex + ey * ey + ez * ez;
-        }
-        const std::array<float, 16> exact = d;
-        const unsigned bestK = argmin16(d);
+        float d = 0;
+        const unsigned bestK = nearest3(l, p.n[i][0], p.n[i][1], p.n[i][2], d);
         combo[i] = static_cast<std::uint8_t>(bestK);
-        total += exact[bestK];
+        total += d;
         if (total > bound) return total;
     }
     return total;
