@@ -23,11 +23,13 @@ using esvo::Vec3;
 // Colour: RGB565 endpoints c0, c1 and a palette {c0, c1, ⅔c0+⅓c1, ⅓c0+⅔c1}.
 // ============================================================================================
 
-/// The used colours of a block, as 8-bit sRGB integers.
+/// The used colours of a block, as 8-bit sRGB integers; also per channel as floats (exact),
+/// padded to 16 with copies of the first, for the vectorised evaluation.
 struct ColorPoints {
     unsigned count = 0;
     std::array<unsigned, 16> slot{};
     std::array<std::array<int, 3>, 16> rgb{};
+    alignas(16) std::array<std::array<float, 16>, 3> channel{};
 };
 
 constexpr int expand5(int c) { return (c << 3) | (c >> 2); }
@@ -72,9 +74,18 @@ const ColorTables& colorTables() {
     return tables;
 }
 
+/// std::clamp(std::lround(x), 0, 255) (rounding half away from zero, NaN to 0) without the
+/// library call.
+inline std::size_t roundByte(float x) {
+    if (!(x > 0)) return 0;  // also NaN, as lround's LONG_MIN clamped
+    if (!(x < 255)) return 255;
+    const int t = static_cast<int>(x);  // truncation, exact for 0 < x < 255
+    return static_cast<std::size_t>(t + (x - static_cast<float>(t) >= 0.5f ? 1 : 0));
+}
+
 /// Nearest RGB565 code of a float RGB endpoint.
 std::uint32_t quantise565(const std::array<float, 3>& c, const ColorTables& t) {
-    const auto channel = [](float x) { return static_cast<std::size_t>(std::clamp(std::lround(x), 0l, 255l)); };
+    const auto channel = [](float x) { return roundByte(x); };
     return (std::uint32_t{t.nearest5[channel(c[0])]} << 11) | (std::uint32_t{t.nearest6[channel(c[1])]} << 5) | t.nearest5[channel(c[2])];
 }
 
@@ -89,13 +100,39 @@ struct ColorState {
 /// nearest entry (the lowest index on ties). Stops early once the sum exceeds @p bound.
 std::uint32_t evalColors(const ColorPoints& p, std::uint32_t c0, std::uint32_t c1, std::array<std::uint8_t, 16>& index,
                          std::uint32_t bound) {
-    const auto palette = esvo::colorPalette(c0, c1);
+    // esvo::colorPalette's arithmetic, here where it inlines: c0, c1, (2a + b + 1)/3, (a + 2b + 1)/3.
     std::array<int, 4> pr{}, pg{}, pb{};
-    for (unsigned k = 0; k < 4; ++k) {
-        pr[k] = static_cast<int>(esvo::colorChannel(palette[k], 0));
-        pg[k] = static_cast<int>(esvo::colorChannel(palette[k], 1));
-        pb[k] = static_cast<int>(esvo::colorChannel(palette[k], 2));
+    const auto entries = [](int a, int b, std::array<int, 4>& e) { e = {a, b, (2 * a + b + 1) / 3, (a + 2 * b + 1) / 3}; };
+    entries(expand5(static_cast<int>(c0 >> 11) & 31), expand5(static_cast<int>(c1 >> 11) & 31), pr);
+    entries(expand6(static_cast<int>(c0 >> 5) & 63), expand6(static_cast<int>(c1 >> 5) & 63), pg);
+    entries(expand5(static_cast<int>(c0) & 31), expand5(static_cast<int>(c1) & 31), pb);
+#if VOX_ENCODE_SSE2
+    // Four colours per vector, squared differences in floats (exact: integers below 2^24), each
+    // as 4·d + k, so that a plain min finds the nearest entry and the first of equals (k is the
+    // palette index). No early exit: it cost more than it saved.
+    (void)bound;
+    const unsigned vectors = (p.count + 3) / 4;
+    alignas(16) std::array<std::int32_t, 16> packed{};
+    for (unsigned j = 0; j < vectors; ++j) {
+        const __m128 r = _mm_load_ps(p.channel[0].data() + 4 * j), g = _mm_load_ps(p.channel[1].data() + 4 * j),
+                     b = _mm_load_ps(p.channel[2].data() + 4 * j);
+        __m128 best = _mm_setzero_ps();
+        for (unsigned k = 0; k < 4; ++k) {
+            const __m128 dr = _mm_sub_ps(r, _mm_set1_ps(static_cast<float>(pr[k]))), dg = _mm_sub_ps(g, _mm_set1_ps(static_cast<float>(pg[k]))),
+                         db = _mm_sub_ps(b, _mm_set1_ps(static_cast<float>(pb[k])));
+            const __m128 d = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dr, dr), _mm_mul_ps(dg, dg)), _mm_mul_ps(db, db));
+            const __m128 tagged = _mm_add_ps(_mm_mul_ps(d, _mm_set1_ps(4.0f)), _mm_set1_ps(static_cast<float>(k)));
+            best = k == 0 ? tagged : _mm_min_ps(best, tagged);
+        }
+        _mm_store_si128(reinterpret_cast<__m128i*>(packed.data() + 4 * j), _mm_cvttps_epi32(best));
     }
+    std::uint32_t total = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        index[i] = static_cast<std::uint8_t>(packed[i] & 3);
+        total += static_cast<std::uint32_t>(packed[i] >> 2);
+    }
+    return total;
+#else
     std::uint32_t total = 0;
     for (unsigned i = 0; i < p.count; ++i) {
         int best = std::numeric_limits<int>::max();
@@ -113,6 +150,7 @@ std::uint32_t evalColors(const ColorPoints& p, std::uint32_t c0, std::uint32_t c
         if (total > bound) return total;
     }
     return total;
+#endif
 }
 
 /// Replaces @p s by endpoints (c0, c1) if they decode with a smaller error.
@@ -369,12 +407,12 @@ struct NormalPoints {
 
 /// The lattice weights (cu, cv) of combo k = uIndex + 4·vIndex, as arrays the compiler can
 /// vectorise loops over the 16 combos with.
-constexpr std::array<float, 16> kComboU = [] {
+alignas(16) constexpr std::array<float, 16> kComboU = [] {
     std::array<float, 16> w{};
     for (unsigned k = 0; k < 16; ++k) w[k] = esvo::kAxisWeights[k & 3];
     return w;
 }();
-constexpr std::array<float, 16> kComboV = [] {
+alignas(16) constexpr std::array<float, 16> kComboV = [] {
     std::array<float, 16> w{};
     for (unsigned k = 0; k < 16; ++k) w[k] = esvo::kAxisWeights[k >> 2];
     return w;
@@ -465,6 +503,42 @@ VOX_ENCODE_INLINE unsigned nearest3(const Points16& l, float x, float y, float z
     return k;
 }
 
+/// The 16 directions normalise(b + cu·u + cv·v) as esvo::decodeBlockNormal computes them (up to
+/// its division by the length, here a multiplication by its inverse), a zero vector as +z.
+VOX_ENCODE_INLINE void decodedLattice(const Vec3& b, const Vec3& u, const Vec3& v, Points16& l) {
+#if VOX_ENCODE_SSE2
+    const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+    for (unsigned j = 0; j < 4; ++j) {
+        const __m128 cu = _mm_load_ps(kComboU.data() + 4 * j), cv = _mm_load_ps(kComboV.data() + 4 * j);
+        const auto part = [&](unsigned c) {
+            return _mm_add_ps(_mm_add_ps(_mm_set1_ps(b[c]), _mm_mul_ps(cu, _mm_set1_ps(u[c]))), _mm_mul_ps(cv, _mm_set1_ps(v[c])));
+        };
+        const __m128 x = part(0), y = part(1), z = part(2);
+        const __m128 len2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z));
+        const __m128 nonzero = _mm_cmpgt_ps(len2, zero);  // false for 0 and NaN
+        const __m128 inv = _mm_div_ps(one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(nonzero, len2), _mm_andnot_ps(nonzero, one))));
+        _mm_store_ps(l.x.data() + 4 * j, _mm_and_ps(nonzero, _mm_mul_ps(x, inv)));
+        _mm_store_ps(l.y.data() + 4 * j, _mm_and_ps(nonzero, _mm_mul_ps(y, inv)));
+        _mm_store_ps(l.z.data() + 4 * j, _mm_or_ps(_mm_and_ps(nonzero, _mm_mul_ps(z, inv)), _mm_andnot_ps(nonzero, one)));
+    }
+#else
+    for (unsigned k = 0; k < 16; ++k) {
+        l.x[k] = b[0] + kComboU[k] * u[0] + kComboV[k] * v[0];
+        l.y[k] = b[1] + kComboU[k] * u[1] + kComboV[k] * v[1];
+        l.z[k] = b[2] + kComboU[k] * u[2] + kComboV[k] * v[2];
+    }
+    for (unsigned k = 0; k < 16; ++k) {
+        const float len2 = l.x[k] * l.x[k] + l.y[k] * l.y[k] + l.z[k] * l.z[k];
+        // A zero vector decodes as +z (lattices through the origin are among the 3-D fit's).
+        const bool zero = !(len2 > 0);
+        const float inv = 1.0f / std::sqrt(zero ? 1.0f : len2);
+        l.x[k] = zero ? 0.0f : l.x[k] * inv;
+        l.y[k] = zero ? 0.0f : l.y[k] * inv;
+        l.z[k] = zero ? 1.0f : l.z[k] * inv;
+    }
+#endif
+}
+
 /// A fit in the face plane: p ≈ b + cu·u + cv·v, combo k = uIndex + 4·vIndex.
 struct PlaneFit {
     float bx = 0, by = 0, ux = 0, uy = 0, vx = 0, vy = 0;
@@ -553,25 +627,7 @@ struct NormalState {
 double evalLattice(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v, std::array<std::uint8_t, 16>& combo, double bound) {
     // The 16 decoded directions, in arrays the compiler can vectorise over.
     Points16 l;
-    auto& dx = l.x;
-    auto& dy = l.y;
-    auto& dz = l.z;
-    for (unsigned k = 0; k < 16; ++k) {
-        dx[k] = b[0] + kComboU[k] * u[0] + kComboV[k] * v[0];
-        dy[k] = b[1] + kComboU[k] * u[1] + kComboV[k] * v[1];
-        dz[k] = b[2] + kComboU[k] * u[2] + kComboV[k] * v[2];
-    }
-    for (unsigned k = 0; k < 16; ++k) {
-        const float len2 = dx[k] * dx[k] + dy[k] * dy[k] + dz[k] * dz[k];
-        // A zero vector decodes as +z (lattices through the origin are among the 3-D fit's).
-        // Branch-free, and std::sqrt of a non-negative value (built with -fno-math-errno), so
-        // that the loop vectorises.
-        const bool zero = !(len2 > 0);
-        const float inv = 1.0f / std::sqrt(zero ? 1.0f : len2);
-        dx[k] = zero ? 0.0f : dx[k] * inv;
-        dy[k] = zero ? 0.0f : dy[k] * inv;
-        dz[k] = zero ? 1.0f : dz[k] * inv;
-    }
+    decodedLattice(b, u, v, l);
     // |n − d|² = 2 (1 − cos): the same order, but precise for tiny angles, where 1 − cos in
     // float is not.
     double total = 0;
@@ -701,6 +757,184 @@ NormalState quantiseFit(const NormalPoints& p, const PlaneFit& f) {
         rv[ua] = g.vx * refitScale;
         rv[va] = g.vy * refitScale;
         if (!tryNormals(p, refitBase, esvo::encodeAxis(ru) | (esvo::encodeAxis(rv) << 16), s)) break;
+    }
+    return s;
+}
+
+/// A symmetric 2×2 matrix [[xx, xy], [xy, yy]].
+struct Sym2 {
+    double xx = 0, xy = 0, yy = 0;
+};
+using Vec2 = std::array<double, 2>;
+Vec2 mul(const Sym2& m, const Vec2& v) { return {m.xx * v[0] + m.xy * v[1], m.xy * v[0] + m.yy * v[1]}; }
+double dot2(const Vec2& a, const Vec2& b) { return a[0] * b[0] + a[1] * b[1]; }
+
+/// For fixed combos, the sums that give the decoded error of any (b, u, v) in the face plane
+/// in constant time: Σ (p − q)ᵀ M (p − q), q = b + cu·u + cv·v, with M = (I − p pᵀ/L²)/L²
+/// (L² = 1 + |p|²) the metric under which a step in the plane at p is the squared angle it
+/// turns the direction (p, 1) by: cos⁴ radially, cos² tangentially.
+struct PlaneSums {
+    Sym2 s, su, sv, suu, suv, svv;
+    Vec2 p{}, pu{}, pv{};
+    double pp = 0;
+};
+
+PlaneSums planeSums(const NormalPoints& p, const std::array<std::uint8_t, 16>& combo) {
+    PlaneSums t;
+    const auto add = [](Sym2& a, const Sym2& m, double w) {
+        a.xx += w * m.xx;
+        a.xy += w * m.xy;
+        a.yy += w * m.yy;
+    };
+    for (unsigned i = 0; i < p.count; ++i) {
+        const double cu = esvo::kAxisWeights[combo[i] & 3], cv = esvo::kAxisWeights[combo[i] >> 2];
+        const double x = p.px[i], y = p.py[i], l2 = 1 + x * x + y * y, inv = 1 / l2, inv2 = inv * inv;
+        const Sym2 m{inv - x * x * inv2, -x * y * inv2, inv - y * y * inv2};
+        add(t.s, m, 1);
+        add(t.su, m, cu);
+        add(t.sv, m, cv);
+        add(t.suu, m, cu * cu);
+        add(t.suv, m, cu * cv);
+        add(t.svv, m, cv * cv);
+        const Vec2 mp = mul(m, {x, y});
+        for (unsigned c = 0; c < 2; ++c) {
+            t.p[c] += mp[c];
+            t.pu[c] += cu * mp[c];
+            t.pv[c] += cv * mp[c];
+        }
+        t.pp += x * mp[0] + y * mp[1];
+    }
+    return t;
+}
+
+/// With the base at its best for the axes, b = S⁻¹(P − Su·u − Sv·v), the error is
+/// C + A(u) + A'(v) + 2 uᵀ K v; PlaneTerms holds what A, A' and K need.
+struct PlaneTerms {
+    Sym2 inv;                  // S⁻¹
+    Vec2 tp{};                 // S⁻¹ P
+    double kxx = 0, kxy = 0, kyx = 0, kyy = 0;  // K = Suv − Su S⁻¹ Sv
+};
+
+bool planeTerms(const PlaneSums& t, PlaneTerms& k) {
+    const double det = t.s.xx * t.s.yy - t.s.xy * t.s.xy;
+    if (!(det > 1e-300)) return false;
+    k.inv = {t.s.yy / det, -t.s.xy / det, t.s.xx / det};
+    k.tp = mul(k.inv, t.p);
+    // Su S⁻¹ Sv, entry by entry (Su, S⁻¹ and Sv are symmetric, their product need not be).
+    const double a[2][2]{{t.su.xx, t.su.xy}, {t.su.xy, t.su.yy}}, i[2][2]{{k.inv.xx, k.inv.xy}, {k.inv.xy, k.inv.yy}},
+                 b[2][2]{{t.sv.xx, t.sv.xy}, {t.sv.xy, t.sv.yy}};
+    double ai[2][2]{}, aib[2][2]{};
+    for (unsigned r = 0; r < 2; ++r)
+        for (unsigned c = 0; c < 2; ++c) ai[r][c] = a[r][0] * i[0][c] + a[r][1] * i[1][c];
+    for (unsigned r = 0; r < 2; ++r)
+        for (unsigned c = 0; c < 2; ++c) aib[r][c] = ai[r][0] * b[0][c] + ai[r][1] * b[1][c];
+    k.kxx = t.suv.xx - aib[0][0];
+    k.kxy = t.suv.xy - aib[0][1];
+    k.kyx = t.suv.xy - aib[1][0];
+    k.kyy = t.suv.yy - aib[1][1];
+    return true;
+}
+
+/// A(u) (or A'(v)) of one axis @p a, whose sums are @p s1 (Su or Sv), @p s2 (Suu or Svv) and
+/// @p pa (Pu or Pv): aᵀ(S2 − S1 S⁻¹ S1) a + 2 a·(S1 S⁻¹ P − Pa).
+double axisTerm(const PlaneTerms& k, const Sym2& s1, const Sym2& s2, const Vec2& pa, const Vec2& a) {
+    const Vec2 s1a = mul(s1, a);
+    return dot2(a, mul(s2, a)) - dot2(s1a, mul(k.inv, s1a)) + 2 * (dot2(s1a, k.tp) - dot2(a, pa));
+}
+
+/// The best base for axes @p u, @p v.
+Vec2 bestBase(const PlaneSums& t, const PlaneTerms& k, const Vec2& u, const Vec2& v) {
+    const Vec2 su = mul(t.su, u), sv = mul(t.sv, v);
+    return mul(k.inv, {t.p[0] - su[0] - sv[0], t.p[1] - su[1] - sv[1]});
+}
+
+/// Up to eight codes of an in-plane axis @p a (face-plane units, × @p scale in the code): at
+/// the smallest exponent that holds it and the next, each component rounded down and up.
+unsigned axisCandidates(const NormalPoints& p, const std::array<double, 2>& a, float scale, std::array<std::uint32_t, 8>& codes) {
+    const unsigned ua = (p.axis + 1) % 3, va = (p.axis + 2) % 3;
+    Vec3 v{};
+    v[ua] = static_cast<float>(a[0]) * scale;
+    v[va] = static_cast<float>(a[1]) * scale;
+    const int e0 = static_cast<int>(esvo::encodeAxis(v) >> 12);
+    unsigned n = 0;
+    for (int e = e0; e <= std::min(e0 + 1, 15); ++e) {
+        const float step = std::bit_cast<float>(static_cast<std::uint32_t>(e + 127 - 13) << 23);
+        const float x = v[ua] / step, y = v[va] / step;
+        const auto clampCode = [](float q) { return std::clamp(static_cast<int>(q), -8, 7); };
+        const int x0 = clampCode(std::floor(x)), x1 = clampCode(std::ceil(x)), y0 = clampCode(std::floor(y)), y1 = clampCode(std::ceil(y));
+        for (const int mx : {x0, x1})
+            for (const int my : {y0, y1}) {
+                std::uint32_t code = static_cast<std::uint32_t>(e) << 12;
+                code |= (static_cast<std::uint32_t>(mx) & 15u) << (4 * ua);
+                code |= (static_cast<std::uint32_t>(my) & 15u) << (4 * va);
+                if (std::find(codes.begin(), codes.begin() + n, code) == codes.begin() + n) codes[n++] = code;
+            }
+    }
+    return n;
+}
+
+/// quantiseFit by enumeration instead of search: with the combos fixed, every pair of
+/// candidate axis codes (axisCandidates) is scored in the face plane in constant time with its
+/// best base; the best few are measured against the decoded normals; then the least squares
+/// for the combos the best chose, and again, while that helps.
+[[maybe_unused]] NormalState quantiseFitFast(const NormalPoints& p, const PlaneFit& f, int rounds, unsigned measured) {
+    const unsigned a = p.axis, ua = (a + 1) % 3, va = (a + 2) % 3;
+    const auto toBase = [&](double bx, double by) {
+        Vec3 b{};
+        b[a] = p.sign;
+        b[ua] = static_cast<float>(bx);
+        b[va] = static_cast<float>(by);
+        return esvo::encodeNormal(b);
+    };
+    NormalState s;
+    PlaneFit g = f;
+    for (int round = 0; round < rounds; ++round) {
+        const float scale = 1.0f / std::max({1.0f, std::fabs(g.bx), std::fabs(g.by)});
+        const PlaneSums t = planeSums(p, g.combo);
+        PlaneTerms k;
+        if (!planeTerms(t, k)) break;
+        std::array<std::uint32_t, 8> uc{}, vc{};
+        const unsigned nu = axisCandidates(p, {g.ux, g.uy}, scale, uc), nv = axisCandidates(p, {g.vx, g.vy}, scale, vc);
+        std::array<Vec2, 8> uv{}, vv{};
+        std::array<double, 8> ut{}, vt{};
+        for (unsigned i = 0; i < nu; ++i) {
+            const Vec3 d = esvo::decodeAxis(uc[i]);
+            uv[i] = {d[ua] / scale, d[va] / scale};
+            ut[i] = axisTerm(k, t.su, t.suu, t.pu, uv[i]);
+        }
+        for (unsigned j = 0; j < nv; ++j) {
+            const Vec3 d = esvo::decodeAxis(vc[j]);
+            vv[j] = {d[ua] / scale, d[va] / scale};
+            vt[j] = axisTerm(k, t.sv, t.svv, t.pv, vv[j]);
+        }
+
+        struct Scored {
+            double error;
+            unsigned i, j;
+        };
+        std::array<Scored, 64> scored{};
+        unsigned n = 0;
+        for (unsigned i = 0; i < nu; ++i)
+            for (unsigned j = 0; j < nv; ++j) {
+                const Vec2& u = uv[i];
+                const Vec2& v = vv[j];
+                const double cross = u[0] * (k.kxx * v[0] + k.kxy * v[1]) + u[1] * (k.kyx * v[0] + k.kyy * v[1]);
+                scored[n++] = {ut[i] + vt[j] + 2 * cross, i, j};
+            }
+        const unsigned keep = std::min(measured, n);
+        std::partial_sort(scored.begin(), scored.begin() + keep, scored.begin() + n, [](const Scored& x, const Scored& y) {
+            return x.error < y.error || (x.error == y.error && (x.i < y.i || (x.i == y.i && x.j < y.j)));
+        });
+        bool improved = false;
+        for (unsigned m = 0; m < keep; ++m) {
+            const auto& u = uv[scored[m].i];
+            const auto& v = vv[scored[m].j];
+            const Vec2 b = bestBase(t, k, u, v);
+            if (tryNormals(p, toBase(b[0], b[1]), uc[scored[m].i] | (vc[scored[m].j] << 16), s)) improved = true;
+        }
+        if (!improved || s.error <= 0 || s.combo == g.combo) break;
+        g.combo = s.combo;
+        solvePlane(p, g);
     }
     return s;
 }
@@ -946,16 +1180,19 @@ double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>
         for (unsigned axis = 0; axis < 2; ++axis)
             if ((freeAxes >> axis) & 1u)
                 for (unsigned c = 0; c < 3; ++c) index[n++] = 3 + 3 * axis + c;
+        // The lower triangle of the free variables' normal matrix, gathered once for all attempts.
+        std::array<std::array<double, 9>, 9> normal{};
+        for (unsigned j = 0; j < n; ++j)
+            for (unsigned l = 0; l <= j; ++l) normal[j][l] = h(index[j], index[l]);
         double trace = 0;
-        for (unsigned j = 0; j < n; ++j) trace += h(index[j], index[j]);
+        for (unsigned j = 0; j < n; ++j) trace += normal[j][j];
         const double floor = 1e-9 * trace / n + 1e-30;
         bool accepted = false;
         double gain = 0;
         for (int attempt = 0; attempt < 4 && !accepted; ++attempt) {
-            std::array<std::array<double, 9>, 9> m{};
+            std::array<std::array<double, 9>, 9> m = normal;
             std::array<double, 9> step{};
             for (unsigned j = 0; j < n; ++j) {
-                for (unsigned l = 0; l <= j; ++l) m[j][l] = h(index[j], index[l]);
                 m[j][j] = m[j][j] * (1 + lambda) + floor;
                 step[j] = -g[index[j]];
             }
@@ -1354,6 +1591,8 @@ std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16
         ++p.count;
     }
     if (p.count == 0) return {0, 0};
+    for (unsigned i = 0; i < 16; ++i)
+        for (unsigned ch = 0; ch < 3; ++ch) p.channel[ch][i] = static_cast<float>(p.rgb[i < p.count ? i : 0][ch]);
     const ColorState s = encodeColors(p);
     std::uint32_t indices = 0;
     for (unsigned i = 0; i < p.count; ++i) indices |= std::uint32_t{s.index[i]} << (2 * p.slot[i]);
