@@ -263,20 +263,52 @@ bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean, c
     std::sort(order.begin(), order.begin() + n, [&](unsigned x, unsigned y) { return proj[x] < proj[y] || (proj[x] == proj[y] && x < y); });
     // Prefix sums of the sorted colours per channel, laid out so that the compiler can vectorise
     // the inner loop (over the start of the last cluster).
-    std::array<std::array<float, 17>, 3> prefix{};
-    for (unsigned ch = 0; ch < 3; ++ch)
+    // (Padded past n with the total, so that four lanes can always be loaded.)
+    alignas(16) std::array<std::array<float, 20>, 3> prefix{};
+    for (unsigned ch = 0; ch < 3; ++ch) {
         for (unsigned i = 0; i < n; ++i) prefix[ch][i + 1] = prefix[ch][i] + static_cast<float>(p.rgb[order[i]][ch]);
+        for (unsigned i = n + 1; i < 20; ++i) prefix[ch][i] = prefix[ch][n];
+    }
     // Maximise Σ_ch (C X² − 2B XY + A Y²) / det, which is Σ|x|² minus the least-squares error.
     float bestRatio = 0;
     unsigned best0 = 0, best1 = 0, best2 = 0;
     bool found = false;
     const float nf = static_cast<float>(n);
-    std::array<float, 17> index2{};
-    for (unsigned i = 0; i <= n; ++i) index2[i] = static_cast<float>(i);
+    alignas(16) std::array<float, 20> index2{};
+    for (unsigned i = 0; i < 20; ++i) index2[i] = static_cast<float>(i);
     for (unsigned i0 = 0; i0 <= n; ++i0)
         for (unsigned i1 = i0; i1 <= n; ++i1) {
             const float n0 = static_cast<float>(i0), n2 = static_cast<float>(i1 - i0);
-            alignas(16) std::array<float, 17> ratio{};
+            alignas(16) std::array<float, 20> ratio{};
+#if VOX_ENCODE_SSE2
+            // Four i2 at a time, the same arithmetic as below lane by lane (lanes past n unused).
+            {
+                const __m128 vn0 = _mm_set1_ps(n0), vn2 = _mm_set1_ps(n2), vi1 = _mm_set1_ps(static_cast<float>(i1)), vnf = _mm_set1_ps(nf);
+                const __m128 ninth = _mm_set1_ps(1.0f / 9.0f), twoNinths = _mm_set1_ps(2.0f / 9.0f), third = _mm_set1_ps(1.0f / 3.0f);
+                const __m128 two = _mm_set1_ps(2.0f), four = _mm_set1_ps(4.0f), guard = _mm_set1_ps(0.1f);
+                for (unsigned i2 = i1; i2 <= n; i2 += 4) {
+                    const __m128 idx = _mm_loadu_ps(index2.data() + i2);
+                    const __m128 n3 = _mm_sub_ps(idx, vi1), n1 = _mm_sub_ps(vnf, idx);
+                    const __m128 aa = _mm_add_ps(vn0, _mm_mul_ps(_mm_add_ps(_mm_mul_ps(four, vn2), n3), ninth));
+                    const __m128 ab = _mm_mul_ps(_mm_add_ps(vn2, n3), twoNinths);
+                    const __m128 bb = _mm_add_ps(n1, _mm_mul_ps(_mm_add_ps(vn2, _mm_mul_ps(four, n3)), ninth));
+                    const __m128 det = _mm_sub_ps(_mm_mul_ps(aa, bb), _mm_mul_ps(ab, ab));
+                    __m128 q = _mm_setzero_ps();
+                    for (unsigned ch = 0; ch < 3; ++ch) {
+                        const float p0 = prefix[ch][i0], p1 = prefix[ch][i1], pn = prefix[ch][n];
+                        const __m128 pi2 = _mm_loadu_ps(prefix[ch].data() + i2);
+                        const __m128 s0 = _mm_set1_ps(p0), s2 = _mm_set1_ps(p1 - p0), s3 = _mm_sub_ps(pi2, _mm_set1_ps(p1)),
+                                     s1 = _mm_sub_ps(_mm_set1_ps(pn), pi2);
+                        const __m128 x = _mm_add_ps(s0, _mm_mul_ps(_mm_add_ps(_mm_mul_ps(two, s2), s3), third));
+                        const __m128 y = _mm_add_ps(s1, _mm_mul_ps(_mm_add_ps(s2, _mm_mul_ps(two, s3)), third));
+                        const __m128 t = _mm_add_ps(_mm_sub_ps(_mm_mul_ps(_mm_mul_ps(bb, x), x), _mm_mul_ps(_mm_mul_ps(_mm_mul_ps(two, ab), x), y)),
+                                                    _mm_mul_ps(_mm_mul_ps(aa, y), y));
+                        q = _mm_add_ps(q, t);
+                    }
+                    _mm_storeu_ps(ratio.data() + i2, _mm_div_ps(q, _mm_max_ps(det, guard)));
+                }
+            }
+#else
             for (unsigned i2 = i1; i2 <= n; ++i2) {
                 const float n3 = index2[i2] - static_cast<float>(i1), n1 = nf - index2[i2];
                 const float aa = n0 + (4.0f * n2 + n3) * (1.0f / 9.0f), ab = (n2 + n3) * (2.0f / 9.0f), bb = n1 + (n2 + 4.0f * n3) * (1.0f / 9.0f);
@@ -291,6 +323,7 @@ bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean, c
                 // is on one entry, where det and q vanish: a branch-free guard the compiler can vectorise.
                 ratio[i2] = q / std::max(det, 0.1f);
             }
+#endif
             for (unsigned i2 = i1; i2 <= n; ++i2)
                 if (ratio[i2] > bestRatio) {
                     bestRatio = ratio[i2];
