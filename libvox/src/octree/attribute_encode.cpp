@@ -342,7 +342,8 @@ bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean, c
 /// Summed squared error per used colour above which orderedClusterFit is tried.
 constexpr std::uint32_t kOrderedFitThreshold = 20;
 
-ColorState encodeColors(const ColorPoints& p) {
+ColorState encodeColors(const ColorPoints& p, AttributeEffort effort) {
+    (void)effort;
     const ColorTables& t = colorTables();
     ColorState best;
 
@@ -881,6 +882,38 @@ Vec2 bestBase(const PlaneSums& t, const PlaneTerms& k, const Vec2& u, const Vec2
     return mul(k.inv, {t.p[0] - su[0] - sv[0], t.p[1] - su[1] - sv[1]});
 }
 
+/// 2^(e − 13), the step of axis exponent e (as esvo::decodeAxis).
+inline float axisStep(int e) { return std::bit_cast<float>(static_cast<std::uint32_t>(e + 127 - 13) << 23); }
+
+/// The exponent esvo::encodeAxis chooses for components within [@p lo, @p hi] (lo ≤ 0 ≤ hi).
+inline int axisExponent(float lo, float hi) {
+    int e = 0;
+    while (e < 15 && (hi > 7.5f * axisStep(e) || lo < -8.5f * axisStep(e))) ++e;
+    return e;
+}
+
+/// Component @p c (0…2) of axis code @p bits, in steps (esvo::decodeAxis without the scale).
+inline int axisDigit(std::uint32_t bits, unsigned c) { return static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28; }
+
+/// The best few (at most 4) of scored candidates, lowest score first, the earliest of equals.
+struct TopK {
+    unsigned k = 0, n = 0;
+    std::array<double, 4> score{};
+    std::array<unsigned, 4> id{};
+    explicit TopK(unsigned keep) : k(std::min(keep, 4u)) {}
+    void offer(double sc, unsigned i) {
+        if (n == k && !(sc < score[n - 1])) return;
+        unsigned at = n < k ? n++ : n - 1;
+        while (at > 0 && sc < score[at - 1]) {
+            score[at] = score[at - 1];
+            id[at] = id[at - 1];
+            --at;
+        }
+        score[at] = sc;
+        id[at] = i;
+    }
+};
+
 /// Up to eight codes of an in-plane axis @p a (face-plane units, × @p scale in the code): at
 /// the smallest exponent that holds it and the next, each component rounded down and up.
 unsigned axisCandidates(const NormalPoints& p, const std::array<double, 2>& a, float scale, std::array<std::uint32_t, 8>& codes) {
@@ -888,10 +921,10 @@ unsigned axisCandidates(const NormalPoints& p, const std::array<double, 2>& a, f
     Vec3 v{};
     v[ua] = static_cast<float>(a[0]) * scale;
     v[va] = static_cast<float>(a[1]) * scale;
-    const int e0 = static_cast<int>(esvo::encodeAxis(v) >> 12);
+    const int e0 = axisExponent(std::min({v[ua], v[va], 0.0f}), std::max({v[ua], v[va], 0.0f}));
     unsigned n = 0;
     for (int e = e0; e <= std::min(e0 + 1, 15); ++e) {
-        const float step = std::bit_cast<float>(static_cast<std::uint32_t>(e + 127 - 13) << 23);
+        const float step = axisStep(e);
         const float x = v[ua] / step, y = v[va] / step;
         const auto clampCode = [](float q) { return std::clamp(static_cast<int>(q), -8, 7); };
         const int x0 = clampCode(std::floor(x)), x1 = clampCode(std::ceil(x)), y0 = clampCode(std::floor(y)), y1 = clampCode(std::ceil(y));
@@ -910,7 +943,7 @@ unsigned axisCandidates(const NormalPoints& p, const std::array<double, 2>& a, f
 /// candidate axis codes (axisCandidates) is scored in the face plane in constant time with its
 /// best base; the best few are measured against the decoded normals; then the least squares
 /// for the combos the best chose, and again, while that helps.
-[[maybe_unused]] NormalState quantiseFitFast(const NormalPoints& p, const PlaneFit& f, int rounds, unsigned measured) {
+NormalState quantiseFitFast(const NormalPoints& p, const PlaneFit& f, int rounds, unsigned measured) {
     const unsigned a = p.axis, ua = (a + 1) % 3, va = (a + 2) % 3;
     const auto toBase = [&](double bx, double by) {
         Vec3 b{};
@@ -928,42 +961,29 @@ unsigned axisCandidates(const NormalPoints& p, const std::array<double, 2>& a, f
         if (!planeTerms(t, k)) break;
         std::array<std::uint32_t, 8> uc{}, vc{};
         const unsigned nu = axisCandidates(p, {g.ux, g.uy}, scale, uc), nv = axisCandidates(p, {g.vx, g.vy}, scale, vc);
-        std::array<Vec2, 8> uv{}, vv{};
+        std::array<Vec2, 8> uv{}, vv{}, kv{};
         std::array<double, 8> ut{}, vt{};
+        const auto decode = [&](std::uint32_t code) {
+            const double step = axisStep(static_cast<int>(code >> 12)) / scale;
+            return Vec2{axisDigit(code, ua) * step, axisDigit(code, va) * step};
+        };
         for (unsigned i = 0; i < nu; ++i) {
-            const Vec3 d = esvo::decodeAxis(uc[i]);
-            uv[i] = {d[ua] / scale, d[va] / scale};
+            uv[i] = decode(uc[i]);
             ut[i] = axisTerm(k, t.su, t.suu, t.pu, uv[i]);
         }
         for (unsigned j = 0; j < nv; ++j) {
-            const Vec3 d = esvo::decodeAxis(vc[j]);
-            vv[j] = {d[ua] / scale, d[va] / scale};
+            vv[j] = decode(vc[j]);
             vt[j] = axisTerm(k, t.sv, t.svv, t.pv, vv[j]);
+            kv[j] = {2 * (k.kxx * vv[j][0] + k.kxy * vv[j][1]), 2 * (k.kyx * vv[j][0] + k.kyy * vv[j][1])};
         }
-
-        struct Scored {
-            double error;
-            unsigned i, j;
-        };
-        std::array<Scored, 64> scored{};
-        unsigned n = 0;
+        TopK top(measured);
         for (unsigned i = 0; i < nu; ++i)
-            for (unsigned j = 0; j < nv; ++j) {
-                const Vec2& u = uv[i];
-                const Vec2& v = vv[j];
-                const double cross = u[0] * (k.kxx * v[0] + k.kxy * v[1]) + u[1] * (k.kyx * v[0] + k.kyy * v[1]);
-                scored[n++] = {ut[i] + vt[j] + 2 * cross, i, j};
-            }
-        const unsigned keep = std::min(measured, n);
-        std::partial_sort(scored.begin(), scored.begin() + keep, scored.begin() + n, [](const Scored& x, const Scored& y) {
-            return x.error < y.error || (x.error == y.error && (x.i < y.i || (x.i == y.i && x.j < y.j)));
-        });
+            for (unsigned j = 0; j < nv; ++j) top.offer(ut[i] + vt[j] + (uv[i][0] * kv[j][0] + uv[i][1] * kv[j][1]), 8 * i + j);
         bool improved = false;
-        for (unsigned m = 0; m < keep; ++m) {
-            const auto& u = uv[scored[m].i];
-            const auto& v = vv[scored[m].j];
-            const Vec2 b = bestBase(t, k, u, v);
-            if (tryNormals(p, toBase(b[0], b[1]), uc[scored[m].i] | (vc[scored[m].j] << 16), s)) improved = true;
+        for (unsigned m = 0; m < top.n; ++m) {
+            const unsigned i = top.id[m] / 8, j = top.id[m] % 8;
+            const Vec2 b = bestBase(t, k, uv[i], vv[j]);
+            if (tryNormals(p, toBase(b[0], b[1]), uc[i] | (vc[j] << 16), s)) improved = true;
         }
         if (!improved || s.error <= 0 || s.combo == g.combo) break;
         g.combo = s.combo;
@@ -973,7 +993,10 @@ unsigned axisCandidates(const NormalPoints& p, const std::array<double, 2>& a, f
 }
 
 /// Picks the face, projects the normals onto its plane and fits the lattice there.
-PlaneFit fitNormals(NormalPoints& p) {
+/// Only the starts in @p startMask (bit i: start i; start 0 always) are tried; @p afterFirst(fit)
+/// is called with the first start's fit, and when it returns true, the others are not.
+template <typename AfterFirst>
+PlaneFit fitNormals(NormalPoints& p, unsigned startMask, AfterFirst afterFirst) {
     // The face: the dominant axis of the mean normal (of the first normal if they cancel).
     Vec3 mean{};
     for (unsigned i = 0; i < p.count; ++i)
@@ -1066,6 +1089,7 @@ PlaneFit fitNormals(NormalPoints& p) {
     const unsigned startCount = !(h1 > 1e-6) ? 1 : (h2 < 0.5 * h1 ? 6 : 5);  // equal normals need one
     PlaneFit best;
     for (unsigned i = 0; i < startCount; ++i) {
+        if (i > 0 && !((startMask >> i) & 1u)) continue;
         const Start& st = starts[i];
         PlaneFit fit;
         fit.bx = static_cast<float>(cx);
@@ -1076,6 +1100,7 @@ PlaneFit fitNormals(NormalPoints& p) {
         fit.vy = static_cast<float>(st.v1 * e1y + st.v2 * e2y);
         fitPlane(p, fit);
         if (fit.error < best.error) best = fit;
+        if (i == 0 && afterFirst(fit)) break;
     }
     return best;
 }
@@ -1102,6 +1127,57 @@ constexpr double kWideCos = 0.8660254, kDistinctCos = 0.99985;
 /// as good, (0.3°)² for wide ones.
 constexpr double kDegree2 = (std::numbers::pi / 180) * (std::numbers::pi / 180);
 constexpr double kNarrowThreshold = 1.0 * 1.0 * kDegree2, kWideThreshold = 0.3 * 0.3 * kDegree2;
+
+/// How hard the normal encoder searches (see AttributeEffort).
+struct NormalSearch {
+    /// The face-plane fit's starts (fitNormals).
+    unsigned startMask = 63;
+    /// Plane fit quantised by enumeration (quantiseFitFast) rather than by code search.
+    bool enumeratePlane = false;
+    /// Summed squared chord per used normal above which the 3-D search follows.
+    double narrowThreshold = kNarrowThreshold, wideThreshold = kWideThreshold;
+    /// The 3-D search: candidates refined at all, iterations for the best two of wide blocks,
+    /// whether a second candidate may be quantised, and how (code search, or enumeration
+    /// followed by that many passes of code search).
+    unsigned refined = 4;
+    int moreIterations = 6;
+    bool second = true;
+    bool enumerateModel = false;
+    int modelPasses = 3;
+    /// Below this error per normal (the plane fit's) the 3-D search runs with `light` instead.
+    double lightBelow = 0;
+    /// Below this error per normal (the face-plane fit's, unquantised) the first start's fit is
+    /// kept without trying the others (0: never).
+    double earlyBelow = 0;
+    /// quantiseFitFast's rounds and candidates measured per round.
+    int planeRounds = 2;
+    unsigned planeMeasured = 3;
+};
+
+/// The search of each effort (@p light: of the 3-D search of a block whose face-plane fit is
+/// already within lightBelow). Best is the original exhaustive search; the others were chosen
+/// on the real blocks of bench/attribute_encode_bench --scene (docs/esvo-format.md §14).
+NormalSearch normalSearch(AttributeEffort effort, bool light = false) {
+    NormalSearch s;
+    if (effort == AttributeEffort::Best) return s;
+    const bool fast = effort == AttributeEffort::Fast;
+    s.startMask = fast ? 0b10001u : 63u;  // Fast: the ¾-size start and the 45° one
+    s.earlyBelow = (fast ? 0.1 * 0.1 : 0.05 * 0.05) * kDegree2;
+    s.enumeratePlane = true;
+    s.planeRounds = fast ? 2 : 3;
+    s.planeMeasured = fast ? 2 : 3;
+    s.wideThreshold = (fast ? 0.7 * 0.7 : 0.5 * 0.5) * kDegree2;
+    s.enumerateModel = true;
+    s.modelPasses = fast ? 1 : 2;
+    s.lightBelow = (fast ? 2.0 * 2.0 : 1.0 * 1.0) * kDegree2;
+    if (light) {
+        s.refined = 2;
+        s.moreIterations = 2;
+        s.second = false;
+        s.modelPasses = 0;
+    }
+    return s;
+}
 
 /// An unquantised lattice: base b = x[0…2], axes u = x[3…5], v = x[6…8].
 using Model = std::array<double, 9>;
@@ -1159,6 +1235,54 @@ bool solveSpd(std::array<std::array<double, 9>, 9>& m, std::array<double, 9>& r,
     return true;
 }
 
+/// The Gauss–Newton normal equations of the decoded error at model @p x with @p combo: the
+/// Jacobian of P̂ is (I − P̂P̂ᵀ)/|P|, and P is linear in x with the coefficients k = (1, cu, cv)
+/// on its three parts, so the normal matrix's 3×3 block of parts (s, t) is Σ k_s k_t M with
+/// M = (I − P̂P̂ᵀ)/|P|² (symmetric: six entries kept), for the parts in @p freeAxes (bit 0: u,
+/// bit 1: v; the base always); @p g is the gradient of half the error.
+struct NormalEquations {
+    std::array<std::array<double, 6>, 6> block{};  // part pairs (0,0) (1,0) (1,1) (2,0) (2,1) (2,2)
+    std::array<double, 9> g{};
+    /// Entry (row, col) of the 9×9 normal matrix.
+    [[nodiscard]] double h(unsigned row, unsigned col) const {
+        unsigned si = row / 3, ti = col / 3, c = row % 3, d = col % 3;
+        if (ti > si) std::swap(si, ti), std::swap(c, d);
+        // Each block is symmetric (a multiple of M), stored as (0,0) (1,0) (1,1) (2,0) (2,1) (2,2).
+        const unsigned lo = std::min(c, d), hi = std::max(c, d);
+        return block[si * (si + 1) / 2 + ti][hi * (hi + 1) / 2 + lo];
+    }
+};
+
+NormalEquations normalEquations(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, unsigned freeAxes) {
+    NormalEquations ne;
+    auto& block = ne.block;
+    auto& g = ne.g;
+    const bool used[3]{true, (freeAxes & 1u) != 0, (freeAxes & 2u) != 0};
+    for (unsigned i = 0; i < p.count; ++i) {
+        const double k[3]{1.0, esvo::kAxisWeights[combo[i] & 3], esvo::kAxisWeights[combo[i] >> 2]};
+        double q[3];
+        for (unsigned c = 0; c < 3; ++c) q[c] = x[c] + k[1] * x[3 + c] + k[2] * x[6 + c];
+        const double len2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+        if (!(len2 > 1e-24)) continue;
+        const double inv = 1.0 / std::sqrt(len2), inv2 = inv * inv;
+        for (double& c : q) c *= inv;
+        const double nd = p.n[i][0] * q[0] + p.n[i][1] * q[1] + p.n[i][2] * q[2];
+        const double m[6]{(1 - q[0] * q[0]) * inv2, -q[1] * q[0] * inv2, (1 - q[1] * q[1]) * inv2,
+                          -q[2] * q[0] * inv2,      -q[2] * q[1] * inv2, (1 - q[2] * q[2]) * inv2};
+        for (unsigned st = 0, si = 0; si < 3; ++si)
+            for (unsigned ti = 0; ti <= si; ++ti, ++st) {
+                if (!used[si] || !used[ti]) continue;
+                const double w = k[si] * k[ti];
+                for (unsigned e = 0; e < 6; ++e) block[st][e] += w * m[e];
+            }
+        for (unsigned c = 0; c < 3; ++c) {
+            const double r = -(p.n[i][c] - nd * q[c]) * inv;
+            for (unsigned si = 0; si < 3; ++si) g[3 * si + c] += k[si] * r;
+        }
+    }
+    return ne;
+}
+
 /// Levenberg–Marquardt on the decoded error Σ|P̂ − n|² (P = b + cu·u + cv·v, P̂ = P/|P|) over
 /// the base's two minor components and the axes in @p freeAxes (bit 0: u, bit 1: v); the base's
 /// dominant component stays ±1, which fixes the scale. Every step re-assigns each normal its
@@ -1170,42 +1294,9 @@ double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>
     double lambda = 1e-3;
     for (int iteration = 0; iteration < iterations && error > 0; ++iteration) {
         const unsigned a = dominantAxis(x);
-        // Gauss–Newton: the Jacobian of P̂ is (I − P̂P̂ᵀ)/|P|, and P is linear in x with the
-        // coefficients k = (1, cu, cv) on its three parts, so the normal matrix's 3×3 block of
-        // parts (s, t) is Σ k_s k_t M with M = (I − P̂P̂ᵀ)/|P|² (symmetric: six entries kept).
-        const bool used[3]{true, (freeAxes & 1u) != 0, (freeAxes & 2u) != 0};
-        std::array<std::array<double, 6>, 6> block{};  // pairs (0,0) (1,0) (1,1) (2,0) (2,1) (2,2)
-        std::array<double, 9> g{};
-        for (unsigned i = 0; i < p.count; ++i) {
-            const double k[3]{1.0, esvo::kAxisWeights[combo[i] & 3], esvo::kAxisWeights[combo[i] >> 2]};
-            double q[3];
-            for (unsigned c = 0; c < 3; ++c) q[c] = x[c] + k[1] * x[3 + c] + k[2] * x[6 + c];
-            const double len2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
-            if (!(len2 > 1e-24)) continue;
-            const double inv = 1.0 / std::sqrt(len2), inv2 = inv * inv;
-            for (double& c : q) c *= inv;
-            const double nd = p.n[i][0] * q[0] + p.n[i][1] * q[1] + p.n[i][2] * q[2];
-            const double m[6]{(1 - q[0] * q[0]) * inv2, -q[1] * q[0] * inv2, (1 - q[1] * q[1]) * inv2,
-                              -q[2] * q[0] * inv2,      -q[2] * q[1] * inv2, (1 - q[2] * q[2]) * inv2};
-            for (unsigned st = 0, si = 0; si < 3; ++si)
-                for (unsigned ti = 0; ti <= si; ++ti, ++st) {
-                    if (!used[si] || !used[ti]) continue;
-                    const double w = k[si] * k[ti];
-                    for (unsigned e = 0; e < 6; ++e) block[st][e] += w * m[e];
-                }
-            for (unsigned c = 0; c < 3; ++c) {
-                const double r = -(p.n[i][c] - nd * q[c]) * inv;
-                for (unsigned si = 0; si < 3; ++si) g[3 * si + c] += k[si] * r;
-            }
-        }
-        // Entry (row, col) of the 9×9 normal matrix from the blocks.
-        const auto h = [&](unsigned row, unsigned col) {
-            unsigned si = row / 3, ti = col / 3, c = row % 3, d = col % 3;
-            if (ti > si) std::swap(si, ti), std::swap(c, d);
-            // Each block is symmetric (a multiple of M), stored as (0,0) (1,0) (1,1) (2,0) (2,1) (2,2).
-            const unsigned lo = std::min(c, d), hi = std::max(c, d);
-            return block[si * (si + 1) / 2 + ti][hi * (hi + 1) / 2 + lo];
-        };
+        const NormalEquations ne = normalEquations(p, x, combo, freeAxes);
+        const auto& g = ne.g;
+        const auto h = [&](unsigned row, unsigned col) { return ne.h(row, col); };
         std::array<unsigned, 8> index{};
         unsigned n = 0;
         for (unsigned c = 0; c < 3; ++c)
@@ -1335,6 +1426,130 @@ NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::arra
         encode(y);
     }
     searchCodes(p, s, thorough ? 3 : 2);
+    return s;
+}
+
+/// Up to sixteen codes of a 3-D axis @p a: at the smallest exponent that holds it and the next,
+/// each component rounded down and up.
+unsigned axisCandidates3(const Vec3& a, std::array<std::uint32_t, 16>& codes) {
+    const int e0 = static_cast<int>(esvo::encodeAxis(a) >> 12);
+    unsigned n = 0;
+    for (int e = e0; e <= std::min(e0 + 1, 15); ++e) {
+        const float step = std::bit_cast<float>(static_cast<std::uint32_t>(e + 127 - 13) << 23);
+        std::array<std::array<int, 2>, 3> m{};
+        for (unsigned c = 0; c < 3; ++c) {
+            const float q = a[c] / step;
+            m[c] = {std::clamp(static_cast<int>(std::floor(q)), -8, 7), std::clamp(static_cast<int>(std::ceil(q)), -8, 7)};
+        }
+        for (unsigned bits = 0; bits < 8; ++bits) {
+            std::uint32_t code = static_cast<std::uint32_t>(e) << 12;
+            for (unsigned c = 0; c < 3; ++c) code |= (static_cast<std::uint32_t>(m[c][(bits >> c) & 1u]) & 15u) << (4 * c);
+            if (std::find(codes.begin(), codes.begin() + n, code) == codes.begin() + n) codes[n++] = code;
+        }
+    }
+    return n;
+}
+
+/// quantiseModel by enumeration: the decoded error near the model, with its combos, is the
+/// Gauss–Newton quadratic E + 2gᵀδ + δᵀHδ; with the base's minor components at their best for
+/// the axes (the Schur complement), every pair of candidate axis codes (axisCandidates3) is
+/// scored in constant time, and the best @p measured are measured with that base; then the
+/// lattice-line codes as quantiseModel tries them, and @p passes of searchCodes.
+NormalState quantiseModelFast(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, unsigned measured, int passes) {
+    NormalState s;
+    tryNormals(p, esvo::encodeNormal(modelPart(x, 0)), esvo::encodeAxis(modelPart(x, 1)) | (esvo::encodeAxis(modelPart(x, 2)) << 16), s);
+    const unsigned a = dominantAxis(x);
+    const NormalEquations ne = normalEquations(p, x, combo, 3);
+    // Variables: base minor components b0, b1 (rows 0, 1) and the six axis components (2…7).
+    std::array<unsigned, 8> var{};
+    for (unsigned c = 0, n = 0; c < 3; ++c)
+        if (c != a) var[n++] = c;
+    for (unsigned j = 0; j < 6; ++j) var[2 + j] = 3 + j;
+    const auto H = [&](unsigned r, unsigned c) { return ne.h(var[r], var[c]); };
+    const double hb00 = H(0, 0), hb01 = H(0, 1), hb11 = H(1, 1), det = hb00 * hb11 - hb01 * hb01;
+    if (det > 1e-300 && s.error > 0) {
+        const double ib00 = hb11 / det, ib01 = -hb01 / det, ib11 = hb00 / det;
+        // Ĥ = Haa − Hab Hbb⁻¹ Hba, ĝ = ga − Hab Hbb⁻¹ gb (axis part, 6×6 and 6).
+        std::array<std::array<double, 6>, 6> hh{};
+        std::array<double, 6> gh{};
+        std::array<std::array<double, 2>, 6> hbiT{};  // (Hbb⁻¹ Hba)ᵀ: row j = Hbb⁻¹ Hb,j
+        for (unsigned j = 0; j < 6; ++j) {
+            const double h0 = H(0, 2 + j), h1 = H(1, 2 + j);
+            hbiT[j] = {ib00 * h0 + ib01 * h1, ib01 * h0 + ib11 * h1};
+        }
+        const double gb0 = ne.g[var[0]], gb1 = ne.g[var[1]];
+        for (unsigned i = 0; i < 6; ++i) {
+            const double hi0 = H(2 + i, 0), hi1 = H(2 + i, 1);
+            for (unsigned j = 0; j < 6; ++j) hh[i][j] = H(2 + i, 2 + j) - (hi0 * hbiT[j][0] + hi1 * hbiT[j][1]);
+            gh[i] = ne.g[var[2 + i]] - (hi0 * (ib00 * gb0 + ib01 * gb1) + hi1 * (ib01 * gb0 + ib11 * gb1));
+        }
+        std::array<std::uint32_t, 16> uc{}, vc{};
+        const unsigned nu = axisCandidates3(modelPart(x, 1), uc), nv = axisCandidates3(modelPart(x, 2), vc);
+        std::array<std::array<double, 3>, 16> du{}, dv{}, cv{};
+        std::array<double, 16> au{}, bv{};
+        for (unsigned i = 0; i < nu; ++i) {
+            const Vec3 d = esvo::decodeAxis(uc[i]);
+            for (unsigned c = 0; c < 3; ++c) du[i][c] = d[c] - x[3 + c];
+            double q = 0;
+            for (unsigned r = 0; r < 3; ++r) q += du[i][r] * (2 * gh[r] + hh[r][0] * du[i][0] + hh[r][1] * du[i][1] + hh[r][2] * du[i][2]);
+            au[i] = q;
+        }
+        for (unsigned j = 0; j < nv; ++j) {
+            const Vec3 d = esvo::decodeAxis(vc[j]);
+            for (unsigned c = 0; c < 3; ++c) dv[j][c] = d[c] - x[6 + c];
+            double q = 0;
+            for (unsigned r = 0; r < 3; ++r) q += dv[j][r] * (2 * gh[3 + r] + hh[3 + r][3] * dv[j][0] + hh[3 + r][4] * dv[j][1] + hh[3 + r][5] * dv[j][2]);
+            bv[j] = q;
+            for (unsigned r = 0; r < 3; ++r) cv[j][r] = hh[r][3] * dv[j][0] + hh[r][4] * dv[j][1] + hh[r][5] * dv[j][2];
+        }
+        struct Scored {
+            double error;
+            unsigned i, j;
+        };
+        std::array<Scored, 256> scored{};
+        unsigned n = 0;
+        for (unsigned i = 0; i < nu; ++i)
+            for (unsigned j = 0; j < nv; ++j)
+                scored[n++] = {au[i] + bv[j] + 2 * (du[i][0] * cv[j][0] + du[i][1] * cv[j][1] + du[i][2] * cv[j][2]), i, j};
+        const unsigned keep = std::min(measured, n);
+        std::partial_sort(scored.begin(), scored.begin() + keep, scored.begin() + n, [](const Scored& l, const Scored& r) {
+            return l.error < r.error || (l.error == r.error && (l.i < r.i || (l.i == r.i && l.j < r.j)));
+        });
+        for (unsigned m = 0; m < keep; ++m) {
+            // δb = −Hbb⁻¹ (gb + Hba δa).
+            std::array<double, 6> da{};
+            for (unsigned c = 0; c < 3; ++c) da[c] = du[scored[m].i][c], da[3 + c] = dv[scored[m].j][c];
+            double r0 = gb0, r1 = gb1;
+            for (unsigned j = 0; j < 6; ++j) r0 += H(0, 2 + j) * da[j], r1 += H(1, 2 + j) * da[j];
+            Vec3 b = modelPart(x, 0);
+            b[var[0]] -= static_cast<float>(ib00 * r0 + ib01 * r1);
+            b[var[1]] -= static_cast<float>(ib01 * r0 + ib11 * r1);
+            tryNormals(p, esvo::encodeNormal(b), uc[scored[m].i] | (vc[scored[m].j] << 16), s);
+        }
+    }
+    // The lattice-line codes (see quantiseModel).
+    std::array<std::uint8_t, 16> c0 = combo;
+    modelError(p, x, c0);
+    for (unsigned line = 1; line <= 2; ++line) {
+        const unsigned other = 3 - line;
+        const auto weight = [&](std::uint8_t k) { return other == 1 ? (k & 3u) : (k >> 2); };
+        bool single = true;
+        for (unsigned i = 1; i < p.count; ++i) single = single && weight(c0[i]) == weight(c0[0]);
+        if (!single) continue;
+        Model y = x;
+        const auto roundPart = [](Model& z, unsigned part) {
+            const Vec3 q = esvo::decodeAxis(esvo::encodeAxis(modelPart(z, part)));
+            for (unsigned c = 0; c < 3; ++c) z[3 * part + c] = q[c];
+        };
+        for (unsigned k = 0; k < 3; ++k) y[k] += esvo::kAxisWeights[weight(c0[0])] * y[3 * other + k];
+        roundPart(y, line);
+        for (unsigned k = 0; k < 3; ++k) y[3 * other + k] = x[3 * line + k] - y[3 * line + k];
+        roundPart(y, other);
+        std::array<std::uint8_t, 16> c{};
+        refineModel(p, y, c, 0, 3, modelError(p, y, c));
+        tryNormals(p, esvo::encodeNormal(modelPart(y, 0)), esvo::encodeAxis(modelPart(y, 1)) | (esvo::encodeAxis(modelPart(y, 2)) << 16), s);
+    }
+    if (passes > 0) searchCodes(p, s, passes);
     return s;
 }
 
@@ -1533,8 +1748,7 @@ Model planeModel(const NormalPoints& p, const PlaneFit& f) {
 /// kSecondRatio of the best's, or when the best quantised lost more than kQuantisationLoss times
 /// the second's error (some lattices quantise far worse than others equally good: two axes of
 /// one size against one axis on a line).
-constexpr unsigned kRefined = 4;
-constexpr int kFirstIterations = 2, kMoreIterations = 6, kNarrowMoreIterations = 2;
+constexpr int kFirstIterations = 2, kNarrowMoreIterations = 2;
 constexpr double kSecondRatio = 1.5, kQuantisationLoss = 4;
 
 /// Sorts @p c[0…count) by error (stable, so deterministic on ties).
@@ -1545,7 +1759,7 @@ void sortCandidates(std::array<Candidate, 10>& c, unsigned count) {
 /// The 3-D search: candidate models from the face-plane fit @p f and (for wide blocks, see
 /// kWideCos) from clusters of the normals, the best refined; the best one or two quantised. Replaces @p s
 /// where one decodes better.
-void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, NormalState& s) {
+void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, const NormalSearch& search, NormalState& s) {
     std::array<Candidate, 10> all{};
     unsigned count = 0;
     const auto consider = [&](Model x) {
@@ -1562,21 +1776,23 @@ void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, NormalState& s) 
             for (unsigned m = 0; m < n; ++m) consider(models[m]);
         });
     sortCandidates(all, count);
-    count = std::min(count, kRefined);
+    count = std::min(count, search.refined);
     for (unsigned i = 0; i < count; ++i) all[i].error = refineModel(p, all[i].x, all[i].combo, 3, kFirstIterations, all[i].error);
     sortCandidates(all, count);
     count = std::min(count, 2u);
     for (unsigned i = 0; i < count; ++i)
-        all[i].error = refineModel(p, all[i].x, all[i].combo, 3, wide ? kMoreIterations : kNarrowMoreIterations, all[i].error);
+        all[i].error = refineModel(p, all[i].x, all[i].combo, 3, wide ? search.moreIterations : kNarrowMoreIterations, all[i].error);
     sortCandidates(all, count);
     for (unsigned i = 0; i < count && s.error > 0; ++i) {
-        if (i > 0 && all[i].error > kSecondRatio * all[0].error && !(s.error > kQuantisationLoss * all[i].error)) break;
-        const NormalState q = quantiseModel(p, all[i].x, all[i].combo, wide);
+        if (i > 0 && (!search.second || (all[i].error > kSecondRatio * all[0].error && !(s.error > kQuantisationLoss * all[i].error)))) break;
+        const NormalState q = search.enumerateModel ? quantiseModelFast(p, all[i].x, all[i].combo, 3, wide ? search.modelPasses : 0)
+                                                    : quantiseModel(p, all[i].x, all[i].combo, wide);
         if (q.error < s.error) s = q;
     }
 }
 
-NormalState encodeNormals(NormalPoints& p) {
+NormalState encodeNormals(NormalPoints& p, AttributeEffort effort) {
+    const NormalSearch search = normalSearch(effort);
     // One direction (flat surfaces: common): the cube-face code itself, zero axes.
     bool equal = true;
     for (unsigned i = 1; i < p.count && equal; ++i) equal = p.n[i] == p.n[0];
@@ -1586,8 +1802,10 @@ NormalState encodeNormals(NormalPoints& p) {
         s.error = 0;
         return s;
     }
-    const PlaneFit f = fitNormals(p);
-    NormalState s = quantiseFit(p, f);
+    // Early exit: where the first start, quantised cheaply, is already within the threshold, the
+    // rest of the search could only improve an error nobody sees.
+    const PlaneFit f = fitNormals(p, search.startMask, [&](const PlaneFit& first) { return first.error <= search.earlyBelow * p.count; });
+    NormalState s = search.enumeratePlane ? quantiseFitFast(p, f, search.planeRounds, search.planeMeasured) : quantiseFit(p, f);
     // Wide: some normal more than 30° from the outermost one; or few distinct directions.
     const Dir first = toDir(p.n[outermost(p)]);
     bool wide = false;
@@ -1603,7 +1821,8 @@ NormalState encodeNormals(NormalPoints& p) {
         }
         wide = count <= 4;
     }
-    if (s.error > (wide ? kWideThreshold : kNarrowThreshold) * p.count) fit3d(p, f, wide, s);
+    if (s.error > (wide ? search.wideThreshold : search.narrowThreshold) * p.count)
+        fit3d(p, f, wide, s.error < search.lightBelow * p.count ? normalSearch(effort, true) : search, s);
     return s;
 }
 
@@ -1615,7 +1834,7 @@ esvo::Vec3 unitOrZ(const esvo::Vec3& n) {
 
 }  // namespace
 
-std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask) {
+std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask, AttributeEffort effort) {
     ColorPoints p;
     for (unsigned slot = 0; slot < 16; ++slot) {
         if (!((usedMask >> slot) & 1u)) continue;
@@ -1626,13 +1845,13 @@ std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16
     if (p.count == 0) return {0, 0};
     for (unsigned i = 0; i < 16; ++i)
         for (unsigned ch = 0; ch < 3; ++ch) p.channel[ch][i] = static_cast<float>(p.rgb[i < p.count ? i : 0][ch]);
-    const ColorState s = encodeColors(p);
+    const ColorState s = encodeColors(p, effort);
     std::uint32_t indices = 0;
     for (unsigned i = 0; i < p.count; ++i) indices |= std::uint32_t{s.index[i]} << (2 * p.slot[i]);
     return {s.c0 | (s.c1 << 16), indices};
 }
 
-std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask) {
+std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask, AttributeEffort effort) {
     NormalPoints p;
     for (unsigned slot = 0; slot < 16; ++slot) {
         if (!((usedMask >> slot) & 1u)) continue;
@@ -1641,7 +1860,7 @@ std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>&
         ++p.count;
     }
     if (p.count == 0) return {esvo::encodeNormal({0, 0, 1}), 0, 0, 0};
-    const NormalState s = encodeNormals(p);
+    const NormalState s = encodeNormals(p, effort);
     std::uint32_t uIndices = 0, vIndices = 0;
     for (unsigned i = 0; i < p.count; ++i) {
         uIndices |= (std::uint32_t{s.combo[i]} & 3u) << (2 * p.slot[i]);
@@ -1650,15 +1869,15 @@ std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>&
     return {s.base, uIndices, s.axes, vIndices};
 }
 
-esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>& values, std::uint32_t usedMask) {
+esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>& values, std::uint32_t usedMask, AttributeEffort effort) {
     std::array<std::uint32_t, 16> colors{};
     std::array<esvo::Vec3, 16> normals{};
     for (unsigned slot = 0; slot < 16; ++slot) {
         colors[slot] = static_cast<std::uint32_t>(values[slot]);
         normals[slot] = esvo::decodeNormal(static_cast<std::uint32_t>(values[slot] >> 32));
     }
-    const auto c = encodeColorBlock(colors, usedMask);
-    const auto n = encodeNormalBlock(normals, usedMask);
+    const auto c = encodeColorBlock(colors, usedMask, effort);
+    const auto n = encodeNormalBlock(normals, usedMask, effort);
     return {c[0], c[1], n[0], n[1], n[2], n[3]};
 }
 

@@ -13,12 +13,18 @@
 
 namespace vox::detail {
 
+/// How hard the block encoders search. Best is the exhaustive search (several times slower);
+/// Default gives nearly its quality (see docs/esvo-format.md §14) at the speed the writer needs;
+/// Fast trades a little more quality for speed. Every effort is deterministic.
+enum class AttributeEffort : std::uint8_t { Fast, Default, Best };
+
 /// Encodes 16 colours (esvo::packColor words, sRGB RGB; alpha ignored) into words 0-1 of a
 /// compressed block: RGB565 endpoints and 2-bit indices. Only slots whose bit is set in
 /// @p usedMask (bits 0-15) matter; unused slots get index 0, and a mask of 0 gives {0, 0}.
 /// Minimises the summed squared RGB error over the used slots as esvo::colorPalette decodes
 /// them; one colour, or two that are RGB565 values, come out exact.
-[[nodiscard]] std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask);
+[[nodiscard]] std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask,
+                                                           AttributeEffort effort = AttributeEffort::Default);
 
 /// Encodes 16 normals (any non-zero vectors; normalised first, a zero or non-finite one counts
 /// as +z) into words 2-5: base normal, U indices, axes, V indices. Only used slots matter;
@@ -28,11 +34,13 @@ namespace vox::detail {
 /// edge or corner, both sides of a thin sheet) are fit as a lattice in 3-D: axis-aligned
 /// edges, corners and sheets come out within hundredths of a degree, any two directions
 /// within about a degree.
-[[nodiscard]] std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask);
+[[nodiscard]] std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask,
+                                                            AttributeEffort effort = AttributeEffort::Default);
 
 /// Both: @p values hold colour word | (cube-face normal word << 32) per slot (the layout of the
 /// uncompressed attachment's values).
-[[nodiscard]] esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>& values, std::uint32_t usedMask);
+[[nodiscard]] esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>& values, std::uint32_t usedMask,
+                                                         AttributeEffort effort = AttributeEffort::Default);
 
 /// Summed squared RGB error (8-bit units, alpha ignored) of the used slots of @p colors against
 /// colour words @p word0 (endpoints) and @p word1 (indices), decoded with esvo::colorPalette.
