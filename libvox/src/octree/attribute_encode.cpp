@@ -193,8 +193,8 @@ bool refitColors(const ColorPoints& p, const std::array<std::uint8_t, 16>& index
 }
 
 /// Alternates index assignment and least-squares endpoints (rounded to RGB565) while it helps.
-void clusterFit(const ColorPoints& p, const ColorTables& t, ColorState& s) {
-    for (int iteration = 0; iteration < 8 && s.error > 0; ++iteration) {
+void clusterFit(const ColorPoints& p, const ColorTables& t, ColorState& s, int iterations = 8) {
+    for (int iteration = 0; iteration < iterations && s.error > 0; ++iteration) {
         std::array<float, 3> a{}, b{};
         if (!refitColors(p, s.index, a, b)) return;
         if (!tryColors(p, quantise565(a, t), quantise565(b, t), s)) return;
@@ -202,10 +202,10 @@ void clusterFit(const ColorPoints& p, const ColorTables& t, ColorState& s) {
 }
 
 /// Greedy descent over the six endpoint channels, one code step at a time.
-void stepColors(const ColorPoints& p, ColorState& s) {
+void stepColors(const ColorPoints& p, ColorState& s, int passes = 16) {
     static constexpr std::array<unsigned, 3> kShift{11, 5, 0};
     static constexpr std::array<std::uint32_t, 3> kMax{31, 63, 31};
-    for (int pass = 0; pass < 16 && s.error > 0; ++pass) {
+    for (int pass = 0; pass < passes && s.error > 0; ++pass) {
         bool improved = false;
         for (unsigned endpoint = 0; endpoint < 2; ++endpoint)
             for (unsigned ch = 0; ch < 3; ++ch)
@@ -342,8 +342,28 @@ bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean, c
 /// Summed squared error per used colour above which orderedClusterFit is tried.
 constexpr std::uint32_t kOrderedFitThreshold = 20;
 
+/// How hard the colour encoder searches (see AttributeEffort): start pairs tried (of three),
+/// cluster-fit iterations, the error per colour above which the ordered cluster fit runs, and
+/// passes of the endpoint descent. Best is the original search.
+struct ColorSearch {
+    unsigned startPairs = 3;
+    int clusterIterations = 8;
+    std::uint32_t orderedThreshold = kOrderedFitThreshold;
+    int stepPasses = 16;
+};
+
+ColorSearch colorSearch(AttributeEffort effort) {
+    ColorSearch s;
+    if (effort == AttributeEffort::Best) return s;
+    s.startPairs = 1;
+    s.clusterIterations = 2;
+    s.stepPasses = 1;
+    if (effort == AttributeEffort::Fast) s.orderedThreshold = 2 * kOrderedFitThreshold;
+    return s;
+}
+
 ColorState encodeColors(const ColorPoints& p, AttributeEffort effort) {
-    (void)effort;
+    const ColorSearch search = colorSearch(effort);
     const ColorTables& t = colorTables();
     ColorState best;
 
@@ -398,24 +418,24 @@ ColorState encodeColors(const ColorPoints& p, AttributeEffort effort) {
     }
     starts[2] = toFloat(p.rgb[iMin]);
     starts[3] = toFloat(p.rgb[iMax]);
-    for (unsigned s = 0; s < starts.size() && best.error > 0; s += 2) {
+    for (unsigned s = 0; s < 2 * search.startPairs && best.error > 0; s += 2) {
         ColorState candidate;
         tryColors(p, quantise565(starts[s], t), quantise565(starts[s + 1], t), candidate);
-        clusterFit(p, t, candidate);
+        clusterFit(p, t, candidate, search.clusterIterations);
         if (candidate.error < best.error) best = candidate;
     }
     // Blocks still far off (RMS above ~2.6 per channel) are worth the exhaustive ordered fit.
-    if (best.error > kOrderedFitThreshold * p.count) {
+    if (best.error > search.orderedThreshold * p.count) {
         std::array<float, 3> a{}, b{};
         if (orderedClusterFit(p, mean, axis, a, b)) {
             ColorState candidate;
             tryColors(p, quantise565(a, t), quantise565(b, t), candidate);
-            clusterFit(p, t, candidate);
+            clusterFit(p, t, candidate, search.clusterIterations);
             if (candidate.error < best.error) best = candidate;
         }
     }
-    stepColors(p, best);
-    clusterFit(p, t, best);
+    stepColors(p, best, search.stepPasses);
+    clusterFit(p, t, best, search.clusterIterations);
     return best;
 }
 
