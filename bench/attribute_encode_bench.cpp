@@ -10,9 +10,10 @@
 // each) to FILE, and --blocks FILE measures on such a file without voxelizing again (--stride K:
 // every K-th block only, for profiling under callgrind). Times are the thread's CPU time (the
 // best of three runs), so that other processes on a shared machine count less.
-// Usage: attribute_encode_bench [TILES_PER_TEXTURE (default 4000)] [NORMAL_BLOCKS (default 20000)]
-//        attribute_encode_bench --scene FILE [--depth N (default 10)] [--dump FILE]
-//        attribute_encode_bench --blocks FILE [--stride K (default 1)]
+// --effort fast|default|best picks the encoders' AttributeEffort (default: default).
+// Usage: attribute_encode_bench [--effort E] [TILES_PER_TEXTURE (default 4000)] [NORMAL_BLOCKS (default 20000)]
+//        attribute_encode_bench [--effort E] --scene FILE [--depth N (default 10)] [--dump FILE]
+//        attribute_encode_bench [--effort E] --blocks FILE [--stride K (default 1)]
 #include "attribute_corpus.h"
 #include "octree/attribute_encode.h"
 
@@ -52,6 +53,14 @@ double threadSeconds() {
 }
 
 using vox::corpus::ColorBlock;
+using vox::detail::AttributeEffort;
+
+/// The effort every encoder call here uses (--effort).
+AttributeEffort g_effort = AttributeEffort::Default;
+
+const char* effortName(AttributeEffort e) {
+    return e == AttributeEffort::Fast ? "fast" : e == AttributeEffort::Best ? "best" : "default";
+}
 using vox::corpus::normalised;
 using vox::corpus::randomDirection;
 using vox::corpus::randomMask;
@@ -94,7 +103,7 @@ nlohmann::json colorRun(const std::vector<ColorBlock>& blocks, int repeat, Encod
 
 nlohmann::json colorSuite(const std::vector<ColorBlock>& blocks) {
     return {{"blocks", blocks.size()},
-            {"ours", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::detail::encodeColorBlock(b.colors, b.mask); })},
+            {"ours", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::detail::encodeColorBlock(b.colors, b.mask, g_effort); })},
             {"stb_normal", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::corpus::stbEncode(b, false); })},
             {"stb_highqual", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::corpus::stbEncode(b, true); })}};
 }
@@ -178,7 +187,7 @@ nlohmann::json normalSuite(const std::vector<NormalBlock>& blocks) {
     double best = 1e30;
     for (int r = 0; r < 3; ++r) {
         const double start = threadSeconds();
-        for (std::size_t i = 0; i < blocks.size(); ++i) words[i] = vox::detail::encodeNormalBlock(blocks[i].normals, blocks[i].mask);
+        for (std::size_t i = 0; i < blocks.size(); ++i) words[i] = vox::detail::encodeNormalBlock(blocks[i].normals, blocks[i].mask, g_effort);
         best = std::min(best, threadSeconds() - start);
     }
     std::vector<double> errors, spread;
@@ -276,7 +285,7 @@ nlohmann::json compressedSuite(const std::vector<RawBlock>& raw) {
     for (int r = 0; r < 3; ++r) {
         const double start = threadSeconds();
         for (const RawBlock& b : raw) {
-            const esvo::CompressedBlock block = vox::detail::encodeCompressedBlock(b.values, b.mask);
+            const esvo::CompressedBlock block = vox::detail::encodeCompressedBlock(b.values, b.mask, g_effort);
             for (const std::uint32_t w : block) sink = std::rotl(sink, 5) ^ w;
         }
         best = std::min(best, threadSeconds() - start);
@@ -333,6 +342,7 @@ int blocksMode(int argc, char** argv) {
     }
     nlohmann::json out = blockSuites(readBlocks(file, stride));
     out["blocks_file"] = file;
+    out["effort"] = effortName(g_effort);
     out["stride"] = stride;
     std::cout << out.dump(2) << '\n';
     return 0;
@@ -357,6 +367,7 @@ int sceneMode(int argc, char** argv) {
     if (!dump.empty()) writeBlocks(dump, raw);
     nlohmann::json out;
     out["scene"] = file;
+    out["effort"] = effortName(g_effort);
     out["depth"] = depth;
     out["voxels"] = octree.voxelCount();
     // Laine & Karras 5.7, "combined indirect attribute lookup", sized without building it: a
@@ -391,7 +402,25 @@ int sceneMode(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int main(int argc, char** argvIn) {
+    // --effort E, anywhere; the rest keep their positions.
+    std::vector<char*> args;
+    for (int i = 0; i < argc; ++i) {
+        if (i + 1 < argc && std::string(argvIn[i]) == "--effort") {
+            const std::string e = argvIn[++i];
+            if (e == "fast") g_effort = AttributeEffort::Fast;
+            else if (e == "best") g_effort = AttributeEffort::Best;
+            else if (e == "default") g_effort = AttributeEffort::Default;
+            else {
+                std::fprintf(stderr, "attribute_encode_bench: --effort must be fast, default or best\n");
+                return 1;
+            }
+            continue;
+        }
+        args.push_back(argvIn[i]);
+    }
+    argc = static_cast<int>(args.size());
+    char** argv = args.data();
     if (argc > 1 && (std::string(argv[1]) == "--scene" || std::string(argv[1]) == "--blocks")) {
         try {
             return std::string(argv[1]) == "--scene" ? sceneMode(argc, argv) : blocksMode(argc, argv);
@@ -411,6 +440,7 @@ int main(int argc, char** argv) {
 
     nlohmann::json out;
     out["textures"] = textures;
+    out["effort"] = effortName(g_effort);
     if (!tiles.empty()) {
         out["color_tiles_full"] = colorSuite(tiles);
         out["color_tiles_8_of_16"] = colorSuite(partial);
@@ -427,7 +457,7 @@ int main(int argc, char** argv) {
         std::uint32_t sink = 0;
         for (int r = 0; r < 3; ++r) {
             const double start = threadSeconds();
-            for (std::size_t i = 0; i < values.size(); ++i) sink ^= vox::detail::encodeCompressedBlock(values[i], sphere24[i].mask)[0];
+            for (std::size_t i = 0; i < values.size(); ++i) sink ^= vox::detail::encodeCompressedBlock(values[i], sphere24[i].mask, g_effort)[0];
             best = std::min(best, threadSeconds() - start);
         }
         out["compressed_block_tiles_and_sphere_r24"] = {{"blocks", values.size()},

@@ -1174,6 +1174,19 @@ struct NormalSearch {
     unsigned planeMeasured = 3;
 };
 
+/// The 3-D search of blocks of at most four distinct directions: Best's quantiser (whose
+/// lattice-line codes and second candidate keep any two directions within about a degree) with
+/// fewer refined candidates for the faster efforts.
+NormalSearch fewSearch(AttributeEffort effort) {
+    NormalSearch s;
+    if (effort == AttributeEffort::Best) return s;
+    const bool fast = effort == AttributeEffort::Fast;
+    s.wideThreshold = (fast ? 0.7 * 0.7 : 0.5 * 0.5) * kDegree2;
+    s.refined = 2;
+    s.moreIterations = fast ? 2 : 3;
+    return s;
+}
+
 /// The search of each effort (@p light: of the 3-D search of a block whose face-plane fit is
 /// already within lightBelow). Best is the original exhaustive search; the others were chosen
 /// on the real blocks of bench/attribute_encode_bench --scene (docs/esvo-format.md §14).
@@ -1182,7 +1195,9 @@ NormalSearch normalSearch(AttributeEffort effort, bool light = false) {
     if (effort == AttributeEffort::Best) return s;
     const bool fast = effort == AttributeEffort::Fast;
     s.startMask = fast ? 0b10001u : 63u;  // Fast: the ¾-size start and the 45° one
-    s.earlyBelow = (fast ? 0.1 * 0.1 : 0.05 * 0.05) * kDegree2;
+    // (Not Default: on nearly flat blocks the first start's small error says nothing of how well
+    // it quantises, and the other starts often quantise better.)
+    s.earlyBelow = fast ? 0.1 * 0.1 * kDegree2 : 0;
     s.enumeratePlane = true;
     s.planeRounds = fast ? 2 : 3;
     s.planeMeasured = fast ? 2 : 3;
@@ -1822,15 +1837,16 @@ NormalState encodeNormals(NormalPoints& p, AttributeEffort effort) {
         s.error = 0;
         return s;
     }
-    // Early exit: where the first start, quantised cheaply, is already within the threshold, the
-    // rest of the search could only improve an error nobody sees.
+    // Early exit (Fast): where the first start already fits within the threshold, the others are
+    // not tried.
     const PlaneFit f = fitNormals(p, search.startMask, [&](const PlaneFit& first) { return first.error <= search.earlyBelow * p.count; });
     NormalState s = search.enumeratePlane ? quantiseFitFast(p, f, search.planeRounds, search.planeMeasured) : quantiseFit(p, f);
     // Wide: some normal more than 30° from the outermost one; or few distinct directions.
     const Dir first = toDir(p.n[outermost(p)]);
     bool wide = false;
     for (unsigned i = 0; i < p.count; ++i) wide = wide || dot(toDir(p.n[i]), first) < kWideCos;
-    if (!wide) {
+    bool few = false;
+    if (!wide || search.lightBelow > 0) {
         std::array<Dir, 5> distinct{};
         unsigned count = 0;
         for (unsigned i = 0; i < p.count && count <= 4; ++i) {
@@ -1839,10 +1855,17 @@ NormalState encodeNormals(NormalPoints& p, AttributeEffort effort) {
             for (unsigned j = 0; j < count && !known; ++j) known = dot(n, distinct[j]) >= kDistinctCos;
             if (!known) distinct[count++] = n;
         }
-        wide = count <= 4;
+        few = count <= 4;
+        wide = wide || few;
     }
-    if (s.error > (wide ? search.wideThreshold : search.narrowThreshold) * p.count)
+    // Few distinct directions (edges, corners, sheets, any two directions) have near-exact
+    // lattices, which the lighter searches miss: every effort quantises them as Best does.
+    if (few) {
+        const NormalSearch fs = fewSearch(effort);
+        if (s.error > fs.wideThreshold * p.count) fit3d(p, f, true, fs, s);
+    } else if (s.error > (wide ? search.wideThreshold : search.narrowThreshold) * p.count) {
         fit3d(p, f, wide, s.error < search.lightBelow * p.count ? normalSearch(effort, true) : search, s);
+    }
     return s;
 }
 
