@@ -6,8 +6,14 @@
 // With --scene, the corpus is instead the real blocks of a voxelized scene: the children of each
 // pair of sibling descriptors, paired as writeEsvo pairs them, colours and normals as the
 // uncompressed attachment stores them — so the PSNR is that of compressed against raw values.
-// Usage: attribute_encode_bench [TILES_PER_TEXTURE (default 4000)] [NORMAL_BLOCKS (default 20000)]
-//        attribute_encode_bench --scene FILE [--depth N (default 10)]
+// --dump FILE also writes those blocks (the 16 uncompressed 64-bit values and the used mask of
+// each) to FILE, and --blocks FILE measures on such a file without voxelizing again (--stride K:
+// every K-th block only, for profiling under callgrind). Times are the thread's CPU time (the
+// best of three runs), so that other processes on a shared machine count less.
+// --effort fast|default|best picks the encoders' AttributeEffort (default: default).
+// Usage: attribute_encode_bench [--effort E] [TILES_PER_TEXTURE (default 4000)] [NORMAL_BLOCKS (default 20000)]
+//        attribute_encode_bench [--effort E] --scene FILE [--depth N (default 10)] [--dump FILE]
+//        attribute_encode_bench [--effort E] --blocks FILE [--stride K (default 1)]
 #include "attribute_corpus.h"
 #include "octree/attribute_encode.h"
 
@@ -22,10 +28,11 @@
 
 #include <algorithm>
 #include <bit>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <numbers>
 #include <random>
@@ -36,9 +43,24 @@ namespace {
 
 namespace esvo = vox::esvo;
 using esvo::Vec3;
-using Clock = std::chrono::steady_clock;
+
+/// The calling thread's CPU time in seconds: unlike wall time, it does not count the time the
+/// thread waits for a core on a busy machine.
+double threadSeconds() {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
 
 using vox::corpus::ColorBlock;
+using vox::detail::AttributeEffort;
+
+/// The effort every encoder call here uses (--effort).
+AttributeEffort g_effort = AttributeEffort::Default;
+
+const char* effortName(AttributeEffort e) {
+    return e == AttributeEffort::Fast ? "fast" : e == AttributeEffort::Best ? "best" : "default";
+}
 using vox::corpus::normalised;
 using vox::corpus::randomDirection;
 using vox::corpus::randomMask;
@@ -65,9 +87,9 @@ nlohmann::json colorRun(const std::vector<ColorBlock>& blocks, int repeat, Encod
     std::vector<std::array<std::uint32_t, 2>> words(blocks.size());
     double best = 1e30;
     for (int r = 0; r < repeat; ++r) {
-        const auto start = Clock::now();
+        const double start = threadSeconds();
         for (std::size_t i = 0; i < blocks.size(); ++i) words[i] = encode(blocks[i]);
-        best = std::min(best, std::chrono::duration<double>(Clock::now() - start).count());
+        best = std::min(best, threadSeconds() - start);
     }
     std::uint64_t error = 0, samples = 0;
     for (std::size_t i = 0; i < blocks.size(); ++i) {
@@ -81,7 +103,7 @@ nlohmann::json colorRun(const std::vector<ColorBlock>& blocks, int repeat, Encod
 
 nlohmann::json colorSuite(const std::vector<ColorBlock>& blocks) {
     return {{"blocks", blocks.size()},
-            {"ours", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::detail::encodeColorBlock(b.colors, b.mask); })},
+            {"ours", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::detail::encodeColorBlock(b.colors, b.mask, g_effort); })},
             {"stb_normal", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::corpus::stbEncode(b, false); })},
             {"stb_highqual", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::corpus::stbEncode(b, true); })}};
 }
@@ -164,9 +186,9 @@ nlohmann::json normalSuite(const std::vector<NormalBlock>& blocks) {
     std::vector<std::array<std::uint32_t, 4>> words(blocks.size());
     double best = 1e30;
     for (int r = 0; r < 3; ++r) {
-        const auto start = Clock::now();
-        for (std::size_t i = 0; i < blocks.size(); ++i) words[i] = vox::detail::encodeNormalBlock(blocks[i].normals, blocks[i].mask);
-        best = std::min(best, std::chrono::duration<double>(Clock::now() - start).count());
+        const double start = threadSeconds();
+        for (std::size_t i = 0; i < blocks.size(); ++i) words[i] = vox::detail::encodeNormalBlock(blocks[i].normals, blocks[i].mask, g_effort);
+        best = std::min(best, threadSeconds() - start);
     }
     std::vector<double> errors, spread;
     for (std::size_t i = 0; i < blocks.size(); ++i) {
@@ -193,30 +215,103 @@ nlohmann::json normalSuite(const std::vector<NormalBlock>& blocks) {
             {"us_per_block", 1e6 * best / static_cast<double>(blocks.size())}};
 }
 
-/// The 16-slot blocks writeEsvo forms from @p octree (vox::corpus::sceneBlocks), as colour and
-/// normal blocks: colours opaque, normals decoded from the cube-face words.
-void sceneBlocks(const vox::SparseOctree& octree, std::vector<ColorBlock>& colors, std::vector<NormalBlock>& normals) {
-    for (const vox::corpus::SceneBlock& block : vox::corpus::sceneBlocks(octree)) {
+/// A block as the writer hands it to encodeCompressedBlock: the 16 uncompressed values (colour
+/// word | normal word << 32) and the used slots (vox::corpus::sceneBlocks forms them from an octree).
+using RawBlock = vox::corpus::SceneBlock;
+
+/// The colour and normal halves of raw blocks, as encodeCompressedBlock splits them.
+void splitBlocks(const std::vector<RawBlock>& raw, std::vector<ColorBlock>& colors, std::vector<NormalBlock>& normals) {
+    for (const RawBlock& r : raw) {
         ColorBlock c;
         NormalBlock n;
-        c.mask = n.mask = block.mask;
-        for (unsigned slot = 0; slot < 16; ++slot)
-            if (block.mask & (1u << slot)) {
-                c.colors[slot] = static_cast<std::uint32_t>(block.values[slot]) | 0xFF000000u;
-                n.normals[slot] = esvo::decodeUnitNormal(static_cast<std::uint32_t>(block.values[slot] >> 32));
-            }
+        c.mask = n.mask = r.mask;
+        for (unsigned s = 0; s < 16; ++s) {
+            c.colors[s] = static_cast<std::uint32_t>(r.values[s]) | 0xFF000000u;
+            n.normals[s] = esvo::decodeUnitNormal(static_cast<std::uint32_t>(r.values[s] >> 32));
+        }
         colors.push_back(c);
         normals.push_back(n);
     }
 }
 
-int sceneMode(int argc, char** argv) {
+/// Whole-block encoding (encodeCompressedBlock, as the writer calls it) of @p raw.
+nlohmann::json compressedSuite(const std::vector<RawBlock>& raw) {
+    double best = 1e30;
+    std::uint32_t sink = 0;
+    for (int r = 0; r < 3; ++r) {
+        const double start = threadSeconds();
+        for (const RawBlock& b : raw) {
+            const esvo::CompressedBlock block = vox::detail::encodeCompressedBlock(b.values, b.mask, g_effort);
+            for (const std::uint32_t w : block) sink = std::rotl(sink, 5) ^ w;
+        }
+        best = std::min(best, threadSeconds() - start);
+    }
+    return {{"blocks", raw.size()}, {"us_per_block", 1e6 * best / static_cast<double>(raw.size())}, {"checksum", sink}};
+}
+
+constexpr char kDumpMagic[8] = {'V', 'O', 'X', 'B', 'L', 'K', '1', '\0'};
+
+void writeBlocks(const std::string& file, const std::vector<RawBlock>& raw) {
+    std::ofstream out(file, std::ios::binary);
+    out.write(kDumpMagic, sizeof kDumpMagic);
+    const std::uint64_t count = raw.size();
+    out.write(reinterpret_cast<const char*>(&count), sizeof count);
+    for (const RawBlock& b : raw) {
+        out.write(reinterpret_cast<const char*>(b.values.data()), sizeof b.values);
+        out.write(reinterpret_cast<const char*>(&b.mask), sizeof b.mask);
+    }
+    if (!out) throw vox::IoError(file, "cannot write the block dump");
+}
+
+std::vector<RawBlock> readBlocks(const std::string& file, std::size_t stride) {
+    std::ifstream in(file, std::ios::binary);
+    char magic[8]{};
+    std::uint64_t count = 0;
+    in.read(magic, sizeof magic);
+    in.read(reinterpret_cast<char*>(&count), sizeof count);
+    if (!in || !std::equal(magic, magic + 8, kDumpMagic)) throw vox::InvalidDataError(file, "not a block dump");
+    std::vector<RawBlock> raw;
+    for (std::uint64_t i = 0; i < count; ++i) {
+        RawBlock b;
+        in.read(reinterpret_cast<char*>(b.values.data()), sizeof b.values);
+        in.read(reinterpret_cast<char*>(&b.mask), sizeof b.mask);
+        if (!in) throw vox::InvalidDataError(file, "block dump truncated");
+        if (i % stride == 0) raw.push_back(b);
+    }
+    return raw;
+}
+
+nlohmann::json blockSuites(const std::vector<RawBlock>& raw) {
+    std::vector<ColorBlock> colors;
+    std::vector<NormalBlock> normals;
+    splitBlocks(raw, colors, normals);
+    return {{"color_blocks", colorSuite(colors)}, {"normal_blocks", normalSuite(normals)}, {"compressed_blocks", compressedSuite(raw)}};
+}
+
+int blocksMode(int argc, char** argv) {
     std::string file;
+    std::size_t stride = 1;
+    for (int i = 1; i + 1 < argc; i += 2) {
+        const std::string key = argv[i];
+        if (key == "--blocks") file = argv[i + 1];
+        else if (key == "--stride") stride = std::max<std::size_t>(1, std::stoul(argv[i + 1]));
+    }
+    nlohmann::json out = blockSuites(readBlocks(file, stride));
+    out["blocks_file"] = file;
+    out["effort"] = effortName(g_effort);
+    out["stride"] = stride;
+    std::cout << out.dump(2) << '\n';
+    return 0;
+}
+
+int sceneMode(int argc, char** argv) {
+    std::string file, dump;
     std::uint32_t depth = 10;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string key = argv[i];
         if (key == "--scene") file = argv[i + 1];
         else if (key == "--depth") depth = static_cast<std::uint32_t>(std::stoul(argv[i + 1]));
+        else if (key == "--dump") dump = argv[i + 1];
     }
     vox::log::setVerbosity(vox::log::Verbosity::Quiet);
     const vox::Scene scene = vox::importScene(file);
@@ -224,11 +319,11 @@ int sceneMode(int argc, char** argv) {
     options.depth = depth;
     options.attributes = true;
     const vox::SparseOctree octree = vox::voxelizeSurface(scene, options);
-    std::vector<ColorBlock> colors;
-    std::vector<NormalBlock> normals;
-    sceneBlocks(octree, colors, normals);
+    const std::vector<RawBlock> raw = vox::corpus::sceneBlocks(octree);
+    if (!dump.empty()) writeBlocks(dump, raw);
     nlohmann::json out;
     out["scene"] = file;
+    out["effort"] = effortName(g_effort);
     out["depth"] = depth;
     out["voxels"] = octree.voxelCount();
     // Laine & Karras 5.7, "combined indirect attribute lookup", sized without building it: a
@@ -252,22 +347,39 @@ int sceneMode(int argc, char** argv) {
         }
     }
     const double voxels = static_cast<double>(octree.voxelCount());
-    out["bytes_per_voxel"] = {{"pair_blocks_without_padding", 24.0 * static_cast<double>(colors.size()) / voxels},
+    out["bytes_per_voxel"] = {{"pair_blocks_without_padding", 24.0 * static_cast<double>(raw.size()) / voxels},
                               {"combined_lookup_estimate", (4.0 * static_cast<double>(descriptors) + 24.0 * std::ceil(static_cast<double>(stored) / 16.0)) / voxels},
                               {"combined_lookup_lookup_part", 4.0 * static_cast<double>(descriptors) / voxels},
                               {"stored_value_fraction", static_cast<double>(stored) / voxels}};
-    out["color_blocks"] = colorSuite(colors);
-    out["normal_blocks"] = normalSuite(normals);
+    out.update(blockSuites(raw));
     std::cout << out.dump(2) << '\n';
     return 0;
 }
 
 }  // namespace
 
-int main(int argc, char** argv) {
-    if (argc > 1 && std::string(argv[1]) == "--scene") {
+int main(int argc, char** argvIn) {
+    // --effort E, anywhere; the rest keep their positions.
+    std::vector<char*> args;
+    for (int i = 0; i < argc; ++i) {
+        if (i + 1 < argc && std::string(argvIn[i]) == "--effort") {
+            const std::string e = argvIn[++i];
+            if (e == "fast") g_effort = AttributeEffort::Fast;
+            else if (e == "best") g_effort = AttributeEffort::Best;
+            else if (e == "default") g_effort = AttributeEffort::Default;
+            else {
+                std::fprintf(stderr, "attribute_encode_bench: --effort must be fast, default or best\n");
+                return 1;
+            }
+            continue;
+        }
+        args.push_back(argvIn[i]);
+    }
+    argc = static_cast<int>(args.size());
+    char** argv = args.data();
+    if (argc > 1 && (std::string(argv[1]) == "--scene" || std::string(argv[1]) == "--blocks")) {
         try {
-            return sceneMode(argc, argv);
+            return std::string(argv[1]) == "--scene" ? sceneMode(argc, argv) : blocksMode(argc, argv);
         } catch (const vox::Error& e) {
             std::fprintf(stderr, "attribute_encode_bench: error: %s\n", e.what());
             return static_cast<int>(e.exitCode());
@@ -284,6 +396,7 @@ int main(int argc, char** argv) {
 
     nlohmann::json out;
     out["textures"] = textures;
+    out["effort"] = effortName(g_effort);
     if (!tiles.empty()) {
         out["color_tiles_full"] = colorSuite(tiles);
         out["color_tiles_8_of_16"] = colorSuite(partial);
@@ -299,9 +412,9 @@ int main(int argc, char** argv) {
         double best = 1e30;
         std::uint32_t sink = 0;
         for (int r = 0; r < 3; ++r) {
-            const auto start = Clock::now();
-            for (std::size_t i = 0; i < values.size(); ++i) sink ^= vox::detail::encodeCompressedBlock(values[i], sphere24[i].mask)[0];
-            best = std::min(best, std::chrono::duration<double>(Clock::now() - start).count());
+            const double start = threadSeconds();
+            for (std::size_t i = 0; i < values.size(); ++i) sink ^= vox::detail::encodeCompressedBlock(values[i], sphere24[i].mask, g_effort)[0];
+            best = std::min(best, threadSeconds() - start);
         }
         out["compressed_block_tiles_and_sphere_r24"] = {{"blocks", values.size()},
                                                         {"us_per_block", 1e6 * best / static_cast<double>(values.size())},

@@ -2,7 +2,9 @@
 // vox/formats/esvo_attributes.h): the cube-face normal and axis codes round-trip within their
 // precision, exactly representable colour blocks come out exact, smooth normal blocks decode
 // within a fraction of a degree, unused slots change nothing, and the colour encoder is at
-// least as good as stb_dxt's high-quality mode on real texture tiles (both decoded by ours).
+// least as good as stb_dxt's high-quality mode on real texture tiles (both decoded by ours) —
+// at every AttributeEffort (the ...ByEffort tests); and the faster efforts, whose early exits
+// skip searches, stay close to Best's error.
 #include "octree/attribute_encode.h"
 
 #include <vox/formats/esvo_attributes.h>
@@ -18,12 +20,15 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <string>
+#include <utility>
 #include <vector>
 
 namespace {
 
 namespace esvo = vox::esvo;
 using esvo::Vec3;
+using vox::detail::AttributeEffort;
 using vox::corpus::angle;
 using vox::corpus::ColorBlock;
 using vox::corpus::normalised;
@@ -95,7 +100,17 @@ std::vector<ColorBlock> syntheticBlocks(std::mt19937& rng, std::size_t count) {
     return blocks;
 }
 
+/// The tests that must hold whatever the effort run once per effort.
+class ByEffort : public ::testing::TestWithParam<AttributeEffort> {};
+
+std::string effortName(const ::testing::TestParamInfo<AttributeEffort>& info) {
+    return info.param == AttributeEffort::Fast ? "Fast" : info.param == AttributeEffort::Best ? "Best" : "Default";
+}
+
 }  // namespace
+
+INSTANTIATE_TEST_SUITE_P(AttributeEncode, ByEffort, ::testing::Values(AttributeEffort::Fast, AttributeEffort::Default, AttributeEffort::Best),
+                         effortName);
 
 TEST(AttributeEncode, CubeFaceNormalRoundTripsWithinItsPrecision) {
     std::vector<Vec3> directions;
@@ -161,7 +176,8 @@ TEST(AttributeEncode, EmptyMaskGivesZeroBlockWithValidBase) {
     EXPECT_EQ(esvo::decodeBlockNormal(block.data(), 3), (Vec3{0, 0, 1}));
 }
 
-TEST(AttributeEncode, RepresentableColourBlocksAreExact) {
+TEST_P(ByEffort, RepresentableColourBlocksAreExact) {
+    const AttributeEffort effort = GetParam();
     std::mt19937 rng(3);
     std::uniform_int_distribution<std::uint32_t> code(0, 0xFFFF);
     for (int i = 0; i < 2000; ++i) {
@@ -169,7 +185,7 @@ TEST(AttributeEncode, RepresentableColourBlocksAreExact) {
         const std::uint32_t a = esvo::expandRgb565(code(rng)), b = esvo::expandRgb565(code(rng));
         std::array<std::uint32_t, 16> colors{};
         for (unsigned s = 0; s < 16; ++s) colors[s] = (i % 2 == 0 || (rng() & 1)) ? a : b;
-        const auto words = vox::detail::encodeColorBlock(colors, mask);
+        const auto words = vox::detail::encodeColorBlock(colors, mask, effort);
         ASSERT_EQ(vox::detail::colorBlockError(colors, mask, words[0], words[1]), 0u) << i;
         const esvo::CompressedBlock block{words[0], words[1], 0, 0, 0, 0};
         for (unsigned s = 0; s < 16; ++s) {
@@ -179,7 +195,8 @@ TEST(AttributeEncode, RepresentableColourBlocksAreExact) {
     }
 }
 
-TEST(AttributeEncode, SingleColourBlocksAreOptimal) {
+TEST_P(ByEffort, SingleColourBlocksAreOptimal) {
+    const AttributeEffort effort = GetParam();
     // Brute force over every endpoint pair, per channel (channels are independent for one colour).
     const auto bestChannel = [](int value, int bits) {
         const auto expand = [bits](int c) { return bits == 5 ? (c << 3) | (c >> 2) : (c << 2) | (c >> 4); };
@@ -198,21 +215,22 @@ TEST(AttributeEncode, SingleColourBlocksAreOptimal) {
         std::array<std::uint32_t, 16> colors{};
         colors.fill(esvo::packColor(r, g, b));
         const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 16));
-        const auto words = vox::detail::encodeColorBlock(colors, mask);
+        const auto words = vox::detail::encodeColorBlock(colors, mask, effort);
         const std::uint64_t expected = static_cast<std::uint64_t>(std::popcount(mask)) *
                                        static_cast<std::uint64_t>(best[0][r] + best[1][g] + best[0][b]);
         ASSERT_EQ(vox::detail::colorBlockError(colors, mask, words[0], words[1]), expected) << r << ' ' << g << ' ' << b;
     }
 }
 
-TEST(AttributeEncode, UnusedSlotsChangeNothing) {
+TEST_P(ByEffort, UnusedSlotsChangeNothing) {
+    const AttributeEffort effort = GetParam();
     std::mt19937 rng(5);
     std::uniform_int_distribution<std::uint32_t> word;
     for (int i = 0; i < 500; ++i) {
         const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 15));
         std::array<std::uint64_t, 16> values{};
         for (auto& v : values) v = (word(rng) & 0xFFFFFFu) | (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
-        const esvo::CompressedBlock block = vox::detail::encodeCompressedBlock(values, mask);
+        const esvo::CompressedBlock block = vox::detail::encodeCompressedBlock(values, mask, effort);
         for (unsigned s = 0; s < 16; ++s) {
             if ((mask >> s) & 1u) continue;
             EXPECT_EQ(esvo::blockIndex(block[1], s), 0u);
@@ -220,12 +238,13 @@ TEST(AttributeEncode, UnusedSlotsChangeNothing) {
             EXPECT_EQ(esvo::blockIndex(block[5], s), 0u);
             values[s] = word(rng) | (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
         }
-        ASSERT_EQ(vox::detail::encodeCompressedBlock(values, mask), block) << i;
-        ASSERT_EQ(vox::detail::encodeCompressedBlock(values, mask | 0xFFFF0000u), block) << "bits above 15 are ignored";
+        ASSERT_EQ(vox::detail::encodeCompressedBlock(values, mask, effort), block) << i;
+        ASSERT_EQ(vox::detail::encodeCompressedBlock(values, mask | 0xFFFF0000u, effort), block) << "bits above 15 are ignored";
     }
 }
 
-TEST(AttributeEncode, EqualNormalsKeepTheCubeFacePrecision) {
+TEST_P(ByEffort, EqualNormalsKeepTheCubeFacePrecision) {
+    const AttributeEffort effort = GetParam();
     std::mt19937 rng(6);
     for (int i = 0; i < 2000; ++i) {
         const Vec3 n = i < 6 ? Vec3{float(i == 0) - float(i == 1), float(i == 2) - float(i == 3), float(i == 4) - float(i == 5)}
@@ -233,13 +252,14 @@ TEST(AttributeEncode, EqualNormalsKeepTheCubeFacePrecision) {
         std::array<Vec3, 16> normals{};
         normals.fill(n);
         const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 16));
-        const auto words = vox::detail::encodeNormalBlock(normals, mask);
+        const auto words = vox::detail::encodeNormalBlock(normals, mask, effort);
         ASSERT_LT(normalErrors(normals, mask, words).max, 0.01 * kDegree) << i;
         ASSERT_LE(normalErrors(normals, mask, words).max, angle(n, esvo::decodeNormal(esvo::encodeNormal(n))) + 2e-6) << i;
     }
 }
 
-TEST(AttributeEncode, SmoothNormalBlocksDecodeWithinAFractionOfADegree) {
+TEST_P(ByEffort, SmoothNormalBlocksDecodeWithinAFractionOfADegree) {
+    const AttributeEffort effort = GetParam();
     std::mt19937 rng(7);
     // Radius 24 voxels: a 4×2×2 block spans about 10°; smaller radii (more curvature) less strictly.
     for (const double radius : {24.0, 64.0, 400.0}) {
@@ -248,7 +268,7 @@ TEST(AttributeEncode, SmoothNormalBlocksDecodeWithinAFractionOfADegree) {
         for (int i = 0; i < 1000; ++i) {
             const auto normals = spherePatch(rng, radius, static_cast<unsigned>(i % 3));
             const std::uint32_t mask = i % 2 ? 0xFFFFu : randomMask(rng, 8);
-            const NormalErrors e = normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask));
+            const NormalErrors e = normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask, effort));
             sum += e.mean;
             worst = std::max(worst, e.max);
             ++count;
@@ -261,7 +281,7 @@ TEST(AttributeEncode, SmoothNormalBlocksDecodeWithinAFractionOfADegree) {
     double sum = 0, worst = 0;
     for (int i = 0; i < 1000; ++i) {
         const auto normals = randomCone(rng, 5 * kDegree);
-        const NormalErrors e = normalErrors(normals, 0xFFFFu, vox::detail::encodeNormalBlock(normals, 0xFFFFu));
+        const NormalErrors e = normalErrors(normals, 0xFFFFu, vox::detail::encodeNormalBlock(normals, 0xFFFFu, effort));
         sum += e.mean;
         worst = std::max(worst, e.max);
     }
@@ -271,7 +291,8 @@ TEST(AttributeEncode, SmoothNormalBlocksDecodeWithinAFractionOfADegree) {
     EXPECT_LT(worst, 3 * kDegree);
 }
 
-TEST(AttributeEncode, WidelySpreadNormalsStaySane) {
+TEST_P(ByEffort, WidelySpreadNormalsStaySane) {
+    const AttributeEffort effort = GetParam();
     std::mt19937 rng(8);
     double sum = 0;
     for (int i = 0; i < 500; ++i) {
@@ -279,7 +300,7 @@ TEST(AttributeEncode, WidelySpreadNormalsStaySane) {
         for (auto& n : normals) n = randomDirection(rng);  // the whole sphere
         if (i % 2) normals[1] = Vec3{-normals[0][0], -normals[0][1], -normals[0][2]};
         const std::uint32_t mask = i % 3 ? 0xFFFFu : randomMask(rng, 4);
-        const auto words = vox::detail::encodeNormalBlock(normals, mask);
+        const auto words = vox::detail::encodeNormalBlock(normals, mask, effort);
         const esvo::CompressedBlock block{0, 0, words[0], words[1], words[2], words[3]};
         for (unsigned s = 0; s < 16; ++s) {
             const Vec3 d = esvo::decodeBlockNormal(block.data(), s);
@@ -296,7 +317,7 @@ TEST(AttributeEncode, WidelySpreadNormalsStaySane) {
 /// A block whose used slots (a random set, at least one per direction) cycle through
 /// @p directions in random order; the unused slots hold random directions. Returns the largest
 /// angular error of the used slots.
-double patternMaxError(std::mt19937& rng, const std::vector<Vec3>& directions) {
+double patternMaxError(std::mt19937& rng, const std::vector<Vec3>& directions, AttributeEffort effort) {
     std::array<unsigned, 16> slots{};
     for (unsigned i = 0; i < 16; ++i) slots[i] = i;
     std::shuffle(slots.begin(), slots.end(), rng);
@@ -307,7 +328,7 @@ double patternMaxError(std::mt19937& rng, const std::vector<Vec3>& directions) {
         normals[slots[i]] = i < used ? directions[i % directions.size()] : randomDirection(rng);
         if (i < used) mask |= 1u << slots[i];
     }
-    return normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask)).max;
+    return normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask, effort)).max;
 }
 
 /// The 6 axis directions ±x, ±y, ±z.
@@ -321,7 +342,8 @@ Vec3 sum(const Vec3& a, const Vec3& b) { return normalised(double(a[0]) + b[0], 
 
 // Voxels along the edge where two walls meet (of a box, a room) have children with either wall's
 // normal and, where both walls cross the child, their average: normals 90° apart in one block.
-TEST(AttributeEncode, NormalsWhereTwoWallsMeetDecodeWithinTwoDegrees) {
+TEST_P(ByEffort, NormalsWhereTwoWallsMeetDecodeWithinTwoDegrees) {
+    const AttributeEffort effort = GetParam();
     std::mt19937 rng(11);
     double worst = 0;
     for (unsigned a = 0; a < 3; ++a)
@@ -330,8 +352,8 @@ TEST(AttributeEncode, NormalsWhereTwoWallsMeetDecodeWithinTwoDegrees) {
             for (unsigned signs = 0; signs < 4; ++signs) {
                 const Vec3 wall0 = axisDirection(a, signs & 1u), wall1 = axisDirection(b, (signs & 2u) != 0);
                 for (int repeat = 0; repeat < 4; ++repeat) {
-                    worst = std::max(worst, patternMaxError(rng, {wall0, wall1, sum(wall0, wall1)}));
-                    worst = std::max(worst, patternMaxError(rng, {wall0, wall1}));
+                    worst = std::max(worst, patternMaxError(rng, {wall0, wall1, sum(wall0, wall1)}, effort));
+                    worst = std::max(worst, patternMaxError(rng, {wall0, wall1}, effort));
                 }
             }
         }
@@ -340,15 +362,16 @@ TEST(AttributeEncode, NormalsWhereTwoWallsMeetDecodeWithinTwoDegrees) {
 }
 
 // Voxels at the corner where three walls meet: the three walls' normals and their average.
-TEST(AttributeEncode, NormalsWhereThreeWallsMeetDecodeWithinAFewDegrees) {
+TEST_P(ByEffort, NormalsWhereThreeWallsMeetDecodeWithinAFewDegrees) {
+    const AttributeEffort effort = GetParam();
     std::mt19937 rng(12);
     double worst = 0;
     for (unsigned signs = 0; signs < 8; ++signs) {
         const Vec3 x = axisDirection(0, signs & 1u), y = axisDirection(1, (signs & 2u) != 0), z = axisDirection(2, (signs & 4u) != 0);
         const Vec3 corner = normalised(double(x[0]), double(y[1]), double(z[2]));
         for (int repeat = 0; repeat < 8; ++repeat) {
-            worst = std::max(worst, patternMaxError(rng, {x, y, z, corner}));
-            worst = std::max(worst, patternMaxError(rng, {x, y, z}));
+            worst = std::max(worst, patternMaxError(rng, {x, y, z, corner}, effort));
+            worst = std::max(worst, patternMaxError(rng, {x, y, z}, effort));
         }
     }
     std::printf("corners of axis-aligned walls: max %.3f°\n", worst / kDegree);
@@ -357,7 +380,8 @@ TEST(AttributeEncode, NormalsWhereThreeWallsMeetDecodeWithinAFewDegrees) {
 
 // Thin sheets (a wall one voxel thick) give both of their sides' normals, 180° apart, in one
 // block: neither may come out flipped.
-TEST(AttributeEncode, BothSidesOfAThinSheetKeepTheirSide) {
+TEST_P(ByEffort, BothSidesOfAThinSheetKeepTheirSide) {
+    const AttributeEffort effort = GetParam();
     std::mt19937 rng(13);
     double worst = 0;
     for (unsigned axis = 0; axis < 3; ++axis) {
@@ -365,24 +389,25 @@ TEST(AttributeEncode, BothSidesOfAThinSheetKeepTheirSide) {
         std::array<Vec3, 16> normals{};
         for (unsigned s = 0; s < 16; ++s) normals[s] = axisDirection(axis, s >= 4);
         const std::uint32_t mask = 0xFFu;
-        worst = std::max(worst, normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask)).max);
+        worst = std::max(worst, normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask, effort)).max);
         for (int repeat = 0; repeat < 8; ++repeat)
-            worst = std::max(worst, patternMaxError(rng, {axisDirection(axis, false), axisDirection(axis, true)}));
+            worst = std::max(worst, patternMaxError(rng, {axisDirection(axis, false), axisDirection(axis, true)}, effort));
     }
     for (int i = 0; i < 300; ++i) {
         const Vec3 d = randomDirection(rng);
-        worst = std::max(worst, patternMaxError(rng, {d, Vec3{-d[0], -d[1], -d[2]}}));
+        worst = std::max(worst, patternMaxError(rng, {d, Vec3{-d[0], -d[1], -d[2]}}, effort));
     }
     std::printf("sheets: max %.3f°\n", worst / kDegree);
     EXPECT_LT(worst, 2 * kDegree);
 }
 
 // Any two directions (one lattice line through both), at any angle.
-TEST(AttributeEncode, AnyTwoDirectionsDecodeWithinTwoDegrees) {
+TEST_P(ByEffort, AnyTwoDirectionsDecodeWithinTwoDegrees) {
+    const AttributeEffort effort = GetParam();
     std::mt19937 rng(14);
     double worst = 0, sum = 0;
     for (int i = 0; i < 1000; ++i) {
-        const double e = patternMaxError(rng, {randomDirection(rng), randomDirection(rng)});
+        const double e = patternMaxError(rng, {randomDirection(rng), randomDirection(rng)}, effort);
         worst = std::max(worst, e);
         sum += e;
     }
@@ -391,7 +416,8 @@ TEST(AttributeEncode, AnyTwoDirectionsDecodeWithinTwoDegrees) {
     EXPECT_LT(sum / 1000, 0.5 * kDegree);
 }
 
-TEST(AttributeEncode, ColourBeatsStbDxtHighQuality) {
+TEST_P(ByEffort, ColourBeatsStbDxtHighQuality) {
+    const AttributeEffort effort = GetParam();
     std::mt19937 rng(9);
     const std::filesystem::path models = vox::test::assimpModels();
     const std::array<std::filesystem::path, 5> textures{models / "glTF/CesiumMilkTruck/CesiumMilkTruck.png", models / "OBJ/drkwood2.jpg",
@@ -413,7 +439,7 @@ TEST(AttributeEncode, ColourBeatsStbDxtHighQuality) {
     std::uint64_t tileOurs = 0, tileStb = 0;
     for (std::size_t i = 0; i < corpus.size(); ++i) {
         const ColorBlock& b = corpus[i];
-        const auto words = vox::detail::encodeColorBlock(b.colors, b.mask);
+        const auto words = vox::detail::encodeColorBlock(b.colors, b.mask, effort);
         const auto stbWords = vox::corpus::stbEncode(b, true);
         const std::uint64_t e = vox::detail::colorBlockError(b.colors, b.mask, words[0], words[1]);
         const std::uint64_t es = vox::detail::colorBlockError(b.colors, b.mask, stbWords[0], stbWords[1]);
@@ -430,12 +456,79 @@ TEST(AttributeEncode, ColourBeatsStbDxtHighQuality) {
                 static_cast<unsigned long long>(ours[1]), static_cast<unsigned long long>(stb[1]));
 }
 
-TEST(AttributeEncode, IsDeterministic) {
+TEST_P(ByEffort, IsDeterministic) {
+    const AttributeEffort effort = GetParam();
     std::mt19937 rng(10);
     for (int i = 0; i < 200; ++i) {
         std::array<std::uint64_t, 16> values{};
         for (auto& v : values) v = (rng() & 0xFFFFFFu) | (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
         const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 16));
-        EXPECT_EQ(vox::detail::encodeCompressedBlock(values, mask), vox::detail::encodeCompressedBlock(values, mask));
+        EXPECT_EQ(vox::detail::encodeCompressedBlock(values, mask, effort), vox::detail::encodeCompressedBlock(values, mask, effort));
     }
+}
+
+namespace {
+
+/// Summed angular error (radians) of encodeNormalBlock at @p effort over @p blocks.
+double summedNormalError(const std::vector<std::pair<std::array<Vec3, 16>, std::uint32_t>>& blocks, AttributeEffort effort) {
+    double sum = 0;
+    for (const auto& [normals, mask] : blocks) sum += normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask, effort)).mean * std::popcount(mask);
+    return sum;
+}
+
+}  // namespace
+
+// Default and Fast skip searches (an early exit once the first face-plane start fits within
+// 0.05° or 0.1°, fewer and lighter 3-D searches, fewer colour starts and descent passes); on
+// smooth, nearly flat, structured and unstructured blocks they stay close to Best, so that an
+// early exit that returned a worse block than the search would find fails here.
+TEST(AttributeEncode, FasterEffortsStayCloseToBest) {
+    std::mt19937 rng(15);
+    const auto ratioLimit = [](AttributeEffort e, double defaultLimit, double fastLimit) { return e == AttributeEffort::Fast ? fastLimit : defaultLimit; };
+    // Normals: sphere patches from curved (radius 8) to nearly flat (radius 4000, where the
+    // first start nearly always fits within the early exit's bound), random cones, edges.
+    for (const double radius : {8.0, 24.0, 128.0, 4000.0}) {
+        std::vector<std::pair<std::array<Vec3, 16>, std::uint32_t>> blocks;
+        for (int i = 0; i < 400; ++i) blocks.emplace_back(spherePatch(rng, radius, static_cast<unsigned>(i % 3)), i % 2 ? 0xFFFFu : randomMask(rng, 8));
+        const double best = summedNormalError(blocks, AttributeEffort::Best);
+        for (const AttributeEffort e : {AttributeEffort::Default, AttributeEffort::Fast}) {
+            const double ratio = summedNormalError(blocks, e) / best;
+            std::printf("sphere radius %g: %s / Best = %.4f\n", radius, e == AttributeEffort::Fast ? "Fast" : "Default", ratio);
+            EXPECT_LT(ratio, ratioLimit(e, 1.03, 1.25)) << radius;
+        }
+    }
+    for (const double halfAngle : {2.0, 5.0, 20.0}) {
+        std::vector<std::pair<std::array<Vec3, 16>, std::uint32_t>> blocks;
+        for (int i = 0; i < 300; ++i) blocks.emplace_back(randomCone(rng, halfAngle * kDegree), 0xFFFFu);
+        const double best = summedNormalError(blocks, AttributeEffort::Best);
+        for (const AttributeEffort e : {AttributeEffort::Default, AttributeEffort::Fast}) {
+            const double ratio = summedNormalError(blocks, e) / best;
+            std::printf("random %g° cone: %s / Best = %.4f\n", halfAngle, e == AttributeEffort::Fast ? "Fast" : "Default", ratio);
+            EXPECT_LT(ratio, ratioLimit(e, 1.03, 1.25)) << halfAngle;
+        }
+    }
+    // Colours: texture tiles and synthetic gradients, whole and half used.
+    const std::filesystem::path models = vox::test::assimpModels();
+    const std::array<std::filesystem::path, 3> textures{models / "glTF/CesiumMilkTruck/CesiumMilkTruck.png", models / "IQM/Head.jpg",
+                                                        models / "3DS/CWALL02.jpg"};
+    std::vector<ColorBlock> corpus = vox::corpus::textureTiles(textures, 600);
+    const std::vector<ColorBlock> synthetic = syntheticBlocks(rng, 600);
+    corpus.insert(corpus.end(), synthetic.begin(), synthetic.end());
+    for (std::size_t i = 0, n = corpus.size(); i < n; i += 2) {
+        ColorBlock b = corpus[i];
+        b.mask = randomMask(rng, 8);
+        corpus.push_back(b);
+    }
+    std::array<std::uint64_t, 3> error{};
+    for (const ColorBlock& b : corpus)
+        for (const AttributeEffort e : {AttributeEffort::Fast, AttributeEffort::Default, AttributeEffort::Best}) {
+            const auto words = vox::detail::encodeColorBlock(b.colors, b.mask, e);
+            error[static_cast<unsigned>(e)] += vox::detail::colorBlockError(b.colors, b.mask, words[0], words[1]);
+        }
+    const double best = static_cast<double>(error[static_cast<unsigned>(AttributeEffort::Best)]);
+    const double defaultRatio = static_cast<double>(error[static_cast<unsigned>(AttributeEffort::Default)]) / best,
+                 fastRatio = static_cast<double>(error[static_cast<unsigned>(AttributeEffort::Fast)]) / best;
+    std::printf("colour summed squared error: Default / Best = %.4f, Fast / Best = %.4f\n", defaultRatio, fastRatio);
+    EXPECT_LT(defaultRatio, 1.02);  // 0.09 dB
+    EXPECT_LT(fastRatio, 1.04);
 }

@@ -7,6 +7,13 @@
 #include <numbers>
 #include <span>
 
+#if defined(__SSE2__) && !defined(VOX_ENCODE_NO_SIMD)  // the scalar fallback computes the same values
+#include <emmintrin.h>
+#define VOX_ENCODE_SSE2 1
+#else
+#define VOX_ENCODE_SSE2 0
+#endif
+
 namespace vox::detail {
 namespace {
 
@@ -16,11 +23,13 @@ using esvo::Vec3;
 // Colour: RGB565 endpoints c0, c1 and a palette {c0, c1, ⅔c0+⅓c1, ⅓c0+⅔c1}.
 // ============================================================================================
 
-/// The used colours of a block, as 8-bit sRGB integers.
+/// The used colours of a block, as 8-bit sRGB integers; also per channel as floats (exact),
+/// padded to 16 with copies of the first, for the vectorised evaluation.
 struct ColorPoints {
     unsigned count = 0;
     std::array<unsigned, 16> slot{};
     std::array<std::array<int, 3>, 16> rgb{};
+    alignas(16) std::array<std::array<float, 16>, 3> channel{};
 };
 
 constexpr int expand5(int c) { return (c << 3) | (c >> 2); }
@@ -65,9 +74,18 @@ const ColorTables& colorTables() {
     return tables;
 }
 
+/// std::clamp(std::lround(x), 0, 255) (rounding half away from zero, NaN to 0) without the
+/// library call.
+inline std::size_t roundByte(float x) {
+    if (!(x > 0)) return 0;  // also NaN, as lround's LONG_MIN clamped
+    if (!(x < 255)) return 255;
+    const int t = static_cast<int>(x);  // truncation, exact for 0 < x < 255
+    return static_cast<std::size_t>(t + (x - static_cast<float>(t) >= 0.5f ? 1 : 0));
+}
+
 /// Nearest RGB565 code of a float RGB endpoint.
 std::uint32_t quantise565(const std::array<float, 3>& c, const ColorTables& t) {
-    const auto channel = [](float x) { return static_cast<std::size_t>(std::clamp(std::lround(x), 0l, 255l)); };
+    const auto channel = [](float x) { return roundByte(x); };
     return (std::uint32_t{t.nearest5[channel(c[0])]} << 11) | (std::uint32_t{t.nearest6[channel(c[1])]} << 5) | t.nearest5[channel(c[2])];
 }
 
@@ -82,13 +100,39 @@ struct ColorState {
 /// nearest entry (the lowest index on ties). Stops early once the sum exceeds @p bound.
 std::uint32_t evalColors(const ColorPoints& p, std::uint32_t c0, std::uint32_t c1, std::array<std::uint8_t, 16>& index,
                          std::uint32_t bound) {
-    const auto palette = esvo::colorPalette(c0, c1);
+    // esvo::colorPalette's arithmetic, here where it inlines: c0, c1, (2a + b + 1)/3, (a + 2b + 1)/3.
     std::array<int, 4> pr{}, pg{}, pb{};
-    for (unsigned k = 0; k < 4; ++k) {
-        pr[k] = static_cast<int>(esvo::colorChannel(palette[k], 0));
-        pg[k] = static_cast<int>(esvo::colorChannel(palette[k], 1));
-        pb[k] = static_cast<int>(esvo::colorChannel(palette[k], 2));
+    const auto entries = [](int a, int b, std::array<int, 4>& e) { e = {a, b, (2 * a + b + 1) / 3, (a + 2 * b + 1) / 3}; };
+    entries(expand5(static_cast<int>(c0 >> 11) & 31), expand5(static_cast<int>(c1 >> 11) & 31), pr);
+    entries(expand6(static_cast<int>(c0 >> 5) & 63), expand6(static_cast<int>(c1 >> 5) & 63), pg);
+    entries(expand5(static_cast<int>(c0) & 31), expand5(static_cast<int>(c1) & 31), pb);
+#if VOX_ENCODE_SSE2
+    // Four colours per vector, squared differences in floats (exact: integers below 2^24), each
+    // as 4·d + k, so that a plain min finds the nearest entry and the first of equals (k is the
+    // palette index). No early exit: it cost more than it saved.
+    (void)bound;
+    const unsigned vectors = (p.count + 3) / 4;
+    alignas(16) std::array<std::int32_t, 16> packed{};
+    for (unsigned j = 0; j < vectors; ++j) {
+        const __m128 r = _mm_load_ps(p.channel[0].data() + 4 * j), g = _mm_load_ps(p.channel[1].data() + 4 * j),
+                     b = _mm_load_ps(p.channel[2].data() + 4 * j);
+        __m128 best = _mm_setzero_ps();
+        for (unsigned k = 0; k < 4; ++k) {
+            const __m128 dr = _mm_sub_ps(r, _mm_set1_ps(static_cast<float>(pr[k]))), dg = _mm_sub_ps(g, _mm_set1_ps(static_cast<float>(pg[k]))),
+                         db = _mm_sub_ps(b, _mm_set1_ps(static_cast<float>(pb[k])));
+            const __m128 d = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dr, dr), _mm_mul_ps(dg, dg)), _mm_mul_ps(db, db));
+            const __m128 tagged = _mm_add_ps(_mm_mul_ps(d, _mm_set1_ps(4.0f)), _mm_set1_ps(static_cast<float>(k)));
+            best = k == 0 ? tagged : _mm_min_ps(best, tagged);
+        }
+        _mm_store_si128(reinterpret_cast<__m128i*>(packed.data() + 4 * j), _mm_cvttps_epi32(best));
     }
+    std::uint32_t total = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        index[i] = static_cast<std::uint8_t>(packed[i] & 3);
+        total += static_cast<std::uint32_t>(packed[i] >> 2);
+    }
+    return total;
+#else
     std::uint32_t total = 0;
     for (unsigned i = 0; i < p.count; ++i) {
         int best = std::numeric_limits<int>::max();
@@ -106,6 +150,7 @@ std::uint32_t evalColors(const ColorPoints& p, std::uint32_t c0, std::uint32_t c
         if (total > bound) return total;
     }
     return total;
+#endif
 }
 
 /// Replaces @p s by endpoints (c0, c1) if they decode with a smaller error.
@@ -148,8 +193,8 @@ bool refitColors(const ColorPoints& p, const std::array<std::uint8_t, 16>& index
 }
 
 /// Alternates index assignment and least-squares endpoints (rounded to RGB565) while it helps.
-void clusterFit(const ColorPoints& p, const ColorTables& t, ColorState& s) {
-    for (int iteration = 0; iteration < 8 && s.error > 0; ++iteration) {
+void clusterFit(const ColorPoints& p, const ColorTables& t, ColorState& s, int iterations = 8) {
+    for (int iteration = 0; iteration < iterations && s.error > 0; ++iteration) {
         std::array<float, 3> a{}, b{};
         if (!refitColors(p, s.index, a, b)) return;
         if (!tryColors(p, quantise565(a, t), quantise565(b, t), s)) return;
@@ -157,10 +202,10 @@ void clusterFit(const ColorPoints& p, const ColorTables& t, ColorState& s) {
 }
 
 /// Greedy descent over the six endpoint channels, one code step at a time.
-void stepColors(const ColorPoints& p, ColorState& s) {
+void stepColors(const ColorPoints& p, ColorState& s, int passes = 16) {
     static constexpr std::array<unsigned, 3> kShift{11, 5, 0};
     static constexpr std::array<std::uint32_t, 3> kMax{31, 63, 31};
-    for (int pass = 0; pass < 16 && s.error > 0; ++pass) {
+    for (int pass = 0; pass < passes && s.error > 0; ++pass) {
         bool improved = false;
         for (unsigned endpoint = 0; endpoint < 2; ++endpoint)
             for (unsigned ch = 0; ch < 3; ++ch)
@@ -218,20 +263,52 @@ bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean, c
     std::sort(order.begin(), order.begin() + n, [&](unsigned x, unsigned y) { return proj[x] < proj[y] || (proj[x] == proj[y] && x < y); });
     // Prefix sums of the sorted colours per channel, laid out so that the compiler can vectorise
     // the inner loop (over the start of the last cluster).
-    std::array<std::array<float, 17>, 3> prefix{};
-    for (unsigned ch = 0; ch < 3; ++ch)
+    // (Padded past n with the total, so that four lanes can always be loaded.)
+    alignas(16) std::array<std::array<float, 20>, 3> prefix{};
+    for (unsigned ch = 0; ch < 3; ++ch) {
         for (unsigned i = 0; i < n; ++i) prefix[ch][i + 1] = prefix[ch][i] + static_cast<float>(p.rgb[order[i]][ch]);
+        for (unsigned i = n + 1; i < 20; ++i) prefix[ch][i] = prefix[ch][n];
+    }
     // Maximise Σ_ch (C X² − 2B XY + A Y²) / det, which is Σ|x|² minus the least-squares error.
     float bestRatio = 0;
     unsigned best0 = 0, best1 = 0, best2 = 0;
     bool found = false;
     const float nf = static_cast<float>(n);
-    std::array<float, 17> index2{};
-    for (unsigned i = 0; i <= n; ++i) index2[i] = static_cast<float>(i);
+    alignas(16) std::array<float, 20> index2{};
+    for (unsigned i = 0; i < 20; ++i) index2[i] = static_cast<float>(i);
     for (unsigned i0 = 0; i0 <= n; ++i0)
         for (unsigned i1 = i0; i1 <= n; ++i1) {
             const float n0 = static_cast<float>(i0), n2 = static_cast<float>(i1 - i0);
-            alignas(16) std::array<float, 17> ratio{};
+            alignas(16) std::array<float, 20> ratio{};
+#if VOX_ENCODE_SSE2
+            // Four i2 at a time, the same arithmetic as below lane by lane (lanes past n unused).
+            {
+                const __m128 vn0 = _mm_set1_ps(n0), vn2 = _mm_set1_ps(n2), vi1 = _mm_set1_ps(static_cast<float>(i1)), vnf = _mm_set1_ps(nf);
+                const __m128 ninth = _mm_set1_ps(1.0f / 9.0f), twoNinths = _mm_set1_ps(2.0f / 9.0f), third = _mm_set1_ps(1.0f / 3.0f);
+                const __m128 two = _mm_set1_ps(2.0f), four = _mm_set1_ps(4.0f), guard = _mm_set1_ps(0.1f);
+                for (unsigned i2 = i1; i2 <= n; i2 += 4) {
+                    const __m128 idx = _mm_loadu_ps(index2.data() + i2);
+                    const __m128 n3 = _mm_sub_ps(idx, vi1), n1 = _mm_sub_ps(vnf, idx);
+                    const __m128 aa = _mm_add_ps(vn0, _mm_mul_ps(_mm_add_ps(_mm_mul_ps(four, vn2), n3), ninth));
+                    const __m128 ab = _mm_mul_ps(_mm_add_ps(vn2, n3), twoNinths);
+                    const __m128 bb = _mm_add_ps(n1, _mm_mul_ps(_mm_add_ps(vn2, _mm_mul_ps(four, n3)), ninth));
+                    const __m128 det = _mm_sub_ps(_mm_mul_ps(aa, bb), _mm_mul_ps(ab, ab));
+                    __m128 q = _mm_setzero_ps();
+                    for (unsigned ch = 0; ch < 3; ++ch) {
+                        const float p0 = prefix[ch][i0], p1 = prefix[ch][i1], pn = prefix[ch][n];
+                        const __m128 pi2 = _mm_loadu_ps(prefix[ch].data() + i2);
+                        const __m128 s0 = _mm_set1_ps(p0), s2 = _mm_set1_ps(p1 - p0), s3 = _mm_sub_ps(pi2, _mm_set1_ps(p1)),
+                                     s1 = _mm_sub_ps(_mm_set1_ps(pn), pi2);
+                        const __m128 x = _mm_add_ps(s0, _mm_mul_ps(_mm_add_ps(_mm_mul_ps(two, s2), s3), third));
+                        const __m128 y = _mm_add_ps(s1, _mm_mul_ps(_mm_add_ps(s2, _mm_mul_ps(two, s3)), third));
+                        const __m128 t = _mm_add_ps(_mm_sub_ps(_mm_mul_ps(_mm_mul_ps(bb, x), x), _mm_mul_ps(_mm_mul_ps(_mm_mul_ps(two, ab), x), y)),
+                                                    _mm_mul_ps(_mm_mul_ps(aa, y), y));
+                        q = _mm_add_ps(q, t);
+                    }
+                    _mm_storeu_ps(ratio.data() + i2, _mm_div_ps(q, _mm_max_ps(det, guard)));
+                }
+            }
+#else
             for (unsigned i2 = i1; i2 <= n; ++i2) {
                 const float n3 = index2[i2] - static_cast<float>(i1), n1 = nf - index2[i2];
                 const float aa = n0 + (4.0f * n2 + n3) * (1.0f / 9.0f), ab = (n2 + n3) * (2.0f / 9.0f), bb = n1 + (n2 + 4.0f * n3) * (1.0f / 9.0f);
@@ -246,6 +323,7 @@ bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean, c
                 // is on one entry, where det and q vanish: a branch-free guard the compiler can vectorise.
                 ratio[i2] = q / std::max(det, 0.1f);
             }
+#endif
             for (unsigned i2 = i1; i2 <= n; ++i2)
                 if (ratio[i2] > bestRatio) {
                     bestRatio = ratio[i2];
@@ -264,7 +342,28 @@ bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean, c
 /// Summed squared error per used colour above which orderedClusterFit is tried.
 constexpr std::uint32_t kOrderedFitThreshold = 20;
 
-ColorState encodeColors(const ColorPoints& p) {
+/// How hard the colour encoder searches (see AttributeEffort): start pairs tried (of three),
+/// cluster-fit iterations, the error per colour above which the ordered cluster fit runs, and
+/// passes of the endpoint descent. Best is the original search.
+struct ColorSearch {
+    unsigned startPairs = 3;
+    int clusterIterations = 8;
+    std::uint32_t orderedThreshold = kOrderedFitThreshold;
+    int stepPasses = 16;
+};
+
+ColorSearch colorSearch(AttributeEffort effort) {
+    ColorSearch s;
+    if (effort == AttributeEffort::Best) return s;
+    s.startPairs = 1;
+    s.clusterIterations = 2;
+    s.stepPasses = 1;
+    if (effort == AttributeEffort::Fast) s.orderedThreshold = 2 * kOrderedFitThreshold;
+    return s;
+}
+
+ColorState encodeColors(const ColorPoints& p, AttributeEffort effort) {
+    const ColorSearch search = colorSearch(effort);
     const ColorTables& t = colorTables();
     ColorState best;
 
@@ -319,24 +418,24 @@ ColorState encodeColors(const ColorPoints& p) {
     }
     starts[2] = toFloat(p.rgb[iMin]);
     starts[3] = toFloat(p.rgb[iMax]);
-    for (unsigned s = 0; s < starts.size() && best.error > 0; s += 2) {
+    for (unsigned s = 0; s < 2 * search.startPairs && best.error > 0; s += 2) {
         ColorState candidate;
         tryColors(p, quantise565(starts[s], t), quantise565(starts[s + 1], t), candidate);
-        clusterFit(p, t, candidate);
+        clusterFit(p, t, candidate, search.clusterIterations);
         if (candidate.error < best.error) best = candidate;
     }
     // Blocks still far off (RMS above ~2.6 per channel) are worth the exhaustive ordered fit.
-    if (best.error > kOrderedFitThreshold * p.count) {
+    if (best.error > search.orderedThreshold * p.count) {
         std::array<float, 3> a{}, b{};
         if (orderedClusterFit(p, mean, axis, a, b)) {
             ColorState candidate;
             tryColors(p, quantise565(a, t), quantise565(b, t), candidate);
-            clusterFit(p, t, candidate);
+            clusterFit(p, t, candidate, search.clusterIterations);
             if (candidate.error < best.error) best = candidate;
         }
     }
-    stepColors(p, best);
-    clusterFit(p, t, best);
+    stepColors(p, best, search.stepPasses);
+    clusterFit(p, t, best, search.clusterIterations);
     return best;
 }
 
@@ -354,15 +453,144 @@ struct NormalPoints {
     std::array<float, 16> px{}, py{}, weight{};  ///< in-plane coordinates (axis+1, axis+2) and LS weights
 };
 
+#if defined(__GNUC__)
+#define VOX_ENCODE_INLINE [[gnu::always_inline]] inline
+#else
+#define VOX_ENCODE_INLINE inline
+#endif
+
+/// The lattice weights (cu, cv) of combo k = uIndex + 4·vIndex, as arrays the compiler can
+/// vectorise loops over the 16 combos with.
+alignas(16) constexpr std::array<float, 16> kComboU = [] {
+    std::array<float, 16> w{};
+    for (unsigned k = 0; k < 16; ++k) w[k] = esvo::kAxisWeights[k & 3];
+    return w;
+}();
+alignas(16) constexpr std::array<float, 16> kComboV = [] {
+    std::array<float, 16> w{};
+    for (unsigned k = 0; k < 16; ++k) w[k] = esvo::kAxisWeights[k >> 2];
+    return w;
+}();
+
 /// Index of the smallest of 16 non-negative values, the lowest on (near) ties: the index is put
 /// in the low 4 mantissa bits, which keeps the order of non-negative floats, so that a plain
-/// min reduction (vectorisable, unlike an argmin loop) finds both.
-unsigned argmin16(std::array<float, 16>& d) {
-    for (unsigned k = 0; k < 16; ++k) d[k] = std::bit_cast<float>((std::bit_cast<std::uint32_t>(d[k]) & ~15u) | k);
-    for (unsigned k = 0; k < 8; ++k) d[k] = std::min(d[k], d[k + 8]);
-    for (unsigned k = 0; k < 4; ++k) d[k] = std::min(d[k], d[k + 4]);
-    for (unsigned k = 0; k < 2; ++k) d[k] = std::min(d[k], d[k + 2]);
-    return std::bit_cast<std::uint32_t>(std::min(d[0], d[1])) & 15u;
+/// min reduction (vectorisable, unlike an argmin loop) finds both. Inlined into its callers'
+/// loops (a call, with @p d stored and reloaded, cost as much as the distances).
+VOX_ENCODE_INLINE unsigned argmin16(const std::array<float, 16>& d) {
+    std::array<float, 16> t{};
+    for (unsigned k = 0; k < 16; ++k) t[k] = std::bit_cast<float>((std::bit_cast<std::uint32_t>(d[k]) & ~15u) | k);
+    for (unsigned k = 0; k < 8; ++k) t[k] = std::min(t[k], t[k + 8]);
+    for (unsigned k = 0; k < 4; ++k) t[k] = std::min(t[k], t[k + 4]);
+    for (unsigned k = 0; k < 2; ++k) t[k] = std::min(t[k], t[k + 2]);
+    return std::bit_cast<std::uint32_t>(std::min(t[0], t[1])) & 15u;
+}
+
+/// 16 points (the lattice points of the combos, in combo order), one array per coordinate.
+struct alignas(16) Points16 {
+    std::array<float, 16> x{}, y{}, z{};
+};
+
+#if VOX_ENCODE_SSE2
+/// The lane of the smallest of four vectors of non-negative squared distances (as argmin16,
+/// whose result it equals: the values carry their index in their low mantissa bits, so all are
+/// distinct and the order of reduction does not matter).
+VOX_ENCODE_INLINE unsigned argmin16(__m128 d0, __m128 d1, __m128 d2, __m128 d3) {
+    const __m128i keep = _mm_set1_epi32(~15);
+    const auto tag = [&](__m128 d, int k) {
+        return _mm_castsi128_ps(_mm_or_si128(_mm_and_si128(_mm_castps_si128(d), keep), _mm_setr_epi32(k, k + 1, k + 2, k + 3)));
+    };
+    __m128 m = _mm_min_ps(_mm_min_ps(tag(d0, 0), tag(d1, 4)), _mm_min_ps(tag(d2, 8), tag(d3, 12)));
+    m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
+    m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
+    return static_cast<unsigned>(_mm_cvtsi128_si32(_mm_castps_si128(m))) & 15u;
+}
+#endif
+
+/// The nearest of the 16 points @p l to (x, y) in the plane (their z ignored), the lowest index
+/// on (near) ties; its squared distance dx² + dy² goes to @p distance.
+VOX_ENCODE_INLINE unsigned nearest2(const Points16& l, float x, float y, float& distance) {
+    unsigned k = 0;
+#if VOX_ENCODE_SSE2
+    const __m128 px = _mm_set1_ps(x), py = _mm_set1_ps(y);
+    __m128 d[4];
+    for (unsigned j = 0; j < 4; ++j) {
+        const __m128 dx = _mm_sub_ps(px, _mm_load_ps(l.x.data() + 4 * j)), dy = _mm_sub_ps(py, _mm_load_ps(l.y.data() + 4 * j));
+        d[j] = _mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy));
+    }
+    k = argmin16(d[0], d[1], d[2], d[3]);
+#else
+    std::array<float, 16> d{};
+    for (unsigned j = 0; j < 16; ++j) {
+        const float dx = x - l.x[j], dy = y - l.y[j];
+        d[j] = dx * dx + dy * dy;
+    }
+    k = argmin16(d);
+#endif
+    const float dx = x - l.x[k], dy = y - l.y[k];
+    distance = dx * dx + dy * dy;
+    return k;
+}
+
+/// The nearest of the 16 points @p l to (x, y, z), the lowest index on (near) ties; its squared
+/// distance dx² + dy² + dz² goes to @p distance.
+VOX_ENCODE_INLINE unsigned nearest3(const Points16& l, float x, float y, float z, float& distance) {
+    unsigned k = 0;
+#if VOX_ENCODE_SSE2
+    const __m128 px = _mm_set1_ps(x), py = _mm_set1_ps(y), pz = _mm_set1_ps(z);
+    __m128 d[4];
+    for (unsigned j = 0; j < 4; ++j) {
+        const __m128 dx = _mm_sub_ps(px, _mm_load_ps(l.x.data() + 4 * j)), dy = _mm_sub_ps(py, _mm_load_ps(l.y.data() + 4 * j)),
+                     dz = _mm_sub_ps(pz, _mm_load_ps(l.z.data() + 4 * j));
+        d[j] = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+    }
+    k = argmin16(d[0], d[1], d[2], d[3]);
+#else
+    std::array<float, 16> d{};
+    for (unsigned j = 0; j < 16; ++j) {
+        const float dx = x - l.x[j], dy = y - l.y[j], dz = z - l.z[j];
+        d[j] = dx * dx + dy * dy + dz * dz;
+    }
+    k = argmin16(d);
+#endif
+    const float dx = x - l.x[k], dy = y - l.y[k], dz = z - l.z[k];
+    distance = dx * dx + dy * dy + dz * dz;
+    return k;
+}
+
+/// The 16 directions normalise(b + cu·u + cv·v) as esvo::decodeBlockNormal computes them (up to
+/// its division by the length, here a multiplication by its inverse), a zero vector as +z.
+VOX_ENCODE_INLINE void decodedLattice(const Vec3& b, const Vec3& u, const Vec3& v, Points16& l) {
+#if VOX_ENCODE_SSE2
+    const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+    for (unsigned j = 0; j < 4; ++j) {
+        const __m128 cu = _mm_load_ps(kComboU.data() + 4 * j), cv = _mm_load_ps(kComboV.data() + 4 * j);
+        const auto part = [&](unsigned c) {
+            return _mm_add_ps(_mm_add_ps(_mm_set1_ps(b[c]), _mm_mul_ps(cu, _mm_set1_ps(u[c]))), _mm_mul_ps(cv, _mm_set1_ps(v[c])));
+        };
+        const __m128 x = part(0), y = part(1), z = part(2);
+        const __m128 len2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z));
+        const __m128 nonzero = _mm_cmpgt_ps(len2, zero);  // false for 0 and NaN
+        const __m128 inv = _mm_div_ps(one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(nonzero, len2), _mm_andnot_ps(nonzero, one))));
+        _mm_store_ps(l.x.data() + 4 * j, _mm_and_ps(nonzero, _mm_mul_ps(x, inv)));
+        _mm_store_ps(l.y.data() + 4 * j, _mm_and_ps(nonzero, _mm_mul_ps(y, inv)));
+        _mm_store_ps(l.z.data() + 4 * j, _mm_or_ps(_mm_and_ps(nonzero, _mm_mul_ps(z, inv)), _mm_andnot_ps(nonzero, one)));
+    }
+#else
+    for (unsigned k = 0; k < 16; ++k) {
+        l.x[k] = b[0] + kComboU[k] * u[0] + kComboV[k] * v[0];
+        l.y[k] = b[1] + kComboU[k] * u[1] + kComboV[k] * v[1];
+        l.z[k] = b[2] + kComboU[k] * u[2] + kComboV[k] * v[2];
+    }
+    for (unsigned k = 0; k < 16; ++k) {
+        const float len2 = l.x[k] * l.x[k] + l.y[k] * l.y[k] + l.z[k] * l.z[k];
+        // A zero vector decodes as +z (lattices through the origin are among the 3-D fit's).
+        const bool zero = !(len2 > 0);
+        const float inv = 1.0f / std::sqrt(zero ? 1.0f : len2);
+        l.x[k] = zero ? 0.0f : l.x[k] * inv;
+        l.y[k] = zero ? 0.0f : l.y[k] * inv;
+        l.z[k] = zero ? 1.0f : l.z[k] * inv;
+    }
+#endif
 }
 
 /// A fit in the face plane: p ≈ b + cu·u + cv·v, combo k = uIndex + 4·vIndex.
@@ -374,25 +602,19 @@ struct PlaneFit {
 
 /// Assigns every point its nearest of the 16 lattice points; true when a combo changed.
 bool assignPlane(const NormalPoints& p, PlaneFit& f) {
-    std::array<float, 16> lx{}, ly{};
+    Points16 l;
     for (unsigned k = 0; k < 16; ++k) {
-        const float cu = esvo::kAxisWeights[k & 3], cv = esvo::kAxisWeights[k >> 2];
-        lx[k] = f.bx + cu * f.ux + cv * f.vx;
-        ly[k] = f.by + cu * f.uy + cv * f.vy;
+        l.x[k] = f.bx + kComboU[k] * f.ux + kComboV[k] * f.vx;
+        l.y[k] = f.by + kComboU[k] * f.uy + kComboV[k] * f.vy;
     }
     bool changed = false;
     double error = 0;
     for (unsigned i = 0; i < p.count; ++i) {
-        std::array<float, 16> d{};
-        for (unsigned k = 0; k < 16; ++k) {
-            const float dx = p.px[i] - lx[k], dy = p.py[i] - ly[k];
-            d[k] = dx * dx + dy * dy;
-        }
-        const std::array<float, 16> exact = d;
-        const unsigned bestK = argmin16(d);
+        float d = 0;
+        const unsigned bestK = nearest2(l, p.px[i], p.py[i], d);
         changed = changed || f.combo[i] != bestK;
         f.combo[i] = static_cast<std::uint8_t>(bestK);
-        error += double(p.weight[i]) * exact[bestK];
+        error += double(p.weight[i]) * d;
     }
     f.error = error;
     return changed;
@@ -458,36 +680,16 @@ struct NormalState {
 /// them; the nearest one's combo goes to @p combo. Stops early beyond @p bound.
 double evalLattice(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v, std::array<std::uint8_t, 16>& combo, double bound) {
     // The 16 decoded directions, in arrays the compiler can vectorise over.
-    std::array<float, 16> dx{}, dy{}, dz{};
-    for (unsigned k = 0; k < 16; ++k) {
-        const float cu = esvo::kAxisWeights[k & 3], cv = esvo::kAxisWeights[k >> 2];
-        dx[k] = b[0] + cu * u[0] + cv * v[0];
-        dy[k] = b[1] + cu * u[1] + cv * v[1];
-        dz[k] = b[2] + cu * u[2] + cv * v[2];
-    }
-    for (unsigned k = 0; k < 16; ++k) {
-        const float len2 = dx[k] * dx[k] + dy[k] * dy[k] + dz[k] * dz[k];
-        // A zero vector decodes as +z (lattices through the origin are among the 3-D fit's).
-        const bool zero = !(len2 > 0);
-        const float inv = zero ? 0.0f : 1.0f / std::sqrt(len2);
-        dx[k] *= inv;
-        dy[k] *= inv;
-        dz[k] = zero ? 1.0f : dz[k] * inv;
-    }
+    Points16 l;
+    decodedLattice(b, u, v, l);
     // |n − d|² = 2 (1 − cos): the same order, but precise for tiny angles, where 1 − cos in
     // float is not.
     double total = 0;
     for (unsigned i = 0; i < p.count; ++i) {
-        const float nx = p.n[i][0], ny = p.n[i][1], nz = p.n[i][2];
-        std::array<float, 16> d{};
-        for (unsigned k = 0; k < 16; ++k) {
-            const float ex = nx - dx[k], ey = ny - dy[k], ez = nz - dz[k];
-            d[k] = ex * ex + ey * ey + ez * ez;
-        }
-        const std::array<float, 16> exact = d;
-        const unsigned bestK = argmin16(d);
+        float d = 0;
+        const unsigned bestK = nearest3(l, p.n[i][0], p.n[i][1], p.n[i][2], d);
         combo[i] = static_cast<std::uint8_t>(bestK);
-        total += exact[bestK];
+        total += d;
         if (total > bound) return total;
     }
     return total;
@@ -613,8 +815,208 @@ NormalState quantiseFit(const NormalPoints& p, const PlaneFit& f) {
     return s;
 }
 
+/// A symmetric 2×2 matrix [[xx, xy], [xy, yy]].
+struct Sym2 {
+    double xx = 0, xy = 0, yy = 0;
+};
+using Vec2 = std::array<double, 2>;
+Vec2 mul(const Sym2& m, const Vec2& v) { return {m.xx * v[0] + m.xy * v[1], m.xy * v[0] + m.yy * v[1]}; }
+double dot2(const Vec2& a, const Vec2& b) { return a[0] * b[0] + a[1] * b[1]; }
+
+/// For fixed combos, the sums that give the decoded error of any (b, u, v) in the face plane
+/// in constant time: Σ (p − q)ᵀ M (p − q), q = b + cu·u + cv·v, with M = (I − p pᵀ/L²)/L²
+/// (L² = 1 + |p|²) the metric under which a step in the plane at p is the squared angle it
+/// turns the direction (p, 1) by: cos⁴ radially, cos² tangentially.
+struct PlaneSums {
+    Sym2 s, su, sv, suu, suv, svv;
+    Vec2 p{}, pu{}, pv{};
+    double pp = 0;
+};
+
+PlaneSums planeSums(const NormalPoints& p, const std::array<std::uint8_t, 16>& combo) {
+    PlaneSums t;
+    const auto add = [](Sym2& a, const Sym2& m, double w) {
+        a.xx += w * m.xx;
+        a.xy += w * m.xy;
+        a.yy += w * m.yy;
+    };
+    for (unsigned i = 0; i < p.count; ++i) {
+        const double cu = esvo::kAxisWeights[combo[i] & 3], cv = esvo::kAxisWeights[combo[i] >> 2];
+        const double x = p.px[i], y = p.py[i], l2 = 1 + x * x + y * y, inv = 1 / l2, inv2 = inv * inv;
+        const Sym2 m{inv - x * x * inv2, -x * y * inv2, inv - y * y * inv2};
+        add(t.s, m, 1);
+        add(t.su, m, cu);
+        add(t.sv, m, cv);
+        add(t.suu, m, cu * cu);
+        add(t.suv, m, cu * cv);
+        add(t.svv, m, cv * cv);
+        const Vec2 mp = mul(m, {x, y});
+        for (unsigned c = 0; c < 2; ++c) {
+            t.p[c] += mp[c];
+            t.pu[c] += cu * mp[c];
+            t.pv[c] += cv * mp[c];
+        }
+        t.pp += x * mp[0] + y * mp[1];
+    }
+    return t;
+}
+
+/// With the base at its best for the axes, b = S⁻¹(P − Su·u − Sv·v), the error is
+/// C + A(u) + A'(v) + 2 uᵀ K v; PlaneTerms holds what A, A' and K need.
+struct PlaneTerms {
+    Sym2 inv;                  // S⁻¹
+    Vec2 tp{};                 // S⁻¹ P
+    double kxx = 0, kxy = 0, kyx = 0, kyy = 0;  // K = Suv − Su S⁻¹ Sv
+};
+
+bool planeTerms(const PlaneSums& t, PlaneTerms& k) {
+    const double det = t.s.xx * t.s.yy - t.s.xy * t.s.xy;
+    if (!(det > 1e-300)) return false;
+    k.inv = {t.s.yy / det, -t.s.xy / det, t.s.xx / det};
+    k.tp = mul(k.inv, t.p);
+    // Su S⁻¹ Sv, entry by entry (Su, S⁻¹ and Sv are symmetric, their product need not be).
+    const double a[2][2]{{t.su.xx, t.su.xy}, {t.su.xy, t.su.yy}}, i[2][2]{{k.inv.xx, k.inv.xy}, {k.inv.xy, k.inv.yy}},
+                 b[2][2]{{t.sv.xx, t.sv.xy}, {t.sv.xy, t.sv.yy}};
+    double ai[2][2]{}, aib[2][2]{};
+    for (unsigned r = 0; r < 2; ++r)
+        for (unsigned c = 0; c < 2; ++c) ai[r][c] = a[r][0] * i[0][c] + a[r][1] * i[1][c];
+    for (unsigned r = 0; r < 2; ++r)
+        for (unsigned c = 0; c < 2; ++c) aib[r][c] = ai[r][0] * b[0][c] + ai[r][1] * b[1][c];
+    k.kxx = t.suv.xx - aib[0][0];
+    k.kxy = t.suv.xy - aib[0][1];
+    k.kyx = t.suv.xy - aib[1][0];
+    k.kyy = t.suv.yy - aib[1][1];
+    return true;
+}
+
+/// A(u) (or A'(v)) of one axis @p a, whose sums are @p s1 (Su or Sv), @p s2 (Suu or Svv) and
+/// @p pa (Pu or Pv): aᵀ(S2 − S1 S⁻¹ S1) a + 2 a·(S1 S⁻¹ P − Pa).
+double axisTerm(const PlaneTerms& k, const Sym2& s1, const Sym2& s2, const Vec2& pa, const Vec2& a) {
+    const Vec2 s1a = mul(s1, a);
+    return dot2(a, mul(s2, a)) - dot2(s1a, mul(k.inv, s1a)) + 2 * (dot2(s1a, k.tp) - dot2(a, pa));
+}
+
+/// The best base for axes @p u, @p v.
+Vec2 bestBase(const PlaneSums& t, const PlaneTerms& k, const Vec2& u, const Vec2& v) {
+    const Vec2 su = mul(t.su, u), sv = mul(t.sv, v);
+    return mul(k.inv, {t.p[0] - su[0] - sv[0], t.p[1] - su[1] - sv[1]});
+}
+
+/// 2^(e − 13), the step of axis exponent e (as esvo::decodeAxis).
+inline float axisStep(int e) { return std::bit_cast<float>(static_cast<std::uint32_t>(e + 127 - 13) << 23); }
+
+/// The exponent esvo::encodeAxis chooses for components within [@p lo, @p hi] (lo ≤ 0 ≤ hi).
+inline int axisExponent(float lo, float hi) {
+    int e = 0;
+    while (e < 15 && (hi > 7.5f * axisStep(e) || lo < -8.5f * axisStep(e))) ++e;
+    return e;
+}
+
+/// Component @p c (0…2) of axis code @p bits, in steps (esvo::decodeAxis without the scale).
+inline int axisDigit(std::uint32_t bits, unsigned c) { return static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28; }
+
+/// The best few (at most 4) of scored candidates, lowest score first, the earliest of equals.
+struct TopK {
+    unsigned k = 0, n = 0;
+    std::array<double, 4> score{};
+    std::array<unsigned, 4> id{};
+    explicit TopK(unsigned keep) : k(std::min(keep, 4u)) {}
+    void offer(double sc, unsigned i) {
+        if (n == k && !(sc < score[n - 1])) return;
+        unsigned at = n < k ? n++ : n - 1;
+        while (at > 0 && sc < score[at - 1]) {
+            score[at] = score[at - 1];
+            id[at] = id[at - 1];
+            --at;
+        }
+        score[at] = sc;
+        id[at] = i;
+    }
+};
+
+/// Up to eight codes of an in-plane axis @p a (face-plane units, × @p scale in the code): at
+/// the smallest exponent that holds it and the next, each component rounded down and up.
+unsigned axisCandidates(const NormalPoints& p, const std::array<double, 2>& a, float scale, std::array<std::uint32_t, 8>& codes) {
+    const unsigned ua = (p.axis + 1) % 3, va = (p.axis + 2) % 3;
+    Vec3 v{};
+    v[ua] = static_cast<float>(a[0]) * scale;
+    v[va] = static_cast<float>(a[1]) * scale;
+    const int e0 = axisExponent(std::min({v[ua], v[va], 0.0f}), std::max({v[ua], v[va], 0.0f}));
+    unsigned n = 0;
+    for (int e = e0; e <= std::min(e0 + 1, 15); ++e) {
+        const float step = axisStep(e);
+        const float x = v[ua] / step, y = v[va] / step;
+        const auto clampCode = [](float q) { return std::clamp(static_cast<int>(q), -8, 7); };
+        const int x0 = clampCode(std::floor(x)), x1 = clampCode(std::ceil(x)), y0 = clampCode(std::floor(y)), y1 = clampCode(std::ceil(y));
+        for (const int mx : {x0, x1})
+            for (const int my : {y0, y1}) {
+                std::uint32_t code = static_cast<std::uint32_t>(e) << 12;
+                code |= (static_cast<std::uint32_t>(mx) & 15u) << (4 * ua);
+                code |= (static_cast<std::uint32_t>(my) & 15u) << (4 * va);
+                if (std::find(codes.begin(), codes.begin() + n, code) == codes.begin() + n) codes[n++] = code;
+            }
+    }
+    return n;
+}
+
+/// quantiseFit by enumeration instead of search: with the combos fixed, every pair of
+/// candidate axis codes (axisCandidates) is scored in the face plane in constant time with its
+/// best base; the best few are measured against the decoded normals; then the least squares
+/// for the combos the best chose, and again, while that helps.
+NormalState quantiseFitFast(const NormalPoints& p, const PlaneFit& f, int rounds, unsigned measured) {
+    const unsigned a = p.axis, ua = (a + 1) % 3, va = (a + 2) % 3;
+    const auto toBase = [&](double bx, double by) {
+        Vec3 b{};
+        b[a] = p.sign;
+        b[ua] = static_cast<float>(bx);
+        b[va] = static_cast<float>(by);
+        return esvo::encodeNormal(b);
+    };
+    NormalState s;
+    PlaneFit g = f;
+    for (int round = 0; round < rounds; ++round) {
+        const float scale = 1.0f / std::max({1.0f, std::fabs(g.bx), std::fabs(g.by)});
+        const PlaneSums t = planeSums(p, g.combo);
+        PlaneTerms k;
+        if (!planeTerms(t, k)) break;
+        std::array<std::uint32_t, 8> uc{}, vc{};
+        const unsigned nu = axisCandidates(p, {g.ux, g.uy}, scale, uc), nv = axisCandidates(p, {g.vx, g.vy}, scale, vc);
+        std::array<Vec2, 8> uv{}, vv{}, kv{};
+        std::array<double, 8> ut{}, vt{};
+        const auto decode = [&](std::uint32_t code) {
+            const double step = axisStep(static_cast<int>(code >> 12)) / scale;
+            return Vec2{axisDigit(code, ua) * step, axisDigit(code, va) * step};
+        };
+        for (unsigned i = 0; i < nu; ++i) {
+            uv[i] = decode(uc[i]);
+            ut[i] = axisTerm(k, t.su, t.suu, t.pu, uv[i]);
+        }
+        for (unsigned j = 0; j < nv; ++j) {
+            vv[j] = decode(vc[j]);
+            vt[j] = axisTerm(k, t.sv, t.svv, t.pv, vv[j]);
+            kv[j] = {2 * (k.kxx * vv[j][0] + k.kxy * vv[j][1]), 2 * (k.kyx * vv[j][0] + k.kyy * vv[j][1])};
+        }
+        TopK top(measured);
+        for (unsigned i = 0; i < nu; ++i)
+            for (unsigned j = 0; j < nv; ++j) top.offer(ut[i] + vt[j] + (uv[i][0] * kv[j][0] + uv[i][1] * kv[j][1]), 8 * i + j);
+        bool improved = false;
+        for (unsigned m = 0; m < top.n; ++m) {
+            const unsigned i = top.id[m] / 8, j = top.id[m] % 8;
+            const Vec2 b = bestBase(t, k, uv[i], vv[j]);
+            if (tryNormals(p, toBase(b[0], b[1]), uc[i] | (vc[j] << 16), s)) improved = true;
+        }
+        if (!improved || s.error <= 0 || s.combo == g.combo) break;
+        g.combo = s.combo;
+        solvePlane(p, g);
+    }
+    return s;
+}
+
 /// Picks the face, projects the normals onto its plane and fits the lattice there.
-PlaneFit fitNormals(NormalPoints& p) {
+/// Only the starts in @p startMask (bit i: start i; start 0 always) are tried; @p afterFirst(fit)
+/// is called with the first start's fit, and when it returns true, the others are not.
+template <typename AfterFirst>
+PlaneFit fitNormals(NormalPoints& p, unsigned startMask, AfterFirst afterFirst) {
     // The face: the dominant axis of the mean normal (of the first normal if they cancel).
     Vec3 mean{};
     for (unsigned i = 0; i < p.count; ++i)
@@ -707,6 +1109,7 @@ PlaneFit fitNormals(NormalPoints& p) {
     const unsigned startCount = !(h1 > 1e-6) ? 1 : (h2 < 0.5 * h1 ? 6 : 5);  // equal normals need one
     PlaneFit best;
     for (unsigned i = 0; i < startCount; ++i) {
+        if (i > 0 && !((startMask >> i) & 1u)) continue;
         const Start& st = starts[i];
         PlaneFit fit;
         fit.bx = static_cast<float>(cx);
@@ -717,6 +1120,7 @@ PlaneFit fitNormals(NormalPoints& p) {
         fit.vy = static_cast<float>(st.v1 * e1y + st.v2 * e2y);
         fitPlane(p, fit);
         if (fit.error < best.error) best = fit;
+        if (i == 0 && afterFirst(fit)) break;
     }
     return best;
 }
@@ -743,6 +1147,72 @@ constexpr double kWideCos = 0.8660254, kDistinctCos = 0.99985;
 /// as good, (0.3°)² for wide ones.
 constexpr double kDegree2 = (std::numbers::pi / 180) * (std::numbers::pi / 180);
 constexpr double kNarrowThreshold = 1.0 * 1.0 * kDegree2, kWideThreshold = 0.3 * 0.3 * kDegree2;
+
+/// How hard the normal encoder searches (see AttributeEffort).
+struct NormalSearch {
+    /// The face-plane fit's starts (fitNormals).
+    unsigned startMask = 63;
+    /// Plane fit quantised by enumeration (quantiseFitFast) rather than by code search.
+    bool enumeratePlane = false;
+    /// Summed squared chord per used normal above which the 3-D search follows.
+    double narrowThreshold = kNarrowThreshold, wideThreshold = kWideThreshold;
+    /// The 3-D search: candidates refined at all, iterations for the best two of wide blocks,
+    /// whether a second candidate may be quantised, and how (code search, or enumeration
+    /// followed by that many passes of code search).
+    unsigned refined = 4;
+    int moreIterations = 6;
+    bool second = true;
+    bool enumerateModel = false;
+    int modelPasses = 3;
+    /// Below this error per normal (the plane fit's) the 3-D search runs with `light` instead.
+    double lightBelow = 0;
+    /// Below this error per normal (the face-plane fit's, unquantised) the first start's fit is
+    /// kept without trying the others (0: never).
+    double earlyBelow = 0;
+    /// quantiseFitFast's rounds and candidates measured per round.
+    int planeRounds = 2;
+    unsigned planeMeasured = 3;
+};
+
+/// The 3-D search of blocks of at most four distinct directions: Best's quantiser (whose
+/// lattice-line codes and second candidate keep any two directions within about a degree) with
+/// fewer refined candidates for the faster efforts.
+NormalSearch fewSearch(AttributeEffort effort) {
+    NormalSearch s;
+    if (effort == AttributeEffort::Best) return s;
+    const bool fast = effort == AttributeEffort::Fast;
+    s.wideThreshold = (fast ? 0.7 * 0.7 : 0.5 * 0.5) * kDegree2;
+    s.refined = 2;
+    s.moreIterations = fast ? 2 : 3;
+    return s;
+}
+
+/// The search of each effort (@p light: of the 3-D search of a block whose face-plane fit is
+/// already within lightBelow). Best is the original exhaustive search; the others were chosen
+/// on the real blocks of bench/attribute_encode_bench --scene (docs/esvo-format.md §14).
+NormalSearch normalSearch(AttributeEffort effort, bool light = false) {
+    NormalSearch s;
+    if (effort == AttributeEffort::Best) return s;
+    const bool fast = effort == AttributeEffort::Fast;
+    s.startMask = fast ? 0b10001u : 63u;  // Fast: the ¾-size start and the 45° one
+    // (Not Default: on nearly flat blocks the first start's small error says nothing of how well
+    // it quantises, and the other starts often quantise better.)
+    s.earlyBelow = fast ? 0.1 * 0.1 * kDegree2 : 0;
+    s.enumeratePlane = true;
+    s.planeRounds = fast ? 2 : 3;
+    s.planeMeasured = fast ? 2 : 3;
+    s.wideThreshold = (fast ? 0.7 * 0.7 : 0.5 * 0.5) * kDegree2;
+    s.enumerateModel = true;
+    s.modelPasses = fast ? 1 : 2;
+    s.lightBelow = (fast ? 2.0 * 2.0 : 1.0 * 1.0) * kDegree2;
+    if (light) {
+        s.refined = 2;
+        s.moreIterations = 2;
+        s.second = false;
+        s.modelPasses = 0;
+    }
+    return s;
+}
 
 /// An unquantised lattice: base b = x[0…2], axes u = x[3…5], v = x[6…8].
 using Model = std::array<double, 9>;
@@ -800,6 +1270,54 @@ bool solveSpd(std::array<std::array<double, 9>, 9>& m, std::array<double, 9>& r,
     return true;
 }
 
+/// The Gauss–Newton normal equations of the decoded error at model @p x with @p combo: the
+/// Jacobian of P̂ is (I − P̂P̂ᵀ)/|P|, and P is linear in x with the coefficients k = (1, cu, cv)
+/// on its three parts, so the normal matrix's 3×3 block of parts (s, t) is Σ k_s k_t M with
+/// M = (I − P̂P̂ᵀ)/|P|² (symmetric: six entries kept), for the parts in @p freeAxes (bit 0: u,
+/// bit 1: v; the base always); @p g is the gradient of half the error.
+struct NormalEquations {
+    std::array<std::array<double, 6>, 6> block{};  // part pairs (0,0) (1,0) (1,1) (2,0) (2,1) (2,2)
+    std::array<double, 9> g{};
+    /// Entry (row, col) of the 9×9 normal matrix.
+    [[nodiscard]] double h(unsigned row, unsigned col) const {
+        unsigned si = row / 3, ti = col / 3, c = row % 3, d = col % 3;
+        if (ti > si) std::swap(si, ti), std::swap(c, d);
+        // Each block is symmetric (a multiple of M), stored as (0,0) (1,0) (1,1) (2,0) (2,1) (2,2).
+        const unsigned lo = std::min(c, d), hi = std::max(c, d);
+        return block[si * (si + 1) / 2 + ti][hi * (hi + 1) / 2 + lo];
+    }
+};
+
+NormalEquations normalEquations(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, unsigned freeAxes) {
+    NormalEquations ne;
+    auto& block = ne.block;
+    auto& g = ne.g;
+    const bool used[3]{true, (freeAxes & 1u) != 0, (freeAxes & 2u) != 0};
+    for (unsigned i = 0; i < p.count; ++i) {
+        const double k[3]{1.0, esvo::kAxisWeights[combo[i] & 3], esvo::kAxisWeights[combo[i] >> 2]};
+        double q[3];
+        for (unsigned c = 0; c < 3; ++c) q[c] = x[c] + k[1] * x[3 + c] + k[2] * x[6 + c];
+        const double len2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+        if (!(len2 > 1e-24)) continue;
+        const double inv = 1.0 / std::sqrt(len2), inv2 = inv * inv;
+        for (double& c : q) c *= inv;
+        const double nd = p.n[i][0] * q[0] + p.n[i][1] * q[1] + p.n[i][2] * q[2];
+        const double m[6]{(1 - q[0] * q[0]) * inv2, -q[1] * q[0] * inv2, (1 - q[1] * q[1]) * inv2,
+                          -q[2] * q[0] * inv2,      -q[2] * q[1] * inv2, (1 - q[2] * q[2]) * inv2};
+        for (unsigned st = 0, si = 0; si < 3; ++si)
+            for (unsigned ti = 0; ti <= si; ++ti, ++st) {
+                if (!used[si] || !used[ti]) continue;
+                const double w = k[si] * k[ti];
+                for (unsigned e = 0; e < 6; ++e) block[st][e] += w * m[e];
+            }
+        for (unsigned c = 0; c < 3; ++c) {
+            const double r = -(p.n[i][c] - nd * q[c]) * inv;
+            for (unsigned si = 0; si < 3; ++si) g[3 * si + c] += k[si] * r;
+        }
+    }
+    return ne;
+}
+
 /// Levenberg–Marquardt on the decoded error Σ|P̂ − n|² (P = b + cu·u + cv·v, P̂ = P/|P|) over
 /// the base's two minor components and the axes in @p freeAxes (bit 0: u, bit 1: v); the base's
 /// dominant component stays ±1, which fixes the scale. Every step re-assigns each normal its
@@ -811,42 +1329,9 @@ double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>
     double lambda = 1e-3;
     for (int iteration = 0; iteration < iterations && error > 0; ++iteration) {
         const unsigned a = dominantAxis(x);
-        // Gauss–Newton: the Jacobian of P̂ is (I − P̂P̂ᵀ)/|P|, and P is linear in x with the
-        // coefficients k = (1, cu, cv) on its three parts, so the normal matrix's 3×3 block of
-        // parts (s, t) is Σ k_s k_t M with M = (I − P̂P̂ᵀ)/|P|² (symmetric: six entries kept).
-        const bool used[3]{true, (freeAxes & 1u) != 0, (freeAxes & 2u) != 0};
-        std::array<std::array<double, 6>, 6> block{};  // pairs (0,0) (1,0) (1,1) (2,0) (2,1) (2,2)
-        std::array<double, 9> g{};
-        for (unsigned i = 0; i < p.count; ++i) {
-            const double k[3]{1.0, esvo::kAxisWeights[combo[i] & 3], esvo::kAxisWeights[combo[i] >> 2]};
-            double q[3];
-            for (unsigned c = 0; c < 3; ++c) q[c] = x[c] + k[1] * x[3 + c] + k[2] * x[6 + c];
-            const double len2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
-            if (!(len2 > 1e-24)) continue;
-            const double inv = 1.0 / std::sqrt(len2), inv2 = inv * inv;
-            for (double& c : q) c *= inv;
-            const double nd = p.n[i][0] * q[0] + p.n[i][1] * q[1] + p.n[i][2] * q[2];
-            const double m[6]{(1 - q[0] * q[0]) * inv2, -q[1] * q[0] * inv2, (1 - q[1] * q[1]) * inv2,
-                              -q[2] * q[0] * inv2,      -q[2] * q[1] * inv2, (1 - q[2] * q[2]) * inv2};
-            for (unsigned st = 0, si = 0; si < 3; ++si)
-                for (unsigned ti = 0; ti <= si; ++ti, ++st) {
-                    if (!used[si] || !used[ti]) continue;
-                    const double w = k[si] * k[ti];
-                    for (unsigned e = 0; e < 6; ++e) block[st][e] += w * m[e];
-                }
-            for (unsigned c = 0; c < 3; ++c) {
-                const double r = -(p.n[i][c] - nd * q[c]) * inv;
-                for (unsigned si = 0; si < 3; ++si) g[3 * si + c] += k[si] * r;
-            }
-        }
-        // Entry (row, col) of the 9×9 normal matrix from the blocks.
-        const auto h = [&](unsigned row, unsigned col) {
-            unsigned si = row / 3, ti = col / 3, c = row % 3, d = col % 3;
-            if (ti > si) std::swap(si, ti), std::swap(c, d);
-            // Each block is symmetric (a multiple of M), stored as (0,0) (1,0) (1,1) (2,0) (2,1) (2,2).
-            const unsigned lo = std::min(c, d), hi = std::max(c, d);
-            return block[si * (si + 1) / 2 + ti][hi * (hi + 1) / 2 + lo];
-        };
+        const NormalEquations ne = normalEquations(p, x, combo, freeAxes);
+        const auto& g = ne.g;
+        const auto h = [&](unsigned row, unsigned col) { return ne.h(row, col); };
         std::array<unsigned, 8> index{};
         unsigned n = 0;
         for (unsigned c = 0; c < 3; ++c)
@@ -854,16 +1339,19 @@ double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>
         for (unsigned axis = 0; axis < 2; ++axis)
             if ((freeAxes >> axis) & 1u)
                 for (unsigned c = 0; c < 3; ++c) index[n++] = 3 + 3 * axis + c;
+        // The lower triangle of the free variables' normal matrix, gathered once for all attempts.
+        std::array<std::array<double, 9>, 9> normal{};
+        for (unsigned j = 0; j < n; ++j)
+            for (unsigned l = 0; l <= j; ++l) normal[j][l] = h(index[j], index[l]);
         double trace = 0;
-        for (unsigned j = 0; j < n; ++j) trace += h(index[j], index[j]);
+        for (unsigned j = 0; j < n; ++j) trace += normal[j][j];
         const double floor = 1e-9 * trace / n + 1e-30;
         bool accepted = false;
         double gain = 0;
         for (int attempt = 0; attempt < 4 && !accepted; ++attempt) {
-            std::array<std::array<double, 9>, 9> m{};
+            std::array<std::array<double, 9>, 9> m = normal;
             std::array<double, 9> step{};
             for (unsigned j = 0; j < n; ++j) {
-                for (unsigned l = 0; l <= j; ++l) m[j][l] = h(index[j], index[l]);
                 m[j][j] = m[j][j] * (1 + lambda) + floor;
                 step[j] = -g[index[j]];
             }
@@ -973,6 +1461,130 @@ NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::arra
         encode(y);
     }
     searchCodes(p, s, thorough ? 3 : 2);
+    return s;
+}
+
+/// Up to sixteen codes of a 3-D axis @p a: at the smallest exponent that holds it and the next,
+/// each component rounded down and up.
+unsigned axisCandidates3(const Vec3& a, std::array<std::uint32_t, 16>& codes) {
+    const int e0 = static_cast<int>(esvo::encodeAxis(a) >> 12);
+    unsigned n = 0;
+    for (int e = e0; e <= std::min(e0 + 1, 15); ++e) {
+        const float step = std::bit_cast<float>(static_cast<std::uint32_t>(e + 127 - 13) << 23);
+        std::array<std::array<int, 2>, 3> m{};
+        for (unsigned c = 0; c < 3; ++c) {
+            const float q = a[c] / step;
+            m[c] = {std::clamp(static_cast<int>(std::floor(q)), -8, 7), std::clamp(static_cast<int>(std::ceil(q)), -8, 7)};
+        }
+        for (unsigned bits = 0; bits < 8; ++bits) {
+            std::uint32_t code = static_cast<std::uint32_t>(e) << 12;
+            for (unsigned c = 0; c < 3; ++c) code |= (static_cast<std::uint32_t>(m[c][(bits >> c) & 1u]) & 15u) << (4 * c);
+            if (std::find(codes.begin(), codes.begin() + n, code) == codes.begin() + n) codes[n++] = code;
+        }
+    }
+    return n;
+}
+
+/// quantiseModel by enumeration: the decoded error near the model, with its combos, is the
+/// Gauss–Newton quadratic E + 2gᵀδ + δᵀHδ; with the base's minor components at their best for
+/// the axes (the Schur complement), every pair of candidate axis codes (axisCandidates3) is
+/// scored in constant time, and the best @p measured are measured with that base; then the
+/// lattice-line codes as quantiseModel tries them, and @p passes of searchCodes.
+NormalState quantiseModelFast(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, unsigned measured, int passes) {
+    NormalState s;
+    tryNormals(p, esvo::encodeNormal(modelPart(x, 0)), esvo::encodeAxis(modelPart(x, 1)) | (esvo::encodeAxis(modelPart(x, 2)) << 16), s);
+    const unsigned a = dominantAxis(x);
+    const NormalEquations ne = normalEquations(p, x, combo, 3);
+    // Variables: base minor components b0, b1 (rows 0, 1) and the six axis components (2…7).
+    std::array<unsigned, 8> var{};
+    for (unsigned c = 0, n = 0; c < 3; ++c)
+        if (c != a) var[n++] = c;
+    for (unsigned j = 0; j < 6; ++j) var[2 + j] = 3 + j;
+    const auto H = [&](unsigned r, unsigned c) { return ne.h(var[r], var[c]); };
+    const double hb00 = H(0, 0), hb01 = H(0, 1), hb11 = H(1, 1), det = hb00 * hb11 - hb01 * hb01;
+    if (det > 1e-300 && s.error > 0) {
+        const double ib00 = hb11 / det, ib01 = -hb01 / det, ib11 = hb00 / det;
+        // Ĥ = Haa − Hab Hbb⁻¹ Hba, ĝ = ga − Hab Hbb⁻¹ gb (axis part, 6×6 and 6).
+        std::array<std::array<double, 6>, 6> hh{};
+        std::array<double, 6> gh{};
+        std::array<std::array<double, 2>, 6> hbiT{};  // (Hbb⁻¹ Hba)ᵀ: row j = Hbb⁻¹ Hb,j
+        for (unsigned j = 0; j < 6; ++j) {
+            const double h0 = H(0, 2 + j), h1 = H(1, 2 + j);
+            hbiT[j] = {ib00 * h0 + ib01 * h1, ib01 * h0 + ib11 * h1};
+        }
+        const double gb0 = ne.g[var[0]], gb1 = ne.g[var[1]];
+        for (unsigned i = 0; i < 6; ++i) {
+            const double hi0 = H(2 + i, 0), hi1 = H(2 + i, 1);
+            for (unsigned j = 0; j < 6; ++j) hh[i][j] = H(2 + i, 2 + j) - (hi0 * hbiT[j][0] + hi1 * hbiT[j][1]);
+            gh[i] = ne.g[var[2 + i]] - (hi0 * (ib00 * gb0 + ib01 * gb1) + hi1 * (ib01 * gb0 + ib11 * gb1));
+        }
+        std::array<std::uint32_t, 16> uc{}, vc{};
+        const unsigned nu = axisCandidates3(modelPart(x, 1), uc), nv = axisCandidates3(modelPart(x, 2), vc);
+        std::array<std::array<double, 3>, 16> du{}, dv{}, cv{};
+        std::array<double, 16> au{}, bv{};
+        for (unsigned i = 0; i < nu; ++i) {
+            const Vec3 d = esvo::decodeAxis(uc[i]);
+            for (unsigned c = 0; c < 3; ++c) du[i][c] = d[c] - x[3 + c];
+            double q = 0;
+            for (unsigned r = 0; r < 3; ++r) q += du[i][r] * (2 * gh[r] + hh[r][0] * du[i][0] + hh[r][1] * du[i][1] + hh[r][2] * du[i][2]);
+            au[i] = q;
+        }
+        for (unsigned j = 0; j < nv; ++j) {
+            const Vec3 d = esvo::decodeAxis(vc[j]);
+            for (unsigned c = 0; c < 3; ++c) dv[j][c] = d[c] - x[6 + c];
+            double q = 0;
+            for (unsigned r = 0; r < 3; ++r) q += dv[j][r] * (2 * gh[3 + r] + hh[3 + r][3] * dv[j][0] + hh[3 + r][4] * dv[j][1] + hh[3 + r][5] * dv[j][2]);
+            bv[j] = q;
+            for (unsigned r = 0; r < 3; ++r) cv[j][r] = hh[r][3] * dv[j][0] + hh[r][4] * dv[j][1] + hh[r][5] * dv[j][2];
+        }
+        struct Scored {
+            double error;
+            unsigned i, j;
+        };
+        std::array<Scored, 256> scored{};
+        unsigned n = 0;
+        for (unsigned i = 0; i < nu; ++i)
+            for (unsigned j = 0; j < nv; ++j)
+                scored[n++] = {au[i] + bv[j] + 2 * (du[i][0] * cv[j][0] + du[i][1] * cv[j][1] + du[i][2] * cv[j][2]), i, j};
+        const unsigned keep = std::min(measured, n);
+        std::partial_sort(scored.begin(), scored.begin() + keep, scored.begin() + n, [](const Scored& l, const Scored& r) {
+            return l.error < r.error || (l.error == r.error && (l.i < r.i || (l.i == r.i && l.j < r.j)));
+        });
+        for (unsigned m = 0; m < keep; ++m) {
+            // δb = −Hbb⁻¹ (gb + Hba δa).
+            std::array<double, 6> da{};
+            for (unsigned c = 0; c < 3; ++c) da[c] = du[scored[m].i][c], da[3 + c] = dv[scored[m].j][c];
+            double r0 = gb0, r1 = gb1;
+            for (unsigned j = 0; j < 6; ++j) r0 += H(0, 2 + j) * da[j], r1 += H(1, 2 + j) * da[j];
+            Vec3 b = modelPart(x, 0);
+            b[var[0]] -= static_cast<float>(ib00 * r0 + ib01 * r1);
+            b[var[1]] -= static_cast<float>(ib01 * r0 + ib11 * r1);
+            tryNormals(p, esvo::encodeNormal(b), uc[scored[m].i] | (vc[scored[m].j] << 16), s);
+        }
+    }
+    // The lattice-line codes (see quantiseModel).
+    std::array<std::uint8_t, 16> c0 = combo;
+    modelError(p, x, c0);
+    for (unsigned line = 1; line <= 2; ++line) {
+        const unsigned other = 3 - line;
+        const auto weight = [&](std::uint8_t k) { return other == 1 ? (k & 3u) : (k >> 2); };
+        bool single = true;
+        for (unsigned i = 1; i < p.count; ++i) single = single && weight(c0[i]) == weight(c0[0]);
+        if (!single) continue;
+        Model y = x;
+        const auto roundPart = [](Model& z, unsigned part) {
+            const Vec3 q = esvo::decodeAxis(esvo::encodeAxis(modelPart(z, part)));
+            for (unsigned c = 0; c < 3; ++c) z[3 * part + c] = q[c];
+        };
+        for (unsigned k = 0; k < 3; ++k) y[k] += esvo::kAxisWeights[weight(c0[0])] * y[3 * other + k];
+        roundPart(y, line);
+        for (unsigned k = 0; k < 3; ++k) y[3 * other + k] = x[3 * line + k] - y[3 * line + k];
+        roundPart(y, other);
+        std::array<std::uint8_t, 16> c{};
+        refineModel(p, y, c, 0, 3, modelError(p, y, c));
+        tryNormals(p, esvo::encodeNormal(modelPart(y, 0)), esvo::encodeAxis(modelPart(y, 1)) | (esvo::encodeAxis(modelPart(y, 2)) << 16), s);
+    }
+    if (passes > 0) searchCodes(p, s, passes);
     return s;
 }
 
@@ -1171,8 +1783,7 @@ Model planeModel(const NormalPoints& p, const PlaneFit& f) {
 /// kSecondRatio of the best's, or when the best quantised lost more than kQuantisationLoss times
 /// the second's error (some lattices quantise far worse than others equally good: two axes of
 /// one size against one axis on a line).
-constexpr unsigned kRefined = 4;
-constexpr int kFirstIterations = 2, kMoreIterations = 6, kNarrowMoreIterations = 2;
+constexpr int kFirstIterations = 2, kNarrowMoreIterations = 2;
 constexpr double kSecondRatio = 1.5, kQuantisationLoss = 4;
 
 /// Sorts @p c[0…count) by error (stable, so deterministic on ties).
@@ -1183,7 +1794,7 @@ void sortCandidates(std::array<Candidate, 10>& c, unsigned count) {
 /// The 3-D search: candidate models from the face-plane fit @p f and (for wide blocks, see
 /// kWideCos) from clusters of the normals, the best refined; the best one or two quantised. Replaces @p s
 /// where one decodes better.
-void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, NormalState& s) {
+void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, const NormalSearch& search, NormalState& s) {
     std::array<Candidate, 10> all{};
     unsigned count = 0;
     const auto consider = [&](Model x) {
@@ -1200,21 +1811,23 @@ void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, NormalState& s) 
             for (unsigned m = 0; m < n; ++m) consider(models[m]);
         });
     sortCandidates(all, count);
-    count = std::min(count, kRefined);
+    count = std::min(count, search.refined);
     for (unsigned i = 0; i < count; ++i) all[i].error = refineModel(p, all[i].x, all[i].combo, 3, kFirstIterations, all[i].error);
     sortCandidates(all, count);
     count = std::min(count, 2u);
     for (unsigned i = 0; i < count; ++i)
-        all[i].error = refineModel(p, all[i].x, all[i].combo, 3, wide ? kMoreIterations : kNarrowMoreIterations, all[i].error);
+        all[i].error = refineModel(p, all[i].x, all[i].combo, 3, wide ? search.moreIterations : kNarrowMoreIterations, all[i].error);
     sortCandidates(all, count);
     for (unsigned i = 0; i < count && s.error > 0; ++i) {
-        if (i > 0 && all[i].error > kSecondRatio * all[0].error && !(s.error > kQuantisationLoss * all[i].error)) break;
-        const NormalState q = quantiseModel(p, all[i].x, all[i].combo, wide);
+        if (i > 0 && (!search.second || (all[i].error > kSecondRatio * all[0].error && !(s.error > kQuantisationLoss * all[i].error)))) break;
+        const NormalState q = search.enumerateModel ? quantiseModelFast(p, all[i].x, all[i].combo, 3, wide ? search.modelPasses : 0)
+                                                    : quantiseModel(p, all[i].x, all[i].combo, wide);
         if (q.error < s.error) s = q;
     }
 }
 
-NormalState encodeNormals(NormalPoints& p) {
+NormalState encodeNormals(NormalPoints& p, AttributeEffort effort) {
+    const NormalSearch search = normalSearch(effort);
     // One direction (flat surfaces: common): the cube-face code itself, zero axes.
     bool equal = true;
     for (unsigned i = 1; i < p.count && equal; ++i) equal = p.n[i] == p.n[0];
@@ -1224,13 +1837,16 @@ NormalState encodeNormals(NormalPoints& p) {
         s.error = 0;
         return s;
     }
-    const PlaneFit f = fitNormals(p);
-    NormalState s = quantiseFit(p, f);
+    // Early exit (Fast): where the first start already fits within the threshold, the others are
+    // not tried.
+    const PlaneFit f = fitNormals(p, search.startMask, [&](const PlaneFit& first) { return first.error <= search.earlyBelow * p.count; });
+    NormalState s = search.enumeratePlane ? quantiseFitFast(p, f, search.planeRounds, search.planeMeasured) : quantiseFit(p, f);
     // Wide: some normal more than 30° from the outermost one; or few distinct directions.
     const Dir first = toDir(p.n[outermost(p)]);
     bool wide = false;
     for (unsigned i = 0; i < p.count; ++i) wide = wide || dot(toDir(p.n[i]), first) < kWideCos;
-    if (!wide) {
+    bool few = false;
+    if (!wide || search.lightBelow > 0) {
         std::array<Dir, 5> distinct{};
         unsigned count = 0;
         for (unsigned i = 0; i < p.count && count <= 4; ++i) {
@@ -1239,9 +1855,17 @@ NormalState encodeNormals(NormalPoints& p) {
             for (unsigned j = 0; j < count && !known; ++j) known = dot(n, distinct[j]) >= kDistinctCos;
             if (!known) distinct[count++] = n;
         }
-        wide = count <= 4;
+        few = count <= 4;
+        wide = wide || few;
     }
-    if (s.error > (wide ? kWideThreshold : kNarrowThreshold) * p.count) fit3d(p, f, wide, s);
+    // Few distinct directions (edges, corners, sheets, any two directions) have near-exact
+    // lattices, which the lighter searches miss: every effort quantises them as Best does.
+    if (few) {
+        const NormalSearch fs = fewSearch(effort);
+        if (s.error > fs.wideThreshold * p.count) fit3d(p, f, true, fs, s);
+    } else if (s.error > (wide ? search.wideThreshold : search.narrowThreshold) * p.count) {
+        fit3d(p, f, wide, s.error < search.lightBelow * p.count ? normalSearch(effort, true) : search, s);
+    }
     return s;
 }
 
@@ -1253,7 +1877,7 @@ esvo::Vec3 unitOrZ(const esvo::Vec3& n) {
 
 }  // namespace
 
-std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask) {
+std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask, AttributeEffort effort) {
     ColorPoints p;
     for (unsigned slot = 0; slot < 16; ++slot) {
         if (!((usedMask >> slot) & 1u)) continue;
@@ -1262,13 +1886,15 @@ std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16
         ++p.count;
     }
     if (p.count == 0) return {0, 0};
-    const ColorState s = encodeColors(p);
+    for (unsigned i = 0; i < 16; ++i)
+        for (unsigned ch = 0; ch < 3; ++ch) p.channel[ch][i] = static_cast<float>(p.rgb[i < p.count ? i : 0][ch]);
+    const ColorState s = encodeColors(p, effort);
     std::uint32_t indices = 0;
     for (unsigned i = 0; i < p.count; ++i) indices |= std::uint32_t{s.index[i]} << (2 * p.slot[i]);
     return {s.c0 | (s.c1 << 16), indices};
 }
 
-std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask) {
+std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask, AttributeEffort effort) {
     NormalPoints p;
     for (unsigned slot = 0; slot < 16; ++slot) {
         if (!((usedMask >> slot) & 1u)) continue;
@@ -1277,7 +1903,7 @@ std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>&
         ++p.count;
     }
     if (p.count == 0) return {esvo::encodeNormal({0, 0, 1}), 0, 0, 0};
-    const NormalState s = encodeNormals(p);
+    const NormalState s = encodeNormals(p, effort);
     std::uint32_t uIndices = 0, vIndices = 0;
     for (unsigned i = 0; i < p.count; ++i) {
         uIndices |= (std::uint32_t{s.combo[i]} & 3u) << (2 * p.slot[i]);
@@ -1286,15 +1912,15 @@ std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>&
     return {s.base, uIndices, s.axes, vIndices};
 }
 
-esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>& values, std::uint32_t usedMask) {
+esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>& values, std::uint32_t usedMask, AttributeEffort effort) {
     std::array<std::uint32_t, 16> colors{};
     std::array<esvo::Vec3, 16> normals{};
     for (unsigned slot = 0; slot < 16; ++slot) {
         colors[slot] = static_cast<std::uint32_t>(values[slot]);
         normals[slot] = esvo::decodeNormal(static_cast<std::uint32_t>(values[slot] >> 32));
     }
-    const auto c = encodeColorBlock(colors, usedMask);
-    const auto n = encodeNormalBlock(normals, usedMask);
+    const auto c = encodeColorBlock(colors, usedMask, effort);
+    const auto n = encodeNormalBlock(normals, usedMask, effort);
     return {c[0], c[1], n[0], n[1], n[2], n[3]};
 }
 
