@@ -63,22 +63,21 @@ double pointTriangleDistance(Vec3d p, Vec3d a, Vec3d b, Vec3d c) {
 
 ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c, double h,
                       ContourScratch& scratch) {
-    auto& points = scratch.points;
-    points.clear();
-    const double toLocal = 0.5 / h;
+    scratch.fragments.clip(list, triangles, c, fitContourScale(h));
+    return fitContour(scratch.fragments, list, triangles);
+}
+
+ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles) {
     Vec3d mean{0, 0, 0};
     struct Candidate {
         double area;
         Vec3d normal;
     };
     std::array<Candidate, 3> largest{};
-    for (std::uint32_t t : list) {
-        const BoxTestTriangle& tri = triangles[t];
-        const std::size_t before = points.size();
-        clipToUnitCube({(tri.v0 - c) * toLocal, (tri.v1 - c) * toLocal, (tri.v2 - c) * toLocal}, points, scratch.clipA, scratch.clipB);
+    for (std::size_t entry = 0; entry < list.size(); ++entry) {
+        const BoxTestTriangle& tri = triangles[list[entry]];
         // Fragment area (fan) weighs the triangle's unit normal.
-        double area = 0;
-        for (std::size_t i = before + 2; i < points.size(); ++i) area += 0.5 * length(cross(points[i - 1] - points[before], points[i] - points[before]));
+        const double area = fragments.area[entry];
         const double nl = length(tri.normal);
         if (!(nl > 0) || area <= 0) continue;
         const Vec3d unit = tri.normal * (1.0 / nl);
@@ -90,11 +89,18 @@ ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<Box
         }
     }
     ContourFit best;
+    const std::span<const Vec3d> points = fragments.points;
     if (points.empty()) return best;
     double bestRatio = 0.9;  // a contour must cut at least 10 % off the cube along its normal
+    // A quantised normal met before gives the same slab and ratio again, which cannot beat itself.
+    std::array<std::array<int, 3>, 4> tried;
+    std::size_t triedCount = 0;
     const auto consider = [&](Vec3d direction) {
         const auto n = quantiseNormal(direction);
         if (n[0] == 0 && n[1] == 0 && n[2] == 0) return;
+        for (std::size_t i = 0; i < triedCount; ++i)
+            if (tried[i] == n) return;
+        tried[triedCount++] = n;
         double thickness = 0;
         const std::uint32_t encoded = encodeSlab(n, points, thickness);
         if (!encoded) return;

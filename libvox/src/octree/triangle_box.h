@@ -11,9 +11,10 @@
 
 #include <algorithm>
 #include <array>
-#include <vector>
 #include <cmath>
 #include <cstdint>
+#include <span>
+#include <vector>
 
 namespace vox::detail {
 
@@ -70,50 +71,135 @@ struct BoxTestTriangle {
     return true;
 }
 
+namespace child_mask {
+
+/// Slots (bit 0 of a slot: +x, bit 1: +y, bit 2: +z) by the sign of their centre's offset along
+/// two axes: kBoth[axis pair][s1][s2] (s = 1: the + side).
+struct SlotPair {
+    std::uint32_t pp, mm, pm, mp;  ///< (+,+), (−,−), (+,−), (−,+)
+};
+inline constexpr SlotPair kYZ{0xC0, 0x03, 0x0C, 0x30};  // bits 1 and 2
+inline constexpr SlotPair kXZ{0xA0, 0x05, 0x0A, 0x50};  // bits 0 and 2
+inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
+
+/// The slots of @p pair whose centre projection σ1·u1 + σ2·u2 (σ: ±1 by the slot's bits) lies in
+/// [low, high]. The four sums are those the three-term sum ((±u0) + (±u1)) + (±u2) of
+/// childOverlapMask's reference form gives when one of its terms is zero: negating an operand or a
+/// sum is exact, so ±(u1 + u2) and ±(u1 − u2) are the values it rounds to.
+[[nodiscard]] inline std::uint32_t keepPair(double u1, double u2, double low, double high, SlotPair pair) {
+    const double w = u1 + u2, v = u1 - u2;
+    std::uint32_t keep = 0;
+    keep |= (w >= low && w <= high) ? pair.pp : 0u;
+    keep |= (-w >= low && -w <= high) ? pair.mm : 0u;
+    keep |= (v >= low && v <= high) ? pair.pm : 0u;
+    keep |= (-v >= low && -v <= high) ? pair.mp : 0u;
+    return keep;
+}
+
+}  // namespace child_mask
+
 /// The children of the closed cube with centre @p c and half-extent @p h that @p tri overlaps,
 /// as a slot mask (bit 0 of a slot: +x half, bit 1: +y, bit 2: +z). The same test as
 /// triangleOverlapsCube for each child, sharing the triangle's projections among the eight.
+///
+/// Child s's centre projects onto axis A at q·(±A.x ± A.y ± A.z); its radius is q·|A|₁. The child
+/// is not separated on A while that centre lies within the triangle's projection grown by the
+/// radius and the margin (the same comparison as separated(), solved for the centre). Every
+/// quantity is evaluated exactly as in the straightforward form (one projection per axis and
+/// child, axes in the order box, plane, edges): terms that are products with a zero axis component
+/// are left out, which changes no value but the sign of a zero, and no comparison sees that sign.
+///
+/// The nine edge axes are skipped where they cannot separate any child still in the mask: when
+/// the triangle (as the rounded vertices a, b, d below) lies inside the cube and the box axes
+/// leave one child, it lies inside that child; when they leave two, split by one mid-plane that the
+/// triangle reaches on both sides (lo ≤ 0 ≤ hi), it meets both. A triangle meeting a child has
+/// overlapping projections on every axis, and with every coordinate within h of the centre the
+/// rounding of the projections (≲ 2⁻⁵¹ of the child's radius) stays far below the separation margin
+/// (10⁻⁹ of it). The plane axis is always tested: its normal comes from the unrounded vertices.
 [[nodiscard]] inline std::uint32_t childOverlapMask(const BoxTestTriangle& tri, Vec3d c, double h) {
     const double q = 0.5 * h;  // children's half-extent; their centres are c ± q per axis
     const Vec3d a = tri.v0 - c, b = tri.v1 - c, d = tri.v2 - c;
     std::uint32_t mask = 0xFF;
     static constexpr std::uint32_t kLowHalf[3] = {0x55, 0x33, 0x0F};  // slots with the axis bit clear
+    bool inside = true;  // the triangle's bounding box lies within the cube
+    int splits = 0;      // axes on which both halves are kept
+    double splitLo = 0, splitHi = 0;
     for (int axis = 0; axis < 3; ++axis) {
         const double lo = std::min({a[axis], b[axis], d[axis]});
         const double hi = std::max({a[axis], b[axis], d[axis]});
         const double magnitude = std::max(std::abs(lo), std::abs(hi));
-        if (separated(lo + q, hi + q, q, magnitude)) mask &= ~kLowHalf[axis];
-        if (separated(lo - q, hi - q, q, magnitude)) mask &= kLowHalf[axis];
+        const bool lowSeparated = separated(lo + q, hi + q, q, magnitude);
+        const bool highSeparated = separated(lo - q, hi - q, q, magnitude);
+        if (lowSeparated) mask &= ~kLowHalf[axis];
+        if (highSeparated) mask &= kLowHalf[axis];
         if (mask == 0) return 0;
+        inside = inside && lo >= -h && hi <= h;
+        if (!lowSeparated && !highSeparated) {
+            ++splits;
+            splitLo = lo;
+            splitHi = hi;
+        }
     }
-    // Child s's centre projects onto axis A at q·(±A.x ± A.y ± A.z); its radius is q·|A|₁. The
-    // child is not separated on A while that centre lies within the triangle's projection grown
-    // by the radius and the margin (the same comparison as separated(), solved for the centre).
-    const auto testAxis = [&](Vec3d axisVector, double pmin, double pmax, double magnitude) {
-        const double ax = q * axisVector.x, ay = q * axisVector.y, az = q * axisVector.z;
+    // Triangle plane: child s's centre projects at ((±nx) + (±ny)) + (±nz), scaled by q (exact).
+    {
+        const Vec3d& n = tri.normal;
+        const double s = dot(n, a);
+        const double ax = q * n.x, ay = q * n.y, az = q * n.z;
         const double r = std::abs(ax) + std::abs(ay) + std::abs(az);
-        const double grow = r + 1e-9 * (r + magnitude);
-        const double low = pmin - grow, high = pmax + grow;
-        for (std::uint32_t bits = mask; bits; bits &= bits - 1) {
-            const auto slot = static_cast<std::uint32_t>(__builtin_ctz(bits));
-            const double cp = (slot & 1u ? ax : -ax) + (slot & 2u ? ay : -ay) + (slot & 4u ? az : -az);
-            if (cp < low || cp > high) mask &= ~(1u << slot);
+        const double grow = r + 1e-9 * (r + std::abs(s));
+        const double low = s - grow, high = s + grow;
+        // The eight centres: ±v7, ±v3, ±v6, ±v5 (slots 7/0, 3/4, 6/1, 5/2).
+        const double t1 = ax + ay, t2 = ay - ax;  // slot x+y+ and x−y+ partial sums
+        const double v7 = t1 + az, v3 = t1 - az, v6 = t2 + az, v5 = az - t2;
+        std::uint32_t keep = 0;
+        keep |= (v7 >= low && v7 <= high) ? 0x80u : 0u;
+        keep |= (-v7 >= low && -v7 <= high) ? 0x01u : 0u;
+        keep |= (v3 >= low && v3 <= high) ? 0x08u : 0u;
+        keep |= (-v3 >= low && -v3 <= high) ? 0x10u : 0u;
+        keep |= (v6 >= low && v6 <= high) ? 0x40u : 0u;
+        keep |= (-v6 >= low && -v6 <= high) ? 0x02u : 0u;
+        keep |= (v5 >= low && v5 <= high) ? 0x20u : 0u;
+        keep |= (-v5 >= low && -v5 <= high) ? 0x04u : 0u;
+        mask &= keep;
+    }
+    if (mask == 0) return 0;
+    if (inside && (splits == 0 || (splits == 1 && splitLo <= 0 && splitHi >= 0))) return mask;
+    // Edge × axis, in leaf units relative to c: e × x = (0, e.z, −e.y), e × y = (−e.z, 0, e.x),
+    // e × z = (e.y, −e.x, 0).
+    const auto edgeAxes = [&](Vec3d e) {
+        {
+            const double pa = e.z * a.y - e.y * a.z, pb = e.z * b.y - e.y * b.z, pd = e.z * d.y - e.y * d.z;
+            const double uy = q * e.z, uz = q * -e.y;
+            const double r = std::abs(uy) + std::abs(uz);
+            const double grow = r + 1e-9 * (r + (std::abs(pa) + std::abs(pb) + std::abs(pd)));
+            mask &= child_mask::keepPair(uy, uz, std::min({pa, pb, pd}) - grow, std::max({pa, pb, pd}) + grow, child_mask::kYZ);
+        }
+        {
+            const double pa = e.x * a.z - e.z * a.x, pb = e.x * b.z - e.z * b.x, pd = e.x * d.z - e.z * d.x;
+            const double ux = q * -e.z, uz = q * e.x;
+            const double r = std::abs(ux) + std::abs(uz);
+            const double grow = r + 1e-9 * (r + (std::abs(pa) + std::abs(pb) + std::abs(pd)));
+            mask &= child_mask::keepPair(ux, uz, std::min({pa, pb, pd}) - grow, std::max({pa, pb, pd}) + grow, child_mask::kXZ);
+        }
+        {
+            const double pa = e.y * a.x - e.x * a.y, pb = e.y * b.x - e.x * b.y, pd = e.y * d.x - e.x * d.y;
+            const double ux = q * e.y, uy = q * -e.x;
+            const double r = std::abs(ux) + std::abs(uy);
+            const double grow = r + 1e-9 * (r + (std::abs(pa) + std::abs(pb) + std::abs(pd)));
+            mask &= child_mask::keepPair(ux, uy, std::min({pa, pb, pd}) - grow, std::max({pa, pb, pd}) + grow, child_mask::kXY);
         }
     };
-    const double s = dot(tri.normal, a);
-    testAxis(tri.normal, s, s, std::abs(s));
-    const Vec3d edges[3] = {b - a, d - b, a - d};
-    for (const Vec3d& e : edges) {
-        if (mask == 0) return 0;
-        for (const Vec3d axisVector : {Vec3d{0, e.z, -e.y}, Vec3d{-e.z, 0, e.x}, Vec3d{e.y, -e.x, 0}}) {
-            const double pa = dot(axisVector, a), pb = dot(axisVector, b), pd = dot(axisVector, d);
-            testAxis(axisVector, std::min({pa, pb, pd}), std::max({pa, pb, pd}), std::abs(pa) + std::abs(pb) + std::abs(pd));
-        }
-    }
+    edgeAxes(b - a);
+    if (mask == 0) return 0;
+    edgeAxes(d - b);
+    if (mask == 0) return 0;
+    edgeAxes(a - d);
     return mask;
 }
 
 /// Clips a triangle to the cube [−½, ½]³ (Sutherland–Hodgman), appending the polygon to @p out.
+/// Planes that no vertex of the polygon so far lies beyond are skipped: their pass would copy it
+/// unchanged.
 inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out, std::array<Vec3d, 12>& bufferA,
                     std::array<Vec3d, 12>& bufferB) {
     bool inside = true;
@@ -126,14 +212,22 @@ inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec
     Vec3d* b = bufferB.data();
     std::size_t n = 3;
     std::copy(triangle.begin(), triangle.end(), a);
+    std::array<double, 12> distance;
     for (int axis = 0; axis < 3 && n > 0; ++axis)
         for (double side : {-1.0, 1.0}) {
             // Keep side·p[axis] ≤ ½.
+            bool beyond = false;
+            for (std::size_t i = 0; i < n; ++i) {
+                distance[i] = side * a[i][axis] - 0.5;
+                beyond = beyond || distance[i] > 0;
+            }
+            if (!beyond) continue;
             std::size_t m = 0;
             for (std::size_t i = 0; i < n && m + 2 <= bufferA.size(); ++i) {
+                const std::size_t j = i + 1 == n ? 0 : i + 1;
                 const Vec3d& p = a[i];
-                const Vec3d& q = a[i + 1 == n ? 0 : i + 1];
-                const double dp = side * p[axis] - 0.5, dq = side * q[axis] - 0.5;
+                const Vec3d& q = a[j];
+                const double dp = distance[i], dq = distance[j];
                 if (dp <= 0) b[m++] = p;
                 if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) b[m++] = p + (q - p) * (dp / (dp - dq));
             }
@@ -143,5 +237,51 @@ inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec
         }
     out.insert(out.end(), a, a + n);
 }
+
+/// The polygons that the triangles of a list cut out of one cube, in the cube's local frame
+/// ([−½, ½]³, reached by (p − c)·toLocal), with their fan areas: what the contour fit and the
+/// attribute filter both read, so that a voxel that needs both clips its triangles once.
+struct CubeFragments {
+    std::vector<Vec3d> points;         ///< every polygon's vertices, one polygon after another
+    std::vector<std::uint32_t> begin;  ///< per list entry: its polygon's first point; one more entry: the end
+    /// Per point j from a polygon's third vertex on: 0.5·|(p[j−1] − p[0]) × (p[j] − p[0])|, the area
+    /// of its fan triangle (p[0], p[j−1], p[j]); 0 for the first two.
+    std::vector<double> fanArea;
+    std::vector<double> area;          ///< per list entry: its polygon's area, the sum of its fan areas in order
+    Vec3d centre{0, 0, 0};
+    double toLocal = 0;
+    std::array<Vec3d, 12> clipA{}, clipB{};  // clipping ping-pong buffers (zeroed once, not per triangle)
+
+    /// Clips the triangles @p list of @p triangles to the cube of centre @p c, scaled by @p scale
+    /// (1 / the cube's edge).
+    void clip(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c, double scale) {
+        points.clear();
+        begin.clear();
+        fanArea.clear();
+        area.clear();
+        centre = c;
+        toLocal = scale;
+        for (const std::uint32_t t : list) {
+            const BoxTestTriangle& tri = triangles[t];
+            const std::size_t first = points.size();
+            begin.push_back(static_cast<std::uint32_t>(first));
+            clipToUnitCube({(tri.v0 - c) * scale, (tri.v1 - c) * scale, (tri.v2 - c) * scale}, points, clipA, clipB);
+            double sum = 0;
+            fanArea.resize(points.size(), 0.0);
+            for (std::size_t i = first + 2; i < points.size(); ++i) {
+                const double a = 0.5 * length(cross(points[i - 1] - points[first], points[i] - points[first]));
+                fanArea[i] = a;
+                sum += a;
+            }
+            area.push_back(sum);
+        }
+        begin.push_back(static_cast<std::uint32_t>(points.size()));
+    }
+    /// True if these are the fragments of @p c at @p scale (for @p list, which the caller vouches for).
+    [[nodiscard]] bool of(Vec3d c, double scale) const { return centre == c && toLocal == scale && !begin.empty(); }
+    [[nodiscard]] std::span<const Vec3d> polygon(std::size_t entry) const {
+        return {points.data() + begin[entry], points.data() + begin[entry + 1]};
+    }
+};
 
 }  // namespace vox::detail

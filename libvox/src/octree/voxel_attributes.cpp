@@ -43,22 +43,24 @@ AttributeSampler::AttributeSampler(const Scene& scene, const std::vector<BoxTest
 }
 
 AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch) const {
+    scratch.fragments.clip(list, triangles_, c, filterScale(h));
+    return filter(scratch.fragments, list, c, h, scratch);
+}
+
+AttributeSums AttributeSampler::filter(const CubeFragments& fragments, std::span<const std::uint32_t> list, Vec3d c, double h,
+                                       AttributeScratch& scratch) const {
     AttributeSums sums;
     const double edge = 2 * h;
     const double toLocal = 1.0 / edge;
     const double tiny = 1e-9 * edge * edge;
-    for (std::uint32_t t : list) {
+    for (std::size_t entry = 0; entry < list.size(); ++entry) {
+        const std::uint32_t t = list[entry];
         const BoxTestTriangle& tri = triangles_[t];
-        scratch.polygon.clear();
-        clipToUnitCube({(tri.v0 - c) * toLocal, (tri.v1 - c) * toLocal, (tri.v2 - c) * toLocal}, scratch.polygon, scratch.clipA, scratch.clipB);
+        const std::span<const Vec3d> poly = fragments.polygon(entry);
+        const double* fan = fragments.fanArea.data() + fragments.begin[entry];
         Vec3d centroid{0, 0, 0};
-        double area = 0;
-        const auto& poly = scratch.polygon;
-        for (std::size_t i = 1; i + 1 < poly.size(); ++i) {
-            const double a = 0.5 * length(cross(poly[i] - poly[0], poly[i + 1] - poly[0]));
-            centroid += (poly[0] + poly[i] + poly[i + 1]) * (a / 3.0);
-            area += a;
-        }
+        const double area = fragments.area[entry];
+        for (std::size_t i = 1; i + 1 < poly.size(); ++i) centroid += (poly[0] + poly[i] + poly[i + 1]) * (fan[i + 1] / 3.0);
         if (area > 0) {
             centroid = centroid / area;
         } else if (!poly.empty()) {

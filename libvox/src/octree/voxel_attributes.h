@@ -43,10 +43,9 @@ struct AttributeSums {
 
 /// Reusable buffers (one per thread).
 struct AttributeScratch {
-    std::vector<Vec3d> polygon;
+    CubeFragments fragments;
     std::vector<Vec3d> barycentrics;  ///< of the polygon's vertices
     std::vector<std::uint32_t> childList;
-    std::array<Vec3d, 12> clipA{}, clipB{};
 };
 
 /// Evaluates materials over fragments: linear attributes at their centroids, textures over their area.
@@ -58,6 +57,12 @@ public:
     /// Sums over the fragments of the triangles @p list inside the cube with centre @p c and
     /// half-extent @p h (leaf units).
     [[nodiscard]] AttributeSums filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch) const;
+    /// filter on the fragments of @p list already clipped to that cube at scale filterScale(h)
+    /// (fragments.of(c, filterScale(h))): the same sums.
+    [[nodiscard]] AttributeSums filter(const CubeFragments& fragments, std::span<const std::uint32_t> list, Vec3d c, double h,
+                                       AttributeScratch& scratch) const;
+    /// The scale from leaf units to the local frame of a cube of half-extent @p h that filter clips in.
+    [[nodiscard]] static double filterScale(double h) { return 1.0 / (2 * h); }
 
     /// How far the attributes inside a cube stray from the voxel value @p packed (an
     /// AttributeSums::pack() word pair): the largest 8-bit sRGB channel difference and the largest

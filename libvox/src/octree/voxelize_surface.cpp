@@ -127,15 +127,19 @@ public:
                 bool leaf = level + 1 == depth_;
                 std::uint32_t childSlab = 0;
                 std::optional<detail::AttributeSums> filtered;  // the child's, where the attribute criterion computed them
+                bool clipped = false;  // contourScratch_.fragments are the child's
                 if (contours_) {
                     // The child keeps a contour of its own only where it is much thinner than the
                     // slab its ancestors already impose on it (the ray caster carries theirs);
                     // below a gain's worth of the thinnest encodable slab, no fit can win.
                     double carriedThickness = 0;
                     const std::uint32_t carried = detail::carryContour(slab, slot, carriedThickness);
-                    const detail::ContourFit fit = carried && kOwnContourGain * carriedThickness <= kThinnestSlab
-                                                       ? detail::ContourFit{}
-                                                       : detail::fitContour(children[slot], triangles_, childCentre, childHalf, contourScratch_);
+                    detail::ContourFit fit;
+                    if (!(carried && kOwnContourGain * carriedThickness <= kThinnestSlab)) {
+                        contourScratch_.fragments.clip(children[slot], triangles_, childCentre, detail::fitContourScale(childHalf));
+                        clipped = true;
+                        fit = detail::fitContour(contourScratch_.fragments, children[slot], triangles_);
+                    }
                     double thickness = carriedThickness;
                     childSlab = carried;
                     if (fit.encoded && (carried == 0 || fit.thickness < kOwnContourGain * carriedThickness)) {
@@ -147,13 +151,13 @@ public:
                     // slab thicker than twice the error cannot be (one of its planes is too far).
                     if (!leaf && contourError_ > 0 && childSlab && thickness * childHalf <= contourError_ &&
                         detail::shapeError(childSlab, children[slot], triangles_, childCentre, childHalf) <= contourError_)
-                        leaf = attributesWithinBounds(children[slot], childCentre, childHalf, filtered);
+                        leaf = attributesWithinBounds(children[slot], childCentre, childHalf, filtered, clipped);
                 }
                 if (leaf) {
                     mask |= 1u << slot;
                     if (level + 1 < depth_) masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
                     if (attributes_)
-                        childSums[slot] = filtered ? *filtered : attributes_->filter(children[slot], childCentre, childHalf, attributeScratch_);
+                        childSums[slot] = filtered ? *filtered : filter(children[slot], childCentre, childHalf, clipped);
                 } else if (build(level + 1, cx, cy, cz, children[slot], childSlab, &childSums[slot]) != 0) {
                     mask |= 1u << slot;
                 }
@@ -180,11 +184,21 @@ public:
     /// The attribute criterion of refinement: true where the voxel's own (encoded) colour and
     /// normal represent everything inside it within the bounds, or where there are no bounds.
     /// @p sums receives the voxel's sums where they were computed.
-    bool attributesWithinBounds(std::span<const std::uint32_t> list, Vec3d centre, double half, std::optional<detail::AttributeSums>& sums) {
+    /// @p clipped: contourScratch_.fragments are those of @p list in this cube.
+    bool attributesWithinBounds(std::span<const std::uint32_t> list, Vec3d centre, double half, std::optional<detail::AttributeSums>& sums,
+                                bool clipped) {
         if (!attributes_ || (colorError_ <= 0 && normalError_ <= 0)) return true;
-        sums = attributes_->filter(list, centre, half, attributeScratch_);
+        sums = filter(list, centre, half, clipped);
         const auto v = attributes_->variation(list, centre, half, sums->pack(), attributeScratch_);
         return (colorError_ <= 0 || v.color <= colorError_) && (normalError_ <= 0 || v.normalDegrees <= normalError_);
+    }
+    /// The attribute filter of a voxel, on the contour fit's fragments where it clipped them at
+    /// the same scale (@p clipped: contourScratch_.fragments are those of @p list in this cube).
+    detail::AttributeSums filter(std::span<const std::uint32_t> list, Vec3d centre, double half, bool clipped) {
+        const auto& fragments = contourScratch_.fragments;
+        if (clipped && fragments.of(centre, detail::AttributeSampler::filterScale(half)))
+            return attributes_->filter(fragments, list, centre, half, attributeScratch_);
+        return attributes_->filter(list, centre, half, attributeScratch_);
     }
     /// contours()[l − rootLevel] for levels rootLevel … depth (the root level's entry stays empty).
     std::vector<std::vector<std::uint32_t>>& contours() { return contourOut_; }
