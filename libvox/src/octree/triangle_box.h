@@ -106,41 +106,32 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
 /// is not separated on A while that centre lies within the triangle's projection grown by the
 /// radius and the margin (the same comparison as separated(), solved for the centre). Every
 /// quantity is evaluated exactly as in the straightforward form (one projection per axis and
-/// child, axes in the order box, plane, edges): terms that are products with a zero axis component
-/// are left out, which changes no value but the sign of a zero, and no comparison sees that sign.
+/// child, axes in the order box, plane, edges; tests/test_triangle_box.cpp keeps it): terms that
+/// are products with a zero axis component are left out, which changes no value but the sign of a
+/// zero, and no comparison sees that sign.
 ///
-/// The nine edge axes are skipped where they cannot separate any child still in the mask: when
-/// the triangle (as the rounded vertices a, b, d below) lies inside the cube and the box axes
-/// leave one child, it lies inside that child; when they leave two, split by one mid-plane that the
-/// triangle reaches on both sides (lo ≤ 0 ≤ hi), it meets both. A triangle meeting a child has
-/// overlapping projections on every axis, and with every coordinate within h of the centre the
-/// rounding of the projections (≲ 2⁻⁵¹ of the child's radius) stays far below the separation margin
-/// (10⁻⁹ of it). The plane axis is always tested: its normal comes from the unrounded vertices.
+/// The nine edge axes are not evaluated where they cannot separate any child still in the mask:
+/// a child that holds a vertex of the triangle (as the rounded vertices a, b, d below; closed
+/// boxes) meets it, so the two overlap on every axis exactly, and with every coordinate within
+/// 1024·h of the centre the rounding of the projections (≲ 2¹²·2⁻⁵³ of the child's radius) stays
+/// far below the separation margin (10⁻⁹ of it): no edge axis can separate that child. Only the
+/// plane axis is always evaluated, as its normal comes from the unrounded vertices.
 [[nodiscard]] inline std::uint32_t childOverlapMask(const BoxTestTriangle& tri, Vec3d c, double h) {
     const double q = 0.5 * h;  // children's half-extent; their centres are c ± q per axis
     const Vec3d a = tri.v0 - c, b = tri.v1 - c, d = tri.v2 - c;
     std::uint32_t mask = 0xFF;
     static constexpr std::uint32_t kLowHalf[3] = {0x55, 0x33, 0x0F};  // slots with the axis bit clear
-    bool inside = true;  // the triangle's bounding box lies within the cube
-    int splits = 0;      // axes on which both halves are kept
-    double splitLo = 0, splitHi = 0;
+    bool near = true;  // every coordinate within 1024·h of the centre
     for (int axis = 0; axis < 3; ++axis) {
-        const double lo = std::min({a[axis], b[axis], d[axis]});
-        const double hi = std::max({a[axis], b[axis], d[axis]});
+        const double lo = std::min(std::min(a[axis], b[axis]), d[axis]);
+        const double hi = std::max(std::max(a[axis], b[axis]), d[axis]);
         const double magnitude = std::max(std::abs(lo), std::abs(hi));
-        const bool lowSeparated = separated(lo + q, hi + q, q, magnitude);
-        const bool highSeparated = separated(lo - q, hi - q, q, magnitude);
-        if (lowSeparated) mask &= ~kLowHalf[axis];
-        if (highSeparated) mask &= kLowHalf[axis];
+        if (separated(lo + q, hi + q, q, magnitude)) mask &= ~kLowHalf[axis];
+        if (separated(lo - q, hi - q, q, magnitude)) mask &= kLowHalf[axis];
         if (mask == 0) return 0;
-        inside = inside && lo >= -h && hi <= h;
-        if (!lowSeparated && !highSeparated) {
-            ++splits;
-            splitLo = lo;
-            splitHi = hi;
-        }
+        near = near && magnitude <= 1024 * h;
     }
-    // Triangle plane: child s's centre projects at ((±nx) + (±ny)) + (±nz), scaled by q (exact).
+    // Triangle plane: child s's centre projects at ((±ax) + (±ay)) + (±az).
     {
         const Vec3d& n = tri.normal;
         const double s = dot(n, a);
@@ -149,7 +140,7 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
         const double grow = r + 1e-9 * (r + std::abs(s));
         const double low = s - grow, high = s + grow;
         // The eight centres: ±v7, ±v3, ±v6, ±v5 (slots 7/0, 3/4, 6/1, 5/2).
-        const double t1 = ax + ay, t2 = ay - ax;  // slot x+y+ and x−y+ partial sums
+        const double t1 = ax + ay, t2 = ay - ax;  // partial sums of slots x+y+ and x−y+
         const double v7 = t1 + az, v3 = t1 - az, v6 = t2 + az, v5 = az - t2;
         std::uint32_t keep = 0;
         keep |= (v7 >= low && v7 <= high) ? 0x80u : 0u;
@@ -163,79 +154,116 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
         mask &= keep;
     }
     if (mask == 0) return 0;
-    if (inside && (splits == 0 || (splits == 1 && splitLo <= 0 && splitHi >= 0))) return mask;
+    std::uint32_t certain = 0;  // children holding a vertex
+    if (near) {
+        for (const Vec3d& p : {a, b, d}) {
+            if (!(std::abs(p.x) <= h && std::abs(p.y) <= h && std::abs(p.z) <= h)) continue;
+            const std::uint32_t xs = p.x < 0 ? 0x55u : (p.x > 0 ? 0xAAu : 0xFFu);
+            const std::uint32_t ys = p.y < 0 ? 0x33u : (p.y > 0 ? 0xCCu : 0xFFu);
+            const std::uint32_t zs = p.z < 0 ? 0x0Fu : (p.z > 0 ? 0xF0u : 0xFFu);
+            certain |= xs & ys & zs;
+        }
+        if ((mask & ~certain) == 0) return mask;
+    }
     // Edge × axis, in leaf units relative to c: e × x = (0, e.z, −e.y), e × y = (−e.z, 0, e.x),
-    // e × z = (e.y, −e.x, 0).
+    // e × z = (e.y, −e.x, 0). An axis whose grown interval holds every centre (all within ±r)
+    // removes nothing.
+    const auto axisTest = [&](double pa, double pb, double pd, double u1, double u2, child_mask::SlotPair pair) {
+        const double r = std::abs(u1) + std::abs(u2);
+        const double grow = r + 1e-9 * (r + (std::abs(pa) + std::abs(pb) + std::abs(pd)));
+        const double low = std::min(std::min(pa, pb), pd) - grow, high = std::max(std::max(pa, pb), pd) + grow;
+        if (low <= -r && high >= r) return;
+        mask &= child_mask::keepPair(u1, u2, low, high, pair);
+    };
     const auto edgeAxes = [&](Vec3d e) {
-        {
-            const double pa = e.z * a.y - e.y * a.z, pb = e.z * b.y - e.y * b.z, pd = e.z * d.y - e.y * d.z;
-            const double uy = q * e.z, uz = q * -e.y;
-            const double r = std::abs(uy) + std::abs(uz);
-            const double grow = r + 1e-9 * (r + (std::abs(pa) + std::abs(pb) + std::abs(pd)));
-            mask &= child_mask::keepPair(uy, uz, std::min({pa, pb, pd}) - grow, std::max({pa, pb, pd}) + grow, child_mask::kYZ);
-        }
-        {
-            const double pa = e.x * a.z - e.z * a.x, pb = e.x * b.z - e.z * b.x, pd = e.x * d.z - e.z * d.x;
-            const double ux = q * -e.z, uz = q * e.x;
-            const double r = std::abs(ux) + std::abs(uz);
-            const double grow = r + 1e-9 * (r + (std::abs(pa) + std::abs(pb) + std::abs(pd)));
-            mask &= child_mask::keepPair(ux, uz, std::min({pa, pb, pd}) - grow, std::max({pa, pb, pd}) + grow, child_mask::kXZ);
-        }
-        {
-            const double pa = e.y * a.x - e.x * a.y, pb = e.y * b.x - e.x * b.y, pd = e.y * d.x - e.x * d.y;
-            const double ux = q * e.y, uy = q * -e.x;
-            const double r = std::abs(ux) + std::abs(uy);
-            const double grow = r + 1e-9 * (r + (std::abs(pa) + std::abs(pb) + std::abs(pd)));
-            mask &= child_mask::keepPair(ux, uy, std::min({pa, pb, pd}) - grow, std::max({pa, pb, pd}) + grow, child_mask::kXY);
-        }
+        axisTest(e.z * a.y - e.y * a.z, e.z * b.y - e.y * b.z, e.z * d.y - e.y * d.z, q * e.z, q * -e.y, child_mask::kYZ);
+        axisTest(e.x * a.z - e.z * a.x, e.x * b.z - e.z * b.x, e.x * d.z - e.z * d.x, q * -e.z, q * e.x, child_mask::kXZ);
+        axisTest(e.y * a.x - e.x * a.y, e.y * b.x - e.x * b.y, e.y * d.x - e.x * d.y, q * e.y, q * -e.x, child_mask::kXY);
     };
     edgeAxes(b - a);
-    if (mask == 0) return 0;
+    if ((mask & ~certain) == 0) return mask;
     edgeAxes(d - b);
-    if (mask == 0) return 0;
+    if ((mask & ~certain) == 0) return mask;
     edgeAxes(a - d);
     return mask;
 }
 
-/// Clips a triangle to the cube [−½, ½]³ (Sutherland–Hodgman), appending the polygon to @p out.
-/// Planes that no vertex of the polygon so far lies beyond are skipped: their pass would copy it
-/// unchanged.
-inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out, std::array<Vec3d, 12>& bufferA,
-                    std::array<Vec3d, 12>& bufferB) {
-    bool inside = true;
-    for (const Vec3d& p : triangle) inside = inside && std::abs(p.x) <= 0.5 && std::abs(p.y) <= 0.5 && std::abs(p.z) <= 0.5;
-    if (inside) {  // common for fine triangles in coarse voxels
-        out.insert(out.end(), triangle.begin(), triangle.end());
-        return;
-    }
-    Vec3d* a = bufferA.data();
-    Vec3d* b = bufferB.data();
-    std::size_t n = 3;
-    std::copy(triangle.begin(), triangle.end(), a);
+namespace clip_detail {
+
+template <int Axis>
+[[nodiscard]] inline double coordinate(const Vec3d& p) {
+    if constexpr (Axis == 0) return p.x;
+    else if constexpr (Axis == 1) return p.y;
+    else return p.z;
+}
+
+/// Sutherland–Hodgman of the polygon @p in (@p n vertices) against the face of [−½, ½]³ on
+/// @p Axis at side @p Side (±1), keeping side·p[axis] ≤ ½, into @p out; returns the new count.
+template <int Axis, int Side>
+inline std::size_t clipFace(const Vec3d* in, std::size_t n, Vec3d* out, std::size_t capacity) {
     std::array<double, 12> distance;
-    for (int axis = 0; axis < 3 && n > 0; ++axis)
-        for (double side : {-1.0, 1.0}) {
-            // Keep side·p[axis] ≤ ½.
-            bool beyond = false;
-            for (std::size_t i = 0; i < n; ++i) {
-                distance[i] = side * a[i][axis] - 0.5;
-                beyond = beyond || distance[i] > 0;
-            }
-            if (!beyond) continue;
-            std::size_t m = 0;
-            for (std::size_t i = 0; i < n && m + 2 <= bufferA.size(); ++i) {
-                const std::size_t j = i + 1 == n ? 0 : i + 1;
-                const Vec3d& p = a[i];
-                const Vec3d& q = a[j];
-                const double dp = distance[i], dq = distance[j];
-                if (dp <= 0) b[m++] = p;
-                if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) b[m++] = p + (q - p) * (dp / (dp - dq));
-            }
-            n = m;
-            std::swap(a, b);
-            if (n == 0) break;
-        }
-    out.insert(out.end(), a, a + n);
+    for (std::size_t i = 0; i < n; ++i) distance[i] = double(Side) * coordinate<Axis>(in[i]) - 0.5;
+    std::size_t m = 0;
+    for (std::size_t i = 0; i < n && m + 2 <= capacity; ++i) {
+        const std::size_t j = i + 1 == n ? 0 : i + 1;
+        const double dp = distance[i], dq = distance[j];
+        if (dp <= 0) out[m++] = in[i];
+        if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) out[m++] = in[i] + (in[j] - in[i]) * (dp / (dp - dq));
+    }
+    return m;
+}
+
+/// The bounding box of @p n points.
+inline void bounds(const Vec3d* p, std::size_t n, Vec3d& lo, Vec3d& hi) {
+    lo = hi = p[0];
+    for (std::size_t i = 1; i < n; ++i) {
+        lo = {std::min(lo.x, p[i].x), std::min(lo.y, p[i].y), std::min(lo.z, p[i].z)};
+        hi = {std::max(hi.x, p[i].x), std::max(hi.y, p[i].y), std::max(hi.z, p[i].z)};
+    }
+}
+
+}  // namespace clip_detail
+
+/// Clips the triangle @p p0 @p p1 @p p2 to the cube [−½, ½]³ (Sutherland–Hodgman: faces −x, +x,
+/// −y, +y, −z, +z in turn), writing the polygon to @p out (12 vertices of room, which 9 never
+/// exceed); returns its vertex count. A face that no vertex of the polygon so far lies beyond
+/// (side·p[axis] − ½ > 0 exactly where p[axis] is beyond ±½) is skipped: its pass would copy the
+/// polygon unchanged.
+inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, const Vec3d& p2, std::array<Vec3d, 12>& out,
+                                          std::array<Vec3d, 12>& scratch) {
+    out[0] = p0;
+    out[1] = p1;
+    out[2] = p2;
+    bool inside = true;
+    for (const Vec3d& p : {p0, p1, p2}) inside = inside && std::abs(p.x) <= 0.5 && std::abs(p.y) <= 0.5 && std::abs(p.z) <= 0.5;
+    if (inside) return 3;  // common for fine triangles in coarse voxels
+    Vec3d* a = out.data();
+    Vec3d* b = scratch.data();
+    std::size_t n = 3;
+    Vec3d lo, hi;
+    clip_detail::bounds(a, n, lo, hi);
+    const auto pass = [&](auto clip) {
+        n = clip(a, n, b, out.size());
+        std::swap(a, b);
+        if (n > 0) clip_detail::bounds(a, n, lo, hi);
+        return n > 0;
+    };
+    // Faces in the reference order; each pass only where a vertex lies beyond.
+    if (lo.x < -0.5 && !pass(clip_detail::clipFace<0, -1>)) return 0;
+    if (hi.x > 0.5 && !pass(clip_detail::clipFace<0, 1>)) return 0;
+    if (lo.y < -0.5 && !pass(clip_detail::clipFace<1, -1>)) return 0;
+    if (hi.y > 0.5 && !pass(clip_detail::clipFace<1, 1>)) return 0;
+    if (lo.z < -0.5 && !pass(clip_detail::clipFace<2, -1>)) return 0;
+    if (hi.z > 0.5 && !pass(clip_detail::clipFace<2, 1>)) return 0;
+    if (a != out.data()) std::copy(a, a + n, out.data());
+    return n;
+}
+
+/// Clips a triangle to the cube [−½, ½]³ (Sutherland–Hodgman), appending the polygon to @p out.
+inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out, std::array<Vec3d, 12>& bufferA,
+                           std::array<Vec3d, 12>& bufferB) {
+    const std::size_t n = clipTriangleToUnitCube(triangle[0], triangle[1], triangle[2], bufferA, bufferB);
+    out.insert(out.end(), bufferA.begin(), bufferA.begin() + static_cast<std::ptrdiff_t>(n));
 }
 
 /// The polygons that the triangles of a list cut out of one cube, in the cube's local frame
@@ -265,14 +293,17 @@ struct CubeFragments {
             const BoxTestTriangle& tri = triangles[t];
             const std::size_t first = points.size();
             begin.push_back(static_cast<std::uint32_t>(first));
-            clipToUnitCube({(tri.v0 - c) * scale, (tri.v1 - c) * scale, (tri.v2 - c) * scale}, points, clipA, clipB);
+            const std::size_t n = clipTriangleToUnitCube((tri.v0 - c) * scale, (tri.v1 - c) * scale, (tri.v2 - c) * scale, clipA, clipB);
+            points.insert(points.end(), clipA.begin(), clipA.begin() + static_cast<std::ptrdiff_t>(n));
+            fanArea.push_back(0.0);
+            fanArea.push_back(0.0);
             double sum = 0;
-            fanArea.resize(points.size(), 0.0);
-            for (std::size_t i = first + 2; i < points.size(); ++i) {
-                const double a = 0.5 * length(cross(points[i - 1] - points[first], points[i] - points[first]));
-                fanArea[i] = a;
+            for (std::size_t i = 2; i < n; ++i) {
+                const double a = 0.5 * length(cross(clipA[i - 1] - clipA[0], clipA[i] - clipA[0]));
+                fanArea.push_back(a);
                 sum += a;
             }
+            if (n < 2) fanArea.resize(points.size());
             area.push_back(sum);
         }
         begin.push_back(static_cast<std::uint32_t>(points.size()));
