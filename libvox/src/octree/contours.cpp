@@ -67,7 +67,8 @@ ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<Box
     return fitContour(scratch.fragments, list, triangles);
 }
 
-ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles) {
+ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles,
+                      TriangleNormals normals) {
     Vec3d mean{0, 0, 0};
     struct Candidate {
         double area;
@@ -75,12 +76,14 @@ ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint3
     };
     std::array<Candidate, 3> largest{};
     for (std::size_t entry = 0; entry < list.size(); ++entry) {
-        const BoxTestTriangle& tri = triangles[list[entry]];
+        const std::uint32_t t = list[entry];
         // Fragment area (fan) weighs the triangle's unit normal.
         const double area = fragments.area[entry];
-        const double nl = length(tri.normal);
-        if (!(nl > 0) || area <= 0) continue;
-        const Vec3d unit = tri.normal * (1.0 / nl);
+        if (area <= 0) continue;
+        const BoxTestTriangle& tri = triangles[t];
+        const double nl = normals.length ? normals.length[t] : length(tri.normal);
+        if (!(nl > 0)) continue;
+        const Vec3d unit = normals.unit ? normals.unit[t] : tri.normal * (1.0 / nl);
         mean = mean + unit * area;
         if (area > largest[2].area) {
             std::size_t i = 2;

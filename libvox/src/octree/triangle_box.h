@@ -224,6 +224,9 @@ inline void bounds(const Vec3d* p, std::size_t n, Vec3d& lo, Vec3d& hi) {
 
 }  // namespace clip_detail
 
+/// True if @p p lies in the closed cube [−½, ½]³.
+[[nodiscard]] inline bool insideUnitCube(const Vec3d& p) { return std::abs(p.x) <= 0.5 && std::abs(p.y) <= 0.5 && std::abs(p.z) <= 0.5; }
+
 /// Clips the triangle @p p0 @p p1 @p p2 to the cube [−½, ½]³ (Sutherland–Hodgman: faces −x, +x,
 /// −y, +y, −z, +z in turn), writing the polygon to @p out (12 vertices of room, which 9 never
 /// exceed); returns its vertex count. A face that no vertex of the polygon so far lies beyond
@@ -234,9 +237,7 @@ inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, cons
     out[0] = p0;
     out[1] = p1;
     out[2] = p2;
-    bool inside = true;
-    for (const Vec3d& p : {p0, p1, p2}) inside = inside && std::abs(p.x) <= 0.5 && std::abs(p.y) <= 0.5 && std::abs(p.z) <= 0.5;
-    if (inside) return 3;  // common for fine triangles in coarse voxels
+    if (insideUnitCube(p0) && insideUnitCube(p1) && insideUnitCube(p2)) return 3;  // common for fine triangles in coarse voxels
     Vec3d* a = out.data();
     Vec3d* b = scratch.data();
     std::size_t n = 3;
@@ -281,22 +282,52 @@ struct CubeFragments {
     std::array<Vec3d, 12> clipA{}, clipB{};  // clipping ping-pong buffers (zeroed once, not per triangle)
 
     /// Clips the triangles @p list of @p triangles to the cube of centre @p c, scaled by @p scale
-    /// (1 / the cube's edge).
-    void clip(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c, double scale) {
+    /// (1 / the cube's edge, a power of two).
+    /// @p normalLength: null, or per triangle length(normal) (BoxTestTriangle::normal): then the
+    /// area of a triangle inside the cube whose vertices' offsets from @p c are exact (Sterbenz:
+    /// every coordinate within [c/2, 2c], c > 0) is 0.5·scale²·|normal|, which is what the fan
+    /// formula gives bit for bit: its edges are then exactly scale·(v1 − v0) and scale·(v2 − v0)
+    /// as rounded for the normal, and a power-of-two scale passes through products, differences
+    /// and the square root unchanged.
+    void clip(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c, double scale,
+              const double* normalLength = nullptr) {
+        clip(list, triangles.data(), c, scale, normalLength);
+    }
+    void clip(std::span<const std::uint32_t> list, const BoxTestTriangle* triangles, Vec3d c, double scale,
+              const double* normalLength = nullptr) {
         points.clear();
         begin.clear();
         fanArea.clear();
         area.clear();
         centre = c;
         toLocal = scale;
+        const Vec3d sterbenzLo = c * 0.5, sterbenzHi = c * 2.0;
+        const bool shortcut = normalLength != nullptr && c.x > 0 && c.y > 0 && c.z > 0;
+        const double halfScale2 = 0.5 * scale * scale;
+        const auto exactOffset = [&](const Vec3d& v) {
+            return v.x >= sterbenzLo.x && v.x <= sterbenzHi.x && v.y >= sterbenzLo.y && v.y <= sterbenzHi.y && v.z >= sterbenzLo.z &&
+                   v.z <= sterbenzHi.z;
+        };
         for (const std::uint32_t t : list) {
             const BoxTestTriangle& tri = triangles[t];
             const std::size_t first = points.size();
             begin.push_back(static_cast<std::uint32_t>(first));
-            const std::size_t n = clipTriangleToUnitCube((tri.v0 - c) * scale, (tri.v1 - c) * scale, (tri.v2 - c) * scale, clipA, clipB);
+            const Vec3d p0 = (tri.v0 - c) * scale, p1 = (tri.v1 - c) * scale, p2 = (tri.v2 - c) * scale;
+            fanArea.push_back(0.0);
+            fanArea.push_back(0.0);
+            if (insideUnitCube(p0) && insideUnitCube(p1) && insideUnitCube(p2)) {  // as clipTriangleToUnitCube: unclipped
+                points.push_back(p0);
+                points.push_back(p1);
+                points.push_back(p2);
+                const double a = shortcut && exactOffset(tri.v0) && exactOffset(tri.v1) && exactOffset(tri.v2)
+                                     ? normalLength[t] * halfScale2
+                                     : 0.5 * length(cross(p1 - p0, p2 - p0));
+                fanArea.push_back(a);
+                area.push_back(a);
+                continue;
+            }
+            const std::size_t n = clipTriangleToUnitCube(p0, p1, p2, clipA, clipB);
             points.insert(points.end(), clipA.begin(), clipA.begin() + static_cast<std::ptrdiff_t>(n));
-            fanArea.push_back(0.0);
-            fanArea.push_back(0.0);
             double sum = 0;
             for (std::size_t i = 2; i < n; ++i) {
                 const double a = 0.5 * length(cross(clipA[i - 1] - clipA[0], clipA[i] - clipA[0]));

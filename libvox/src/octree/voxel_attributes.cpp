@@ -42,20 +42,23 @@ AttributeSampler::AttributeSampler(const Scene& scene, const std::vector<BoxTest
     }
 }
 
-AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch) const {
-    scratch.fragments.clip(list, triangles_, c, filterScale(h));
-    return filter(scratch.fragments, list, c, h, scratch);
+AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch,
+                                       TriangleView view) const {
+    view = resolve(view);
+    scratch.fragments.clip(list, view.triangles, c, filterScale(h));
+    return filter(scratch.fragments, list, c, h, scratch, view);
 }
 
 AttributeSums AttributeSampler::filter(const CubeFragments& fragments, std::span<const std::uint32_t> list, Vec3d c, double h,
-                                       AttributeScratch& scratch) const {
+                                       AttributeScratch& scratch, TriangleView view) const {
+    view = resolve(view);
     AttributeSums sums;
     const double edge = 2 * h;
     const double toLocal = 1.0 / edge;
     const double tiny = 1e-9 * edge * edge;
     for (std::size_t entry = 0; entry < list.size(); ++entry) {
-        const std::uint32_t t = list[entry];
-        const BoxTestTriangle& tri = triangles_[t];
+        const BoxTestTriangle& tri = view.triangles[list[entry]];
+        const std::uint32_t t = view.global ? view.global[list[entry]] : list[entry];  // the sampler's index
         const std::span<const Vec3d> poly = fragments.polygon(entry);
         const double* fan = fragments.fanArea.data() + fragments.begin[entry];
         Vec3d centroid{0, 0, 0};
@@ -104,7 +107,8 @@ AttributeSums AttributeSampler::filter(const CubeFragments& fragments, std::span
 }
 
 AttributeSampler::Variation AttributeSampler::variation(std::span<const std::uint32_t> list, Vec3d c, double h, std::uint64_t packed,
-                                                      AttributeScratch& scratch) const {
+                                                      AttributeScratch& scratch, TriangleView view) const {
+    view = resolve(view);
     const auto colorWord = static_cast<std::uint32_t>(packed);
     const esvo::Vec3 n = esvo::decodeUnitNormal(static_cast<std::uint32_t>(packed >> 32));
     Variation out;
@@ -113,9 +117,9 @@ AttributeSampler::Variation AttributeSampler::variation(std::span<const std::uin
         const Vec3d childCentre{c.x + (slot & 1u ? q : -q), c.y + (slot & 2u ? q : -q), c.z + (slot & 4u ? q : -q)};
         scratch.childList.clear();
         for (std::uint32_t t : list)
-            if (triangleOverlapsCube(triangles_[t], childCentre, q)) scratch.childList.push_back(t);
+            if (triangleOverlapsCube(view.triangles[t], childCentre, q)) scratch.childList.push_back(t);
         if (scratch.childList.empty()) continue;
-        const AttributeSums sums = filter(scratch.childList, childCentre, q, scratch);
+        const AttributeSums sums = filter(scratch.childList, childCentre, q, scratch, view);
         if (!(sums.weight > 1e-6 * q * q)) continue;  // a touching contact, not surface
         const std::uint64_t child = sums.pack();
         for (unsigned ch = 0; ch < 3; ++ch)
