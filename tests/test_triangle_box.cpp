@@ -194,6 +194,24 @@ ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<Box
 }
 
 
+std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& thickness) {
+    if (encoded == 0) return 0;
+    esvo::Contour c = esvo::Contour::decode(encoded);
+    // Positions are in steps of 0.75, the offsets Σ n·(½ − bit) in steps of 0.5: only whole steps
+    // survive exactly; round the position outward by widening the slab instead.
+    const double offset = 0.5 * ((slot & 1u ? -c.nx : c.nx) + (slot & 2u ? -c.ny : c.ny) + (slot & 4u ? -c.nz : c.nz));
+    const double centre = 2 * c.position * esvo::Contour::kStep + offset;
+    const double half = c.thickness * esvo::Contour::kStep;  // doubled, then halved
+    const long position = std::lround(centre / esvo::Contour::kStep);
+    const double reach = half + std::abs(centre - position * esvo::Contour::kStep);
+    const double t = std::ceil(2 * reach / esvo::Contour::kStep - 1e-9);
+    if (position < -64 || position > 63 || t > 127) return 0;
+    c.position = static_cast<int>(position);
+    c.thickness = static_cast<unsigned>(t);
+    thickness = c.thickness * esvo::Contour::kStep / std::sqrt(double(c.nx * c.nx + c.ny * c.ny + c.nz * c.nz));
+    return c.encode();
+}
+
 }  // namespace reference
 
 namespace {
@@ -397,6 +415,21 @@ TEST(TriangleBox, ContourFitOnSharedFragmentsEqualsTheReference) {
         fitted += expected.encoded != 0;
     }
     EXPECT_GT(fitted, 2000);
+}
+
+TEST(TriangleBox, CarryContourEqualsTheReference) {
+    std::mt19937 rng(6);
+    std::uniform_int_distribution<int> component(-32, 31), position(-64, 63), thickness(0, 127);
+    for (int trial = 0; trial < 200000; ++trial) {
+        const vox::esvo::Contour c{component(rng), component(rng), component(rng), position(rng), static_cast<unsigned>(thickness(rng))};
+        const std::uint32_t encoded = trial % 50 == 0 ? 0u : c.encode();
+        for (std::uint32_t slot = 0; slot < 8; ++slot) {
+            double expectedThickness = -1, thicknessOut = -1;
+            const std::uint32_t expected = reference::carryContour(encoded, slot, expectedThickness);
+            ASSERT_EQ(vox::detail::carryContour(encoded, slot, thicknessOut), expected) << trial << " slot " << slot;
+            ASSERT_EQ(thicknessOut, expectedThickness) << trial << " slot " << slot;
+        }
+    }
 }
 
 }  // namespace

@@ -10,12 +10,20 @@
 namespace vox::detail {
 namespace {
 
+/// std::lround for the small finite values here (|x| < 2⁵²): half away from zero, inline.
+/// Truncation toward zero is exact, and so is the fraction x − trunc(x).
+long roundHalfAway(double x) {
+    const auto t = static_cast<long>(x);
+    const double f = x - static_cast<double>(t);
+    return t + (f >= 0.5 ? 1 : 0) - (f <= -0.5 ? 1 : 0);
+}
+
 /// Quantises a direction to the contour's integer normal (largest component ±31).
 std::array<int, 3> quantiseNormal(Vec3d m) {
     const double largest = std::max({std::abs(m.x), std::abs(m.y), std::abs(m.z)});
     if (!(largest > 0)) return {0, 0, 0};
-    return {static_cast<int>(std::lround(31 * m.x / largest)), static_cast<int>(std::lround(31 * m.y / largest)),
-            static_cast<int>(std::lround(31 * m.z / largest))};
+    return {static_cast<int>(roundHalfAway(31 * m.x / largest)), static_cast<int>(roundHalfAway(31 * m.y / largest)),
+            static_cast<int>(roundHalfAway(31 * m.z / largest))};
 }
 
 /// Encodes the slab along @p n covering every point; 0 if it cannot be represented.
@@ -27,7 +35,7 @@ std::uint32_t encodeSlab(const std::array<int, 3>& n, std::span<const Vec3d> poi
         hi = std::max(hi, v);
     }
     constexpr double step = esvo::Contour::kStep;
-    const auto position = static_cast<int>(std::clamp<long>(std::lround(0.5 * (lo + hi) / step), -64, 63));
+    const auto position = static_cast<int>(std::clamp<long>(roundHalfAway(0.5 * (lo + hi) / step), -64, 63));
     // Conservative: the half thickness reaches both ends from the quantised position, with a
     // little room for the ray caster's float arithmetic.
     const double reach = std::max(hi - position * step, position * step - lo) + 1e-4;
@@ -129,7 +137,7 @@ std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& th
     const double offset = 0.5 * ((slot & 1u ? -c.nx : c.nx) + (slot & 2u ? -c.ny : c.ny) + (slot & 4u ? -c.nz : c.nz));
     const double centre = 2 * c.position * esvo::Contour::kStep + offset;
     const double half = c.thickness * esvo::Contour::kStep;  // doubled, then halved
-    const long position = std::lround(centre / esvo::Contour::kStep);
+    const long position = roundHalfAway(centre / esvo::Contour::kStep);
     const double reach = half + std::abs(centre - position * esvo::Contour::kStep);
     const double t = std::ceil(2 * reach / esvo::Contour::kStep - 1e-9);
     if (position < -64 || position > 63 || t > 127) return 0;
