@@ -151,8 +151,6 @@ private:
                 touched |= m;
                 for (std::uint32_t bits = m; bits; bits &= bits - 1) children[static_cast<unsigned>(__builtin_ctz(bits))].push_back(t);
             }
-            std::array<std::uint32_t, 8> childContours{};
-            std::array<detail::AttributeSums, 8> childSums{};
             const double childHalf = 0.5 * half;
             for (std::uint32_t slot = 0; slot < 8; ++slot) {
                 if (!(touched & (1u << slot))) continue;
@@ -162,6 +160,8 @@ private:
                 std::uint32_t childSlab = 0;
                 std::optional<detail::AttributeSums> filtered;  // the child's, where the attribute criterion computed them
                 bool clipped = false;  // contourScratch_.fragments are the child's
+                std::uint32_t ownContour = 0;
+                detail::AttributeSums childSums;
                 if (contours_) {
                     // The child keeps a contour of its own only where it is much thinner than the
                     // slab its ancestors already impose on it (the ray caster carries theirs);
@@ -177,7 +177,7 @@ private:
                     double thickness = carriedThickness;
                     childSlab = carried;
                     if (fit.encoded && (carried == 0 || fit.thickness < kOwnContourGain * carriedThickness)) {
-                        childContours[slot] = fit.encoded;
+                        ownContour = fit.encoded;
                         childSlab = fit.encoded;
                         thickness = fit.thickness;
                     }
@@ -188,23 +188,19 @@ private:
                         leaf = attributesWithinBounds(children[slot], childCentre, childHalf, filtered, clipped);
                 }
                 if (leaf) {
-                    mask |= 1u << slot;
                     if (level + 1 < depth_) masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
-                    if (attributes_)
-                        childSums[slot] = filtered ? *filtered : filter(children[slot], childCentre, childHalf, clipped);
-                } else if (buildNode(level + 1, cx, cy, cz, children[slot], childSlab, &childSums[slot]) != 0) {
-                    mask |= 1u << slot;
+                    if (attributes_) childSums = filtered ? *filtered : filter(children[slot], childCentre, childHalf, clipped);
+                } else if (buildNode(level + 1, cx, cy, cz, children[slot], childSlab, &childSums) == 0) {
+                    continue;
                 }
-            }
-            for (std::uint32_t bits = mask; bits; bits &= bits - 1) {
-                const auto slot = static_cast<unsigned>(__builtin_ctz(bits));
-                if (contours_) contourOut_[level + 1 - rootLevel_].push_back(childContours[slot]);
+                // The child's entries at level + 1, in slot order: nothing below appends to them.
+                mask |= 1u << slot;
+                if (contours_) contourOut_[level + 1 - rootLevel_].push_back(ownContour);
                 if (attributes_) {
                     // Packed words only for SparseOctree::attributes; the radiance bake wants the leaves' sums alone.
-                    if (!attributeOut_.empty()) attributeOut_[level + 1 - rootLevel_].push_back(childSums[slot].pack());
-                    if (keepLeafMaterials_ && level + 1 == depth_)
-                        leafMaterials_.push_back(leafMaterial(childSums[slot], 2 * x + (slot & 1u), 2 * y + ((slot >> 1) & 1u), 2 * z + (slot >> 2)));
-                    if (sums) *sums += childSums[slot];
+                    if (!attributeOut_.empty()) attributeOut_[level + 1 - rootLevel_].push_back(childSums.pack());
+                    if (keepLeafMaterials_ && level + 1 == depth_) leafMaterials_.push_back(leafMaterial(childSums, cx, cy, cz));
+                    if (sums) *sums += childSums;
                 }
             }
         }
