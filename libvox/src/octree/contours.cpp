@@ -86,7 +86,7 @@ ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint3
     for (std::size_t entry = 0; entry < list.size(); ++entry) {
         const std::uint32_t t = list[entry];
         // Fragment area (fan) weighs the triangle's unit normal.
-        const double area = fragments.area[entry];
+        const double area = fragments.area(entry);
         if (area <= 0) continue;
         const BoxTestTriangle& tri = triangles[t];
         const double nl = normals.length ? normals.length[t] : length(tri.normal);
@@ -100,7 +100,7 @@ ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint3
         }
     }
     ContourFit best;
-    const std::span<const Vec3d> points = fragments.points;
+    const std::span<const Vec3d> points = fragments.points();
     if (points.empty()) return best;
     double bestRatio = 0.9;  // a contour must cut at least 10 % off the cube along its normal
     // A quantised normal met before gives the same slab and ratio again, which cannot beat itself.

@@ -270,16 +270,21 @@ inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec
 /// The polygons that the triangles of a list cut out of one cube, in the cube's local frame
 /// ([−½, ½]³, reached by (p − c)·toLocal), with their fan areas: what the contour fit and the
 /// attribute filter both read, so that a voxel that needs both clips its triangles once.
-struct CubeFragments {
-    std::vector<Vec3d> points;         ///< every polygon's vertices, one polygon after another
-    std::vector<std::uint32_t> begin;  ///< per list entry: its polygon's first point; one more entry: the end
+class CubeFragments {
+public:
+    /// Every polygon's vertices, one polygon after another.
+    [[nodiscard]] std::span<const Vec3d> points() const { return {points_.data(), pointCount_}; }
+    /// Entry @p entry's polygon (its list entry's).
+    [[nodiscard]] std::span<const Vec3d> polygon(std::size_t entry) const {
+        return {points_.data() + begin_[entry], points_.data() + begin_[entry + 1]};
+    }
     /// Per point j from a polygon's third vertex on: 0.5·|(p[j−1] − p[0]) × (p[j] − p[0])|, the area
-    /// of its fan triangle (p[0], p[j−1], p[j]); 0 for the first two.
-    std::vector<double> fanArea;
-    std::vector<double> area;          ///< per list entry: its polygon's area, the sum of its fan areas in order
-    Vec3d centre{0, 0, 0};
-    double toLocal = 0;
-    std::array<Vec3d, 12> clipA{}, clipB{};  // clipping ping-pong buffers (zeroed once, not per triangle)
+    /// of its fan triangle (p[0], p[j−1], p[j]); 0 for the first two. Indexed like points().
+    [[nodiscard]] const double* fanArea(std::size_t entry) const { return fanArea_.data() + begin_[entry]; }
+    /// Entry @p entry's polygon area: the sum of its fan areas in order.
+    [[nodiscard]] double area(std::size_t entry) const { return area_[entry]; }
+    /// True if these are the fragments of @p c at @p scale (for a list the caller vouches for).
+    [[nodiscard]] bool of(Vec3d c, double scale) const { return valid_ && centre_ == c && toLocal_ == scale; }
 
     /// Clips the triangles @p list of @p triangles to the cube of centre @p c, scaled by @p scale
     /// (1 / the cube's edge, a power of two).
@@ -295,12 +300,21 @@ struct CubeFragments {
     }
     void clip(std::span<const std::uint32_t> list, const BoxTestTriangle* triangles, Vec3d c, double scale,
               const double* normalLength = nullptr) {
-        points.clear();
-        begin.clear();
-        fanArea.clear();
-        area.clear();
-        centre = c;
-        toLocal = scale;
+        centre_ = c;
+        toLocal_ = scale;
+        valid_ = true;
+        // Room for the largest polygons (9 vertices) without a check per vertex; never shrunk.
+        const std::size_t room = 12 * list.size() + 12;
+        if (points_.size() < room) {
+            points_.resize(room);
+            fanArea_.resize(room);
+        }
+        if (begin_.size() < list.size() + 1) {
+            begin_.resize(list.size() + 1);
+            area_.resize(list.size() + 1);
+        }
+        Vec3d* points = points_.data();
+        double* fan = fanArea_.data();
         const Vec3d sterbenzLo = c * 0.5, sterbenzHi = c * 2.0;
         const bool shortcut = normalLength != nullptr && c.x > 0 && c.y > 0 && c.z > 0;
         const double halfScale2 = 0.5 * scale * scale;
@@ -308,42 +322,52 @@ struct CubeFragments {
             return v.x >= sterbenzLo.x && v.x <= sterbenzHi.x && v.y >= sterbenzLo.y && v.y <= sterbenzHi.y && v.z >= sterbenzLo.z &&
                    v.z <= sterbenzHi.z;
         };
-        for (const std::uint32_t t : list) {
+        std::size_t count = 0;
+        for (std::size_t entry = 0; entry < list.size(); ++entry) {
+            const std::uint32_t t = list[entry];
             const BoxTestTriangle& tri = triangles[t];
-            const std::size_t first = points.size();
-            begin.push_back(static_cast<std::uint32_t>(first));
+            begin_[entry] = static_cast<std::uint32_t>(count);
             const Vec3d p0 = (tri.v0 - c) * scale, p1 = (tri.v1 - c) * scale, p2 = (tri.v2 - c) * scale;
-            fanArea.push_back(0.0);
-            fanArea.push_back(0.0);
+            Vec3d* out = points + count;
+            fan[count] = 0;
+            fan[count + 1] = 0;
             if (insideUnitCube(p0) && insideUnitCube(p1) && insideUnitCube(p2)) {  // as clipTriangleToUnitCube: unclipped
-                points.push_back(p0);
-                points.push_back(p1);
-                points.push_back(p2);
+                out[0] = p0;
+                out[1] = p1;
+                out[2] = p2;
                 const double a = shortcut && exactOffset(tri.v0) && exactOffset(tri.v1) && exactOffset(tri.v2)
                                      ? normalLength[t] * halfScale2
                                      : 0.5 * length(cross(p1 - p0, p2 - p0));
-                fanArea.push_back(a);
-                area.push_back(a);
+                fan[count + 2] = a;
+                area_[entry] = a;
+                count += 3;
                 continue;
             }
-            const std::size_t n = clipTriangleToUnitCube(p0, p1, p2, clipA, clipB);
-            points.insert(points.end(), clipA.begin(), clipA.begin() + static_cast<std::ptrdiff_t>(n));
+            const std::size_t n = clipTriangleToUnitCube(p0, p1, p2, clipA_, clipB_);
+            std::copy(clipA_.begin(), clipA_.begin() + static_cast<std::ptrdiff_t>(n), out);
             double sum = 0;
             for (std::size_t i = 2; i < n; ++i) {
-                const double a = 0.5 * length(cross(clipA[i - 1] - clipA[0], clipA[i] - clipA[0]));
-                fanArea.push_back(a);
+                const double a = 0.5 * length(cross(clipA_[i - 1] - clipA_[0], clipA_[i] - clipA_[0]));
+                fan[count + i] = a;
                 sum += a;
             }
-            if (n < 2) fanArea.resize(points.size());
-            area.push_back(sum);
+            area_[entry] = sum;
+            count += n;
         }
-        begin.push_back(static_cast<std::uint32_t>(points.size()));
+        begin_[list.size()] = static_cast<std::uint32_t>(count);
+        pointCount_ = count;
     }
-    /// True if these are the fragments of @p c at @p scale (for @p list, which the caller vouches for).
-    [[nodiscard]] bool of(Vec3d c, double scale) const { return centre == c && toLocal == scale && !begin.empty(); }
-    [[nodiscard]] std::span<const Vec3d> polygon(std::size_t entry) const {
-        return {points.data() + begin[entry], points.data() + begin[entry + 1]};
-    }
+
+private:
+    std::vector<Vec3d> points_;
+    std::vector<double> fanArea_;
+    std::vector<std::uint32_t> begin_;  // per list entry: its polygon's first point; one more entry: the end
+    std::vector<double> area_;
+    std::size_t pointCount_ = 0;
+    Vec3d centre_{0, 0, 0};
+    double toLocal_ = 0;
+    bool valid_ = false;
+    std::array<Vec3d, 12> clipA_{}, clipB_{};  // clipping ping-pong buffers (zeroed once, not per triangle)
 };
 
 }  // namespace vox::detail

@@ -60,9 +60,9 @@ AttributeSums AttributeSampler::filter(const CubeFragments& fragments, std::span
         const BoxTestTriangle& tri = view.triangles[list[entry]];
         const std::uint32_t t = view.global ? view.global[list[entry]] : list[entry];  // the sampler's index
         const std::span<const Vec3d> poly = fragments.polygon(entry);
-        const double* fan = fragments.fanArea.data() + fragments.begin[entry];
+        const double* fan = fragments.fanArea(entry);
         Vec3d centroid{0, 0, 0};
-        const double area = fragments.area[entry];
+        const double area = fragments.area(entry);
         for (std::size_t i = 1; i + 1 < poly.size(); ++i) centroid += (poly[0] + poly[i] + poly[i + 1]) * (fan[i + 1] / 3.0);
         if (area > 0) {
             centroid = centroid / area;
