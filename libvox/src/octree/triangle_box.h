@@ -289,11 +289,13 @@ public:
     /// Clips the triangles @p list of @p triangles to the cube of centre @p c, scaled by @p scale
     /// (1 / the cube's edge, a power of two).
     /// @p normalLength: null, or per triangle length(normal) (BoxTestTriangle::normal): then the
-    /// area of a triangle inside the cube whose vertices' offsets from @p c are exact (Sterbenz:
-    /// every coordinate within [c/2, 2c], c > 0) is 0.5·scale²·|normal|, which is what the fan
-    /// formula gives bit for bit: its edges are then exactly scale·(v1 − v0) and scale·(v2 − v0)
-    /// as rounded for the normal, and a power-of-two scale passes through products, differences
-    /// and the square root unchanged.
+    /// area of a triangle inside the cube whose vertices' offsets from @p c are exact is
+    /// 0.5·scale²·|normal|, which is what the fan formula gives bit for bit: its edges are then
+    /// exactly scale·(v1 − v0) and scale·(v2 − v0) as rounded for the normal, and a power-of-two
+    /// scale passes through products, differences and the square root unchanged. The offsets are
+    /// exact (Sterbenz: v within [c/2, 2c]) for every triangle inside a cube of half-extent h
+    /// whose centre has every coordinate ≥ 3h: its rounded offsets are within h, so the exact ones
+    /// within h + ulp(h), and c − 1.01·h ≥ c/2, c + 1.01·h ≤ 2c.
     void clip(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c, double scale,
               const double* normalLength = nullptr) {
         clip(list, triangles.data(), c, scale, normalLength);
@@ -315,13 +317,9 @@ public:
         }
         Vec3d* points = points_.data();
         double* fan = fanArea_.data();
-        const Vec3d sterbenzLo = c * 0.5, sterbenzHi = c * 2.0;
-        const bool shortcut = normalLength != nullptr && c.x > 0 && c.y > 0 && c.z > 0;
+        const double h3 = 1.5 / scale;  // 3h
+        const bool shortcut = normalLength != nullptr && c.x >= h3 && c.y >= h3 && c.z >= h3;
         const double halfScale2 = 0.5 * scale * scale;
-        const auto exactOffset = [&](const Vec3d& v) {
-            return v.x >= sterbenzLo.x && v.x <= sterbenzHi.x && v.y >= sterbenzLo.y && v.y <= sterbenzHi.y && v.z >= sterbenzLo.z &&
-                   v.z <= sterbenzHi.z;
-        };
         std::size_t count = 0;
         for (std::size_t entry = 0; entry < list.size(); ++entry) {
             const std::uint32_t t = list[entry];
@@ -335,9 +333,7 @@ public:
                 out[0] = p0;
                 out[1] = p1;
                 out[2] = p2;
-                const double a = shortcut && exactOffset(tri.v0) && exactOffset(tri.v1) && exactOffset(tri.v2)
-                                     ? normalLength[t] * halfScale2
-                                     : 0.5 * length(cross(p1 - p0, p2 - p0));
+                const double a = shortcut ? normalLength[t] * halfScale2 : 0.5 * length(cross(p1 - p0, p2 - p0));
                 fan[count + 2] = a;
                 area_[entry] = a;
                 count += 3;
