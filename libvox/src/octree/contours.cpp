@@ -10,12 +10,20 @@
 namespace vox::detail {
 namespace {
 
+/// std::lround for the small finite values here (|x| < 2⁵²): half away from zero, inline.
+/// Truncation toward zero is exact, and so is the fraction x − trunc(x).
+long roundHalfAway(double x) {
+    const auto t = static_cast<long>(x);
+    const double f = x - static_cast<double>(t);
+    return t + (f >= 0.5 ? 1 : 0) - (f <= -0.5 ? 1 : 0);
+}
+
 /// Quantises a direction to the contour's integer normal (largest component ±31).
 std::array<int, 3> quantiseNormal(Vec3d m) {
     const double largest = std::max({std::abs(m.x), std::abs(m.y), std::abs(m.z)});
     if (!(largest > 0)) return {0, 0, 0};
-    return {static_cast<int>(std::lround(31 * m.x / largest)), static_cast<int>(std::lround(31 * m.y / largest)),
-            static_cast<int>(std::lround(31 * m.z / largest))};
+    return {static_cast<int>(roundHalfAway(31 * m.x / largest)), static_cast<int>(roundHalfAway(31 * m.y / largest)),
+            static_cast<int>(roundHalfAway(31 * m.z / largest))};
 }
 
 /// Encodes the slab along @p n covering every point; 0 if it cannot be represented.
@@ -27,7 +35,7 @@ std::uint32_t encodeSlab(const std::array<int, 3>& n, std::span<const Vec3d> poi
         hi = std::max(hi, v);
     }
     constexpr double step = esvo::Contour::kStep;
-    const auto position = static_cast<int>(std::clamp<long>(std::lround(0.5 * (lo + hi) / step), -64, 63));
+    const auto position = static_cast<int>(std::clamp<long>(roundHalfAway(0.5 * (lo + hi) / step), -64, 63));
     // Conservative: the half thickness reaches both ends from the quantised position, with a
     // little room for the ray caster's float arithmetic.
     const double reach = std::max(hi - position * step, position * step - lo) + 1e-4;
@@ -63,25 +71,27 @@ double pointTriangleDistance(Vec3d p, Vec3d a, Vec3d b, Vec3d c) {
 
 ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c, double h,
                       ContourScratch& scratch) {
-    auto& points = scratch.points;
-    points.clear();
-    const double toLocal = 0.5 / h;
+    scratch.fragments.clip(list, triangles, c, fitContourScale(h));
+    return fitContour(scratch.fragments, list, triangles);
+}
+
+ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles,
+                      TriangleNormals normals) {
     Vec3d mean{0, 0, 0};
     struct Candidate {
         double area;
         Vec3d normal;
     };
     std::array<Candidate, 3> largest{};
-    for (std::uint32_t t : list) {
-        const BoxTestTriangle& tri = triangles[t];
-        const std::size_t before = points.size();
-        clipToUnitCube({(tri.v0 - c) * toLocal, (tri.v1 - c) * toLocal, (tri.v2 - c) * toLocal}, points, scratch.clipA, scratch.clipB);
+    for (std::size_t entry = 0; entry < list.size(); ++entry) {
+        const std::uint32_t t = list[entry];
         // Fragment area (fan) weighs the triangle's unit normal.
-        double area = 0;
-        for (std::size_t i = before + 2; i < points.size(); ++i) area += 0.5 * length(cross(points[i - 1] - points[before], points[i] - points[before]));
-        const double nl = length(tri.normal);
-        if (!(nl > 0) || area <= 0) continue;
-        const Vec3d unit = tri.normal * (1.0 / nl);
+        const double area = fragments.area(entry);
+        if (area <= 0) continue;
+        const BoxTestTriangle& tri = triangles[t];
+        const double nl = normals.length ? normals.length[t] : length(tri.normal);
+        if (!(nl > 0)) continue;
+        const Vec3d unit = normals.unit ? normals.unit[t] : tri.normal * (1.0 / nl);
         mean = mean + unit * area;
         if (area > largest[2].area) {
             std::size_t i = 2;
@@ -90,11 +100,18 @@ ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<Box
         }
     }
     ContourFit best;
+    const std::span<const Vec3d> points = fragments.points();
     if (points.empty()) return best;
     double bestRatio = 0.9;  // a contour must cut at least 10 % off the cube along its normal
+    // A quantised normal met before gives the same slab and ratio again, which cannot beat itself.
+    std::array<std::array<int, 3>, 4> tried;
+    std::size_t triedCount = 0;
     const auto consider = [&](Vec3d direction) {
         const auto n = quantiseNormal(direction);
         if (n[0] == 0 && n[1] == 0 && n[2] == 0) return;
+        for (std::size_t i = 0; i < triedCount; ++i)
+            if (tried[i] == n) return;
+        tried[triedCount++] = n;
         double thickness = 0;
         const std::uint32_t encoded = encodeSlab(n, points, thickness);
         if (!encoded) return;
@@ -120,7 +137,7 @@ std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& th
     const double offset = 0.5 * ((slot & 1u ? -c.nx : c.nx) + (slot & 2u ? -c.ny : c.ny) + (slot & 4u ? -c.nz : c.nz));
     const double centre = 2 * c.position * esvo::Contour::kStep + offset;
     const double half = c.thickness * esvo::Contour::kStep;  // doubled, then halved
-    const long position = std::lround(centre / esvo::Contour::kStep);
+    const long position = roundHalfAway(centre / esvo::Contour::kStep);
     const double reach = half + std::abs(centre - position * esvo::Contour::kStep);
     const double t = std::ceil(2 * reach / esvo::Contour::kStep - 1e-9);
     if (position < -64 || position > 63 || t > 127) return 0;

@@ -14,8 +14,7 @@ namespace vox::detail {
 
 /// Reusable buffers for contour fitting (one per thread).
 struct ContourScratch {
-    std::vector<Vec3d> points;               // fragment vertices, voxel-local
-    std::array<Vec3d, 12> clipA{}, clipB{};  // clipping ping-pong buffers (zeroed once, not per triangle)
+    CubeFragments fragments;  // the voxel's fragments, voxel-local
 };
 
 /// A fitted contour: the encoded value (0: no useful contour) and the slab's thickness.
@@ -30,6 +29,19 @@ struct ContourFit {
 /// quantisation. Returns encoded 0 when no slab is thinner than 90 % of the cube along it.
 [[nodiscard]] ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
                                     double h, ContourScratch& scratch);
+/// Per triangle, what the fit would otherwise recompute at every voxel, computed as it computes
+/// them: length[t] = length(normal), unit[t] = normal · (1 / length[t]) where length[t] > 0.
+struct TriangleNormals {
+    const double* length = nullptr;
+    const Vec3d* unit = nullptr;
+};
+
+/// fitContour on fragments already clipped (CubeFragments::clip at scale fitContourScale(h)) from
+/// the triangles @p list of @p triangles: the same result. @p normals: empty, or theirs.
+[[nodiscard]] ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint32_t> list,
+                                    const std::vector<BoxTestTriangle>& triangles, TriangleNormals normals = {});
+/// The scale from leaf units to the local frame of a cube of half-extent @p h that fitContour clips in.
+[[nodiscard]] inline double fitContourScale(double h) { return 0.5 / h; }
 
 /// The slab of contour @p encoded of a voxel, seen from its child in @p slot (pos' = 2·pos +
 /// Σ n·(½ − bit), thickness doubled): 0 when none or when it no longer fits the encoding.

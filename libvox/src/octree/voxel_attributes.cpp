@@ -42,23 +42,28 @@ AttributeSampler::AttributeSampler(const Scene& scene, const std::vector<BoxTest
     }
 }
 
-AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch) const {
+AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch,
+                                       TriangleView view) const {
+    view = resolve(view);
+    scratch.fragments.clip(list, view.triangles, c, filterScale(h));
+    return filter(scratch.fragments, list, c, h, scratch, view);
+}
+
+AttributeSums AttributeSampler::filter(const CubeFragments& fragments, std::span<const std::uint32_t> list, Vec3d c, double h,
+                                       AttributeScratch& scratch, TriangleView view) const {
+    view = resolve(view);
     AttributeSums sums;
     const double edge = 2 * h;
     const double toLocal = 1.0 / edge;
     const double tiny = 1e-9 * edge * edge;
-    for (std::uint32_t t : list) {
-        const BoxTestTriangle& tri = triangles_[t];
-        scratch.polygon.clear();
-        clipToUnitCube({(tri.v0 - c) * toLocal, (tri.v1 - c) * toLocal, (tri.v2 - c) * toLocal}, scratch.polygon, scratch.clipA, scratch.clipB);
+    for (std::size_t entry = 0; entry < list.size(); ++entry) {
+        const BoxTestTriangle& tri = view.triangles[list[entry]];
+        const std::uint32_t t = view.global ? view.global[list[entry]] : list[entry];  // the sampler's index
+        const std::span<const Vec3d> poly = fragments.polygon(entry);
+        const double* fan = fragments.fanArea(entry);
         Vec3d centroid{0, 0, 0};
-        double area = 0;
-        const auto& poly = scratch.polygon;
-        for (std::size_t i = 1; i + 1 < poly.size(); ++i) {
-            const double a = 0.5 * length(cross(poly[i] - poly[0], poly[i + 1] - poly[0]));
-            centroid += (poly[0] + poly[i] + poly[i + 1]) * (a / 3.0);
-            area += a;
-        }
+        const double area = fragments.area(entry);
+        for (std::size_t i = 1; i + 1 < poly.size(); ++i) centroid += (poly[0] + poly[i] + poly[i + 1]) * (fan[i + 1] / 3.0);
         if (area > 0) {
             centroid = centroid / area;
         } else if (!poly.empty()) {
@@ -102,7 +107,8 @@ AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3
 }
 
 AttributeSampler::Variation AttributeSampler::variation(std::span<const std::uint32_t> list, Vec3d c, double h, std::uint64_t packed,
-                                                      AttributeScratch& scratch) const {
+                                                      AttributeScratch& scratch, TriangleView view) const {
+    view = resolve(view);
     const auto colorWord = static_cast<std::uint32_t>(packed);
     const esvo::Vec3 n = esvo::decodeUnitNormal(static_cast<std::uint32_t>(packed >> 32));
     Variation out;
@@ -111,9 +117,9 @@ AttributeSampler::Variation AttributeSampler::variation(std::span<const std::uin
         const Vec3d childCentre{c.x + (slot & 1u ? q : -q), c.y + (slot & 2u ? q : -q), c.z + (slot & 4u ? q : -q)};
         scratch.childList.clear();
         for (std::uint32_t t : list)
-            if (triangleOverlapsCube(triangles_[t], childCentre, q)) scratch.childList.push_back(t);
+            if (triangleOverlapsCube(view.triangles[t], childCentre, q)) scratch.childList.push_back(t);
         if (scratch.childList.empty()) continue;
-        const AttributeSums sums = filter(scratch.childList, childCentre, q, scratch);
+        const AttributeSums sums = filter(scratch.childList, childCentre, q, scratch, view);
         if (!(sums.weight > 1e-6 * q * q)) continue;  // a touching contact, not surface
         const std::uint64_t child = sums.pack();
         for (unsigned ch = 0; ch < 3; ++ch)

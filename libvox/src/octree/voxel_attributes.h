@@ -43,10 +43,16 @@ struct AttributeSums {
 
 /// Reusable buffers (one per thread).
 struct AttributeScratch {
-    std::vector<Vec3d> polygon;
+    CubeFragments fragments;
     std::vector<Vec3d> barycentrics;  ///< of the polygon's vertices
     std::vector<std::uint32_t> childList;
-    std::array<Vec3d, 12> clipA{}, clipB{};
+};
+
+/// Triangles the sampler is handed by index: entry i of @p triangles (leaf units) is the
+/// sampler's triangle global[i]. Empty: the sampler's own triangles.
+struct TriangleView {
+    const BoxTestTriangle* triangles = nullptr;
+    const std::uint32_t* global = nullptr;
 };
 
 /// Evaluates materials over fragments: linear attributes at their centroids, textures over their area.
@@ -57,7 +63,15 @@ public:
 
     /// Sums over the fragments of the triangles @p list inside the cube with centre @p c and
     /// half-extent @p h (leaf units).
-    [[nodiscard]] AttributeSums filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch) const;
+    /// @p view: where the indices of @p list point (default: this sampler's triangles).
+    [[nodiscard]] AttributeSums filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch,
+                                       TriangleView view = {}) const;
+    /// filter on the fragments of @p list already clipped to that cube at scale filterScale(h)
+    /// (fragments.of(c, filterScale(h))): the same sums.
+    [[nodiscard]] AttributeSums filter(const CubeFragments& fragments, std::span<const std::uint32_t> list, Vec3d c, double h,
+                                       AttributeScratch& scratch, TriangleView view = {}) const;
+    /// The scale from leaf units to the local frame of a cube of half-extent @p h that filter clips in.
+    [[nodiscard]] static double filterScale(double h) { return 1.0 / (2 * h); }
 
     /// How far the attributes inside a cube stray from the voxel value @p packed (an
     /// AttributeSums::pack() word pair): the largest 8-bit sRGB channel difference and the largest
@@ -68,9 +82,14 @@ public:
         double normalDegrees = 0;
     };
     [[nodiscard]] Variation variation(std::span<const std::uint32_t> list, Vec3d c, double h, std::uint64_t packed,
-                                      AttributeScratch& scratch) const;
+                                      AttributeScratch& scratch, TriangleView view = {}) const;
 
 private:
+    /// @p view with its defaults filled in.
+    [[nodiscard]] TriangleView resolve(TriangleView view) const {
+        return {view.triangles ? view.triangles : triangles_.data(), view.global};
+    }
+
     const Scene& scene_;
     const std::vector<BoxTestTriangle>& triangles_;
     std::vector<TriangleSource> sources_;

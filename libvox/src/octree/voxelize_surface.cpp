@@ -102,12 +102,46 @@ public:
     /// @p sums: with attributes, receives the node's attribute sums.
     std::uint32_t build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list,
                         std::uint32_t slab = 0, detail::AttributeSums* sums = nullptr) {
+        // The subtree works on a copy of its triangles in list order (entry i: triangle list[i]),
+        // with the per-triangle values of the contour fit computed once here instead of at every
+        // voxel; list order is kept, so every sum runs in the same order as over list itself.
+        local_.clear();
+        global_.assign(list.begin(), list.end());
+        normalLength_.clear();
+        unitNormal_.clear();
+        rootList_.clear();
+        local_.reserve(list.size());
+        normalLength_.reserve(list.size());
+        unitNormal_.reserve(list.size());
+        rootList_.reserve(list.size());
+        for (const std::uint32_t t : list) {
+            const BoxTestTriangle& tri = triangles_[t];
+            const double nl = length(tri.normal);
+            rootList_.push_back(static_cast<std::uint32_t>(local_.size()));
+            local_.push_back(tri);
+            normalLength_.push_back(nl);
+            unitNormal_.push_back(nl > 0 ? tri.normal * (1.0 / nl) : Vec3d{0, 0, 0});
+        }
+        return buildNode(level, x, y, z, rootList_, slab, sums);
+    }
+
+    std::vector<std::vector<std::uint8_t>>& masks() { return masks_; }
+    std::vector<LeafMaterial>& leafMaterials() { return leafMaterials_; }
+    /// contours()[l − rootLevel] for levels rootLevel … depth (the root level's entry stays empty).
+    std::vector<std::vector<std::uint32_t>>& contours() { return contourOut_; }
+    /// attributes()[l − rootLevel] for levels rootLevel … depth (the root level's entry stays empty).
+    std::vector<std::vector<std::uint64_t>>& attributes() { return attributeOut_; }
+
+private:
+    /// build() on the subtree's own triangles: @p list indexes local_.
+    std::uint32_t buildNode(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list,
+                            std::uint32_t slab, detail::AttributeSums* sums) {
         const double half = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));  // this node's half-extent
         const Vec3d centre{(2 * x + 1) * half, (2 * y + 1) * half, (2 * z + 1) * half};
         std::uint32_t mask = 0;
         if (level + 1 == depth_ && !contours_ && !attributes_) {
             for (std::uint32_t t : list) {
-                mask |= detail::childOverlapMask(triangles_[t], centre, half);
+                mask |= detail::childOverlapMask(local_[t], centre, half);
                 if (mask == 0xFF) break;
             }
         } else {
@@ -115,12 +149,10 @@ public:
             for (auto& c : children) c.clear();
             std::uint32_t touched = 0;
             for (std::uint32_t t : list) {
-                const std::uint32_t m = detail::childOverlapMask(triangles_[t], centre, half);
+                const std::uint32_t m = detail::childOverlapMask(local_[t], centre, half);
                 touched |= m;
                 for (std::uint32_t bits = m; bits; bits &= bits - 1) children[static_cast<unsigned>(__builtin_ctz(bits))].push_back(t);
             }
-            std::array<std::uint32_t, 8> childContours{};
-            std::array<detail::AttributeSums, 8> childSums{};
             const double childHalf = 0.5 * half;
             for (std::uint32_t slot = 0; slot < 8; ++slot) {
                 if (!(touched & (1u << slot))) continue;
@@ -129,46 +161,48 @@ public:
                 bool leaf = level + 1 == depth_;
                 std::uint32_t childSlab = 0;
                 std::optional<detail::AttributeSums> filtered;  // the child's, where the attribute criterion computed them
+                bool clipped = false;  // contourScratch_.fragments are the child's
+                std::uint32_t ownContour = 0;
+                detail::AttributeSums childSums;
                 if (contours_) {
                     // The child keeps a contour of its own only where it is much thinner than the
                     // slab its ancestors already impose on it (the ray caster carries theirs);
                     // below a gain's worth of the thinnest encodable slab, no fit can win.
                     double carriedThickness = 0;
                     const std::uint32_t carried = detail::carryContour(slab, slot, carriedThickness);
-                    const detail::ContourFit fit = carried && kOwnContourGain * carriedThickness <= kThinnestSlab
-                                                       ? detail::ContourFit{}
-                                                       : detail::fitContour(children[slot], triangles_, childCentre, childHalf, contourScratch_);
+                    detail::ContourFit fit;
+                    if (!(carried && kOwnContourGain * carriedThickness <= kThinnestSlab)) {
+                        contourScratch_.fragments.clip(children[slot], local_, childCentre, detail::fitContourScale(childHalf), normalLength_.data());
+                        clipped = true;
+                        fit = detail::fitContour(contourScratch_.fragments, children[slot], local_, {normalLength_.data(), unitNormal_.data()});
+                    }
                     double thickness = carriedThickness;
                     childSlab = carried;
                     if (fit.encoded && (carried == 0 || fit.thickness < kOwnContourGain * carriedThickness)) {
-                        childContours[slot] = fit.encoded;
+                        ownContour = fit.encoded;
                         childSlab = fit.encoded;
                         thickness = fit.thickness;
                     }
                     // Refinement stops where cube ∩ slab is within the error of the surface; a
                     // slab thicker than twice the error cannot be (one of its planes is too far).
                     if (!leaf && contourError_ > 0 && childSlab && thickness * childHalf <= contourError_ &&
-                        detail::shapeError(childSlab, children[slot], triangles_, childCentre, childHalf) <= contourError_)
-                        leaf = attributesWithinBounds(children[slot], childCentre, childHalf, filtered);
+                        detail::shapeError(childSlab, children[slot], local_, childCentre, childHalf) <= contourError_)
+                        leaf = attributesWithinBounds(children[slot], childCentre, childHalf, filtered, clipped);
                 }
                 if (leaf) {
-                    mask |= 1u << slot;
                     if (level + 1 < depth_) masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
-                    if (attributes_)
-                        childSums[slot] = filtered ? *filtered : attributes_->filter(children[slot], childCentre, childHalf, attributeScratch_);
-                } else if (build(level + 1, cx, cy, cz, children[slot], childSlab, &childSums[slot]) != 0) {
-                    mask |= 1u << slot;
+                    if (attributes_) childSums = filtered ? *filtered : filter(children[slot], childCentre, childHalf, clipped);
+                } else if (buildNode(level + 1, cx, cy, cz, children[slot], childSlab, &childSums) == 0) {
+                    continue;
                 }
-            }
-            for (std::uint32_t bits = mask; bits; bits &= bits - 1) {
-                const auto slot = static_cast<unsigned>(__builtin_ctz(bits));
-                if (contours_) contourOut_[level + 1 - rootLevel_].push_back(childContours[slot]);
+                // The child's entries at level + 1, in slot order: nothing below appends to them.
+                mask |= 1u << slot;
+                if (contours_) contourOut_[level + 1 - rootLevel_].push_back(ownContour);
                 if (attributes_) {
                     // Packed words only for SparseOctree::attributes; the radiance bake wants the leaves' sums alone.
-                    if (!attributeOut_.empty()) attributeOut_[level + 1 - rootLevel_].push_back(childSums[slot].pack());
-                    if (keepLeafMaterials_ && level + 1 == depth_)
-                        leafMaterials_.push_back(leafMaterial(childSums[slot], 2 * x + (slot & 1u), 2 * y + ((slot >> 1) & 1u), 2 * z + (slot >> 2)));
-                    if (sums) *sums += childSums[slot];
+                    if (!attributeOut_.empty()) attributeOut_[level + 1 - rootLevel_].push_back(childSums.pack());
+                    if (keepLeafMaterials_ && level + 1 == depth_) leafMaterials_.push_back(leafMaterial(childSums, cx, cy, cz));
+                    if (sums) *sums += childSums;
                 }
             }
         }
@@ -176,24 +210,27 @@ public:
         return mask;
     }
 
-    std::vector<std::vector<std::uint8_t>>& masks() { return masks_; }
-    std::vector<LeafMaterial>& leafMaterials() { return leafMaterials_; }
-
     /// The attribute criterion of refinement: true where the voxel's own (encoded) colour and
     /// normal represent everything inside it within the bounds, or where there are no bounds.
     /// @p sums receives the voxel's sums where they were computed.
-    bool attributesWithinBounds(std::span<const std::uint32_t> list, Vec3d centre, double half, std::optional<detail::AttributeSums>& sums) {
+    /// @p clipped: contourScratch_.fragments are those of @p list in this cube.
+    bool attributesWithinBounds(std::span<const std::uint32_t> list, Vec3d centre, double half, std::optional<detail::AttributeSums>& sums,
+                                bool clipped) {
         if (!attributes_ || (colorError_ <= 0 && normalError_ <= 0)) return true;
-        sums = attributes_->filter(list, centre, half, attributeScratch_);
-        const auto v = attributes_->variation(list, centre, half, sums->pack(), attributeScratch_);
+        sums = filter(list, centre, half, clipped);
+        const auto v = attributes_->variation(list, centre, half, sums->pack(), attributeScratch_, view());
         return (colorError_ <= 0 || v.color <= colorError_) && (normalError_ <= 0 || v.normalDegrees <= normalError_);
     }
-    /// contours()[l − rootLevel] for levels rootLevel … depth (the root level's entry stays empty).
-    std::vector<std::vector<std::uint32_t>>& contours() { return contourOut_; }
-    /// attributes()[l − rootLevel] for levels rootLevel … depth (the root level's entry stays empty).
-    std::vector<std::vector<std::uint64_t>>& attributes() { return attributeOut_; }
+    /// The attribute filter of a voxel, on the contour fit's fragments where it clipped them at
+    /// the same scale (@p clipped: contourScratch_.fragments are those of @p list in this cube).
+    detail::AttributeSums filter(std::span<const std::uint32_t> list, Vec3d centre, double half, bool clipped) {
+        const auto& fragments = contourScratch_.fragments;
+        if (clipped && fragments.of(centre, detail::AttributeSampler::filterScale(half)))
+            return attributes_->filter(fragments, list, centre, half, attributeScratch_, view());
+        return attributes_->filter(list, centre, half, attributeScratch_, view());
+    }
+    [[nodiscard]] detail::TriangleView view() const { return {local_.data(), global_.data()}; }
 
-private:
     const std::vector<BoxTestTriangle>& triangles_;
     std::uint32_t depth_;
     std::uint32_t rootLevel_;
@@ -209,6 +246,11 @@ private:
     detail::AttributeScratch attributeScratch_;
     bool keepLeafMaterials_;
     std::vector<LeafMaterial> leafMaterials_;
+    std::vector<BoxTestTriangle> local_;      // the subtree's triangles, in its root list's order
+    std::vector<std::uint32_t> global_;       // local_[i] is triangles_[global_[i]]
+    std::vector<double> normalLength_;        // per local_ triangle: length(normal)
+    std::vector<Vec3d> unitNormal_;           // per local_ triangle: normal / length (0 where degenerate)
+    std::vector<std::uint32_t> rootList_;     // 0 … local_.size() − 1
 };
 
 }  // namespace
