@@ -15,6 +15,7 @@
 #include <fstream>
 #include <functional>
 #include <numbers>
+#include <sys/stat.h>
 
 using vox::scenes::BufferStorage;
 using vox::scenes::GltfBuilder;
@@ -370,6 +371,16 @@ TEST(GltfImport, MissingReferencedFilesAreIoErrors) {
     std::filesystem::remove(dir / "scene.bin");
     const std::string binError = importError<vox::IoError>(dir / "scene.gltf", noTextures);
     EXPECT_NE(binError.find("scene.bin"), std::string::npos) << binError;
+    // A buffer or image that is a FIFO (or a device: "uri": "/dev/stdin") is refused, not read:
+    // reading would block the import until something writes to it, or never end.
+    ASSERT_EQ(::mkfifo((dir / "scene.bin").c_str(), 0600), 0);
+    const std::string fifoError = importError<vox::IoError>(dir / "scene.gltf", noTextures);
+    EXPECT_NE(fifoError.find("cannot read '" + (dir / "scene.bin").string() + "': is not a regular file"), std::string::npos) << fifoError;
+    std::filesystem::remove(dir / "scene.bin");
+    writeSingleNode(dir, gltf, {"n", gltf.addMesh("tri", {triangle(material)})}, BufferStorage::External);
+    ASSERT_EQ(::mkfifo((dir / "missing.png").c_str(), 0600), 0);
+    const std::string imageFifoError = importError<vox::IoError>(dir / "scene.gltf");
+    EXPECT_NE(imageFifoError.find("missing.png': is not a regular file"), std::string::npos) << imageFifoError;
 }
 
 TEST(GltfImport, MalformedDocumentsAreInvalidData) {

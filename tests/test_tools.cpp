@@ -20,6 +20,7 @@
 #include <iostream>
 #include <map>
 #include <spawn.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
@@ -80,6 +81,10 @@ TEST(Tools, BadInputFailsCleanlyWithNoOutputLeftBehind) {
     const auto models = vox::test::assimpModels();
     vox::test::writeText(dir / "truncated.gltf", "{\"asset\": {\"version\": \"2.0\"");
     vox::test::writeText(dir / "text.glb", "this is not binary glTF");
+    vox::test::writeText(dir / "huge.obj", "v 0 0 0\nv 2e30 0 0\nv 0 1 0\nf 1 2 3\n");
+    vox::test::writeText(dir / "tiny.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1e-31 0 0\n"
+                                           "vertex 0 1e-31 0\nendloop\nendfacet\nendsolid t\n");
+    ASSERT_EQ(::mkfifo((dir / "fifo.obj").c_str(), 0600), 0);
     struct Case {
         std::filesystem::path input;
         int code;
@@ -92,6 +97,9 @@ TEST(Tools, BadInputFailsCleanlyWithNoOutputLeftBehind) {
         {models / "glTF2/wrongTypes/badString.gltf", 3, "expected a string"},
         {models / "glTF2/IndexOutOfRange/IndexOutOfRange.gltf", 3, "out of range"},
         {models / "glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb", 3, "non-finite"},
+        {dir / "huge.obj", 3, "vertex 1 has a coordinate beyond ±1e30 (absurd scale)"},
+        {dir / "tiny.stl", 3, "longest side is 1e-31, below 1e-30 (absurd scale: zero or denormal size)"},
+        {dir / "fifo.obj", 2, "fifo.obj: is not a regular file"},  // read, it would block forever
         {models / "glTF2/MissingBin/BoxTextured.gltf", 2, "BoxTextured0.bin"},
         {models / "glTF2/RecursiveNodes/RecursiveNodes.gltf", 3, "cycle"},
         {models / "glTF2/TestNoRootNode/SceneWithoutNodes.gltf", 3, "no triangles"},
