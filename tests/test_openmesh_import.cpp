@@ -85,6 +85,22 @@ TEST(OpenMeshImport, HeaderCountsBeyondTheFileAreRejectedWithoutAllocating) {
     }
 }
 
+TEST(OpenMeshImport, PlyFormatLinesOpenMeshWouldLoopOnAreInvalid) {
+    // Found by fuzz_mesh: OpenMesh's PLY header loop never ends once the version fails to parse.
+    ScratchDir dir;
+    for (const char* format : {"format binary_little_endian uch1.0", "format ascii", "format ascii 1.0 extra", "format ascii 1.0x"}) {
+        std::vector<std::uint8_t> bytes = bytesOf(std::string("ply\n") + format +
+                                                  "\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                                  "element face 1\nproperty list uchar int vertex_indices\nend_header\n");
+        for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) append(bytes, v);
+        append<std::uint8_t>(bytes, 3);
+        for (std::int32_t i : {0, 1, 2}) append(bytes, i);
+        writeBinary(dir / "format.ply", bytes);
+        const std::string message = importError<vox::InvalidDataError>(dir / "format.ply");
+        EXPECT_NE(message.find(std::string("PLY header: malformed format line '") + format), std::string::npos) << message;
+    }
+}
+
 TEST(OpenMeshImport, TruncatedAndDanglingFilesAreInvalid) {
     ScratchDir dir;
     auto bytes = bytesOf("ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"

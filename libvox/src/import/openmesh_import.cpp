@@ -121,6 +121,11 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
         if (t[0] == "format") {
             if (t.size() < 2 || (t[1] != "ascii" && t[1] != "binary_little_endian" && t[1] != "binary_big_endian"))
                 context.fail("PLY header: unknown format '" + line + "'");
+            // OpenMesh reads the version with operator>>; a version that is no number leaves its
+            // stream failed, and its header loop then never sees end_header (found by fuzz_mesh).
+            double version = 0;
+            if (t.size() != 3 || std::from_chars(t[2].data(), t[2].data() + t[2].size(), version).ptr != t[2].data() + t[2].size())
+                context.fail("PLY header: malformed format line '" + line + "' (expected e.g. 'format ascii 1.0')");
             facts.binary = t[1] != "ascii";
             hasFormat = true;
         } else if (t[0] == "comment") {
