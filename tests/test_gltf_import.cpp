@@ -297,6 +297,14 @@ TEST(GltfImport, InvalidLightParametersAreRejected) {
     gltf.setSceneRoots({gltf.addNode({"geo", gltf.addMesh("tri", {triangle()})}), gltf.addNode({"s", -1, spot})});
     gltf.write(dir / "lights.gltf", BufferStorage::DataUri);
     EXPECT_NE(importError<vox::InvalidDataError>(dir / "lights.gltf").find("cone angles"), std::string::npos);
+
+    // A light as far out as no vertex may be (issue 10: absurd scales).
+    GltfBuilder far;
+    const int bulb = far.addLight({"bulb", "point", {1, 1, 1}, 1.0f});
+    far.setSceneRoots({far.addNode({"geo", far.addMesh("tri", {triangle()})}), far.addNode({"b", -1, bulb, {0, 2e30, 0}})});
+    far.write(dir / "far.gltf", BufferStorage::DataUri);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "far.gltf").find("light 'bulb' has a position beyond ±1e30 (absurd scale)"),
+              std::string::npos);
 }
 
 TEST(GltfImport, DynamicFlagFromExtrasAndFromNamesIsInherited) {

@@ -194,6 +194,9 @@ void finalizeScene(ImportContext& context, MissingNormals missingNormals) {
         for (const std::string& warning : scene.warnings) skipped += (skipped.empty() ? " (" : "; ") + warning;
         context.fail("contains no triangles" + (skipped.empty() ? std::string() : skipped + ")"));
     }
+    for (const Light& light : scene.lights)
+        if (std::max({std::fabs(light.position.x), std::fabs(light.position.y), std::fabs(light.position.z)}) > kMaxCoordinate)
+            context.fail("light '" + light.name + "' has a position beyond ±1e30 (absurd scale)");
     // The finest voxel of the deepest octree (2^-20 of the longest side) must stay a normal float.
     const Bounds3f bounds = scene.bounds();
     const double extent = std::max({double(bounds.max.x) - bounds.min.x, double(bounds.max.y) - bounds.min.y,
