@@ -25,7 +25,9 @@ endif()
 if(LIBVOX_SANITIZE)
   add_compile_options(-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
                       # Stack traces with file and line at a fraction of -g's build time.
-                      $<IF:$<CXX_COMPILER_ID:Clang>,-gline-tables-only,-g1>)
+                      $<IF:$<CXX_COMPILER_ID:Clang>,-gline-tables-only,-g1>
+                      # Third-party headers whose undefined behaviour is not libvox's (reasons inside).
+                      $<$<CXX_COMPILER_ID:Clang>:-fsanitize-ignorelist=${CMAKE_CURRENT_LIST_DIR}/ubsan-ignorelist.txt>)
   add_link_options(-fsanitize=address,undefined)
 endif()
 

@@ -9,6 +9,6 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     static vox::fuzz::InputFile drc(".drc");
-    vox::fuzz::importLikeVoxelize(drc.write(data, size));
+    vox::fuzz::importAndVoxelize(drc.write(data, size));
     return 0;
 }

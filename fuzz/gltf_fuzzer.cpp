@@ -12,6 +12,6 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     static vox::fuzz::InputFile gltf(".gltf"), glb(".glb");
     const bool binary = size >= 4 && std::memcmp(data, "glTF", 4) == 0;
-    vox::fuzz::importLikeVoxelize((binary ? glb : gltf).write(data, size));
+    vox::fuzz::importAndVoxelize((binary ? glb : gltf).write(data, size));
     return 0;
 }

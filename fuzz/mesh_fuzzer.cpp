@@ -34,6 +34,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         file = &off;
     else if (text.starts_with("solid") || isBinaryStlSize(data, size))
         file = &stl;
-    vox::fuzz::importLikeVoxelize(file->write(data, size));
+    vox::fuzz::importAndVoxelize(file->write(data, size));
     return 0;
 }

@@ -22,8 +22,7 @@ build="${LIBVOX_SANITIZE_BUILD:-build-sanitize}"
 fuzz_seconds="${LIBVOX_FUZZ_SECONDS:-60}"
 
 ./scripts/install-deps.sh
-cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER=clang++ -DLIBVOX_WERROR=ON \
-      -DLIBVOX_SANITIZE=ON -DLIBVOX_BUILD_FUZZERS=ON -DLIBVOX_BUILD_BENCH=OFF -DLIBVOX_FUZZ_SECONDS="$fuzz_seconds" >/dev/null
+./scripts/configure-sanitize.sh "$build" -DLIBVOX_FUZZ_SECONDS="$fuzz_seconds"
 cmake --build "$build"
 ctest --test-dir "$build" --output-on-failure -j"$(nproc)" -LE '^(gl|package|fuzz)$'
 ctest --test-dir "$build" --output-on-failure -j"$(nproc)" -L '^fuzz$'
