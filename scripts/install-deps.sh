@@ -15,6 +15,7 @@ packages=(
   libegl-dev libopengl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libglx-mesa0
   libglfw3-dev xvfb xauth
   assimp-testmodels
+  clang libclang-rt-14-dev
 )
 
 missing=()

@@ -3,6 +3,11 @@
 
 #include "test_support.h"
 
+#include <algorithm>
+#include <csignal>
+#include <sys/wait.h>
+#include <unistd.h>
+
 using vox::AtomicFile;
 using vox::test::ScratchDir;
 
@@ -68,4 +73,114 @@ TEST(AtomicFile, TemporaryNamesAreRecognisable) {
     EXPECT_FALSE(AtomicFile::isTemporaryName("scene.esvo"));
     EXPECT_FALSE(AtomicFile::isTemporaryName(".tmp-"));
     EXPECT_FALSE(AtomicFile::isTemporaryName("scene.tmp-abcdef"));  // no leading dot
+}
+
+namespace {
+
+/// Names in @p dir that have the shape of a temporary.
+std::vector<std::string> temporariesIn(const ScratchDir& dir) {
+    std::vector<std::string> names;
+    for (const std::string& name : dir.files())
+        if (AtomicFile::isTemporaryName(name)) names.push_back(name);
+    return names;
+}
+
+/// Forks a writer of @p target that writes a little and is SIGKILLed before it commits, as a
+/// content build's voxelize killed mid-write. Returns the temporary it left.
+std::string temporaryOfAKilledWriter(const ScratchDir& dir, const std::filesystem::path& target) {
+    const auto before = temporariesIn(dir);
+    const pid_t child = ::fork();
+    if (child == 0) {
+        AtomicFile file(target);
+        file.write(std::string(100000, 'k'));
+        ::kill(::getpid(), SIGKILL);
+        ::_exit(1);
+    }
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL);
+    for (const std::string& name : temporariesIn(dir))
+        if (std::find(before.begin(), before.end(), name) == before.end()) return name;
+    ADD_FAILURE() << "the killed writer left no temporary";
+    return {};
+}
+
+}  // namespace
+
+TEST(AtomicFile, TheNextWriterOfATargetRemovesTheTemporariesKilledWritersLeft) {
+    ScratchDir dir;
+    vox::test::writeText(dir / "scene.esvo", "previous");
+    const std::string first = temporaryOfAKilledWriter(dir, dir / "scene.esvo");
+    ASSERT_FALSE(first.empty());
+    EXPECT_EQ(temporariesIn(dir), std::vector<std::string>{first});
+    // The second writer removed the first one's before it was killed too.
+    const std::string second = temporaryOfAKilledWriter(dir, dir / "scene.esvo");
+    ASSERT_FALSE(second.empty());
+    EXPECT_EQ(temporariesIn(dir), std::vector<std::string>{second});
+    EXPECT_EQ(vox::test::readText(dir / "scene.esvo"), "previous");
+    {
+        AtomicFile file(dir / "scene.esvo");
+        // Only its own temporary is left.
+        EXPECT_EQ(temporariesIn(dir), std::vector<std::string>{file.temporaryPath().filename().string()});
+        file.write("new");
+        file.commit();
+    }
+    EXPECT_EQ(dir.files(), std::vector<std::string>{"scene.esvo"});
+    EXPECT_EQ(vox::test::readText(dir / "scene.esvo"), "new");
+}
+
+TEST(AtomicFile, ALiveWritersTemporaryIsNeverRemoved) {
+    ScratchDir dir;
+    // Another process writing the same target: it holds its temporary until told to finish.
+    int ready[2], finish[2];
+    ASSERT_EQ(::pipe(ready), 0);
+    ASSERT_EQ(::pipe(finish), 0);
+    const pid_t child = ::fork();
+    if (child == 0) {
+        AtomicFile file(dir / "scene.esvo");
+        file.write("from the other process");
+        char c = 'r';
+        if (::write(ready[1], &c, 1) != 1 || ::read(finish[0], &c, 1) != 1) ::_exit(2);
+        file.commit();
+        ::_exit(0);
+    }
+    char c = 0;
+    ASSERT_EQ(::read(ready[0], &c, 1), 1);
+    const auto othersTemporary = temporariesIn(dir);
+    ASSERT_EQ(othersTemporary.size(), 1u);
+    {
+        AtomicFile mine(dir / "scene.esvo");
+        AtomicFile alsoMine(dir / "scene.esvo");  // the same process, a second writer: kept too
+        EXPECT_EQ(temporariesIn(dir).size(), 3u);
+        mine.write("mine");
+        mine.commit();
+    }
+    EXPECT_EQ(vox::test::readText(dir / "scene.esvo"), "mine");
+    EXPECT_EQ(temporariesIn(dir), othersTemporary);
+    ASSERT_EQ(::write(finish[1], &c, 1), 1);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    EXPECT_EQ(vox::test::readText(dir / "scene.esvo"), "from the other process");
+    EXPECT_EQ(dir.files(), std::vector<std::string>{"scene.esvo"});
+    for (int fd : {ready[0], ready[1], finish[0], finish[1]}) ::close(fd);
+}
+
+TEST(AtomicFile, CleanUpLeavesOtherTargetsAndOtherNamesAlone) {
+    ScratchDir dir;
+    const std::string otherTarget = temporaryOfAKilledWriter(dir, dir / "scene.rvol");
+    const std::string prefixOfAnother = temporaryOfAKilledWriter(dir, dir / "scene.esvo.bak");
+    ASSERT_FALSE(otherTarget.empty());
+    ASSERT_FALSE(prefixOfAnother.empty());
+    vox::test::writeText(dir / ".scene.esvo.tmp-abc", "not six characters");
+    vox::test::writeText(dir / "scene.esvo.tmp-abcdef", "no leading dot");
+    std::filesystem::create_directory(dir / ".scene.esvo.tmp-dirdir");
+    // Unlocked and shaped like one of scene.esvo's temporaries (an older libvox's, which took no
+    // lock): abandoned, so removed.
+    vox::test::writeText(dir / ".scene.esvo.tmp-oldver", "abandoned");
+    vox::writeFileAtomically(dir / "scene.esvo", "new");
+    std::vector<std::string> expected = {".scene.esvo.tmp-abc", ".scene.esvo.tmp-dirdir", "scene.esvo", "scene.esvo.tmp-abcdef",
+                                         otherTarget, prefixOfAnother};
+    std::sort(expected.begin(), expected.end());
+    EXPECT_EQ(dir.files(), expected);
 }

@@ -15,6 +15,7 @@
 #include <fstream>
 #include <functional>
 #include <numbers>
+#include <sys/stat.h>
 
 using vox::scenes::BufferStorage;
 using vox::scenes::GltfBuilder;
@@ -296,6 +297,14 @@ TEST(GltfImport, InvalidLightParametersAreRejected) {
     gltf.setSceneRoots({gltf.addNode({"geo", gltf.addMesh("tri", {triangle()})}), gltf.addNode({"s", -1, spot})});
     gltf.write(dir / "lights.gltf", BufferStorage::DataUri);
     EXPECT_NE(importError<vox::InvalidDataError>(dir / "lights.gltf").find("cone angles"), std::string::npos);
+
+    // A light as far out as no vertex may be (issue 10: absurd scales).
+    GltfBuilder far;
+    const int bulb = far.addLight({"bulb", "point", {1, 1, 1}, 1.0f});
+    far.setSceneRoots({far.addNode({"geo", far.addMesh("tri", {triangle()})}), far.addNode({"b", -1, bulb, {0, 2e30, 0}})});
+    far.write(dir / "far.gltf", BufferStorage::DataUri);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "far.gltf").find("light 'bulb' has a position beyond ±1e30 (absurd scale)"),
+              std::string::npos);
 }
 
 TEST(GltfImport, DynamicFlagFromExtrasAndFromNamesIsInherited) {
@@ -370,6 +379,16 @@ TEST(GltfImport, MissingReferencedFilesAreIoErrors) {
     std::filesystem::remove(dir / "scene.bin");
     const std::string binError = importError<vox::IoError>(dir / "scene.gltf", noTextures);
     EXPECT_NE(binError.find("scene.bin"), std::string::npos) << binError;
+    // A buffer or image that is a FIFO (or a device: "uri": "/dev/stdin") is refused, not read:
+    // reading would block the import until something writes to it, or never end.
+    ASSERT_EQ(::mkfifo((dir / "scene.bin").c_str(), 0600), 0);
+    const std::string fifoError = importError<vox::IoError>(dir / "scene.gltf", noTextures);
+    EXPECT_NE(fifoError.find("cannot read '" + (dir / "scene.bin").string() + "': is not a regular file"), std::string::npos) << fifoError;
+    std::filesystem::remove(dir / "scene.bin");
+    writeSingleNode(dir, gltf, {"n", gltf.addMesh("tri", {triangle(material)})}, BufferStorage::External);
+    ASSERT_EQ(::mkfifo((dir / "missing.png").c_str(), 0600), 0);
+    const std::string imageFifoError = importError<vox::IoError>(dir / "scene.gltf");
+    EXPECT_NE(imageFifoError.find("missing.png': is not a regular file"), std::string::npos) << imageFifoError;
 }
 
 TEST(GltfImport, MalformedDocumentsAreInvalidData) {

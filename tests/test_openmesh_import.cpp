@@ -85,6 +85,22 @@ TEST(OpenMeshImport, HeaderCountsBeyondTheFileAreRejectedWithoutAllocating) {
     }
 }
 
+TEST(OpenMeshImport, PlyFormatLinesOpenMeshWouldLoopOnAreInvalid) {
+    // Found by fuzz_mesh: OpenMesh's PLY header loop never ends once the version fails to parse.
+    ScratchDir dir;
+    for (const char* format : {"format binary_little_endian uch1.0", "format ascii", "format ascii 1.0 extra", "format ascii 1.0x"}) {
+        std::vector<std::uint8_t> bytes = bytesOf(std::string("ply\n") + format +
+                                                  "\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                                  "element face 1\nproperty list uchar int vertex_indices\nend_header\n");
+        for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) append(bytes, v);
+        append<std::uint8_t>(bytes, 3);
+        for (std::int32_t i : {0, 1, 2}) append(bytes, i);
+        writeBinary(dir / "format.ply", bytes);
+        const std::string message = importError<vox::InvalidDataError>(dir / "format.ply");
+        EXPECT_NE(message.find(std::string("PLY header: malformed format line '") + format), std::string::npos) << message;
+    }
+}
+
 TEST(OpenMeshImport, TruncatedAndDanglingFilesAreInvalid) {
     ScratchDir dir;
     auto bytes = bytesOf("ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
@@ -122,6 +138,37 @@ TEST(OpenMeshImport, BinaryAndAsciiStlCountDegenerateTriangles) {
     EXPECT_EQ(vox::importScene(dir / "a.stl").triangleCount(), 1u);
     writeText(dir / "bad.stl", "not an stl");
     EXPECT_NE(importError<vox::InvalidDataError>(dir / "bad.stl").find("not an STL"), std::string::npos);
+}
+
+TEST(StlImport, MalformedAsciiNamesTheLine) {
+    // libvox reads STL itself (not OpenMesh): every problem is invalid data naming the line.
+    ScratchDir dir;
+    const std::string facet = "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n";
+    struct Case {
+        std::string text, message;
+    };
+    const Case cases[] = {
+        {"solid t\n" + facet + "facet normal 0 0 1\nouter loop\nvertex 0 0 x\n", "line 11: vertex needs three numbers"},
+        {"solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nvertex 1 1 0\nendloop\nendfacet\n",
+         "line 7: facet with more than three vertices"},
+        {"solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\nendfacet\n", "line 2: facet with 2 vertices, not 3"},
+        {"solid t\n" + facet + "facet normal 0 0 1\nouter loop\nvertex 0 0 0\n", "line 9: facet without endfacet (truncated?)"},
+        {"solid t\nvertex 0 0 0\n", "line 2: vertex outside a facet"},
+        {"solid t\n" + facet + "polygon 3\n", "line 9: unexpected 'polygon'"},
+        {"solid t\nendsolid t\n", "has no faces"},
+        {"solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 nan 0\nvertex 0 1 0\nendloop\nendfacet\n",
+         "vertex 1 has a non-finite position"},
+    };
+    for (const Case& c : cases) {
+        vox::test::writeText(dir / "bad.stl", c.text);
+        const std::string message = importError<vox::InvalidDataError>(dir / "bad.stl");
+        EXPECT_NE(message.find(c.message), std::string::npos) << message;
+    }
+    // Facet normals, names and several solids are fine; every facet keeps its own corners.
+    vox::test::writeText(dir / "two.stl", "solid a b c\n" + facet + "endsolid a b c\nsolid\n" + facet + "endsolid\n");
+    const vox::Scene scene = vox::importScene(dir / "two.stl");
+    EXPECT_EQ(scene.triangleCount(), 2u);
+    EXPECT_EQ(scene.meshes[0].positions.size(), 6u);
 }
 
 TEST(OpenMeshImport, OffWithCommentsAndPlyTextureFile) {

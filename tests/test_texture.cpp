@@ -108,6 +108,25 @@ TEST(Texture, WrapModes) {
     }
 }
 
+TEST(Texture, IntegratingFarOutPolygonsStaysDefined) {
+    const Texture t = linearRow({0, 85, 170, 255});
+    const std::vector<vox::Vec2f> near = {{0.3f, 0.4f}, {0.45f, 0.4f}, {0.3f, 0.6f}};
+    // Whole periods away (exactly representable): the same texels, the same area weights.
+    std::vector<vox::Vec2f> shifted = near;
+    for (auto& uv : shifted) uv.x += 1024.0f;
+    EXPECT_FLOAT_EQ(t.integrate(shifted).x, t.integrate(near).x);
+    // Beyond float's integers the texel index is not exact (and overflowed int before): the
+    // polygon is point-sampled at its mean, finite and inside the image's range.
+    for (float u : {3e7f, 1e9f, -1e12f, 1e30f, -3e38f}) {
+        const std::vector<vox::Vec2f> far = {{u, 0.4f}, {u, 0.5f}, {u, 0.6f}};
+        for (WrapMode mode : {WrapMode::Repeat, WrapMode::MirroredRepeat, WrapMode::ClampToEdge}) {
+            const Vec4f v = t.integrate(far, mode, mode);
+            EXPECT_TRUE(std::isfinite(v.x) && v.x >= 0 && v.x <= 1) << u;
+            EXPECT_FLOAT_EQ(v.x, t.sample({u, 0.5f}, 0.0f, mode, mode).x) << u;
+        }
+    }
+}
+
 TEST(Texture, DecodesPngFromMemoryExactly) {
     const std::vector<std::uint8_t> pixels = {10, 20, 30, 40, 50, 60, 70, 80, 90, 200, 210, 220};
     const auto png = vox::encodePng(2, 2, 3, pixels);

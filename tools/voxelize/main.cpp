@@ -15,6 +15,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <limits>
 
 namespace {
 
@@ -36,6 +37,7 @@ struct VoxelizeOptions {
     std::vector<std::string> dynamicNames;
     bool strict = false;
     bool noTextures = false;
+    std::int64_t maxTriangles = 0;  // 0: no limit; signed, so that CLI11 rejects negative values
     // Radiance volume
     std::string radiance;
     unsigned radianceDepth = 8;
@@ -208,6 +210,10 @@ void voxelize(const VoxelizeOptions& options) {
         vox::Timings::Scope timer(&timings, "import");
         scene = vox::importScene(options.input, importOptions);
     }
+    // Before anything is built or written: a scene over the limit leaves no output behind.
+    if (options.maxTriangles > 0 && scene.triangleCount() > static_cast<std::uint64_t>(options.maxTriangles))
+        throw vox::InvalidDataError(options.input, std::to_string(scene.triangleCount()) + " triangles, more than --max-triangles " +
+                                                       std::to_string(options.maxTriangles));
     const vox::Bounds3f bounds = scene.bounds();
     char summary[512];
     std::snprintf(summary, sizeof summary,
@@ -384,6 +390,9 @@ int main(int argc, char** argv) {
         ->allow_extra_args(false);
     app.add_flag("--strict", options.strict, "Treat repaired input (degenerate triangles, bad normals, ...) as an error");
     app.add_flag("--no-textures", options.noTextures, "Do not read or decode textures");
+    app.add_option("--max-triangles", options.maxTriangles,
+                   "Reject a scene with more triangles than this after import (invalid input, exit 3)")
+        ->check(CLI::Range(std::int64_t{1}, std::numeric_limits<std::int64_t>::max()));
     vox::tools::addCommonOptions(app, options.common);
     return vox::tools::runTool("voxelize", app, argc, argv, options.common, [&] {
         if (mergeApp->parsed()) return merge(options);

@@ -61,8 +61,8 @@ public:
     /// polygon's area, integrating each texel of the mip level on which the polygon spans at most
     /// @p maxTexels texels (exactly, by clipping the polygon to every texel it touches). Where
     /// even the 1×1 level is spanned many times over (a heavily repeated texture) the result is
-    /// that level's texel, the whole image's mean. A polygon without area gets sample(centroid, 0).
-    /// Returns linear RGBA.
+    /// that level's texel, the whole image's mean. A polygon without area, or one so far out that
+    /// its texel coordinates pass 2^24 (huge UVs), gets sample(centroid, 0). Returns linear RGBA.
     [[nodiscard]] Vec4f integrate(std::span<const Vec2f> polygon, WrapMode wrapS = WrapMode::Repeat, WrapMode wrapT = WrapMode::Repeat,
                                   int maxTexels = 8) const;
 

@@ -51,6 +51,11 @@ const draco::PointAttribute* DracoMesh::attributeByType(int type) const {
 }
 
 std::vector<float> DracoMesh::floats(const draco::PointAttribute& attribute, int components) const {
+    const std::string prefix = (what_.empty() ? std::string() : what_ + ": ") + "Draco attribute " + std::to_string(attribute.unique_id());
+    // Booleans are no coordinates, and Draco converts their stored bytes by loading them as bool,
+    // undefined behaviour for any byte but 0 and 1 (found by fuzz_drc).
+    if (attribute.data_type() < draco::DT_INT8 || attribute.data_type() > draco::DT_FLOAT64)
+        throw InvalidDataError(file_, prefix + " has data type " + std::to_string(attribute.data_type()) + ", not numbers");
     const std::size_t points = mesh_->num_points();
     const int available = std::min<int>(attribute.num_components(), components);
     std::vector<float> out(points * static_cast<std::size_t>(components), 0.0f);
@@ -59,8 +64,7 @@ std::vector<float> DracoMesh::floats(const draco::PointAttribute& attribute, int
         const draco::AttributeValueIndex index = attribute.mapped_index(p);
         if (index.value() >= attribute.size() ||
             !attribute.ConvertValue<float>(index, static_cast<std::int8_t>(available), value))
-            throw InvalidDataError(file_, (what_.empty() ? std::string() : what_ + ": ") + "Draco attribute " +
-                                              std::to_string(attribute.unique_id()) + " cannot be read as numbers");
+            throw InvalidDataError(file_, prefix + " cannot be read as numbers");
         for (int c = 0; c < components; ++c)
             out[p.value() * static_cast<std::size_t>(components) + c] = c < available ? value[c] : (c == 3 ? 1.0f : 0.0f);
     }

@@ -54,10 +54,12 @@ struct FileAccess {
 
 bool fsFileExists(const std::string& path, void* user) {
     std::error_code ec;
-    if (std::filesystem::is_regular_file(path, ec)) return true;
+    const auto status = std::filesystem::status(path, ec);
+    if (std::filesystem::is_regular_file(status)) return true;
     auto* access = static_cast<FileAccess*>(user);
     if (!access->ioError)
-        access->ioError.emplace(access->context->input(), "cannot read '" + path + "': No such file or directory");
+        access->ioError.emplace(access->context->input(), "cannot read '" + path + "': " +
+                                                              (std::filesystem::exists(status) ? "is not a regular file" : "No such file or directory"));
     return false;
 }
 std::string fsExpandPath(const std::string& path, void*) { return percentDecode(path); }

@@ -90,7 +90,7 @@ Scene importScene(const std::filesystem::path& file, const ImportOptions& option
                 mismatch("an STL file (neither a binary STL of consistent size nor ASCII 'solid')");
             requireText(context, bytes, "ASCII STL");
         }
-        detail::importOpenMesh(context, bytes, detail::OpenMeshFormat::Stl);
+        detail::importStl(context, bytes);
         missingNormals = detail::MissingNormals::Flat;  // STL is faceted; its stored normals are often wrong
     } else if (ext == ".off") {
         detail::importOpenMesh(context, bytes, detail::OpenMeshFormat::Off);

@@ -35,7 +35,11 @@ std::vector<std::uint8_t> ImportContext::readFile(const std::filesystem::path& f
         return IoError(input_, "cannot read '" + file.string() + "': " + what);
     };
     std::error_code ec;
-    if (std::filesystem::is_directory(file, ec)) throw ioError("is a directory");
+    const auto status = std::filesystem::status(file, ec);
+    if (std::filesystem::is_directory(status)) throw ioError("is a directory");
+    // A FIFO, socket or device named by a file (a glTF buffer "uri": "/dev/stdin", say) would
+    // block the import or never end.
+    if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) throw ioError("is not a regular file");
     std::ifstream in(file, std::ios::binary | std::ios::ate);
     if (!in) throw ioError(errnoMessage(errno));
     const std::streamoff size = in.tellg();

@@ -11,8 +11,9 @@ namespace vox::detail {
 void importGltf(ImportContext& context, const std::vector<std::uint8_t>& bytes, bool binary);
 void importObj(ImportContext& context, const std::vector<std::uint8_t>& bytes);
 void importDrc(ImportContext& context, const std::vector<std::uint8_t>& bytes);
+void importStl(ImportContext& context, const std::vector<std::uint8_t>& bytes);
 
-enum class OpenMeshFormat { Ply, Stl, Off };
+enum class OpenMeshFormat { Ply, Off };
 void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& bytes, OpenMeshFormat format);
 
 }  // namespace vox::detail

@@ -3,11 +3,11 @@
 // allocates by counts in the file. Faces are split into meshes by (object/group, material);
 // vertices are shared within a mesh where position, UV and normal indices all match.
 #include "importers.h"
+#include "text_tokens.h"
 
 #include <vox/util/progress.h>
 #include <vox/util/timings.h>
 
-#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <map>
@@ -16,34 +16,6 @@
 
 namespace vox::detail {
 namespace {
-
-std::string_view trim(std::string_view s) {
-    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
-    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
-    return s;
-}
-
-/// Next whitespace-separated token of @p s, consumed from it.
-std::string_view nextToken(std::string_view& s) {
-    s = trim(s);
-    std::size_t end = 0;
-    while (end < s.size() && !std::isspace(static_cast<unsigned char>(s[end]))) ++end;
-    std::string_view token = s.substr(0, end);
-    s.remove_prefix(end);
-    return token;
-}
-
-bool parseFloat(std::string_view token, float& value) {
-    if (!token.empty() && token.front() == '+') token.remove_prefix(1);
-    const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
-    return ec == std::errc() && end == token.data() + token.size();
-}
-
-bool parseInt(std::string_view token, long long& value) {
-    if (!token.empty() && token.front() == '+') token.remove_prefix(1);
-    const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
-    return ec == std::errc() && end == token.data() + token.size();
-}
 
 /// Iterates over logical lines (joining backslash continuations), with 1-based line numbers.
 class ObjLines {

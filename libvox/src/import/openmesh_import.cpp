@@ -1,4 +1,4 @@
-// PLY, STL and OFF through OpenMesh. OpenMesh reserves memory by the counts a header claims and
+// PLY and OFF through OpenMesh. OpenMesh reserves memory by the counts a header claims and
 // reports success on files it could not parse, so the header is checked here first (every
 // claimed count must fit the bytes that follow it) and the result is checked afterwards.
 #include "importers.h"
@@ -93,7 +93,7 @@ int plyTypeSize(const std::string& type) {
 
 struct HeaderFacts {
     std::uint64_t vertices = 0;
-    std::uint64_t faces = 0;      // PLY/OFF faces (polygons); STL triangles
+    std::uint64_t faces = 0;      // faces (polygons)
     bool binary = false;
     std::string textureFile;  // PLY "comment TextureFile" (MeshLab's convention)
 };
@@ -121,6 +121,11 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
         if (t[0] == "format") {
             if (t.size() < 2 || (t[1] != "ascii" && t[1] != "binary_little_endian" && t[1] != "binary_big_endian"))
                 context.fail("PLY header: unknown format '" + line + "'");
+            // OpenMesh reads the version with operator>>; a version that is no number leaves its
+            // stream failed, and its header loop then never sees end_header (found by fuzz_mesh).
+            double version = 0;
+            if (t.size() != 3 || std::from_chars(t[2].data(), t[2].data() + t[2].size(), version).ptr != t[2].data() + t[2].size())
+                context.fail("PLY header: malformed format line '" + line + "' (expected e.g. 'format ascii 1.0')");
             facts.binary = t[1] != "ascii";
             hasFormat = true;
         } else if (t[0] == "comment") {
@@ -244,23 +249,6 @@ private:
     }
 };
 
-/// Triangles an STL file holds: the binary header's count, or the ASCII "endfacet" lines.
-HeaderFacts countStlTriangles(const std::vector<std::uint8_t>& bytes) {
-    HeaderFacts facts;
-    if (bytes.size() >= 84) {
-        std::uint32_t count;
-        std::memcpy(&count, bytes.data() + 80, 4);
-        facts.binary = bytes.size() == 84 + 50ull * count;
-        if (facts.binary) {
-            facts.faces = count;
-            return facts;
-        }
-    }
-    const std::string_view text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
-    for (std::size_t at = text.find("endfacet"); at != std::string_view::npos; at = text.find("endfacet", at + 8)) ++facts.faces;
-    return facts;
-}
-
 /// The text without '#' comments and the blank lines they leave (OpenMesh wants "OFF" first),
 /// or empty if it has no comment.
 std::vector<std::uint8_t> withoutComments(const std::vector<std::uint8_t>& text) {
@@ -340,10 +328,6 @@ void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& byt
         facts = checkOffHeader(context, bytes);
         ext = "off";
         break;
-    case OpenMeshFormat::Stl:
-        facts = countStlTriangles(bytes);
-        ext = "stl";
-        break;
     }
     if (facts.faces == 0) context.fail("has no faces (a point cloud?)");
 
@@ -387,10 +371,8 @@ void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& byt
     if (mesh.n_faces() == 0) context.fail("has no faces (a point cloud?)");
     if (facts.vertices && mesh.n_vertices() < facts.vertices)
         context.fail("is truncated: " + std::to_string(mesh.n_vertices()) + " of " + std::to_string(facts.vertices) + " vertices read");
-    // OpenMesh drops faces with repeated vertices (STL: silently) — they are degenerate.
-    const std::size_t droppedByOpenMesh =
-        format == OpenMeshFormat::Stl ? (facts.faces > mesh.n_faces() ? facts.faces - mesh.n_faces() : 0) : countLines("equal vertices");
-    context.scene().degenerateTrianglesDropped += droppedByOpenMesh;
+    // OpenMesh drops faces with repeated vertices — they are degenerate.
+    context.scene().degenerateTrianglesDropped += countLines("equal vertices");
 
     Mesh out;
     out.name = context.input().stem().string();
@@ -400,21 +382,20 @@ void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& byt
         const auto p = mesh.point(v);
         out.positions.push_back({p[0], p[1], p[2]});
     }
-    // STL facet normals are ignored (flat normals are recomputed from the geometry).
-    if (options.check(OpenMesh::IO::Options::VertexNormal) && format != OpenMeshFormat::Stl) {
+    if (options.check(OpenMesh::IO::Options::VertexNormal)) {
         for (auto v : mesh.vertices()) {
             const auto n = mesh.normal(v);
             out.normals.push_back({n[0], n[1], n[2]});
         }
     }
-    if (options.check(OpenMesh::IO::Options::VertexTexCoord) && format != OpenMeshFormat::Stl) {
+    if (options.check(OpenMesh::IO::Options::VertexTexCoord)) {
         out.uvs.emplace_back();
         for (auto v : mesh.vertices()) {
             const auto t = mesh.texcoord2D(v);
             out.uvs[0].push_back({t[0], 1.0f - t[1]});  // PLY's v points up the image, libvox's down
         }
     }
-    if (options.check(OpenMesh::IO::Options::VertexColor) && format != OpenMeshFormat::Stl) {
+    if (options.check(OpenMesh::IO::Options::VertexColor)) {
         const bool alpha = options.check(OpenMesh::IO::Options::ColorAlpha);
         for (auto v : mesh.vertices()) {
             const auto c = mesh.color(v);

@@ -2,7 +2,9 @@
 
 #include "../import/import_context.h"
 
+#include <algorithm>
 #include <bit>
+#include <cstdio>
 #include <cmath>
 #include <numeric>
 #include <unordered_map>
@@ -31,6 +33,13 @@ Bounds3f Scene::bounds() const {
 
 namespace detail {
 namespace {
+
+/// Largest coordinate magnitude accepted: sums, differences and the root cube's diagonal stay far
+/// below float's 3.4e38 (docs/import.md, "Bad input").
+constexpr float kMaxCoordinate = 1e30f;
+/// Smallest longest side of a scene: its finest voxels at --depth 20 (about 1e-36) are still normal
+/// floats, above 1.2e-38, with full precision.
+constexpr double kMinExtent = 1e-30;
 
 struct PositionHash {
     std::size_t operator()(const Vec3f& p) const noexcept {
@@ -115,9 +124,12 @@ void finalizeScene(ImportContext& context, MissingNormals missingNormals) {
     for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
         Mesh& mesh = scene.meshes[m];
         const std::size_t vertexCount = mesh.positions.size();
-        for (std::size_t v = 0; v < vertexCount; ++v)
-            if (!isFinite(mesh.positions[v]))
-                context.fail(meshLabel(mesh, m) + ": vertex " + std::to_string(v) + " has a non-finite position");
+        for (std::size_t v = 0; v < vertexCount; ++v) {
+            const Vec3f& p = mesh.positions[v];
+            if (!isFinite(p)) context.fail(meshLabel(mesh, m) + ": vertex " + std::to_string(v) + " has a non-finite position");
+            if (std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)}) > kMaxCoordinate)
+                context.fail(meshLabel(mesh, m) + ": vertex " + std::to_string(v) + " has a coordinate beyond ±1e30 (absurd scale)");
+        }
         if (mesh.indices.size() % 3 != 0) context.fail(meshLabel(mesh, m) + ": index count is not a multiple of 3");
         for (std::uint32_t index : mesh.indices)
             if (index >= vertexCount)
@@ -157,9 +169,10 @@ void finalizeScene(ImportContext& context, MissingNormals missingNormals) {
             std::vector<Vec3f> replacements;
             for (std::size_t v = 0; v < mesh.normals.size(); ++v) {
                 Vec3f& n = mesh.normals[v];
-                const float len = isFinite(n) ? length(n) : 0.0f;
-                if (len > 1e-20f && std::isfinite(len)) {
-                    n = n / len;
+                // In double: a huge or tiny but finite normal still has a direction.
+                const double len = isFinite(n) ? length(toDouble(n)) : 0.0;
+                if (len > 0 && std::isfinite(len)) {
+                    n = toFloat(toDouble(n) / len);
                     continue;
                 }
                 if (replacements.empty()) replacements = smoothNormals(mesh);
@@ -180,6 +193,18 @@ void finalizeScene(ImportContext& context, MissingNormals missingNormals) {
         std::string skipped;
         for (const std::string& warning : scene.warnings) skipped += (skipped.empty() ? " (" : "; ") + warning;
         context.fail("contains no triangles" + (skipped.empty() ? std::string() : skipped + ")"));
+    }
+    for (const Light& light : scene.lights)
+        if (std::max({std::fabs(light.position.x), std::fabs(light.position.y), std::fabs(light.position.z)}) > kMaxCoordinate)
+            context.fail("light '" + light.name + "' has a position beyond ±1e30 (absurd scale)");
+    // The finest voxel of the deepest octree (2^-20 of the longest side) must stay a normal float.
+    const Bounds3f bounds = scene.bounds();
+    const double extent = std::max({double(bounds.max.x) - bounds.min.x, double(bounds.max.y) - bounds.min.y,
+                                    double(bounds.max.z) - bounds.min.z});
+    if (extent < kMinExtent) {
+        char text[64];
+        std::snprintf(text, sizeof text, "%g", extent);
+        context.fail(std::string("the scene's longest side is ") + text + ", below 1e-30 (absurd scale: zero or denormal size)");
     }
     if (scene.degenerateTrianglesDropped)
         context.warn("dropped " + std::to_string(scene.degenerateTrianglesDropped) + " degenerate triangle(s) with no area");

@@ -1,6 +1,7 @@
 #include <vox/formats/error.h>
 #include <vox/texture.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <stdexcept>
@@ -195,6 +196,11 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
     while (level + 1 < levelCount() && span(level) > maxTexels) ++level;
     if (span(level) > 4.0 * maxTexels) return texel(level, 0, 0);  // the 1×1 level: the image's mean
     const Level& l = levels_[level];
+    // Texel indices beyond float's integers (2^24) are neither exact nor within int: a polygon that
+    // far out (huge but finite UVs) is point-sampled at its mean, which sample() wraps first.
+    const double reach = std::max({std::fabs(double(lo.x)), std::fabs(double(hi.x))}) * l.width +
+                         std::max({std::fabs(double(lo.y)), std::fabs(double(hi.y))}) * l.height;
+    if (reach > 16777216.0) return sample(mean, 0, wrapS, wrapT);
 
     // Sutherland–Hodgman against the texel's four sides, in this level's texel units.
     // A triangle clipped to a cube has at most 9 vertices; each side adds at most one more.

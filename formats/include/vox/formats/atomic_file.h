@@ -1,7 +1,8 @@
 /// @file atomic_file.h
 /// @brief Writes an output file so that readers see either the previous file or the complete
 /// new one, never a partial file: data goes to a temporary file beside the target, which is
-/// renamed into place by commit(). A destroyed, uncommitted AtomicFile removes its temporary.
+/// renamed into place by commit(). A destroyed, uncommitted AtomicFile removes its temporary; a
+/// killed writer's temporary is removed by the next AtomicFile of the same target.
 #pragma once
 
 #include <cstddef>
@@ -14,7 +15,11 @@ namespace vox {
 
 class AtomicFile {
 public:
-    /// Creates the temporary file "<dir>/.<name>.tmp-XXXXXX" beside @p target.
+    /// Creates the temporary file "<dir>/.<name>.tmp-XXXXXX" beside @p target and holds an
+    /// exclusive flock on it until it is renamed or removed. First removes the temporaries of
+    /// @p target that no live writer holds (left by a killed or crashed run): regular files of
+    /// this user named ".<name>.tmp-" and six characters whose lock it can take. Temporaries of
+    /// other targets, and those a running writer holds, are never touched.
     /// @throws IoError if the directory is not writable.
     explicit AtomicFile(std::filesystem::path target);
     ~AtomicFile();
