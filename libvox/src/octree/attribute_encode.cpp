@@ -1841,6 +1841,7 @@ NormalState encodeNormals(NormalPoints& p, AttributeEffort effort) {
     // not tried.
     const PlaneFit f = fitNormals(p, search.startMask, [&](const PlaneFit& first) { return first.error <= search.earlyBelow * p.count; });
     NormalState s = search.enumeratePlane ? quantiseFitFast(p, f, search.planeRounds, search.planeMeasured) : quantiseFit(p, f);
+    if (!(s.error < std::numeric_limits<double>::max())) s = quantiseFit(p, f);  // (the sums were degenerate)
     // Wide: some normal more than 30° from the outermost one; or few distinct directions.
     const Dir first = toDir(p.n[outermost(p)]);
     bool wide = false;
