@@ -30,6 +30,7 @@ struct VoxelizeOptions {
     bool noContours = false;
     double contourError = 0;
     std::string attributes = "dxt";
+    std::string attributeEffort = "default";
     double colorError = 0;
     double normalError = 0;
     std::string stats;
@@ -241,6 +242,9 @@ void voxelize(const VoxelizeOptions& options) {
                                : options.attributes == "dxt"        ? vox::AttributeEncoding::Compressed
                                : options.attributes == "dxt-lookup" ? vox::AttributeEncoding::CompressedLookup
                                                                     : vox::AttributeEncoding::None;
+        build.write.attributeEffort = options.attributeEffort == "fast"   ? vox::AttributeEffort::Fast
+                                    : options.attributeEffort == "best" ? vox::AttributeEffort::Best
+                                                                        : vox::AttributeEffort::Default;
         build.write.partitionLevel = options.partitionLevel;
         build.write.sceneBounds = bounds;
         build.write.timings = &timings;
@@ -330,6 +334,10 @@ int main(int argc, char** argv) {
                    "(compressed behind a lookup entry per descriptor, values equal to the parent's omitted), raw (64 bits "
                    "per stored voxel) or none")
         ->check(CLI::IsMember({"dxt", "dxt-lookup", "raw", "none"}))->capture_default_str();
+    app.add_option("--attribute-effort", options.attributeEffort,
+                   "How hard the dxt and dxt-lookup encoders search: default, fast (about 1.6x faster, 8-11 % more normal "
+                   "error) or best (the full search, about 1.8x slower than default for 0.02 dB and 1-2 % normal error)")
+        ->check(CLI::IsMember({"fast", "default", "best"}))->capture_default_str();
     app.add_option("--color-error", options.colorError,
                    "With --contour-error: keep refining where colour varies more than this (8-bit sRGB steps) inside a voxel (0: off)")
         ->check(CLI::Range(0.0, 255.0))->capture_default_str();

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <vox/formats/esvo_attributes.h>
+#include <vox/octree.h>
 
 #include <array>
 #include <cstdint>
@@ -25,7 +26,7 @@ namespace vox::detail {
 /// starts (none more when the first fits within 0.1°) and the ordered colour fit on fewer blocks.
 /// Blocks of at most four distinct normal directions, single colours and two RGB565 colours
 /// are treated alike by all three (exact cases stay exact).
-enum class AttributeEffort : std::uint8_t { Fast, Default, Best };
+using vox::AttributeEffort;  // vox/octree.h
 
 /// Encodes 16 colours (esvo::packColor words, sRGB RGB; alpha ignored) into words 0-1 of a
 /// compressed block: RGB565 endpoints and 2-bit indices. Only slots whose bit is set in

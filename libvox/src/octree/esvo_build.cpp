@@ -95,7 +95,7 @@ std::uint64_t buildFingerprint(const esvo::Header& header, const EsvoBuildOption
     const SurfaceVoxelizeOptions& v = options.voxelize;
     const double values[] = {double(v.depth), double(v.includeDynamic), double(v.onlyDynamic), double(v.contours), v.contourError,
                              double(v.attributes), v.colorError, v.normalErrorDegrees, double(partitionLevel),
-                             double(static_cast<int>(options.write.attributes))};
+                             double(static_cast<int>(options.write.attributes)), double(static_cast<int>(options.write.attributeEffort))};
     hash = detail::fnv1a64(values, sizeof values, hash);
     for (std::size_t c = 0; c < voxelizer.cellCount(); ++c) {
         const std::uint32_t code = voxelizer.cellCode(c);
@@ -274,6 +274,7 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
         part.partitionsInRun = static_cast<std::uint32_t>(last - first);
         part.fingerprint = buildFingerprint(info.header, options, p, voxelizer);
         part.header = info.header;
+        part.attributeEffort = options.write.attributeEffort;
         result.voxelsPerLevel.assign(depth + 1, 0);
         for (const detail::PartitionRoot& r : roots)
             for (std::size_t l = 0; l < r.voxelsPerLevel.size(); ++l) result.voxelsPerLevel[p + l] += r.voxelsPerLevel[l];
@@ -308,7 +309,7 @@ EsvoBuildResult mergeEsvoParts(const std::filesystem::path& file, const std::vec
     std::sort(read.begin(), read.end(), [](const auto& a, const auto& b) { return a.runIndex < b.runIndex; });
     const detail::EsvoPart& head = read.front();
     const auto sameBuild = [&](const detail::EsvoPart& part) {
-        return part.fingerprint == head.fingerprint && part.runCount == head.runCount && part.partitionLevel == head.partitionLevel &&
+        return part.fingerprint == head.fingerprint && part.attributeEffort == head.attributeEffort && part.runCount == head.runCount && part.partitionLevel == head.partitionLevel &&
                part.partitionsTotal == head.partitionsTotal && part.header.leafDepth == head.header.leafDepth;
     };
     std::uint32_t nextPartition = 0;
@@ -340,6 +341,7 @@ EsvoBuildResult mergeEsvoParts(const std::filesystem::path& file, const std::vec
     writeOptions.sliceBytes = head.header.sliceBytesLimit;
     writeOptions.nearPointerLimit = head.header.nearPointerLimit;
     writeOptions.attributes = detail::attributeEncoding(head.header.attachmentKinds);
+    writeOptions.attributeEffort = head.attributeEffort;
     writeOptions.timings = timings;
     result.leafDepth = head.header.leafDepth;
     result.partitionLevel = head.partitionLevel;

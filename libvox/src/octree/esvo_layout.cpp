@@ -512,7 +512,7 @@ private:
 
 /// Encodes the compressed attribute blocks of a laid-out slice: block p holds the children of
 /// the descriptors in units 2p (slots 0-7) and 2p + 1 (slots 8-15).
-void encodeCompressedAttributes(SliceBlock& block, const OctreeIndex& tree) {
+void encodeCompressedAttributes(SliceBlock& block, const OctreeIndex& tree, AttributeEffort effort) {
     auto& refs = block.pendingCompressed;
     auto* words = reinterpret_cast<std::uint32_t*>(block.units.data() + block.compressedUnit);
     // CompressedLookup: runs of 16 stored values.
@@ -524,7 +524,7 @@ void encodeCompressedAttributes(SliceBlock& block, const OctreeIndex& tree) {
         std::uint32_t used = 0;
         for (std::size_t i = 0; i < n; ++i)
             if (values[i] != kPaddingValue) used |= 1u << i;
-        const esvo::CompressedBlock encoded = detail::encodeCompressedBlock(values, used);
+        const esvo::CompressedBlock encoded = detail::encodeCompressedBlock(values, used, effort);
         std::copy(encoded.begin(), encoded.end(), words + 6 * (first / 16));
     }
     block.pendingValues = {};
@@ -543,7 +543,7 @@ void encodeCompressedAttributes(SliceBlock& block, const OctreeIndex& tree) {
                     used |= 1u << (base + slot);
                 }
         }
-        const esvo::CompressedBlock encoded = detail::encodeCompressedBlock(values, used);
+        const esvo::CompressedBlock encoded = detail::encodeCompressedBlock(values, used, effort);
         std::copy(encoded.begin(), encoded.end(), words + 6 * pair);
     }
     refs = {};
@@ -741,7 +741,7 @@ std::vector<LaidOutSlice> layoutSlices(const OctreeView& view, const SliceLayout
     if (!view.attributes.empty() &&
         (options.attributes == AttributeEncoding::Compressed || options.attributes == AttributeEncoding::CompressedLookup)) {
         Timings::Scope timer(options.timings, "esvo_compress_attributes");
-        tbb::parallel_for(std::size_t{0}, planned.size(), [&](std::size_t i) { encodeCompressedAttributes(planned[i].second, index); });
+        tbb::parallel_for(std::size_t{0}, planned.size(), [&](std::size_t i) { encodeCompressedAttributes(planned[i].second, index, options.attributeEffort); });
     }
 
     std::vector<LaidOutSlice> slices;

@@ -73,6 +73,7 @@ struct SliceLayoutOptions {
     /// (the root slice). False: the view is a partition, and its first slice holds the root
     /// voxel's child group (its root descriptor is in a slice of the top).
     bool fileRoot = true;
+    AttributeEffort attributeEffort = AttributeEffort::Default;
     Timings* timings = nullptr;  ///< esvo_layout, esvo_compress_attributes (summed over partitions)
 };
 

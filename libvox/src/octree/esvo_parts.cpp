@@ -158,6 +158,7 @@ std::uint64_t writeEsvoPart(const std::filesystem::path& file, const EsvoPart& p
     header.put(static_cast<std::uint64_t>(records.bytes().size()));
     header.put(sliceCount);
     header.put(crc32c(records.bytes().data(), records.bytes().size()));
+    header.put(static_cast<std::uint32_t>(part.attributeEffort));
     std::vector<std::uint8_t> headerBytes = header.bytes();
     headerBytes.resize(kPartHeaderBytes - 4, 0);
     const std::uint32_t headerChecksum = crc32c(headerBytes.data(), headerBytes.size());
@@ -205,6 +206,9 @@ EsvoPart readEsvoPart(const std::filesystem::path& path, SliceStore& store) {
     const auto recordsBytes = in.get<std::uint64_t>();
     const auto sliceCount = in.get<std::uint32_t>();
     const auto recordsChecksum = in.get<std::uint32_t>();
+    const auto effort = in.get<std::uint32_t>();
+    if (effort > static_cast<std::uint32_t>(AttributeEffort::Best)) throw invalid("part file header: unknown attribute effort");
+    part.attributeEffort = static_cast<AttributeEffort>(effort);
     if (h.leafDepth < 1 || h.leafDepth > esvo::kMaxLeafDepth || part.partitionLevel < 1 || part.partitionLevel >= h.leafDepth ||
         part.runCount < 2 || part.runIndex >= part.runCount || part.firstPartition > part.partitionsTotal ||
         part.partitionsInRun > part.partitionsTotal - part.firstPartition || rootCount > part.partitionsInRun ||

@@ -25,6 +25,7 @@ struct EsvoPart {
     std::uint32_t partitionsInRun = 0;
     std::uint64_t fingerprint = 0;      ///< of the build: scene, options and partitions (buildFingerprint)
     esvo::Header header;                ///< the merged file's, but for its slices, directory and size
+    AttributeEffort attributeEffort = AttributeEffort::Default;  ///< for the top's compressed blocks
     std::vector<PartitionRoot> roots;   ///< the run's occupied partitions, in Morton order
     std::vector<PartitionSlices> slices;  ///< per root (empty where it has no slices)
 };

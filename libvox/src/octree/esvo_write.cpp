@@ -48,6 +48,7 @@ SliceLayoutOptions sliceLayoutOptions(const EsvoWriteOptions& options, bool attr
     layout.sliceBytes = options.sliceBytes;
     layout.nearPointerLimit = options.nearPointerLimit;
     layout.fileRoot = fileRoot;
+    layout.attributeEffort = options.attributeEffort;
     layout.timings = options.timings;
     return layout;
 }
