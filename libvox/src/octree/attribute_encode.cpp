@@ -476,7 +476,7 @@ alignas(16) constexpr std::array<float, 16> kComboV = [] {
 /// in the low 4 mantissa bits, which keeps the order of non-negative floats, so that a plain
 /// min reduction (vectorisable, unlike an argmin loop) finds both. Inlined into its callers'
 /// loops (a call, with @p d stored and reloaded, cost as much as the distances).
-VOX_ENCODE_INLINE unsigned argmin16(const std::array<float, 16>& d) {
+[[maybe_unused]] VOX_ENCODE_INLINE unsigned argmin16(const std::array<float, 16>& d) {  // the SSE2 build uses the vector form
     std::array<float, 16> t{};
     for (unsigned k = 0; k < 16; ++k) t[k] = std::bit_cast<float>((std::bit_cast<std::uint32_t>(d[k]) & ~15u) | k);
     for (unsigned k = 0; k < 8; ++k) t[k] = std::min(t[k], t[k + 8]);
