@@ -178,7 +178,7 @@ struct EsvoBuildResult {
     std::uint64_t scratchBytes = 0;             ///< finished slices that waited on disk
     std::uint64_t memoryLimit = 0;
     EsvoWriteResult written;                    ///< the .esvo or the part file
-    double voxelizeSeconds = 0, layoutSeconds = 0;
+    double voxelizeSeconds = 0;                 ///< wall time of binning and building the cells
     [[nodiscard]] std::uint64_t voxelCount() const noexcept;
 };
 

@@ -158,7 +158,8 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
         throw UsageError("--partition K/N needs 1 ≤ K ≤ N");
     const auto voxelizerStart = Clock::now();
     const detail::SurfaceVoxelizer voxelizer(scene, vo);
-    if (vo.timings) vo.timings->add("voxelize", 1000 * secondsSince(voxelizerStart));
+    result.voxelizeSeconds = secondsSince(voxelizerStart);
+    if (vo.timings) vo.timings->add("voxelize", 1000 * result.voxelizeSeconds);
     const std::uint32_t depth = voxelizer.depth();
     const std::uint32_t p = detail::resolvePartitionLevel(options.write.partitionLevel, depth);
     if (p > voxelizer.cellLevel())
@@ -250,7 +251,6 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
                 roots.push_back(std::move(roundRoots[n]));
                 partitionSlices.push_back(std::move(roundSlices[n]));
             }
-        result.layoutSeconds += secondsSince(layoutStart);
         if (options.write.timings) options.write.timings->add("esvo", 1000 * secondsSince(layoutStart));
         i = j;
     }
