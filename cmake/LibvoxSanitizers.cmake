@@ -38,3 +38,7 @@ set(LIBVOX_SANITIZER_ENVIRONMENT
   "ASAN_OPTIONS=detect_leaks=1:check_initialization_order=1:strict_init_order=1"
   "LSAN_OPTIONS=suppressions=${CMAKE_CURRENT_LIST_DIR}/lsan-suppressions.txt:print_suppressions=0"
   "UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1")
+# The same without leak checking, for the OpenGL tests (label gl): Mesa's driver, loaded with
+# dlopen and gone by exit, leaks on every context (128 bytes from a realloc in "<unknown
+# module>", which no suppression can name). ASan and UBSan still check them.
+string(REPLACE "detect_leaks=1" "detect_leaks=0" LIBVOX_SANITIZER_ENVIRONMENT_WITHOUT_LEAKS "${LIBVOX_SANITIZER_ENVIRONMENT}")

@@ -2,11 +2,6 @@
 // its conversion of the decoded attributes.
 #include "import_fuzzer.h"
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-    vox::fuzz::silenceLogging();
-    return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     static vox::fuzz::InputFile drc(".drc");
     vox::fuzz::importAndVoxelize(drc.write(data, size));

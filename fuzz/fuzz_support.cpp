@@ -76,7 +76,6 @@ const std::filesystem::path& InputFile::write(const std::uint8_t* data, std::siz
     return path_;
 }
 
-void silenceLogging() { vox::log::setVerbosity(vox::log::Verbosity::Quiet); }
 
 bool repairEsvoChecksums(std::vector<std::uint8_t>& bytes) {
     using namespace vox::esvo;
@@ -130,3 +129,11 @@ bool repairRvolChecksums(std::vector<std::uint8_t>& bytes) {
 }
 
 }  // namespace vox::fuzz
+
+// libFuzzer calls this once before the first input, in every harness (this library is linked as
+// objects, so the definition is always there). Logging is quiet (errors only): thousands of
+// inputs a second, each of which may warn.
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+    vox::log::setVerbosity(vox::log::Verbosity::Quiet);
+    return 0;
+}

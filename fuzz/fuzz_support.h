@@ -30,9 +30,16 @@ private:
     std::filesystem::path path_;
 };
 
-/// Quiet logging (errors only): the harnesses feed thousands of inputs a second, each of which
-/// may warn. Call from LLVMFuzzerInitialize.
-void silenceLogging();
+/// Runs @p readAndValidate on the input as it is (written to @p input) and, where
+/// @p repairChecksums changes it, once more on the repaired copy: the checksums must catch the
+/// damage, and past them the structure must be checked.
+template <typename Repair, typename Body>
+void asIsAndWithChecksumsRepaired(InputFile& input, const std::uint8_t* data, std::size_t size, Repair repairChecksums,
+                                  Body readAndValidate) {
+    readAndValidate(input.write(data, size));
+    std::vector<std::uint8_t> repaired(data, data + size);
+    if (repairChecksums(repaired)) readAndValidate(input.write(repaired));
+}
 
 /// Rewrites every checksum of an .esvo file in @p bytes (each slice's in its directory entry, the
 /// directory's and the header's) to match the bytes they cover, where the header and directory

@@ -4,11 +4,6 @@
 
 #include <cstring>
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-    vox::fuzz::silenceLogging();
-    return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     static vox::fuzz::InputFile gltf(".gltf"), glb(".glb");
     const bool binary = size >= 4 && std::memcmp(data, "glTF", 4) == 0;

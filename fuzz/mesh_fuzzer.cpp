@@ -18,11 +18,6 @@ bool isBinaryStlSize(const std::uint8_t* data, std::size_t size) {
 
 }  // namespace
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-    vox::fuzz::silenceLogging();
-    return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     static vox::fuzz::InputFile obj(".obj"), ply(".ply"), stl(".stl"), off(".off");
     const std::string_view text(reinterpret_cast<const char*>(data), size);

@@ -51,15 +51,8 @@ void readAndValidate(const std::filesystem::path& file) {
 
 }  // namespace
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-    vox::fuzz::silenceLogging();
-    return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     static vox::fuzz::InputFile input(".rvol");
-    readAndValidate(input.write(data, size));
-    std::vector<std::uint8_t> repaired(data, data + size);
-    if (vox::fuzz::repairRvolChecksums(repaired)) readAndValidate(input.write(repaired));
+    vox::fuzz::asIsAndWithChecksumsRepaired(input, data, size, vox::fuzz::repairRvolChecksums, readAndValidate);
     return 0;
 }

@@ -4,14 +4,11 @@
 # and the libFuzzer harnesses, into its own build directory; then the unit and tool tests on it,
 # then each fuzzer for LIBVOX_FUZZ_SECONDS (default 60) from its seed corpus (CTest label fuzz).
 #
-# Left out of the sanitized run:
-# - label gl (the OpenGL runtime on llvmpipe): Mesa's llvmpipe is not instrumented and leaks on
-#   context teardown and in its shader compiler, so LeakSanitizer reports Mesa, not libvox; and its
-#   JIT-compiled shaders run many times slower under ASan. The runtime's CPU-side code (slice
-#   schedule, pool, readers) is covered by the other labels; the gl tests run in the normal suite.
-# - label package: it builds a consumer project with the plain toolchain against this build,
-#   which would need the sanitizer runtime in that project too; it checks packaging, which the
-#   normal suite does.
+# Left out: label package, which builds a consumer project with the plain toolchain against this
+# build (it would need the sanitizer runtime in that project too); it checks packaging, which the
+# normal suite does. The OpenGL tests (label gl, on llvmpipe) run without leak checking: Mesa's
+# driver leaks on every context from a module it unloads before exit, which no suppression can
+# name (cmake/LibvoxSanitizers.cmake); ASan and UBSan still check them.
 #
 # Environment: LIBVOX_SANITIZE_BUILD (build directory, default build-sanitize),
 # LIBVOX_FUZZ_SECONDS, CMAKE_CXX_COMPILER_LAUNCHER (e.g. ccache; not needed).
@@ -24,5 +21,5 @@ fuzz_seconds="${LIBVOX_FUZZ_SECONDS:-60}"
 ./scripts/install-deps.sh
 ./scripts/configure-sanitize.sh "$build" -DLIBVOX_FUZZ_SECONDS="$fuzz_seconds"
 cmake --build "$build"
-ctest --test-dir "$build" --output-on-failure -j"$(nproc)" -LE '^(gl|package|fuzz)$'
+ctest --test-dir "$build" --output-on-failure -j"$(nproc)" -LE '^(package|fuzz)$'
 ctest --test-dir "$build" --output-on-failure -j"$(nproc)" -L '^fuzz$'

@@ -426,6 +426,11 @@ TEST(GltfImport, MalformedDocumentsAreInvalidData) {
     }
     vox::test::writeText(dir / "truncated.gltf", R"({"asset": {"version": "2.0"}, "nodes": [)");
     EXPECT_NE(importError<vox::InvalidDataError>(dir / "truncated.gltf").find("malformed JSON"), std::string::npos);
+    // Found by fuzz_gltf: a number beyond double is nlohmann's out_of_range, not a parse_error,
+    // and escaped as an internal error (exit 4).
+    vox::test::writeText(dir / "overflow.gltf", R"({"asset": {"version": "2.0"}, "scene": 0.8e39929})");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "overflow.gltf").find("malformed JSON: number overflow parsing '0.8e39929'"),
+              std::string::npos);
 }
 
 TEST(GltfImport, VertexIndexOutOfRangeNamesThePrimitive) {

@@ -171,6 +171,80 @@ TEST(StlImport, MalformedAsciiNamesTheLine) {
     EXPECT_EQ(scene.meshes[0].positions.size(), 6u);
 }
 
+TEST(OffImport, HugeOrMalformedCornerCountsAreInvalidWithoutAllocating) {
+    // Found by fuzz_mesh: OpenMesh's OFF reader pushed as many corners as a face's count said
+    // (2 GB from a 1.5 KB file). libvox reads OFF itself; a face's corners are tokens of its line.
+    ScratchDir dir;
+    const std::string header = "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n";
+    struct Case {
+        std::string face, message;
+    };
+    const Case cases[] = {
+        {"4000000000 0 1 2", "line 6: face has fewer than its 4000000000 corners"},
+        {"-1 0 1 2", "line 6: malformed face: no corner count"},
+        {"3 0 1 -2", "line 6: malformed vertex index '-2'"},
+        {"3 0 1 3", "line 6: vertex index 3 out of range (3 vertices)"},
+        {"3 0 1 x", "line 6: malformed vertex index 'x'"},
+    };
+    for (const Case& c : cases) {
+        writeText(dir / "bad.off", header + c.face + "\n");
+        const std::string message = importError<vox::InvalidDataError>(dir / "bad.off");
+        EXPECT_NE(message.find(c.message), std::string::npos) << message;
+    }
+    writeText(dir / "short.off", "OFF\n3 2 0\n0.000000 0.000000 0.000000\n1.000000 0.000000 0.000000\n0.000000 1.000000 0.000000\n3 0 1 2\n");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "short.off").find("is truncated: 1 of 2 faces read"), std::string::npos);
+    writeText(dir / "vertex.off", "OFF\n3 1 0\n0.000000 0.000000 0.000000\n1.000000 0.000000\n0.000000 1.000000 0.000000\n3 0 1 2\n");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "vertex.off").find("line 4: vertex has 2 numbers"), std::string::npos);
+    writeText(dir / "binary.off", "OFF BINARY\n3 1 0\n");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "binary.off").find("binary OFF is not supported"), std::string::npos);
+}
+
+TEST(OffImport, ColoursNormalsPolygonsAndPointsAndLines) {
+    ScratchDir dir;
+    // COFF with 0–255 integer colours on one vertex line and 0–1 floats on another, a quad (two
+    // triangles), a line and a point (skipped with a warning), comments anywhere.
+    writeText(dir / "c.off", "# colours\nCOFF 4 3 0\n0 0 0 255 0 0 255 # red\n1 0 0 0.0 1.0 0.0 1.0\n1 1 0 0 0 255 255\n"
+                             "0 1 0 255 255 255 128\n4 0 1 2 3 9 9 9\n2 0 1\n1 3\n");
+    const vox::Scene scene = vox::importScene(dir / "c.off");
+    ASSERT_EQ(scene.meshes.size(), 1u);
+    const vox::Mesh& m = scene.meshes[0];
+    EXPECT_EQ(m.triangleCount(), 2u);
+    ASSERT_EQ(m.colors.size(), 4u);
+    EXPECT_FLOAT_EQ(m.colors[0].x, 1.0f);
+    EXPECT_FLOAT_EQ(m.colors[0].y, 0.0f);
+    EXPECT_FLOAT_EQ(m.colors[1].y, 1.0f);
+    EXPECT_FLOAT_EQ(m.colors[2].z, 1.0f);
+    EXPECT_NEAR(m.colors[3].w, 128.0f / 255.0f, 1e-6f);
+    ASSERT_EQ(scene.warnings.size(), 1u);
+    EXPECT_EQ(scene.warnings[0], "skipped 2 face(s) with fewer than 3 corners (points and lines)");
+    // NOFF: the file's normals.
+    writeText(dir / "n.off", "NOFF\n3 1 0\n0 0 0 0 0 2\n1 0 0 0 0 2\n0 1 0 0 0 2\n3 0 1 2\n");
+    const vox::Scene normals = vox::importScene(dir / "n.off");
+    EXPECT_EQ(normals.meshes[0].normals[1].z, 1.0f);
+}
+
+TEST(OpenMeshImport, PlyListCountsBeyondTheFileAreInvalidWithoutAllocating) {
+    // OpenMesh sizes a face's corner list by its count, unchecked; libvox walks the records first.
+    ScratchDir dir;
+    const std::string vertices = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n";
+    writeText(dir / "a.ply", "ply\nformat ascii 1.0\n" + vertices + "element face 1\nproperty list uint int vertex_indices\n"
+                             "end_header\n0 0 0\n1 0 0\n0 1 0\n4000000000 0 1 2\n");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "a.ply").find("face 0: a list of 4000000000 values, more than the rest of the file holds"),
+              std::string::npos);
+    writeText(dir / "n.ply", "ply\nformat ascii 1.0\n" + vertices + "element face 1\nproperty list int int vertex_indices\n"
+                             "end_header\n0 0 0\n1 0 0\n0 1 0\n-3 0 1 2\n");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "n.ply").find("face 0: malformed list count"), std::string::npos);
+    auto bytes = bytesOf("ply\nformat binary_big_endian 1.0\n" + vertices + "element face 1\nproperty list uint int vertex_indices\nend_header\n");
+    for (int i = 0; i < 36; ++i) bytes.push_back(0);
+    for (std::uint8_t b : {0xFF, 0xFF, 0xFF, 0xF0}) bytes.push_back(b);  // 4294967280 corners
+    for (int i = 0; i < 12; ++i) bytes.push_back(0);
+    writeBinary(dir / "b.ply", bytes);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "b.ply").find("face 0: a list of 4294967280 values"), std::string::npos);
+    writeText(dir / "f.ply", "ply\nformat ascii 1.0\n" + vertices + "element face 1\nproperty list float int vertex_indices\n"
+                             "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "f.ply").find("list count type is not an integer type"), std::string::npos);
+}
+
 TEST(OpenMeshImport, OffWithCommentsAndPlyTextureFile) {
     ScratchDir dir;
     writeText(dir / "c.off", "# comment\nOFF\n# counts follow\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n");

@@ -82,7 +82,7 @@ Scene importScene(const std::filesystem::path& file, const ImportOptions& option
         detail::importObj(context, bytes);
     } else if (ext == ".ply") {
         if (!startsWith(bytes, "ply\n") && !startsWith(bytes, "ply\r\n")) mismatch("a PLY file (no 'ply' header)");
-        detail::importOpenMesh(context, bytes, detail::OpenMeshFormat::Ply);
+        detail::importPly(context, bytes);
     } else if (ext == ".stl") {
         if (!isBinaryStl(bytes)) {
             const std::size_t start = firstContent(bytes);
@@ -93,7 +93,7 @@ Scene importScene(const std::filesystem::path& file, const ImportOptions& option
         detail::importStl(context, bytes);
         missingNormals = detail::MissingNormals::Flat;  // STL is faceted; its stored normals are often wrong
     } else if (ext == ".off") {
-        detail::importOpenMesh(context, bytes, detail::OpenMeshFormat::Off);
+        detail::importOff(context, bytes);
     } else if (ext == ".drc") {
         if (!startsWith(bytes, "DRACO")) mismatch("a Draco file (no 'DRACO' magic)");
         detail::importDrc(context, bytes);

@@ -12,8 +12,8 @@ void importGltf(ImportContext& context, const std::vector<std::uint8_t>& bytes, 
 void importObj(ImportContext& context, const std::vector<std::uint8_t>& bytes);
 void importDrc(ImportContext& context, const std::vector<std::uint8_t>& bytes);
 void importStl(ImportContext& context, const std::vector<std::uint8_t>& bytes);
-
-enum class OpenMeshFormat { Ply, Off };
-void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& bytes, OpenMeshFormat format);
+void importOff(ImportContext& context, const std::vector<std::uint8_t>& bytes);
+/// PLY through OpenMesh (openmesh_import.cpp).
+void importPly(ImportContext& context, const std::vector<std::uint8_t>& bytes);
 
 }  // namespace vox::detail

@@ -1,4 +1,4 @@
-// PLY and OFF through OpenMesh. OpenMesh reserves memory by the counts a header claims and
+// PLY through OpenMesh. OpenMesh reserves memory by the counts a header claims and
 // reports success on files it could not parse, so the header is checked here first (every
 // claimed count must fit the bytes that follow it) and the result is checked afterwards.
 #include "importers.h"
@@ -91,6 +91,20 @@ int plyTypeSize(const std::string& type) {
     return 0;
 }
 
+bool isPlyFloat(const std::string& type) { return type == "float" || type == "float32" || type == "double" || type == "float64"; }
+bool isPlySigned(const std::string& type) {
+    return type == "char" || type == "int8" || type == "short" || type == "int16" || type == "int" || type == "int32";
+}
+
+/// A property as the records store it: a scalar of @p size bytes, or a list (a count, then that
+/// many items of @p size bytes).
+struct PlyProperty {
+    bool list = false;
+    int countSize = 0;
+    bool countSigned = false;
+    int size = 0;
+};
+
 struct HeaderFacts {
     std::uint64_t vertices = 0;
     std::uint64_t faces = 0;      // faces (polygons)
@@ -107,10 +121,11 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
         std::string name;
         std::uint64_t count = 0;
         std::uint64_t minBytes = 0;
-        std::vector<std::string> properties;
+        std::vector<PlyProperty> properties;
     };
     std::vector<Element> elements;
     bool ended = false, hasFormat = false;
+    std::string plyFormat;
     while (reader.next(line)) {
         const auto t = tokens(line);
         if (t.empty()) continue;
@@ -127,6 +142,7 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
             if (t.size() != 3 || std::from_chars(t[2].data(), t[2].data() + t[2].size(), version).ptr != t[2].data() + t[2].size())
                 context.fail("PLY header: malformed format line '" + line + "' (expected e.g. 'format ascii 1.0')");
             facts.binary = t[1] != "ascii";
+            plyFormat = t[1];
             hasFormat = true;
         } else if (t[0] == "comment") {
             if (t.size() >= 3 && t[1] == "TextureFile") facts.textureFile = line.substr(line.find("TextureFile") + 12);
@@ -139,15 +155,16 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
             if (elements.empty()) context.fail("PLY header: property before any element");
             Element& e = elements.back();
             if (t.size() == 5 && t[1] == "list") {
-                const int countSize = plyTypeSize(t[2]);
-                if (!countSize || !plyTypeSize(t[3])) context.fail("PLY header: unknown list type in '" + line + "'");
+                const int countSize = plyTypeSize(t[2]), itemSize = plyTypeSize(t[3]);
+                if (!countSize || !itemSize) context.fail("PLY header: unknown list type in '" + line + "'");
+                if (isPlyFloat(t[2])) context.fail("PLY header: list count type is not an integer type in '" + line + "'");
                 e.minBytes += facts.binary ? countSize : 2;
-                e.properties.push_back(t[4]);
+                e.properties.push_back({true, countSize, isPlySigned(t[2]), itemSize});
             } else if (t.size() == 3) {
                 const int size = plyTypeSize(t[1]);
                 if (!size) context.fail("PLY header: unknown property type in '" + line + "'");
                 e.minBytes += facts.binary ? size : 2;
-                e.properties.push_back(t[2]);
+                e.properties.push_back({false, 0, false, size});
             } else {
                 context.fail("PLY header: malformed property line '" + line + "'");
             }
@@ -169,43 +186,59 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
     if (needed > available)
         context.fail("PLY header claims elements needing at least " + std::to_string(needed) + " bytes, but only " +
                      std::to_string(available) + " follow the header");
-    return facts;
-}
-
-HeaderFacts checkOffHeader(const ImportContext& context, const std::vector<std::uint8_t>& bytes) {
-    LineReader reader(bytes);
-    std::string line;
-    auto nextContent = [&]() -> std::vector<std::string> {
-        while (reader.next(line)) {
-            const std::string content = line.substr(0, line.find('#'));
-            auto t = tokens(content);
-            if (!t.empty()) return t;
-        }
-        return {};
+    if (facts.faces == 0) context.fail("has no faces (a point cloud?)");
+    // OpenMesh sizes each list (a face's corners) by the count it reads, unchecked: a count of
+    // 4 000 000 000 is 16 GB of corners (found by fuzz_mesh for OFF, whose reader libvox replaced).
+    // Walk the records as OpenMesh reads them and check every count against what follows.
+    const std::uint8_t* at = bytes.data() + reader.position();
+    const std::uint8_t* const end = bytes.data() + bytes.size();
+    const bool bigEndian = facts.binary && plyFormat == "binary_big_endian";
+    const auto truncated = [&](const Element& e, std::uint64_t record) {
+        context.fail("is truncated: " + e.name + " " + std::to_string(record) + " of " + std::to_string(e.count) +
+                     " ends past the end of the file");
     };
-    auto t = nextContent();
-    if (t.empty()) context.fail("is empty");
-    const std::string& keyword = t[0];
-    const std::size_t offAt = keyword.rfind("OFF");
-    if (offAt == std::string::npos || offAt + 3 != keyword.size() ||
-        keyword.substr(0, offAt).find_first_not_of("STCN4n") != std::string::npos)
-        context.fail("is not an OFF file (no OFF keyword) despite its extension");
-    if (keyword.substr(0, offAt).find_first_of("4n") != std::string::npos)
-        context.fail("OFF with 4D or n-dimensional vertices is not supported");
-    HeaderFacts facts;
-    facts.binary = t.size() > 1 && t[1] == "BINARY";
-    std::vector<std::string> counts(t.begin() + 1 + (facts.binary ? 1 : 0), t.end());
-    if (counts.empty()) counts = nextContent();
-    std::uint64_t edges = 0;
-    if (counts.size() < 2 || !parseCount(counts[0], facts.vertices) || !parseCount(counts[1], facts.faces) ||
-        (counts.size() > 2 && !parseCount(counts[2], edges)))
-        context.fail("OFF header: malformed vertex/face counts");
-    const std::uint64_t available = bytes.size() - reader.position();
-    const std::uint64_t vertexBytes = facts.binary ? 12 : 6, faceBytes = facts.binary ? 16 : 8;
-    if (facts.vertices > available / vertexBytes || facts.faces > available / faceBytes ||
-        facts.vertices * vertexBytes + facts.faces * faceBytes > available)
-        context.fail("OFF header claims " + std::to_string(facts.vertices) + " vertices and " + std::to_string(facts.faces) +
-                     " faces, more than the " + std::to_string(available) + " bytes that follow can hold");
+    // ASCII: every value is one whitespace-separated token, records and lines notwithstanding.
+    const auto nextToken = [&]() -> std::string_view {
+        while (at < end && std::isspace(*at)) ++at;
+        const std::uint8_t* start = at;
+        while (at < end && !std::isspace(*at)) ++at;
+        return {reinterpret_cast<const char*>(start), static_cast<std::size_t>(at - start)};
+    };
+    for (const Element& e : elements)
+        for (std::uint64_t record = 0; record < e.count; ++record)
+            for (const PlyProperty& property : e.properties) {
+                std::uint64_t values = 1;
+                if (property.list) {
+                    std::int64_t count = 0;
+                    if (facts.binary) {
+                        if (end - at < property.countSize) truncated(e, record);
+                        std::uint8_t raw[8] = {};
+                        for (int b = 0; b < property.countSize; ++b) raw[bigEndian ? property.countSize - 1 - b : b] = at[b];
+                        std::uint64_t word = 0;
+                        std::memcpy(&word, raw, 8);
+                        const int bits = 8 * property.countSize;
+                        count = property.countSigned && (word >> (bits - 1)) & 1 ? -1 : static_cast<std::int64_t>(word);
+                        at += property.countSize;
+                    } else {
+                        const std::string_view token = nextToken();
+                        if (token.empty()) truncated(e, record);
+                        if (std::from_chars(token.data(), token.data() + token.size(), count).ptr != token.data() + token.size()) count = -1;
+                    }
+                    if (count < 0) context.fail(e.name + " " + std::to_string(record) + ": malformed list count");
+                    values = static_cast<std::uint64_t>(count);
+                    if (facts.binary ? values > static_cast<std::uint64_t>(end - at) / property.size
+                                     : values > static_cast<std::uint64_t>(end - at) / 2 + 1)
+                        context.fail(e.name + " " + std::to_string(record) + ": a list of " + std::to_string(values) +
+                                     " values, more than the rest of the file holds");
+                }
+                if (facts.binary) {
+                    if (static_cast<std::uint64_t>(end - at) < values * property.size) truncated(e, record);
+                    at += values * property.size;
+                } else {
+                    for (std::uint64_t v = 0; v < values; ++v)
+                        if (nextToken().empty()) truncated(e, record);
+                }
+            }
     return facts;
 }
 
@@ -249,34 +282,6 @@ private:
     }
 };
 
-/// The text without '#' comments and the blank lines they leave (OpenMesh wants "OFF" first),
-/// or empty if it has no comment.
-std::vector<std::uint8_t> withoutComments(const std::vector<std::uint8_t>& text) {
-    if (std::find(text.begin(), text.end(), '#') == text.end()) return {};
-    std::vector<std::uint8_t> out;
-    out.reserve(text.size());
-    bool inComment = false, lineHasContent = false;
-    std::size_t lineStart = 0;
-    for (std::uint8_t c : text) {
-        if (c == '#') inComment = true;
-        if (c == '\n') {
-            inComment = false;
-            if (!lineHasContent) {
-                out.resize(lineStart);  // drop the blank line
-                continue;
-            }
-            out.push_back(c);
-            lineStart = out.size();
-            lineHasContent = false;
-            continue;
-        }
-        if (inComment) continue;
-        out.push_back(c);
-        if (!std::isspace(c)) lineHasContent = true;
-    }
-    return out;
-}
-
 std::mutex& openMeshMutex() {
     static std::mutex mutex;  // OpenMesh's log streams are process-wide
     return mutex;
@@ -315,26 +320,12 @@ void remapNonManifoldCopies(Mesh& mesh, std::uint64_t fileVertices) {
 
 }  // namespace
 
-void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& bytes, OpenMeshFormat format) {
+void importPly(ImportContext& context, const std::vector<std::uint8_t>& bytes) {
     Timings::Scope timer(context.options().timings, "import.parse");
-    HeaderFacts facts;
-    std::string ext;
-    switch (format) {
-    case OpenMeshFormat::Ply:
-        facts = checkPlyHeader(context, bytes);
-        ext = "ply";
-        break;
-    case OpenMeshFormat::Off:
-        facts = checkOffHeader(context, bytes);
-        ext = "off";
-        break;
-    }
+    const HeaderFacts facts = checkPlyHeader(context, bytes);
+    const std::string ext = "ply";
     if (facts.faces == 0) context.fail("has no faces (a point cloud?)");
 
-    // OpenMesh's OFF reader does not know '#' comments, which OFF allows anywhere.
-    const std::vector<std::uint8_t> uncommented =
-        format == OpenMeshFormat::Off && !facts.binary ? withoutComments(bytes) : std::vector<std::uint8_t>{};
-    const std::vector<std::uint8_t>& input = uncommented.empty() ? bytes : uncommented;
 
     OmMesh mesh;
     OpenMesh::IO::Options options = OpenMesh::IO::Options::VertexNormal | OpenMesh::IO::Options::VertexColor |
@@ -346,7 +337,7 @@ void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& byt
     {
         std::lock_guard lock(openMeshMutex());
         OpenMeshErrorCapture capture(openMeshErrors);
-        MemoryBuffer buffer(input);
+        MemoryBuffer buffer(bytes);
         std::istream stream(&buffer);
         try {
             ok = OpenMesh::IO::read_mesh(mesh, stream, ext, options);
@@ -399,7 +390,7 @@ void importOpenMesh(ImportContext& context, const std::vector<std::uint8_t>& byt
         const bool alpha = options.check(OpenMesh::IO::Options::ColorAlpha);
         for (auto v : mesh.vertices()) {
             const auto c = mesh.color(v);
-            // PLY/OFF colours are display-referred (sRGB-encoded), libvox's are linear.
+            // PLY colours are display-referred (sRGB-encoded), libvox's are linear.
             out.colors.push_back({srgbToLinear(c[0]), srgbToLinear(c[1]), srgbToLinear(c[2]), alpha ? c[3] : 1.0f});
         }
     }
