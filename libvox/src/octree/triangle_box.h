@@ -89,10 +89,10 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
 [[nodiscard]] inline std::uint32_t keepPair(double u1, double u2, double low, double high, SlotPair pair) {
     const double w = u1 + u2, v = u1 - u2;
     std::uint32_t keep = 0;
-    keep |= (w >= low && w <= high) ? pair.pp : 0u;
-    keep |= (-w >= low && -w <= high) ? pair.mm : 0u;
-    keep |= (v >= low && v <= high) ? pair.pm : 0u;
-    keep |= (-v >= low && -v <= high) ? pair.mp : 0u;
+    keep |= ((w >= low) & (w <= high)) ? pair.pp : 0u;
+    keep |= ((-w >= low) & (-w <= high)) ? pair.mm : 0u;
+    keep |= ((v >= low) & (v <= high)) ? pair.pm : 0u;
+    keep |= ((-v >= low) & (-v <= high)) ? pair.mp : 0u;
     return keep;
 }
 
@@ -122,15 +122,21 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
     std::uint32_t mask = 0xFF;
     static constexpr std::uint32_t kLowHalf[3] = {0x55, 0x33, 0x0F};  // slots with the axis bit clear
     bool near = true;  // every coordinate within 1024·h of the centre
-    for (int axis = 0; axis < 3; ++axis) {
-        const double lo = std::min(std::min(a[axis], b[axis]), d[axis]);
-        const double hi = std::max(std::max(a[axis], b[axis]), d[axis]);
+    // Box normals; separated(lo ± q, hi ± q, q, magnitude) for the two halves, without branches.
+    const auto boxAxis = [&](double pa, double pb, double pd, std::uint32_t lowHalf) {
+        const double lo = std::min(std::min(pa, pb), pd);
+        const double hi = std::max(std::max(pa, pb), pd);
         const double magnitude = std::max(std::abs(lo), std::abs(hi));
-        if (separated(lo + q, hi + q, q, magnitude)) mask &= ~kLowHalf[axis];
-        if (separated(lo - q, hi - q, q, magnitude)) mask &= kLowHalf[axis];
-        if (mask == 0) return 0;
-        near = near && magnitude <= 1024 * h;
-    }
+        const double margin = 1e-9 * (q + magnitude);
+        const bool lowSeparated = (lo + q > q + margin) | (hi + q < -q - margin);
+        const bool highSeparated = (lo - q > q + margin) | (hi - q < -q - margin);
+        mask &= (lowSeparated ? ~lowHalf : 0xFFu) & (highSeparated ? lowHalf : 0xFFu);
+        near = near & (magnitude <= 1024 * h);
+    };
+    boxAxis(a.x, b.x, d.x, kLowHalf[0]);
+    boxAxis(a.y, b.y, d.y, kLowHalf[1]);
+    boxAxis(a.z, b.z, d.z, kLowHalf[2]);
+    if (mask == 0) return 0;
     // Triangle plane: child s's centre projects at ((±ax) + (±ay)) + (±az).
     {
         const Vec3d& n = tri.normal;
@@ -142,26 +148,18 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
         // The eight centres: ±v7, ±v3, ±v6, ±v5 (slots 7/0, 3/4, 6/1, 5/2).
         const double t1 = ax + ay, t2 = ay - ax;  // partial sums of slots x+y+ and x−y+
         const double v7 = t1 + az, v3 = t1 - az, v6 = t2 + az, v5 = az - t2;
-        std::uint32_t keep = 0;
-        keep |= (v7 >= low && v7 <= high) ? 0x80u : 0u;
-        keep |= (-v7 >= low && -v7 <= high) ? 0x01u : 0u;
-        keep |= (v3 >= low && v3 <= high) ? 0x08u : 0u;
-        keep |= (-v3 >= low && -v3 <= high) ? 0x10u : 0u;
-        keep |= (v6 >= low && v6 <= high) ? 0x40u : 0u;
-        keep |= (-v6 >= low && -v6 <= high) ? 0x02u : 0u;
-        keep |= (v5 >= low && v5 <= high) ? 0x20u : 0u;
-        keep |= (-v5 >= low && -v5 <= high) ? 0x04u : 0u;
-        mask &= keep;
+        const auto in = [&](double v) { return static_cast<std::uint32_t>((v >= low) & (v <= high)); };
+        mask &= in(v7) << 7 | in(-v7) | in(v3) << 3 | in(-v3) << 4 | in(v6) << 6 | in(-v6) << 1 | in(v5) << 5 | in(-v5) << 2;
     }
     if (mask == 0) return 0;
     std::uint32_t certain = 0;  // children holding a vertex
     if (near) {
         for (const Vec3d& p : {a, b, d}) {
-            if (!(std::abs(p.x) <= h && std::abs(p.y) <= h && std::abs(p.z) <= h)) continue;
-            const std::uint32_t xs = p.x < 0 ? 0x55u : (p.x > 0 ? 0xAAu : 0xFFu);
-            const std::uint32_t ys = p.y < 0 ? 0x33u : (p.y > 0 ? 0xCCu : 0xFFu);
-            const std::uint32_t zs = p.z < 0 ? 0x0Fu : (p.z > 0 ? 0xF0u : 0xFFu);
-            certain |= xs & ys & zs;
+            const bool inCube = (std::abs(p.x) <= h) & (std::abs(p.y) <= h) & (std::abs(p.z) <= h);
+            const std::uint32_t xs = (p.x <= 0 ? 0x55u : 0u) | (p.x >= 0 ? 0xAAu : 0u);
+            const std::uint32_t ys = (p.y <= 0 ? 0x33u : 0u) | (p.y >= 0 ? 0xCCu : 0u);
+            const std::uint32_t zs = (p.z <= 0 ? 0x0Fu : 0u) | (p.z >= 0 ? 0xF0u : 0u);
+            certain |= inCube ? xs & ys & zs : 0u;
         }
         if ((mask & ~certain) == 0) return mask;
     }
@@ -229,22 +227,22 @@ inline void bounds(const Vec3d* p, std::size_t n, Vec3d& lo, Vec3d& hi) {
 
 /// Clips the triangle @p p0 @p p1 @p p2 to the cube [−½, ½]³ (Sutherland–Hodgman: faces −x, +x,
 /// −y, +y, −z, +z in turn), writing the polygon to @p out (12 vertices of room, which 9 never
-/// exceed); returns its vertex count. A face that no vertex of the polygon so far lies beyond
+/// exceed; @p scratch likewise); returns its vertex count. A face that no vertex of the polygon so far lies beyond
 /// (side·p[axis] − ½ > 0 exactly where p[axis] is beyond ±½) is skipped: its pass would copy the
 /// polygon unchanged.
-inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, const Vec3d& p2, std::array<Vec3d, 12>& out,
-                                          std::array<Vec3d, 12>& scratch) {
+inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, const Vec3d& p2, Vec3d* out, Vec3d* scratch) {
     out[0] = p0;
     out[1] = p1;
     out[2] = p2;
     if (insideUnitCube(p0) && insideUnitCube(p1) && insideUnitCube(p2)) return 3;  // common for fine triangles in coarse voxels
-    Vec3d* a = out.data();
-    Vec3d* b = scratch.data();
+    constexpr std::size_t kRoom = 12;
+    Vec3d* a = out;
+    Vec3d* b = scratch;
     std::size_t n = 3;
     Vec3d lo, hi;
     clip_detail::bounds(a, n, lo, hi);
     const auto pass = [&](auto clip) {
-        n = clip(a, n, b, out.size());
+        n = clip(a, n, b, kRoom);
         std::swap(a, b);
         if (n > 0) clip_detail::bounds(a, n, lo, hi);
         return n > 0;
@@ -256,14 +254,19 @@ inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, cons
     if (hi.y > 0.5 && !pass(clip_detail::clipFace<1, 1>)) return 0;
     if (lo.z < -0.5 && !pass(clip_detail::clipFace<2, -1>)) return 0;
     if (hi.z > 0.5 && !pass(clip_detail::clipFace<2, 1>)) return 0;
-    if (a != out.data()) std::copy(a, a + n, out.data());
+    if (a != out)
+        for (std::size_t i = 0; i < n; ++i) {
+            const Vec3d v = a[i];
+            asm("" ::: "memory");  // keeps this a short loop, not a library call per triangle
+            out[i] = v;
+        }
     return n;
 }
 
 /// Clips a triangle to the cube [−½, ½]³ (Sutherland–Hodgman), appending the polygon to @p out.
 inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out, std::array<Vec3d, 12>& bufferA,
                            std::array<Vec3d, 12>& bufferB) {
-    const std::size_t n = clipTriangleToUnitCube(triangle[0], triangle[1], triangle[2], bufferA, bufferB);
+    const std::size_t n = clipTriangleToUnitCube(triangle[0], triangle[1], triangle[2], bufferA.data(), bufferB.data());
     out.insert(out.end(), bufferA.begin(), bufferA.begin() + static_cast<std::ptrdiff_t>(n));
 }
 
@@ -339,11 +342,10 @@ public:
                 count += 3;
                 continue;
             }
-            const std::size_t n = clipTriangleToUnitCube(p0, p1, p2, clipA_, clipB_);
-            std::copy(clipA_.begin(), clipA_.begin() + static_cast<std::ptrdiff_t>(n), out);
+            const std::size_t n = clipTriangleToUnitCube(p0, p1, p2, out, clipB_.data());  // room is 12 per triangle
             double sum = 0;
             for (std::size_t i = 2; i < n; ++i) {
-                const double a = 0.5 * length(cross(clipA_[i - 1] - clipA_[0], clipA_[i] - clipA_[0]));
+                const double a = 0.5 * length(cross(out[i - 1] - out[0], out[i] - out[0]));
                 fan[count + i] = a;
                 sum += a;
             }
@@ -363,7 +365,7 @@ private:
     Vec3d centre_{0, 0, 0};
     double toLocal_ = 0;
     bool valid_ = false;
-    std::array<Vec3d, 12> clipA_{}, clipB_{};  // clipping ping-pong buffers (zeroed once, not per triangle)
+    std::array<Vec3d, 12> clipB_{};  // clipping ping-pong buffer (zeroed once, not per triangle)
 };
 
 }  // namespace vox::detail
