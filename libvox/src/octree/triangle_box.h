@@ -138,30 +138,42 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
     boxAxis(a.z, b.z, d.z, kLowHalf[2]);
     if (mask == 0) return 0;
     // Triangle plane: child s's centre projects at ((±ax) + (±ay)) + (±az).
-    {
-        const Vec3d& n = tri.normal;
-        const double s = dot(n, a);
-        const double ax = q * n.x, ay = q * n.y, az = q * n.z;
-        const double r = std::abs(ax) + std::abs(ay) + std::abs(az);
-        const double grow = r + 1e-9 * (r + std::abs(s));
-        const double low = s - grow, high = s + grow;
+    const Vec3d& n = tri.normal;
+    const double s = dot(n, a);
+    const double ax = q * n.x, ay = q * n.y, az = q * n.z;
+    const double planeR = std::abs(ax) + std::abs(ay) + std::abs(az);
+    const double planeGrow = planeR + 1e-9 * (planeR + std::abs(s));
+    const double planeLow = s - planeGrow, planeHigh = s + planeGrow;
+    std::uint32_t certain = 0;  // children holding a vertex
+    if ((mask & (mask - 1)) == 0) {
+        // One child left (common where triangles are small): its centre and its vertices alone.
+        const std::uint32_t slot = static_cast<std::uint32_t>(__builtin_ctz(mask));
+        const double cp = ((slot & 1u ? ax : -ax) + (slot & 2u ? ay : -ay)) + (slot & 4u ? az : -az);
+        if (!(cp >= planeLow && cp <= planeHigh)) return 0;
+        if (near) {
+            const auto inChild = [&](const Vec3d& p) {
+                return std::abs(p.x) <= h && std::abs(p.y) <= h && std::abs(p.z) <= h && (slot & 1u ? p.x >= 0 : p.x <= 0) &&
+                       (slot & 2u ? p.y >= 0 : p.y <= 0) && (slot & 4u ? p.z >= 0 : p.z <= 0);
+            };
+            if (inChild(a) || inChild(b) || inChild(d)) return mask;
+        }
+    } else {
         // The eight centres: ±v7, ±v3, ±v6, ±v5 (slots 7/0, 3/4, 6/1, 5/2).
         const double t1 = ax + ay, t2 = ay - ax;  // partial sums of slots x+y+ and x−y+
         const double v7 = t1 + az, v3 = t1 - az, v6 = t2 + az, v5 = az - t2;
-        const auto in = [&](double v) { return static_cast<std::uint32_t>((v >= low) & (v <= high)); };
+        const auto in = [&](double v) { return static_cast<std::uint32_t>((v >= planeLow) & (v <= planeHigh)); };
         mask &= in(v7) << 7 | in(-v7) | in(v3) << 3 | in(-v3) << 4 | in(v6) << 6 | in(-v6) << 1 | in(v5) << 5 | in(-v5) << 2;
-    }
-    if (mask == 0) return 0;
-    std::uint32_t certain = 0;  // children holding a vertex
-    if (near) {
-        for (const Vec3d& p : {a, b, d}) {
-            const bool inCube = (std::abs(p.x) <= h) & (std::abs(p.y) <= h) & (std::abs(p.z) <= h);
-            const std::uint32_t xs = (p.x <= 0 ? 0x55u : 0u) | (p.x >= 0 ? 0xAAu : 0u);
-            const std::uint32_t ys = (p.y <= 0 ? 0x33u : 0u) | (p.y >= 0 ? 0xCCu : 0u);
-            const std::uint32_t zs = (p.z <= 0 ? 0x0Fu : 0u) | (p.z >= 0 ? 0xF0u : 0u);
-            certain |= inCube ? xs & ys & zs : 0u;
+        if (mask == 0) return 0;
+        if (near) {
+            for (const Vec3d& p : {a, b, d}) {
+                const bool inCube = (std::abs(p.x) <= h) & (std::abs(p.y) <= h) & (std::abs(p.z) <= h);
+                const std::uint32_t xs = (p.x <= 0 ? 0x55u : 0u) | (p.x >= 0 ? 0xAAu : 0u);
+                const std::uint32_t ys = (p.y <= 0 ? 0x33u : 0u) | (p.y >= 0 ? 0xCCu : 0u);
+                const std::uint32_t zs = (p.z <= 0 ? 0x0Fu : 0u) | (p.z >= 0 ? 0xF0u : 0u);
+                certain |= inCube ? xs & ys & zs : 0u;
+            }
+            if ((mask & ~certain) == 0) return mask;
         }
-        if ((mask & ~certain) == 0) return mask;
     }
     // Edge × axis, in leaf units relative to c: e × x = (0, e.z, −e.y), e × y = (−e.z, 0, e.x),
     // e × z = (e.y, −e.x, 0). An axis whose grown interval holds every centre (all within ±r)
