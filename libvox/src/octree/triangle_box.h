@@ -13,6 +13,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -74,7 +75,7 @@ struct BoxTestTriangle {
 namespace child_mask {
 
 /// Slots (bit 0 of a slot: +x, bit 1: +y, bit 2: +z) by the sign of their centre's offset along
-/// two axes: kBoth[axis pair][s1][s2] (s = 1: the + side).
+/// two axes.
 struct SlotPair {
     std::uint32_t pp, mm, pm, mp;  ///< (+,+), (−,−), (+,−), (−,+)
 };
@@ -82,19 +83,7 @@ inline constexpr SlotPair kYZ{0xC0, 0x03, 0x0C, 0x30};  // bits 1 and 2
 inline constexpr SlotPair kXZ{0xA0, 0x05, 0x0A, 0x50};  // bits 0 and 2
 inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
 
-/// The slots of @p pair whose centre projection σ1·u1 + σ2·u2 (σ: ±1 by the slot's bits) lies in
-/// [low, high]. The four sums are those the three-term sum ((±u0) + (±u1)) + (±u2) of
-/// childOverlapMask's reference form gives when one of its terms is zero: negating an operand or a
-/// sum is exact, so ±(u1 + u2) and ±(u1 − u2) are the values it rounds to.
-[[nodiscard]] inline std::uint32_t keepPair(double u1, double u2, double low, double high, SlotPair pair) {
-    const double w = u1 + u2, v = u1 - u2;
-    std::uint32_t keep = 0;
-    keep |= ((w >= low) & (w <= high)) ? pair.pp : 0u;
-    keep |= ((-w >= low) & (-w <= high)) ? pair.mm : 0u;
-    keep |= ((v >= low) & (v <= high)) ? pair.pm : 0u;
-    keep |= ((-v >= low) & (-v <= high)) ? pair.mp : 0u;
-    return keep;
-}
+[[nodiscard]] inline std::uint32_t bit(bool b) { return static_cast<std::uint32_t>(b); }
 
 }  // namespace child_mask
 
@@ -108,21 +97,17 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
 /// quantity is evaluated exactly as in the straightforward form (one projection per axis and
 /// child, axes in the order box, plane, edges; tests/test_triangle_box.cpp keeps it): terms that
 /// are products with a zero axis component are left out, which changes no value but the sign of a
-/// zero, and no comparison sees that sign.
-///
-/// The nine edge axes are not evaluated where they cannot separate any child still in the mask:
-/// a child that holds a vertex of the triangle (as the rounded vertices a, b, d below; closed
-/// boxes) meets it, so the two overlap on every axis exactly, and with every coordinate within
-/// 1024·h of the centre the rounding of the projections (≲ 2¹²·2⁻⁵³ of the child's radius) stays
-/// far below the separation margin (10⁻⁹ of it): no edge axis can separate that child. Only the
-/// plane axis is always evaluated, as its normal comes from the unrounded vertices.
+/// zero, and no comparison sees that sign. What changes is the order of work: all 13 axes and
+/// all 8 children, without branches (they mispredict more than the work they skip costs), and
+/// one comparison per child and axis instead of two: every centre projects within ±r ≤ grow
+/// (|((±x) + (±y)) + (±z)| never exceeds (|x| + |y|) + |z| in rounded arithmetic either), so
+/// where the triangle's projection reaches 0 on one side, that side's bound holds for all.
 [[nodiscard]] inline std::uint32_t childOverlapMask(const BoxTestTriangle& tri, Vec3d c, double h) {
+    using child_mask::bit;
     const double q = 0.5 * h;  // children's half-extent; their centres are c ± q per axis
     const Vec3d a = tri.v0 - c, b = tri.v1 - c, d = tri.v2 - c;
     std::uint32_t mask = 0xFF;
-    static constexpr std::uint32_t kLowHalf[3] = {0x55, 0x33, 0x0F};  // slots with the axis bit clear
-    bool near = true;  // every coordinate within 1024·h of the centre
-    // Box normals; separated(lo ± q, hi ± q, q, magnitude) for the two halves, without branches.
+    // Box normals: separated(lo ± q, hi ± q, q, magnitude) for the two halves.
     const auto boxAxis = [&](double pa, double pb, double pd, std::uint32_t lowHalf) {
         const double lo = std::min(std::min(pa, pb), pd);
         const double hi = std::max(std::max(pa, pb), pd);
@@ -131,70 +116,46 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
         const bool lowSeparated = (lo + q > q + margin) | (hi + q < -q - margin);
         const bool highSeparated = (lo - q > q + margin) | (hi - q < -q - margin);
         mask &= (lowSeparated ? ~lowHalf : 0xFFu) & (highSeparated ? lowHalf : 0xFFu);
-        near = near & (magnitude <= 1024 * h);
     };
-    boxAxis(a.x, b.x, d.x, kLowHalf[0]);
-    boxAxis(a.y, b.y, d.y, kLowHalf[1]);
-    boxAxis(a.z, b.z, d.z, kLowHalf[2]);
-    if (mask == 0) return 0;
-    // Triangle plane: child s's centre projects at ((±ax) + (±ay)) + (±az).
-    const Vec3d& n = tri.normal;
-    const double s = dot(n, a);
-    const double ax = q * n.x, ay = q * n.y, az = q * n.z;
-    const double planeR = std::abs(ax) + std::abs(ay) + std::abs(az);
-    const double planeGrow = planeR + 1e-9 * (planeR + std::abs(s));
-    const double planeLow = s - planeGrow, planeHigh = s + planeGrow;
-    std::uint32_t certain = 0;  // children holding a vertex
-    if ((mask & (mask - 1)) == 0) {
-        // One child left (common where triangles are small): its centre and its vertices alone.
-        const std::uint32_t slot = static_cast<std::uint32_t>(__builtin_ctz(mask));
-        const double cp = ((slot & 1u ? ax : -ax) + (slot & 2u ? ay : -ay)) + (slot & 4u ? az : -az);
-        if (!(cp >= planeLow && cp <= planeHigh)) return 0;
-        if (near) {
-            const auto inChild = [&](const Vec3d& p) {
-                return std::abs(p.x) <= h && std::abs(p.y) <= h && std::abs(p.z) <= h && (slot & 1u ? p.x >= 0 : p.x <= 0) &&
-                       (slot & 2u ? p.y >= 0 : p.y <= 0) && (slot & 4u ? p.z >= 0 : p.z <= 0);
-            };
-            if (inChild(a) || inChild(b) || inChild(d)) return mask;
-        }
-    } else {
-        // The eight centres: ±v7, ±v3, ±v6, ±v5 (slots 7/0, 3/4, 6/1, 5/2).
+    boxAxis(a.x, b.x, d.x, 0x55);  // slots with the axis bit clear
+    boxAxis(a.y, b.y, d.y, 0x33);
+    boxAxis(a.z, b.z, d.z, 0x0F);
+    // Triangle plane: child s's centre projects at ((±ax) + (±ay)) + (±az), the eight values
+    // ±v7, ±v3, ±v6, ±v5 (slots 7/0, 3/4, 6/1, 5/2). With s ≥ 0 only s − grow can exclude a
+    // child, else only s + grow: keep where ±cp ≥ bound.
+    {
+        const Vec3d& n = tri.normal;
+        const double s = dot(n, a);
+        const double ax = q * n.x, ay = q * n.y, az = q * n.z;
+        const double r = std::abs(ax) + std::abs(ay) + std::abs(az);
+        const double grow = r + 1e-9 * (r + std::abs(s));
+        const bool up = s >= 0;
+        const double bound = up ? s - grow : -(s + grow);
         const double t1 = ax + ay, t2 = ay - ax;  // partial sums of slots x+y+ and x−y+
         const double v7 = t1 + az, v3 = t1 - az, v6 = t2 + az, v5 = az - t2;
-        const auto in = [&](double v) { return static_cast<std::uint32_t>((v >= planeLow) & (v <= planeHigh)); };
-        mask &= in(v7) << 7 | in(-v7) | in(v3) << 3 | in(-v3) << 4 | in(v6) << 6 | in(-v6) << 1 | in(v5) << 5 | in(-v5) << 2;
-        if (mask == 0) return 0;
-        if (near) {
-            for (const Vec3d& p : {a, b, d}) {
-                const bool inCube = (std::abs(p.x) <= h) & (std::abs(p.y) <= h) & (std::abs(p.z) <= h);
-                const std::uint32_t xs = (p.x <= 0 ? 0x55u : 0u) | (p.x >= 0 ? 0xAAu : 0u);
-                const std::uint32_t ys = (p.y <= 0 ? 0x33u : 0u) | (p.y >= 0 ? 0xCCu : 0u);
-                const std::uint32_t zs = (p.z <= 0 ? 0x0Fu : 0u) | (p.z >= 0 ? 0xF0u : 0u);
-                certain |= inCube ? xs & ys & zs : 0u;
-            }
-            if ((mask & ~certain) == 0) return mask;
-        }
+        const double w7 = up ? v7 : -v7, w3 = up ? v3 : -v3, w6 = up ? v6 : -v6, w5 = up ? v5 : -v5;
+        mask &= bit(w7 >= bound) << 7 | bit(-w7 >= bound) | bit(w3 >= bound) << 3 | bit(-w3 >= bound) << 4 | bit(w6 >= bound) << 6 |
+                bit(-w6 >= bound) << 1 | bit(w5 >= bound) << 5 | bit(-w5 >= bound) << 2;
     }
     // Edge × axis, in leaf units relative to c: e × x = (0, e.z, −e.y), e × y = (−e.z, 0, e.x),
-    // e × z = (e.y, −e.x, 0). An axis whose grown interval holds every centre (all within ±r)
-    // removes nothing.
-    const auto axisTest = [&](double pa, double pb, double pd, double u1, double u2, child_mask::SlotPair pair) {
+    // e × z = (e.y, −e.x, 0); the centres are ±(u1 + u2), ±(u1 − u2). Where the projection spans
+    // 0 every centre is inside (bound −∞); above 0 only pmin − grow can exclude, below only
+    // pmax + grow.
+    const auto edgeAxis = [&](double pa, double pb, double pd, double u1, double u2, child_mask::SlotPair pair) {
+        const double pmin = std::min(std::min(pa, pb), pd), pmax = std::max(std::max(pa, pb), pd);
         const double r = std::abs(u1) + std::abs(u2);
         const double grow = r + 1e-9 * (r + (std::abs(pa) + std::abs(pb) + std::abs(pd)));
-        const double low = std::min(std::min(pa, pb), pd) - grow, high = std::max(std::max(pa, pb), pd) + grow;
-        if (low <= -r && high >= r) return;
-        mask &= child_mask::keepPair(u1, u2, low, high, pair);
+        const bool up = pmin > 0;
+        const double bound = up ? pmin - grow : (pmax < 0 ? -(pmax + grow) : -std::numeric_limits<double>::infinity());
+        const double w0 = u1 + u2, v0 = u1 - u2;
+        const double w = up ? w0 : -w0, v = up ? v0 : -v0;
+        mask &= (w >= bound ? pair.pp : 0u) | (-w >= bound ? pair.mm : 0u) | (v >= bound ? pair.pm : 0u) | (-v >= bound ? pair.mp : 0u);
     };
-    const auto edgeAxes = [&](Vec3d e) {
-        axisTest(e.z * a.y - e.y * a.z, e.z * b.y - e.y * b.z, e.z * d.y - e.y * d.z, q * e.z, q * -e.y, child_mask::kYZ);
-        axisTest(e.x * a.z - e.z * a.x, e.x * b.z - e.z * b.x, e.x * d.z - e.z * d.x, q * -e.z, q * e.x, child_mask::kXZ);
-        axisTest(e.y * a.x - e.x * a.y, e.y * b.x - e.x * b.y, e.y * d.x - e.x * d.y, q * e.y, q * -e.x, child_mask::kXY);
-    };
-    edgeAxes(b - a);
-    if ((mask & ~certain) == 0) return mask;
-    edgeAxes(d - b);
-    if ((mask & ~certain) == 0) return mask;
-    edgeAxes(a - d);
+    for (const Vec3d e : {b - a, d - b, a - d}) {
+        edgeAxis(e.z * a.y - e.y * a.z, e.z * b.y - e.y * b.z, e.z * d.y - e.y * d.z, q * e.z, q * -e.y, child_mask::kYZ);
+        edgeAxis(e.x * a.z - e.z * a.x, e.x * b.z - e.z * b.x, e.x * d.z - e.z * d.x, q * -e.z, q * e.x, child_mask::kXZ);
+        edgeAxis(e.y * a.x - e.x * a.y, e.y * b.x - e.x * b.y, e.y * d.x - e.x * d.y, q * e.y, q * -e.x, child_mask::kXY);
+    }
     return mask;
 }
 
@@ -208,11 +169,19 @@ template <int Axis>
 }
 
 /// Sutherland–Hodgman of the polygon @p in (@p n vertices) against the face of [−½, ½]³ on
-/// @p Axis at side @p Side (±1), keeping side·p[axis] ≤ ½, into @p out; returns the new count.
+/// @p Axis at side @p Side (±1), keeping side·p[axis] ≤ ½, into @p out; returns the new count,
+/// or n with nothing written where no vertex lies beyond the face (the pass would copy the
+/// polygon unchanged), @p clipped telling which.
 template <int Axis, int Side>
-inline std::size_t clipFace(const Vec3d* in, std::size_t n, Vec3d* out, std::size_t capacity) {
+inline std::size_t clipFace(const Vec3d* in, std::size_t n, Vec3d* out, std::size_t capacity, bool& clipped) {
     std::array<double, 12> distance;
-    for (std::size_t i = 0; i < n; ++i) distance[i] = double(Side) * coordinate<Axis>(in[i]) - 0.5;
+    bool beyond = false;
+    for (std::size_t i = 0; i < n; ++i) {
+        distance[i] = double(Side) * coordinate<Axis>(in[i]) - 0.5;
+        beyond |= distance[i] > 0;
+    }
+    clipped = beyond;
+    if (!beyond) return n;
     std::size_t m = 0;
     for (std::size_t i = 0; i < n && m + 2 <= capacity; ++i) {
         const std::size_t j = i + 1 == n ? 0 : i + 1;
@@ -223,15 +192,6 @@ inline std::size_t clipFace(const Vec3d* in, std::size_t n, Vec3d* out, std::siz
     return m;
 }
 
-/// The bounding box of @p n points.
-inline void bounds(const Vec3d* p, std::size_t n, Vec3d& lo, Vec3d& hi) {
-    lo = hi = p[0];
-    for (std::size_t i = 1; i < n; ++i) {
-        lo = {std::min(lo.x, p[i].x), std::min(lo.y, p[i].y), std::min(lo.z, p[i].z)};
-        hi = {std::max(hi.x, p[i].x), std::max(hi.y, p[i].y), std::max(hi.z, p[i].z)};
-    }
-}
-
 }  // namespace clip_detail
 
 /// True if @p p lies in the closed cube [−½, ½]³.
@@ -239,9 +199,7 @@ inline void bounds(const Vec3d* p, std::size_t n, Vec3d& lo, Vec3d& hi) {
 
 /// Clips the triangle @p p0 @p p1 @p p2 to the cube [−½, ½]³ (Sutherland–Hodgman: faces −x, +x,
 /// −y, +y, −z, +z in turn), writing the polygon to @p out (12 vertices of room, which 9 never
-/// exceed; @p scratch likewise); returns its vertex count. A face that no vertex of the polygon so far lies beyond
-/// (side·p[axis] − ½ > 0 exactly where p[axis] is beyond ±½) is skipped: its pass would copy the
-/// polygon unchanged.
+/// exceed; @p scratch likewise); returns its vertex count.
 inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, const Vec3d& p2, Vec3d* out, Vec3d* scratch) {
     out[0] = p0;
     out[1] = p1;
@@ -251,21 +209,20 @@ inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, cons
     Vec3d* a = out;
     Vec3d* b = scratch;
     std::size_t n = 3;
-    Vec3d lo, hi;
-    clip_detail::bounds(a, n, lo, hi);
+    // One pass per face in the reference order, each only where a vertex of the polygon so far
+    // lies beyond it.
     const auto pass = [&](auto clip) {
-        n = clip(a, n, b, kRoom);
-        std::swap(a, b);
-        if (n > 0) clip_detail::bounds(a, n, lo, hi);
+        bool clipped = false;
+        const std::size_t m = clip(a, n, b, kRoom, clipped);
+        if (clipped) {
+            n = m;
+            std::swap(a, b);
+        }
         return n > 0;
     };
-    // Faces in the reference order; each pass only where a vertex lies beyond.
-    if (lo.x < -0.5 && !pass(clip_detail::clipFace<0, -1>)) return 0;
-    if (hi.x > 0.5 && !pass(clip_detail::clipFace<0, 1>)) return 0;
-    if (lo.y < -0.5 && !pass(clip_detail::clipFace<1, -1>)) return 0;
-    if (hi.y > 0.5 && !pass(clip_detail::clipFace<1, 1>)) return 0;
-    if (lo.z < -0.5 && !pass(clip_detail::clipFace<2, -1>)) return 0;
-    if (hi.z > 0.5 && !pass(clip_detail::clipFace<2, 1>)) return 0;
+    if (!pass(clip_detail::clipFace<0, -1>) || !pass(clip_detail::clipFace<0, 1>) || !pass(clip_detail::clipFace<1, -1>) ||
+        !pass(clip_detail::clipFace<1, 1>) || !pass(clip_detail::clipFace<2, -1>) || !pass(clip_detail::clipFace<2, 1>))
+        return 0;
     if (a != out)
         for (std::size_t i = 0; i < n; ++i) {
             const Vec3d v = a[i];
