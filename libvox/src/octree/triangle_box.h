@@ -102,12 +102,21 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
 /// one comparison per child and axis instead of two: every centre projects within ±r ≤ grow
 /// (|((±x) + (±y)) + (±z)| never exceeds (|x| + |y|) + |z| in rounded arithmetic either), so
 /// where the triangle's projection reaches 0 on one side, that side's bound holds for all.
+///
+/// The nine edge axes are skipped where every child left holds a vertex of the triangle (as the
+/// rounded vertices a, b, d below; closed boxes): such a child meets the triangle, so the two
+/// overlap on every axis exactly, and with every coordinate within h of the centre the rounding
+/// of the projections (≲ 2⁻⁵¹ of the child's radius) stays far below the separation margin (10⁻⁹
+/// of it). The plane axis is always evaluated: its normal comes from the unrounded vertices.
 [[nodiscard]] inline std::uint32_t childOverlapMask(const BoxTestTriangle& tri, Vec3d c, double h) {
     using child_mask::bit;
     const double q = 0.5 * h;  // children's half-extent; their centres are c ± q per axis
     const Vec3d a = tri.v0 - c, b = tri.v1 - c, d = tri.v2 - c;
     std::uint32_t mask = 0xFF;
     // Box normals: separated(lo ± q, hi ± q, q, magnitude) for the two halves.
+    bool inside = true;      // the triangle's bounding box lies in the cube
+    int splits = 0;          // axes on which both halves are kept
+    bool splitSpans = true;  // on those, lo ≤ 0 ≤ hi
     const auto boxAxis = [&](double pa, double pb, double pd, std::uint32_t lowHalf) {
         const double lo = std::min(std::min(pa, pb), pd);
         const double hi = std::max(std::max(pa, pb), pd);
@@ -116,6 +125,10 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
         const bool lowSeparated = (lo + q > q + margin) | (hi + q < -q - margin);
         const bool highSeparated = (lo - q > q + margin) | (hi - q < -q - margin);
         mask &= (lowSeparated ? ~lowHalf : 0xFFu) & (highSeparated ? lowHalf : 0xFFu);
+        inside = inside & (lo >= -h) & (hi <= h);
+        const bool split = !(lowSeparated || highSeparated);
+        splits += split;
+        splitSpans = splitSpans & ((!split) | ((lo <= 0) & (hi >= 0)));
     };
     boxAxis(a.x, b.x, d.x, 0x55);  // slots with the axis bit clear
     boxAxis(a.y, b.y, d.y, 0x33);
@@ -137,6 +150,10 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
         mask &= bit(w7 >= bound) << 7 | bit(-w7 >= bound) | bit(w3 >= bound) << 3 | bit(-w3 >= bound) << 4 | bit(w6 >= bound) << 6 |
                 bit(-w6 >= bound) << 1 | bit(w5 >= bound) << 5 | bit(-w5 >= bound) << 2;
     }
+    // A triangle inside the cube that the box axes leave in one child, or in two across one
+    // mid-plane it reaches on both sides, has a vertex in each: the edge axes cannot separate
+    // those (see above), the common case where triangles are small.
+    if (inside & (splits <= 1) & splitSpans) return mask;
     // Edge × axis, in leaf units relative to c: e × x = (0, e.z, −e.y), e × y = (−e.z, 0, e.x),
     // e × z = (e.y, −e.x, 0); the centres are ±(u1 + u2), ±(u1 − u2). Where the projection spans
     // 0 every centre is inside (bound −∞); above 0 only pmin − grow can exclude, below only
