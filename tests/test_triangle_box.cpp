@@ -433,6 +433,20 @@ TEST(TriangleBox, CarryContourEqualsTheReference) {
             ASSERT_EQ(thicknessOut, expectedThickness) << trial << " slot " << slot;
         }
     }
+    // Every position and thickness for normals at the ends of the range.
+    for (const std::array<int, 3> n : {std::array<int, 3>{31, 0, 0}, {-32, 31, -32}, {31, 31, 31}, {-32, -32, -32}, {0, 0, -32},
+                                       {17, -5, 31}, {-31, 30, 1}, {1, 1, 31}, {0, -1, 0}, {-7, 31, -13}}) {
+        for (int p = -64; p <= 63; ++p)
+            for (unsigned t = 0; t <= 127; ++t) {
+                const std::uint32_t encoded = vox::esvo::Contour{n[0], n[1], n[2], p, t}.encode();
+                for (std::uint32_t slot = 0; slot < 8; ++slot) {
+                    double expectedThickness = -1, thicknessOut = -1;
+                    const std::uint32_t expected = reference::carryContour(encoded, slot, expectedThickness);
+                    ASSERT_EQ(vox::detail::carryContour(encoded, slot, thicknessOut), expected) << p << " " << t << " slot " << slot;
+                    ASSERT_EQ(thicknessOut, expectedThickness);
+                }
+            }
+    }
 }
 
 }  // namespace

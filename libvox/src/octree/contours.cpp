@@ -27,7 +27,8 @@ std::array<int, 3> quantiseNormal(Vec3d m) {
 }
 
 /// Encodes the slab along @p n covering every point; 0 if it cannot be represented.
-std::uint32_t encodeSlab(const std::array<int, 3>& n, std::span<const Vec3d> points, double& thickness) {
+/// @p norm: std::sqrt(double(|n|²)).
+std::uint32_t encodeSlab(const std::array<int, 3>& n, double norm, std::span<const Vec3d> points, double& thickness) {
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     for (const Vec3d& p : points) {
         const double v = n[0] * p.x + n[1] * p.y + n[2] * p.z;
@@ -42,7 +43,7 @@ std::uint32_t encodeSlab(const std::array<int, 3>& n, std::span<const Vec3d> poi
     const double t = std::ceil(2 * reach / step);
     if (t > 127) return 0;
     esvo::Contour c{n[0], n[1], n[2], position, static_cast<unsigned>(t)};
-    thickness = c.thickness * step / std::sqrt(double(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]));
+    thickness = c.thickness * step / norm;
     return c.encode();
 }
 
@@ -113,9 +114,10 @@ ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint3
             if (tried[i] == n) return;
         tried[triedCount++] = n;
         double thickness = 0;
-        const std::uint32_t encoded = encodeSlab(n, points, thickness);
+        const double norm = std::sqrt(double(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]));
+        const std::uint32_t encoded = encodeSlab(n, norm, points, thickness);
         if (!encoded) return;
-        const double extent = (std::abs(n[0]) + std::abs(n[1]) + std::abs(n[2])) / std::sqrt(double(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]));
+        const double extent = (std::abs(n[0]) + std::abs(n[1]) + std::abs(n[2])) / norm;
         const double ratio = thickness / extent;
         if (ratio < bestRatio) {
             bestRatio = ratio;
@@ -134,12 +136,18 @@ std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& th
     esvo::Contour c = esvo::Contour::decode(encoded);
     // Positions are in steps of 0.75, the offsets Σ n·(½ − bit) in steps of 0.5: only whole steps
     // survive exactly; round the position outward by widening the slab instead.
-    const double offset = 0.5 * ((slot & 1u ? -c.nx : c.nx) + (slot & 2u ? -c.ny : c.ny) + (slot & 4u ? -c.nz : c.nz));
-    const double centre = 2 * c.position * esvo::Contour::kStep + offset;
-    const double half = c.thickness * esvo::Contour::kStep;  // doubled, then halved
-    const long position = roundHalfAway(centre / esvo::Contour::kStep);
-    const double reach = half + std::abs(centre - position * esvo::Contour::kStep);
-    const double t = std::ceil(2 * reach / esvo::Contour::kStep - 1e-9);
+    //   centre = 2·position·0.75 + 0.5·S = N/4 with N = 6·position + 2·S (S = ±nx ± ny ± nz)
+    //   new position = lround(centre / 0.75) = nearest integer to N/3 (never a tie)
+    //   reach = thickness·0.75 + |centre − new position·0.75| = R/4, R = 3·thickness + |N − 3·new|
+    //   new thickness = ceil(2·reach / 0.75 − 1e-9) = ceil(2R/3)
+    // all in integers: every one of these doubles is a small multiple of 1/4, exact, and N/3, 2R/3
+    // lie at least 1/3 from the half-integers and integers where the rounding would decide
+    // otherwise (an integer 2R/3 less 1e-9 still has that ceiling).
+    const int s = (slot & 1u ? -c.nx : c.nx) + (slot & 2u ? -c.ny : c.ny) + (slot & 4u ? -c.nz : c.nz);
+    const long n = 6L * c.position + 2L * s;
+    const long position = n >= 0 ? (n + 1) / 3 : -((1 - n) / 3);
+    const long r = 3L * static_cast<long>(c.thickness) + std::abs(n - 3 * position);
+    const long t = (2 * r + 2) / 3;
     if (position < -64 || position > 63 || t > 127) return 0;
     c.position = static_cast<int>(position);
     c.thickness = static_cast<unsigned>(t);

@@ -13,6 +13,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -74,7 +75,7 @@ struct BoxTestTriangle {
 namespace child_mask {
 
 /// Slots (bit 0 of a slot: +x, bit 1: +y, bit 2: +z) by the sign of their centre's offset along
-/// two axes: kBoth[axis pair][s1][s2] (s = 1: the + side).
+/// two axes.
 struct SlotPair {
     std::uint32_t pp, mm, pm, mp;  ///< (+,+), (−,−), (+,−), (−,+)
 };
@@ -82,19 +83,7 @@ inline constexpr SlotPair kYZ{0xC0, 0x03, 0x0C, 0x30};  // bits 1 and 2
 inline constexpr SlotPair kXZ{0xA0, 0x05, 0x0A, 0x50};  // bits 0 and 2
 inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
 
-/// The slots of @p pair whose centre projection σ1·u1 + σ2·u2 (σ: ±1 by the slot's bits) lies in
-/// [low, high]. The four sums are those the three-term sum ((±u0) + (±u1)) + (±u2) of
-/// childOverlapMask's reference form gives when one of its terms is zero: negating an operand or a
-/// sum is exact, so ±(u1 + u2) and ±(u1 − u2) are the values it rounds to.
-[[nodiscard]] inline std::uint32_t keepPair(double u1, double u2, double low, double high, SlotPair pair) {
-    const double w = u1 + u2, v = u1 - u2;
-    std::uint32_t keep = 0;
-    keep |= (w >= low && w <= high) ? pair.pp : 0u;
-    keep |= (-w >= low && -w <= high) ? pair.mm : 0u;
-    keep |= (v >= low && v <= high) ? pair.pm : 0u;
-    keep |= (-v >= low && -v <= high) ? pair.mp : 0u;
-    return keep;
-}
+[[nodiscard]] inline std::uint32_t bit(bool b) { return static_cast<std::uint32_t>(b); }
 
 }  // namespace child_mask
 
@@ -108,83 +97,82 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
 /// quantity is evaluated exactly as in the straightforward form (one projection per axis and
 /// child, axes in the order box, plane, edges; tests/test_triangle_box.cpp keeps it): terms that
 /// are products with a zero axis component are left out, which changes no value but the sign of a
-/// zero, and no comparison sees that sign.
+/// zero, and no comparison sees that sign. What changes is the order of work: all 13 axes and
+/// all 8 children, without branches (they mispredict more than the work they skip costs), and
+/// one comparison per child and axis instead of two: every centre projects within ±r ≤ grow
+/// (|((±x) + (±y)) + (±z)| never exceeds (|x| + |y|) + |z| in rounded arithmetic either), so
+/// where the triangle's projection reaches 0 on one side, that side's bound holds for all.
 ///
-/// The nine edge axes are not evaluated where they cannot separate any child still in the mask:
-/// a child that holds a vertex of the triangle (as the rounded vertices a, b, d below; closed
-/// boxes) meets it, so the two overlap on every axis exactly, and with every coordinate within
-/// 1024·h of the centre the rounding of the projections (≲ 2¹²·2⁻⁵³ of the child's radius) stays
-/// far below the separation margin (10⁻⁹ of it): no edge axis can separate that child. Only the
-/// plane axis is always evaluated, as its normal comes from the unrounded vertices.
+/// The nine edge axes are skipped where every child left holds a vertex of the triangle (as the
+/// rounded vertices a, b, d below; closed boxes): such a child meets the triangle, so the two
+/// overlap on every axis exactly, and with every coordinate within h of the centre the rounding
+/// of the projections (≲ 2⁻⁵¹ of the child's radius) stays far below the separation margin (10⁻⁹
+/// of it). The plane axis is always evaluated: its normal comes from the unrounded vertices.
 [[nodiscard]] inline std::uint32_t childOverlapMask(const BoxTestTriangle& tri, Vec3d c, double h) {
+    using child_mask::bit;
     const double q = 0.5 * h;  // children's half-extent; their centres are c ± q per axis
     const Vec3d a = tri.v0 - c, b = tri.v1 - c, d = tri.v2 - c;
     std::uint32_t mask = 0xFF;
-    static constexpr std::uint32_t kLowHalf[3] = {0x55, 0x33, 0x0F};  // slots with the axis bit clear
-    bool near = true;  // every coordinate within 1024·h of the centre
-    for (int axis = 0; axis < 3; ++axis) {
-        const double lo = std::min(std::min(a[axis], b[axis]), d[axis]);
-        const double hi = std::max(std::max(a[axis], b[axis]), d[axis]);
+    // Box normals: separated(lo ± q, hi ± q, q, magnitude) for the two halves.
+    bool inside = true;      // the triangle's bounding box lies in the cube
+    int splits = 0;          // axes on which both halves are kept
+    bool splitSpans = true;  // on those, lo ≤ 0 ≤ hi
+    const auto boxAxis = [&](double pa, double pb, double pd, std::uint32_t lowHalf) {
+        const double lo = std::min(std::min(pa, pb), pd);
+        const double hi = std::max(std::max(pa, pb), pd);
         const double magnitude = std::max(std::abs(lo), std::abs(hi));
-        if (separated(lo + q, hi + q, q, magnitude)) mask &= ~kLowHalf[axis];
-        if (separated(lo - q, hi - q, q, magnitude)) mask &= kLowHalf[axis];
-        if (mask == 0) return 0;
-        near = near && magnitude <= 1024 * h;
-    }
-    // Triangle plane: child s's centre projects at ((±ax) + (±ay)) + (±az).
+        const double margin = 1e-9 * (q + magnitude);
+        const bool lowSeparated = (lo + q > q + margin) | (hi + q < -q - margin);
+        const bool highSeparated = (lo - q > q + margin) | (hi - q < -q - margin);
+        mask &= (lowSeparated ? ~lowHalf : 0xFFu) & (highSeparated ? lowHalf : 0xFFu);
+        inside = inside & (lo >= -h) & (hi <= h);
+        const bool split = !(lowSeparated || highSeparated);
+        splits += split;
+        splitSpans = splitSpans & ((!split) | ((lo <= 0) & (hi >= 0)));
+    };
+    boxAxis(a.x, b.x, d.x, 0x55);  // slots with the axis bit clear
+    boxAxis(a.y, b.y, d.y, 0x33);
+    boxAxis(a.z, b.z, d.z, 0x0F);
+    // Triangle plane: child s's centre projects at ((±ax) + (±ay)) + (±az), the eight values
+    // ±v7, ±v3, ±v6, ±v5 (slots 7/0, 3/4, 6/1, 5/2). With s ≥ 0 only s − grow can exclude a
+    // child, else only s + grow: keep where ±cp ≥ bound.
     {
         const Vec3d& n = tri.normal;
         const double s = dot(n, a);
         const double ax = q * n.x, ay = q * n.y, az = q * n.z;
         const double r = std::abs(ax) + std::abs(ay) + std::abs(az);
         const double grow = r + 1e-9 * (r + std::abs(s));
-        const double low = s - grow, high = s + grow;
-        // The eight centres: ±v7, ±v3, ±v6, ±v5 (slots 7/0, 3/4, 6/1, 5/2).
+        const bool up = s >= 0;
+        const double bound = up ? s - grow : -(s + grow);
         const double t1 = ax + ay, t2 = ay - ax;  // partial sums of slots x+y+ and x−y+
         const double v7 = t1 + az, v3 = t1 - az, v6 = t2 + az, v5 = az - t2;
-        std::uint32_t keep = 0;
-        keep |= (v7 >= low && v7 <= high) ? 0x80u : 0u;
-        keep |= (-v7 >= low && -v7 <= high) ? 0x01u : 0u;
-        keep |= (v3 >= low && v3 <= high) ? 0x08u : 0u;
-        keep |= (-v3 >= low && -v3 <= high) ? 0x10u : 0u;
-        keep |= (v6 >= low && v6 <= high) ? 0x40u : 0u;
-        keep |= (-v6 >= low && -v6 <= high) ? 0x02u : 0u;
-        keep |= (v5 >= low && v5 <= high) ? 0x20u : 0u;
-        keep |= (-v5 >= low && -v5 <= high) ? 0x04u : 0u;
-        mask &= keep;
+        const double w7 = up ? v7 : -v7, w3 = up ? v3 : -v3, w6 = up ? v6 : -v6, w5 = up ? v5 : -v5;
+        mask &= bit(w7 >= bound) << 7 | bit(-w7 >= bound) | bit(w3 >= bound) << 3 | bit(-w3 >= bound) << 4 | bit(w6 >= bound) << 6 |
+                bit(-w6 >= bound) << 1 | bit(w5 >= bound) << 5 | bit(-w5 >= bound) << 2;
     }
-    if (mask == 0) return 0;
-    std::uint32_t certain = 0;  // children holding a vertex
-    if (near) {
-        for (const Vec3d& p : {a, b, d}) {
-            if (!(std::abs(p.x) <= h && std::abs(p.y) <= h && std::abs(p.z) <= h)) continue;
-            const std::uint32_t xs = p.x < 0 ? 0x55u : (p.x > 0 ? 0xAAu : 0xFFu);
-            const std::uint32_t ys = p.y < 0 ? 0x33u : (p.y > 0 ? 0xCCu : 0xFFu);
-            const std::uint32_t zs = p.z < 0 ? 0x0Fu : (p.z > 0 ? 0xF0u : 0xFFu);
-            certain |= xs & ys & zs;
-        }
-        if ((mask & ~certain) == 0) return mask;
-    }
+    // A triangle inside the cube that the box axes leave in one child, or in two across one
+    // mid-plane it reaches on both sides, has a vertex in each: the edge axes cannot separate
+    // those (see above), the common case where triangles are small.
+    if (inside & (splits <= 1) & splitSpans) return mask;
     // Edge × axis, in leaf units relative to c: e × x = (0, e.z, −e.y), e × y = (−e.z, 0, e.x),
-    // e × z = (e.y, −e.x, 0). An axis whose grown interval holds every centre (all within ±r)
-    // removes nothing.
-    const auto axisTest = [&](double pa, double pb, double pd, double u1, double u2, child_mask::SlotPair pair) {
+    // e × z = (e.y, −e.x, 0); the centres are ±(u1 + u2), ±(u1 − u2). Where the projection spans
+    // 0 every centre is inside (bound −∞); above 0 only pmin − grow can exclude, below only
+    // pmax + grow.
+    const auto edgeAxis = [&](double pa, double pb, double pd, double u1, double u2, child_mask::SlotPair pair) {
+        const double pmin = std::min(std::min(pa, pb), pd), pmax = std::max(std::max(pa, pb), pd);
         const double r = std::abs(u1) + std::abs(u2);
         const double grow = r + 1e-9 * (r + (std::abs(pa) + std::abs(pb) + std::abs(pd)));
-        const double low = std::min(std::min(pa, pb), pd) - grow, high = std::max(std::max(pa, pb), pd) + grow;
-        if (low <= -r && high >= r) return;
-        mask &= child_mask::keepPair(u1, u2, low, high, pair);
+        const bool up = pmin > 0;
+        const double bound = up ? pmin - grow : (pmax < 0 ? -(pmax + grow) : -std::numeric_limits<double>::infinity());
+        const double w0 = u1 + u2, v0 = u1 - u2;
+        const double w = up ? w0 : -w0, v = up ? v0 : -v0;
+        mask &= (w >= bound ? pair.pp : 0u) | (-w >= bound ? pair.mm : 0u) | (v >= bound ? pair.pm : 0u) | (-v >= bound ? pair.mp : 0u);
     };
-    const auto edgeAxes = [&](Vec3d e) {
-        axisTest(e.z * a.y - e.y * a.z, e.z * b.y - e.y * b.z, e.z * d.y - e.y * d.z, q * e.z, q * -e.y, child_mask::kYZ);
-        axisTest(e.x * a.z - e.z * a.x, e.x * b.z - e.z * b.x, e.x * d.z - e.z * d.x, q * -e.z, q * e.x, child_mask::kXZ);
-        axisTest(e.y * a.x - e.x * a.y, e.y * b.x - e.x * b.y, e.y * d.x - e.x * d.y, q * e.y, q * -e.x, child_mask::kXY);
-    };
-    edgeAxes(b - a);
-    if ((mask & ~certain) == 0) return mask;
-    edgeAxes(d - b);
-    if ((mask & ~certain) == 0) return mask;
-    edgeAxes(a - d);
+    for (const Vec3d e : {b - a, d - b, a - d}) {
+        edgeAxis(e.z * a.y - e.y * a.z, e.z * b.y - e.y * b.z, e.z * d.y - e.y * d.z, q * e.z, q * -e.y, child_mask::kYZ);
+        edgeAxis(e.x * a.z - e.z * a.x, e.x * b.z - e.z * b.x, e.x * d.z - e.z * d.x, q * -e.z, q * e.x, child_mask::kXZ);
+        edgeAxis(e.y * a.x - e.x * a.y, e.y * b.x - e.x * b.y, e.y * d.x - e.x * d.y, q * e.y, q * -e.x, child_mask::kXY);
+    }
     return mask;
 }
 
@@ -198,11 +186,19 @@ template <int Axis>
 }
 
 /// Sutherland–Hodgman of the polygon @p in (@p n vertices) against the face of [−½, ½]³ on
-/// @p Axis at side @p Side (±1), keeping side·p[axis] ≤ ½, into @p out; returns the new count.
+/// @p Axis at side @p Side (±1), keeping side·p[axis] ≤ ½, into @p out; returns the new count,
+/// or n with nothing written where no vertex lies beyond the face (the pass would copy the
+/// polygon unchanged), @p clipped telling which.
 template <int Axis, int Side>
-inline std::size_t clipFace(const Vec3d* in, std::size_t n, Vec3d* out, std::size_t capacity) {
+inline std::size_t clipFace(const Vec3d* in, std::size_t n, Vec3d* out, std::size_t capacity, bool& clipped) {
     std::array<double, 12> distance;
-    for (std::size_t i = 0; i < n; ++i) distance[i] = double(Side) * coordinate<Axis>(in[i]) - 0.5;
+    bool beyond = false;
+    for (std::size_t i = 0; i < n; ++i) {
+        distance[i] = double(Side) * coordinate<Axis>(in[i]) - 0.5;
+        beyond |= distance[i] > 0;
+    }
+    clipped = beyond;
+    if (!beyond) return n;
     std::size_t m = 0;
     for (std::size_t i = 0; i < n && m + 2 <= capacity; ++i) {
         const std::size_t j = i + 1 == n ? 0 : i + 1;
@@ -213,15 +209,6 @@ inline std::size_t clipFace(const Vec3d* in, std::size_t n, Vec3d* out, std::siz
     return m;
 }
 
-/// The bounding box of @p n points.
-inline void bounds(const Vec3d* p, std::size_t n, Vec3d& lo, Vec3d& hi) {
-    lo = hi = p[0];
-    for (std::size_t i = 1; i < n; ++i) {
-        lo = {std::min(lo.x, p[i].x), std::min(lo.y, p[i].y), std::min(lo.z, p[i].z)};
-        hi = {std::max(hi.x, p[i].x), std::max(hi.y, p[i].y), std::max(hi.z, p[i].z)};
-    }
-}
-
 }  // namespace clip_detail
 
 /// True if @p p lies in the closed cube [−½, ½]³.
@@ -229,41 +216,43 @@ inline void bounds(const Vec3d* p, std::size_t n, Vec3d& lo, Vec3d& hi) {
 
 /// Clips the triangle @p p0 @p p1 @p p2 to the cube [−½, ½]³ (Sutherland–Hodgman: faces −x, +x,
 /// −y, +y, −z, +z in turn), writing the polygon to @p out (12 vertices of room, which 9 never
-/// exceed); returns its vertex count. A face that no vertex of the polygon so far lies beyond
-/// (side·p[axis] − ½ > 0 exactly where p[axis] is beyond ±½) is skipped: its pass would copy the
-/// polygon unchanged.
-inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, const Vec3d& p2, std::array<Vec3d, 12>& out,
-                                          std::array<Vec3d, 12>& scratch) {
+/// exceed; @p scratch likewise); returns its vertex count.
+inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, const Vec3d& p2, Vec3d* out, Vec3d* scratch) {
     out[0] = p0;
     out[1] = p1;
     out[2] = p2;
     if (insideUnitCube(p0) && insideUnitCube(p1) && insideUnitCube(p2)) return 3;  // common for fine triangles in coarse voxels
-    Vec3d* a = out.data();
-    Vec3d* b = scratch.data();
+    constexpr std::size_t kRoom = 12;
+    Vec3d* a = out;
+    Vec3d* b = scratch;
     std::size_t n = 3;
-    Vec3d lo, hi;
-    clip_detail::bounds(a, n, lo, hi);
+    // One pass per face in the reference order, each only where a vertex of the polygon so far
+    // lies beyond it.
     const auto pass = [&](auto clip) {
-        n = clip(a, n, b, out.size());
-        std::swap(a, b);
-        if (n > 0) clip_detail::bounds(a, n, lo, hi);
+        bool clipped = false;
+        const std::size_t m = clip(a, n, b, kRoom, clipped);
+        if (clipped) {
+            n = m;
+            std::swap(a, b);
+        }
         return n > 0;
     };
-    // Faces in the reference order; each pass only where a vertex lies beyond.
-    if (lo.x < -0.5 && !pass(clip_detail::clipFace<0, -1>)) return 0;
-    if (hi.x > 0.5 && !pass(clip_detail::clipFace<0, 1>)) return 0;
-    if (lo.y < -0.5 && !pass(clip_detail::clipFace<1, -1>)) return 0;
-    if (hi.y > 0.5 && !pass(clip_detail::clipFace<1, 1>)) return 0;
-    if (lo.z < -0.5 && !pass(clip_detail::clipFace<2, -1>)) return 0;
-    if (hi.z > 0.5 && !pass(clip_detail::clipFace<2, 1>)) return 0;
-    if (a != out.data()) std::copy(a, a + n, out.data());
+    if (!pass(clip_detail::clipFace<0, -1>) || !pass(clip_detail::clipFace<0, 1>) || !pass(clip_detail::clipFace<1, -1>) ||
+        !pass(clip_detail::clipFace<1, 1>) || !pass(clip_detail::clipFace<2, -1>) || !pass(clip_detail::clipFace<2, 1>))
+        return 0;
+    if (a != out)
+        for (std::size_t i = 0; i < n; ++i) {
+            const Vec3d v = a[i];
+            asm("" ::: "memory");  // keeps this a short loop, not a library call per triangle
+            out[i] = v;
+        }
     return n;
 }
 
 /// Clips a triangle to the cube [−½, ½]³ (Sutherland–Hodgman), appending the polygon to @p out.
 inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out, std::array<Vec3d, 12>& bufferA,
                            std::array<Vec3d, 12>& bufferB) {
-    const std::size_t n = clipTriangleToUnitCube(triangle[0], triangle[1], triangle[2], bufferA, bufferB);
+    const std::size_t n = clipTriangleToUnitCube(triangle[0], triangle[1], triangle[2], bufferA.data(), bufferB.data());
     out.insert(out.end(), bufferA.begin(), bufferA.begin() + static_cast<std::ptrdiff_t>(n));
 }
 
@@ -339,11 +328,10 @@ public:
                 count += 3;
                 continue;
             }
-            const std::size_t n = clipTriangleToUnitCube(p0, p1, p2, clipA_, clipB_);
-            std::copy(clipA_.begin(), clipA_.begin() + static_cast<std::ptrdiff_t>(n), out);
+            const std::size_t n = clipTriangleToUnitCube(p0, p1, p2, out, clipB_.data());  // room is 12 per triangle
             double sum = 0;
             for (std::size_t i = 2; i < n; ++i) {
-                const double a = 0.5 * length(cross(clipA_[i - 1] - clipA_[0], clipA_[i] - clipA_[0]));
+                const double a = 0.5 * length(cross(out[i - 1] - out[0], out[i] - out[0]));
                 fan[count + i] = a;
                 sum += a;
             }
@@ -363,7 +351,7 @@ private:
     Vec3d centre_{0, 0, 0};
     double toLocal_ = 0;
     bool valid_ = false;
-    std::array<Vec3d, 12> clipA_{}, clipB_{};  // clipping ping-pong buffers (zeroed once, not per triangle)
+    std::array<Vec3d, 12> clipB_{};  // clipping ping-pong buffer (zeroed once, not per triangle)
 };
 
 }  // namespace vox::detail

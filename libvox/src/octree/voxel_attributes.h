@@ -14,6 +14,7 @@
 
 #include <array>
 #include <cstdint>
+#include <cstring>
 #include <span>
 #include <vector>
 
@@ -40,6 +41,13 @@ struct AttributeSums {
     /// The voxel's attribute word pair: esvo::packColor (sRGB) | esvo::encodeNormal << 32.
     [[nodiscard]] std::uint64_t pack() const;
 };
+
+/// Sets @p sums to AttributeSums{} (a fixed-size copy: vector stores, where the default
+/// constructor's zeroing compiles to a slow-starting rep stos).
+inline void clear(AttributeSums& sums) {
+    static constexpr AttributeSums kEmpty{};
+    std::memcpy(static_cast<void*>(&sums), &kEmpty, sizeof sums);
+}
 
 /// Reusable buffers (one per thread).
 struct AttributeScratch {

@@ -92,7 +92,7 @@ public:
     SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, std::uint32_t depth, std::uint32_t rootLevel,
                    const SurfaceVoxelizeOptions& options, const detail::AttributeSampler* attributes)
         : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), contours_(options.contours), contourError_(options.contourError),
-          colorError_(options.colorError), normalError_(options.normalErrorDegrees), attributes_(attributes), scratch_(depth + 1),
+          colorError_(options.colorError), normalError_(options.normalErrorDegrees), attributes_(attributes), childLists_(depth + 1), childSums_(depth + 1),
           masks_(depth - rootLevel), contourOut_(options.contours ? depth + 1 - rootLevel : 0),
           attributeOut_(options.attributes ? depth + 1 - rootLevel : 0), keepLeafMaterials_(options.leafMaterials) {}
 
@@ -145,14 +145,22 @@ private:
                 if (mask == 0xFF) break;
             }
         } else {
-            auto& children = scratch_[level + 1];
-            for (auto& c : children) c.clear();
+            // The children's lists, in this level's buffer: child s's at s·n, n = list.size().
+            auto& buffer = childLists_[level + 1];
+            const std::size_t n = list.size();
+            if (buffer.size() < 8 * n) buffer.resize(8 * n);
+            std::array<std::uint32_t, 8> counts{};
             std::uint32_t touched = 0;
             for (std::uint32_t t : list) {
                 const std::uint32_t m = detail::childOverlapMask(local_[t], centre, half);
                 touched |= m;
-                for (std::uint32_t bits = m; bits; bits &= bits - 1) children[static_cast<unsigned>(__builtin_ctz(bits))].push_back(t);
+                for (std::uint32_t bits = m; bits; bits &= bits - 1) {
+                    const auto slot = static_cast<unsigned>(__builtin_ctz(bits));
+                    buffer[slot * n + counts[slot]++] = t;
+                }
             }
+            std::array<std::span<const std::uint32_t>, 8> children;
+            for (unsigned slot = 0; slot < 8; ++slot) children[slot] = {buffer.data() + slot * n, counts[slot]};
             const double childHalf = 0.5 * half;
             for (std::uint32_t slot = 0; slot < 8; ++slot) {
                 if (!(touched & (1u << slot))) continue;
@@ -163,7 +171,8 @@ private:
                 std::optional<detail::AttributeSums> filtered;  // the child's, where the attribute criterion computed them
                 bool clipped = false;  // contourScratch_.fragments are the child's
                 std::uint32_t ownContour = 0;
-                detail::AttributeSums childSums;
+                detail::AttributeSums& childSums = childSums_[level + 1];
+                if (attributes_) clear(childSums);
                 if (contours_) {
                     // The child keeps a contour of its own only where it is much thinner than the
                     // slab its ancestors already impose on it (the ray caster carries theirs);
@@ -238,7 +247,8 @@ private:
     double contourError_;
     double colorError_, normalError_;
     const detail::AttributeSampler* attributes_;
-    std::vector<std::array<std::vector<std::uint32_t>, 8>> scratch_;  // child lists per level
+    std::vector<std::vector<std::uint32_t>> childLists_;  // per level: the lists of one node's children
+    std::vector<detail::AttributeSums> childSums_;        // per level: the sums of the child being built
     std::vector<std::vector<std::uint8_t>> masks_;
     std::vector<std::vector<std::uint32_t>> contourOut_;
     std::vector<std::vector<std::uint64_t>> attributeOut_;

@@ -4,6 +4,8 @@
 #include <vox/texture.h>
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
 
 namespace vox::detail {
@@ -24,11 +26,25 @@ double uvPerLengthUnit(const std::array<Vec2f, 3>& uv, double area) {
 }  // namespace
 
 std::uint32_t packLinearColor(Vec4f color) {
+    // Voxels of one untextured material mostly share their mean colour to the last bit: the last
+    // colour this thread packed, and its word (a pure function of the bits, so exact).
+    struct Last {
+        bool valid = false;
+        std::array<std::uint32_t, 4> bits{};
+        std::uint32_t word = 0;
+    };
+    thread_local Last last;
+    const std::array<std::uint32_t, 4> bits{std::bit_cast<std::uint32_t>(color.x), std::bit_cast<std::uint32_t>(color.y),
+                                            std::bit_cast<std::uint32_t>(color.z), std::bit_cast<std::uint32_t>(color.w)};
+    if (last.valid && bits == last.bits) return last.word;
     const auto channel = [](float linear, bool srgb) {
         const float v = std::clamp(linear, 0.0f, 1.0f);
         return static_cast<std::uint32_t>(std::lround(255.0f * (srgb ? linearToSrgb(v) : v)));
     };
-    return esvo::packColor(channel(color.x, true), channel(color.y, true), channel(color.z, true), channel(color.w, false));
+    last.valid = true;
+    last.bits = bits;
+    last.word = esvo::packColor(channel(color.x, true), channel(color.y, true), channel(color.z, true), channel(color.w, false));
+    return last.word;
 }
 
 Vec3d barycentric(const std::array<Vec3d, 3>& corners, Vec3d p) {
@@ -47,8 +63,10 @@ SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std
     const Material& material = scene.materials[mesh.material];
     const std::uint32_t* index = &mesh.indices[3 * std::size_t{source.triangle}];
     const Vec3d e1 = corners[1] - corners[0], e2 = corners[2] - corners[0];
-    const Vec3d faceNormal = cross(e1, e2);
-    const double area = 0.5 * length(faceNormal);
+    // The face normal and area, computed where needed only (an unfragmented texture lookup, or a
+    // shading normal of zero length).
+    const auto faceNormal = [&] { return cross(e1, e2); };
+    const auto area = [&] { return 0.5 * length(faceNormal()); };
 
     const auto usable = [&](const TextureBinding& binding) {
         return binding.valid() && static_cast<std::size_t>(binding.texture) < scene.textures.size() && binding.uvSet < mesh.uvs.size() &&
@@ -69,7 +87,7 @@ SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std
             for (std::size_t i = 0; i < n; ++i) polygon[i] = at(uv, fragment[i]);
             return texture.integrate(std::span<const Vec2f>(polygon.data(), n), binding.wrapS, binding.wrapT);
         }
-        const auto width = static_cast<float>(footprint * uvPerLengthUnit(uv, area));
+        const auto width = static_cast<float>(footprint * uvPerLengthUnit(uv, area()));
         return texture.sample(at(uv, b), width, binding.wrapS, binding.wrapT);
     };
 
@@ -80,7 +98,7 @@ SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std
 
     const Vec3f shading = interpolate(mesh.normals, index, b);
     Vec3d normal{shading.x, shading.y, shading.z};
-    normal = length(normal) > 0 ? normalize(normal) : (area > 0 ? normalize(faceNormal) : Vec3d{0, 0, 1});
+    normal = length(normal) > 0 ? normalize(normal) : (area() > 0 ? normalize(faceNormal()) : Vec3d{0, 0, 1});
     if (usable(material.normalTexture)) {
         const auto uv = cornerUvs(material.normalTexture);
         const double du1 = uv[1].x - uv[0].x, dv1 = uv[1].y - uv[0].y, du2 = uv[2].x - uv[0].x, dv2 = uv[2].y - uv[0].y;
