@@ -380,7 +380,10 @@ TEST(TriangleBox, ContourFitOnSharedFragmentsEqualsTheReference) {
         for (int t = 0; t < count; ++t) {
             BoxTestTriangle tri = source.next(c, h);
             if (patch) {
-                const auto flatten = [&](Vec3d p) { return p - n * (vox::dot(p - c, n) - 0.01 * h * source.u()); };
+                // Explicit captures: clang 14 cannot capture structured bindings.
+                const auto flatten = [&, centre = c, half = h](Vec3d p) {
+                    return p - n * (vox::dot(p - centre, n) - 0.01 * half * source.u());
+                };
                 tri = vox::detail::prepareBoxTest(flatten(tri.v0), flatten(tri.v1), flatten(tri.v2));
             }
             tris.push_back(tri);
