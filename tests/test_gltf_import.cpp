@@ -458,6 +458,13 @@ TEST(GltfImport, ContentsMustMatchTheExtension) {
     std::memcpy(bytes.data() + 12, &huge, 4);
     vox::test::writeBinary(dir / "chunk.glb", bytes);
     EXPECT_NE(importError<vox::InvalidDataError>(dir / "chunk.glb").find("JSON chunk"), std::string::npos);
+    // Found by fuzz_gltf: a total length below the headers' 20 bytes wrapped `length - 20` around,
+    // and the JSON chunk's claimed length then passed, reading past the file.
+    const std::uint32_t zero = 0, chunk = static_cast<std::uint32_t>(bytes.size() + 100);
+    std::memcpy(bytes.data() + 8, &zero, 4);
+    std::memcpy(bytes.data() + 12, &chunk, 4);
+    vox::test::writeBinary(dir / "length.glb", bytes);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "length.glb").find("less than its own 20-byte headers"), std::string::npos);
     vox::test::writeText(dir / "scene.fbx", "whatever");
     EXPECT_NE(importError<vox::InvalidDataError>(dir / "scene.fbx").find("unsupported file type '.fbx'"), std::string::npos);
     EXPECT_THROW((void)vox::importScene(dir / "absent.gltf"), vox::IoError);

@@ -101,6 +101,21 @@ TEST(OpenMeshImport, PlyFormatLinesOpenMeshWouldLoopOnAreInvalid) {
     }
 }
 
+TEST(OpenMeshImport, PlyHeaderLinesOfNoKeywordAreInvalid) {
+    // Found by fuzz_mesh: OpenMesh reads the header word by word, so a stray line's words became
+    // an element whose count failed to parse, and its element list grew until memory ran out.
+    ScratchDir dir;
+    std::vector<std::uint8_t> bytes = bytesOf(
+        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 1\npryrpteo element vertex list uchar int vertex_indices\nend_header\n");
+    for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) append(bytes, v);
+    append<std::uint8_t>(bytes, 3);
+    for (std::int32_t i : {0, 1, 2}) append(bytes, i);
+    writeBinary(dir / "stray.ply", bytes);
+    const std::string message = importError<vox::InvalidDataError>(dir / "stray.ply");
+    EXPECT_NE(message.find("PLY header: unknown line 'pryrpteo element vertex list uchar int vertex_indices'"), std::string::npos) << message;
+}
+
 TEST(OpenMeshImport, TruncatedAndDanglingFilesAreInvalid) {
     ScratchDir dir;
     auto bytes = bytesOf("ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"

@@ -440,6 +440,8 @@ std::string_view glbJsonChunk(std::span<const std::uint8_t> glb, const std::file
     if (version != 2) throw InvalidDataError(file, "GLB version " + std::to_string(version) + " is not supported (only 2)");
     const std::uint32_t length = readU32(glb.data() + 8);
     if (length > glb.size()) throw InvalidDataError(file, "GLB header claims " + std::to_string(length) + " bytes but the file has " + std::to_string(glb.size()));
+    // Found by fuzz_gltf: a length below the two headers made `length - 20` wrap around.
+    if (length < 20) throw InvalidDataError(file, "GLB header claims " + std::to_string(length) + " bytes, less than its own 20-byte headers");
     const std::uint32_t chunkLength = readU32(glb.data() + 12);
     const std::uint32_t chunkType = readU32(glb.data() + 16);
     if (chunkType != 0x4E4F534Au) throw InvalidDataError(file, "GLB's first chunk is not JSON");

@@ -168,8 +168,13 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
             } else {
                 context.fail("PLY header: malformed property line '" + line + "'");
             }
+        } else {
+            // OpenMesh reads the header as a stream of words, not lines, so a stray line's words
+            // become keywords and counts: "junk element vertex list ..." left its stream failed
+            // and its element loop growing without end (found by fuzz_mesh). The PLY format has
+            // no lines beyond these keywords.
+            context.fail("PLY header: unknown line '" + line + "' (expected comment, obj_info, element, property or end_header)");
         }
-        // Other lines (some exporters write free text without "comment") are ignored, as OpenMesh does.
     }
     if (!ended) context.fail("PLY header has no end_header");
     if (!hasFormat) context.fail("PLY header has no format line");
