@@ -101,9 +101,10 @@ TEST(OpenMeshImport, PlyFormatLinesOpenMeshWouldLoopOnAreInvalid) {
     }
 }
 
-TEST(OpenMeshImport, PlyHeaderLinesOfNoKeywordAreInvalid) {
+TEST(OpenMeshImport, PlyFreeTextLinesHoldingKeywordsAreInvalid) {
     // Found by fuzz_mesh: OpenMesh reads the header word by word, so a stray line's words became
     // an element whose count failed to parse, and its element list grew until memory ran out.
+    // (Free text of other words is accepted: Wuson.ply of assimp-testmodels has a line of it.)
     ScratchDir dir;
     std::vector<std::uint8_t> bytes = bytesOf(
         "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
@@ -113,7 +114,7 @@ TEST(OpenMeshImport, PlyHeaderLinesOfNoKeywordAreInvalid) {
     for (std::int32_t i : {0, 1, 2}) append(bytes, i);
     writeBinary(dir / "stray.ply", bytes);
     const std::string message = importError<vox::InvalidDataError>(dir / "stray.ply");
-    EXPECT_NE(message.find("PLY header: unknown line 'pryrpteo element vertex list uchar int vertex_indices'"), std::string::npos) << message;
+    EXPECT_NE(message.find("PLY header: line 'pryrpteo element vertex list uchar int vertex_indices' holds the keyword 'element'"), std::string::npos) << message;
 }
 
 TEST(OpenMeshImport, TruncatedAndDanglingFilesAreInvalid) {

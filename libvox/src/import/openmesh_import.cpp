@@ -146,7 +146,6 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
             hasFormat = true;
         } else if (t[0] == "comment") {
             if (t.size() >= 3 && t[1] == "TextureFile") facts.textureFile = line.substr(line.find("TextureFile") + 12);
-        } else if (t[0] == "obj_info") {
         } else if (t[0] == "element") {
             std::uint64_t count = 0;
             if (t.size() != 3 || !parseCount(t[2], count)) context.fail("PLY header: malformed element line '" + line + "'");
@@ -169,11 +168,14 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
                 context.fail("PLY header: malformed property line '" + line + "'");
             }
         } else {
-            // OpenMesh reads the header as a stream of words, not lines, so a stray line's words
-            // become keywords and counts: "junk element vertex list ..." left its stream failed
-            // and its element loop growing without end (found by fuzz_mesh). The PLY format has
-            // no lines beyond these keywords.
-            context.fail("PLY header: unknown line '" + line + "' (expected comment, obj_info, element, property or end_header)");
+            // obj_info and free text (Blender writes its name on a line of its own): OpenMesh reads
+            // the header as a stream of words, not lines, and skips words it does not know, so
+            // these are harmless unless one of their words is a keyword it acts on. "junk element
+            // vertex list ..." became an element whose count failed to parse, and OpenMesh's element
+            // list grew without end (found by fuzz_mesh).
+            for (const std::string& word : t)
+                if (word == "element" || word == "property" || word == "end_header")
+                    context.fail("PLY header: line '" + line + "' holds the keyword '" + word + "' but does not start with it");
         }
     }
     if (!ended) context.fail("PLY header has no end_header");

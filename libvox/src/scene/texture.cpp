@@ -179,6 +179,42 @@ Vec4f Texture::sample(Vec2f uv, float footprint, WrapMode wrapS, WrapMode wrapT)
     return a * (1 - t) + b * t;
 }
 
+namespace {
+
+/// A convex polygon in texel units, cut by axis-aligned lines (Texture::integrate).
+struct ClipPolygon {
+    std::array<Vec2f, 20> v{};
+    std::size_t n = 0;
+
+    /// The parts below and above `p[axis] = limit` (both empty of area where the line misses).
+    void split(int axis, float limit, ClipPolygon& below, ClipPolygon& above) const {
+        below.n = above.n = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+            const Vec2f p = v[i], q = v[i + 1 == n ? 0 : i + 1];
+            const float dp = p[axis] - limit, dq = q[axis] - limit;
+            // Rounding can make a cut polygon slightly non-convex; the bound keeps it in the array.
+            if (dp <= 0 && below.n < below.v.size()) below.v[below.n++] = p;
+            if (dp >= 0 && above.n < above.v.size()) above.v[above.n++] = p;
+            if ((dp > 0 && dq < 0) || (dp < 0 && dq > 0)) {
+                const Vec2f cut = p + (q - p) * (dp / (dp - dq));
+                if (below.n < below.v.size()) below.v[below.n++] = cut;
+                if (above.n < above.v.size()) above.v[above.n++] = cut;
+            }
+        }
+    }
+
+    [[nodiscard]] float area() const {
+        float twice = 0;  // shoelace
+        for (std::size_t i = 0; i < n; ++i) {
+            const Vec2f p = v[i], q = v[i + 1 == n ? 0 : i + 1];
+            twice += p.x * q.y - q.x * p.y;
+        }
+        return 0.5f * std::abs(twice);
+    }
+};
+
+}  // namespace
+
 Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMode wrapT, int maxTexels) const {
     if (levels_.empty()) return {1, 1, 1, 1};
     if (polygon.empty()) return sample({0, 0}, 0, wrapS, wrapT);
@@ -202,48 +238,47 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
                          std::max({std::fabs(double(lo.y)), std::fabs(double(hi.y))}) * l.height;
     if (reach > 16777216.0) return sample(mean, 0, wrapS, wrapT);
 
-    // Sutherland–Hodgman against the texel's four sides, in this level's texel units.
-    // A triangle clipped to a cube has at most 9 vertices; each side adds at most one more.
-    std::array<Vec2f, 16> a{};
-    const std::size_t n0 = std::min<std::size_t>(polygon.size(), 12);
-    for (std::size_t i = 0; i < n0; ++i) a[i] = {polygon[i].x * static_cast<float>(l.width), polygon[i].y * static_cast<float>(l.height)};
-    const auto clippedArea = [&](float x0, float y0) {
-        std::array<Vec2f, 16> in = a, out{};
-        std::size_t n = n0;
-        const float bounds[4] = {x0, x0 + 1, y0, y0 + 1};
-        for (int side = 0; side < 4 && n > 0; ++side) {
-            const int axis = side / 2;
-            const float limit = bounds[side];
-            const float sign = side % 2 ? -1.0f : 1.0f;  // keep sign·(p − limit) ≥ 0
-            std::size_t m = 0;
-            for (std::size_t i = 0; i < n && m + 2 <= out.size(); ++i) {
-                const Vec2f p = in[i], q = in[i + 1 == n ? 0 : i + 1];
-                const float dp = sign * (p[axis] - limit), dq = sign * (q[axis] - limit);
-                if (dp >= 0) out[m++] = p;
-                if ((dp > 0 && dq < 0) || (dp < 0 && dq > 0)) out[m++] = p + (q - p) * (dp / (dp - dq));
-            }
-            n = m;
-            in = out;
-        }
-        float area = 0;  // shoelace; the polygon stays convex
-        for (std::size_t i = 0; i < n; ++i) {
-            const Vec2f p = in[i], q = in[i + 1 == n ? 0 : i + 1];
-            area += p.x * q.y - q.x * p.y;
-        }
-        return 0.5f * std::abs(area);
+    const int x0 = static_cast<int>(std::floor(lo.x * l.width)), x1 = std::max(static_cast<int>(std::ceil(hi.x * l.width)), x0 + 1);
+    const int y0 = static_cast<int>(std::floor(lo.y * l.height)), y1 = std::max(static_cast<int>(std::ceil(hi.y * l.height)), y0 + 1);
+    const auto texelAt = [&](int x, int y) {
+        const int tx = wrapIndex(x, l.width, wrapS), ty = wrapIndex(y, l.height, wrapT);
+        return decode(l.rgba.data() + (static_cast<std::size_t>(ty) * l.width + tx) * 4);
     };
+    // A triangle clipped to a cube has at most 9 vertices; each cut adds at most one more.
+    ClipPolygon rest;
+    rest.n = std::min<std::size_t>(polygon.size(), 12);
+    for (std::size_t i = 0; i < rest.n; ++i) rest.v[i] = {polygon[i].x * static_cast<float>(l.width), polygon[i].y * static_cast<float>(l.height)};
+    // Most fragments of a fine voxelization lie within one texel: its value, where the polygon has area.
+    if (x1 == x0 + 1 && y1 == y0 + 1) return rest.area() > 0 ? texelAt(x0, y0) : sample(mean, 0, wrapS, wrapT);
+
+    // Otherwise the polygon is cut into rows of texels and each row into texels, one
+    // Sutherland–Hodgman pass per cut line (not four per texel): the rows' and texels' areas
+    // weight the texels.
     Vec4f sum{0, 0, 0, 0};
     float total = 0;
-    const int x0 = static_cast<int>(std::floor(lo.x * l.width)), x1 = static_cast<int>(std::ceil(hi.x * l.width));
-    const int y0 = static_cast<int>(std::floor(lo.y * l.height)), y1 = static_cast<int>(std::ceil(hi.y * l.height));
-    for (int y = y0; y < std::max(y1, y0 + 1); ++y)
-        for (int x = x0; x < std::max(x1, x0 + 1); ++x) {
-            const float area = clippedArea(float(x), float(y));
+    ClipPolygon row, rowRest, cell, next;
+    for (int y = y0; y < y1 && rest.n > 0; ++y) {
+        if (y + 1 < y1) {
+            rest.split(1, float(y + 1), row, next);
+            rest = next;
+        } else {
+            row = rest;
+            rest.n = 0;
+        }
+        for (int x = x0; x < x1 && row.n > 0; ++x) {
+            if (x + 1 < x1) {
+                row.split(0, float(x + 1), cell, rowRest);
+                row = rowRest;
+            } else {
+                cell = row;
+                row.n = 0;
+            }
+            const float area = cell.area();
             if (!(area > 0)) continue;
-            const int tx = wrapIndex(x, l.width, wrapS), ty = wrapIndex(y, l.height, wrapT);
-            sum = sum + decode(l.rgba.data() + (static_cast<std::size_t>(ty) * l.width + tx) * 4) * area;
+            sum = sum + texelAt(x, y) * area;
             total += area;
         }
+    }
     if (!(total > 0)) return sample(mean, 0, wrapS, wrapT);
     return sum * (1.0f / total);
 }
