@@ -85,17 +85,22 @@ TEST(OpenMeshImport, HeaderCountsBeyondTheFileAreRejectedWithoutAllocating) {
     }
 }
 
+/// A binary PLY of one triangle whose header has @p format as its format line and @p faceList as
+/// the face element's property line.
+std::vector<std::uint8_t> binaryPlyTriangle(const std::string& format, const std::string& faceList = "property list uchar int vertex_indices") {
+    std::vector<std::uint8_t> bytes = bytesOf("ply\n" + format + "\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                              "element face 1\n" + faceList + "\nend_header\n");
+    for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) append(bytes, v);
+    append<std::uint8_t>(bytes, 3);
+    for (std::int32_t i : {0, 1, 2}) append(bytes, i);
+    return bytes;
+}
+
 TEST(OpenMeshImport, PlyFormatLinesOpenMeshWouldLoopOnAreInvalid) {
     // Found by fuzz_mesh: OpenMesh's PLY header loop never ends once the version fails to parse.
     ScratchDir dir;
     for (const char* format : {"format binary_little_endian uch1.0", "format ascii", "format ascii 1.0 extra", "format ascii 1.0x"}) {
-        std::vector<std::uint8_t> bytes = bytesOf(std::string("ply\n") + format +
-                                                  "\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                                                  "element face 1\nproperty list uchar int vertex_indices\nend_header\n");
-        for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) append(bytes, v);
-        append<std::uint8_t>(bytes, 3);
-        for (std::int32_t i : {0, 1, 2}) append(bytes, i);
-        writeBinary(dir / "format.ply", bytes);
+        writeBinary(dir / "format.ply", binaryPlyTriangle(format));
         const std::string message = importError<vox::InvalidDataError>(dir / "format.ply");
         EXPECT_NE(message.find(std::string("PLY header: malformed format line '") + format), std::string::npos) << message;
     }
@@ -106,13 +111,7 @@ TEST(OpenMeshImport, PlyFreeTextLinesHoldingKeywordsAreInvalid) {
     // an element whose count failed to parse, and its element list grew until memory ran out.
     // (Free text of other words is accepted: Wuson.ply of assimp-testmodels has a line of it.)
     ScratchDir dir;
-    std::vector<std::uint8_t> bytes = bytesOf(
-        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-        "element face 1\npryrpteo element vertex list uchar int vertex_indices\nend_header\n");
-    for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f}) append(bytes, v);
-    append<std::uint8_t>(bytes, 3);
-    for (std::int32_t i : {0, 1, 2}) append(bytes, i);
-    writeBinary(dir / "stray.ply", bytes);
+    writeBinary(dir / "stray.ply", binaryPlyTriangle("format binary_little_endian 1.0", "pryrpteo element vertex list uchar int vertex_indices"));
     const std::string message = importError<vox::InvalidDataError>(dir / "stray.ply");
     EXPECT_NE(message.find("PLY header: line 'pryrpteo element vertex list uchar int vertex_indices' holds the keyword 'element'"), std::string::npos) << message;
 }

@@ -127,6 +127,38 @@ TEST(Texture, IntegratingFarOutPolygonsStaysDefined) {
     }
 }
 
+TEST(Texture, IntegrateWeightsEveryTexelByTheAreaItCovers) {
+    // A 4×4 linear texture, texel (x, y) = 10·(4y + x): the mean over a polygon is the texels
+    // weighted by the areas they cover, computed here by hand.
+    std::vector<std::uint8_t> pixels(16);
+    for (int i = 0; i < 16; ++i) pixels[i] = static_cast<std::uint8_t>(10 * i);
+    const Texture t("grid", 4, 4, 1, pixels, ColorSpace::Linear);
+    const auto value = [](int x, int y) { return 10.0f * static_cast<float>(4 * (y & 3) + (x & 3)) / 255.0f; };
+    // Inside one texel: that texel.
+    const std::vector<vox::Vec2f> inside = {{0.30f, 0.55f}, {0.45f, 0.55f}, {0.30f, 0.70f}};
+    EXPECT_FLOAT_EQ(t.integrate(inside).x, value(1, 2));
+    // An axis-aligned square over texel units [0.5, 2.5] × [1.5, 3]: columns 0, 1, 2 cover 0.5, 1,
+    // 0.5 and rows 1, 2 cover 0.5, 1.
+    const std::vector<vox::Vec2f> square = {{0.125f, 0.375f}, {0.625f, 0.375f}, {0.625f, 0.75f}, {0.125f, 0.75f}};
+    float sum = 0, area = 0;
+    for (int y = 1; y <= 2; ++y)
+        for (int x = 0; x <= 2; ++x) {
+            const float a = (x == 1 ? 1.0f : 0.5f) * (y == 2 ? 1.0f : 0.5f);
+            sum += a * value(x, y);
+            area += a;
+        }
+    EXPECT_NEAR(t.integrate(square).x, sum / area, 1e-6f);
+    // A right triangle over texel units (0,0), (2,0), (0,2): texels (0,0) full, (1,0) and (0,1)
+    // half each; across the right edge (u from 0.875 to 1.375) it wraps to column 0 and 1.
+    const std::vector<vox::Vec2f> triangle = {{0.0f, 0.0f}, {0.5f, 0.0f}, {0.0f, 0.5f}};
+    EXPECT_NEAR(t.integrate(triangle).x, (value(0, 0) + 0.5f * value(1, 0) + 0.5f * value(0, 1)) / 2.0f, 1e-6f);
+    const std::vector<vox::Vec2f> wrapped = {{0.875f, 0.25f}, {1.375f, 0.25f}, {1.375f, 0.5f}, {0.875f, 0.5f}};
+    EXPECT_NEAR(t.integrate(wrapped).x, (0.5f * value(3, 1) + value(0, 1) + 0.5f * value(1, 1)) / 2.0f, 1e-6f);
+    // A sliver without area: the point sample at its centre.
+    const std::vector<vox::Vec2f> sliver = {{0.1f, 0.1f}, {0.6f, 0.1f}, {0.35f, 0.1f}};
+    EXPECT_FLOAT_EQ(t.integrate(sliver).x, t.sample({0.35f, 0.1f}, 0.0f).x);
+}
+
 TEST(Texture, DecodesPngFromMemoryExactly) {
     const std::vector<std::uint8_t> pixels = {10, 20, 30, 40, 50, 60, 70, 80, 90, 200, 210, 220};
     const auto png = vox::encodePng(2, 2, 3, pixels);

@@ -203,6 +203,19 @@ struct ClipPolygon {
         }
     }
 
+    /// Moves the part below `p[axis] = limit` into @p piece, keeping the rest; at the last line
+    /// (limit = end) all of it.
+    void cutOff(int axis, int limit, int end, ClipPolygon& piece) {
+        if (limit < end) {
+            ClipPolygon above;
+            split(axis, float(limit), piece, above);
+            *this = above;
+        } else {
+            piece = *this;
+            n = 0;
+        }
+    }
+
     [[nodiscard]] float area() const {
         float twice = 0;  // shoelace
         for (std::size_t i = 0; i < n; ++i) {
@@ -256,23 +269,11 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
     // weight the texels.
     Vec4f sum{0, 0, 0, 0};
     float total = 0;
-    ClipPolygon row, rowRest, cell, next;
+    ClipPolygon row, cell;
     for (int y = y0; y < y1 && rest.n > 0; ++y) {
-        if (y + 1 < y1) {
-            rest.split(1, float(y + 1), row, next);
-            rest = next;
-        } else {
-            row = rest;
-            rest.n = 0;
-        }
+        rest.cutOff(1, y + 1, y1, row);
         for (int x = x0; x < x1 && row.n > 0; ++x) {
-            if (x + 1 < x1) {
-                row.split(0, float(x + 1), cell, rowRest);
-                row = rowRest;
-            } else {
-                cell = row;
-                row.n = 0;
-            }
+            row.cutOff(0, x + 1, x1, cell);
             const float area = cell.area();
             if (!(area > 0)) continue;
             sum = sum + texelAt(x, y) * area;
