@@ -1,6 +1,8 @@
 #include <vox/formats/atomic_file.h>
 #include <vox/formats/error.h>
 
+#include "positional_io.h"
+
 #include <cerrno>
 #include <algorithm>
 #include <cstring>
@@ -127,17 +129,7 @@ void AtomicFile::write(const void* data, std::size_t size) {
 void AtomicFile::writeAt(std::uint64_t offset, const void* data, std::size_t size) {
     if (committed_) throw IoError(target_, "write after commit");
     flushBuffer();
-    const char* bytes = static_cast<const char*>(data);
-    while (size > 0) {
-        const ssize_t n = ::pwrite(fd_, bytes, size, static_cast<off_t>(offset));
-        if (n < 0) {
-            if (errno == EINTR) continue;
-            throw IoError(target_, "write failed: " + errnoMessage(errno));
-        }
-        bytes += n;
-        offset += static_cast<std::uint64_t>(n);
-        size -= static_cast<std::size_t>(n);
-    }
+    if (const int error = detail::writeAllAt(fd_, data, size, offset)) throw IoError(target_, "write failed: " + errnoMessage(error));
 }
 
 void AtomicFile::commit() {

@@ -2,6 +2,8 @@
 
 #include <vox/formats/error.h>
 
+#include "positional_io.h"
+
 #include <cerrno>
 #include <fcntl.h>
 #include <string>
@@ -43,17 +45,9 @@ ReadOnlyFile& ReadOnlyFile::operator=(ReadOnlyFile&& other) noexcept {
 }
 
 void ReadOnlyFile::read(std::uint64_t offset, std::uint8_t* out, std::uint64_t size) const {
-    while (size > 0) {
-        const ssize_t got = ::pread(fd_, out, static_cast<std::size_t>(size), static_cast<off_t>(offset));
-        if (got < 0) {
-            if (errno == EINTR) continue;
-            throw IoError(path_, "cannot read: " + errnoMessage(errno));
-        }
-        if (got == 0) throw InvalidDataError(path_, "file ends early at byte " + std::to_string(offset));
-        out += got;
-        offset += static_cast<std::uint64_t>(got);
-        size -= static_cast<std::uint64_t>(got);
-    }
+    const detail::PositionalRead got = detail::readAllAt(fd_, out, size, offset);
+    if (got.error) throw IoError(path_, "cannot read: " + errnoMessage(got.error));
+    if (got.bytes < size) throw InvalidDataError(path_, "file ends early at byte " + std::to_string(offset + got.bytes));
 }
 
 }  // namespace vox

@@ -2,6 +2,8 @@
 
 #include <vox/formats/error.h>
 
+#include "positional_io.h"
+
 #include <cerrno>
 #include <fcntl.h>
 #include <string>
@@ -22,30 +24,16 @@ ScratchFile::~ScratchFile() {
 
 std::uint64_t ScratchFile::append(const void* data, std::uint64_t size) {
     const std::uint64_t start = size_;
-    const char* bytes = static_cast<const char*>(data);
-    while (size > 0) {
-        const ssize_t n = ::pwrite(fd_, bytes, size, static_cast<off_t>(size_));
-        if (n < 0) {
-            if (errno == EINTR) continue;
-            throw IoError(directory_, "cannot write the scratch file: " + errnoMessage(errno));
-        }
-        bytes += n;
-        size -= static_cast<std::uint64_t>(n);
-        size_ += static_cast<std::uint64_t>(n);
-    }
+    if (const int error = detail::writeAllAt(fd_, data, size, start))
+        throw IoError(directory_, "cannot write the scratch file: " + errnoMessage(error));
+    size_ += size;
     return start;
 }
 
 void ScratchFile::read(std::uint64_t offset, void* out, std::uint64_t size) const {
-    char* bytes = static_cast<char*>(out);
-    while (size > 0) {
-        const ssize_t n = ::pread(fd_, bytes, size, static_cast<off_t>(offset));
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) throw IoError(directory_, "cannot read the scratch file back: " + (n < 0 ? errnoMessage(errno) : std::string("ends early")));
-        bytes += n;
-        offset += static_cast<std::uint64_t>(n);
-        size -= static_cast<std::uint64_t>(n);
-    }
+    const detail::PositionalRead got = detail::readAllAt(fd_, out, size, offset);
+    if (got.bytes < size)
+        throw IoError(directory_, "cannot read the scratch file back: " + (got.error ? errnoMessage(got.error) : std::string("ends early")));
 }
 
 }  // namespace vox
