@@ -1417,23 +1417,23 @@ void searchCodes(const NormalPoints& p, NormalState& s, int passes) {
     }
 }
 
-/// Quantises a model: all parts rounded at once, and each axis rounded in turn with the rest
-/// refit to it (when not @p thorough, u only); then searchCodes.
-NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, bool thorough) {
-    NormalState s;
-    const auto encode = [&](const Model& y) {
-        const std::uint32_t axes = esvo::encodeAxis(modelPart(y, 1)) | (esvo::encodeAxis(modelPart(y, 2)) << 16);
-        tryNormals(p, esvo::encodeNormal(modelPart(y, 0)), axes, s);
-    };
-    const auto roundPart = [](Model& y, unsigned part) {
-        const Vec3 q = esvo::decodeAxis(esvo::encodeAxis(modelPart(y, part)));
-        for (unsigned c = 0; c < 3; ++c) y[3 * part + c] = q[c];
-    };
-    encode(x);
-    // A model whose normals all take one weight of an axis (a lattice line: two directions, or
-    // three in a plane) can spend both axes' codes on the other: with that axis' part moved into
-    // the base, the lattice's diagonal b + c·(u + v) has u + v = Q(a) + Q(a − Q(a)), about
-    // twice the mantissa bits.
+/// tryNormals of the codes a model rounds to.
+void tryModel(const NormalPoints& p, const Model& y, NormalState& s) {
+    const std::uint32_t axes = esvo::encodeAxis(modelPart(y, 1)) | (esvo::encodeAxis(modelPart(y, 2)) << 16);
+    tryNormals(p, esvo::encodeNormal(modelPart(y, 0)), axes, s);
+}
+
+/// Replaces axis @p part of @p y by what its code decodes to.
+void roundModelPart(Model& y, unsigned part) {
+    const Vec3 q = esvo::decodeAxis(esvo::encodeAxis(modelPart(y, part)));
+    for (unsigned c = 0; c < 3; ++c) y[3 * part + c] = q[c];
+}
+
+/// A model whose normals all take one weight of an axis (a lattice line: two directions, or
+/// three in a plane) can spend both axes' codes on the other: with that axis' part moved into
+/// the base, the lattice's diagonal b + c·(u + v) has u + v = Q(a) + Q(a − Q(a)), about
+/// twice the mantissa bits. Tries those codes for each axis that qualifies.
+void tryLatticeLines(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, NormalState& s) {
     std::array<std::uint8_t, 16> c0 = combo;
     modelError(p, x, c0);
     for (unsigned line = 1; line <= 2; ++line) {
@@ -1444,21 +1444,29 @@ NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::arra
         if (!single) continue;
         Model y = x;
         for (unsigned k = 0; k < 3; ++k) y[k] += esvo::kAxisWeights[weight(c0[0])] * y[3 * other + k];
-        roundPart(y, line);
+        roundModelPart(y, line);
         for (unsigned k = 0; k < 3; ++k) y[3 * other + k] = x[3 * line + k] - y[3 * line + k];
-        roundPart(y, other);
+        roundModelPart(y, other);
         std::array<std::uint8_t, 16> c{};
         refineModel(p, y, c, 0, 3, modelError(p, y, c));
-        encode(y);
+        tryModel(p, y, s);
     }
+}
+
+/// Quantises a model: all parts rounded at once, and each axis rounded in turn with the rest
+/// refit to it (when not @p thorough, u only); then searchCodes.
+NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, bool thorough) {
+    NormalState s;
+    tryModel(p, x, s);
+    tryLatticeLines(p, x, combo, s);
     for (unsigned first = 1; first <= (thorough ? 2u : 1u); ++first) {
         Model y = x;
         std::array<std::uint8_t, 16> c = combo;
-        roundPart(y, first);
+        roundModelPart(y, first);
         refineModel(p, y, c, first == 1 ? 2u : 1u, 4, modelError(p, y, c));
-        roundPart(y, 3 - first);
+        roundModelPart(y, 3 - first);
         refineModel(p, y, c, 0, 3, modelError(p, y, c));
-        encode(y);
+        tryModel(p, y, s);
     }
     searchCodes(p, s, thorough ? 3 : 2);
     return s;
@@ -1562,28 +1570,8 @@ NormalState quantiseModelFast(const NormalPoints& p, const Model& x, const std::
             tryNormals(p, esvo::encodeNormal(b), uc[scored[m].i] | (vc[scored[m].j] << 16), s);
         }
     }
-    // The lattice-line codes (see quantiseModel).
-    std::array<std::uint8_t, 16> c0 = combo;
-    modelError(p, x, c0);
-    for (unsigned line = 1; line <= 2; ++line) {
-        const unsigned other = 3 - line;
-        const auto weight = [&](std::uint8_t k) { return other == 1 ? (k & 3u) : (k >> 2); };
-        bool single = true;
-        for (unsigned i = 1; i < p.count; ++i) single = single && weight(c0[i]) == weight(c0[0]);
-        if (!single) continue;
-        Model y = x;
-        const auto roundPart = [](Model& z, unsigned part) {
-            const Vec3 q = esvo::decodeAxis(esvo::encodeAxis(modelPart(z, part)));
-            for (unsigned c = 0; c < 3; ++c) z[3 * part + c] = q[c];
-        };
-        for (unsigned k = 0; k < 3; ++k) y[k] += esvo::kAxisWeights[weight(c0[0])] * y[3 * other + k];
-        roundPart(y, line);
-        for (unsigned k = 0; k < 3; ++k) y[3 * other + k] = x[3 * line + k] - y[3 * line + k];
-        roundPart(y, other);
-        std::array<std::uint8_t, 16> c{};
-        refineModel(p, y, c, 0, 3, modelError(p, y, c));
-        tryNormals(p, esvo::encodeNormal(modelPart(y, 0)), esvo::encodeAxis(modelPart(y, 1)) | (esvo::encodeAxis(modelPart(y, 2)) << 16), s);
-    }
+    // The lattice-line codes.
+    tryLatticeLines(p, x, combo, s);
     if (passes > 0) searchCodes(p, s, passes);
     return s;
 }
