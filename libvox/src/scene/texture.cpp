@@ -23,6 +23,9 @@ std::uint8_t quantize(float value) {
 }
 
 int wrapIndex(int i, int n, WrapMode mode) {
+    // Inside the image every mode is the identity, and the divisions below cost as much as the
+    // texel itself (Texture::integrate looks up several per fragment).
+    if (static_cast<unsigned>(i) < static_cast<unsigned>(n)) return i;
     switch (mode) {
     case WrapMode::ClampToEdge:
         return std::clamp(i, 0, n - 1);
@@ -183,8 +186,18 @@ namespace {
 
 /// A convex polygon in texel units, cut by axis-aligned lines (Texture::integrate).
 struct ClipPolygon {
-    std::array<Vec2f, 20> v{};
+    static constexpr std::size_t kCapacity = 20;
+    /// Left uninitialised: integrate builds several per call, and zeroing them cost a fifth of it.
+    union Vertices {
+        Vertices() {}
+        Vec2f at[kCapacity];
+    } vertices;
+    Vec2f* v = vertices.at;
     std::size_t n = 0;
+
+    ClipPolygon() = default;
+    ClipPolygon(const ClipPolygon&) = delete;
+    ClipPolygon& operator=(const ClipPolygon&) = delete;
 
     /// The parts below and above `p[axis] = limit` (both empty of area where the line misses).
     void split(int axis, float limit, ClipPolygon& below, ClipPolygon& above) const {
@@ -193,26 +206,13 @@ struct ClipPolygon {
             const Vec2f p = v[i], q = v[i + 1 == n ? 0 : i + 1];
             const float dp = p[axis] - limit, dq = q[axis] - limit;
             // Rounding can make a cut polygon slightly non-convex; the bound keeps it in the array.
-            if (dp <= 0 && below.n < below.v.size()) below.v[below.n++] = p;
-            if (dp >= 0 && above.n < above.v.size()) above.v[above.n++] = p;
+            if (dp <= 0 && below.n < kCapacity) below.v[below.n++] = p;
+            if (dp >= 0 && above.n < kCapacity) above.v[above.n++] = p;
             if ((dp > 0 && dq < 0) || (dp < 0 && dq > 0)) {
                 const Vec2f cut = p + (q - p) * (dp / (dp - dq));
-                if (below.n < below.v.size()) below.v[below.n++] = cut;
-                if (above.n < above.v.size()) above.v[above.n++] = cut;
+                if (below.n < kCapacity) below.v[below.n++] = cut;
+                if (above.n < kCapacity) above.v[above.n++] = cut;
             }
-        }
-    }
-
-    /// Moves the part below `p[axis] = limit` into @p piece, keeping the rest; at the last line
-    /// (limit = end) all of it.
-    void cutOff(int axis, int limit, int end, ClipPolygon& piece) {
-        if (limit < end) {
-            ClipPolygon above;
-            split(axis, float(limit), piece, above);
-            *this = above;
-        } else {
-            piece = *this;
-            n = 0;
         }
     }
 
@@ -224,6 +224,33 @@ struct ClipPolygon {
         }
         return 0.5f * std::abs(twice);
     }
+};
+
+/// A polygon cut into strips along one axis, lowest first, by lines at the integers: the part
+/// left over lives in two buffers taken in turn, so no cut copies a polygon.
+class StripCutter {
+public:
+    explicit StripCutter(const ClipPolygon& polygon) : rest_(&polygon) {}
+    [[nodiscard]] bool empty() const { return rest_ == nullptr || rest_->n == 0; }
+    /// The part below `p[axis] = limit`, the rest kept; at the last line (limit = end) all that is left.
+    const ClipPolygon& next(int axis, int limit, int end) {
+        if (limit >= end) {
+            const ClipPolygon* last = rest_;
+            rest_ = nullptr;
+            return *last;
+        }
+        ClipPolygon& above = spare_[turn_];
+        turn_ ^= 1;
+        rest_->split(axis, float(limit), piece_, above);
+        rest_ = &above;
+        return piece_;
+    }
+
+private:
+    const ClipPolygon* rest_;
+    ClipPolygon piece_;
+    std::array<ClipPolygon, 2> spare_;
+    unsigned turn_ = 0;
 };
 
 }  // namespace
@@ -253,9 +280,13 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
 
     const int x0 = static_cast<int>(std::floor(lo.x * l.width)), x1 = std::max(static_cast<int>(std::ceil(hi.x * l.width)), x0 + 1);
     const int y0 = static_cast<int>(std::floor(lo.y * l.height)), y1 = std::max(static_cast<int>(std::ceil(hi.y * l.height)), y0 + 1);
+    // decode() inlined: as a call, its returned vector went through memory on every texel.
+    const float* srgb = colorSpace_ == ColorSpace::SRGB ? srgbDecodeTable().data() : nullptr;
     const auto texelAt = [&](int x, int y) {
+        constexpr float inv = 1.0f / 255.0f;
         const int tx = wrapIndex(x, l.width, wrapS), ty = wrapIndex(y, l.height, wrapT);
-        return decode(l.rgba.data() + (static_cast<std::size_t>(ty) * l.width + tx) * 4);
+        const std::uint8_t* p = l.rgba.data() + (static_cast<std::size_t>(ty) * l.width + tx) * 4;
+        return srgb ? Vec4f{srgb[p[0]], srgb[p[1]], srgb[p[2]], p[3] * inv} : Vec4f{p[0] * inv, p[1] * inv, p[2] * inv, p[3] * inv};
     };
     // A triangle clipped to a cube has at most 9 vertices; each cut adds at most one more.
     ClipPolygon rest;
@@ -269,12 +300,11 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
     // weight the texels.
     Vec4f sum{0, 0, 0, 0};
     float total = 0;
-    ClipPolygon row, cell;
-    for (int y = y0; y < y1 && rest.n > 0; ++y) {
-        rest.cutOff(1, y + 1, y1, row);
-        for (int x = x0; x < x1 && row.n > 0; ++x) {
-            row.cutOff(0, x + 1, x1, cell);
-            const float area = cell.area();
+    StripCutter rows(rest);
+    for (int y = y0; y < y1 && !rows.empty(); ++y) {
+        StripCutter cells(rows.next(1, y + 1, y1));
+        for (int x = x0; x < x1 && !cells.empty(); ++x) {
+            const float area = cells.next(0, x + 1, x1).area();
             if (!(area > 0)) continue;
             sum = sum + texelAt(x, y) * area;
             total += area;
