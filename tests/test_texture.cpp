@@ -5,7 +5,10 @@
 #include "gltf_builder.h"
 #include "test_support.h"
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
+#include <limits>
 
 using vox::ColorSpace;
 using vox::Texture;
@@ -26,6 +29,26 @@ TEST(Texture, SrgbTransferFunctionMatchesTheStandard) {
     EXPECT_NEAR(vox::srgbToLinear(0.04f), 0.04f / 12.92f, 1e-7f);
     EXPECT_FLOAT_EQ(vox::srgbToLinear(1.0f), 1.0f);
     for (float v : {0.0f, 0.001f, 0.2f, 0.5f, 0.9f, 1.0f}) EXPECT_NEAR(vox::linearToSrgb(vox::srgbToLinear(v)), v, 1e-5f);
+}
+
+TEST(Texture, SrgbCodeIsTheRoundedTransferFunction) {
+    const auto direct = [](float v) { return static_cast<int>(std::lround(255.0f * vox::linearToSrgb(std::clamp(v, 0.0f, 1.0f)))); };
+    // Around every step of the code (where a table off by one would show) and evenly over [0, 1].
+    int steps = 0;
+    for (std::uint32_t bits = 0; bits <= std::bit_cast<std::uint32_t>(1.0f); bits += 1 + (bits >> 12)) {
+        const float v = std::bit_cast<float>(bits), next = std::bit_cast<float>(bits + 1 + (bits >> 12));
+        ASSERT_EQ(vox::srgbCode(v), direct(v)) << v;
+        if (next <= 1.0f && direct(next) != direct(v)) {
+            steps += direct(next) - direct(v);
+            for (std::uint32_t b = bits; b <= bits + 1 + (bits >> 12); ++b) ASSERT_EQ(vox::srgbCode(std::bit_cast<float>(b)), direct(std::bit_cast<float>(b)));
+        }
+    }
+    EXPECT_EQ(steps, 255);
+    EXPECT_EQ(vox::srgbCode(-1.0f), 0);
+    EXPECT_EQ(vox::srgbCode(0.5f), 188);
+    EXPECT_EQ(vox::srgbCode(2.0f), 255);
+    EXPECT_EQ(vox::srgbCode(std::numeric_limits<float>::infinity()), 255);
+    EXPECT_EQ(vox::srgbCode(std::numeric_limits<float>::quiet_NaN()), direct(std::numeric_limits<float>::quiet_NaN()) & 255);
 }
 
 TEST(Texture, MipChainHalvesEachSideDownToOneTexel) {

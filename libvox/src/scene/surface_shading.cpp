@@ -37,13 +37,10 @@ std::uint32_t packLinearColor(Vec4f color) {
     const std::array<std::uint32_t, 4> bits{std::bit_cast<std::uint32_t>(color.x), std::bit_cast<std::uint32_t>(color.y),
                                             std::bit_cast<std::uint32_t>(color.z), std::bit_cast<std::uint32_t>(color.w)};
     if (last.valid && bits == last.bits) return last.word;
-    const auto channel = [](float linear, bool srgb) {
-        const float v = std::clamp(linear, 0.0f, 1.0f);
-        return static_cast<std::uint32_t>(std::lround(255.0f * (srgb ? linearToSrgb(v) : v)));
-    };
+    const auto alpha = static_cast<std::uint32_t>(std::lround(255.0f * std::clamp(color.w, 0.0f, 1.0f)));
     last.valid = true;
     last.bits = bits;
-    last.word = esvo::packColor(channel(color.x, true), channel(color.y, true), channel(color.z, true), channel(color.w, false));
+    last.word = esvo::packColor(srgbCode(color.x), srgbCode(color.y), srgbCode(color.z), alpha);
     return last.word;
 }
 
