@@ -21,6 +21,7 @@
 #include <numbers>
 #include <random>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -465,6 +466,39 @@ TEST_P(ByEffort, IsDeterministic) {
         const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 16));
         EXPECT_EQ(vox::detail::encodeCompressedBlock(values, mask, effort), vox::detail::encodeCompressedBlock(values, mask, effort));
     }
+}
+
+// The normal search keeps a thread's recent results: a block must encode alike whatever the
+// thread encoded before it, and in a thread that encoded nothing yet.
+TEST_P(ByEffort, DoesNotDependOnTheBlocksBefore) {
+    const AttributeEffort effort = GetParam();
+    std::mt19937 rng(12);
+    std::vector<std::pair<std::array<std::uint64_t, 16>, std::uint32_t>> blocks;
+    for (int i = 0; i < 120; ++i) {
+        std::array<std::uint64_t, 16> values{};
+        for (auto& v : values) v = (rng() & 0xFFFFFFu) | (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
+        const std::uint32_t mask = randomMask(rng, 2 + static_cast<unsigned>(i % 15));
+        blocks.emplace_back(values, mask);
+        // The same normals in other slots, and the same slots with one normal changed.
+        std::array<std::uint64_t, 16> moved{};
+        std::uint32_t movedMask = 0;
+        for (unsigned s = 0, t = 15; s < 16; ++s)
+            if ((mask >> s) & 1u) {
+                while (t > 0 && ((movedMask >> t) & 1u)) --t;
+                moved[t] = values[s];
+                movedMask |= 1u << t;
+            }
+        blocks.emplace_back(moved, movedMask);
+        values[static_cast<unsigned>(std::countr_zero(mask))] ^= std::uint64_t{1} << 32;
+        blocks.emplace_back(values, mask);
+    }
+    std::vector<esvo::CompressedBlock> forward;
+    for (const auto& [values, mask] : blocks) forward.push_back(vox::detail::encodeCompressedBlock(values, mask, effort));
+    std::vector<esvo::CompressedBlock> backward(blocks.size());
+    std::thread([&] {
+        for (std::size_t i = blocks.size(); i-- > 0;) backward[i] = vox::detail::encodeCompressedBlock(blocks[i].first, blocks[i].second, effort);
+    }).join();
+    for (std::size_t i = 0; i < blocks.size(); ++i) ASSERT_EQ(forward[i], backward[i]) << i;
 }
 
 namespace {
