@@ -17,7 +17,9 @@
 #include <csignal>
 #include <cstring>
 #include <fcntl.h>
+#include <fstream>
 #include <iostream>
+#include <iterator>
 #include <map>
 #include <spawn.h>
 #include <sys/stat.h>
@@ -198,6 +200,29 @@ TEST(Tools, DepfileOfARealExternalBufferAndTextureGltf) {
     const auto folder = model.parent_path();
     EXPECT_EQ(depfile, (dir / "s.json").string() + ": \\\n  " + model.string() + " \\\n  " + (folder / "BoxTextured0.bin").string() +
                            " \\\n  " + (folder / "CesiumLogoFlat.png").string() + "\n");
+}
+
+// OpenImageIO is in a module of its own (libvox/src/scene/image_module.h), loaded when an
+// image is first decoded: what links vox::core does not load it (this test links vox::core),
+// a scene without textures never needs it, and one with textures fails in one line, exit 4,
+// without output, where the module cannot be found.
+TEST(Tools, OnlyScenesWithImagesLoadTheImageModule) {
+    {
+        std::ifstream maps("/proc/self/maps");
+        const std::string mapped((std::istreambuf_iterator<char>(maps)), std::istreambuf_iterator<char>());
+        EXPECT_EQ(mapped.find("libOpenImageIO"), std::string::npos) << "vox::core links OpenImageIO";
+    }
+    ScratchDir dir;
+    const auto textured = vox::test::assimpModels() / "glTF2/BoxTextured-glTF/BoxTextured.gltf";
+    ::setenv("VOX_IMAGE_MODULE", (dir / "missing" / "libvox_image_oiio.so").c_str(), 1);
+    const ProcessResult plain = voxelize({(vox::test::assimpModels() / "OFF/Cube.off").string(), "-o", (dir / "cube.esvo").string(), "--depth", "4"});
+    const ProcessResult withImages = voxelize({textured.string(), "-o", (dir / "box.esvo").string(), "--depth", "4"});
+    ::unsetenv("VOX_IMAGE_MODULE");
+    EXPECT_EQ(plain.exitCode, 0) << plain.err;
+    expectOneLineError(withImages, 4, (dir / "missing" / "libvox_image_oiio.so").string() + ": not found");
+    EXPECT_FALSE(std::filesystem::exists(dir / "box.esvo"));
+    const ProcessResult found = voxelize({textured.string(), "-o", (dir / "box.esvo").string(), "--depth", "4"});
+    EXPECT_EQ(found.exitCode, 0) << found.err;
 }
 
 TEST(Tools, DepfileListsEveryFileRead) {

@@ -1,5 +1,6 @@
 /// @file image_io.h
-/// @brief Writing images: PNG through OpenImageIO, and the PFM float format, both atomically.
+/// @brief Writing images: PNG through OpenImageIO (the image module, loaded on first use), and the
+/// PFM float format, both atomically.
 #pragma once
 
 #include <cstdint>

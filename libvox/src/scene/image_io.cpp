@@ -1,10 +1,10 @@
+#include "image_module.h"
+
 #include <vox/formats/atomic_file.h>
 #include <vox/formats/error.h>
 #include <vox/image_io.h>
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-
+#include <stdexcept>
 #include <string>
 
 namespace vox {
@@ -12,14 +12,10 @@ namespace vox {
 std::vector<std::uint8_t> encodePng(int width, int height, int channels, std::span<const std::uint8_t> pixels) {
     if (pixels.size() != std::size_t(width) * std::size_t(height) * std::size_t(channels))
         throw std::invalid_argument("encodePng: pixel count does not match the size");
-    std::vector<unsigned char> bytes;
-    OIIO::Filesystem::IOVecOutput writer(bytes);
-    auto output = OIIO::ImageOutput::create("image.png");
-    const OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
-    if (!output || !output->set_ioproxy(&writer) || !output->open("image.png", spec) ||
-        !output->write_image(OIIO::TypeDesc::UINT8, pixels.data()) || !output->close())
-        throw std::runtime_error("cannot encode PNG: " + (output ? output->geterror() : OIIO::geterror()));
-    return {bytes.begin(), bytes.end()};
+    std::vector<std::uint8_t> png;
+    std::string error;
+    if (!detail::imageModule().encodePng(width, height, channels, pixels, png, error)) throw std::runtime_error("cannot encode PNG: " + error);
+    return png;
 }
 
 void writePng(const std::filesystem::path& file, int width, int height, int channels, std::span<const std::uint8_t> pixels) {

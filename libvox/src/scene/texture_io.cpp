@@ -1,11 +1,13 @@
-// Image decoding through OpenImageIO, from files or from memory (GLB buffer views, data URIs).
+// Image decoding through OpenImageIO (in the image module, loaded on first use: image_module.h),
+// from files or from memory (GLB buffer views, data URIs).
+#include "image_module.h"
+
 #include <vox/formats/error.h>
 #include <vox/texture.h>
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-
+#include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <fstream>
 
 namespace vox {
@@ -28,32 +30,28 @@ std::string decoderHintName(std::span<const std::uint8_t> bytes, const std::stri
 }
 
 /// @p file: where errors point; @p what: the image within it ("" when the file is the image).
-Texture decodeOpened(OIIO::ImageInput& input, const std::filesystem::path& file, const std::string& what,
-                     ColorSpace colorSpace) {
+Texture decodeOpened(detail::ImageReader& input, const std::filesystem::path& file, const std::string& what, ColorSpace colorSpace) {
     const std::string prefix = what.empty() ? std::string() : what + ": ";
-    const OIIO::ImageSpec& spec = input.spec();
-    if (spec.width < 1 || spec.height < 1 || spec.depth != 1 || spec.nchannels < 1)
+    const int width = input.width(), height = input.height();
+    if (width < 1 || height < 1 || input.depth() != 1 || input.channels() < 1)
         throw InvalidDataError(file, prefix + "image has no pixels or is a volume");
-    if (spec.width > Texture::kMaxDimension || spec.height > Texture::kMaxDimension)
-        throw InvalidDataError(file, prefix + "image is " + std::to_string(spec.width) + "x" +
-                                              std::to_string(spec.height) + ", larger than the supported " +
-                                              std::to_string(Texture::kMaxDimension) + " per side");
-    const int channels = std::min(spec.nchannels, 4);
-    const std::size_t rowValues = static_cast<std::size_t>(spec.width) * channels;
-    std::vector<std::uint8_t> pixels(rowValues * spec.height);
-    if (!spec.format.is_floating_point()) {
+    if (width > Texture::kMaxDimension || height > Texture::kMaxDimension)
+        throw InvalidDataError(file, prefix + "image is " + std::to_string(width) + "x" + std::to_string(height) +
+                                         ", larger than the supported " + std::to_string(Texture::kMaxDimension) + " per side");
+    const int channels = std::min(input.channels(), 4);
+    const std::size_t rowValues = static_cast<std::size_t>(width) * channels;
+    std::vector<std::uint8_t> pixels(rowValues * height);
+    if (!input.floatingPoint()) {
         // Integer formats hold encoded values (sRGB for colour textures): 8 bits directly.
-        if (!input.read_image(0, 0, 0, channels, OIIO::TypeDesc::UINT8, pixels.data()))
-            throw InvalidDataError(file, prefix + "cannot decode image: " + input.geterror());
+        if (!input.readUint8(channels, pixels.data())) throw InvalidDataError(file, prefix + "cannot decode image: " + input.error());
     } else {
         // Floating-point formats hold linear values: encode them to the texture's colour space,
         // a band of rows at a time so a large HDR image never exists as floats all at once.
         constexpr int kBand = 64;
         std::vector<float> band(rowValues * kBand);
-        for (int y0 = 0; y0 < spec.height; y0 += kBand) {
-            const int y1 = std::min(spec.height, y0 + kBand);
-            if (!input.read_scanlines(0, 0, y0, y1, 0, 0, channels, OIIO::TypeDesc::FLOAT, band.data()))
-                throw InvalidDataError(file, prefix + "cannot decode image: " + input.geterror());
+        for (int y0 = 0; y0 < height; y0 += kBand) {
+            const int y1 = std::min(height, y0 + kBand);
+            if (!input.readFloatRows(y0, y1, channels, band.data())) throw InvalidDataError(file, prefix + "cannot decode image: " + input.error());
             for (std::size_t i = 0; i < rowValues * static_cast<std::size_t>(y1 - y0); ++i) {
                 float v = std::isfinite(band[i]) ? std::clamp(band[i], 0.0f, 1.0f) : 0.0f;
                 const std::size_t channel = i % static_cast<std::size_t>(channels);
@@ -63,7 +61,7 @@ Texture decodeOpened(OIIO::ImageInput& input, const std::filesystem::path& file,
             }
         }
     }
-    return Texture(what.empty() ? file.filename().string() : what, spec.width, spec.height, channels, pixels, colorSpace);
+    return Texture(what.empty() ? file.filename().string() : what, width, height, channels, pixels, colorSpace);
 }
 
 }  // namespace
@@ -73,16 +71,17 @@ Texture loadTexture(const std::filesystem::path& file, ColorSpace colorSpace) {
         std::ifstream probe(file, std::ios::binary);
         if (!probe) throw IoError(file, "cannot open image: " + errnoMessage(errno));
     }
-    auto input = OIIO::ImageInput::open(file.string());
-    if (!input) throw InvalidDataError(file, "cannot decode image: " + OIIO::geterror());
+    std::string error;
+    const auto input = detail::imageModule().openFile(file, error);
+    if (!input) throw InvalidDataError(file, "cannot decode image: " + error);
     return decodeOpened(*input, file, "", colorSpace);
 }
 
 Texture decodeTexture(std::span<const std::uint8_t> encoded, const std::filesystem::path& container,
                       const std::string& what, const std::string& mimeType, ColorSpace colorSpace) {
-    OIIO::Filesystem::IOMemReader reader(encoded.data(), encoded.size());
-    auto input = OIIO::ImageInput::open(decoderHintName(encoded, mimeType), nullptr, &reader);
-    if (!input) throw InvalidDataError(container, what + ": cannot decode image: " + OIIO::geterror());
+    std::string error;
+    const auto input = detail::imageModule().openMemory(encoded, decoderHintName(encoded, mimeType), error);
+    if (!input) throw InvalidDataError(container, what + ": cannot decode image: " + error);
     return decodeOpened(*input, container, what, colorSpace);
 }
 
