@@ -2,7 +2,6 @@
 #include "image_module.h"
 
 #include <dlfcn.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <stdexcept>

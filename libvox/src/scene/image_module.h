@@ -56,8 +56,9 @@ using ImageModuleEntry = const ImageModule* (*)();
 
 /// The loaded module (loaded on the first call, by any thread).
 /// @throws std::runtime_error naming the files tried, where no module loads.
-/// Found at $VOX_IMAGE_MODULE where that is set, else beside libvox's install (../lib of the
-/// executable's directory, then the configured library directory), else in the build tree.
+/// Found at $VOX_IMAGE_MODULE where that is set, else in ../LIBDIR of the executable's directory
+/// (an installed tool), else at its place in this build tree, else in the configured library
+/// directory.
 [[nodiscard]] const ImageModule& imageModule();
 
 }  // namespace vox::detail
