@@ -1859,8 +1859,8 @@ NormalState searchNormals(NormalPoints& p, AttributeEffort effort) {
 /// outputs do not depend on what a thread encoded before.
 class NormalSearchCache {
 public:
-    template <typename Search>
-    NormalState find(NormalPoints& p, AttributeEffort effort, Search search) {
+    /// searchNormals(p, effort), from the cache where it holds the block.
+    NormalState find(NormalPoints& p, AttributeEffort effort) {
         std::uint64_t hash = 0x9E3779B97F4A7C15ull ^ (std::uint64_t{p.count} << 8) ^ static_cast<std::uint64_t>(effort);
         for (unsigned i = 0; i < p.count; ++i)
             for (unsigned c = 0; c < 3; ++c) hash = (hash ^ std::bit_cast<std::uint32_t>(p.n[i][c])) * 0x100000001B3ull;
@@ -1868,7 +1868,7 @@ public:
         if (e.valid && e.hash == hash && e.count == p.count && e.effort == effort &&
             std::memcmp(e.n.data(), p.n.data(), sizeof(Vec3) * p.count) == 0)
             return e.state;
-        e.state = search(p, effort);
+        e.state = searchNormals(p, effort);
         e.valid = true;
         e.hash = hash;
         e.count = p.count;
@@ -1900,7 +1900,7 @@ NormalState encodeNormals(NormalPoints& p, AttributeEffort effort) {
         return s;
     }
     thread_local const std::unique_ptr<NormalSearchCache> cache = std::make_unique<NormalSearchCache>();
-    return cache->find(p, effort, searchNormals);
+    return cache->find(p, effort);
 }
 
 esvo::Vec3 unitOrZ(const esvo::Vec3& n) {

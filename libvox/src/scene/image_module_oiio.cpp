@@ -15,7 +15,6 @@ class OiioReader final : public ImageReader {
 public:
     OiioReader(std::unique_ptr<OIIO::ImageInput> input, std::unique_ptr<OIIO::Filesystem::IOMemReader> memory)
         : memory_(std::move(memory)), input_(std::move(input)) {}
-    ~OiioReader() override { input_.reset(); }  // before the proxy it reads through
 
     int width() const override { return input_->spec().width; }
     int height() const override { return input_->spec().height; }
@@ -40,7 +39,7 @@ private:
             return false;
         }
     }
-    std::unique_ptr<OIIO::Filesystem::IOMemReader> memory_;
+    std::unique_ptr<OIIO::Filesystem::IOMemReader> memory_;  // declared first: destroyed after the input reading through it
     std::unique_ptr<OIIO::ImageInput> input_;
     std::string thrown_;
 };

@@ -177,13 +177,21 @@ std::size_t Texture::memoryBytes() const noexcept {
     return bytes;
 }
 
-Vec4f Texture::decode(const std::uint8_t* p) const {
+namespace {
+
+/// An RGBA8 texel as linear floats: colour through @p srgb (srgbDecodeTable) where the texture is
+/// sRGB (null where linear), alpha always linear. Inline, so that a loop over texels can look the
+/// table up once (as a call, the returned vector also went through memory on every texel).
+inline Vec4f decodeTexel(const std::uint8_t* p, const float* srgb) {
     constexpr float inv = 1.0f / 255.0f;
-    if (colorSpace_ == ColorSpace::SRGB) {
-        const auto& table = srgbDecodeTable();
-        return {table[p[0]], table[p[1]], table[p[2]], p[3] * inv};
-    }
+    if (srgb) return {srgb[p[0]], srgb[p[1]], srgb[p[2]], p[3] * inv};
     return {p[0] * inv, p[1] * inv, p[2] * inv, p[3] * inv};
+}
+
+}  // namespace
+
+Vec4f Texture::decode(const std::uint8_t* p) const {
+    return decodeTexel(p, colorSpace_ == ColorSpace::SRGB ? srgbDecodeTable().data() : nullptr);
 }
 
 Vec4f Texture::texel(int level, int x, int y) const {
@@ -223,17 +231,14 @@ namespace {
 /// A convex polygon in texel units, cut by axis-aligned lines (Texture::integrate).
 struct ClipPolygon {
     static constexpr std::size_t kCapacity = 20;
-    /// Left uninitialised: integrate builds several per call, and zeroing them cost a fifth of it.
-    union Vertices {
-        Vertices() {}
-        Vec2f at[kCapacity];
-    } vertices;
-    Vec2f* v = vertices.at;
+    union {
+        Vec2f v[kCapacity];
+    };
     std::size_t n = 0;
 
-    ClipPolygon() = default;
-    ClipPolygon(const ClipPolygon&) = delete;
-    ClipPolygon& operator=(const ClipPolygon&) = delete;
+    /// The vertices are left uninitialised: integrate builds several polygons per call, and
+    /// zeroing them cost a fifth of it.
+    ClipPolygon() {}
 
     /// The parts below and above `p[axis] = limit` (both empty of area where the line misses).
     void split(int axis, float limit, ClipPolygon& below, ClipPolygon& above) const {
@@ -316,13 +321,10 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
 
     const int x0 = static_cast<int>(std::floor(lo.x * l.width)), x1 = std::max(static_cast<int>(std::ceil(hi.x * l.width)), x0 + 1);
     const int y0 = static_cast<int>(std::floor(lo.y * l.height)), y1 = std::max(static_cast<int>(std::ceil(hi.y * l.height)), y0 + 1);
-    // decode() inlined: as a call, its returned vector went through memory on every texel.
     const float* srgb = colorSpace_ == ColorSpace::SRGB ? srgbDecodeTable().data() : nullptr;
     const auto texelAt = [&](int x, int y) {
-        constexpr float inv = 1.0f / 255.0f;
         const int tx = wrapIndex(x, l.width, wrapS), ty = wrapIndex(y, l.height, wrapT);
-        const std::uint8_t* p = l.rgba.data() + (static_cast<std::size_t>(ty) * l.width + tx) * 4;
-        return srgb ? Vec4f{srgb[p[0]], srgb[p[1]], srgb[p[2]], p[3] * inv} : Vec4f{p[0] * inv, p[1] * inv, p[2] * inv, p[3] * inv};
+        return decodeTexel(l.rgba.data() + (static_cast<std::size_t>(ty) * l.width + tx) * 4, srgb);
     };
     // A triangle clipped to a cube has at most 9 vertices; each cut adds at most one more.
     ClipPolygon rest;
