@@ -1244,32 +1244,45 @@ unsigned dominantAxis(const Model& x) {
     return ax >= ay && ax >= az ? 0u : (ay >= az ? 1u : 2u);
 }
 
-/// Solves m·y = r (r becomes y) for a symmetric positive definite m of order n ≤ 9 by Cholesky
+/// Solves m·y = r (r becomes y) for a symmetric positive definite m of order N ≤ 9 by Cholesky
 /// (lower triangle of m used and overwritten); false when m is not numerically positive definite.
-bool solveSpd(std::array<std::array<double, 9>, 9>& m, std::array<double, 9>& r, unsigned n) {
-    for (unsigned j = 0; j < n; ++j) {
+template <unsigned N>
+bool solveSpd(std::array<std::array<double, 9>, 9>& m, std::array<double, 9>& r) {
+    static_assert(N <= 9);
+    for (unsigned j = 0; j < N; ++j) {
         double d = m[j][j];
         for (unsigned k = 0; k < j; ++k) d -= m[j][k] * m[j][k];
         if (!(d > 0)) return false;
         d = std::sqrt(d);
         m[j][j] = d;
-        for (unsigned i = j + 1; i < n; ++i) {
+        for (unsigned i = j + 1; i < N; ++i) {
             double s = m[i][j];
             for (unsigned k = 0; k < j; ++k) s -= m[i][k] * m[j][k];
             m[i][j] = s / d;
         }
     }
-    for (unsigned i = 0; i < n; ++i) {
+    for (unsigned i = 0; i < N; ++i) {
         double s = r[i];
         for (unsigned k = 0; k < i; ++k) s -= m[i][k] * r[k];
         r[i] = s / m[i][i];
     }
-    for (unsigned i = n; i-- > 0;) {
+    for (unsigned i = N; i-- > 0;) {
         double s = r[i];
-        for (unsigned k = i + 1; k < n; ++k) s -= m[k][i] * r[k];
+        for (unsigned k = i + 1; k < N; ++k) s -= m[k][i] * r[k];
         r[i] = s / m[i][i];
     }
     return true;
+}
+
+/// solveSpd of the orders refineModel solves (the base's two minor components, with none, one
+/// or both axes), each unrolled by the compiler.
+bool solveSpd(std::array<std::array<double, 9>, 9>& m, std::array<double, 9>& r, unsigned n) {
+    switch (n) {
+        case 2: return solveSpd<2>(m, r);
+        case 5: return solveSpd<5>(m, r);
+        case 8: return solveSpd<8>(m, r);
+        default: return false;
+    }
 }
 
 /// The Gauss–Newton normal equations of the decoded error at model @p x with @p combo: the
@@ -1290,11 +1303,12 @@ struct NormalEquations {
     }
 };
 
-NormalEquations normalEquations(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, unsigned freeAxes) {
+template <unsigned FreeAxes>
+NormalEquations normalEquations(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo) {
     NormalEquations ne;
     auto& block = ne.block;
     auto& g = ne.g;
-    const bool used[3]{true, (freeAxes & 1u) != 0, (freeAxes & 2u) != 0};
+    constexpr bool used[3]{true, (FreeAxes & 1u) != 0, (FreeAxes & 2u) != 0};
     for (unsigned i = 0; i < p.count; ++i) {
         const double k[3]{1.0, esvo::kAxisWeights[combo[i] & 3], esvo::kAxisWeights[combo[i] >> 2]};
         double q[3];
@@ -1318,6 +1332,16 @@ NormalEquations normalEquations(const NormalPoints& p, const Model& x, const std
         }
     }
     return ne;
+}
+
+/// normalEquations with the free axes' loops specialised.
+NormalEquations normalEquations(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, unsigned freeAxes) {
+    switch (freeAxes) {
+        case 0: return normalEquations<0>(p, x, combo);
+        case 1: return normalEquations<1>(p, x, combo);
+        case 2: return normalEquations<2>(p, x, combo);
+        default: return normalEquations<3>(p, x, combo);
+    }
 }
 
 /// Levenberg–Marquardt on the decoded error Σ|P̂ − n|² (P = b + cu·u + cv·v, P̂ = P/|P|) over
