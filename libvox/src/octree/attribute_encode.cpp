@@ -445,7 +445,7 @@ ColorState encodeColors(const ColorPoints& p, AttributeEffort effort) {
 // Normals: normalise(base + cu·u + cv·v), base a cube-face point, cu, cv ∈ kAxisWeights.
 // ============================================================================================
 
-/// The distinct used normals (unit) of a block, each with the slots that hold it, and their
+/// The distinct used normals (unit) of a block, each with its multiplicity, and their
 /// projections onto the plane of one cube face. Every sum over the normals weighs each by its
 /// multiplicity, so the search sees the block's sixteen slots while it loops over fewer points:
 /// flat-shaded faces and the edges between them repeat normals exactly (a third of the normals
@@ -453,7 +453,6 @@ ColorState encodeColors(const ColorPoints& p, AttributeEffort effort) {
 struct NormalPoints {
     unsigned count = 0;  ///< distinct normals
     unsigned total = 0;  ///< used slots: the sum of the multiplicities
-    std::array<std::uint16_t, 16> slots{};  ///< per distinct normal: the slots holding it
     std::array<Vec3, 16> n{};
     std::array<float, 16> multiplicity{};
     unsigned axis = 2;   ///< the face's axis
@@ -1964,25 +1963,26 @@ std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16
 
 std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask, AttributeEffort effort) {
     NormalPoints p;
+    std::array<std::uint8_t, 16> pointOf{};  // per used slot: its distinct normal
     for (unsigned slot = 0; slot < 16; ++slot) {
         if (!((usedMask >> slot) & 1u)) continue;
         const Vec3 n = unitOrZ(normals[slot]);
         unsigned i = 0;
         while (i < p.count && !(p.n[i] == n)) ++i;  // bit-identical normals share a point (unitOrZ gives no NaN)
         if (i == p.count) p.n[p.count++] = n;
-        p.slots[i] = static_cast<std::uint16_t>(p.slots[i] | (1u << slot));
+        pointOf[slot] = static_cast<std::uint8_t>(i);
         p.multiplicity[i] += 1;
         ++p.total;
     }
     if (p.count == 0) return {esvo::encodeNormal({0, 0, 1}), 0, 0, 0};
     const NormalState s = encodeNormals(p, effort);
     std::uint32_t uIndices = 0, vIndices = 0;
-    for (unsigned i = 0; i < p.count; ++i)
-        for (unsigned slot = 0; slot < 16; ++slot)
-            if ((p.slots[i] >> slot) & 1u) {
-                uIndices |= (std::uint32_t{s.combo[i]} & 3u) << (2 * slot);
-                vIndices |= (std::uint32_t{s.combo[i]} >> 2) << (2 * slot);
-            }
+    for (unsigned slot = 0; slot < 16; ++slot) {
+        if (!((usedMask >> slot) & 1u)) continue;
+        const std::uint32_t combo = s.combo[pointOf[slot]];
+        uIndices |= (combo & 3u) << (2 * slot);
+        vIndices |= (combo >> 2) << (2 * slot);
+    }
     return {s.base, uIndices, s.axes, vIndices};
 }
 
