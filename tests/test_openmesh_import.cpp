@@ -249,6 +249,10 @@ TEST(OpenMeshImport, PlyListCountsBeyondTheFileAreInvalidWithoutAllocating) {
     writeText(dir / "n.ply", "ply\nformat ascii 1.0\n" + vertices + "element face 1\nproperty list int int vertex_indices\n"
                              "end_header\n0 0 0\n1 0 0\n0 1 0\n-3 0 1 2\n");
     EXPECT_NE(importError<vox::InvalidDataError>(dir / "n.ply").find("face 0: malformed list count"), std::string::npos);
+    // "3-1" is one token to a whitespace split but 3 and then a count of -1 to OpenMesh's stream.
+    writeText(dir / "m.ply", "ply\nformat ascii 1.0\n" + vertices + "element face 2\nproperty list uchar int vertex_indices\n"
+                             "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2-1\n3 0 1 2\n");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "m.ply").find("face 0: malformed value '2-1'"), std::string::npos);
     auto bytes = bytesOf("ply\nformat binary_big_endian 1.0\n" + vertices + "element face 1\nproperty list uint int vertex_indices\nend_header\n");
     for (int i = 0; i < 36; ++i) bytes.push_back(0);
     for (std::uint8_t b : {0xFF, 0xFF, 0xFF, 0xF0}) bytes.push_back(b);  // 4294967280 corners

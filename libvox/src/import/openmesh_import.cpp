@@ -242,8 +242,15 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
                     if (static_cast<std::uint64_t>(end - at) < values * property.size) truncated(e, record);
                     at += values * property.size;
                 } else {
-                    for (std::uint64_t v = 0; v < values; ++v)
-                        if (nextToken().empty()) truncated(e, record);
+                    // Each value one whole number: OpenMesh's stream would read "3-1" as 3 and
+                    // then take "-1" for the next face's corner count (found by fuzz_mesh).
+                    for (std::uint64_t v = 0; v < values; ++v) {
+                        const std::string_view token = nextToken();
+                        if (token.empty()) truncated(e, record);
+                        double number = 0;
+                        if (std::from_chars(token.data(), token.data() + token.size(), number).ptr != token.data() + token.size())
+                            context.fail(e.name + " " + std::to_string(record) + ": malformed value '" + std::string(token) + "'");
+                    }
                 }
             }
     return facts;
