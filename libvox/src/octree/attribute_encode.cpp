@@ -628,8 +628,8 @@ bool assignPlane(const NormalPoints& p, PlaneFit& f) {
 }
 
 /// Weighted least squares for b, u, v given the combos (ridge-regularised so that an axis no
-/// combo varies along comes out zero); false, leaving @p f as it was, where they are degenerate.
-bool solvePlane(const NormalPoints& p, PlaneFit& f) {
+/// combo varies along comes out zero).
+void solvePlane(const NormalPoints& p, PlaneFit& f) {
     double m[3][3]{}, rx[3]{}, ry[3]{}, wsum = 0;
     for (unsigned i = 0; i < p.count; ++i) {
         const double row[3]{1.0, esvo::kAxisWeights[f.combo[i] & 3], esvo::kAxisWeights[f.combo[i] >> 2]};
@@ -647,7 +647,7 @@ bool solvePlane(const NormalPoints& p, PlaneFit& f) {
     const double c00 = m[1][1] * m[2][2] - m[1][2] * m[2][1], c01 = m[1][2] * m[2][0] - m[1][0] * m[2][2],
                  c02 = m[1][0] * m[2][1] - m[1][1] * m[2][0];
     const double det = m[0][0] * c00 + m[0][1] * c01 + m[0][2] * c02;
-    if (!(std::fabs(det) > 1e-30)) return false;
+    if (!(std::fabs(det) > 1e-30)) return;
     // Inverse by cofactors (m is symmetric).
     const double inv[3][3]{{c00, c01, c02},
                            {c01, m[0][0] * m[2][2] - m[0][2] * m[2][0], m[0][1] * m[2][0] - m[0][0] * m[2][1]},
@@ -663,59 +663,15 @@ bool solvePlane(const NormalPoints& p, PlaneFit& f) {
     f.uy = static_cast<float>(sy[1]);
     f.vx = static_cast<float>(sx[2]);
     f.vy = static_cast<float>(sy[2]);
-    return true;
 }
 
-constexpr int kPlaneIterations = 12;
-
-/// The combos after each assignment of the alternations that earlier starts ran to convergence,
-/// with the alternation iterations each needed from there. The least squares depend on the
-/// combos alone, so a later start that reaches one of them with at least that many iterations
-/// left would end exactly where the earlier start ended, and cannot beat it.
-class PlaneStates {
-public:
-    /// Whether @p combo was reached by an earlier start with at most @p left iterations to go.
-    bool leadsToKnownFit(const std::array<std::uint8_t, 16>& combo, int left) const {
-        for (unsigned i = 0; i < known_; ++i)
-            if (needed_[i] <= left && combo == combos_[i]) return true;
-        return false;
-    }
-    /// Starts recording a start's states (index @p iteration: after its iteration-th assignment).
-    void begin() { count_ = known_; }
-    void record(const std::array<std::uint8_t, 16>& combo, int iteration) {
-        if (count_ < combos_.size()) {
-            combos_[count_] = combo;
-            needed_[count_++] = iteration;
-        }
-    }
-    /// The start converged after @p iterations: its recorded states become known.
-    void converged(int iterations) {
-        for (unsigned i = known_; i < count_; ++i) needed_[i] = iterations - needed_[i];
-        known_ = count_;
-    }
-
-private:
-    std::array<std::array<std::uint8_t, 16>, 48> combos_{};
-    std::array<int, 48> needed_{};
-    unsigned known_ = 0, count_ = 0;
-};
-
-/// Alternates assignment and least squares from the start in @p f until the combos settle;
-/// false (and @p f unfinished) where it reaches a state of an earlier start in @p states.
-bool fitPlane(const NormalPoints& p, PlaneFit& f, PlaneStates& states) {
-    states.begin();
+/// Alternates assignment and least squares from the start in @p f until the combos settle.
+void fitPlane(const NormalPoints& p, PlaneFit& f) {
     assignPlane(p, f);
-    bool exact = true;  // every least squares solved: the path depended on the combos alone
-    for (int iteration = 0; iteration < kPlaneIterations; ++iteration) {
-        if (states.leadsToKnownFit(f.combo, kPlaneIterations - iteration)) return false;
-        states.record(f.combo, iteration);
-        exact = solvePlane(p, f) && exact;
-        if (!assignPlane(p, f)) {
-            if (exact) states.converged(iteration + 1);
-            break;
-        }
+    for (int iteration = 0; iteration < 12; ++iteration) {
+        solvePlane(p, f);
+        if (!assignPlane(p, f)) break;
     }
-    return true;
 }
 
 /// A quantised normal block: words 2 (base) and 4 (axes), the summed squared chord error of the
@@ -1160,7 +1116,6 @@ PlaneFit fitNormals(NormalPoints& p, unsigned startMask, AfterFirst afterFirst) 
                             {0.75 * h1, 0, 0.1875 * h1, 0}};
     const unsigned startCount = !(h1 > 1e-6) ? 1 : (h2 < 0.5 * h1 ? 6 : 5);  // equal normals need one
     PlaneFit best;
-    PlaneStates states;
     for (unsigned i = 0; i < startCount; ++i) {
         if (i > 0 && !((startMask >> i) & 1u)) continue;
         const Start& st = starts[i];
@@ -1171,7 +1126,7 @@ PlaneFit fitNormals(NormalPoints& p, unsigned startMask, AfterFirst afterFirst) 
         fit.uy = static_cast<float>(st.u1 * e1y + st.u2 * e2y);
         fit.vx = static_cast<float>(st.v1 * e1x + st.v2 * e2x);
         fit.vy = static_cast<float>(st.v1 * e1y + st.v2 * e2y);
-        if (!fitPlane(p, fit, states)) continue;
+        fitPlane(p, fit);
         if (fit.error < best.error) best = fit;
         if (i == 0 && afterFirst(fit)) break;
     }
