@@ -3,6 +3,11 @@
 #include <array>
 #include <cstring>
 
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <nmmintrin.h>
+#define VOX_CRC32C_SSE42 1
+#endif
+
 namespace vox {
 namespace {
 
@@ -26,13 +31,44 @@ std::uint32_t load32(const std::uint8_t* p) noexcept {
     return v;
 }
 
+#ifdef VOX_CRC32C_SSE42
+std::uint64_t load64(const std::uint8_t* p) noexcept {
+    std::uint64_t v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
+
+/// The SSE4.2 crc32 instruction computes exactly this polynomial. One 8-byte step a cycle would
+/// need three interleaved streams and a combine; one stream (8 bytes per 3-cycle latency, about
+/// 8 GB/s) is already 5× the tables and leaves the writer's and readers' checksums far below
+/// their I/O.
+__attribute__((target("sse4.2"))) std::uint32_t crc32cSse42(const std::uint8_t* p, std::size_t size, std::uint32_t crc) noexcept {
+    std::uint64_t c = ~crc;
+    while (size >= 8) {
+        c = _mm_crc32_u64(c, load64(p));
+        p += 8;
+        size -= 8;
+    }
+    auto c32 = static_cast<std::uint32_t>(c);
+    while (size--) c32 = _mm_crc32_u8(c32, *p++);
+    return ~c32;
+}
+
+bool hasSse42() noexcept {
+    static const bool has = __builtin_cpu_supports("sse4.2");
+    return has;
+}
+#endif
+
 }  // namespace
 
-std::uint32_t crc32c(const void* data, std::size_t size, std::uint32_t crc) noexcept {
+namespace detail {
+
+std::uint32_t crc32cPortable(const void* data, std::size_t size, std::uint32_t crc) noexcept {
     const auto* p = static_cast<const std::uint8_t*>(data);
     const auto& t = kCrcTable.t;
     crc = ~crc;
-    // Slicing-by-8: the checksums cover every slice and brick, so this is on the load path.
+    // Slicing-by-8, for hosts without the crc32 instruction.
     while (size >= 8) {
         const std::uint32_t lo = load32(p) ^ crc;
         const std::uint32_t hi = load32(p + 4);
@@ -43,6 +79,28 @@ std::uint32_t crc32c(const void* data, std::size_t size, std::uint32_t crc) noex
     }
     while (size--) crc = (crc >> 8) ^ t[0][(crc ^ *p++) & 0xFFu];
     return ~crc;
+}
+
+bool crc32cHardwareAvailable() noexcept {
+#ifdef VOX_CRC32C_SSE42
+    return hasSse42();
+#else
+    return false;
+#endif
+}
+
+std::uint32_t crc32cHardware(const void* data, std::size_t size, std::uint32_t crc) noexcept {
+#ifdef VOX_CRC32C_SSE42
+    if (hasSse42()) return crc32cSse42(static_cast<const std::uint8_t*>(data), size, crc);
+#endif
+    return crc32cPortable(data, size, crc);
+}
+
+}  // namespace detail
+
+std::uint32_t crc32c(const void* data, std::size_t size, std::uint32_t crc) noexcept {
+    // The checksums cover every slice and brick, written and read: on the load path.
+    return detail::crc32cHardware(data, size, crc);
 }
 
 }  // namespace vox
