@@ -18,9 +18,7 @@ namespace vox {
 namespace detail {
 /// crc32c by tables (slicing-by-8), on any host.
 [[nodiscard]] std::uint32_t crc32cPortable(const void* data, std::size_t size, std::uint32_t crc = 0) noexcept;
-/// crc32c by the crc32 instruction where crc32cHardwareAvailable(), else crc32cPortable.
-[[nodiscard]] std::uint32_t crc32cHardware(const void* data, std::size_t size, std::uint32_t crc = 0) noexcept;
-/// True if this CPU has the crc32 instruction (x86-64 with SSE4.2).
+/// True if this CPU has the crc32 instruction (x86-64 with SSE4.2), which crc32c then uses.
 [[nodiscard]] bool crc32cHardwareAvailable() noexcept;
 }  // namespace detail
 
