@@ -445,6 +445,41 @@ TEST(Esvo, CorruptedFilesAreInvalidData) {
     expectInvalid(std::vector<std::uint8_t>(4096, 0x41), "text");
 }
 
+TEST(Esvo, SliceOffsetsThatWrapPastTwoToThe64AreInvalidData) {
+    // An aligned offset within one slice of 2^64 makes offset + size wrap to a small number that
+    // lies inside the file (a crash the fuzzer found: the validator then sized a gap buffer from
+    // the offset). With the directory's and header's checksums repaired, only the bounds check
+    // can reject it, and it must name the entry.
+    ScratchDir dir;
+    const fs::path good = dir / "good.esvo";
+    write(good, sphere(6), 16384);
+    const std::vector<std::uint8_t> bytes = readBytes(good);
+    const vox::esvo::EsvoReader reader(good);
+    const vox::esvo::Header& h = reader.header();
+    ASSERT_GT(reader.sliceCount(), 1u);
+    const fs::path bad = dir / "bad.esvo";
+    for (std::uint32_t s = 0; s < reader.sliceCount(); ++s) {
+        const vox::esvo::SliceEntry& e = reader.slice(s);
+        constexpr std::uint64_t align = vox::esvo::kSliceAlignment;
+        for (const std::uint64_t offset : {0 - align, 0 - e.byteSize / align * align}) {
+            ASSERT_LE(offset + e.byteSize, h.fileBytes) << "the sum must wrap into the file for the test to mean anything";
+            std::vector<std::uint8_t> data = bytes;
+            vox::esvo::store<std::uint64_t>(data.data() + 256 + 8 * (h.leafDepth + 1) + 64 * s, offset);
+            vox::esvo::store<std::uint32_t>(data.data() + 232, vox::crc32c(data.data() + 256, h.directoryBytes));
+            vox::esvo::store<std::uint32_t>(data.data() + 252, vox::crc32c(data.data(), 252));
+            vox::test::writeBinary(bad, data);
+            try {
+                const vox::esvo::EsvoReader r(bad);
+                ADD_FAILURE() << "slice " << s << " at offset " << offset << " accepted";
+            } catch (const vox::InvalidDataError& error) {
+                EXPECT_NE(std::string(error.what()).find("slice directory entry " + std::to_string(s) + ": extends past the end"),
+                          std::string::npos)
+                    << error.what();
+            }
+        }
+    }
+}
+
 TEST(Esvo, StructuralCorruptionIsCaughtBehindValidChecksums) {
     // With the checksums recomputed, the validator's structural checks must catch the change or
     // the file must still be a consistent octree; nothing may crash.

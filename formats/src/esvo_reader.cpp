@@ -101,7 +101,8 @@ Directory decodeDirectory(const std::filesystem::path& file, const Header& h, co
         if (s.byteSize < kPageHeaderBytes + 4 * (info::kAttachments + info::kTablesWords) || s.byteSize % 8 != 0 ||
             s.byteSize > h.sliceBytesLimit)
             invalid(file, where + "size " + std::to_string(s.byteSize) + " invalid or above the slice byte limit");
-        if (s.fileOffset + s.byteSize > h.fileBytes) invalid(file, where + "extends past the end of the file");
+        // Subtracted, not added: an offset near 2^64 would wrap the sum back inside the file.
+        if (s.byteSize > h.fileBytes || s.fileOffset > h.fileBytes - s.byteSize) invalid(file, where + "extends past the end of the file");
         previousEnd = s.fileOffset + s.byteSize;
         if (s.firstLevel >= s.endLevel || s.endLevel > h.leafDepth)
             invalid(file, where + "level range [" + std::to_string(s.firstLevel) + "," + std::to_string(s.endLevel) + ") invalid");
