@@ -369,6 +369,12 @@ FileBreakdown validateFile(const EsvoReader& reader) {
                                                           ": frontier range exceeds its parent's frontier table");
             parents = std::span<const FrontierDescriptor>(pf.data() + s.firstFrontier, s.rootGroupCount);
             for (const FrontierDescriptor& p : parents) {
+                // A frontier descriptor above the region (possible once a parent block is
+                // tampered with: nothing there ties frontier levels to the child's) would make
+                // the shift below negative, wrapped, and undefined.
+                if (p.position.level < r.level)
+                    throw InvalidDataError(reader.path(), "slice directory entry " + std::to_string(i) +
+                                                              ": a root group lies above the slice's region");
                 const std::uint32_t shift = p.position.level - r.level;
                 if ((p.position.x >> shift) != r.x || (p.position.y >> shift) != r.y || (p.position.z >> shift) != r.z)
                     throw InvalidDataError(reader.path(), "slice directory entry " + std::to_string(i) +
