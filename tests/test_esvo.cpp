@@ -484,6 +484,49 @@ TEST(Esvo, SliceOffsetsThatWrapPastTwoToThe64AreInvalidData) {
     }
 }
 
+TEST(Esvo, RootGroupsAboveTheirSlicesRegionAreInvalidData) {
+    // A directory entry whose region lies below its root groups' frontier descriptors: its
+    // region level raised past them (pathLevels and regionPath extended by octant 0) and its
+    // first level with it, so that every directory check passes. Without the validator's check,
+    // the region test would shift by the wrapped level difference (undefined behaviour).
+    ScratchDir dir;
+    const fs::path good = dir / "good.esvo", bad = dir / "bad.esvo";
+    std::uint32_t tampered = 0;
+    // Depth 8 in 16 KiB slices has slices whose root groups lie at their region's level
+    // (frontier above the parent's deepest level), so the region can move below them.
+    write(good, sphere(8), 16384);
+    const std::vector<std::uint8_t> bytes = readBytes(good);
+    const vox::esvo::EsvoReader reader(good);
+    const vox::esvo::Header& h = reader.header();
+    for (std::uint32_t s = 1; s < reader.sliceCount(); ++s) {
+        const vox::esvo::SliceEntry& e = reader.slice(s);
+        const vox::esvo::SliceEntry& parent = reader.slice(e.parent);
+        // The root groups are at level firstLevel − 1; the region moves one level below them.
+        // A slice with children would break their entries' checks first.
+        const std::uint32_t raise = e.firstLevel - e.regionLevel;
+        const std::uint32_t newFirst = e.firstLevel + 1;
+        if (e.childCount != 0 || newFirst > parent.endLevel || e.pathLevels + raise > 21) continue;
+        std::vector<std::uint8_t> data = bytes;
+        std::uint8_t* entry = data.data() + 256 + 8 * (h.leafDepth + 1) + 64 * s;
+        entry[28] = static_cast<std::uint8_t>(e.regionLevel + raise);
+        entry[29] = static_cast<std::uint8_t>(newFirst);
+        entry[31] = static_cast<std::uint8_t>(e.pathLevels + raise);
+        vox::esvo::store<std::uint64_t>(entry + 32, e.regionPath << (3 * raise));
+        fixDirectoryAndHeaderChecksums(data);
+        vox::test::writeBinary(bad, data);
+        ++tampered;
+        const vox::esvo::EsvoReader r(bad);  // the directory alone is consistent
+        try {
+            (void)vox::esvo::validateFile(r);
+            ADD_FAILURE() << "slice " << s << " with its region below its root groups validated";
+        } catch (const vox::InvalidDataError& error) {
+            const std::string expected = "slice directory entry " + std::to_string(s) + ": a root group lies above the slice's region";
+            EXPECT_NE(std::string(error.what()).find(expected), std::string::npos) << error.what();
+        }
+    }
+    EXPECT_GT(tampered, 0u) << "no slice of the file could be tampered with this way; the test means nothing";
+}
+
 TEST(Esvo, StructuralCorruptionIsCaughtBehindValidChecksums) {
     // With the checksums recomputed, the validator's structural checks must catch the change or
     // the file must still be a consistent octree; nothing may crash.

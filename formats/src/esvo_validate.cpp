@@ -369,9 +369,10 @@ FileBreakdown validateFile(const EsvoReader& reader) {
                                                           ": frontier range exceeds its parent's frontier table");
             parents = std::span<const FrontierDescriptor>(pf.data() + s.firstFrontier, s.rootGroupCount);
             for (const FrontierDescriptor& p : parents) {
-                // A frontier descriptor above the region (possible once a parent block is
-                // tampered with: nothing there ties frontier levels to the child's) would make
-                // the shift below negative, wrapped, and undefined.
+                // A frontier descriptor above the region (a directory entry whose region and
+                // first level were moved below its root groups passes the directory checks,
+                // which tie the region to the entry's first level, not to the parent's
+                // frontier) would make the shift below negative, wrapped, and undefined.
                 if (p.position.level < r.level)
                     throw InvalidDataError(reader.path(), "slice directory entry " + std::to_string(i) +
                                                               ": a root group lies above the slice's region");
