@@ -755,28 +755,40 @@ bool stepAxisCodes(const NormalPoints& p, NormalState& s, std::span<const unsign
     return improved;
 }
 
-/// Quantises a plane fit: the base through encodeNormal (rescaling the axes when the base falls
-/// off its face), the axes through encodeAxis; then refits the base to the quantised axes and
-/// searches neighbouring axis codes, all measured against the decoded normals.
-NormalState quantiseFit(const NormalPoints& p, const PlaneFit& f) {
+/// The base code of a face-plane point (bx, by): the cube-face point (±1 on the face's axis),
+/// through encodeNormal; @p scale gets the factor that takes the fit's axes to that base's
+/// scale, 1 unless the point falls off the face (a component beyond ±1).
+std::uint32_t planeBase(const NormalPoints& p, float bx, float by, float& scale) {
     const unsigned a = p.axis, ua = (a + 1) % 3, va = (a + 2) % 3;
-    const auto toBase = [&](float bx, float by, float& scale) {
-        Vec3 b{};
-        b[a] = p.sign;
-        b[ua] = bx;
-        b[va] = by;
-        scale = 1.0f / std::max({1.0f, std::fabs(bx), std::fabs(by)});
-        return esvo::encodeNormal(b);
-    };
-    float scale = 1;
-    const std::uint32_t base = toBase(f.bx, f.by, scale);
+    Vec3 b{};
+    b[a] = p.sign;
+    b[ua] = bx;
+    b[va] = by;
+    scale = 1.0f / std::max({1.0f, std::fabs(bx), std::fabs(by)});
+    return esvo::encodeNormal(b);
+}
+
+/// The axis codes (word 4) of a face-plane fit's axes at @p scale (planeBase's).
+std::uint32_t planeAxes(const NormalPoints& p, const PlaneFit& f, float scale) {
+    const unsigned ua = (p.axis + 1) % 3, va = (p.axis + 2) % 3;
     Vec3 u{}, v{};
     u[ua] = f.ux * scale;
     u[va] = f.uy * scale;
     v[ua] = f.vx * scale;
     v[va] = f.vy * scale;
+    return esvo::encodeAxis(u) | (esvo::encodeAxis(v) << 16);
+}
+
+/// Quantises a plane fit: the base through encodeNormal (rescaling the axes when the base falls
+/// off its face), the axes through encodeAxis; then refits the base to the quantised axes and
+/// searches neighbouring axis codes, all measured against the decoded normals.
+NormalState quantiseFit(const NormalPoints& p, const PlaneFit& f) {
+    const unsigned a = p.axis, ua = (a + 1) % 3, va = (a + 2) % 3;
+    const auto toBase = [&](float bx, float by, float& scale) { return planeBase(p, bx, by, scale); };
+    float scale = 1;
+    const std::uint32_t base = toBase(f.bx, f.by, scale);
     NormalState s;
-    tryNormals(p, base, esvo::encodeAxis(u) | (esvo::encodeAxis(v) << 16), s);
+    tryNormals(p, base, planeAxes(p, f, scale), s);
     if (s.error <= 0) return s;
 
     // Base refit: with the axes fixed at their quantised values, the best base for the combos is
@@ -812,12 +824,7 @@ NormalState quantiseFit(const NormalPoints& p, const PlaneFit& f) {
         solvePlane(p, g);
         float refitScale = 1;
         const std::uint32_t refitBase = toBase(g.bx, g.by, refitScale);
-        Vec3 ru{}, rv{};
-        ru[ua] = g.ux * refitScale;
-        ru[va] = g.uy * refitScale;
-        rv[ua] = g.vx * refitScale;
-        rv[va] = g.vy * refitScale;
-        if (!tryNormals(p, refitBase, esvo::encodeAxis(ru) | (esvo::encodeAxis(rv) << 16), s)) break;
+        if (!tryNormals(p, refitBase, planeAxes(p, g, refitScale), s)) break;
     }
     return s;
 }
@@ -955,13 +962,16 @@ unsigned axisCandidates(const NormalPoints& p, const std::array<double, 2>& a, f
         const float step = axisStep(e);
         const float x = v[ua] / step, y = v[va] / step;
         const auto clampCode = [](float q) { return std::clamp(static_cast<int>(q), -8, 7); };
-        const int x0 = clampCode(std::floor(x)), x1 = clampCode(std::ceil(x)), y0 = clampCode(std::floor(y)), y1 = clampCode(std::ceil(y));
-        for (const int mx : {x0, x1})
-            for (const int my : {y0, y1}) {
+        const std::array<int, 2> mx{clampCode(std::floor(x)), clampCode(std::ceil(x))}, my{clampCode(std::floor(y)), clampCode(std::ceil(y))};
+        // Each combination once, in order (a whole number of steps rounds down and up alike; the
+        // codes of the two exponents differ in their exponent).
+        for (unsigned ix = 0; ix < 2; ++ix)
+            for (unsigned iy = 0; iy < 2; ++iy) {
+                if ((ix && mx[1] == mx[0]) || (iy && my[1] == my[0])) continue;
                 std::uint32_t code = static_cast<std::uint32_t>(e) << 12;
-                code |= (static_cast<std::uint32_t>(mx) & 15u) << (4 * ua);
-                code |= (static_cast<std::uint32_t>(my) & 15u) << (4 * va);
-                if (std::find(codes.begin(), codes.begin() + n, code) == codes.begin() + n) codes[n++] = code;
+                code |= (static_cast<std::uint32_t>(mx[ix]) & 15u) << (4 * ua);
+                code |= (static_cast<std::uint32_t>(my[iy]) & 15u) << (4 * va);
+                codes[n++] = code;
             }
     }
     return n;
@@ -1020,12 +1030,18 @@ NormalState quantiseFitFast(const NormalPoints& p, const PlaneFit& f, int rounds
     return s;
 }
 
-/// Picks the face, projects the normals onto its plane and fits the lattice there.
-/// Only the starts in @p startMask (bit i: start i; start 0 always) are tried; @p afterFirst(fit)
-/// is called with the first start's fit, and when it returns true, the others are not.
-template <typename AfterFirst>
-PlaneFit fitNormals(NormalPoints& p, unsigned startMask, AfterFirst afterFirst) {
-    // The face: the dominant axis of the mean normal (of the first normal if they cancel).
+/// The face plane's frame of a block's normals: the principal axes (e1, e2 = e1 turned by 90°)
+/// and half-extents h1, h2 of the projected points about the centre of their bounding box in
+/// that frame, from which the face-plane fit's starts are built.
+struct PlaneFrame {
+    double cx = 0, cy = 0, e1x = 1, e1y = 0, h1 = 0, h2 = 0;
+    unsigned startCount = 1;  ///< how many of the starts (planeStart) apply
+};
+
+/// Picks the face (the dominant axis of the mean normal, of the first normal if they cancel),
+/// projects the normals onto its plane (setting p's axis, sign, px, py and weight) and returns
+/// the frame of the projected points.
+PlaneFrame projectNormals(NormalPoints& p) {
     Vec3 mean{};
     for (unsigned i = 0; i < p.count; ++i)
         for (unsigned c = 0; c < 3; ++c) mean[c] += p.multiplicity[i] * p.n[i][c];
@@ -1075,36 +1091,41 @@ PlaneFit fitNormals(NormalPoints& p, unsigned startMask, AfterFirst afterFirst) 
     }
     const double half = 0.5 * (sxx - syy);
     const double l1 = 0.5 * (sxx + syy) + std::sqrt(half * half + sxy * sxy);
-    double e1x = 1, e1y = 0;
+    PlaneFrame fr;
     if (std::fabs(sxy) > 1e-12 * (sxx + syy)) {
-        e1x = sxy;
-        e1y = l1 - sxx;
-        const double len = std::sqrt(e1x * e1x + e1y * e1y);
-        e1x /= len;
-        e1y /= len;
+        fr.e1x = sxy;
+        fr.e1y = l1 - sxx;
+        const double len = std::sqrt(fr.e1x * fr.e1x + fr.e1y * fr.e1y);
+        fr.e1x /= len;
+        fr.e1y /= len;
     } else if (syy > sxx) {
-        e1x = 0;
-        e1y = 1;
+        fr.e1x = 0;
+        fr.e1y = 1;
     }
-    const double e2x = -e1y, e2y = e1x;
+    const double e2x = -fr.e1y, e2y = fr.e1x;
     double t1lo = 0, t1hi = 0, t2lo = 0, t2hi = 0;
     for (unsigned i = 0; i < p.count; ++i) {
         const double dx = p.px[i] - mx, dy = p.py[i] - my;
-        const double t1 = dx * e1x + dy * e1y, t2 = dx * e2x + dy * e2y;
+        const double t1 = dx * fr.e1x + dy * fr.e1y, t2 = dx * e2x + dy * e2y;
         t1lo = std::min(t1lo, t1);
         t1hi = std::max(t1hi, t1);
         t2lo = std::min(t2lo, t2);
         t2hi = std::max(t2hi, t2);
     }
-    const double cx = mx + e1x * 0.5 * (t1lo + t1hi) + e2x * 0.5 * (t2lo + t2hi);
-    const double cy = my + e1y * 0.5 * (t1lo + t1hi) + e2y * 0.5 * (t2lo + t2hi);
-    const double h1 = 0.5 * (t1hi - t1lo), h2 = 0.5 * (t2hi - t2lo);
+    fr.cx = mx + fr.e1x * 0.5 * (t1lo + t1hi) + e2x * 0.5 * (t2lo + t2hi);
+    fr.cy = my + fr.e1y * 0.5 * (t1lo + t1hi) + e2y * 0.5 * (t2lo + t2hi);
+    fr.h1 = 0.5 * (t1hi - t1lo);
+    fr.h2 = 0.5 * (t2hi - t2lo);
+    fr.startCount = !(fr.h1 > 1e-6) ? 1 : (fr.h2 < 0.5 * fr.h1 ? 6 : 5);  // equal normals need one
+    return fr;
+}
 
-    // Starts (the alternation only finds a local optimum): 4×4 lattices along the principal
-    // axes at three scales and turned by 45° at two, and for nearly one-dimensional sets 16
-    // levels along the principal axis (u = ¾ h1 and v = 3⁄16 h1 interleave). The lowest
-    // least-squares error wins.
-    const double diagonal = std::sqrt(0.5);
+/// Start @p i of the face-plane fit (the alternation only finds a local optimum): 4×4 lattices
+/// along the principal axes at three scales (0: ¾ of the extent, 1: 0.4, 2: all of it) and
+/// turned by 45° at two (3: 0.4, 4: all), and for nearly one-dimensional sets (5) 16 levels along
+/// the principal axis (u = ¾ h1 and v = 3⁄16 h1 interleave).
+PlaneFit planeStart(const PlaneFrame& fr, unsigned i) {
+    const double diagonal = std::sqrt(0.5), h1 = fr.h1, h2 = fr.h2;
     struct Start {
         double u1, u2, v1, v2;  // u and v in the principal frame (e1, e2)
     };
@@ -1114,18 +1135,29 @@ PlaneFit fitNormals(NormalPoints& p, unsigned startMask, AfterFirst afterFirst) 
                             {0.4 * diagonal * h1, 0.4 * diagonal * h2, -0.4 * diagonal * h1, 0.4 * diagonal * h2},
                             {diagonal * h1, diagonal * h2, -diagonal * h1, diagonal * h2},
                             {0.75 * h1, 0, 0.1875 * h1, 0}};
-    const unsigned startCount = !(h1 > 1e-6) ? 1 : (h2 < 0.5 * h1 ? 6 : 5);  // equal normals need one
+    const Start& st = starts[i];
+    const double e2x = -fr.e1y, e2y = fr.e1x;
+    PlaneFit fit;
+    fit.bx = static_cast<float>(fr.cx);
+    fit.by = static_cast<float>(fr.cy);
+    fit.ux = static_cast<float>(st.u1 * fr.e1x + st.u2 * e2x);
+    fit.uy = static_cast<float>(st.u1 * fr.e1y + st.u2 * e2y);
+    fit.vx = static_cast<float>(st.v1 * fr.e1x + st.v2 * e2x);
+    fit.vy = static_cast<float>(st.v1 * fr.e1y + st.v2 * e2y);
+    return fit;
+}
+
+/// Projects the normals onto their face plane and fits the lattice there from the starts in
+/// @p startMask (bit i: start i; start 0 always), keeping the lowest least-squares error;
+/// @p afterFirst(fit) is called with the first start's fit, and when it returns true, the others
+/// are not tried.
+template <typename AfterFirst>
+PlaneFit fitNormals(NormalPoints& p, unsigned startMask, AfterFirst afterFirst) {
+    const PlaneFrame fr = projectNormals(p);
     PlaneFit best;
-    for (unsigned i = 0; i < startCount; ++i) {
+    for (unsigned i = 0; i < fr.startCount; ++i) {
         if (i > 0 && !((startMask >> i) & 1u)) continue;
-        const Start& st = starts[i];
-        PlaneFit fit;
-        fit.bx = static_cast<float>(cx);
-        fit.by = static_cast<float>(cy);
-        fit.ux = static_cast<float>(st.u1 * e1x + st.u2 * e2x);
-        fit.uy = static_cast<float>(st.u1 * e1y + st.u2 * e2y);
-        fit.vx = static_cast<float>(st.v1 * e1x + st.v2 * e2x);
-        fit.vy = static_cast<float>(st.v1 * e1y + st.v2 * e2y);
+        PlaneFit fit = planeStart(fr, i);
         fitPlane(p, fit);
         if (fit.error < best.error) best = fit;
         if (i == 0 && afterFirst(fit)) break;
@@ -1156,6 +1188,11 @@ constexpr double kWideCos = 0.8660254, kDistinctCos = 0.99985;
 constexpr double kDegree2 = (std::numbers::pi / 180) * (std::numbers::pi / 180);
 constexpr double kNarrowThreshold = 1.0 * 1.0 * kDegree2, kWideThreshold = 0.3 * 0.3 * kDegree2;
 
+/// How the codes around a quantised block are searched: passes of searchCodes.
+struct CodeSearch {
+    int passes = 0;
+};
+
 /// How hard the normal encoder searches (see AttributeEffort).
 struct NormalSearch {
     /// The face-plane fit's starts (fitNormals).
@@ -1171,7 +1208,9 @@ struct NormalSearch {
     int moreIterations = 6;
     bool second = true;
     bool enumerateModel = false;
-    int modelPasses = 3;
+    /// The search of the codes around a quantised model: of wide blocks (for narrow ones none when
+    /// enumerating) and, when not enumerating, of narrow ones.
+    CodeSearch modelCodes{3}, narrowModelCodes{2};
     /// Below this error per normal (the plane fit's) the 3-D search runs with `light` instead.
     double lightBelow = 0;
     /// Below this error per normal (the face-plane fit's, unquantised) the first start's fit is
@@ -1211,13 +1250,13 @@ NormalSearch normalSearch(AttributeEffort effort, bool light = false) {
     s.planeMeasured = fast ? 2 : 3;
     s.wideThreshold = (fast ? 0.7 * 0.7 : 0.5 * 0.5) * kDegree2;
     s.enumerateModel = true;
-    s.modelPasses = fast ? 1 : 2;
+    s.modelCodes = {fast ? 1 : 2};
     s.lightBelow = (fast ? 2.0 * 2.0 : 1.0 * 1.0) * kDegree2;
     if (light) {
         s.refined = 2;
         s.moreIterations = 2;
         s.second = false;
-        s.modelPasses = 0;
+        s.modelCodes = {};
     }
     return s;
 }
@@ -1255,25 +1294,36 @@ unsigned dominantAxis(const Model& x) {
 template <unsigned N>
 bool solveSpd(std::array<std::array<double, 9>, 9>& m, std::array<double, 9>& r) {
     static_assert(N <= 9);
+    // (Unrolled: the loop counts are small and known, and the loops' overhead cost more than their
+    // arithmetic.)
+#pragma GCC unroll 9
     for (unsigned j = 0; j < N; ++j) {
         double d = m[j][j];
+#pragma GCC unroll 9
         for (unsigned k = 0; k < j; ++k) d -= m[j][k] * m[j][k];
         if (!(d > 0)) return false;
         d = std::sqrt(d);
         m[j][j] = d;
+#pragma GCC unroll 9
         for (unsigned i = j + 1; i < N; ++i) {
             double s = m[i][j];
+#pragma GCC unroll 9
             for (unsigned k = 0; k < j; ++k) s -= m[i][k] * m[j][k];
             m[i][j] = s / d;
         }
     }
+#pragma GCC unroll 9
     for (unsigned i = 0; i < N; ++i) {
         double s = r[i];
+#pragma GCC unroll 9
         for (unsigned k = 0; k < i; ++k) s -= m[i][k] * r[k];
         r[i] = s / m[i][i];
     }
-    for (unsigned i = N; i-- > 0;) {
+#pragma GCC unroll 9
+    for (unsigned t = 0; t < N; ++t) {
+        const unsigned i = N - 1 - t;
         double s = r[i];
+#pragma GCC unroll 9
         for (unsigned k = i + 1; k < N; ++k) s -= m[k][i] * r[k];
         r[i] = s / m[i][i];
     }
@@ -1301,12 +1351,27 @@ struct NormalEquations {
     std::array<double, 9> g{};
     /// Entry (row, col) of the 9×9 normal matrix.
     [[nodiscard]] double h(unsigned row, unsigned col) const {
-        unsigned si = row / 3, ti = col / 3, c = row % 3, d = col % 3;
-        if (ti > si) std::swap(si, ti), std::swap(c, d);
-        // Each block is symmetric (a multiple of M), stored as (0,0) (1,0) (1,1) (2,0) (2,1) (2,2).
-        const unsigned lo = std::min(c, d), hi = std::max(c, d);
-        return block[si * (si + 1) / 2 + ti][hi * (hi + 1) / 2 + lo];
+        const auto [b, e] = kEntries[row][col];
+        return block[b][e];
     }
+
+private:
+    /// Where entry (row, col) is stored: the block of parts (row / 3, col / 3), larger first, and
+    /// in it (each block is symmetric, a multiple of M) the entry of (row % 3, col % 3), larger first.
+    struct Entry {
+        std::uint8_t block, entry;
+    };
+    static constexpr std::array<std::array<Entry, 9>, 9> kEntries = [] {
+        std::array<std::array<Entry, 9>, 9> t{};
+        for (unsigned row = 0; row < 9; ++row)
+            for (unsigned col = 0; col < 9; ++col) {
+                const unsigned si = std::max(row / 3, col / 3), ti = std::min(row / 3, col / 3);
+                const unsigned c = row / 3 >= col / 3 ? row % 3 : col % 3, d = row / 3 >= col / 3 ? col % 3 : row % 3;
+                const unsigned lo = std::min(c, d), hi = std::max(c, d);
+                t[row][col] = {static_cast<std::uint8_t>(si * (si + 1) / 2 + ti), static_cast<std::uint8_t>(hi * (hi + 1) / 2 + lo)};
+            }
+        return t;
+    }();
 };
 
 template <unsigned FreeAxes>
@@ -1449,6 +1514,10 @@ void searchCodes(const NormalPoints& p, NormalState& s, int passes) {
     }
 }
 
+void polishCodes(const NormalPoints& p, NormalState& s, const CodeSearch& codes) {
+    if (codes.passes > 0) searchCodes(p, s, codes.passes);
+}
+
 /// tryNormals of the codes a model rounds to.
 void tryModel(const NormalPoints& p, const Model& y, NormalState& s) {
     const std::uint32_t axes = esvo::encodeAxis(modelPart(y, 1)) | (esvo::encodeAxis(modelPart(y, 2)) << 16);
@@ -1486,8 +1555,9 @@ void tryLatticeLines(const NormalPoints& p, const Model& x, const std::array<std
 }
 
 /// Quantises a model: all parts rounded at once, and each axis rounded in turn with the rest
-/// refit to it (when not @p thorough, u only); then searchCodes.
-NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, bool thorough) {
+/// refit to it (when not @p thorough, u only); then the search of the codes around the best.
+NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, bool thorough,
+                          const CodeSearch& codes) {
     NormalState s;
     tryModel(p, x, s);
     tryLatticeLines(p, x, combo, s);
@@ -1500,111 +1570,127 @@ NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::arra
         refineModel(p, y, c, 0, 3, modelError(p, y, c));
         tryModel(p, y, s);
     }
-    searchCodes(p, s, thorough ? 3 : 2);
+    polishCodes(p, s, codes);
     return s;
 }
 
 /// Up to sixteen codes of a 3-D axis @p a: at the smallest exponent that holds it and the next,
 /// each component rounded down and up.
 unsigned axisCandidates3(const Vec3& a, std::array<std::uint32_t, 16>& codes) {
-    const int e0 = static_cast<int>(esvo::encodeAxis(a) >> 12);
+    const int e0 = axisExponent(std::min({a[0], a[1], a[2], 0.0f}), std::max({a[0], a[1], a[2], 0.0f}));  // encodeAxis's
     unsigned n = 0;
     for (int e = e0; e <= std::min(e0 + 1, 15); ++e) {
-        const float step = std::bit_cast<float>(static_cast<std::uint32_t>(e + 127 - 13) << 23);
-        std::array<std::array<int, 2>, 3> m{};
+        const float step = axisStep(e);
+        std::array<std::array<std::uint32_t, 2>, 3> m{};
+        unsigned equal = 0;  // components whose value is a whole number of steps: rounded down and up alike
         for (unsigned c = 0; c < 3; ++c) {
             const float q = a[c] / step;
-            m[c] = {std::clamp(static_cast<int>(std::floor(q)), -8, 7), std::clamp(static_cast<int>(std::ceil(q)), -8, 7)};
+            const int lo = std::clamp(static_cast<int>(std::floor(q)), -8, 7), hi = std::clamp(static_cast<int>(std::ceil(q)), -8, 7);
+            m[c] = {(static_cast<std::uint32_t>(lo) & 15u) << (4 * c), (static_cast<std::uint32_t>(hi) & 15u) << (4 * c)};
+            if (lo == hi) equal |= 1u << c;
         }
-        for (unsigned bits = 0; bits < 8; ++bits) {
-            std::uint32_t code = static_cast<std::uint32_t>(e) << 12;
-            for (unsigned c = 0; c < 3; ++c) code |= (static_cast<std::uint32_t>(m[c][(bits >> c) & 1u]) & 15u) << (4 * c);
-            if (std::find(codes.begin(), codes.begin() + n, code) == codes.begin() + n) codes[n++] = code;
-        }
+        // Every combination once, in the order of the bits (the duplicates a whole component makes skipped).
+        for (unsigned bits = 0; bits < 8; ++bits)
+            if (!(bits & equal)) codes[n++] = (static_cast<std::uint32_t>(e) << 12) | m[0][bits & 1u] | m[1][(bits >> 1) & 1u] | m[2][(bits >> 2) & 1u];
     }
     return n;
 }
 
-/// quantiseModel by enumeration: the decoded error near the model, with its combos, is the
-/// Gauss–Newton quadratic E + 2gᵀδ + δᵀHδ; with the base's minor components at their best for
-/// the axes (the Schur complement), every pair of candidate axis codes (axisCandidates3) is
-/// scored in constant time, and the best @p measured are measured with that base; then the
-/// lattice-line codes as quantiseModel tries them, and @p passes of searchCodes.
-NormalState quantiseModelFast(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, unsigned measured, int passes) {
+/// The decoded error near a model x with its combos as a quadratic in the axes alone: the
+/// Gauss–Newton quadratic E + 2gᵀδ + δᵀHδ with the base's minor components at their best for the
+/// axes (the Schur complement), so that any change δa of the six axis components is scored in
+/// constant time, 2ĝᵀδa + δaᵀĤδa, and the base that goes with it found by one product.
+struct AxisQuadratic {
+    Model x{};
+    std::array<unsigned, 2> baseVar{};                   ///< the base's minor components
+    std::array<std::array<double, 6>, 2> hba{};          ///< Hba: base rows, axis columns
+    std::array<double, 2> gb{};                          ///< the base's gradient
+    double ib00 = 0, ib01 = 0, ib11 = 0;                 ///< Hbb⁻¹
+    std::array<std::array<double, 6>, 6> hh{};           ///< Ĥ = Haa − Hab Hbb⁻¹ Hba
+    std::array<double, 6> gh{};                          ///< ĝ = ga − Hab Hbb⁻¹ gb
+
+    /// False where the base's block is singular (no quadratic).
+    bool init(const NormalPoints& p, const Model& model, const std::array<std::uint8_t, 16>& combo) {
+        x = model;
+        const unsigned a = dominantAxis(x);
+        const NormalEquations ne = normalEquations(p, x, combo, 3);
+        for (unsigned c = 0, n = 0; c < 3; ++c)
+            if (c != a) baseVar[n++] = c;
+        const double hb00 = ne.h(baseVar[0], baseVar[0]), hb01 = ne.h(baseVar[0], baseVar[1]), hb11 = ne.h(baseVar[1], baseVar[1]);
+        const double det = hb00 * hb11 - hb01 * hb01;
+        if (!(det > 1e-300)) return false;
+        ib00 = hb11 / det, ib01 = -hb01 / det, ib11 = hb00 / det;
+        for (unsigned r = 0; r < 2; ++r) {
+            gb[r] = ne.g[baseVar[r]];
+            for (unsigned j = 0; j < 6; ++j) hba[r][j] = ne.h(baseVar[r], 3 + j);
+        }
+        // (Hbb⁻¹ Hba) column by column, then the Schur complement.
+        std::array<std::array<double, 2>, 6> hbiT{};
+        for (unsigned j = 0; j < 6; ++j) hbiT[j] = {ib00 * hba[0][j] + ib01 * hba[1][j], ib01 * hba[0][j] + ib11 * hba[1][j]};
+        const double ig0 = ib00 * gb[0] + ib01 * gb[1], ig1 = ib01 * gb[0] + ib11 * gb[1];
+        for (unsigned i = 0; i < 6; ++i) {
+            for (unsigned j = 0; j < 6; ++j) hh[i][j] = ne.h(3 + i, 3 + j) - (hba[0][i] * hbiT[j][0] + hba[1][i] * hbiT[j][1]);
+            gh[i] = ne.g[3 + i] - (hba[0][i] * ig0 + hba[1][i] * ig1);
+        }
+        return true;
+    }
+
+    /// The base that goes with axis change @p da: b + δb, δb = −Hbb⁻¹ (gb + Hba δa).
+    [[nodiscard]] Vec3 base(const std::array<double, 6>& da) const {
+        double r0 = gb[0], r1 = gb[1];
+        for (unsigned j = 0; j < 6; ++j) r0 += hba[0][j] * da[j], r1 += hba[1][j] * da[j];
+        Vec3 b = modelPart(x, 0);
+        b[baseVar[0]] -= static_cast<float>(ib00 * r0 + ib01 * r1);
+        b[baseVar[1]] -= static_cast<float>(ib01 * r0 + ib11 * r1);
+        return b;
+    }
+};
+
+/// quantiseModel by enumeration: with the model's AxisQuadratic, every pair of candidate axis
+/// codes (axisCandidates3) is scored in constant time, and the best @p measured are measured
+/// with their base; then the lattice-line codes as quantiseModel tries them, and the search of
+/// the codes around the best.
+NormalState quantiseModelFast(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, unsigned measured,
+                              const CodeSearch& codes) {
     NormalState s;
     tryNormals(p, esvo::encodeNormal(modelPart(x, 0)), esvo::encodeAxis(modelPart(x, 1)) | (esvo::encodeAxis(modelPart(x, 2)) << 16), s);
-    const unsigned a = dominantAxis(x);
-    const NormalEquations ne = normalEquations(p, x, combo, 3);
-    // Variables: base minor components b0, b1 (rows 0, 1) and the six axis components (2…7).
-    std::array<unsigned, 8> var{};
-    for (unsigned c = 0, n = 0; c < 3; ++c)
-        if (c != a) var[n++] = c;
-    for (unsigned j = 0; j < 6; ++j) var[2 + j] = 3 + j;
-    const auto H = [&](unsigned r, unsigned c) { return ne.h(var[r], var[c]); };
-    const double hb00 = H(0, 0), hb01 = H(0, 1), hb11 = H(1, 1), det = hb00 * hb11 - hb01 * hb01;
-    if (det > 1e-300 && s.error > 0) {
-        const double ib00 = hb11 / det, ib01 = -hb01 / det, ib11 = hb00 / det;
-        // Ĥ = Haa − Hab Hbb⁻¹ Hba, ĝ = ga − Hab Hbb⁻¹ gb (axis part, 6×6 and 6).
-        std::array<std::array<double, 6>, 6> hh{};
-        std::array<double, 6> gh{};
-        std::array<std::array<double, 2>, 6> hbiT{};  // (Hbb⁻¹ Hba)ᵀ: row j = Hbb⁻¹ Hb,j
-        for (unsigned j = 0; j < 6; ++j) {
-            const double h0 = H(0, 2 + j), h1 = H(1, 2 + j);
-            hbiT[j] = {ib00 * h0 + ib01 * h1, ib01 * h0 + ib11 * h1};
-        }
-        const double gb0 = ne.g[var[0]], gb1 = ne.g[var[1]];
-        for (unsigned i = 0; i < 6; ++i) {
-            const double hi0 = H(2 + i, 0), hi1 = H(2 + i, 1);
-            for (unsigned j = 0; j < 6; ++j) hh[i][j] = H(2 + i, 2 + j) - (hi0 * hbiT[j][0] + hi1 * hbiT[j][1]);
-            gh[i] = ne.g[var[2 + i]] - (hi0 * (ib00 * gb0 + ib01 * gb1) + hi1 * (ib01 * gb0 + ib11 * gb1));
-        }
+    AxisQuadratic q;
+    if (q.init(p, x, combo) && s.error > 0) {
+        const auto& hh = q.hh;
+        const auto& gh = q.gh;
         std::array<std::uint32_t, 16> uc{}, vc{};
         const unsigned nu = axisCandidates3(modelPart(x, 1), uc), nv = axisCandidates3(modelPart(x, 2), vc);
         std::array<std::array<double, 3>, 16> du{}, dv{}, cv{};
         std::array<double, 16> au{}, bv{};
+        // The score split into its u part, v part and cross term, so that the pairs cost little.
         for (unsigned i = 0; i < nu; ++i) {
             const Vec3 d = esvo::decodeAxis(uc[i]);
             for (unsigned c = 0; c < 3; ++c) du[i][c] = d[c] - x[3 + c];
-            double q = 0;
-            for (unsigned r = 0; r < 3; ++r) q += du[i][r] * (2 * gh[r] + hh[r][0] * du[i][0] + hh[r][1] * du[i][1] + hh[r][2] * du[i][2]);
-            au[i] = q;
+            double sc = 0;
+            for (unsigned r = 0; r < 3; ++r) sc += du[i][r] * (2 * gh[r] + hh[r][0] * du[i][0] + hh[r][1] * du[i][1] + hh[r][2] * du[i][2]);
+            au[i] = sc;
         }
         for (unsigned j = 0; j < nv; ++j) {
             const Vec3 d = esvo::decodeAxis(vc[j]);
             for (unsigned c = 0; c < 3; ++c) dv[j][c] = d[c] - x[6 + c];
-            double q = 0;
-            for (unsigned r = 0; r < 3; ++r) q += dv[j][r] * (2 * gh[3 + r] + hh[3 + r][3] * dv[j][0] + hh[3 + r][4] * dv[j][1] + hh[3 + r][5] * dv[j][2]);
-            bv[j] = q;
+            double sc = 0;
+            for (unsigned r = 0; r < 3; ++r) sc += dv[j][r] * (2 * gh[3 + r] + hh[3 + r][3] * dv[j][0] + hh[3 + r][4] * dv[j][1] + hh[3 + r][5] * dv[j][2]);
+            bv[j] = sc;
             for (unsigned r = 0; r < 3; ++r) cv[j][r] = hh[r][3] * dv[j][0] + hh[r][4] * dv[j][1] + hh[r][5] * dv[j][2];
         }
-        struct Scored {
-            double error;
-            unsigned i, j;
-        };
-        std::array<Scored, 256> scored{};
-        unsigned n = 0;
+        TopK top(measured);  // (the earlier pair of equals first)
         for (unsigned i = 0; i < nu; ++i)
-            for (unsigned j = 0; j < nv; ++j)
-                scored[n++] = {au[i] + bv[j] + 2 * (du[i][0] * cv[j][0] + du[i][1] * cv[j][1] + du[i][2] * cv[j][2]), i, j};
-        const unsigned keep = std::min(measured, n);
-        std::partial_sort(scored.begin(), scored.begin() + keep, scored.begin() + n, [](const Scored& l, const Scored& r) {
-            return l.error < r.error || (l.error == r.error && (l.i < r.i || (l.i == r.i && l.j < r.j)));
-        });
-        for (unsigned m = 0; m < keep; ++m) {
-            // δb = −Hbb⁻¹ (gb + Hba δa).
+            for (unsigned j = 0; j < nv; ++j) top.offer(au[i] + bv[j] + 2 * (du[i][0] * cv[j][0] + du[i][1] * cv[j][1] + du[i][2] * cv[j][2]), 16 * i + j);
+        for (unsigned m = 0; m < top.n; ++m) {
+            const unsigned i = top.id[m] / 16, j = top.id[m] % 16;
             std::array<double, 6> da{};
-            for (unsigned c = 0; c < 3; ++c) da[c] = du[scored[m].i][c], da[3 + c] = dv[scored[m].j][c];
-            double r0 = gb0, r1 = gb1;
-            for (unsigned j = 0; j < 6; ++j) r0 += H(0, 2 + j) * da[j], r1 += H(1, 2 + j) * da[j];
-            Vec3 b = modelPart(x, 0);
-            b[var[0]] -= static_cast<float>(ib00 * r0 + ib01 * r1);
-            b[var[1]] -= static_cast<float>(ib01 * r0 + ib11 * r1);
-            tryNormals(p, esvo::encodeNormal(b), uc[scored[m].i] | (vc[scored[m].j] << 16), s);
+            for (unsigned c = 0; c < 3; ++c) da[c] = du[i][c], da[3 + c] = dv[j][c];
+            tryNormals(p, esvo::encodeNormal(q.base(da)), uc[i] | (vc[j] << 16), s);
         }
     }
     // The lattice-line codes.
     tryLatticeLines(p, x, combo, s);
-    if (passes > 0) searchCodes(p, s, passes);
+    polishCodes(p, s, codes);
     return s;
 }
 
@@ -1840,8 +1926,8 @@ void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, const NormalSear
     sortCandidates(all, count);
     for (unsigned i = 0; i < count && s.error > 0; ++i) {
         if (i > 0 && (!search.second || (all[i].error > kSecondRatio * all[0].error && !(s.error > kQuantisationLoss * all[i].error)))) break;
-        const NormalState q = search.enumerateModel ? quantiseModelFast(p, all[i].x, all[i].combo, 3, wide ? search.modelPasses : 0)
-                                                    : quantiseModel(p, all[i].x, all[i].combo, wide);
+        const NormalState q = search.enumerateModel ? quantiseModelFast(p, all[i].x, all[i].combo, 3, wide ? search.modelCodes : CodeSearch{})
+                                                    : quantiseModel(p, all[i].x, all[i].combo, wide, wide ? search.modelCodes : search.narrowModelCodes);
         if (q.error < s.error) s = q;
     }
 }
@@ -1849,17 +1935,12 @@ void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, const NormalSear
 /// The search of a block of more than one direction (encodeNormals).
 NormalState searchNormals(NormalPoints& p, AttributeEffort effort) {
     const NormalSearch search = normalSearch(effort);
-    // Early exit (Fast): where the first start already fits within the threshold, the others are
-    // not tried.
-    const PlaneFit f = fitNormals(p, search.startMask, [&](const PlaneFit& first) { return first.error <= search.earlyBelow * p.total; });
-    NormalState s = search.enumeratePlane ? quantiseFitFast(p, f, search.planeRounds, search.planeMeasured) : quantiseFit(p, f);
-    if (!(s.error < std::numeric_limits<double>::max())) s = quantiseFit(p, f);  // (the sums were degenerate)
     // Wide: some normal more than 30° from the outermost one; or few distinct directions.
     const Dir first = toDir(p.n[outermost(p)]);
-    bool wide = false;
-    for (unsigned i = 0; i < p.count; ++i) wide = wide || dot(toDir(p.n[i]), first) < kWideCos;
+    bool spread = false;
+    for (unsigned i = 0; i < p.count; ++i) spread = spread || dot(toDir(p.n[i]), first) < kWideCos;
     bool few = false;
-    if (!wide || search.lightBelow > 0) {
+    if (!spread || search.lightBelow > 0) {
         std::array<Dir, 5> distinct{};
         unsigned count = 0;
         for (unsigned i = 0; i < p.count && count <= 4; ++i) {
@@ -1869,8 +1950,13 @@ NormalState searchNormals(NormalPoints& p, AttributeEffort effort) {
             if (!known) distinct[count++] = n;
         }
         few = count <= 4;
-        wide = wide || few;
     }
+    const bool wide = spread || few;
+    // Early exit (Fast): where the first start already fits within the threshold, the others are
+    // not tried.
+    const PlaneFit f = fitNormals(p, search.startMask, [&](const PlaneFit& firstFit) { return firstFit.error <= search.earlyBelow * p.total; });
+    NormalState s = search.enumeratePlane ? quantiseFitFast(p, f, search.planeRounds, search.planeMeasured) : quantiseFit(p, f);
+    if (!(s.error < std::numeric_limits<double>::max())) s = quantiseFit(p, f);  // (the sums were degenerate)
     // Few distinct directions (edges, corners, sheets, any two directions) have near-exact
     // lattices, which the lighter searches miss: every effort quantises them as Best does.
     if (few) {
