@@ -512,23 +512,23 @@ double summedNormalError(const std::vector<std::pair<std::array<Vec3, 16>, std::
 
 }  // namespace
 
-// Default and Fast skip searches (an early exit once the first face-plane start fits within
-// 0.05° or 0.1°, fewer and lighter 3-D searches, fewer colour starts and descent passes); on
-// smooth, nearly flat, structured and unstructured blocks they stay close to Best, so that an
-// early exit that returned a worse block than the search would find fails here.
+// Default and Fast skip searches (fewer face-plane starts, fit on the codes; fewer and lighter
+// 3-D searches; fewer colour starts and descent passes); on smooth, structured and unstructured
+// blocks they stay close to Best, so that a shortcut that returned a much worse block than the
+// search would find fails here. (Nearly flat blocks, where the early exits apply, are checked
+// against their bound in EarlyExitsStayWithinTheirBound.)
 TEST(AttributeEncode, FasterEffortsStayCloseToBest) {
     std::mt19937 rng(15);
     const auto ratioLimit = [](AttributeEffort e, double defaultLimit, double fastLimit) { return e == AttributeEffort::Fast ? fastLimit : defaultLimit; };
-    // Normals: sphere patches from curved (radius 8) to nearly flat (radius 4000, where the
-    // first start nearly always fits within the early exit's bound), random cones, edges.
-    for (const double radius : {8.0, 24.0, 128.0, 4000.0}) {
+    // Normals: sphere patches from curved (radius 8) to nearly flat (radius 128), random cones.
+    for (const double radius : {8.0, 24.0, 128.0}) {
         std::vector<std::pair<std::array<Vec3, 16>, std::uint32_t>> blocks;
         for (int i = 0; i < 400; ++i) blocks.emplace_back(spherePatch(rng, radius, static_cast<unsigned>(i % 3)), i % 2 ? 0xFFFFu : randomMask(rng, 8));
         const double best = summedNormalError(blocks, AttributeEffort::Best);
         for (const AttributeEffort e : {AttributeEffort::Default, AttributeEffort::Fast}) {
             const double ratio = summedNormalError(blocks, e) / best;
             std::printf("sphere radius %g: %s / Best = %.4f\n", radius, e == AttributeEffort::Fast ? "Fast" : "Default", ratio);
-            EXPECT_LT(ratio, ratioLimit(e, 1.03, 1.25)) << radius;
+            EXPECT_LT(ratio, ratioLimit(e, 1.05, 1.25)) << radius;
         }
     }
     for (const double halfAngle : {2.0, 5.0, 20.0}) {
@@ -538,7 +538,7 @@ TEST(AttributeEncode, FasterEffortsStayCloseToBest) {
         for (const AttributeEffort e : {AttributeEffort::Default, AttributeEffort::Fast}) {
             const double ratio = summedNormalError(blocks, e) / best;
             std::printf("random %g° cone: %s / Best = %.4f\n", halfAngle, e == AttributeEffort::Fast ? "Fast" : "Default", ratio);
-            EXPECT_LT(ratio, ratioLimit(e, 1.03, 1.25)) << halfAngle;
+            EXPECT_LT(ratio, ratioLimit(e, 1.05, 1.25)) << halfAngle;
         }
     }
     // Colours: texture tiles and synthetic gradients, whole and half used.
@@ -565,4 +565,37 @@ TEST(AttributeEncode, FasterEffortsStayCloseToBest) {
     std::printf("colour summed squared error: Default / Best = %.4f, Fast / Best = %.4f\n", defaultRatio, fastRatio);
     EXPECT_LT(defaultRatio, 1.02);  // 0.09 dB
     EXPECT_LT(fastRatio, 1.04);
+}
+
+// The faster efforts keep the face-plane fit of the first start where it fits within 0.05°
+// (Default) or 0.1° (Fast) per normal, and stop the 3-D search within 0.02°: on nearly flat
+// blocks, where they apply, no block may decode worse than Best's by more than those bounds (a
+// bound measured on the face plane's metric, so a little margin).
+TEST(AttributeEncode, EarlyExitsStayWithinTheirBound) {
+    std::mt19937 rng(16);
+    double worst = 0;
+    for (const double radius : {300.0, 1000.0, 4000.0}) {
+        for (int i = 0; i < 600; ++i) {
+            const auto normals = spherePatch(rng, radius, static_cast<unsigned>(i % 3));
+            const std::uint32_t mask = i % 2 ? 0xFFFFu : randomMask(rng, 8);
+            const auto rms = [&](AttributeEffort e) {
+                const esvo::CompressedBlock block = [&] {
+                    const auto w = vox::detail::encodeNormalBlock(normals, mask, e);
+                    return esvo::CompressedBlock{0, 0, w[0], w[1], w[2], w[3]};
+                }();
+                double sum = 0;
+                for (unsigned s = 0; s < 16; ++s)
+                    if ((mask >> s) & 1u) sum += std::pow(angle(normals[s], esvo::decodeBlockNormal(block.data(), s)), 2);
+                return std::sqrt(sum / std::popcount(mask));
+            };
+            const double best = rms(AttributeEffort::Best);
+            for (const AttributeEffort e : {AttributeEffort::Default, AttributeEffort::Fast}) {
+                const double bound = (e == AttributeEffort::Fast ? 0.1 : 0.05) * kDegree;
+                const double excess = rms(e) - std::max(best, bound);
+                worst = std::max(worst, excess);
+                ASSERT_LT(excess, 0.25 * bound) << radius << ' ' << i;
+            }
+        }
+    }
+    std::printf("nearly flat blocks: largest RMS beyond max(Best, bound) %.4f°\n", worst / kDegree);
 }

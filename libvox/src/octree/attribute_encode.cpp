@@ -755,6 +755,34 @@ bool stepAxisCodes(const NormalPoints& p, NormalState& s, std::span<const unsign
     return improved;
 }
 
+/// 2^(e − 13), the step of axis exponent e (as esvo::decodeAxis).
+inline float axisStep(int e) { return std::bit_cast<float>(static_cast<std::uint32_t>(e + 127 - 13) << 23); }
+
+/// The exponent esvo::encodeAxis chooses for components within [@p lo, @p hi] (lo ≤ 0 ≤ hi).
+inline int axisExponent(float lo, float hi) {
+    int e = 0;
+    while (e < 15 && (hi > 7.5f * axisStep(e) || lo < -8.5f * axisStep(e))) ++e;
+    return e;
+}
+
+/// Component @p c (0…2) of axis code @p bits, in steps (esvo::decodeAxis without the scale).
+inline int axisDigit(std::uint32_t bits, unsigned c) { return static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28; }
+
+/// What esvo::encodeAxis rounds the axis (0, @p x, @p y) (in the face plane's two components) to,
+/// decoded: the same exponent and the same rounding (half away from zero, clamped to −8 … 7),
+/// without the library calls, for the face-plane fit's every iteration.
+inline std::array<float, 2> roundedPlaneAxis(float x, float y) {
+    const float step = axisStep(axisExponent(std::min({x, y, 0.0f}), std::max({x, y, 0.0f})));
+    const auto digit = [step](float v) {
+        const float q = v / step;
+        if (!(q > -8.5f)) return -8.0f;  // (also NaN, as lround's LONG_MIN clamped)
+        if (!(q < 7.5f)) return 7.0f;
+        const float t = static_cast<float>(static_cast<int>(q));  // truncation, exact here
+        return q - t >= 0.5f ? t + 1 : (q - t <= -0.5f ? t - 1 : t);
+    };
+    return {digit(x) * step, digit(y) * step};
+}
+
 /// The base code of a face-plane point (bx, by): the cube-face point (±1 on the face's axis),
 /// through encodeNormal; @p scale gets the factor that takes the fit's axes to that base's
 /// scale, 1 unless the point falls off the face (a component beyond ±1).
@@ -777,6 +805,45 @@ std::uint32_t planeAxes(const NormalPoints& p, const PlaneFit& f, float scale) {
     v[ua] = f.vx * scale;
     v[va] = f.vy * scale;
     return esvo::encodeAxis(u) | (esvo::encodeAxis(v) << 16);
+}
+
+/// The codes of a face-plane fit (planeBase and planeAxes).
+NormalState planeCodes(const NormalPoints& p, const PlaneFit& f) {
+    NormalState s;
+    float scale = 1;
+    s.base = planeBase(p, f.bx, f.by, scale);
+    s.axes = planeAxes(p, f, scale);
+    return s;
+}
+
+/// fitPlane on the codes: after each least-squares solve the axes are rounded to what their
+/// codes decode to and the base refit to them (the weighted mean of p − cu·u − cv·v), so that
+/// the alternation settles where a quantised lattice fits rather than where an unquantised one
+/// does, which quantising then spoils (on the real blocks of four scenes its lattices are
+/// 2–7 % closer than the least-squares fit's quantised by enumeration, from fewer starts).
+void fitPlaneOnCodes(const NormalPoints& p, PlaneFit& f) {
+    assignPlane(p, f);
+    for (int iteration = 0; iteration < 12; ++iteration) {
+        solvePlane(p, f);
+        // (planeBase's scale and planeAxes' codes, decoded.)
+        const float scale = 1.0f / std::max({1.0f, std::fabs(f.bx), std::fabs(f.by)});
+        const auto u = roundedPlaneAxis(f.ux * scale, f.uy * scale), v = roundedPlaneAxis(f.vx * scale, f.vy * scale);
+        f.ux = u[0] / scale;
+        f.uy = u[1] / scale;
+        f.vx = v[0] / scale;
+        f.vy = v[1] / scale;
+        double sx = 0, sy = 0, sw = 0;
+        for (unsigned i = 0; i < p.count; ++i) {
+            const float cu = esvo::kAxisWeights[f.combo[i] & 3], cv = esvo::kAxisWeights[f.combo[i] >> 2];
+            const double w = p.weight[i];
+            sx += w * (p.px[i] - cu * f.ux - cv * f.vx);
+            sy += w * (p.py[i] - cu * f.uy - cv * f.vy);
+            sw += w;
+        }
+        f.bx = static_cast<float>(sx / sw);
+        f.by = static_cast<float>(sy / sw);
+        if (!assignPlane(p, f)) break;
+    }
 }
 
 /// Quantises a plane fit: the base through encodeNormal (rescaling the axes when the base falls
@@ -829,107 +896,6 @@ NormalState quantiseFit(const NormalPoints& p, const PlaneFit& f) {
     return s;
 }
 
-/// A symmetric 2×2 matrix [[xx, xy], [xy, yy]].
-struct Sym2 {
-    double xx = 0, xy = 0, yy = 0;
-};
-using Vec2 = std::array<double, 2>;
-Vec2 mul(const Sym2& m, const Vec2& v) { return {m.xx * v[0] + m.xy * v[1], m.xy * v[0] + m.yy * v[1]}; }
-double dot2(const Vec2& a, const Vec2& b) { return a[0] * b[0] + a[1] * b[1]; }
-
-/// For fixed combos, the sums that give the decoded error of any (b, u, v) in the face plane
-/// in constant time: Σ (p − q)ᵀ M (p − q), q = b + cu·u + cv·v, with M = (I − p pᵀ/L²)/L²
-/// (L² = 1 + |p|²) the metric under which a step in the plane at p is the squared angle it
-/// turns the direction (p, 1) by: cos⁴ radially, cos² tangentially.
-struct PlaneSums {
-    Sym2 s, su, sv, suu, suv, svv;
-    Vec2 p{}, pu{}, pv{};
-    double pp = 0;
-};
-
-PlaneSums planeSums(const NormalPoints& p, const std::array<std::uint8_t, 16>& combo) {
-    PlaneSums t;
-    const auto add = [](Sym2& a, const Sym2& m, double w) {
-        a.xx += w * m.xx;
-        a.xy += w * m.xy;
-        a.yy += w * m.yy;
-    };
-    for (unsigned i = 0; i < p.count; ++i) {
-        const double cu = esvo::kAxisWeights[combo[i] & 3], cv = esvo::kAxisWeights[combo[i] >> 2];
-        const double x = p.px[i], y = p.py[i], l2 = 1 + x * x + y * y, inv = 1 / l2, inv2 = inv * inv;
-        const double k = p.multiplicity[i];
-        const Sym2 m{k * (inv - x * x * inv2), k * -x * y * inv2, k * (inv - y * y * inv2)};
-        add(t.s, m, 1);
-        add(t.su, m, cu);
-        add(t.sv, m, cv);
-        add(t.suu, m, cu * cu);
-        add(t.suv, m, cu * cv);
-        add(t.svv, m, cv * cv);
-        const Vec2 mp = mul(m, {x, y});
-        for (unsigned c = 0; c < 2; ++c) {
-            t.p[c] += mp[c];
-            t.pu[c] += cu * mp[c];
-            t.pv[c] += cv * mp[c];
-        }
-        t.pp += x * mp[0] + y * mp[1];
-    }
-    return t;
-}
-
-/// With the base at its best for the axes, b = S⁻¹(P − Su·u − Sv·v), the error is
-/// C + A(u) + A'(v) + 2 uᵀ K v; PlaneTerms holds what A, A' and K need.
-struct PlaneTerms {
-    Sym2 inv;                  // S⁻¹
-    Vec2 tp{};                 // S⁻¹ P
-    double kxx = 0, kxy = 0, kyx = 0, kyy = 0;  // K = Suv − Su S⁻¹ Sv
-};
-
-bool planeTerms(const PlaneSums& t, PlaneTerms& k) {
-    const double det = t.s.xx * t.s.yy - t.s.xy * t.s.xy;
-    if (!(det > 1e-300)) return false;
-    k.inv = {t.s.yy / det, -t.s.xy / det, t.s.xx / det};
-    k.tp = mul(k.inv, t.p);
-    // Su S⁻¹ Sv, entry by entry (Su, S⁻¹ and Sv are symmetric, their product need not be).
-    const double a[2][2]{{t.su.xx, t.su.xy}, {t.su.xy, t.su.yy}}, i[2][2]{{k.inv.xx, k.inv.xy}, {k.inv.xy, k.inv.yy}},
-                 b[2][2]{{t.sv.xx, t.sv.xy}, {t.sv.xy, t.sv.yy}};
-    double ai[2][2]{}, aib[2][2]{};
-    for (unsigned r = 0; r < 2; ++r)
-        for (unsigned c = 0; c < 2; ++c) ai[r][c] = a[r][0] * i[0][c] + a[r][1] * i[1][c];
-    for (unsigned r = 0; r < 2; ++r)
-        for (unsigned c = 0; c < 2; ++c) aib[r][c] = ai[r][0] * b[0][c] + ai[r][1] * b[1][c];
-    k.kxx = t.suv.xx - aib[0][0];
-    k.kxy = t.suv.xy - aib[0][1];
-    k.kyx = t.suv.xy - aib[1][0];
-    k.kyy = t.suv.yy - aib[1][1];
-    return true;
-}
-
-/// A(u) (or A'(v)) of one axis @p a, whose sums are @p s1 (Su or Sv), @p s2 (Suu or Svv) and
-/// @p pa (Pu or Pv): aᵀ(S2 − S1 S⁻¹ S1) a + 2 a·(S1 S⁻¹ P − Pa).
-double axisTerm(const PlaneTerms& k, const Sym2& s1, const Sym2& s2, const Vec2& pa, const Vec2& a) {
-    const Vec2 s1a = mul(s1, a);
-    return dot2(a, mul(s2, a)) - dot2(s1a, mul(k.inv, s1a)) + 2 * (dot2(s1a, k.tp) - dot2(a, pa));
-}
-
-/// The best base for axes @p u, @p v.
-Vec2 bestBase(const PlaneSums& t, const PlaneTerms& k, const Vec2& u, const Vec2& v) {
-    const Vec2 su = mul(t.su, u), sv = mul(t.sv, v);
-    return mul(k.inv, {t.p[0] - su[0] - sv[0], t.p[1] - su[1] - sv[1]});
-}
-
-/// 2^(e − 13), the step of axis exponent e (as esvo::decodeAxis).
-inline float axisStep(int e) { return std::bit_cast<float>(static_cast<std::uint32_t>(e + 127 - 13) << 23); }
-
-/// The exponent esvo::encodeAxis chooses for components within [@p lo, @p hi] (lo ≤ 0 ≤ hi).
-inline int axisExponent(float lo, float hi) {
-    int e = 0;
-    while (e < 15 && (hi > 7.5f * axisStep(e) || lo < -8.5f * axisStep(e))) ++e;
-    return e;
-}
-
-/// Component @p c (0…2) of axis code @p bits, in steps (esvo::decodeAxis without the scale).
-inline int axisDigit(std::uint32_t bits, unsigned c) { return static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28; }
-
 /// The best few (at most 4) of scored candidates, lowest score first, the earliest of equals.
 struct TopK {
     unsigned k = 0, n = 0;
@@ -937,7 +903,7 @@ struct TopK {
     std::array<unsigned, 4> id{};
     explicit TopK(unsigned keep) : k(std::min(keep, 4u)) {}
     void offer(double sc, unsigned i) {
-        if (n == k && !(sc < score[n - 1])) return;
+        if (n == k && (k == 0 || !(sc < score[n - 1]))) return;
         unsigned at = n < k ? n++ : n - 1;
         while (at > 0 && sc < score[at - 1]) {
             score[at] = score[at - 1];
@@ -948,87 +914,6 @@ struct TopK {
         id[at] = i;
     }
 };
-
-/// Up to eight codes of an in-plane axis @p a (face-plane units, × @p scale in the code): at
-/// the smallest exponent that holds it and the next, each component rounded down and up.
-unsigned axisCandidates(const NormalPoints& p, const std::array<double, 2>& a, float scale, std::array<std::uint32_t, 8>& codes) {
-    const unsigned ua = (p.axis + 1) % 3, va = (p.axis + 2) % 3;
-    Vec3 v{};
-    v[ua] = static_cast<float>(a[0]) * scale;
-    v[va] = static_cast<float>(a[1]) * scale;
-    const int e0 = axisExponent(std::min({v[ua], v[va], 0.0f}), std::max({v[ua], v[va], 0.0f}));
-    unsigned n = 0;
-    for (int e = e0; e <= std::min(e0 + 1, 15); ++e) {
-        const float step = axisStep(e);
-        const float x = v[ua] / step, y = v[va] / step;
-        const auto clampCode = [](float q) { return std::clamp(static_cast<int>(q), -8, 7); };
-        const std::array<int, 2> mx{clampCode(std::floor(x)), clampCode(std::ceil(x))}, my{clampCode(std::floor(y)), clampCode(std::ceil(y))};
-        // Each combination once, in order (a whole number of steps rounds down and up alike; the
-        // codes of the two exponents differ in their exponent).
-        for (unsigned ix = 0; ix < 2; ++ix)
-            for (unsigned iy = 0; iy < 2; ++iy) {
-                if ((ix && mx[1] == mx[0]) || (iy && my[1] == my[0])) continue;
-                std::uint32_t code = static_cast<std::uint32_t>(e) << 12;
-                code |= (static_cast<std::uint32_t>(mx[ix]) & 15u) << (4 * ua);
-                code |= (static_cast<std::uint32_t>(my[iy]) & 15u) << (4 * va);
-                codes[n++] = code;
-            }
-    }
-    return n;
-}
-
-/// quantiseFit by enumeration instead of search: with the combos fixed, every pair of
-/// candidate axis codes (axisCandidates) is scored in the face plane in constant time with its
-/// best base; the best few are measured against the decoded normals; then the least squares
-/// for the combos the best chose, and again, while that helps.
-NormalState quantiseFitFast(const NormalPoints& p, const PlaneFit& f, int rounds, unsigned measured) {
-    const unsigned a = p.axis, ua = (a + 1) % 3, va = (a + 2) % 3;
-    const auto toBase = [&](double bx, double by) {
-        Vec3 b{};
-        b[a] = p.sign;
-        b[ua] = static_cast<float>(bx);
-        b[va] = static_cast<float>(by);
-        return esvo::encodeNormal(b);
-    };
-    NormalState s;
-    PlaneFit g = f;
-    for (int round = 0; round < rounds; ++round) {
-        const float scale = 1.0f / std::max({1.0f, std::fabs(g.bx), std::fabs(g.by)});
-        const PlaneSums t = planeSums(p, g.combo);
-        PlaneTerms k;
-        if (!planeTerms(t, k)) break;
-        std::array<std::uint32_t, 8> uc{}, vc{};
-        const unsigned nu = axisCandidates(p, {g.ux, g.uy}, scale, uc), nv = axisCandidates(p, {g.vx, g.vy}, scale, vc);
-        std::array<Vec2, 8> uv{}, vv{}, kv{};
-        std::array<double, 8> ut{}, vt{};
-        const auto decode = [&](std::uint32_t code) {
-            const double step = axisStep(static_cast<int>(code >> 12)) / scale;
-            return Vec2{axisDigit(code, ua) * step, axisDigit(code, va) * step};
-        };
-        for (unsigned i = 0; i < nu; ++i) {
-            uv[i] = decode(uc[i]);
-            ut[i] = axisTerm(k, t.su, t.suu, t.pu, uv[i]);
-        }
-        for (unsigned j = 0; j < nv; ++j) {
-            vv[j] = decode(vc[j]);
-            vt[j] = axisTerm(k, t.sv, t.svv, t.pv, vv[j]);
-            kv[j] = {2 * (k.kxx * vv[j][0] + k.kxy * vv[j][1]), 2 * (k.kyx * vv[j][0] + k.kyy * vv[j][1])};
-        }
-        TopK top(measured);
-        for (unsigned i = 0; i < nu; ++i)
-            for (unsigned j = 0; j < nv; ++j) top.offer(ut[i] + vt[j] + (uv[i][0] * kv[j][0] + uv[i][1] * kv[j][1]), 8 * i + j);
-        bool improved = false;
-        for (unsigned m = 0; m < top.n; ++m) {
-            const unsigned i = top.id[m] / 8, j = top.id[m] % 8;
-            const Vec2 b = bestBase(t, k, uv[i], vv[j]);
-            if (tryNormals(p, toBase(b[0], b[1]), uc[i] | (vc[j] << 16), s)) improved = true;
-        }
-        if (!improved || s.error <= 0 || s.combo == g.combo) break;
-        g.combo = s.combo;
-        solvePlane(p, g);
-    }
-    return s;
-}
 
 /// The face plane's frame of a block's normals: the principal axes (e1, e2 = e1 turned by 90°)
 /// and half-extents h1, h2 of the projected points about the centre of their bounding box in
@@ -1147,18 +1032,20 @@ PlaneFit planeStart(const PlaneFrame& fr, unsigned i) {
     return fit;
 }
 
-/// Projects the normals onto their face plane and fits the lattice there from the starts in
-/// @p startMask (bit i: start i; start 0 always), keeping the lowest least-squares error;
+/// Projects the normals onto their face plane and fits the lattice there (fitPlane, or
+/// fitPlaneOnCodes when @p onCodes) from the starts in @p startMask (bit i: start i; start 0
+/// always), keeping the lowest error;
 /// @p afterFirst(fit) is called with the first start's fit, and when it returns true, the others
 /// are not tried.
 template <typename AfterFirst>
-PlaneFit fitNormals(NormalPoints& p, unsigned startMask, AfterFirst afterFirst) {
+PlaneFit fitNormals(NormalPoints& p, unsigned startMask, bool onCodes, AfterFirst afterFirst) {
     const PlaneFrame fr = projectNormals(p);
     PlaneFit best;
     for (unsigned i = 0; i < fr.startCount; ++i) {
         if (i > 0 && !((startMask >> i) & 1u)) continue;
         PlaneFit fit = planeStart(fr, i);
-        fitPlane(p, fit);
+        if (onCodes) fitPlaneOnCodes(p, fit);
+        else fitPlane(p, fit);
         if (fit.error < best.error) best = fit;
         if (i == 0 && afterFirst(fit)) break;
     }
@@ -1188,17 +1075,26 @@ constexpr double kWideCos = 0.8660254, kDistinctCos = 0.99985;
 constexpr double kDegree2 = (std::numbers::pi / 180) * (std::numbers::pi / 180);
 constexpr double kNarrowThreshold = 1.0 * 1.0 * kDegree2, kWideThreshold = 0.3 * 0.3 * kDegree2;
 
-/// How the codes around a quantised block are searched: passes of searchCodes.
+/// How the codes around a quantised block are searched: passes, and per pass the moves measured
+/// (0: every move in turn, searchCodes; otherwise the best few predicted, searchCodesGuided);
+/// and the summed error at or below which a quantiser stops (0: never before it is exact).
 struct CodeSearch {
     int passes = 0;
+    unsigned measured = 0;
+    double enough = 0;
 };
+
+/// The error per normal at which the faster efforts' 3-D search stops, (0.02°)²: what more search
+/// could gain is then about the precision of the base's code (2⁻¹³ radians, 0.007°).
+constexpr double kEnough = 0.02 * 0.02 * kDegree2;
 
 /// How hard the normal encoder searches (see AttributeEffort).
 struct NormalSearch {
     /// The face-plane fit's starts (fitNormals).
     unsigned startMask = 63;
-    /// Plane fit quantised by enumeration (quantiseFitFast) rather than by code search.
-    bool enumeratePlane = false;
+    /// Plane fit on the codes (fitPlaneOnCodes) rather than fit unquantised and quantised by code
+    /// search (quantiseFit).
+    bool planeOnCodes = false;
     /// Summed squared chord per used normal above which the 3-D search follows.
     double narrowThreshold = kNarrowThreshold, wideThreshold = kWideThreshold;
     /// The 3-D search: candidates refined at all, iterations for the best two of wide blocks,
@@ -1210,15 +1106,15 @@ struct NormalSearch {
     bool enumerateModel = false;
     /// The search of the codes around a quantised model: of wide blocks (for narrow ones none when
     /// enumerating) and, when not enumerating, of narrow ones.
-    CodeSearch modelCodes{3}, narrowModelCodes{2};
+    CodeSearch modelCodes{3, 0}, narrowModelCodes{2, 0};
     /// Below this error per normal (the plane fit's) the 3-D search runs with `light` instead.
     double lightBelow = 0;
+    /// At or below this error per normal the 3-D search stops (0: only when exact): what more
+    /// search could gain is then below the codes' own precision.
+    double enoughPerNormal = 0;
     /// Below this error per normal (the face-plane fit's, unquantised) the first start's fit is
     /// kept without trying the others (0: never).
     double earlyBelow = 0;
-    /// quantiseFitFast's rounds and candidates measured per round.
-    int planeRounds = 2;
-    unsigned planeMeasured = 3;
 };
 
 /// The 3-D search of blocks of at most four distinct directions: Best's quantiser (whose
@@ -1231,6 +1127,8 @@ NormalSearch fewSearch(AttributeEffort effort) {
     s.wideThreshold = (fast ? 0.7 * 0.7 : 0.5 * 0.5) * kDegree2;
     s.refined = 2;
     s.moreIterations = fast ? 2 : 3;
+    s.modelCodes = {fast ? 1 : 3, 3};
+    s.enoughPerNormal = kEnough;
     return s;
 }
 
@@ -1241,17 +1139,17 @@ NormalSearch normalSearch(AttributeEffort effort, bool light = false) {
     NormalSearch s;
     if (effort == AttributeEffort::Best) return s;
     const bool fast = effort == AttributeEffort::Fast;
-    s.startMask = fast ? 0b10001u : 63u;  // Fast: the ¾-size start and the 45° one
-    // (Not Default: on nearly flat blocks the first start's small error says nothing of how well
-    // it quantises, and the other starts often quantise better.)
-    s.earlyBelow = fast ? 0.1 * 0.1 * kDegree2 : 0;
-    s.enumeratePlane = true;
-    s.planeRounds = fast ? 2 : 3;
-    s.planeMeasured = fast ? 2 : 3;
+    // The face-plane fit on the codes: Default from the ¾-size start, the two 45° ones and the
+    // one-dimensional one, Fast from the ¾-size and the 45° one; neither tries the others where
+    // the first already fits within 0.05° (Fast 0.1°).
+    s.planeOnCodes = true;
+    s.startMask = fast ? 0b10001u : 0b111001u;
+    s.earlyBelow = (fast ? 0.1 * 0.1 : 0.05 * 0.05) * kDegree2;
     s.wideThreshold = (fast ? 0.7 * 0.7 : 0.5 * 0.5) * kDegree2;
     s.enumerateModel = true;
-    s.modelCodes = {fast ? 1 : 2};
+    s.modelCodes = {fast ? 1 : 3, 3};
     s.lightBelow = (fast ? 2.0 * 2.0 : 1.0 * 1.0) * kDegree2;
+    s.enoughPerNormal = kEnough;
     if (light) {
         s.refined = 2;
         s.moreIterations = 2;
@@ -1514,8 +1412,12 @@ void searchCodes(const NormalPoints& p, NormalState& s, int passes) {
     }
 }
 
+void searchCodesGuided(const NormalPoints& p, NormalState& s, int passes, unsigned measured, double enough);
+
 void polishCodes(const NormalPoints& p, NormalState& s, const CodeSearch& codes) {
-    if (codes.passes > 0) searchCodes(p, s, codes.passes);
+    if (codes.passes <= 0 || s.error <= codes.enough) return;
+    if (codes.measured == 0) searchCodes(p, s, codes.passes);
+    else searchCodesGuided(p, s, codes.passes, codes.measured, codes.enough);
 }
 
 /// tryNormals of the codes a model rounds to.
@@ -1560,8 +1462,9 @@ NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::arra
                           const CodeSearch& codes) {
     NormalState s;
     tryModel(p, x, s);
+    if (s.error <= codes.enough) return s;
     tryLatticeLines(p, x, combo, s);
-    for (unsigned first = 1; first <= (thorough ? 2u : 1u); ++first) {
+    for (unsigned first = 1; first <= (thorough ? 2u : 1u) && s.error > codes.enough; ++first) {
         Model y = x;
         std::array<std::uint8_t, 16> c = combo;
         roundModelPart(y, first);
@@ -1635,6 +1538,17 @@ struct AxisQuadratic {
         return true;
     }
 
+    /// The predicted change of the error for the change @p d of axis @p which (0: u, 1: v) alone
+    /// (with the base at its best).
+    [[nodiscard]] double score(unsigned which, const std::array<double, 3>& d) const {
+        double q = 0;
+        for (unsigned r = 0; r < 3; ++r) {
+            const unsigned i = 3 * which + r;
+            q += d[r] * (2 * gh[i] + hh[i][3 * which] * d[0] + hh[i][3 * which + 1] * d[1] + hh[i][3 * which + 2] * d[2]);
+        }
+        return q;
+    }
+
     /// The base that goes with axis change @p da: b + δb, δb = −Hbb⁻¹ (gb + Hba δa).
     [[nodiscard]] Vec3 base(const std::array<double, 6>& da) const {
         double r0 = gb[0], r1 = gb[1];
@@ -1645,6 +1559,63 @@ struct AxisQuadratic {
         return b;
     }
 };
+
+/// searchCodes guided by the AxisQuadratic of the current codes: each pass scores the moves
+/// searchCodes measures one by one (each axis component one step either way, each axis one
+/// exponent finer or coarser, re-rounded) and the base refit alone, each with the base at its
+/// best, in constant time, and measures only the best @p measured (at most 4); stops when none
+/// gains or the error is at most @p enough.
+void searchCodesGuided(const NormalPoints& p, NormalState& s, int passes, unsigned measured, double enough) {
+    struct Move {
+        std::uint32_t axes;
+        unsigned which;
+        std::array<double, 3> d;
+    };
+    for (int pass = 0; pass < passes && s.error > enough; ++pass) {
+        AxisQuadratic q;
+        if (!q.init(p, decodedModel(s), s.combo)) return;
+        std::array<Move, 17> moves{};
+        TopK top(measured);
+        unsigned n = 0;
+        const auto offer = [&](std::uint32_t axes, unsigned which, const std::array<double, 3>& d, double score) {
+            moves[n] = {axes, which, d};
+            top.offer(score, n++);
+        };
+        offer(s.axes, 0, {}, 0.0);  // the base refit alone
+        for (unsigned which = 0; which < 2; ++which) {
+            const unsigned shift = 16 * which;
+            const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
+            const int e = static_cast<int>(bits >> 12);
+            const double step = axisStep(e);
+            for (unsigned c = 0; c < 3; ++c)
+                for (const int dir : {-1, 1}) {
+                    const int value = axisDigit(bits, c) + dir;
+                    if (value < -8 || value > 7) continue;
+                    const std::uint32_t moved = (bits & ~(15u << (4 * c))) | ((static_cast<std::uint32_t>(value) & 15u) << (4 * c));
+                    std::array<double, 3> d{};
+                    d[c] = dir * step;
+                    const unsigned i = 3 * which + c;
+                    offer((s.axes & ~(0xFFFFu << shift)) | (moved << shift), which, d, d[c] * (2 * q.gh[i] + q.hh[i][i] * d[c]));
+                }
+            const Vec3 decoded = esvo::decodeAxis(bits);
+            for (const int ne : {e - 1, e + 1}) {
+                if (ne < 0 || ne > 15) continue;
+                const std::uint32_t rounded = roundAxis(decoded, ne);
+                const Vec3 r = esvo::decodeAxis(rounded);
+                const std::array<double, 3> d{double(r[0]) - decoded[0], double(r[1]) - decoded[1], double(r[2]) - decoded[2]};
+                offer((s.axes & ~(0xFFFFu << shift)) | (rounded << shift), which, d, q.score(which, d));
+            }
+        }
+        bool improved = false;
+        for (unsigned m = 0; m < top.n; ++m) {
+            const Move& mv = moves[top.id[m]];
+            std::array<double, 6> da{};
+            for (unsigned c = 0; c < 3; ++c) da[3 * mv.which + c] = mv.d[c];
+            if (tryNormals(p, esvo::encodeNormal(q.base(da)), mv.axes, s)) improved = true;
+        }
+        if (!improved) break;
+    }
+}
 
 /// quantiseModel by enumeration: with the model's AxisQuadratic, every pair of candidate axis
 /// codes (axisCandidates3) is scored in constant time, and the best @p measured are measured
@@ -1689,7 +1660,7 @@ NormalState quantiseModelFast(const NormalPoints& p, const Model& x, const std::
         }
     }
     // The lattice-line codes.
-    tryLatticeLines(p, x, combo, s);
+    if (s.error > codes.enough) tryLatticeLines(p, x, combo, s);
     polishCodes(p, s, codes);
     return s;
 }
@@ -1924,10 +1895,13 @@ void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, const NormalSear
     for (unsigned i = 0; i < count; ++i)
         all[i].error = refineModel(p, all[i].x, all[i].combo, 3, wide ? search.moreIterations : kNarrowMoreIterations, all[i].error);
     sortCandidates(all, count);
-    for (unsigned i = 0; i < count && s.error > 0; ++i) {
+    const double enough = search.enoughPerNormal * p.total;
+    for (unsigned i = 0; i < count && s.error > enough; ++i) {
         if (i > 0 && (!search.second || (all[i].error > kSecondRatio * all[0].error && !(s.error > kQuantisationLoss * all[i].error)))) break;
-        const NormalState q = search.enumerateModel ? quantiseModelFast(p, all[i].x, all[i].combo, 3, wide ? search.modelCodes : CodeSearch{})
-                                                    : quantiseModel(p, all[i].x, all[i].combo, wide, wide ? search.modelCodes : search.narrowModelCodes);
+        CodeSearch codes = wide ? search.modelCodes : (search.enumerateModel ? CodeSearch{} : search.narrowModelCodes);
+        codes.enough = enough;
+        const NormalState q = search.enumerateModel ? quantiseModelFast(p, all[i].x, all[i].combo, 3, codes)
+                                                    : quantiseModel(p, all[i].x, all[i].combo, wide, codes);
         if (q.error < s.error) s = q;
     }
 }
@@ -1954,9 +1928,15 @@ NormalState searchNormals(NormalPoints& p, AttributeEffort effort) {
     const bool wide = spread || few;
     // Early exit (Fast): where the first start already fits within the threshold, the others are
     // not tried.
-    const PlaneFit f = fitNormals(p, search.startMask, [&](const PlaneFit& firstFit) { return firstFit.error <= search.earlyBelow * p.total; });
-    NormalState s = search.enumeratePlane ? quantiseFitFast(p, f, search.planeRounds, search.planeMeasured) : quantiseFit(p, f);
-    if (!(s.error < std::numeric_limits<double>::max())) s = quantiseFit(p, f);  // (the sums were degenerate)
+    const PlaneFit f = fitNormals(p, search.startMask, search.planeOnCodes,
+                                  [&](const PlaneFit& firstFit) { return firstFit.error <= search.earlyBelow * p.total; });
+    NormalState s;
+    if (search.planeOnCodes) {
+        const NormalState codes = planeCodes(p, f);
+        tryNormals(p, codes.base, codes.axes, s);
+    } else {
+        s = quantiseFit(p, f);
+    }
     // Few distinct directions (edges, corners, sheets, any two directions) have near-exact
     // lattices, which the lighter searches miss: every effort quantises them as Best does.
     if (few) {
