@@ -203,11 +203,15 @@ void clusterFit(const ColorPoints& p, const ColorTables& t, ColorState& s, int i
     }
 }
 
-/// Greedy descent over the six endpoint channels, one code step at a time.
-void stepColors(const ColorPoints& p, ColorState& s, int passes = 16) {
+/// Greedy descent over the six endpoint channels, one code step at a time. @p guided: each
+/// channel steps only towards its least-squares value for the current indices (refitColors),
+/// half the measurements, where the indices determine both endpoints.
+void stepColors(const ColorPoints& p, ColorState& s, int passes = 16, bool guided = false) {
     static constexpr std::array<unsigned, 3> kShift{11, 5, 0};
     static constexpr std::array<std::uint32_t, 3> kMax{31, 63, 31};
     for (int pass = 0; pass < passes && s.error > 0; ++pass) {
+        std::array<std::array<float, 3>, 2> target{};
+        const bool towards = guided && refitColors(p, s.index, target[0], target[1]);
         bool improved = false;
         for (unsigned endpoint = 0; endpoint < 2; ++endpoint)
             for (unsigned ch = 0; ch < 3; ++ch)
@@ -215,6 +219,10 @@ void stepColors(const ColorPoints& p, ColorState& s, int passes = 16) {
                     const std::uint32_t c = endpoint ? s.c1 : s.c0;
                     const std::uint32_t value = (c >> kShift[ch]) & kMax[ch];
                     if ((step < 0 && value == 0) || (step > 0 && value == kMax[ch])) continue;
+                    if (towards) {
+                        const int expanded = ch == 1 ? expand6(static_cast<int>(value)) : expand5(static_cast<int>(value));
+                        if ((target[endpoint][ch] - static_cast<float>(expanded)) * static_cast<float>(step) <= 0) continue;
+                    }
                     const std::uint32_t moved =
                         (c & ~(kMax[ch] << kShift[ch])) | ((static_cast<std::uint32_t>(static_cast<int>(value) + step)) << kShift[ch]);
                     if (endpoint ? tryColors(p, s.c0, moved, s) : tryColors(p, moved, s.c1, s)) improved = true;
@@ -346,12 +354,14 @@ constexpr std::uint32_t kOrderedFitThreshold = 20;
 
 /// How hard the colour encoder searches (see AttributeEffort): start pairs tried (of three),
 /// cluster-fit iterations, the error per colour above which the ordered cluster fit runs, and
-/// passes of the endpoint descent. Best is the original search.
+/// passes of the endpoint descent, and whether it steps only towards the least-squares
+/// endpoints. Best is the original search.
 struct ColorSearch {
     unsigned startPairs = 3;
     int clusterIterations = 8;
     std::uint32_t orderedThreshold = kOrderedFitThreshold;
     int stepPasses = 16;
+    bool guidedStep = false;
 };
 
 ColorSearch colorSearch(AttributeEffort effort) {
@@ -360,7 +370,9 @@ ColorSearch colorSearch(AttributeEffort effort) {
     s.startPairs = 1;
     s.clusterIterations = 2;
     s.stepPasses = 1;
-    if (effort == AttributeEffort::Fast) s.orderedThreshold = 2 * kOrderedFitThreshold;
+    s.guidedStep = true;
+    // (The ordered fit costs about as much as the rest of the search where it runs.)
+    s.orderedThreshold = effort == AttributeEffort::Fast ? 2 * kOrderedFitThreshold : kOrderedFitThreshold + 5;
     return s;
 }
 
@@ -436,7 +448,7 @@ ColorState encodeColors(const ColorPoints& p, AttributeEffort effort) {
             if (candidate.error < best.error) best = candidate;
         }
     }
-    stepColors(p, best, search.stepPasses);
+    stepColors(p, best, search.stepPasses, search.guidedStep);
     clusterFit(p, t, best, search.clusterIterations);
     return best;
 }
