@@ -470,6 +470,7 @@ struct NormalPoints {
     unsigned axis = 2;   ///< the face's axis
     float sign = 1;      ///< and its direction
     std::array<float, 16> px{}, py{}, weight{};  ///< in-plane coordinates (axis+1, axis+2) and LS weights
+    bool singleEquations = false;  ///< the 3-D fit's normal equations in single precision (normalEquationsSingle)
 };
 
 #if defined(__GNUC__)
@@ -1107,6 +1108,8 @@ struct NormalSearch {
     /// Plane fit on the codes (fitPlaneOnCodes) rather than fit unquantised and quantised by code
     /// search (quantiseFit).
     bool planeOnCodes = false;
+    /// The 3-D fit's normal equations in single precision (normalEquationsSingle).
+    bool singleEquations = false;
     /// Summed squared chord per used normal above which the 3-D search follows.
     double narrowThreshold = kNarrowThreshold, wideThreshold = kWideThreshold;
     /// The 3-D search: candidates refined at all, iterations for the best two of wide blocks,
@@ -1124,6 +1127,9 @@ struct NormalSearch {
     /// At or below this error per normal the 3-D search stops (0: only when exact): what more
     /// search could gain is then below the codes' own precision.
     double enoughPerNormal = 0;
+    /// The second candidate is quantised only where the first quantised is more than this many
+    /// times the first's unquantised error (0: wherever kSecondRatio and kQuantisationLoss allow).
+    double secondAbove = 0;
     /// Below this error per normal (the face-plane fit's, unquantised) the first start's fit is
     /// kept without trying the others (0: never).
     double earlyBelow = 0;
@@ -1141,6 +1147,7 @@ NormalSearch fewSearch(AttributeEffort effort) {
     s.moreIterations = fast ? 2 : 3;
     s.modelCodes = {fast ? 1 : 3, 3};
     s.enoughPerNormal = kEnough;
+    s.secondAbove = 1.2;
     return s;
 }
 
@@ -1155,6 +1162,7 @@ NormalSearch normalSearch(AttributeEffort effort, bool light = false) {
     // one-dimensional one, Fast from the ¾-size and the 45° one; neither tries the others where
     // the first already fits within 0.05° (Fast 0.1°).
     s.planeOnCodes = true;
+    s.singleEquations = true;
     s.startMask = fast ? 0b10001u : 0b111001u;
     s.earlyBelow = (fast ? 0.1 * 0.1 : 0.05 * 0.05) * kDegree2;
     s.wideThreshold = (fast ? 0.7 * 0.7 : 0.5 * 0.5) * kDegree2;
@@ -1162,6 +1170,8 @@ NormalSearch normalSearch(AttributeEffort effort, bool light = false) {
     s.modelCodes = {fast ? 1 : 3, 3};
     s.lightBelow = (fast ? 2.0 * 2.0 : 1.0 * 1.0) * kDegree2;
     s.enoughPerNormal = kEnough;
+    s.moreIterations = 3;
+    s.secondAbove = 1.2;
     if (light) {
         s.refined = 2;
         s.moreIterations = 2;
@@ -1315,8 +1325,98 @@ NormalEquations normalEquations(const NormalPoints& p, const Model& x, const std
     return ne;
 }
 
+/// normalEquations in single precision, four points at a time (lane by lane, which the compiler
+/// vectorises; a lane past the points contributes nothing), the lanes summed in double at the end.
+/// For the faster efforts: a Levenberg–Marquardt step only has to lead downhill (whether it is
+/// taken is decided by the exact decoded error) and the quantisers' quadratics only rank codes
+/// that are then measured, and this costs a quarter of the double-precision sums.
+template <unsigned FreeAxes>
+NormalEquations normalEquationsSingle(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo) {
+    constexpr bool used[3]{true, (FreeAxes & 1u) != 0, (FreeAxes & 2u) != 0};
+    std::array<float, 9> xf{};
+    for (unsigned j = 0; j < 9; ++j) xf[j] = static_cast<float>(x[j]);
+    alignas(16) float block[6][6][4]{};
+    alignas(16) float g[9][4]{};
+    for (unsigned first = 0; first < p.count; first += 4) {
+        // The group's points, lane by lane (a lane past the points has weight 0).
+        alignas(16) float k[3][4], n[3][4], multiplicity[4];
+        for (unsigned l = 0; l < 4; ++l) {
+            const unsigned i = std::min(first + l, p.count - 1);
+            k[0][l] = 1.0f;
+            k[1][l] = esvo::kAxisWeights[combo[i] & 3];
+            k[2][l] = esvo::kAxisWeights[combo[i] >> 2];
+            for (unsigned c = 0; c < 3; ++c) n[c][l] = p.n[i][c];
+            multiplicity[l] = first + l < p.count ? p.multiplicity[i] : 0.0f;
+        }
+#if VOX_ENCODE_SSE2
+        __m128 kv[3], nv[3], q[3];
+        for (unsigned c = 0; c < 3; ++c) kv[c] = _mm_load_ps(k[c]), nv[c] = _mm_load_ps(n[c]);
+        for (unsigned c = 0; c < 3; ++c)
+            q[c] = _mm_add_ps(_mm_add_ps(_mm_set1_ps(xf[c]), _mm_mul_ps(kv[1], _mm_set1_ps(xf[3 + c]))), _mm_mul_ps(kv[2], _mm_set1_ps(xf[6 + c])));
+        const __m128 len2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(q[0], q[0]), _mm_mul_ps(q[1], q[1])), _mm_mul_ps(q[2], q[2]));
+        const __m128 valid = _mm_cmpgt_ps(len2, _mm_set1_ps(1e-24f)), one = _mm_set1_ps(1.0f);
+        const __m128 inv = _mm_div_ps(one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(valid, len2), _mm_andnot_ps(valid, one))));
+        const __m128 weight = _mm_and_ps(valid, _mm_load_ps(multiplicity)), inv2 = _mm_mul_ps(_mm_mul_ps(inv, inv), weight);
+        for (unsigned c = 0; c < 3; ++c) q[c] = _mm_mul_ps(q[c], inv);
+        const __m128 nd = _mm_add_ps(_mm_add_ps(_mm_mul_ps(nv[0], q[0]), _mm_mul_ps(nv[1], q[1])), _mm_mul_ps(nv[2], q[2]));
+        const __m128 zero = _mm_setzero_ps();
+        const __m128 m[6]{_mm_mul_ps(_mm_sub_ps(one, _mm_mul_ps(q[0], q[0])), inv2), _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(zero, q[1]), q[0]), inv2),
+                          _mm_mul_ps(_mm_sub_ps(one, _mm_mul_ps(q[1], q[1])), inv2), _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(zero, q[2]), q[0]), inv2),
+                          _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(zero, q[2]), q[1]), inv2), _mm_mul_ps(_mm_sub_ps(one, _mm_mul_ps(q[2], q[2])), inv2)};
+        __m128 r[3];
+        for (unsigned c = 0; c < 3; ++c)
+            r[c] = _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(zero, _mm_sub_ps(nv[c], _mm_mul_ps(nd, q[c]))), inv), weight);
+        for (unsigned st = 0, si = 0; si < 3; ++si)
+            for (unsigned ti = 0; ti <= si; ++ti, ++st) {
+                if (!used[si] || !used[ti]) continue;
+                const __m128 kk = _mm_mul_ps(kv[si], kv[ti]);
+                for (unsigned e = 0; e < 6; ++e) _mm_store_ps(block[st][e], _mm_add_ps(_mm_load_ps(block[st][e]), _mm_mul_ps(kk, m[e])));
+            }
+        for (unsigned c = 0; c < 3; ++c)
+            for (unsigned si = 0; si < 3; ++si) _mm_store_ps(g[3 * si + c], _mm_add_ps(_mm_load_ps(g[3 * si + c]), _mm_mul_ps(kv[si], r[c])));
+#else
+        for (unsigned l = 0; l < 4; ++l) {  // the same operations as the vectors above, lane by lane
+            float q[3];
+            for (unsigned c = 0; c < 3; ++c) q[c] = (xf[c] + k[1][l] * xf[3 + c]) + k[2][l] * xf[6 + c];
+            const float len2 = (q[0] * q[0] + q[1] * q[1]) + q[2] * q[2];
+            const bool valid = len2 > 1e-24f;
+            const float inv = 1.0f / std::sqrt(valid ? len2 : 1.0f);
+            const float weight = valid ? multiplicity[l] : 0.0f, inv2 = (inv * inv) * weight;
+            for (float& c : q) c *= inv;
+            const float nd = (n[0][l] * q[0] + n[1][l] * q[1]) + n[2][l] * q[2];
+            const float m[6]{(1.0f - q[0] * q[0]) * inv2, ((0.0f - q[1]) * q[0]) * inv2, (1.0f - q[1] * q[1]) * inv2,
+                             ((0.0f - q[2]) * q[0]) * inv2, ((0.0f - q[2]) * q[1]) * inv2, (1.0f - q[2] * q[2]) * inv2};
+            for (unsigned st = 0, si = 0; si < 3; ++si)
+                for (unsigned ti = 0; ti <= si; ++ti, ++st) {
+                    if (!used[si] || !used[ti]) continue;
+                    const float kk = k[si][l] * k[ti][l];
+                    for (unsigned e = 0; e < 6; ++e) block[st][e][l] += kk * m[e];
+                }
+            for (unsigned c = 0; c < 3; ++c) {
+                const float r = ((0.0f - (n[c][l] - nd * q[c])) * inv) * weight;
+                for (unsigned si = 0; si < 3; ++si) g[3 * si + c][l] += k[si][l] * r;
+            }
+        }
+#endif
+    }
+    NormalEquations ne;
+    const auto sum = [](const float (&lanes)[4]) { return (double(lanes[0]) + double(lanes[1])) + (double(lanes[2]) + double(lanes[3])); };
+    for (unsigned st = 0; st < 6; ++st)
+        for (unsigned e = 0; e < 6; ++e) ne.block[st][e] = sum(block[st][e]);
+    for (unsigned j = 0; j < 9; ++j) ne.g[j] = sum(g[j]);
+    return ne;
+}
+
 /// normalEquations with the free axes' loops specialised.
 NormalEquations normalEquations(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, unsigned freeAxes) {
+    if (p.singleEquations) {
+        switch (freeAxes) {
+            case 0: return normalEquationsSingle<0>(p, x, combo);
+            case 1: return normalEquationsSingle<1>(p, x, combo);
+            case 2: return normalEquationsSingle<2>(p, x, combo);
+            default: return normalEquationsSingle<3>(p, x, combo);
+        }
+    }
     switch (freeAxes) {
         case 0: return normalEquations<0>(p, x, combo);
         case 1: return normalEquations<1>(p, x, combo);
@@ -1910,6 +2010,7 @@ void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, const NormalSear
     const double enough = search.enoughPerNormal * p.total;
     for (unsigned i = 0; i < count && s.error > enough; ++i) {
         if (i > 0 && (!search.second || (all[i].error > kSecondRatio * all[0].error && !(s.error > kQuantisationLoss * all[i].error)))) break;
+        if (i > 0 && !(s.error > search.secondAbove * all[0].error)) break;
         CodeSearch codes = wide ? search.modelCodes : (search.enumerateModel ? CodeSearch{} : search.narrowModelCodes);
         codes.enough = enough;
         const NormalState q = search.enumerateModel ? quantiseModelFast(p, all[i].x, all[i].combo, 3, codes)
@@ -1938,6 +2039,9 @@ NormalState searchNormals(NormalPoints& p, AttributeEffort effort) {
         few = count <= 4;
     }
     const bool wide = spread || few;
+    // (Not where few directions are far apart: both sides of a sheet put the lattice through the
+    // origin, where single precision cannot follow the steps.)
+    p.singleEquations = search.singleEquations && !few;
     // Early exit (Fast): where the first start already fits within the threshold, the others are
     // not tried.
     const PlaneFit f = fitNormals(p, search.startMask, search.planeOnCodes,
