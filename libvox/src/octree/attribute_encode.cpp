@@ -1124,6 +1124,9 @@ struct NormalSearch {
     CodeSearch modelCodes{3, 0}, narrowModelCodes{2, 0};
     /// Below this error per normal (the plane fit's) the 3-D search runs with `light` instead.
     double lightBelow = 0;
+    /// Whether the code-search quantiser (quantiseModel) of wide blocks rounds each axis first in
+    /// turn (or only u, as for narrow blocks).
+    bool roundBothAxes = true;
     /// At or below this error per normal the 3-D search stops (0: only when exact): what more
     /// search could gain is then below the codes' own precision.
     double enoughPerNormal = 0;
@@ -1148,6 +1151,7 @@ NormalSearch fewSearch(AttributeEffort effort) {
     s.modelCodes = {fast ? 1 : 3, 3};
     s.enoughPerNormal = kEnough;
     s.secondAbove = 1.2;
+    s.roundBothAxes = false;  // (the guided code search finds most of what rounding v first does)
     return s;
 }
 
@@ -2014,7 +2018,7 @@ void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, const NormalSear
         CodeSearch codes = wide ? search.modelCodes : (search.enumerateModel ? CodeSearch{} : search.narrowModelCodes);
         codes.enough = enough;
         const NormalState q = search.enumerateModel ? quantiseModelFast(p, all[i].x, all[i].combo, 3, codes)
-                                                    : quantiseModel(p, all[i].x, all[i].combo, wide, codes);
+                                                    : quantiseModel(p, all[i].x, all[i].combo, wide && search.roundBothAxes, codes);
         if (q.error < s.error) s = q;
     }
 }
