@@ -1138,9 +1138,10 @@ struct NormalSearch {
     double earlyBelow = 0;
 };
 
-/// The 3-D search of blocks of at most four distinct directions: Best's quantiser (whose
-/// lattice-line codes and second candidate keep any two directions within about a degree) with
-/// fewer refined candidates for the faster efforts.
+/// The 3-D search of blocks of at most four distinct directions: the code-search quantiser
+/// (quantiseModel, whose lattice-line codes, rounding with the rest refit and second candidate
+/// keep any two directions within about a degree); for the faster efforts with fewer refined
+/// candidates, u rounded first only, and the code search guided.
 NormalSearch fewSearch(AttributeEffort effort) {
     NormalSearch s;
     if (effort == AttributeEffort::Best) return s;

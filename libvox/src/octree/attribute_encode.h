@@ -5,9 +5,10 @@
 // decoders' own arithmetic: squared 8-bit sRGB error for colour, angle for normals. They are
 // deterministic (no randomness, no dependence on threads; the SSE2 kernels and their scalar
 // fallbacks compute the same values). How hard they search is an AttributeEffort: on the real
-// blocks of depth-10 scenes, Default takes about 5–6 µs a block (most of it the normals; Best
-// about 8, the encoder before efforts 9–10.5) for 1–2 % more mean normal error and 0.02 dB less
-// colour PSNR than Best; see docs/esvo-format.md §14.
+// blocks of depth-10 scenes, Default takes 12–32 thousand instructions a normal block (about
+// 1.8–3.4 µs; Best 2–3 times that) for 0–1 % more mean normal error than the Default before it,
+// and 2.5–12 thousand a colour block for at most 0.03 dB less colour PSNR; see
+// docs/esvo-format.md §14.
 #pragma once
 
 #include <vox/formats/esvo_attributes.h>
@@ -19,13 +20,17 @@
 namespace vox::detail {
 
 /// How hard the block encoders search. Best is the full search (the encoder before efforts
-/// existed, output unchanged). Default — what writeEsvo uses — quantises the normals' fits by
-/// enumerating axis codes scored in constant time instead of searching code by code, runs the
-/// 3-D search on fewer blocks and lighter where the face-plane fit is already within 1°, and
-/// tries one colour start pair and one descent pass. Fast also tries two of the six face-plane
-/// starts (none more when the first fits within 0.1°) and the ordered colour fit on fewer blocks.
-/// Blocks of at most four distinct normal directions, single colours and two RGB565 colours
-/// are treated alike by all three (exact cases stay exact).
+/// existed, output unchanged). Default — what writeEsvo uses — fits the normals' face-plane
+/// lattice on the codes (the alternation rounds the axes to their codes at every step) from four
+/// starts, none more where the first is within 0.05°; searches the codes around a quantised 3-D
+/// model guided by its Gauss–Newton quadratic, measuring only the best moves it predicts; stops
+/// every 3-D search once within 0.02° per normal; refines fewer 3-D candidates, lighter where
+/// the face-plane fit is already within 1°; and tries one colour start pair and one descent pass
+/// that steps only towards the least-squares endpoints. Fast tries two face-plane starts (none
+/// more within 0.1°), fewer code-search passes and the ordered colour fit on fewer blocks.
+/// Blocks of at most four distinct normal directions get the code-search 3-D quantiser at
+/// every effort, and single colours and two RGB565 colours are treated alike by all three
+/// (exact cases stay exact).
 using vox::AttributeEffort;  // vox/octree.h
 
 /// Encodes 16 colours (esvo::packColor words, sRGB RGB; alpha ignored) into words 0-1 of a
