@@ -131,29 +131,7 @@ ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint3
     return best;
 }
 
-std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& thickness) {
-    if (encoded == 0) return 0;
-    esvo::Contour c = esvo::Contour::decode(encoded);
-    // Positions are in steps of 0.75, the offsets Σ n·(½ − bit) in steps of 0.5: only whole steps
-    // survive exactly; round the position outward by widening the slab instead.
-    //   centre = 2·position·0.75 + 0.5·S = N/4 with N = 6·position + 2·S (S = ±nx ± ny ± nz)
-    //   new position = lround(centre / 0.75) = nearest integer to N/3 (never a tie)
-    //   reach = thickness·0.75 + |centre − new position·0.75| = R/4, R = 3·thickness + |N − 3·new|
-    //   new thickness = ceil(2·reach / 0.75 − 1e-9) = ceil(2R/3)
-    // all in integers: every one of these doubles is a small multiple of 1/4, exact, and N/3, 2R/3
-    // lie at least 1/3 from the half-integers and integers where the rounding would decide
-    // otherwise (an integer 2R/3 less 1e-9 still has that ceiling).
-    const int s = (slot & 1u ? -c.nx : c.nx) + (slot & 2u ? -c.ny : c.ny) + (slot & 4u ? -c.nz : c.nz);
-    const long n = 6L * c.position + 2L * s;
-    const long position = n >= 0 ? (n + 1) / 3 : -((1 - n) / 3);
-    const long r = 3L * static_cast<long>(c.thickness) + std::abs(n - 3 * position);
-    const long t = (2 * r + 2) / 3;
-    if (position < -64 || position > 63 || t > 127) return 0;
-    c.position = static_cast<int>(position);
-    c.thickness = static_cast<unsigned>(t);
-    thickness = c.thickness * esvo::Contour::kStep / std::sqrt(double(c.nx * c.nx + c.ny * c.ny + c.nz * c.nz));
-    return c.encode();
-}
+std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& thickness) { return ContourCarrier(encoded)(slot, thickness); }
 
 double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
                   double h) {

@@ -8,20 +8,6 @@
 
 namespace vox::detail {
 
-AttributeSums& AttributeSums::operator+=(const AttributeSums& other) {
-    weight += other.weight;
-    color += other.color;
-    alpha += other.alpha;
-    normal += other.normal;
-    emission += other.emission;
-    for (std::size_t i = 0; i < normalMoments.size(); ++i) normalMoments[i] += other.normalMoments[i];
-    if (other.dominantWeight > dominantWeight) {
-        dominantWeight = other.dominantWeight;
-        dominantNormal = other.dominantNormal;
-    }
-    return *this;
-}
-
 std::uint64_t AttributeSums::pack() const {
     if (!(weight > 0)) return esvo::packColor(128, 128, 128) | (std::uint64_t{esvo::encodeNormal({0, 0, 1})} << 32);
     const auto mean = [&](double v) { return static_cast<float>(v / weight); };
@@ -84,11 +70,11 @@ AttributeSums AttributeSampler::filter(const CubeFragments& fragments, std::span
         // its mean. Textures are box-filtered over the fragment itself; a lookup at its centroid
         // with a voxel-wide footprint would reach half a voxel past it.
         const std::array<Vec3d, 3> corners{tri.v0, tri.v1, tri.v2};
+        const BarycentricFrame barycentric(corners);
         scratch.barycentrics.clear();
         if (area > 0 && textured_[sources_[t].mesh])
-            for (const Vec3d& v : poly) scratch.barycentrics.push_back(barycentric(corners, c + v * edge));
-        const SurfaceSample sample =
-            shadeTriangle(scene_, sources_[t], corners, barycentric(corners, c + centroid * edge), edge, scratch.barycentrics);
+            for (const Vec3d& v : poly) scratch.barycentrics.push_back(barycentric(c + v * edge));
+        const SurfaceSample sample = shadeTriangle(scene_, sources_[t], corners, barycentric(c + centroid * edge), edge, scratch.barycentrics);
         const Vec4f& color = sample.color;
         const Vec3d& normal = sample.normal;
         sums.weight += weight;

@@ -37,7 +37,19 @@ struct AttributeSums {
     Vec3d dominantNormal{0, 0, 1};
     double dominantWeight = -1;
 
-    AttributeSums& operator+=(const AttributeSums& other);
+    AttributeSums& operator+=(const AttributeSums& other) {  // inline: once per voxel
+        weight += other.weight;
+        color += other.color;
+        alpha += other.alpha;
+        normal += other.normal;
+        emission += other.emission;
+        for (std::size_t i = 0; i < normalMoments.size(); ++i) normalMoments[i] += other.normalMoments[i];
+        if (other.dominantWeight > dominantWeight) {
+            dominantWeight = other.dominantWeight;
+            dominantNormal = other.dominantNormal;
+        }
+        return *this;
+    }
     /// The voxel's attribute word pair: esvo::packColor (sRGB) | esvo::encodeNormal << 32.
     [[nodiscard]] std::uint64_t pack() const;
 };

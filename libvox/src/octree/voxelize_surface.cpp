@@ -20,7 +20,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <optional>
 #include <span>
 
 namespace vox {
@@ -93,15 +92,20 @@ public:
                    const SurfaceVoxelizeOptions& options, const detail::AttributeSampler* attributes)
         : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), contours_(options.contours), contourError_(options.contourError),
           colorError_(options.colorError), normalError_(options.normalErrorDegrees), attributes_(attributes), childLists_(depth + 1), childSums_(depth + 1),
-          masks_(depth - rootLevel), contourOut_(options.contours ? depth + 1 - rootLevel : 0),
-          attributeOut_(options.attributes ? depth + 1 - rootLevel : 0), keepLeafMaterials_(options.leafMaterials) {}
+          packAttributes_(options.attributes), keepLeafMaterials_(options.leafMaterials) {}
 
     /// Returns the node's mask; a node none of whose children a triangle touches (possible only
     /// where rounding made the parent's test pass) is left out: nothing is appended.
     /// @p slab: the node's effective contour (its own, or its parent's carried down; 0: none).
     /// @p sums: with attributes, receives the node's attribute sums.
+    /// A builder builds one subtree after another (one per thread): each build() starts empty
+    /// outputs, which the caller then takes, and reuses the scratch buffers of the ones before.
     std::uint32_t build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list,
                         std::uint32_t slab = 0, detail::AttributeSums* sums = nullptr) {
+        masks_.assign(depth_ - rootLevel_, {});
+        contourOut_.assign(contours_ ? depth_ + 1 - rootLevel_ : 0, {});
+        attributeOut_.assign(packAttributes_ ? depth_ + 1 - rootLevel_ : 0, {});
+        leafMaterials_.clear();
         // The subtree works on a copy of its triangles in list order (entry i: triangle list[i]),
         // with the per-triangle values of the contour fit computed once here instead of at every
         // voxel; list order is kept, so every sum runs in the same order as over list itself.
@@ -161,6 +165,7 @@ private:
             }
             std::array<std::span<const std::uint32_t>, 8> children;
             for (unsigned slot = 0; slot < 8; ++slot) children[slot] = {buffer.data() + slot * n, counts[slot]};
+            const detail::ContourCarrier carrier(slab);
             const double childHalf = 0.5 * half;
             for (std::uint32_t slot = 0; slot < 8; ++slot) {
                 if (!(touched & (1u << slot))) continue;
@@ -168,7 +173,7 @@ private:
                 const Vec3d childCentre{(2 * cx + 1) * childHalf, (2 * cy + 1) * childHalf, (2 * cz + 1) * childHalf};
                 bool leaf = level + 1 == depth_;
                 std::uint32_t childSlab = 0;
-                std::optional<detail::AttributeSums> filtered;  // the child's, where the attribute criterion computed them
+                bool filtered = false;  // criterionSums_ are the child's, computed by the attribute criterion
                 bool clipped = false;  // contourScratch_.fragments are the child's
                 std::uint32_t ownContour = 0;
                 detail::AttributeSums& childSums = childSums_[level + 1];
@@ -178,7 +183,7 @@ private:
                     // slab its ancestors already impose on it (the ray caster carries theirs);
                     // below a gain's worth of the thinnest encodable slab, no fit can win.
                     double carriedThickness = 0;
-                    const std::uint32_t carried = detail::carryContour(slab, slot, carriedThickness);
+                    const std::uint32_t carried = carrier(slot, carriedThickness);
                     detail::ContourFit fit;
                     if (!(carried && kOwnContourGain * carriedThickness <= kThinnestSlab)) {
                         contourScratch_.fragments.clip(children[slot], local_, childCentre, detail::fitContourScale(childHalf), normalLength_.data());
@@ -196,11 +201,11 @@ private:
                     // slab thicker than twice the error cannot be (one of its planes is too far).
                     if (!leaf && contourError_ > 0 && childSlab && thickness * childHalf <= contourError_ &&
                         detail::shapeError(childSlab, children[slot], local_, childCentre, childHalf) <= contourError_)
-                        leaf = attributesWithinBounds(children[slot], childCentre, childHalf, filtered, clipped);
+                        leaf = attributesWithinBounds(children[slot], childCentre, childHalf, clipped, filtered);
                 }
                 if (leaf) {
                     if (level + 1 < depth_) masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
-                    if (attributes_) childSums = filtered ? *filtered : filter(children[slot], childCentre, childHalf, clipped);
+                    if (attributes_) childSums = filtered ? criterionSums_ : filter(children[slot], childCentre, childHalf, clipped);
                 } else if (buildNode(level + 1, cx, cy, cz, children[slot], childSlab, &childSums) == 0) {
                     continue;
                 }
@@ -221,13 +226,13 @@ private:
 
     /// The attribute criterion of refinement: true where the voxel's own (encoded) colour and
     /// normal represent everything inside it within the bounds, or where there are no bounds.
-    /// @p sums receives the voxel's sums where they were computed.
+    /// criterionSums_ receive the voxel's sums where they were computed (@p computed set).
     /// @p clipped: contourScratch_.fragments are those of @p list in this cube.
-    bool attributesWithinBounds(std::span<const std::uint32_t> list, Vec3d centre, double half, std::optional<detail::AttributeSums>& sums,
-                                bool clipped) {
+    bool attributesWithinBounds(std::span<const std::uint32_t> list, Vec3d centre, double half, bool clipped, bool& computed) {
         if (!attributes_ || (colorError_ <= 0 && normalError_ <= 0)) return true;
-        sums = filter(list, centre, half, clipped);
-        const auto v = attributes_->variation(list, centre, half, sums->pack(), attributeScratch_, view());
+        criterionSums_ = filter(list, centre, half, clipped);
+        computed = true;
+        const auto v = attributes_->variation(list, centre, half, criterionSums_.pack(), attributeScratch_, view());
         return (colorError_ <= 0 || v.color <= colorError_) && (normalError_ <= 0 || v.normalDegrees <= normalError_);
     }
     /// The attribute filter of a voxel, on the contour fit's fragments where it clipped them at
@@ -249,9 +254,11 @@ private:
     const detail::AttributeSampler* attributes_;
     std::vector<std::vector<std::uint32_t>> childLists_;  // per level: the lists of one node's children
     std::vector<detail::AttributeSums> childSums_;        // per level: the sums of the child being built
+    detail::AttributeSums criterionSums_;                 // a child's, where the attribute criterion filtered it
     std::vector<std::vector<std::uint8_t>> masks_;
     std::vector<std::vector<std::uint32_t>> contourOut_;
     std::vector<std::vector<std::uint64_t>> attributeOut_;
+    bool packAttributes_;  // attributeOut_ wanted (SparseOctree::attributes)
     detail::ContourScratch contourScratch_;
     detail::AttributeScratch attributeScratch_;
     bool keepLeafMaterials_;
@@ -396,11 +403,15 @@ detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene, const SurfaceVoxe
 std::vector<detail::CellSubtree> detail::SurfaceVoxelizer::buildCells(std::size_t first, std::size_t last, Progress* progress) const {
     const std::uint32_t k = cellLevel_;
     std::vector<CellSubtree> out(last - first);
+    // One builder per thread, its buffers grown once instead of fresh memory for every cell.
+    tbb::enumerable_thread_specific<SubtreeBuilder> builders(
+        [&] { return SubtreeBuilder(triangles_, depth_, k, options_, sampler_ ? &*sampler_ : nullptr); });
     tbb::parallel_for(tbb::blocked_range<std::size_t>(first, last, 1), [&](const tbb::blocked_range<std::size_t>& r) {
+        SubtreeBuilder& builder = builders.local();
+        std::vector<std::uint32_t> list;
         for (std::size_t c = r.begin(); c != r.end(); ++c) {
             const Cell& cell = cells_[c];
-            std::vector<std::uint32_t> list;
-            list.reserve(cell.end - cell.begin);
+            list.clear();
             for (std::size_t i = cell.begin; i < cell.end; ++i) list.push_back(static_cast<std::uint32_t>(pairs_[i]));
             std::uint32_t x = 0, y = 0, z = 0;
             for (std::uint32_t bit = 0; bit < k; ++bit) {
@@ -410,7 +421,6 @@ std::vector<detail::CellSubtree> detail::SurfaceVoxelizer::buildCells(std::size_
             }
             CellSubtree& subtree = out[c - first];
             subtree.code = cell.code;
-            SubtreeBuilder builder(triangles_, depth_, k, options_, sampler_ ? &*sampler_ : nullptr);
             subtree.occupied = builder.build(k, x, y, z, list, 0, &subtree.sums) != 0;
             subtree.masks = std::move(builder.masks());
             subtree.contours = std::move(builder.contours());

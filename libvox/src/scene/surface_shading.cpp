@@ -44,16 +44,6 @@ std::uint32_t packLinearColor(Vec4f color) {
     return last.word;
 }
 
-Vec3d barycentric(const std::array<Vec3d, 3>& corners, Vec3d p) {
-    const Vec3d e1 = corners[1] - corners[0], e2 = corners[2] - corners[0], vp = p - corners[0];
-    const double d00 = dot(e1, e1), d01 = dot(e1, e2), d11 = dot(e2, e2), d20 = dot(vp, e1), d21 = dot(vp, e2);
-    const double denom = d00 * d11 - d01 * d01;
-    if (!(denom > 0)) return {1.0 / 3, 1.0 / 3, 1.0 / 3};
-    const double b1 = std::clamp((d11 * d20 - d01 * d21) / denom, 0.0, 1.0);
-    const double b2 = std::clamp((d00 * d21 - d01 * d20) / denom, 0.0, 1.0 - b1);
-    return {1 - b1 - b2, b1, b2};
-}
-
 SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std::array<Vec3d, 3>& corners, Vec3d b, double footprint,
                             std::span<const Vec3d> fragment) {
     const Mesh& mesh = scene.meshes[source.mesh];

@@ -5,6 +5,7 @@
 #include <vox/math.h>
 #include <vox/scene.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <span>
@@ -37,8 +38,31 @@ struct SurfaceSample {
 /// and rounded to 8 bits.
 [[nodiscard]] std::uint32_t packLinearColor(Vec4f color);
 
+/// barycentric() for many points of one triangle: what depends on the triangle alone (its edges
+/// and their dot products) computed once, the rest per point exactly as barycentric does it.
+class BarycentricFrame {
+public:
+    explicit BarycentricFrame(const std::array<Vec3d, 3>& corners)
+        : origin_(corners[0]), e1_(corners[1] - corners[0]), e2_(corners[2] - corners[0]), d00_(dot(e1_, e1_)), d01_(dot(e1_, e2_)),
+          d11_(dot(e2_, e2_)), denom_(d00_ * d11_ - d01_ * d01_) {}
+
+    /// The coordinates of @p p (see barycentric).
+    [[nodiscard]] Vec3d operator()(Vec3d p) const {
+        if (!(denom_ > 0)) return {1.0 / 3, 1.0 / 3, 1.0 / 3};
+        const Vec3d vp = p - origin_;
+        const double d20 = dot(vp, e1_), d21 = dot(vp, e2_);
+        const double b1 = std::clamp((d11_ * d20 - d01_ * d21) / denom_, 0.0, 1.0);
+        const double b2 = std::clamp((d00_ * d21 - d01_ * d20) / denom_, 0.0, 1.0 - b1);
+        return {1 - b1 - b2, b1, b2};
+    }
+
+private:
+    Vec3d origin_, e1_, e2_;
+    double d00_, d01_, d11_, denom_;
+};
+
 /// Barycentric coordinates of the point of triangle @p corners nearest to @p p's projection onto
 /// its plane, clamped into the triangle.
-[[nodiscard]] Vec3d barycentric(const std::array<Vec3d, 3>& corners, Vec3d p);
+[[nodiscard]] inline Vec3d barycentric(const std::array<Vec3d, 3>& corners, Vec3d p) { return BarycentricFrame(corners)(p); }
 
 }  // namespace vox::detail
