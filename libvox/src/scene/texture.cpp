@@ -228,70 +228,97 @@ Vec4f Texture::sample(Vec2f uv, float footprint, WrapMode wrapS, WrapMode wrapT)
 
 namespace {
 
-/// A convex polygon in texel units, cut by axis-aligned lines (Texture::integrate).
-struct ClipPolygon {
-    static constexpr std::size_t kCapacity = 20;
-    union {
-        Vec2f v[kCapacity];
-    };
-    std::size_t n = 0;
+/// The area of a polygon inside each cell of a grid of unit cells (texels), from its edges alone,
+/// as exact-area scanline rasterisers find coverage: by Green's theorem the area inside column
+/// [c, c + 1] is the sum over the edges of ∫ clamp(x(y) − c, 0, 1) dy (dy signed; positive for a
+/// counterclockwise polygon), so an edge adds, within each row it crosses, the trapezoid between
+/// itself and the left side of each cell it passes through, and its full height to every cell
+/// left of those (summed along the row at the end). Each edge is cut once per row and column line
+/// it crosses, instead of the polygon once per line with a copy of the rest. Coordinates are
+/// relative to the grid's corner (so within [0, width] × [0, height] up to rounding, what leaves
+/// the grid by rounding counts in its nearest cell), in double: the products of absolute texel
+/// coordinates in float, as the shoelace formula takes them, lose the areas of small pieces.
+class CellCoverage {
+public:
+    static constexpr int kMaxCells = 40;  ///< per axis; integrate's levels keep polygons within 34
 
-    /// The vertices are left uninitialised: integrate builds several polygons per call, and
-    /// zeroing them cost a fifth of it.
-    ClipPolygon() {}
+    /// Cells [0, width) × [0, height), all empty.
+    CellCoverage(int width, int height) : width_(width), height_(height) {
+        std::fill_n(area_.begin(), static_cast<std::size_t>(width * height), 0.0);
+        std::fill_n(cover_.begin(), static_cast<std::size_t>(width * height), 0.0);
+    }
 
-    /// The parts below and above `p[axis] = limit` (both empty of area where the line misses).
-    void split(int axis, float limit, ClipPolygon& below, ClipPolygon& above) const {
-        below.n = above.n = 0;
-        for (std::size_t i = 0; i < n; ++i) {
-            const Vec2f p = v[i], q = v[i + 1 == n ? 0 : i + 1];
-            const float dp = p[axis] - limit, dq = q[axis] - limit;
-            // Rounding can make a cut polygon slightly non-convex; the bound keeps it in the array.
-            if (dp <= 0 && below.n < kCapacity) below.v[below.n++] = p;
-            if (dp >= 0 && above.n < kCapacity) above.v[above.n++] = p;
-            if ((dp > 0 && dq < 0) || (dp < 0 && dq > 0)) {
-                const Vec2f cut = p + (q - p) * (dp / (dp - dq));
-                if (below.n < kCapacity) below.v[below.n++] = cut;
-                if (above.n < kCapacity) above.v[above.n++] = cut;
+    /// Adds the edge from (@p px, @p py) to (@p qx, @p qy).
+    void addEdge(double px, double py, double qx, double qy) {
+        if (py == qy) return;  // horizontal: no height
+        const double sign = py < qy ? 1.0 : -1.0;
+        if (py > qy) {
+            std::swap(px, qx);
+            std::swap(py, qy);
+        }
+        const double slope = (qx - px) / (qy - py);
+        const int end = std::min(ceiling(qy), height_);
+        double ys = py, xs = px;
+        for (int row = cell(py, height_); row < end; ++row) {
+            const double ye = std::min(qy, double(row + 1));
+            const double xe = ye == qy ? qx : px + (ye - py) * slope;
+            if (ye > ys) addRowSegment(row, std::min(xs, xe), std::max(xs, xe), sign * (ye - ys));
+            ys = ye;
+            xs = xe;
+        }
+    }
+
+    /// After the last edge: each cell's signed area (counterclockwise positive).
+    void finish() {
+        for (int row = 0; row < height_; ++row) {
+            double* area = &area_[static_cast<std::size_t>(row * width_)];
+            const double* cover = &cover_[static_cast<std::size_t>(row * width_)];
+            double right = 0;  // the heights of the edge pieces right of the cell
+            for (int c = width_ - 1; c >= 0; --c) {
+                area[c] += right;
+                right += cover[c];
             }
         }
     }
-
-    [[nodiscard]] float area() const {
-        float twice = 0;  // shoelace
-        for (std::size_t i = 0; i < n; ++i) {
-            const Vec2f p = v[i], q = v[i + 1 == n ? 0 : i + 1];
-            twice += p.x * q.y - q.x * p.y;
-        }
-        return 0.5f * std::abs(twice);
-    }
-};
-
-/// A polygon cut into strips along one axis, lowest first, by lines at the integers: the part
-/// left over lives in two buffers taken in turn, so no cut copies a polygon.
-class StripCutter {
-public:
-    explicit StripCutter(const ClipPolygon& polygon) : rest_(&polygon) {}
-    [[nodiscard]] bool empty() const { return rest_ == nullptr || rest_->n == 0; }
-    /// The part below `p[axis] = limit`, the rest kept; at the last line (limit = end) all that is left.
-    const ClipPolygon& next(int axis, int limit, int end) {
-        if (limit >= end) {
-            const ClipPolygon* last = rest_;
-            rest_ = nullptr;
-            return *last;
-        }
-        ClipPolygon& above = spare_[turn_];
-        turn_ ^= 1;
-        rest_->split(axis, float(limit), piece_, above);
-        rest_ = &above;
-        return piece_;
-    }
+    [[nodiscard]] double area(int column, int row) const { return area_[static_cast<std::size_t>(row * width_ + column)]; }
 
 private:
-    const ClipPolygon* rest_;
-    ClipPolygon piece_;
-    std::array<ClipPolygon, 2> spare_;
-    unsigned turn_ = 0;
+    /// The cell of coordinate @p v ≥ 0 (its integer part; 0 below, by rounding), at most @p count − 1.
+    static int cell(double v, int count) { return std::min(static_cast<int>(std::max(v, 0.0)), count - 1); }
+    /// ⌈v⌉ for v ≥ 0.
+    static int ceiling(double v) {
+        const int whole = static_cast<int>(std::max(v, 0.0));
+        return whole + (v > whole ? 1 : 0);
+    }
+
+    /// A piece of an edge within one row, spanning x from @p lo to @p hi while rising @p height
+    /// (signed): per column it passes, the trapezoid to the column's left side and its height.
+    void addRowSegment(int row, double lo, double hi, double height) {
+        double* area = &area_[static_cast<std::size_t>(row * width_)];
+        double* cover = &cover_[static_cast<std::size_t>(row * width_)];
+        const int first = cell(lo, width_), last = std::max(std::min(ceiling(hi), width_) - 1, first);
+        if (first == last) {
+            area[first] += height * (0.5 * (lo + hi) - first);
+            cover[first] += height;
+            return;
+        }
+        // Across columns the edge rises in proportion to x: its first and last columns hold what
+        // it crosses of them, the ones between a whole unit each.
+        const double perX = height / (hi - lo);
+        const double enter = (first + 1 - lo) * perX, leave = (hi - last) * perX;
+        area[first] += enter * 0.5 * (lo - first + 1);
+        cover[first] += enter;
+        for (int c = first + 1; c < last; ++c) {
+            area[c] += 0.5 * perX;
+            cover[c] += perX;
+        }
+        area[last] += leave * 0.5 * (hi - last);
+        cover[last] += leave;
+    }
+
+    int width_, height_;
+    std::array<double, kMaxCells * kMaxCells> area_;   // per cell; until finish(), without the heights from the right
+    std::array<double, kMaxCells * kMaxCells> cover_;  // per cell: the heights of the edge pieces in it
 };
 
 }  // namespace
@@ -326,28 +353,43 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
         const int tx = wrapIndex(x, l.width, wrapS), ty = wrapIndex(y, l.height, wrapT);
         return decodeTexel(l.rgba.data() + (static_cast<std::size_t>(ty) * l.width + tx) * 4, srgb);
     };
-    // A triangle clipped to a cube has at most 9 vertices; each cut adds at most one more.
-    ClipPolygon rest;
-    rest.n = std::min<std::size_t>(polygon.size(), 12);
-    for (std::size_t i = 0; i < rest.n; ++i) rest.v[i] = {polygon[i].x * static_cast<float>(l.width), polygon[i].y * static_cast<float>(l.height)};
+    // The polygon in texel units relative to the grid's corner (double: float products of absolute
+    // texel coordinates, as the shoelace formula takes them, are too coarse for a texel's area);
+    // a triangle clipped to a cube has at most 9 vertices.
+    struct Point {
+        double x, y;
+    };
+    std::array<Point, 12> points;
+    const std::size_t n = std::min<std::size_t>(polygon.size(), points.size());
+    double twiceArea = 0;  // signed: the polygon's orientation
+    for (std::size_t i = 0; i < n; ++i)
+        points[i] = {double(polygon[i].x * static_cast<float>(l.width)) - x0, double(polygon[i].y * static_cast<float>(l.height)) - y0};
+    for (std::size_t i = 0; i < n; ++i) {
+        const Point p = points[i], q = points[i + 1 == n ? 0 : i + 1];
+        twiceArea += p.x * q.y - q.x * p.y;
+    }
     // Most fragments of a fine voxelization lie within one texel: its value, where the polygon has area.
-    if (x1 == x0 + 1 && y1 == y0 + 1) return rest.area() > 0 ? texelAt(x0, y0) : sample(mean, 0, wrapS, wrapT);
+    if (x1 == x0 + 1 && y1 == y0 + 1) return twiceArea != 0 ? texelAt(x0, y0) : sample(mean, 0, wrapS, wrapT);
+    if (x1 - x0 > CellCoverage::kMaxCells || y1 - y0 > CellCoverage::kMaxCells) return sample(mean, 0, wrapS, wrapT);  // unreachable (see above)
 
-    // Otherwise the polygon is cut into rows of texels and each row into texels, one
-    // Sutherland–Hodgman pass per cut line (not four per texel): the rows' and texels' areas
-    // weight the texels.
+    // Otherwise the texels weigh by the areas of the polygon inside them.
+    const int width = x1 - x0, height = y1 - y0;
+    CellCoverage coverage(width, height);
+    for (std::size_t i = 0; i < n; ++i) {
+        const Point p = points[i], q = points[i + 1 == n ? 0 : i + 1];
+        coverage.addEdge(p.x, p.y, q.x, q.y);
+    }
+    coverage.finish();
+    const double orientation = twiceArea < 0 ? -1.0 : 1.0;
     Vec4f sum{0, 0, 0, 0};
     float total = 0;
-    StripCutter rows(rest);
-    for (int y = y0; y < y1 && !rows.empty(); ++y) {
-        StripCutter cells(rows.next(1, y + 1, y1));
-        for (int x = x0; x < x1 && !cells.empty(); ++x) {
-            const float area = cells.next(0, x + 1, x1).area();
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            const auto area = static_cast<float>(orientation * coverage.area(x, y));
             if (!(area > 0)) continue;
-            sum = sum + texelAt(x, y) * area;
+            sum = sum + texelAt(x0 + x, y0 + y) * area;
             total += area;
         }
-    }
     if (!(total > 0)) return sample(mean, 0, wrapS, wrapT);
     return sum * (1.0f / total);
 }
