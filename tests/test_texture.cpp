@@ -114,6 +114,10 @@ TEST(Texture, SrgbCodeIsTheRoundedTransferFunction) {
         }
     }
     EXPECT_EQ(steps, 255);
+    // srgbCode looks its code up by buckets of 1/4096 and takes at most one step from a bucket's
+    // first code: no bucket may hold two steps.
+    for (int b = 0; b < 4096; ++b)
+        ASSERT_LE(direct(std::nextafter(static_cast<float>(b + 1) / 4096.0f, 0.0f)) - direct(static_cast<float>(b) / 4096.0f), 1) << b;
     EXPECT_EQ(vox::srgbCode(-1.0f), 0);
     EXPECT_EQ(vox::srgbCode(0.5f), 188);
     EXPECT_EQ(vox::srgbCode(2.0f), 255);
