@@ -418,6 +418,13 @@ TEST(TriangleBox, ContourFitOnSharedFragmentsEqualsTheReference) {
         const auto cached = vox::detail::fitContour(withLengths, list, tris, {lengths.data(), units.data()});
         ASSERT_EQ(cached.encoded, expected.encoded) << "trial " << trial;
         ASSERT_EQ(cached.thickness, expected.thickness) << "trial " << trial;
+        // With the unit normals quantised per triangle too (and a lone fragment's mean taken from
+        // them where that is scale-invariant): the same fit.
+        std::vector<vox::detail::QuantisedNormal> quantised;
+        for (const Vec3d& unit : units) quantised.push_back(vox::detail::quantiseDirection(unit));
+        const auto quantisedOnce = vox::detail::fitContour(withLengths, list, tris, {lengths.data(), units.data(), quantised.data()});
+        ASSERT_EQ(quantisedOnce.encoded, expected.encoded) << "trial " << trial;
+        ASSERT_EQ(quantisedOnce.thickness, expected.thickness) << "trial " << trial;
         fitted += expected.encoded != 0;
     }
     EXPECT_GT(fitted, 2000);

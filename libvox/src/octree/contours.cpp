@@ -26,6 +26,10 @@ std::array<int, 3> quantiseNormal(Vec3d m) {
             static_cast<int>(roundHalfAway(31 * m.z / largest))};
 }
 
+/// Fragment areas (in the cube's local frame) above which a scale-invariant quantisation holds
+/// for the fragment's area-weighted normal: far from subnormal products.
+constexpr double kNormalArea = 1e-100;
+
 /// Encodes the slab along @p n covering every point; 0 if it cannot be represented.
 /// @p norm: std::sqrt(double(|n|²)).
 std::uint32_t encodeSlab(const std::array<int, 3>& n, double norm, std::span<const Vec3d> points, double& thickness) {
@@ -70,6 +74,19 @@ double pointTriangleDistance(Vec3d p, Vec3d a, Vec3d b, Vec3d c) {
 
 }  // namespace
 
+QuantisedNormal quantiseDirection(Vec3d direction) {
+    QuantisedNormal q;
+    q.n = quantiseNormal(direction);
+    q.norm = std::sqrt(double(q.n[0] * q.n[0] + q.n[1] * q.n[1] + q.n[2] * q.n[2]));
+    const double largest = std::max({std::abs(direction.x), std::abs(direction.y), std::abs(direction.z)});
+    q.scaleInvariant = largest > 0;
+    for (const double v : {direction.x, direction.y, direction.z}) {
+        const double scaled = std::abs(31 * v / largest);
+        q.scaleInvariant = q.scaleInvariant && std::abs(scaled - std::floor(scaled) - 0.5) > 1e-9;
+    }
+    return q;
+}
+
 ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c, double h,
                       ContourScratch& scratch) {
     scratch.fragments.clip(list, triangles, c, fitContourScale(h));
@@ -81,9 +98,11 @@ ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint3
     Vec3d mean{0, 0, 0};
     struct Candidate {
         double area;
+        std::uint32_t triangle;
         Vec3d normal;
     };
     std::array<Candidate, 3> largest{};
+    std::size_t weighed = 0;  // entries in the mean
     for (std::size_t entry = 0; entry < list.size(); ++entry) {
         const std::uint32_t t = list[entry];
         // Fragment area (fan) weighs the triangle's unit normal.
@@ -94,10 +113,11 @@ ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint3
         if (!(nl > 0)) continue;
         const Vec3d unit = normals.unit ? normals.unit[t] : tri.normal * (1.0 / nl);
         mean = mean + unit * area;
+        ++weighed;
         if (area > largest[2].area) {
             std::size_t i = 2;
             for (; i > 0 && area > largest[i - 1].area; --i) largest[i] = largest[i - 1];
-            largest[i] = {area, unit};
+            largest[i] = {area, t, unit};
         }
     }
     ContourFit best;
@@ -107,27 +127,33 @@ ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint3
     // A quantised normal met before gives the same slab and ratio again, which cannot beat itself.
     std::array<std::array<int, 3>, 4> tried;
     std::size_t triedCount = 0;
-    const auto consider = [&](Vec3d direction) {
-        const auto n = quantiseNormal(direction);
+    const auto consider = [&](const QuantisedNormal& q) {
+        const auto& n = q.n;
         if (n[0] == 0 && n[1] == 0 && n[2] == 0) return;
         for (std::size_t i = 0; i < triedCount; ++i)
             if (tried[i] == n) return;
         tried[triedCount++] = n;
         double thickness = 0;
-        const double norm = std::sqrt(double(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]));
-        const std::uint32_t encoded = encodeSlab(n, norm, points, thickness);
+        const std::uint32_t encoded = encodeSlab(n, q.norm, points, thickness);
         if (!encoded) return;
-        const double extent = (std::abs(n[0]) + std::abs(n[1]) + std::abs(n[2])) / norm;
+        const double extent = (std::abs(n[0]) + std::abs(n[1]) + std::abs(n[2])) / q.norm;
         const double ratio = thickness / extent;
         if (ratio < bestRatio) {
             bestRatio = ratio;
             best = {encoded, thickness};
         }
     };
-    consider(mean);
+    const auto quantiseFragment = [&](const Candidate& cand) {  // what quantiseDirection(cand.normal) gives
+        return normals.quantised ? normals.quantised[cand.triangle] : quantiseDirection(cand.normal);
+    };
+    // One fragment's mean is its normal times its area, which quantises as the normal does where
+    // that is scale-invariant.
+    const bool oneFragment = weighed == 1 && normals.quantised && normals.quantised[largest[0].triangle].scaleInvariant &&
+                             largest[0].area > kNormalArea;
+    consider(oneFragment ? quantiseFragment(largest[0]) : quantiseDirection(mean));
     // The mean normal is enough for smooth patches; edges and corners need the others.
     for (const Candidate& cand : largest)
-        if (cand.area > 0 && bestRatio > 0.1) consider(cand.normal);
+        if (cand.area > 0 && bestRatio > 0.1) consider(quantiseFragment(cand));
     return best;
 }
 

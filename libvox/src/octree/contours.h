@@ -33,11 +33,25 @@ struct ContourFit {
 /// quantisation. Returns encoded 0 when no slab is thinner than 90 % of the cube along it.
 [[nodiscard]] ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
                                     double h, ContourScratch& scratch);
+/// A direction quantised to a contour normal (scaled so that its largest component is ±31 and
+/// rounded), as the fit's candidates are.
+struct QuantisedNormal {
+    std::array<int, 3> n{};
+    double norm = 0;  ///< std::sqrt(double(|n|²))
+    /// Its direction times any (normal, not tiny) positive factor quantises to it too: no scaled
+    /// component lies within 10⁻⁹ of a rounding tie, far beyond what the factor's rounding moves.
+    bool scaleInvariant = false;
+};
+/// @p direction quantised (zero: all zero).
+[[nodiscard]] QuantisedNormal quantiseDirection(Vec3d direction);
+
 /// Per triangle, what the fit would otherwise recompute at every voxel, computed as it computes
-/// them: length[t] = length(normal), unit[t] = normal · (1 / length[t]) where length[t] > 0.
+/// them: length[t] = length(normal), unit[t] = normal · (1 / length[t]) where length[t] > 0, and
+/// quantised[t] = quantiseDirection(unit[t]) there.
 struct TriangleNormals {
     const double* length = nullptr;
     const Vec3d* unit = nullptr;
+    const QuantisedNormal* quantised = nullptr;  ///< null, or with length and unit
 };
 
 /// fitContour on fragments already clipped (CubeFragments::clip at scale fitContourScale(h)) from

@@ -113,10 +113,12 @@ public:
         global_.assign(list.begin(), list.end());
         normalLength_.clear();
         unitNormal_.clear();
+        quantisedNormal_.clear();
         rootList_.clear();
         local_.reserve(list.size());
         normalLength_.reserve(list.size());
         unitNormal_.reserve(list.size());
+        quantisedNormal_.reserve(list.size());
         rootList_.reserve(list.size());
         for (const std::uint32_t t : list) {
             const BoxTestTriangle& tri = triangles_[t];
@@ -125,6 +127,7 @@ public:
             local_.push_back(tri);
             normalLength_.push_back(nl);
             unitNormal_.push_back(nl > 0 ? tri.normal * (1.0 / nl) : Vec3d{0, 0, 0});
+            quantisedNormal_.push_back(detail::quantiseDirection(unitNormal_.back()));
         }
         return buildNode(level, x, y, z, rootList_, slab, sums);
     }
@@ -188,7 +191,7 @@ private:
                     if (!(carried && kOwnContourGain * carriedThickness <= kThinnestSlab)) {
                         contourScratch_.fragments.clip(children[slot], local_, childCentre, detail::fitContourScale(childHalf), normalLength_.data());
                         clipped = true;
-                        fit = detail::fitContour(contourScratch_.fragments, children[slot], local_, {normalLength_.data(), unitNormal_.data()});
+                        fit = detail::fitContour(contourScratch_.fragments, children[slot], local_, {normalLength_.data(), unitNormal_.data(), quantisedNormal_.data()});
                     }
                     double thickness = carriedThickness;
                     childSlab = carried;
@@ -267,6 +270,7 @@ private:
     std::vector<std::uint32_t> global_;       // local_[i] is triangles_[global_[i]]
     std::vector<double> normalLength_;        // per local_ triangle: length(normal)
     std::vector<Vec3d> unitNormal_;           // per local_ triangle: normal / length (0 where degenerate)
+    std::vector<detail::QuantisedNormal> quantisedNormal_;  // per local_ triangle: its unit normal quantised
     std::vector<std::uint32_t> rootList_;     // 0 … local_.size() − 1
 };
 
