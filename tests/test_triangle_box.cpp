@@ -3,7 +3,9 @@
 // must equal the reference mask bit for bit, and away from the rounding margin (or exactly on a
 // shared boundary: closed cubes, touching counts) the eight single-cube tests too; the clipper
 // must give the reference polygon coordinate for coordinate, and the contour fit on shared
-// fragments the reference fit. These are what keep the voxelizer's output byte-identical.
+// fragments the reference fit. These are what keep the voxelizer's output byte-identical. A
+// voxel's fragments split from its parent's must equal its triangles clipped directly within
+// rounding (the split cuts in coarser frames; docs/esvo-format.md §14).
 #include "octree/contours.h"
 #include "octree/triangle_box.h"
 
@@ -428,6 +430,90 @@ TEST(TriangleBox, ContourFitOnSharedFragmentsEqualsTheReference) {
         fitted += expected.encoded != 0;
     }
     EXPECT_GT(fitted, 2000);
+}
+
+TEST(TriangleBox, SplitFragmentsEqualDirectlyClippedOnesWithinRounding) {
+    // The builder's fragments of a voxel come from its parent's, split by the parent's mid-planes
+    // (CubeFragments::splitInto), two levels down here: each must be the triangle clipped to the
+    // voxel's cube directly, up to rounding (the same boundary, whatever the order of its vertices,
+    // their repeats or extra ones on an edge, and its area), or, both without area, a contact.
+    TriangleSource source(8);
+    std::mt19937 rng(9);
+    constexpr double kTolerance = 1e-11;  // local units (the cube's edge is 1)
+    // Every vertex of one on the other's boundary (a cut can leave an extra vertex on an edge).
+    const auto onSegment = [&](Vec3d p, Vec3d a, Vec3d b) {
+        const Vec3d ab = b - a;
+        const double t = vox::dot(ab, ab) > 0 ? std::clamp(vox::dot(p - a, ab) / vox::dot(ab, ab), 0.0, 1.0) : 0.0;
+        return vox::length(p - (a + ab * t)) <= kTolerance;
+    };
+    const auto covers = [&](std::span<const Vec3d> from, std::span<const Vec3d> to) {
+        return std::ranges::all_of(from, [&](Vec3d p) {
+            for (std::size_t i = 0; i < to.size(); ++i)
+                if (onSegment(p, to[i], to[(i + 1) % to.size()])) return true;
+            return false;
+        });
+    };
+    long compared = 0, cut = 0, contacts = 0;
+    std::vector<std::array<vox::detail::CubeFragments, 8>> levels(2);
+    for (int trial = 0; trial < 30000; ++trial) {
+        const auto [c, h] = source.cube();
+        std::vector<BoxTestTriangle> tris;
+        for (int t = 0, count = 1 + static_cast<int>(rng() % 8); t < count; ++t) tris.push_back(source.next(c, h));
+        std::vector<std::uint32_t> list;
+        for (std::uint32_t t = 0; t < tris.size(); ++t)
+            if (vox::detail::triangleOverlapsCube(tris[t], c, h)) list.push_back(t);
+        vox::detail::CubeFragments parent;
+        parent.clip(list, tris, c, vox::detail::fitContourScale(h));
+        // Down to a random child and grandchild: compare every child of each.
+        Vec3d centre = c;
+        double half = h;
+        vox::detail::CubeFragments* fragments = &parent;
+        for (std::size_t depth = 0; depth < levels.size() && !list.empty(); ++depth) {
+            std::array<std::vector<std::uint32_t>, 8> children;
+            std::vector<std::uint32_t> masks;
+            for (const std::uint32_t t : list) {
+                masks.push_back(vox::detail::childOverlapMask(tris[t], centre, half));
+                for (std::uint32_t slot = 0; slot < 8; ++slot)
+                    if (masks.back() & (1u << slot)) children[slot].push_back(t);
+            }
+            for (std::uint32_t slot = 0; slot < 8; ++slot) levels[depth][slot].start(children[slot].size());
+            for (std::size_t entry = 0; entry < list.size(); ++entry)
+                if (masks[entry]) fragments->splitInto(entry, masks[entry], levels[depth]);
+            const double q = 0.5 * half;
+            for (std::uint32_t slot = 0; slot < 8; ++slot) {
+                const Vec3d childCentre{centre.x + (slot & 1u ? q : -q), centre.y + (slot & 2u ? q : -q), centre.z + (slot & 4u ? q : -q)};
+                vox::detail::CubeFragments direct;
+                direct.clip(children[slot], tris, childCentre, vox::detail::fitContourScale(q));
+                const vox::detail::CubeFragments& split = levels[depth][slot];
+                ASSERT_EQ(split.size(), children[slot].size());
+                for (std::size_t entry = 0; entry < children[slot].size(); ++entry) {
+                    const auto a = split.polygon(entry), b = direct.polygon(entry);
+                    ASSERT_NEAR(split.area(entry), direct.area(entry), kTolerance) << "trial " << trial << " depth " << depth << " slot " << slot;
+                    if (std::max(split.area(entry), direct.area(entry)) <= kTolerance) {
+                        // A contact without area (a touching edge or vertex, or nothing within the
+                        // box test's margin): its points may differ with the order of the cuts.
+                        ++contacts;
+                        continue;
+                    }
+                    ASSERT_TRUE(covers(a, b) && covers(b, a)) << "trial " << trial << " depth " << depth << " slot " << slot << " entry " << entry;
+                    ++compared;
+                    cut += b.size() != 3;
+                }
+            }
+            // On to a touched child.
+            std::uint32_t slot = static_cast<std::uint32_t>(rng() % 8);
+            for (int tries = 0; tries < 8 && children[slot].empty(); ++tries) slot = (slot + 1) % 8;
+            const double quarter = 0.5 * half;
+            centre = {centre.x + (slot & 1u ? quarter : -quarter), centre.y + (slot & 2u ? quarter : -quarter),
+                      centre.z + (slot & 4u ? quarter : -quarter)};
+            half = quarter;
+            list = children[slot];
+            fragments = &levels[depth][slot];
+        }
+    }
+    EXPECT_GT(compared, 200000);
+    EXPECT_GT(cut, 50000);
+    EXPECT_LT(contacts, compared);  // the source makes many touching and degenerate triangles on purpose
 }
 
 TEST(TriangleBox, CarryContourEqualsTheReference) {

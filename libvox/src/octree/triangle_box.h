@@ -256,13 +256,99 @@ inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec
     out.insert(out.end(), bufferA.begin(), bufferA.begin() + static_cast<std::ptrdiff_t>(n));
 }
 
+namespace clip_detail {
+
+/// Room for one polygon: a triangle cut by a cube's six faces has at most 9 vertices.
+inline constexpr std::size_t kPolygonRoom = 12;
+
+/// A polygon in a scratch buffer or in CubeFragments; whole: it is the polygon it was split from.
+struct Part {
+    const Vec3d* v = nullptr;
+    std::size_t n = 0;
+    bool whole = true;
+};
+
+/// Room for either side of a split polygon: every vertex and every crossing (a convex polygon
+/// has two, one bent by rounding a few more), before it is cut back to kPolygonRoom.
+inline constexpr std::size_t kSplitRoom = 2 * kPolygonRoom;
+
+/// One Sutherland–Hodgman pass of @p in against the plane p[Axis] = 0 that keeps both sides: a
+/// vertex on the plane goes to both, an edge crossing it strictly adds its cut point (on the plane
+/// exactly) to both; either side keeps at most its first kPolygonRoom vertices. A side that the
+/// pass would leave unchanged (no vertex strictly beyond the plane) is @p in itself, not a copy.
+/// The buffers have kSplitRoom vertices of room.
+template <int Axis>
+inline void splitAtMidPlane(const Part& in, Vec3d* lowBuffer, Vec3d* highBuffer, Part& low, Part& high) {
+    std::array<double, kPolygonRoom> d;
+    double lowest = std::numeric_limits<double>::infinity(), highest = -lowest;
+    for (std::size_t i = 0; i < in.n; ++i) {
+        d[i] = coordinate<Axis>(in.v[i]);
+        lowest = std::min(lowest, d[i]);
+        highest = std::max(highest, d[i]);
+    }
+    if (!(lowest < 0 && highest > 0)) {
+        // Every vertex on one side or on the plane: that side is the polygon, the other what lies
+        // on the plane (a touching edge or vertex; nothing if none does).
+        const bool above = highest > 0;
+        Part& same = above ? high : low;
+        Part& other = above ? low : high;
+        same = in;
+        Vec3d* out = above ? lowBuffer : highBuffer;
+        std::size_t m = 0;
+        if ((above ? lowest : highest) == 0)
+            for (std::size_t i = 0; i < in.n; ++i)
+                if (d[i] == 0) out[m++] = in.v[i];
+        other = {out, m, m == in.n && in.whole};
+        return;
+    }
+    std::size_t nl = 0, nh = 0;
+    for (std::size_t i = 0; i < in.n; ++i) {
+        const std::size_t j = i + 1 == in.n ? 0 : i + 1;
+        const double dp = d[i], dq = d[j];
+        // Stored always, kept where on the side (fewer branches than testing first).
+        lowBuffer[nl] = in.v[i];
+        nl += dp <= 0;
+        highBuffer[nh] = in.v[i];
+        nh += dp >= 0;
+        if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) {
+            Vec3d cut = in.v[i] + (in.v[j] - in.v[i]) * (dp / (dp - dq));
+            if constexpr (Axis == 0) cut.x = 0;
+            else if constexpr (Axis == 1) cut.y = 0;
+            else cut.z = 0;
+            lowBuffer[nl++] = cut;
+            highBuffer[nh++] = cut;
+        }
+    }
+    // Rounding can make a cut polygon slightly non-convex; the bound keeps it in its room.
+    low = {lowBuffer, std::min(nl, kPolygonRoom), false};
+    high = {highBuffer, std::min(nh, kPolygonRoom), false};
+}
+
+/// Writes the fan areas of polygon @p p (@p n vertices) to @p fan (fan[j] = 0.5·|(p[j−1] − p[0]) ×
+/// (p[j] − p[0])| from j = 2, 0 before) and returns their sum in order.
+inline double fanAreas(const Vec3d* p, std::size_t n, double* fan) {
+    fan[0] = 0;
+    fan[1] = 0;
+    double sum = 0;
+    for (std::size_t i = 2; i < n; ++i) {
+        const double a = 0.5 * length(cross(p[i - 1] - p[0], p[i] - p[0]));
+        fan[i] = a;
+        sum += a;
+    }
+    return sum;
+}
+
+}  // namespace clip_detail
+
 /// The polygons that the triangles of a list cut out of one cube, in the cube's local frame
 /// ([−½, ½]³, reached by (p − c)·toLocal), with their fan areas: what the contour fit and the
-/// attribute filter both read, so that a voxel that needs both clips its triangles once.
+/// attribute filter both read, so that a voxel that needs both has its fragments once. They come
+/// from clipping the triangles to the cube (clip), or from the fragments of the cube's parent,
+/// split by its mid-planes (splitInto).
 class CubeFragments {
 public:
     /// Every polygon's vertices, one polygon after another.
-    [[nodiscard]] std::span<const Vec3d> points() const { return {points_.data(), pointCount_}; }
+    [[nodiscard]] std::span<const Vec3d> points() const { return {points_.data(), begin_[entries_]}; }
     /// Entry @p entry's polygon (its list entry's).
     [[nodiscard]] std::span<const Vec3d> polygon(std::size_t entry) const {
         return {points_.data() + begin_[entry], points_.data() + begin_[entry + 1]};
@@ -272,8 +358,15 @@ public:
     [[nodiscard]] const double* fanArea(std::size_t entry) const { return fanArea_.data() + begin_[entry]; }
     /// Entry @p entry's polygon area: the sum of its fan areas in order.
     [[nodiscard]] double area(std::size_t entry) const { return area_[entry]; }
-    /// True if these are the fragments of @p c at @p scale (for a list the caller vouches for).
-    [[nodiscard]] bool of(Vec3d c, double scale) const { return valid_ && centre_ == c && toLocal_ == scale; }
+    /// Entries so far.
+    [[nodiscard]] std::size_t size() const { return entries_; }
+
+    /// Empties these fragments, with room for @p entries polygons appended in list order.
+    void start(std::size_t entries) {
+        if (entries >= entryRoom_) grow(entries);
+        entries_ = 0;
+        begin_[0] = 0;
+    }
 
     /// Clips the triangles @p list of @p triangles to the cube of centre @p c, scaled by @p scale
     /// (1 / the cube's edge, a power of two).
@@ -291,67 +384,103 @@ public:
     }
     void clip(std::span<const std::uint32_t> list, const BoxTestTriangle* triangles, Vec3d c, double scale,
               const double* normalLength = nullptr) {
-        centre_ = c;
-        toLocal_ = scale;
-        valid_ = true;
-        // Room for the largest polygons (9 vertices) without a check per vertex; never shrunk.
-        const std::size_t room = 12 * list.size() + 12;
-        if (points_.size() < room) {
-            points_.resize(room);
-            fanArea_.resize(room);
-        }
-        if (begin_.size() < list.size() + 1) {
-            begin_.resize(list.size() + 1);
-            area_.resize(list.size() + 1);
-        }
-        Vec3d* points = points_.data();
-        double* fan = fanArea_.data();
+        start(list.size());
         const double h3 = 1.5 / scale;  // 3h
         const bool shortcut = normalLength != nullptr && c.x >= h3 && c.y >= h3 && c.z >= h3;
         const double halfScale2 = 0.5 * scale * scale;
-        std::size_t count = 0;
-        for (std::size_t entry = 0; entry < list.size(); ++entry) {
-            const std::uint32_t t = list[entry];
+        for (const std::uint32_t t : list) {
             const BoxTestTriangle& tri = triangles[t];
-            begin_[entry] = static_cast<std::uint32_t>(count);
             const Vec3d p0 = (tri.v0 - c) * scale, p1 = (tri.v1 - c) * scale, p2 = (tri.v2 - c) * scale;
-            Vec3d* out = points + count;
-            fan[count] = 0;
-            fan[count + 1] = 0;
+            Vec3d* out = points_.data() + begin_[entries_];
             if (insideUnitCube(p0) && insideUnitCube(p1) && insideUnitCube(p2)) {  // as clipTriangleToUnitCube: unclipped
                 out[0] = p0;
                 out[1] = p1;
                 out[2] = p2;
-                const double a = shortcut ? normalLength[t] * halfScale2 : 0.5 * length(cross(p1 - p0, p2 - p0));
-                fan[count + 2] = a;
-                area_[entry] = a;
-                count += 3;
+                double* fan = fanArea_.data() + begin_[entries_];
+                fan[0] = 0;
+                fan[1] = 0;
+                fan[2] = shortcut ? normalLength[t] * halfScale2 : 0.5 * length(cross(p1 - p0, p2 - p0));
+                append(3, fan[2]);
                 continue;
             }
             const std::size_t n = clipTriangleToUnitCube(p0, p1, p2, out, clipB_.data());  // room is 12 per triangle
-            double sum = 0;
-            for (std::size_t i = 2; i < n; ++i) {
-                const double a = 0.5 * length(cross(out[i - 1] - out[0], out[i] - out[0]));
-                fan[count + i] = a;
-                sum += a;
-            }
-            area_[entry] = sum;
-            count += n;
+            append(n, clip_detail::fanAreas(out, n, fanArea_.data() + begin_[entries_]));
         }
-        begin_[list.size()] = static_cast<std::uint32_t>(count);
-        pointCount_ = count;
+    }
+
+    /// Appends to @p children[s], for every child slot s in @p mask (bit 0 of a slot: the +x
+    /// half, bit 1: +y, bit 2: +z), the part of entry @p entry's polygon inside child s's cube,
+    /// in that child's local frame: the polygon split by this cube's three mid-planes
+    /// (clip_detail::splitAtMidPlane, x, then y, then z) and mapped by p ↦ 2p ∓ ½. The children
+    /// in @p mask must have been started. A part the planes leave whole keeps this
+    /// polygon's fan areas × 4 (exact); a cut part's are computed afresh.
+    ///
+    /// The same polygon as clipping the triangle to the child's cube directly, but with its cuts
+    /// made in the ancestors' frames and the mapping rounded (2p ∓ ½ is exact only for |2p| ≥ ¼),
+    /// so its coordinates can differ by a few units in the last place of the coarsest frame that
+    /// cut them (docs/esvo-format.md §14, "Fragments from the parent's").
+    void splitInto(std::size_t entry, std::uint32_t mask, std::array<CubeFragments, 8>& children) {
+        using clip_detail::Part;
+        const Part whole{points_.data() + begin_[entry], begin_[entry + 1] - begin_[entry], true};
+        const double* fan = fanArea_.data() + begin_[entry];
+        const double area = area_[entry];
+        Part halves[2], quarters[2], eighths[2];
+        clip_detail::splitAtMidPlane<0>(whole, split_[0].data(), split_[1].data(), halves[0], halves[1]);
+        for (std::uint32_t x = 0; x < 2; ++x) {
+            if (!(mask & (x ? 0xAAu : 0x55u))) continue;
+            clip_detail::splitAtMidPlane<1>(halves[x], split_[2].data(), split_[3].data(), quarters[0], quarters[1]);
+            for (std::uint32_t y = 0; y < 2; ++y) {
+                if (!(mask & ((x ? 0xAAu : 0x55u) & (y ? 0xCCu : 0x33u)))) continue;
+                clip_detail::splitAtMidPlane<2>(quarters[y], split_[4].data(), split_[5].data(), eighths[0], eighths[1]);
+                for (std::uint32_t z = 0; z < 2; ++z) {
+                    const std::uint32_t slot = x | y << 1 | z << 2;
+                    if (mask & (1u << slot)) children[slot].appendPart(eighths[z], slot, fan, area);
+                }
+            }
+        }
     }
 
 private:
+    /// Room for the largest polygons of @p entries entries without a check per vertex; never shrunk.
+    void grow(std::size_t entries) {
+        const std::size_t room = clip_detail::kPolygonRoom * (entries + 1);
+        points_.resize(room);
+        fanArea_.resize(room);
+        begin_.resize(entries + 1);
+        area_.resize(entries + 1);
+        entryRoom_ = entries + 1;
+    }
+    /// Closes the entry whose @p n points (and fan areas) were written at the end: its area @p area.
+    void append(std::size_t n, double area) {
+        area_[entries_] = area;
+        begin_[entries_ + 1] = begin_[entries_] + static_cast<std::uint32_t>(n);
+        ++entries_;
+    }
+    /// Appends @p part of a parent's polygon (parent frame) in child @p slot, mapped to this
+    /// frame; a whole part takes the parent's fan areas @p parentFan × 4 and area @p parentArea × 4.
+    void appendPart(const clip_detail::Part& part, std::uint32_t slot, const double* parentFan, double parentArea) {
+        static constexpr std::array<Vec3d, 8> kOffsets{{{-0.5, -0.5, -0.5}, {0.5, -0.5, -0.5}, {-0.5, 0.5, -0.5}, {0.5, 0.5, -0.5},
+                                                       {-0.5, -0.5, 0.5}, {0.5, -0.5, 0.5}, {-0.5, 0.5, 0.5}, {0.5, 0.5, 0.5}}};
+        const Vec3d offset = kOffsets[slot];
+        Vec3d* out = points_.data() + begin_[entries_];
+        double* fan = fanArea_.data() + begin_[entries_];
+        for (std::size_t i = 0; i < part.n; ++i) out[i] = part.v[i] * 2.0 - offset;
+        if (part.whole) {
+            for (std::size_t i = 0; i < part.n; ++i) fan[i] = 4 * parentFan[i];
+            append(part.n, 4 * parentArea);
+        } else {
+            append(part.n, clip_detail::fanAreas(out, part.n, fan));
+        }
+    }
+
     std::vector<Vec3d> points_;
     std::vector<double> fanArea_;
-    std::vector<std::uint32_t> begin_;  // per list entry: its polygon's first point; one more entry: the end
+    std::vector<std::uint32_t> begin_;  // per entry: its polygon's first point; one more entry: the end
     std::vector<double> area_;
-    std::size_t pointCount_ = 0;
-    Vec3d centre_{0, 0, 0};
-    double toLocal_ = 0;
-    bool valid_ = false;
+    std::size_t entries_ = 0;
+    std::size_t entryRoom_ = 0;  // entries there is room for, and one more (begin_'s size)
     std::array<Vec3d, 12> clipB_{};  // clipping ping-pong buffer (zeroed once, not per triangle)
+    std::array<std::array<Vec3d, clip_detail::kSplitRoom>, 6> split_{};  // splitInto's parts: x, y and z halves (zeroed once)
 };
 
 }  // namespace vox::detail

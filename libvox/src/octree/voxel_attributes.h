@@ -4,7 +4,7 @@
 // each fragment (Texture::integrate); the normal is the interpolated shading normal, bent by the
 // normal map.
 // A parent's sums are exactly the sums of its children's (the children's cubes partition its
-// fragments), so only the voxels where refinement stops clip triangles.
+// fragments), so only the voxels where refinement stops filter theirs.
 #pragma once
 
 #include "../scene/surface_shading.h"
@@ -86,8 +86,8 @@ public:
     /// @p view: where the indices of @p list point (default: this sampler's triangles).
     [[nodiscard]] AttributeSums filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch,
                                        TriangleView view = {}) const;
-    /// filter on the fragments of @p list already clipped to that cube at scale filterScale(h)
-    /// (fragments.of(c, filterScale(h))): the same sums.
+    /// filter on the fragments of @p list in that cube, in its local frame (CubeFragments::clip at
+    /// scale filterScale(h) gives the same sums, or a parent's CubeFragments::splitInto).
     [[nodiscard]] AttributeSums filter(const CubeFragments& fragments, std::span<const std::uint32_t> list, Vec3d c, double h,
                                        AttributeScratch& scratch, TriangleView view = {}) const;
     /// The scale from leaf units to the local frame of a cube of half-extent @p h that filter clips in.

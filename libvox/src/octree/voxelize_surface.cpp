@@ -91,20 +91,25 @@ public:
     SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, std::uint32_t depth, std::uint32_t rootLevel,
                    const SurfaceVoxelizeOptions& options, const detail::AttributeSampler* attributes)
         : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), contours_(options.contours), contourError_(options.contourError),
-          colorError_(options.colorError), normalError_(options.normalErrorDegrees), attributes_(attributes), childLists_(depth + 1), childSums_(depth + 1),
-          packAttributes_(options.attributes), keepLeafMaterials_(options.leafMaterials) {}
+          colorError_(options.colorError), normalError_(options.normalErrorDegrees), attributes_(attributes), childLists_(depth + 1),
+          childFragments_(depth + 1), childSums_(depth + 1), packAttributes_(options.attributes), keepLeafMaterials_(options.leafMaterials) {}
 
-    /// Returns the node's mask; a node none of whose children a triangle touches (possible only
-    /// where rounding made the parent's test pass) is left out: nothing is appended.
+    /// Builds the subtree of a node into the outputs (masks(), contours(), attributes(),
+    /// leafMaterials(), emptied first) and returns the node's mask; a node none of whose children a
+    /// triangle touches (possible only where rounding made the parent's test pass) is left out:
+    /// nothing is appended. A builder builds one subtree after another (one per thread), its
+    /// outputs and scratch buffers grown once, not for every subtree.
     /// @p slab: the node's effective contour (its own, or its parent's carried down; 0: none).
     /// @p sums: with attributes, receives the node's attribute sums.
-    /// A builder builds one subtree after another (one per thread): each build() starts empty
-    /// outputs, which the caller then takes, and reuses the scratch buffers of the ones before.
     std::uint32_t build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list,
                         std::uint32_t slab = 0, detail::AttributeSums* sums = nullptr) {
-        masks_.assign(depth_ - rootLevel_, {});
-        contourOut_.assign(contours_ ? depth_ + 1 - rootLevel_ : 0, {});
-        attributeOut_.assign(packAttributes_ ? depth_ + 1 - rootLevel_ : 0, {});
+        const auto empty = [](auto& levels, std::size_t count) {
+            levels.resize(count);
+            for (auto& perLevel : levels) perLevel.clear();
+        };
+        empty(masks_, depth_ - rootLevel_);
+        empty(contourOut_, contours_ ? depth_ + 1 - rootLevel_ : 0);
+        empty(attributeOut_, packAttributes_ ? depth_ + 1 - rootLevel_ : 0);
         leafMaterials_.clear();
         // The subtree works on a copy of its triangles in list order (entry i: triangle list[i]),
         // with the per-triangle values of the contour fit computed once here instead of at every
@@ -129,20 +134,36 @@ public:
             unitNormal_.push_back(nl > 0 ? tri.normal * (1.0 / nl) : Vec3d{0, 0, 0});
             quantisedNormal_.push_back(detail::quantiseDirection(unitNormal_.back()));
         }
-        return buildNode(level, x, y, z, rootList_, slab, sums);
+        // The contour fit and the attribute filter read fragments: the root's are clipped, every
+        // voxel's below split from its parent's.
+        detail::CubeFragments* fragments = nullptr;
+        if (contours_ || attributes_) {
+            const double half = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));
+            rootFragments_.clip(rootList_, local_, {(2 * x + 1) * half, (2 * y + 1) * half, (2 * z + 1) * half}, detail::fitContourScale(half),
+                                normalLength_.data());
+            fragments = &rootFragments_;
+        }
+        return buildNode(level, x, y, z, rootList_, fragments, slab, sums);
     }
 
-    std::vector<std::vector<std::uint8_t>>& masks() { return masks_; }
-    std::vector<LeafMaterial>& leafMaterials() { return leafMaterials_; }
-    /// contours()[l − rootLevel] for levels rootLevel … depth (the root level's entry stays empty).
-    std::vector<std::vector<std::uint32_t>>& contours() { return contourOut_; }
-    /// attributes()[l − rootLevel] for levels rootLevel … depth (the root level's entry stays empty).
-    std::vector<std::vector<std::uint64_t>>& attributes() { return attributeOut_; }
+    /// Copies the last subtree's outputs to @p subtree, each at its size.
+    void copyOutputs(detail::CellSubtree& subtree) const {
+        const auto copy = [](const auto& from, auto& to) {
+            to.resize(from.size());
+            for (std::size_t level = 0; level < from.size(); ++level) to[level].assign(from[level].begin(), from[level].end());
+        };
+        copy(masks_, subtree.masks);
+        copy(contourOut_, subtree.contours);
+        copy(attributeOut_, subtree.attributes);
+        if (keepLeafMaterials_) subtree.leafMaterials.assign(leafMaterials_.begin(), leafMaterials_.end());
+    }
 
 private:
     /// build() on the subtree's own triangles: @p list indexes local_.
+    /// @p fragments: the node's (entry i: list[i]'s), or null where neither contours nor
+    /// attributes are wanted.
     std::uint32_t buildNode(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list,
-                            std::uint32_t slab, detail::AttributeSums* sums) {
+                            detail::CubeFragments* fragments, std::uint32_t slab, detail::AttributeSums* sums) {
         const double half = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));  // this node's half-extent
         const Vec3d centre{(2 * x + 1) * half, (2 * y + 1) * half, (2 * z + 1) * half};
         std::uint32_t mask = 0;
@@ -152,19 +173,32 @@ private:
                 if (mask == 0xFF) break;
             }
         } else {
-            // The children's lists, in this level's buffer: child s's at s·n, n = list.size().
+            // The children's lists, in this level's buffer: child s's at s·n, n = list.size(); with
+            // fragments, then each child's from this node's, split (in the lists' entry order).
             auto& buffer = childLists_[level + 1];
             const std::size_t n = list.size();
             if (buffer.size() < 8 * n) buffer.resize(8 * n);
+            if (entryMasks_.size() < n) entryMasks_.resize(n);
             std::array<std::uint32_t, 8> counts{};
             std::uint32_t touched = 0;
-            for (std::uint32_t t : list) {
+            for (std::size_t entry = 0; entry < n; ++entry) {
+                const std::uint32_t t = list[entry];
                 const std::uint32_t m = detail::childOverlapMask(local_[t], centre, half);
+                entryMasks_[entry] = static_cast<std::uint8_t>(m);
                 touched |= m;
                 for (std::uint32_t bits = m; bits; bits &= bits - 1) {
                     const auto slot = static_cast<unsigned>(__builtin_ctz(bits));
                     buffer[slot * n + counts[slot]++] = t;
                 }
+            }
+            auto& childFragments = childFragments_[level + 1];
+            if (fragments) {
+                for (std::uint32_t bits = touched; bits; bits &= bits - 1) {
+                    const auto slot = static_cast<unsigned>(__builtin_ctz(bits));
+                    childFragments[slot].start(counts[slot]);
+                }
+                for (std::size_t entry = 0; entry < n; ++entry)
+                    if (entryMasks_[entry]) fragments->splitInto(entry, entryMasks_[entry], childFragments);
             }
             std::array<std::span<const std::uint32_t>, 8> children;
             for (unsigned slot = 0; slot < 8; ++slot) children[slot] = {buffer.data() + slot * n, counts[slot]};
@@ -177,7 +211,7 @@ private:
                 bool leaf = level + 1 == depth_;
                 std::uint32_t childSlab = 0;
                 bool filtered = false;  // criterionSums_ are the child's, computed by the attribute criterion
-                bool clipped = false;  // contourScratch_.fragments are the child's
+                detail::CubeFragments* ownFragments = fragments ? &childFragments[slot] : nullptr;
                 std::uint32_t ownContour = 0;
                 detail::AttributeSums& childSums = childSums_[level + 1];
                 if (attributes_) clear(childSums);
@@ -188,11 +222,8 @@ private:
                     double carriedThickness = 0;
                     const std::uint32_t carried = carrier(slot, carriedThickness);
                     detail::ContourFit fit;
-                    if (!(carried && kOwnContourGain * carriedThickness <= kThinnestSlab)) {
-                        contourScratch_.fragments.clip(children[slot], local_, childCentre, detail::fitContourScale(childHalf), normalLength_.data());
-                        clipped = true;
-                        fit = detail::fitContour(contourScratch_.fragments, children[slot], local_, {normalLength_.data(), unitNormal_.data(), quantisedNormal_.data()});
-                    }
+                    if (!(carried && kOwnContourGain * carriedThickness <= kThinnestSlab))
+                        fit = detail::fitContour(*ownFragments, children[slot], local_, {normalLength_.data(), unitNormal_.data(), quantisedNormal_.data()});
                     double thickness = carriedThickness;
                     childSlab = carried;
                     if (fit.encoded && (carried == 0 || fit.thickness < kOwnContourGain * carriedThickness)) {
@@ -204,12 +235,14 @@ private:
                     // slab thicker than twice the error cannot be (one of its planes is too far).
                     if (!leaf && contourError_ > 0 && childSlab && thickness * childHalf <= contourError_ &&
                         detail::shapeError(childSlab, children[slot], local_, childCentre, childHalf) <= contourError_)
-                        leaf = attributesWithinBounds(children[slot], childCentre, childHalf, clipped, filtered);
+                        leaf = attributesWithinBounds(children[slot], *ownFragments, childCentre, childHalf, filtered);
                 }
                 if (leaf) {
                     if (level + 1 < depth_) masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
-                    if (attributes_) childSums = filtered ? criterionSums_ : filter(children[slot], childCentre, childHalf, clipped);
-                } else if (buildNode(level + 1, cx, cy, cz, children[slot], childSlab, &childSums) == 0) {
+                    if (attributes_)
+                        childSums = filtered ? criterionSums_
+                                             : attributes_->filter(*ownFragments, children[slot], childCentre, childHalf, attributeScratch_, view());
+                } else if (buildNode(level + 1, cx, cy, cz, children[slot], ownFragments, childSlab, &childSums) == 0) {
                     continue;
                 }
                 // The child's entries at level + 1, in slot order: nothing below appends to them.
@@ -229,22 +262,15 @@ private:
 
     /// The attribute criterion of refinement: true where the voxel's own (encoded) colour and
     /// normal represent everything inside it within the bounds, or where there are no bounds.
-    /// criterionSums_ receive the voxel's sums where they were computed (@p computed set).
-    /// @p clipped: contourScratch_.fragments are those of @p list in this cube.
-    bool attributesWithinBounds(std::span<const std::uint32_t> list, Vec3d centre, double half, bool clipped, bool& computed) {
+    /// criterionSums_ receive the voxel's sums where they were computed (@p computed set), from
+    /// @p fragments, the voxel's.
+    bool attributesWithinBounds(std::span<const std::uint32_t> list, const detail::CubeFragments& fragments, Vec3d centre, double half,
+                                bool& computed) {
         if (!attributes_ || (colorError_ <= 0 && normalError_ <= 0)) return true;
-        criterionSums_ = filter(list, centre, half, clipped);
+        criterionSums_ = attributes_->filter(fragments, list, centre, half, attributeScratch_, view());
         computed = true;
         const auto v = attributes_->variation(list, centre, half, criterionSums_.pack(), attributeScratch_, view());
         return (colorError_ <= 0 || v.color <= colorError_) && (normalError_ <= 0 || v.normalDegrees <= normalError_);
-    }
-    /// The attribute filter of a voxel, on the contour fit's fragments where it clipped them at
-    /// the same scale (@p clipped: contourScratch_.fragments are those of @p list in this cube).
-    detail::AttributeSums filter(std::span<const std::uint32_t> list, Vec3d centre, double half, bool clipped) {
-        const auto& fragments = contourScratch_.fragments;
-        if (clipped && fragments.of(centre, detail::AttributeSampler::filterScale(half)))
-            return attributes_->filter(fragments, list, centre, half, attributeScratch_, view());
-        return attributes_->filter(list, centre, half, attributeScratch_, view());
     }
     [[nodiscard]] detail::TriangleView view() const { return {local_.data(), global_.data()}; }
 
@@ -256,13 +282,15 @@ private:
     double colorError_, normalError_;
     const detail::AttributeSampler* attributes_;
     std::vector<std::vector<std::uint32_t>> childLists_;  // per level: the lists of one node's children
+    std::vector<std::array<detail::CubeFragments, 8>> childFragments_;  // per level: the fragments of one node's children
+    detail::CubeFragments rootFragments_;                 // the subtree root's, clipped
+    std::vector<std::uint8_t> entryMasks_;                // per entry of a node's list: its children's mask
     std::vector<detail::AttributeSums> childSums_;        // per level: the sums of the child being built
     detail::AttributeSums criterionSums_;                 // a child's, where the attribute criterion filtered it
-    std::vector<std::vector<std::uint8_t>> masks_;
-    std::vector<std::vector<std::uint32_t>> contourOut_;
-    std::vector<std::vector<std::uint64_t>> attributeOut_;
+    std::vector<std::vector<std::uint8_t>> masks_;       // [l − rootLevel] for levels rootLevel … depth − 1
+    std::vector<std::vector<std::uint32_t>> contourOut_;  // [l − rootLevel] for levels rootLevel … depth (rootLevel's empty)
+    std::vector<std::vector<std::uint64_t>> attributeOut_;  // as contourOut_
     bool packAttributes_;  // attributeOut_ wanted (SparseOctree::attributes)
-    detail::ContourScratch contourScratch_;
     detail::AttributeScratch attributeScratch_;
     bool keepLeafMaterials_;
     std::vector<LeafMaterial> leafMaterials_;
@@ -426,10 +454,7 @@ std::vector<detail::CellSubtree> detail::SurfaceVoxelizer::buildCells(std::size_
             CellSubtree& subtree = out[c - first];
             subtree.code = cell.code;
             subtree.occupied = builder.build(k, x, y, z, list, 0, &subtree.sums) != 0;
-            subtree.masks = std::move(builder.masks());
-            subtree.contours = std::move(builder.contours());
-            subtree.attributes = std::move(builder.attributes());
-            if (options_.leafMaterials) subtree.leafMaterials = std::move(builder.leafMaterials());
+            builder.copyOutputs(subtree);
             if (progress) progress->advance();
         }
     });
