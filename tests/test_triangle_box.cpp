@@ -423,7 +423,7 @@ TEST(TriangleBox, ContourFitOnSharedFragmentsEqualsTheReference) {
         // With the unit normals quantised per triangle too (and a lone fragment's mean taken from
         // them where that is scale-invariant): the same fit.
         std::vector<vox::detail::QuantisedNormal> quantised;
-        for (const Vec3d& unit : units) quantised.push_back(vox::detail::quantiseDirection(unit));
+        for (const Vec3d& unit : units) quantised.push_back(vox::detail::quantiseDirection(unit, true));
         const auto quantisedOnce = vox::detail::fitContour(withLengths, list, tris, {lengths.data(), units.data(), quantised.data()});
         ASSERT_EQ(quantisedOnce.encoded, expected.encoded) << "trial " << trial;
         ASSERT_EQ(quantisedOnce.thickness, expected.thickness) << "trial " << trial;

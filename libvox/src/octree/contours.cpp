@@ -74,10 +74,11 @@ double pointTriangleDistance(Vec3d p, Vec3d a, Vec3d b, Vec3d c) {
 
 }  // namespace
 
-QuantisedNormal quantiseDirection(Vec3d direction) {
+QuantisedNormal quantiseDirection(Vec3d direction, bool checkScaleInvariance) {
     QuantisedNormal q;
     q.n = quantiseNormal(direction);
     q.norm = std::sqrt(double(q.n[0] * q.n[0] + q.n[1] * q.n[1] + q.n[2] * q.n[2]));
+    if (!checkScaleInvariance) return q;
     const double largest = std::max({std::abs(direction.x), std::abs(direction.y), std::abs(direction.z)});
     q.scaleInvariant = largest > 0;
     for (const double v : {direction.x, direction.y, direction.z}) {

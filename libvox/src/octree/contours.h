@@ -42,12 +42,12 @@ struct QuantisedNormal {
     /// component lies within 10⁻⁹ of a rounding tie, far beyond what the factor's rounding moves.
     bool scaleInvariant = false;
 };
-/// @p direction quantised (zero: all zero).
-[[nodiscard]] QuantisedNormal quantiseDirection(Vec3d direction);
+/// @p direction quantised (zero: all zero); scaleInvariant only computed with @p checkScaleInvariance.
+[[nodiscard]] QuantisedNormal quantiseDirection(Vec3d direction, bool checkScaleInvariance = false);
 
 /// Per triangle, what the fit would otherwise recompute at every voxel, computed as it computes
 /// them: length[t] = length(normal), unit[t] = normal · (1 / length[t]) where length[t] > 0, and
-/// quantised[t] = quantiseDirection(unit[t]) there.
+/// quantised[t] = quantiseDirection(unit[t], true) there.
 struct TriangleNormals {
     const double* length = nullptr;
     const Vec3d* unit = nullptr;

@@ -6,6 +6,7 @@
 // which cells were built together.
 #pragma once
 
+#include "contours.h"
 #include "voxel_attributes.h"
 
 #include <vox/octree.h>
@@ -84,6 +85,10 @@ private:
     RootCube cube_;
     std::uint32_t depth_ = 0, cellLevel_ = 0;
     std::vector<BoxTestTriangle> triangles_;
+    // With contours, per triangle what the contour fit reads of its normal (TriangleNormals).
+    std::vector<double> normalLengths_;
+    std::vector<Vec3d> unitNormals_;
+    std::vector<QuantisedNormal> quantisedNormals_;
     std::optional<AttributeSampler> sampler_;
     std::vector<std::uint64_t> pairs_;  // (cell Morton code << 32 | triangle), sorted
     std::vector<Cell> cells_;

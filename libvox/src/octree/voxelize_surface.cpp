@@ -88,9 +88,11 @@ public:
     /// @p contourError: leaf units; a voxel whose cube ∩ slab lies within it of the surface
     /// stops refining (0: always refine to the leaf depth).
     /// @p attributes: null, or the sampler that filters every voxel's colour and normal.
-    SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, std::uint32_t depth, std::uint32_t rootLevel,
+    /// @p normals: the triangles' (all three arrays), or empty without contours.
+    SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, detail::TriangleNormals normals, std::uint32_t depth, std::uint32_t rootLevel,
                    const SurfaceVoxelizeOptions& options, const detail::AttributeSampler* attributes)
-        : triangles_(triangles), depth_(depth), rootLevel_(rootLevel), contours_(options.contours), contourError_(options.contourError),
+        : triangles_(triangles), normals_(normals), depth_(depth), rootLevel_(rootLevel), contours_(options.contours),
+          contourError_(options.contourError),
           colorError_(options.colorError), normalError_(options.normalErrorDegrees), attributes_(attributes), childLists_(depth + 1),
           childFragments_(depth + 1), childSums_(depth + 1), packAttributes_(options.attributes), keepLeafMaterials_(options.leafMaterials) {}
 
@@ -112,35 +114,31 @@ public:
         empty(attributeOut_, packAttributes_ ? depth_ + 1 - rootLevel_ : 0);
         leafMaterials_.clear();
         // The subtree works on a copy of its triangles in list order (entry i: triangle list[i]),
-        // with the per-triangle values of the contour fit computed once here instead of at every
-        // voxel; list order is kept, so every sum runs in the same order as over list itself.
+        // with the per-triangle values of the contour fit; list order is kept, so every sum runs
+        // in the same order as over list itself.
         local_.clear();
         global_.assign(list.begin(), list.end());
         normalLength_.clear();
         unitNormal_.clear();
         quantisedNormal_.clear();
         rootList_.clear();
-        local_.reserve(list.size());
-        normalLength_.reserve(list.size());
-        unitNormal_.reserve(list.size());
-        quantisedNormal_.reserve(list.size());
-        rootList_.reserve(list.size());
         for (const std::uint32_t t : list) {
-            const BoxTestTriangle& tri = triangles_[t];
-            const double nl = length(tri.normal);
             rootList_.push_back(static_cast<std::uint32_t>(local_.size()));
-            local_.push_back(tri);
-            normalLength_.push_back(nl);
-            unitNormal_.push_back(nl > 0 ? tri.normal * (1.0 / nl) : Vec3d{0, 0, 0});
-            quantisedNormal_.push_back(detail::quantiseDirection(unitNormal_.back()));
+            local_.push_back(triangles_[t]);
         }
+        if (normals_.length)
+            for (const std::uint32_t t : list) {
+                normalLength_.push_back(normals_.length[t]);
+                unitNormal_.push_back(normals_.unit[t]);
+                quantisedNormal_.push_back(normals_.quantised[t]);
+            }
         // The contour fit and the attribute filter read fragments: the root's are clipped, every
         // voxel's below split from its parent's.
         detail::CubeFragments* fragments = nullptr;
         if (contours_ || attributes_) {
             const double half = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));
             rootFragments_.clip(rootList_, local_, {(2 * x + 1) * half, (2 * y + 1) * half, (2 * z + 1) * half}, detail::fitContourScale(half),
-                                normalLength_.data());
+                                normals_.length ? normalLength_.data() : nullptr);
             fragments = &rootFragments_;
         }
         return buildNode(level, x, y, z, rootList_, fragments, slab, sums);
@@ -223,7 +221,8 @@ private:
                     const std::uint32_t carried = carrier(slot, carriedThickness);
                     detail::ContourFit fit;
                     if (!(carried && kOwnContourGain * carriedThickness <= kThinnestSlab))
-                        fit = detail::fitContour(*ownFragments, children[slot], local_, {normalLength_.data(), unitNormal_.data(), quantisedNormal_.data()});
+                        fit = detail::fitContour(*ownFragments, children[slot], local_,
+                                                 {normalLength_.data(), unitNormal_.data(), quantisedNormal_.data()});
                     double thickness = carriedThickness;
                     childSlab = carried;
                     if (fit.encoded && (carried == 0 || fit.thickness < kOwnContourGain * carriedThickness)) {
@@ -275,6 +274,7 @@ private:
     [[nodiscard]] detail::TriangleView view() const { return {local_.data(), global_.data()}; }
 
     const std::vector<BoxTestTriangle>& triangles_;
+    detail::TriangleNormals normals_;  // of triangles_
     std::uint32_t depth_;
     std::uint32_t rootLevel_;
     bool contours_;
@@ -385,6 +385,20 @@ detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene, const SurfaceVoxe
         }
     }
     if (attributes) sampler_.emplace(scene, triangles_, std::move(sources));
+    if (options.contours) {
+        // What the contour fit would otherwise compute per cell (or voxel) a triangle is in.
+        normalLengths_.resize(triangles_.size());
+        unitNormals_.resize(triangles_.size());
+        quantisedNormals_.resize(triangles_.size());
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles_.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+            for (std::size_t t = r.begin(); t != r.end(); ++t) {
+                const double nl = length(triangles_[t].normal);
+                normalLengths_[t] = nl;
+                unitNormals_[t] = nl > 0 ? triangles_[t].normal * (1.0 / nl) : Vec3d{0, 0, 0};
+                quantisedNormals_[t] = detail::quantiseDirection(unitNormals_[t], true);
+            }
+        });
+    }
 
     // Bin triangles into the cells of the cell level k: (Morton code << 32 | triangle), sorted.
     const std::uint32_t k = cellLevel_ = detail::cellLevel(depth_);
@@ -437,7 +451,8 @@ std::vector<detail::CellSubtree> detail::SurfaceVoxelizer::buildCells(std::size_
     std::vector<CellSubtree> out(last - first);
     // One builder per thread, its buffers grown once instead of fresh memory for every cell.
     tbb::enumerable_thread_specific<SubtreeBuilder> builders(
-        [&] { return SubtreeBuilder(triangles_, depth_, k, options_, sampler_ ? &*sampler_ : nullptr); });
+        [&] { return SubtreeBuilder(triangles_, {normalLengths_.data(), unitNormals_.data(), quantisedNormals_.data()}, depth_, k, options_,
+                                    sampler_ ? &*sampler_ : nullptr); });
     tbb::parallel_for(tbb::blocked_range<std::size_t>(first, last, 1), [&](const tbb::blocked_range<std::size_t>& r) {
         SubtreeBuilder& builder = builders.local();
         std::vector<std::uint32_t> list;
