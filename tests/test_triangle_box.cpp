@@ -8,6 +8,7 @@
 // rounding (the split cuts in coarser frames; docs/esvo-format.md §14).
 #include "octree/contours.h"
 #include "octree/triangle_box.h"
+#include "scene/surface_shading.h"
 
 #include <gtest/gtest.h>
 
@@ -514,6 +515,42 @@ TEST(TriangleBox, SplitFragmentsEqualDirectlyClippedOnesWithinRounding) {
     EXPECT_GT(compared, 200000);
     EXPECT_GT(cut, 50000);
     EXPECT_LT(contacts, compared);  // the source makes many touching and degenerate triangles on purpose
+}
+
+TEST(TriangleBox, LinearBarycentricsEqualTheProjectionsWithinRounding) {
+    // The texture footprint's barycentric coordinates (BarycentricFrame::Linear, two dot products)
+    // against the projection's (barycentric(), two divisions), for points of triangles of every
+    // kind the source makes: inside and around them (clamped alike), and degenerate ones.
+    TriangleSource source(10);
+    double worst = 0;
+    for (int trial = 0; trial < 200000; ++trial) {
+        const auto [c, h] = source.cube();
+        const BoxTestTriangle tri = source.next(c, h);
+        const std::array<Vec3d, 3> corners{tri.v0, tri.v1, tri.v2};
+        const vox::detail::BarycentricFrame frame(corners);
+        const auto linear = frame.linear();
+        const double a = 0.5 + 0.5 * source.u(), b = (1 - a) * (0.5 + 0.6 * source.u());
+        const Vec3d p = tri.v0 * (1 - a - b) + tri.v1 * a + tri.v2 * b;  // slightly outside now and then
+        const Vec3d expected = vox::detail::barycentric(corners, p), got = linear(p);
+        ASSERT_EQ(frame(p).x, expected.x);  // the frame is barycentric() itself
+        // Relative to the triangle's conditioning: its coordinates solve the normal equations
+        // either way, accurate to about ε times the square of the ratio of its longest edge to its
+        // height, and times the ratio of the coordinates' magnitude to its size (p is rounded there).
+        const double edge2 = std::max({vox::dot(tri.v1 - tri.v0, tri.v1 - tri.v0), vox::dot(tri.v2 - tri.v0, tri.v2 - tri.v0),
+                                       vox::dot(tri.v2 - tri.v1, tri.v2 - tri.v1)});
+        const double area2 = vox::dot(tri.normal, tri.normal);
+        if (!(area2 > 1e-12 * edge2 * edge2)) continue;  // degenerate or a needle: ill-conditioned either way
+        const double magnitude = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)}) / std::sqrt(edge2);
+        const double tolerance = 64 * std::numeric_limits<double>::epsilon() * (edge2 * edge2 / area2) * (1 + magnitude);
+        for (int k = 0; k < 3; ++k) {
+            ASSERT_NEAR(got[k], expected[k], tolerance) << "trial " << trial << " coordinate " << k;
+            worst = std::max(worst, std::abs(got[k] - expected[k]) / tolerance);
+        }
+    }
+    EXPECT_LT(worst, 1.0);
+    // A degenerate triangle: the centroid either way.
+    const vox::detail::BarycentricFrame flat({Vec3d{0, 0, 0}, Vec3d{1, 1, 1}, Vec3d{2, 2, 2}});
+    EXPECT_EQ(flat.linear()(Vec3d{1, 1, 1}).x, 1.0 / 3);
 }
 
 TEST(TriangleBox, CarryContourEqualsTheReference) {

@@ -72,8 +72,10 @@ AttributeSums AttributeSampler::filter(const CubeFragments& fragments, std::span
         const std::array<Vec3d, 3> corners{tri.v0, tri.v1, tri.v2};
         const BarycentricFrame barycentric(corners);
         scratch.barycentrics.clear();
-        if (area > 0 && textured_[sources_[t].mesh])
-            for (const Vec3d& v : poly) scratch.barycentrics.push_back(barycentric(c + v * edge));
+        if (area > 0 && textured_[sources_[t].mesh]) {
+            const BarycentricFrame::Linear linear = barycentric.linear();
+            for (const Vec3d& v : poly) scratch.barycentrics.push_back(linear(c + v * edge));
+        }
         const SurfaceSample sample = shadeTriangle(scene_, sources_[t], corners, barycentric(c + centroid * edge), edge, scratch.barycentrics);
         const Vec4f& color = sample.color;
         const Vec3d& normal = sample.normal;

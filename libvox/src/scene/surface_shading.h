@@ -56,6 +56,34 @@ public:
         return {1 - b1 - b2, b1, b2};
     }
 
+    /// The same coordinates up to rounding, for the many points of a fragment's polygon (a
+    /// texture's footprint): they are linear in the point, so two dot products with their
+    /// gradients instead of two divisions each; clamped alike.
+    class Linear {
+    public:
+        [[nodiscard]] Vec3d operator()(Vec3d p) const {
+            if (!valid_) return {1.0 / 3, 1.0 / 3, 1.0 / 3};
+            const Vec3d vp = p - origin_;
+            const double b1 = std::clamp(dot(vp, gradient1_), 0.0, 1.0);
+            const double b2 = std::clamp(dot(vp, gradient2_), 0.0, 1.0 - b1);
+            return {1 - b1 - b2, b1, b2};
+        }
+
+    private:
+        friend class BarycentricFrame;
+        Vec3d origin_, gradient1_, gradient2_;  // gradients of the second and third coordinates
+        bool valid_;
+    };
+    [[nodiscard]] Linear linear() const {
+        Linear out;
+        out.origin_ = origin_;
+        out.valid_ = denom_ > 0;
+        const double inverse = out.valid_ ? 1.0 / denom_ : 0.0;
+        out.gradient1_ = (e1_ * d11_ - e2_ * d01_) * inverse;
+        out.gradient2_ = (e2_ * d00_ - e1_ * d01_) * inverse;
+        return out;
+    }
+
 private:
     Vec3d origin_, e1_, e2_;
     double d00_, d01_, d11_, denom_;
