@@ -271,8 +271,9 @@ struct Part {
     bool whole = true;
 };
 
-/// Room for either side of a split polygon: every vertex and every crossing (a convex polygon
-/// has two, one bent by rounding a few more), before it is cut back to kPolygonRoom.
+/// Room for either side of a split polygon: every vertex and every crossing (a convex polygon has
+/// two crossings; one made slightly non-convex by rounding may have more), before it is cut back
+/// to kPolygonRoom.
 inline constexpr std::size_t kSplitRoom = 2 * kPolygonRoom;
 
 /// One Sutherland–Hodgman pass of @p in against the plane p[Axis] = 0 that keeps both sides: a

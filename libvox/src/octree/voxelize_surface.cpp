@@ -92,15 +92,15 @@ public:
     SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, detail::TriangleNormals normals, std::uint32_t depth, std::uint32_t rootLevel,
                    const SurfaceVoxelizeOptions& options, const detail::AttributeSampler* attributes)
         : triangles_(triangles), normals_(normals), depth_(depth), rootLevel_(rootLevel), contours_(options.contours),
-          contourError_(options.contourError),
-          colorError_(options.colorError), normalError_(options.normalErrorDegrees), attributes_(attributes), childLists_(depth + 1),
-          childFragments_(depth + 1), childSums_(depth + 1), packAttributes_(options.attributes), keepLeafMaterials_(options.leafMaterials) {}
+          contourError_(options.contourError), colorError_(options.colorError), normalError_(options.normalErrorDegrees),
+          attributes_(attributes), childLists_(depth + 1), childFragments_(depth + 1), childSums_(depth + 1),
+          packAttributes_(options.attributes), keepLeafMaterials_(options.leafMaterials) {}
 
-    /// Builds the subtree of a node into the outputs (masks(), contours(), attributes(),
-    /// leafMaterials(), emptied first) and returns the node's mask; a node none of whose children a
-    /// triangle touches (possible only where rounding made the parent's test pass) is left out:
-    /// nothing is appended. A builder builds one subtree after another (one per thread), its
-    /// outputs and scratch buffers grown once, not for every subtree.
+    /// Builds the subtree of a node into the builder's outputs (emptied first; copyOutputs hands
+    /// them over) and returns the node's mask; a node none of whose children a triangle touches
+    /// (possible only where rounding made the parent's test pass) is left out: nothing is
+    /// appended. A builder builds one subtree after another (one per thread), its outputs and
+    /// scratch buffers grown once, not for every subtree.
     /// @p slab: the node's effective contour (its own, or its parent's carried down; 0: none).
     /// @p sums: with attributes, receives the node's attribute sums.
     std::uint32_t build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list,
