@@ -2177,6 +2177,7 @@ esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>&
     std::array<std::uint32_t, 16> colors{};
     std::array<esvo::Vec3, 16> normals{};
     for (unsigned slot = 0; slot < 16; ++slot) {
+        if (!((usedMask >> slot) & 1u)) continue;  // (the encoders read used slots only)
         colors[slot] = static_cast<std::uint32_t>(values[slot]);
         normals[slot] = esvo::decodeNormal(static_cast<std::uint32_t>(values[slot] >> 32));
     }
