@@ -203,25 +203,19 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
             ++j;
         }
         ++result.batches;
-        const std::size_t firstCell = all[i].firstCell, endCell = all[j - 1].endCell;
-        const auto voxelizeStart = Clock::now();
-        std::vector<detail::CellSubtree> cells;
-        {
-            Timings::Scope voxelizeTimer(vo.timings, "voxelize");
-            Timings::Scope timer(vo.timings, "voxelize_subtrees");
-            cells = voxelizer.buildCells(firstCell, endCell, &progress);
-        }
-        result.voxelizeSeconds += secondsSince(voxelizeStart);
-        const auto layoutStart = Clock::now();
+        const auto roundStart = Clock::now();
         const std::size_t count = j - i;
         std::vector<detail::PartitionRoot> roundRoots(count);
         std::vector<detail::PartitionSlices> roundSlices(count);
         std::vector<char> occupied(count, 0);
+        // When the round's last cell subtree was built, in seconds after its start.
+        std::atomic<double> voxelized{0.0};
+        // Each partition is voxelized, joined, laid out and encoded in one task, so that one
+        // partition's serial steps (its join, its slice plan) overlap the others' cells, and its
+        // cells' outputs are freed as soon as it is joined.
         tbb::parallel_for(std::size_t{0}, count, [&](std::size_t n) {
-            std::vector<detail::CellSubtree> own;
-            const std::size_t cb = all[i + n].firstCell - firstCell, ce = all[i + n].endCell - firstCell;
-            own.reserve(ce - cb);
-            for (std::size_t c = cb; c < ce; ++c) own.push_back(std::move(cells[c]));
+            std::vector<detail::CellSubtree> own = voxelizer.buildCells(all[i + n].firstCell, all[i + n].endCell, &progress);
+            for (double done = secondsSince(roundStart), seen = voxelized.load(); done > seen && !voxelized.compare_exchange_weak(seen, done);) {}
             detail::PartitionRoot& root = roundRoots[n];
             SparseOctree octree = voxelizer.join(std::move(own), p, &root.sums);
             if (octree.leafDepth == 0) return;  // rounding left nothing
@@ -251,7 +245,15 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
                 roots.push_back(std::move(roundRoots[n]));
                 partitionSlices.push_back(std::move(roundSlices[n]));
             }
-        if (options.write.timings) options.write.timings->add("esvo", 1000 * secondsSince(layoutStart));
+        // The voxelization's share of the round is its wall time until its last cell was built,
+        // the layout's the rest.
+        const double roundSeconds = secondsSince(roundStart), voxelizeSeconds = voxelized.load();
+        result.voxelizeSeconds += voxelizeSeconds;
+        if (vo.timings) {
+            vo.timings->add("voxelize", 1000 * voxelizeSeconds);
+            vo.timings->add("voxelize_subtrees", 1000 * voxelizeSeconds);
+        }
+        if (options.write.timings) options.write.timings->add("esvo", 1000 * (roundSeconds - voxelizeSeconds));
         i = j;
     }
     result.scratchBytes = store.scratchBytes();

@@ -8,11 +8,13 @@
 
 #include "contours.h"
 #include "voxel_attributes.h"
+#include "../util/huge_pages.h"
 
 #include <vox/octree.h>
 #include <vox/util/progress.h>
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
@@ -24,13 +26,17 @@ namespace vox::detail {
 /// codes fit 32 bits), so that every partition is a run of whole cells.
 [[nodiscard]] std::uint32_t cellLevel(std::uint32_t depth);
 
-/// One cell's subtree, as built.
+/// One cell's subtree, as built. Its arrays are copied into storage shared by the cells one
+/// thread built in one SurfaceVoxelizer::buildCells call (on huge pages, rather than a vector per
+/// cell and level: the cells' outputs are most of a build's fresh memory), which the last of those
+/// cells frees.
 struct CellSubtree {
     std::uint32_t code = 0;      ///< Morton code of the cell at the cell level
     bool occupied = false;       ///< false: rounding left no voxel in it
-    std::vector<std::vector<std::uint8_t>> masks;       ///< levels cell … depth − 1
-    std::vector<std::vector<std::uint32_t>> contours;   ///< levels cell … depth (the cell's own entry empty)
-    std::vector<std::vector<std::uint64_t>> attributes; ///< levels cell … depth (the cell's own entry empty)
+    std::shared_ptr<const HugePageArena> storage;       ///< where the arrays below are
+    std::vector<std::span<const std::uint8_t>> masks;       ///< levels cell … depth − 1
+    std::vector<std::span<const std::uint32_t>> contours;   ///< levels cell … depth (the cell's own entry empty)
+    std::vector<std::span<const std::uint64_t>> attributes; ///< levels cell … depth (the cell's own entry empty)
     std::vector<LeafMaterial> leafMaterials;
     AttributeSums sums;          ///< with attributes: the cell's
 };

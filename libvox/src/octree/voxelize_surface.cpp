@@ -6,6 +6,7 @@
 #include "contours.h"
 #include "triangle_box.h"
 #include "voxel_attributes.h"
+#include "../util/huge_pages.h"
 
 #include <vox/formats/error.h>
 #include <vox/formats/esvo.h>
@@ -20,6 +21,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <memory>
 #include <span>
 
 namespace vox {
@@ -144,11 +146,12 @@ public:
         return buildNode(level, x, y, z, rootList_, fragments, slab, sums);
     }
 
-    /// Copies the last subtree's outputs to @p subtree, each at its size.
-    void copyOutputs(detail::CellSubtree& subtree) const {
-        const auto copy = [](const auto& from, auto& to) {
+    /// Copies the last subtree's outputs to @p subtree, into @p storage (which the subtree
+    /// must keep: CellSubtree::storage).
+    void copyOutputs(detail::CellSubtree& subtree, detail::HugePageArena& storage) const {
+        const auto copy = [&](const auto& from, auto& to) {
             to.resize(from.size());
-            for (std::size_t level = 0; level < from.size(); ++level) to[level].assign(from[level].begin(), from[level].end());
+            for (std::size_t level = 0; level < from.size(); ++level) to[level] = storage.copy(std::span(from[level]));
         };
         copy(masks_, subtree.masks);
         copy(contourOut_, subtree.contours);
@@ -449,12 +452,20 @@ detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene, const SurfaceVoxe
 std::vector<detail::CellSubtree> detail::SurfaceVoxelizer::buildCells(std::size_t first, std::size_t last, Progress* progress) const {
     const std::uint32_t k = cellLevel_;
     std::vector<CellSubtree> out(last - first);
-    // One builder per thread, its buffers grown once instead of fresh memory for every cell.
-    tbb::enumerable_thread_specific<SubtreeBuilder> builders(
-        [&] { return SubtreeBuilder(triangles_, {normalLengths_.data(), unitNormals_.data(), quantisedNormals_.data()}, depth_, k, options_,
-                                    sampler_ ? &*sampler_ : nullptr); });
+    // One builder per thread, its buffers grown once instead of fresh memory for every cell, and
+    // one storage for the outputs of the cells it builds (kept by those cells).
+    struct Worker {
+        SubtreeBuilder builder;
+        std::shared_ptr<HugePageArena> storage;
+    };
+    tbb::enumerable_thread_specific<Worker> workers([&] {
+        return Worker{SubtreeBuilder(triangles_, {normalLengths_.data(), unitNormals_.data(), quantisedNormals_.data()}, depth_, k, options_,
+                                     sampler_ ? &*sampler_ : nullptr),
+                      nullptr};
+    });
     tbb::parallel_for(tbb::blocked_range<std::size_t>(first, last, 1), [&](const tbb::blocked_range<std::size_t>& r) {
-        SubtreeBuilder& builder = builders.local();
+        Worker& worker = workers.local();
+        if (!worker.storage) worker.storage = std::make_shared<HugePageArena>();
         std::vector<std::uint32_t> list;
         for (std::size_t c = r.begin(); c != r.end(); ++c) {
             const Cell& cell = cells_[c];
@@ -468,8 +479,9 @@ std::vector<detail::CellSubtree> detail::SurfaceVoxelizer::buildCells(std::size_
             }
             CellSubtree& subtree = out[c - first];
             subtree.code = cell.code;
-            subtree.occupied = builder.build(k, x, y, z, list, 0, &subtree.sums) != 0;
-            builder.copyOutputs(subtree);
+            subtree.occupied = worker.builder.build(k, x, y, z, list, 0, &subtree.sums) != 0;
+            worker.builder.copyOutputs(subtree, *worker.storage);
+            subtree.storage = worker.storage;
             if (progress) progress->advance();
         }
     });
@@ -508,9 +520,9 @@ SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells, st
         for (const auto& c : cells) total += c.masks[level - k].size();
         auto& masks = octree.masks[level - rootLevel];
         masks.reserve(total);
+        adviseHugePages(masks);
         for (auto& c : cells) {
             masks.insert(masks.end(), c.masks[level - k].begin(), c.masks[level - k].end());
-            c.masks[level - k] = {};
         }
     }
     octree.voxelsPerLevel.assign(levels + 1, 0);
@@ -529,16 +541,18 @@ SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells, st
             octree.contours[level - rootLevel].assign(octree.voxelsPerLevel[level - rootLevel], 0u);
         for (std::uint32_t level = k + 1; level <= depth; ++level) {
             auto& out = octree.contours[level - rootLevel];
+            out.reserve(octree.voxelsPerLevel[level - rootLevel]);
+            adviseHugePages(out);
             for (auto& c : cells) {
-                auto& part = c.contours[level - k];
+                const auto part = c.contours[level - k];
                 out.insert(out.end(), part.begin(), part.end());
-                part = {};
             }
             if (out.size() != octree.voxelsPerLevel[level - rootLevel]) throw std::logic_error("voxelizeSurface: contour count inconsistent");
         }
     }
     if (options_.leafMaterials) {
         octree.leafMaterials.reserve(octree.voxelsPerLevel[levels]);
+        adviseHugePages(octree.leafMaterials);
         for (auto& c : cells) {
             octree.leafMaterials.insert(octree.leafMaterials.end(), c.leafMaterials.begin(), c.leafMaterials.end());
             c.leafMaterials = {};
@@ -550,10 +564,10 @@ SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells, st
         for (std::uint32_t level = k + 1; level <= depth; ++level) {
             auto& out = octree.attributes[level - rootLevel];
             out.reserve(octree.voxelsPerLevel[level - rootLevel]);
+            adviseHugePages(out);
             for (auto& c : cells) {
-                auto& part = c.attributes[level - k];
+                const auto part = c.attributes[level - k];
                 out.insert(out.end(), part.begin(), part.end());
-                part = {};
             }
         }
         for (std::uint32_t level = 0; level <= levels; ++level)
