@@ -1,10 +1,11 @@
 // Transparent huge pages for the build's large arrays. A fresh 4 KiB page costs a page fault on
 // its first write (several microseconds in a virtual machine, and the faults of a process's
 // threads contend); the arrays a build fills once and reads in no particular order (the octree's
-// levels, the cells' outputs) fault hundreds of thousands of times at depth 10 unless they sit on
-// 2 MiB pages, which also spare the TLB. Linux gives huge pages to ranges advised with
-// madvise(MADV_HUGEPAGE) where /sys/kernel/mm/transparent_hugepage/enabled is "madvise" (Debian's
-// default) or "always"; elsewhere the advice does nothing.
+// levels, the cells' outputs) fault tens of thousands of times at depth 10 and hundreds of
+// thousands at 12 unless they sit on 2 MiB pages, which also spare the TLB. Linux gives huge
+// pages to ranges advised with madvise(MADV_HUGEPAGE) where
+// /sys/kernel/mm/transparent_hugepage/enabled is "madvise" (as on the development machines) or
+// "always"; elsewhere the advice does nothing.
 #pragma once
 
 #include <cstddef>
