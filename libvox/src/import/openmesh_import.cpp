@@ -12,6 +12,7 @@
 #include <iostream>
 
 #include <charconv>
+#include <cmath>
 #include <cstring>
 #include <mutex>
 #include <sstream>
@@ -136,10 +137,15 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
         if (t[0] == "format") {
             if (t.size() < 2 || (t[1] != "ascii" && t[1] != "binary_little_endian" && t[1] != "binary_big_endian"))
                 context.fail("PLY header: unknown format '" + line + "'");
-            // OpenMesh reads the version with operator>>; a version that is no number leaves its
-            // stream failed, and its header loop then never sees end_header (found by fuzz_mesh).
-            double version = 0;
-            if (t.size() != 3 || std::from_chars(t[2].data(), t[2].data() + t[2].size(), version).ptr != t[2].data() + t[2].size())
+            // OpenMesh reads the version into a float with operator>>; a version that is no number,
+            // or none a float holds (1.01e39), leaves its stream failed, and its header loop then
+            // never sees end_header (both found by fuzz_mesh). from_chars also reads "inf" and
+            // "nan", which operator>> does not: a version must be a finite float in decimal.
+            float version = 0;
+            const auto [end, error] = t.size() == 3 ? std::from_chars(t[2].data(), t[2].data() + t[2].size(), version)
+                                                    : std::from_chars_result{nullptr, std::errc::invalid_argument};
+            if (t.size() != 3 || error != std::errc() || end != t[2].data() + t[2].size() || !std::isfinite(version) ||
+                t[2].find_first_not_of("0123456789+-.eE") != std::string::npos)
                 context.fail("PLY header: malformed format line '" + line + "' (expected e.g. 'format ascii 1.0')");
             facts.binary = t[1] != "ascii";
             plyFormat = t[1];
