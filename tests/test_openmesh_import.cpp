@@ -114,6 +114,20 @@ TEST(OpenMeshImport, PlyFormatLinesOpenMeshWouldLoopOnAreInvalid) {
     }
 }
 
+TEST(OpenMeshImport, PlyElementsOfNoPropertiesMayNotCountBeyondTheFile) {
+    // OpenMesh reads an element count as a 32-bit integer: 99999999999 failed its stream and its
+    // header loop never ended, even for an element that holds nothing.
+    ScratchDir dir;
+    for (const char* count : {"99999999999", "4294967297", "1000"}) {
+        writeBinary(dir / "count.ply", binaryPlyTriangle("format binary_little_endian 1.0",
+                                                         std::string("property list uchar int vertex_indices\nelement junk ") + count));
+        const std::string message = importError<vox::InvalidDataError>(dir / "count.ply");
+        EXPECT_NE(message.find(std::string("PLY header claims ") + count + " junk elements"), std::string::npos) << message;
+    }
+    writeBinary(dir / "count.ply", binaryPlyTriangle("format binary_little_endian 1.0", "property list uchar int vertex_indices\nelement junk 3"));
+    EXPECT_EQ(vox::importScene(dir / "count.ply").triangleCount(), 1u);
+}
+
 TEST(OpenMeshImport, PlyFreeTextLinesHoldingKeywordsAreInvalid) {
     // Found by fuzz_mesh: OpenMesh reads the header word by word, so a stray line's words became
     // an element whose count failed to parse, and its element list grew until memory ran out.

@@ -189,7 +189,11 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
     const std::uint64_t available = bytes.size() - reader.position();
     std::uint64_t needed = 0;
     for (const Element& e : elements) {
-        if (e.minBytes && e.count > available / e.minBytes)
+        // An element of no properties takes no bytes, but OpenMesh still loops over its count,
+        // which it reads as a 32-bit integer: beyond that its stream fails and its header loop
+        // never ends (99999999999, found by checking the fix for the version). Such a count may
+        // not exceed the bytes that follow either.
+        if (e.count > available / std::max<std::uint64_t>(e.minBytes, 1))
             context.fail("PLY header claims " + std::to_string(e.count) + " " + e.name + " elements, more than the " +
                          std::to_string(available) + " bytes after the header can hold");
         needed += e.count * e.minBytes;
