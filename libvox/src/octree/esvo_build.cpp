@@ -45,6 +45,11 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
+/// Raises @p value to @p candidate if that is larger (from any thread).
+void raiseTo(std::atomic<double>& value, double candidate) {
+    for (double seen = value.load(); candidate > seen && !value.compare_exchange_weak(seen, candidate);) {}
+}
+
 /// A voxel of the partition level with triangles binned under it: its run of cells.
 struct Partition {
     std::uint32_t code = 0;
@@ -215,7 +220,7 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
         // cells' outputs are freed as soon as it is joined.
         tbb::parallel_for(std::size_t{0}, count, [&](std::size_t n) {
             std::vector<detail::CellSubtree> own = voxelizer.buildCells(all[i + n].firstCell, all[i + n].endCell, &progress);
-            for (double done = secondsSince(roundStart), seen = voxelized.load(); done > seen && !voxelized.compare_exchange_weak(seen, done);) {}
+            raiseTo(voxelized, secondsSince(roundStart));
             detail::PartitionRoot& root = roundRoots[n];
             SparseOctree octree = voxelizer.join(std::move(own), p, &root.sums);
             if (octree.leafDepth == 0) return;  // rounding left nothing
@@ -238,7 +243,7 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
                     store);
             // Built, laid out and encoded: about twice its arrays at the peak, and its blocks.
             const double used = 2.5 * double(bytes) / (all[i + n].area + 1);
-            for (double seen = bytesPerArea.load(); used > seen && !bytesPerArea.compare_exchange_weak(seen, used);) {}
+            raiseTo(bytesPerArea, used);
         });
         for (std::size_t n = 0; n < count; ++n)
             if (occupied[n]) {

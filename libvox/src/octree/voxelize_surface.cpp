@@ -461,11 +461,10 @@ std::vector<detail::CellSubtree> detail::SurfaceVoxelizer::buildCells(std::size_
     tbb::enumerable_thread_specific<Worker> workers([&] {
         return Worker{SubtreeBuilder(triangles_, {normalLengths_.data(), unitNormals_.data(), quantisedNormals_.data()}, depth_, k, options_,
                                      sampler_ ? &*sampler_ : nullptr),
-                      nullptr};
+                      std::make_shared<HugePageArena>()};
     });
     tbb::parallel_for(tbb::blocked_range<std::size_t>(first, last, 1), [&](const tbb::blocked_range<std::size_t>& r) {
         Worker& worker = workers.local();
-        if (!worker.storage) worker.storage = std::make_shared<HugePageArena>();
         std::vector<std::uint32_t> list;
         for (std::size_t c = r.begin(); c != r.end(); ++c) {
             const Cell& cell = cells_[c];
@@ -521,9 +520,7 @@ SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells, st
         auto& masks = octree.masks[level - rootLevel];
         masks.reserve(total);
         adviseHugePages(masks);
-        for (auto& c : cells) {
-            masks.insert(masks.end(), c.masks[level - k].begin(), c.masks[level - k].end());
-        }
+        for (const auto& c : cells) masks.insert(masks.end(), c.masks[level - k].begin(), c.masks[level - k].end());
     }
     octree.voxelsPerLevel.assign(levels + 1, 0);
     octree.voxelsPerLevel[0] = 1;
@@ -543,10 +540,7 @@ SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells, st
             auto& out = octree.contours[level - rootLevel];
             out.reserve(octree.voxelsPerLevel[level - rootLevel]);
             adviseHugePages(out);
-            for (auto& c : cells) {
-                const auto part = c.contours[level - k];
-                out.insert(out.end(), part.begin(), part.end());
-            }
+            for (const auto& c : cells) out.insert(out.end(), c.contours[level - k].begin(), c.contours[level - k].end());
             if (out.size() != octree.voxelsPerLevel[level - rootLevel]) throw std::logic_error("voxelizeSurface: contour count inconsistent");
         }
     }
@@ -565,10 +559,7 @@ SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells, st
             auto& out = octree.attributes[level - rootLevel];
             out.reserve(octree.voxelsPerLevel[level - rootLevel]);
             adviseHugePages(out);
-            for (auto& c : cells) {
-                const auto part = c.attributes[level - k];
-                out.insert(out.end(), part.begin(), part.end());
-            }
+            for (const auto& c : cells) out.insert(out.end(), c.attributes[level - k].begin(), c.attributes[level - k].end());
         }
         for (std::uint32_t level = 0; level <= levels; ++level)
             if (octree.attributes[level].size() != octree.voxelsPerLevel[level])
