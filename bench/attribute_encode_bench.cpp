@@ -11,6 +11,8 @@
 // every K-th block only, for profiling under callgrind). Times are the thread's CPU time (the
 // best of three runs), so that other processes on a shared machine count less.
 // --effort fast|default|best picks the encoders' AttributeEffort (default: default).
+// --kernels sse2 runs the normal encoder's SSE2 kernels where the CPU has AVX-512 (whose are the
+// default there; the blocks are the same bits, only the time differs); the JSON says which ran.
 // Usage: attribute_encode_bench [--effort E] [TILES_PER_TEXTURE (default 4000)] [NORMAL_BLOCKS (default 20000)]
 //        attribute_encode_bench [--effort E] --scene FILE [--depth N (default 10)] [--dump FILE]
 //        attribute_encode_bench [--effort E] --blocks FILE [--stride K (default 1)]
@@ -299,6 +301,7 @@ int blocksMode(int argc, char** argv) {
     nlohmann::json out = blockSuites(readBlocks(file, stride));
     out["blocks_file"] = file;
     out["effort"] = effortName(g_effort);
+    out["kernels"] = vox::detail::encoderAvx512() ? "avx512" : "sse2";
     out["stride"] = stride;
     std::cout << out.dump(2) << '\n';
     return 0;
@@ -324,6 +327,7 @@ int sceneMode(int argc, char** argv) {
     nlohmann::json out;
     out["scene"] = file;
     out["effort"] = effortName(g_effort);
+    out["kernels"] = vox::detail::encoderAvx512() ? "avx512" : "sse2";
     out["depth"] = depth;
     out["voxels"] = octree.voxelCount();
     // Laine & Karras 5.7, "combined indirect attribute lookup", sized without building it: a
@@ -362,6 +366,15 @@ int main(int argc, char** argvIn) {
     // --effort E, anywhere; the rest keep their positions.
     std::vector<char*> args;
     for (int i = 0; i < argc; ++i) {
+        if (i + 1 < argc && std::string(argvIn[i]) == "--kernels") {
+            const std::string k = argvIn[++i];
+            if (k != "sse2" && k != "auto") {
+                std::fprintf(stderr, "attribute_encode_bench: --kernels must be sse2 or auto\n");
+                return 1;
+            }
+            if (k == "sse2") vox::detail::setEncoderAvx512(false);
+            continue;
+        }
         if (i + 1 < argc && std::string(argvIn[i]) == "--effort") {
             const std::string e = argvIn[++i];
             if (e == "fast") g_effort = AttributeEffort::Fast;
@@ -397,6 +410,7 @@ int main(int argc, char** argvIn) {
     nlohmann::json out;
     out["textures"] = textures;
     out["effort"] = effortName(g_effort);
+    out["kernels"] = vox::detail::encoderAvx512() ? "avx512" : "sse2";
     if (!tiles.empty()) {
         out["color_tiles_full"] = colorSuite(tiles);
         out["color_tiles_8_of_16"] = colorSuite(partial);

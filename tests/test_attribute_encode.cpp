@@ -599,3 +599,45 @@ TEST(AttributeEncode, EarlyExitsStayWithinTheirBound) {
     }
     std::printf("nearly flat blocks: largest RMS beyond max(Best, bound) %.4f°\n", worst / kDegree);
 }
+
+// Where the CPU has AVX-512, encodeNormalBlock's nearest-lattice kernels run sixteen lattice
+// points a vector; they must give the SSE2 kernels' bits on every kind of block: smooth patches
+// from curved to flat, cones narrow to wide, edges, corners and sheets (few directions, the 3-D
+// search), random directions, with full and partial masks, at every effort. Each run is in a
+// thread of its own, so that neither sees the other's cached searches.
+TEST_P(ByEffort, Avx512KernelsGiveTheSameBlocks) {
+    const bool before = vox::detail::encoderAvx512();
+    if (!vox::detail::setEncoderAvx512(true)) GTEST_SKIP() << "no AVX-512F on this CPU";
+    const AttributeEffort effort = GetParam();
+    std::mt19937 rng(21);
+    std::vector<std::pair<std::array<Vec3, 16>, std::uint32_t>> blocks;
+    const auto mask = [&](int i) { return i % 3 == 0 ? 0xFFFFu : randomMask(rng, 1 + static_cast<unsigned>(i % 16)); };
+    for (const double radius : {6.0, 24.0, 128.0, 1000.0})
+        for (int i = 0; i < 150; ++i) blocks.emplace_back(spherePatch(rng, radius, static_cast<unsigned>(i % 3)), mask(i));
+    for (const double halfAngle : {1.0, 5.0, 20.0, 60.0})
+        for (int i = 0; i < 150; ++i) blocks.emplace_back(randomCone(rng, halfAngle * kDegree), mask(i));
+    for (int i = 0; i < 300; ++i) {  // two to four directions (edges, corners, sheets) and random ones
+        std::array<Vec3, 4> directions{};
+        for (auto& d : directions) d = randomDirection(rng);
+        if (i % 4 == 0) directions = {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}, Vec3{0, -1, 0}};
+        const unsigned count = 2 + static_cast<unsigned>(i % 3);
+        std::array<Vec3, 16> normals{};
+        for (unsigned s = 0; s < 16; ++s) normals[s] = i % 5 == 4 ? randomDirection(rng) : directions[rng() % count];
+        blocks.emplace_back(normals, mask(i));
+    }
+    const auto encodeAll = [&] {
+        std::vector<std::array<std::uint32_t, 4>> words(blocks.size());
+        std::thread([&] {
+            for (std::size_t i = 0; i < blocks.size(); ++i) words[i] = vox::detail::encodeNormalBlock(blocks[i].first, blocks[i].second, effort);
+        }).join();
+        return words;
+    };
+    const auto wide = encodeAll();
+    vox::detail::setEncoderAvx512(false);
+    EXPECT_FALSE(vox::detail::encoderAvx512());
+    const auto narrow = encodeAll();
+    vox::detail::setEncoderAvx512(before);
+    std::size_t differing = 0;
+    for (std::size_t i = 0; i < blocks.size(); ++i) differing += wide[i] != narrow[i];
+    EXPECT_EQ(differing, 0u) << "of " << blocks.size() << " blocks";
+}

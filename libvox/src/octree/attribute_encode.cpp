@@ -1,6 +1,7 @@
 #include "attribute_encode.h"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -14,6 +15,16 @@
 #define VOX_ENCODE_SSE2 1
 #else
 #define VOX_ENCODE_SSE2 0
+#endif
+// AVX-512 kernels, chosen at run time where the CPU has AVX-512F: the same operations lane by
+// lane as the SSE2 ones (the file is compiled without contraction into FMAs), sixteen lanes at
+// once, so that both give the same bits.
+#if VOX_ENCODE_SSE2 && defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__)) && !defined(VOX_ENCODE_NO_AVX512)
+#include <immintrin.h>
+#define VOX_ENCODE_AVX512 1
+#define VOX_TARGET_AVX512 [[gnu::target("avx512f")]]
+#else
+#define VOX_ENCODE_AVX512 0
 #endif
 
 namespace vox::detail {
@@ -577,6 +588,27 @@ VOX_ENCODE_INLINE unsigned nearest3(const Points16& l, float x, float y, float z
     return k;
 }
 
+#if VOX_ENCODE_AVX512
+// (GCC 12 warns of the undefined source vectors inside its own AVX-512 intrinsics' definitions.)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+/// argmin16 of the 16 lanes of @p d, reduced in the SSE2 form's order (its four quarters are
+/// its four vectors), so that the two agree whatever the values.
+VOX_TARGET_AVX512 VOX_ENCODE_INLINE unsigned argmin16(__m512 d) {
+    const __m512i tagged = _mm512_or_si512(_mm512_and_si512(_mm512_castps_si512(d), _mm512_set1_epi32(~15)),
+                                           _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
+    const __m512 t = _mm512_castsi512_ps(tagged);
+    const __m128 t0 = _mm512_castps512_ps128(t), t1 = _mm512_extractf32x4_ps(t, 1), t2 = _mm512_extractf32x4_ps(t, 2),
+                 t3 = _mm512_extractf32x4_ps(t, 3);
+    __m128 m = _mm_min_ps(_mm_min_ps(t0, t1), _mm_min_ps(t2, t3));
+    m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
+    m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
+    return static_cast<unsigned>(_mm_cvtsi128_si32(_mm_castps_si128(m))) & 15u;
+}
+#pragma GCC diagnostic pop
+#endif
+
 /// The 16 directions normalise(b + cu·u + cv·v) as esvo::decodeBlockNormal computes them (up to
 /// its division by the length, here a multiplication by its inverse), a zero vector as +z.
 VOX_ENCODE_INLINE void decodedLattice(const Vec3& b, const Vec3& u, const Vec3& v, Points16& l) {
@@ -620,8 +652,42 @@ struct PlaneFit {
     std::array<std::uint8_t, 16> combo{};
 };
 
+#if VOX_ENCODE_AVX512
+/// Whether the AVX-512 kernels run (setEncoderAvx512): initially wherever the CPU (and the OS,
+/// which __builtin_cpu_supports also asks) has AVX-512F.
+std::atomic<bool> g_avx512{__builtin_cpu_supports("avx512f") != 0};
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+/// assignPlane with the sixteen lattice points in one vector.
+VOX_TARGET_AVX512 bool assignPlaneAvx512(const NormalPoints& p, PlaneFit& f) {
+    const __m512 cu = _mm512_loadu_ps(kComboU.data()), cv = _mm512_loadu_ps(kComboV.data());
+    const __m512 lx = _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(f.bx), _mm512_mul_ps(cu, _mm512_set1_ps(f.ux))), _mm512_mul_ps(cv, _mm512_set1_ps(f.vx)));
+    const __m512 ly = _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(f.by), _mm512_mul_ps(cu, _mm512_set1_ps(f.uy))), _mm512_mul_ps(cv, _mm512_set1_ps(f.vy)));
+    alignas(64) std::array<float, 16> d{};
+    bool changed = false;
+    double error = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        const __m512 dx = _mm512_sub_ps(_mm512_set1_ps(p.px[i]), lx), dy = _mm512_sub_ps(_mm512_set1_ps(p.py[i]), ly);
+        const __m512 d2 = _mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy));
+        const unsigned bestK = argmin16(d2);
+        _mm512_store_ps(d.data(), d2);
+        changed = changed || f.combo[i] != bestK;
+        f.combo[i] = static_cast<std::uint8_t>(bestK);
+        error += double(p.weight[i]) * d[bestK];
+    }
+    f.error = error;
+    return changed;
+}
+#pragma GCC diagnostic pop
+#endif
+
 /// Assigns every point its nearest of the 16 lattice points; true when a combo changed.
 bool assignPlane(const NormalPoints& p, PlaneFit& f) {
+#if VOX_ENCODE_AVX512
+    if (g_avx512.load(std::memory_order_relaxed)) return assignPlaneAvx512(p, f);
+#endif
     Points16 l;
     for (unsigned k = 0; k < 16; ++k) {
         l.x[k] = f.bx + kComboU[k] * f.ux + kComboV[k] * f.vx;
@@ -698,7 +764,44 @@ struct NormalState {
 /// Summed squared chord |n − d|² = 2 (1 − cos) between each used normal n and the nearest d of
 /// the 16 directions normalise(b + cu·u + cv·v), computed as esvo::decodeBlockNormal computes
 /// them; the nearest one's combo goes to @p combo. Stops early beyond @p bound.
+#if VOX_ENCODE_AVX512
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+/// evalLattice with the sixteen decoded directions in one vector each coordinate.
+VOX_TARGET_AVX512 double evalLatticeAvx512(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v,
+                                           std::array<std::uint8_t, 16>& combo, double bound) {
+    const __m512 cu = _mm512_loadu_ps(kComboU.data()), cv = _mm512_loadu_ps(kComboV.data());
+    const __m512 x = _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(b[0]), _mm512_mul_ps(cu, _mm512_set1_ps(u[0]))), _mm512_mul_ps(cv, _mm512_set1_ps(v[0])));
+    const __m512 y = _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(b[1]), _mm512_mul_ps(cu, _mm512_set1_ps(u[1]))), _mm512_mul_ps(cv, _mm512_set1_ps(v[1])));
+    const __m512 z = _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(b[2]), _mm512_mul_ps(cu, _mm512_set1_ps(u[2]))), _mm512_mul_ps(cv, _mm512_set1_ps(v[2])));
+    const __m512 one = _mm512_set1_ps(1.0f);
+    const __m512 len2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(x, x), _mm512_mul_ps(y, y)), _mm512_mul_ps(z, z));
+    const __mmask16 nonzero = _mm512_cmp_ps_mask(len2, _mm512_setzero_ps(), _CMP_GT_OQ);  // false for 0 and NaN
+    const __m512 inv = _mm512_div_ps(one, _mm512_sqrt_ps(_mm512_mask_blend_ps(nonzero, one, len2)));
+    const __m512 lx = _mm512_maskz_mov_ps(nonzero, _mm512_mul_ps(x, inv)), ly = _mm512_maskz_mov_ps(nonzero, _mm512_mul_ps(y, inv));
+    const __m512 lz = _mm512_mask_blend_ps(nonzero, one, _mm512_mul_ps(z, inv));
+    alignas(64) std::array<float, 16> d{};
+    double total = 0;
+    for (unsigned i = 0; i < p.count; ++i) {
+        const __m512 dx = _mm512_sub_ps(_mm512_set1_ps(p.n[i][0]), lx), dy = _mm512_sub_ps(_mm512_set1_ps(p.n[i][1]), ly),
+                     dz = _mm512_sub_ps(_mm512_set1_ps(p.n[i][2]), lz);
+        const __m512 d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
+        const unsigned bestK = argmin16(d2);
+        _mm512_store_ps(d.data(), d2);
+        combo[i] = static_cast<std::uint8_t>(bestK);
+        total += double(p.multiplicity[i]) * d[bestK];
+        if (total > bound) return total;
+    }
+    return total;
+}
+#pragma GCC diagnostic pop
+#endif
+
 double evalLattice(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v, std::array<std::uint8_t, 16>& combo, double bound) {
+#if VOX_ENCODE_AVX512
+    if (g_avx512.load(std::memory_order_relaxed)) return evalLatticeAvx512(p, b, u, v, combo, bound);
+#endif
     // The 16 decoded directions, in arrays the compiler can vectorise over.
     Points16 l;
     decodedLattice(b, u, v, l);
@@ -2184,6 +2287,25 @@ esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>&
     const auto c = encodeColorBlock(colors, usedMask, effort);
     const auto n = encodeNormalBlock(normals, usedMask, effort);
     return {c[0], c[1], n[0], n[1], n[2], n[3]};
+}
+
+bool setEncoderAvx512(bool enabled) noexcept {
+#if VOX_ENCODE_AVX512
+    const bool available = __builtin_cpu_supports("avx512f") != 0;
+    g_avx512.store(enabled && available);
+    return enabled && available;
+#else
+    (void)enabled;
+    return false;
+#endif
+}
+
+bool encoderAvx512() noexcept {
+#if VOX_ENCODE_AVX512
+    return g_avx512.load();
+#else
+    return false;
+#endif
 }
 
 std::uint64_t colorBlockError(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask, std::uint32_t word0,

@@ -57,6 +57,17 @@ using vox::AttributeEffort;  // vox/octree.h
 [[nodiscard]] esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>& values, std::uint32_t usedMask,
                                                          AttributeEffort effort = AttributeEffort::Default);
 
+/// Whether encodeNormalBlock's nearest-lattice-point kernels (the face-plane assignment and the
+/// decoded lattice's error, most of its time) run on AVX-512 (16 lattice points a vector) or
+/// SSE2 (4). Chosen once at start-up: AVX-512 wherever the CPU and OS support AVX-512F. Both
+/// compute the same operations lane by lane, so the blocks are bit-identical either way (test:
+/// AttributeEncode.Avx512KernelsGiveTheSameBlocks).
+[[nodiscard]] bool encoderAvx512() noexcept;
+/// Turns the AVX-512 kernels on or off for every thread (tests and benchmarks compare the two);
+/// returns whether they are now on (never where unsupported). Not to be called while blocks
+/// are being encoded.
+bool setEncoderAvx512(bool enabled) noexcept;
+
 /// Summed squared RGB error (8-bit units, alpha ignored) of the used slots of @p colors against
 /// colour words @p word0 (endpoints) and @p word1 (indices), decoded with esvo::colorPalette.
 [[nodiscard]] std::uint64_t colorBlockError(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask, std::uint32_t word0,
