@@ -3,7 +3,7 @@
 // 6-word esvo::CompressedBlock whose layout and decoders are in vox/formats/esvo_attributes.h.
 // The encoders search for the block that decodes closest to the input, measured with the
 // decoders' own arithmetic: squared 8-bit sRGB error for colour, angle for normals. They are
-// deterministic (no randomness, no dependence on threads; the SSE2 kernels and their scalar
+// deterministic (no randomness, no dependence on threads; the AVX-512 and SSE2 kernels and the scalar
 // fallbacks compute the same values). How hard they search is an AttributeEffort: on the real
 // blocks of depth-10 scenes, Default takes 12–32 thousand instructions a normal block (about
 // 1.8–3.4 µs; Best 2–3 times that) for 0–1 % more mean normal error than the Default before it,
