@@ -23,6 +23,14 @@
 #include <immintrin.h>
 #define VOX_ENCODE_AVX512 1
 #define VOX_TARGET_AVX512 [[gnu::target("avx512f")]]
+#if defined(__clang__)
+#define VOX_AVX512_WARNINGS_OFF
+#define VOX_AVX512_WARNINGS_ON
+#else  // GCC 12 warns of the undefined source vectors inside its own AVX-512 intrinsics' definitions
+#define VOX_AVX512_WARNINGS_OFF \
+    _Pragma("GCC diagnostic push") _Pragma("GCC diagnostic ignored \"-Wmaybe-uninitialized\"") _Pragma("GCC diagnostic ignored \"-Wuninitialized\"")
+#define VOX_AVX512_WARNINGS_ON _Pragma("GCC diagnostic pop")
+#endif
 #else
 #define VOX_ENCODE_AVX512 0
 #endif
@@ -589,10 +597,7 @@ VOX_ENCODE_INLINE unsigned nearest3(const Points16& l, float x, float y, float z
 }
 
 #if VOX_ENCODE_AVX512
-// (GCC 12 warns of the undefined source vectors inside its own AVX-512 intrinsics' definitions.)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#pragma GCC diagnostic ignored "-Wuninitialized"
+VOX_AVX512_WARNINGS_OFF
 /// argmin16 of the 16 lanes of @p d, reduced in the SSE2 form's order (its four quarters are
 /// its four vectors), so that the two agree whatever the values.
 VOX_TARGET_AVX512 VOX_ENCODE_INLINE unsigned argmin16(__m512 d) {
@@ -606,7 +611,7 @@ VOX_TARGET_AVX512 VOX_ENCODE_INLINE unsigned argmin16(__m512 d) {
     m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
     return static_cast<unsigned>(_mm_cvtsi128_si32(_mm_castps_si128(m))) & 15u;
 }
-#pragma GCC diagnostic pop
+VOX_AVX512_WARNINGS_ON
 #endif
 
 /// The 16 directions normalise(b + cu·u + cv·v) as esvo::decodeBlockNormal computes them (up to
@@ -657,9 +662,7 @@ struct PlaneFit {
 /// which __builtin_cpu_supports also asks) has AVX-512F.
 std::atomic<bool> g_avx512{__builtin_cpu_supports("avx512f") != 0};
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#pragma GCC diagnostic ignored "-Wuninitialized"
+VOX_AVX512_WARNINGS_OFF
 /// assignPlane with the sixteen lattice points in one vector.
 VOX_TARGET_AVX512 bool assignPlaneAvx512(const NormalPoints& p, PlaneFit& f) {
     const __m512 cu = _mm512_loadu_ps(kComboU.data()), cv = _mm512_loadu_ps(kComboV.data());
@@ -680,7 +683,7 @@ VOX_TARGET_AVX512 bool assignPlaneAvx512(const NormalPoints& p, PlaneFit& f) {
     f.error = error;
     return changed;
 }
-#pragma GCC diagnostic pop
+VOX_AVX512_WARNINGS_ON
 #endif
 
 /// Assigns every point its nearest of the 16 lattice points; true when a combo changed.
@@ -765,9 +768,7 @@ struct NormalState {
 /// the 16 directions normalise(b + cu·u + cv·v), computed as esvo::decodeBlockNormal computes
 /// them; the nearest one's combo goes to @p combo. Stops early beyond @p bound.
 #if VOX_ENCODE_AVX512
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#pragma GCC diagnostic ignored "-Wuninitialized"
+VOX_AVX512_WARNINGS_OFF
 /// evalLattice with the sixteen decoded directions in one vector each coordinate.
 VOX_TARGET_AVX512 double evalLatticeAvx512(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v,
                                            std::array<std::uint8_t, 16>& combo, double bound) {
@@ -795,7 +796,7 @@ VOX_TARGET_AVX512 double evalLatticeAvx512(const NormalPoints& p, const Vec3& b,
     }
     return total;
 }
-#pragma GCC diagnostic pop
+VOX_AVX512_WARNINGS_ON
 #endif
 
 double evalLattice(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v, std::array<std::uint8_t, 16>& combo, double bound) {
