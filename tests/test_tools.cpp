@@ -1,6 +1,7 @@
 // voxelize and voxinspect as a content build meets them: exit codes, one-line errors, no
 // output on failure, --stats and --depfile.
 #include <vox/formats/atomic_file.h>
+#include <vox/octree.h>
 #include <vox/texture.h>
 
 #include "assimp_models.h"
@@ -321,6 +322,8 @@ TEST(Tools, VoxelizeWritesAnEsvoThatValidatesAndReportsItself) {
     EXPECT_EQ(octree["voxels_per_level"].size(), 7u);
     EXPECT_EQ(octree["voxels_per_level"][0], 1);
     EXPECT_GT(octree["voxels_per_second"].get<double>(), 0.0);
+    // The encoders' kernels, which decide the build's time but not its bytes, as this CPU runs them.
+    EXPECT_EQ(octree["attribute_kernels"], vox::attributeEncoderKernels());
     EXPECT_GT(stats["timings_ms"]["voxelize"].get<double>(), 0.0);
     EXPECT_EQ(vox::test::readText(dir / "s.d").rfind(esvo.string() + ":", 0), 0u) << "the depfile's target is the -o output";
 

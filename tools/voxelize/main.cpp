@@ -107,6 +107,7 @@ nlohmann::json octreeReport(const std::string& output, const vox::EsvoBuildResul
             {"far_pointers", built.written.farPointers},
             {"file_bytes", built.written.fileBytes},
             {"attributes", attributes},
+            {"attribute_kernels", vox::attributeEncoderKernels()},
             {"bytes_per_voxel", voxels > 0 ? double(built.written.fileBytes) / voxels : 0.0},
             {"voxelize_seconds", voxelizeSeconds},
             {"build_seconds", buildSeconds},

@@ -182,6 +182,11 @@ struct EsvoBuildResult {
     [[nodiscard]] std::uint64_t voxelCount() const noexcept;
 };
 
+/// The kernels the compressed attribute encoders run on this machine: "avx512" (AVX-512F),
+/// "sse2", or "scalar" (a build without SSE2). They give the same bytes; only the time differs
+/// (docs/esvo-format.md §14), which is why reports name them.
+[[nodiscard]] const char* attributeEncoderKernels() noexcept;
+
 /// Half the physical memory (capped by the cgroup's limit where there is one).
 [[nodiscard]] std::uint64_t defaultMemoryLimit();
 

@@ -2325,3 +2325,11 @@ std::uint64_t colorBlockError(const std::array<std::uint32_t, 16>& colors, std::
 }
 
 }  // namespace vox::detail
+
+namespace vox {
+
+const char* attributeEncoderKernels() noexcept {
+    return detail::encoderAvx512() ? "avx512" : (VOX_ENCODE_SSE2 ? "sse2" : "scalar");
+}
+
+}  // namespace vox
