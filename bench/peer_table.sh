@@ -91,6 +91,7 @@ for name in names:
             "ours_cpu_seconds": med([x[1]["cpu_seconds"] for x in ours]),
             "ours_peak_rss_bytes": med([x[0]["peak_rss_bytes"] for x in ours]),
             "ours_output_bytes": o["file_bytes"], "ours_bytes_per_voxel": o["bytes_per_voxel"],
+            "ours_attribute_kernels": o.get("attribute_kernels", "unknown"),
             "peer_voxels": g["active_voxels"],
             "peer_seconds": med([x[0]["grid"]["mesh_to_volume_seconds"] for x in peer]),
             "peer_prepare_seconds": med([x[0]["grid"]["prepare_seconds"] for x in peer]),
@@ -122,8 +123,10 @@ for r in rows:
           f'{r["peer_peak_rss_bytes"]/MB:>7.0f} {r["peer_output_bytes"]/MB:>7.1f} {r["peer_bytes_per_voxel"]:>6.2f} | '
           f'{r["time_ratio"]:>6.2f} {r["wall_ratio"]:>6.2f} {r["cpu_ratio"]:>6.2f} {r["rss_ratio"]:>6.2f}')
 threads = sorted({r["threads"] for r in rows} | {r["peer_threads"] for r in rows})
+kernels = sorted({r["ours_attribute_kernels"] for r in rows})
 print(f'threads {",".join(map(str, threads))}; medians of {repeat}; build_s: voxelize\'s octree.build_seconds (voxelization + .esvo layout, '
-      f'encode, write; no import); m2v_s: meshToVolume alone; wall_s, cpu_s, RSS: the whole process; time = m2v_s / build_s')
+      f'encode, write; no import); m2v_s: meshToVolume alone; wall_s, cpu_s, RSS: the whole process; time = m2v_s / build_s; '
+      f'attribute kernels {",".join(kernels)}')
 if any("cross_check" in r for r in rows):
     print(f'{"mesh":<16} {"depth":>5} {"leaves":>10} {"active":>10} {"leaves_in_grid":>14} {"active_in_leaves":>16} {"active/leaves":>13}')
     for r in rows:
