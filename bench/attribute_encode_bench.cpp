@@ -301,7 +301,7 @@ int blocksMode(int argc, char** argv) {
     nlohmann::json out = blockSuites(readBlocks(file, stride));
     out["blocks_file"] = file;
     out["effort"] = effortName(g_effort);
-    out["kernels"] = vox::detail::encoderAvx512() ? "avx512" : "sse2";
+    out["kernels"] = vox::attributeEncoderKernels();
     out["stride"] = stride;
     std::cout << out.dump(2) << '\n';
     return 0;
@@ -327,7 +327,7 @@ int sceneMode(int argc, char** argv) {
     nlohmann::json out;
     out["scene"] = file;
     out["effort"] = effortName(g_effort);
-    out["kernels"] = vox::detail::encoderAvx512() ? "avx512" : "sse2";
+    out["kernels"] = vox::attributeEncoderKernels();
     out["depth"] = depth;
     out["voxels"] = octree.voxelCount();
     // Laine & Karras 5.7, "combined indirect attribute lookup", sized without building it: a
@@ -410,7 +410,7 @@ int main(int argc, char** argvIn) {
     nlohmann::json out;
     out["textures"] = textures;
     out["effort"] = effortName(g_effort);
-    out["kernels"] = vox::detail::encoderAvx512() ? "avx512" : "sse2";
+    out["kernels"] = vox::attributeEncoderKernels();
     if (!tiles.empty()) {
         out["color_tiles_full"] = colorSuite(tiles);
         out["color_tiles_8_of_16"] = colorSuite(partial);

@@ -658,16 +658,24 @@ struct PlaneFit {
 };
 
 #if VOX_ENCODE_AVX512
-/// Whether the AVX-512 kernels run (setEncoderAvx512): initially wherever the CPU (and the OS,
-/// which __builtin_cpu_supports also asks) has AVX-512F.
-std::atomic<bool> g_avx512{__builtin_cpu_supports("avx512f") != 0};
+/// Whether the CPU (and the OS, which __builtin_cpu_supports also asks) has AVX-512F.
+bool avx512Available() { return __builtin_cpu_supports("avx512f") != 0; }
+
+/// Whether the AVX-512 kernels run (setEncoderAvx512): initially wherever they can.
+std::atomic<bool> g_avx512{avx512Available()};
+
+VOX_AVX512_WARNINGS_OFF
+/// The combos' (b + cu·u) + cv·v in one coordinate, for all sixteen combos (the SSE2 kernels' order).
+VOX_TARGET_AVX512 VOX_ENCODE_INLINE __m512 comboCoordinate(float b, float u, float v) {
+    const __m512 cu = _mm512_loadu_ps(kComboU.data()), cv = _mm512_loadu_ps(kComboV.data());
+    return _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(b), _mm512_mul_ps(cu, _mm512_set1_ps(u))), _mm512_mul_ps(cv, _mm512_set1_ps(v)));
+}
+VOX_AVX512_WARNINGS_ON
 
 VOX_AVX512_WARNINGS_OFF
 /// assignPlane with the sixteen lattice points in one vector.
 VOX_TARGET_AVX512 bool assignPlaneAvx512(const NormalPoints& p, PlaneFit& f) {
-    const __m512 cu = _mm512_loadu_ps(kComboU.data()), cv = _mm512_loadu_ps(kComboV.data());
-    const __m512 lx = _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(f.bx), _mm512_mul_ps(cu, _mm512_set1_ps(f.ux))), _mm512_mul_ps(cv, _mm512_set1_ps(f.vx)));
-    const __m512 ly = _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(f.by), _mm512_mul_ps(cu, _mm512_set1_ps(f.uy))), _mm512_mul_ps(cv, _mm512_set1_ps(f.vy)));
+    const __m512 lx = comboCoordinate(f.bx, f.ux, f.vx), ly = comboCoordinate(f.by, f.uy, f.vy);
     alignas(64) std::array<float, 16> d{};
     bool changed = false;
     double error = 0;
@@ -764,18 +772,12 @@ struct NormalState {
     std::array<std::uint8_t, 16> combo{};
 };
 
-/// Summed squared chord |n − d|² = 2 (1 − cos) between each used normal n and the nearest d of
-/// the 16 directions normalise(b + cu·u + cv·v), computed as esvo::decodeBlockNormal computes
-/// them; the nearest one's combo goes to @p combo. Stops early beyond @p bound.
 #if VOX_ENCODE_AVX512
 VOX_AVX512_WARNINGS_OFF
 /// evalLattice with the sixteen decoded directions in one vector each coordinate.
 VOX_TARGET_AVX512 double evalLatticeAvx512(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v,
                                            std::array<std::uint8_t, 16>& combo, double bound) {
-    const __m512 cu = _mm512_loadu_ps(kComboU.data()), cv = _mm512_loadu_ps(kComboV.data());
-    const __m512 x = _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(b[0]), _mm512_mul_ps(cu, _mm512_set1_ps(u[0]))), _mm512_mul_ps(cv, _mm512_set1_ps(v[0])));
-    const __m512 y = _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(b[1]), _mm512_mul_ps(cu, _mm512_set1_ps(u[1]))), _mm512_mul_ps(cv, _mm512_set1_ps(v[1])));
-    const __m512 z = _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(b[2]), _mm512_mul_ps(cu, _mm512_set1_ps(u[2]))), _mm512_mul_ps(cv, _mm512_set1_ps(v[2])));
+    const __m512 x = comboCoordinate(b[0], u[0], v[0]), y = comboCoordinate(b[1], u[1], v[1]), z = comboCoordinate(b[2], u[2], v[2]);
     const __m512 one = _mm512_set1_ps(1.0f);
     const __m512 len2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(x, x), _mm512_mul_ps(y, y)), _mm512_mul_ps(z, z));
     const __mmask16 nonzero = _mm512_cmp_ps_mask(len2, _mm512_setzero_ps(), _CMP_GT_OQ);  // false for 0 and NaN
@@ -799,6 +801,9 @@ VOX_TARGET_AVX512 double evalLatticeAvx512(const NormalPoints& p, const Vec3& b,
 VOX_AVX512_WARNINGS_ON
 #endif
 
+/// Summed squared chord |n − d|² = 2 (1 − cos) between each used normal n and the nearest d of
+/// the 16 directions normalise(b + cu·u + cv·v), computed as esvo::decodeBlockNormal computes
+/// them; the nearest one's combo goes to @p combo. Stops early beyond @p bound.
 double evalLattice(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v, std::array<std::uint8_t, 16>& combo, double bound) {
 #if VOX_ENCODE_AVX512
     if (g_avx512.load(std::memory_order_relaxed)) return evalLatticeAvx512(p, b, u, v, combo, bound);
@@ -2292,9 +2297,8 @@ esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>&
 
 bool setEncoderAvx512(bool enabled) noexcept {
 #if VOX_ENCODE_AVX512
-    const bool available = __builtin_cpu_supports("avx512f") != 0;
-    g_avx512.store(enabled && available);
-    return enabled && available;
+    g_avx512.store(enabled && avx512Available());
+    return g_avx512.load();
 #else
     (void)enabled;
     return false;

@@ -61,7 +61,7 @@ using vox::AttributeEffort;  // vox/octree.h
 /// decoded lattice's error, most of its time) run on AVX-512 (16 lattice points a vector) or
 /// SSE2 (4). Chosen once at start-up: AVX-512 wherever the CPU and OS support AVX-512F. Both
 /// compute the same operations lane by lane, so the blocks are bit-identical either way (test:
-/// AttributeEncode.Avx512KernelsGiveTheSameBlocks).
+/// AttributeEncode/ByEffort.Avx512KernelsGiveTheSameBlocks).
 [[nodiscard]] bool encoderAvx512() noexcept;
 /// Turns the AVX-512 kernels on or off for every thread (tests and benchmarks compare the two);
 /// returns whether they are now on (never where unsupported). Not to be called while blocks
