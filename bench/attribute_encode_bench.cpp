@@ -267,6 +267,7 @@ void writeBlocks(const std::string& file, const std::vector<RawBlock>& raw) {
 
 std::vector<RawBlock> readBlocks(const std::string& file, std::size_t stride) {
     std::ifstream in(file, std::ios::binary);
+    if (!in) throw vox::IoError(file, "cannot open the block dump");
     char magic[8]{};
     std::uint64_t count = 0;
     in.read(magic, sizeof magic);
@@ -362,7 +363,12 @@ int sceneMode(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argvIn) {
+constexpr const char* kUsage =
+    "usage: attribute_encode_bench [--effort fast|default|best] [--kernels sse2|auto] [TILES_PER_TEXTURE] [NORMAL_BLOCKS]\n"
+    "       attribute_encode_bench [...] --scene FILE [--depth N] [--dump FILE]\n"
+    "       attribute_encode_bench [...] --blocks FILE [--stride K]\n";
+
+int run(int argc, char** argvIn) {
     // --effort E, anywhere; the rest keep their positions.
     std::vector<char*> args;
     for (int i = 0; i < argc; ++i) {
@@ -386,18 +392,16 @@ int main(int argc, char** argvIn) {
             }
             continue;
         }
+        if (std::string(argvIn[i]) == "--help" || std::string(argvIn[i]) == "-h") {
+            std::fputs(kUsage, stdout);
+            return 0;
+        }
         args.push_back(argvIn[i]);
     }
     argc = static_cast<int>(args.size());
     char** argv = args.data();
-    if (argc > 1 && (std::string(argv[1]) == "--scene" || std::string(argv[1]) == "--blocks")) {
-        try {
-            return std::string(argv[1]) == "--scene" ? sceneMode(argc, argv) : blocksMode(argc, argv);
-        } catch (const vox::Error& e) {
-            std::fprintf(stderr, "attribute_encode_bench: error: %s\n", e.what());
-            return static_cast<int>(e.exitCode());
-        }
-    }
+    if (argc > 1 && (std::string(argv[1]) == "--scene" || std::string(argv[1]) == "--blocks"))
+        return std::string(argv[1]) == "--scene" ? sceneMode(argc, argv) : blocksMode(argc, argv);
     const std::size_t perTexture = argc > 1 ? std::stoul(argv[1]) : 4000;
     const std::size_t normalBlocks = argc > 2 ? std::stoul(argv[2]) : 20000;
     std::mt19937 rng(2024);
@@ -442,4 +446,16 @@ int main(int argc, char** argvIn) {
     out["normal_random_cone_20deg"] = normalSuite(randomCones(rng, normalBlocks, 20 * std::numbers::pi / 180));
     std::cout << out.dump(2) << '\n';
     return 0;
+}
+
+int main(int argc, char** argv) {
+    try {
+        return run(argc, argv);
+    } catch (const vox::Error& e) {
+        std::fprintf(stderr, "attribute_encode_bench: error: %s\n", e.what());
+        return static_cast<int>(e.exitCode());
+    } catch (const std::exception& e) {  // a number that does not parse (std::stoul), a bad allocation
+        std::fprintf(stderr, "attribute_encode_bench: error: %s\n%s", e.what(), kUsage);
+        return 1;
+    }
 }
