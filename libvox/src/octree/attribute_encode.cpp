@@ -670,9 +670,7 @@ VOX_TARGET_AVX512 VOX_ENCODE_INLINE __m512 comboCoordinate(float b, float u, flo
     const __m512 cu = _mm512_loadu_ps(kComboU.data()), cv = _mm512_loadu_ps(kComboV.data());
     return _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(b), _mm512_mul_ps(cu, _mm512_set1_ps(u))), _mm512_mul_ps(cv, _mm512_set1_ps(v)));
 }
-VOX_AVX512_WARNINGS_ON
 
-VOX_AVX512_WARNINGS_OFF
 /// assignPlane with the sixteen lattice points in one vector.
 VOX_TARGET_AVX512 bool assignPlaneAvx512(const NormalPoints& p, PlaneFit& f) {
     const __m512 lx = comboCoordinate(f.bx, f.ux, f.vx), ly = comboCoordinate(f.by, f.uy, f.vy);
@@ -2297,8 +2295,9 @@ esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>&
 
 bool setEncoderAvx512(bool enabled) noexcept {
 #if VOX_ENCODE_AVX512
-    g_avx512.store(enabled && avx512Available());
-    return g_avx512.load();
+    const bool on = enabled && avx512Available();
+    g_avx512.store(on);
+    return on;
 #else
     (void)enabled;
     return false;
