@@ -520,26 +520,43 @@ TEST(Tools, RenderWritesPngAndPfmFromTheCamera) {
     expectOneLineError(voxelize({scene.string(), "-o", (dir / "x.obj").string()}), 1, "expected .esvo");
 }
 
-TEST(Tools, ContoursAreOnByDefaultAndRefinementStopsAtTheContourError) {
+TEST(Tools, ContoursAreOnByDefaultAndRefinementIsErrorBounded) {
     ScratchDir dir;
     const auto scene = vox::scenes::writeCornellBox(dir.path());
-    const auto info = [&](const std::vector<std::string>& extra) {
-        std::vector<std::string> args{scene.string(), "-o", (dir / "c.esvo").string(), "--depth", "8"};
+    const auto build = [&](const std::vector<std::string>& extra, nlohmann::json* stats = nullptr) {
+        std::vector<std::string> args{scene.string(), "-o", (dir / "c.esvo").string(), "--depth", "8", "--stats", (dir / "s.json").string()};
         args.insert(args.end(), extra.begin(), extra.end());
         EXPECT_EQ(voxelize(args).exitCode, 0);
         EXPECT_EQ(voxinspect({"validate", (dir / "c.esvo").string()}).exitCode, 0);
+        if (stats) *stats = nlohmann::json::parse(vox::test::readText(dir / "s.json"));
         return nlohmann::json::parse(voxinspect({"info", (dir / "c.esvo").string(), "--json"}).out);
     };
-    const auto cubes = info({"--no-contours"});
-    const auto contours = info({});
-    const auto coarse = info({"--contour-error", "0.5"});
+    nlohmann::json defaultStats, fullStats;
+    const auto cubes = build({"--no-contours"});
+    const auto full = build({"--full-refinement"}, &fullStats);
+    const auto bounded = build({}, &defaultStats);
+    const auto zero = build({"--contour-error", "0"});
     EXPECT_EQ(cubes["bytes"]["contours"], 0);
-    EXPECT_GT(contours["bytes"]["contours"].get<std::uint64_t>(), 0u);
-    EXPECT_EQ(contours["voxels"], cubes["voxels"]) << "without an error bound, contours do not change the voxels";
-    // The Cornell box is made of flat faces: a slab fits them exactly, so refinement ends long
-    // before the leaf depth.
-    EXPECT_LT(coarse["voxels"].get<double>(), 0.2 * cubes["voxels"].get<double>());
-    EXPECT_LT(coarse["voxels_per_level"][8].get<double>(), 0.2 * cubes["voxels_per_level"][8].get<double>());
+    EXPECT_EQ(cubes["contour_voxels"], 0);
+    EXPECT_GT(full["bytes"]["contours"].get<std::uint64_t>(), 0u);
+    EXPECT_EQ(full["voxels"], cubes["voxels"]) << "fully refined, contours do not change the voxels";
+    EXPECT_EQ(full["leaves"], full["voxels_per_level"][8]) << "fully refined, every leaf is at --depth";
+    EXPECT_EQ(zero["voxels"], full["voxels"]) << "--contour-error 0 is full refinement";
+    EXPECT_EQ(fullStats["octree"]["refinement"]["full"], true);
+    EXPECT_EQ(defaultStats["octree"]["refinement"]["full"], false);
+    EXPECT_EQ(defaultStats["octree"]["refinement"]["contour_error"], vox::kDefaultContourError);
+    EXPECT_EQ(defaultStats["octree"]["refinement"]["normal_error_degrees"], vox::kDefaultNormalErrorDegrees);
+    EXPECT_EQ(defaultStats["octree"]["refinement"]["color_error"], vox::kDefaultColorError);
+    // The Cornell box is made of flat faces: by default a slab bounds them within the error long
+    // before the leaf depth; leaves above it are where refinement stopped.
+    EXPECT_LT(bounded["voxels"].get<double>(), 0.3 * full["voxels"].get<double>());
+    EXPECT_LT(bounded["file_bytes"].get<double>(), 0.3 * full["file_bytes"].get<double>());
+    EXPECT_GT(bounded["leaves"].get<std::uint64_t>(), bounded["voxels_per_level"][8].get<std::uint64_t>());
+    // Contours are counted where they are stored: 4 bytes each.
+    EXPECT_EQ(bounded["bytes"]["contours"].get<std::uint64_t>(), 4 * bounded["contour_voxels"].get<std::uint64_t>());
+    std::uint64_t perLevel = 0;
+    for (const auto& n : bounded["contour_voxels_per_level"]) perLevel += n.get<std::uint64_t>();
+    EXPECT_EQ(perLevel, bounded["contour_voxels"].get<std::uint64_t>());
 }
 
 // ---- .rvol through the tools ----------------------------------------------------------------

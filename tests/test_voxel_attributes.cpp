@@ -187,3 +187,65 @@ TEST(VoxelAttributes, ColourVariationKeepsRefiningWhereGeometryWouldStop) {
     // A colour bound above the whole range changes nothing.
     EXPECT_EQ(voxelize(scene, 6, true, 2.0, 255.0).voxelCount(), geometric.voxelCount());
 }
+
+TEST(VoxelAttributes, NormalBoundStopsWhereTheVoxelsNormalStandsForItsSurface) {
+    // Vertex normals (∓1, 0, 1)/√2 at x = 0 and 1: the shading normal's angle is atan(2x − 1),
+    // turning by 2 rad per unit at x = ½ and by 1 at the sides. With a bound of 0.8° on the
+    // normal's RMS deviation inside a voxel, 1/32-wide voxels (level 5) hold 1.03° in the middle
+    // and 0.52° at the sides: refinement goes one level further in the middle. Geometry alone
+    // (a flat quad) stops at level 5, the first below the voxelizer's cells.
+    vox::Scene scene;
+    scene.materials = {{"grey", {0.5f, 0.5f, 0.5f, 1}}};
+    const float s = 1.0f / std::sqrt(2.0f);
+    addQuad(scene, 0, 1, 0, {-s, 0, s}, {s, 0, s});
+    vox::SurfaceVoxelizeOptions options;
+    options.depth = 9;
+    options.attributes = true;
+    options.contours = true;
+    options.contourError = 2;
+    const vox::SparseOctree geometric = vox::voxelizeSurface(scene, options);
+    EXPECT_GT(geometric.voxelsPerLevel[5], 0u);
+    EXPECT_EQ(geometric.voxelsPerLevel[6], 0u);
+    options.normalErrorDegrees = 0.8;
+    const vox::SparseOctree bounded = vox::voxelizeSurface(scene, options);
+    EXPECT_GT(bounded.voxelCount(), geometric.voxelCount());
+
+    // The true RMS angle between the shading normal over x ∈ [a, b] and the voxel's mean normal.
+    const auto trueRmsDegrees = [](double a, double b) {
+        constexpr int kSamples = 512;
+        double mx = 0, mz = 0;
+        for (int i = 0; i < kSamples; ++i) {
+            const double u = 2 * (a + (b - a) * (i + 0.5) / kSamples) - 1;
+            mx += u / std::hypot(u, 1.0), mz += 1 / std::hypot(u, 1.0);
+        }
+        const double mean = std::atan2(mx, mz);
+        double squares = 0;
+        for (int i = 0; i < kSamples; ++i) {
+            const double d = std::atan(2 * (a + (b - a) * (i + 0.5) / kSamples) - 1) - mean;
+            squares += d * d;
+        }
+        return std::sqrt(squares / kSamples) * 180 / 3.14159265358979323846;
+    };
+    // Every leaf above the leaf depth by position; each within the bound, up to the estimate's
+    // linearisation.
+    std::map<std::uint32_t, std::uint32_t> levelAtX;  // leaf x (in 1/512) → its level
+    std::vector<std::array<std::uint32_t, 4>> voxels{{0, 0, 0, 0}};  // level, x, y, z
+    for (std::uint32_t l = 0; l < bounded.leafDepth; ++l) {
+        std::vector<std::array<std::uint32_t, 4>> next;
+        for (std::size_t i = 0; i < voxels.size(); ++i) {
+            const std::uint32_t mask = bounded.masks[l][i];
+            const auto [level, x, y, z] = voxels[i];
+            if (mask == 0) {
+                const double w = std::ldexp(1.0, -static_cast<int>(level));
+                EXPECT_LE(trueRmsDegrees(x * w, (x + 1) * w), 0.8 * 1.15) << "level " << level << " x " << x;
+                levelAtX[x << (9 - level)] = level;
+                continue;
+            }
+            for (std::uint32_t slot = 0; slot < 8; ++slot)
+                if (mask & (1u << slot)) next.push_back({l + 1, 2 * x + (slot & 1u), 2 * y + ((slot >> 1) & 1u), 2 * z + (slot >> 2)});
+        }
+        voxels = std::move(next);
+    }
+    EXPECT_EQ(levelAtX.at(0), 5u) << "the sides";
+    EXPECT_EQ(levelAtX.at(256), 6u) << "the middle";
+}

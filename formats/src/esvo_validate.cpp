@@ -218,6 +218,8 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
     std::uint64_t descriptors = 0, farSlots = 0, voxels = 0, frontierIndex = 0;
     std::uint32_t deepest = 0, shallowestRoot = 0xFFFFFFFFu;
     summary.voxelsPerLevel.assign(header.leafDepth + 1, 0);
+    summary.leavesPerLevel.assign(header.leafDepth + 1, 0);
+    summary.contoursPerLevel.assign(header.leafDepth + 1, 0);
     const auto pushGroup = [&](std::uint64_t first, std::uint32_t nonLeafMask, const VoxelPosition& parent) {
         std::uint64_t n = popc8(nonLeafMask);
         for (int slot = 7; slot >= 0; --slot)
@@ -257,6 +259,7 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
                         check.fail(4 * w, "contour normal's largest component is not ±31");
                 }
                 summary.contourBytes += 4 * count;
+                summary.contoursPerLevel[d.position.level + 1] += count;
             }
             if (desc.validMask() == 0) check.fail(at, "descriptor with an empty valid mask");
             if (t.hasAttributes()) descriptorUnits.push_back(d.unit);
@@ -264,6 +267,7 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
             ++descriptors;
             voxels += popc8(desc.validMask());
             summary.voxelsPerLevel[d.position.level + 1] += popc8(desc.validMask());
+            summary.leavesPerLevel[d.position.level + 1] += popc8(desc.validMask() & ~desc.nonLeafMask());
             if (d.position.level + 1 == header.leafDepth && desc.nonLeafMask() != 0)
                 check.fail(at, "children below the leaf depth");
             if (desc.nonLeafMask() == 0) {
@@ -338,6 +342,8 @@ FileBreakdown validateFile(const EsvoReader& reader) {
     std::vector<Region> regions(d.slices.size(), Region{0, 0, 0, 0});
     std::vector<std::uint64_t> voxelsPerLevel(h.leafDepth + 1, 0);
     voxelsPerLevel[0] = 1;
+    total.leavesPerLevel.assign(h.leafDepth + 1, 0);
+    total.contoursPerLevel.assign(h.leafDepth + 1, 0);
     std::uint64_t used = total.headerAndDirectoryBytes;
     // The alignment gaps before each slice must be zero, as the writer leaves them: a flipped
     // byte there is corruption too, even if no reader reads it.
@@ -391,7 +397,11 @@ FileBreakdown validateFile(const EsvoReader& reader) {
         if (consumed != summary.frontier.size())
             throw InvalidDataError(reader.path(), "slice " + std::to_string(i) + ": " + std::to_string(summary.frontier.size()) +
                                                       " frontier descriptors but its child slices resolve " + std::to_string(consumed));
-        for (std::size_t l = 0; l < voxelsPerLevel.size(); ++l) voxelsPerLevel[l] += summary.voxelsPerLevel[l];
+        for (std::size_t l = 0; l < voxelsPerLevel.size(); ++l) {
+            voxelsPerLevel[l] += summary.voxelsPerLevel[l];
+            total.leavesPerLevel[l] += summary.leavesPerLevel[l];
+            total.contoursPerLevel[l] += summary.contoursPerLevel[l];
+        }
         total.descriptorBytes += summary.descriptorBytes;
         total.farPointerBytes += summary.farPointerBytes;
         total.pageHeaderBytes += summary.pageHeaderBytes;

@@ -92,6 +92,16 @@ nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakd
     const auto kinds = h.attachmentKinds;
     const auto has = [&](esvo::AttachmentKind k) { return (kinds >> static_cast<unsigned>(k)) & 1u; };
     report["contours"] = has(esvo::AttachmentKind::Contour) != 0;
+    // Leaves above the leaf depth are where refinement stopped early; contours per level, where
+    // a voxel kept one of its own (the others inherit their ancestors').
+    std::uint64_t leaves = 0, contourVoxels = 0;
+    for (std::uint64_t n : b.leavesPerLevel) leaves += n;
+    for (std::uint64_t n : b.contoursPerLevel) contourVoxels += n;
+    report["leaves"] = leaves;
+    report["leaves_per_level"] = b.leavesPerLevel;
+    report["contour_voxels"] = contourVoxels;
+    report["contour_voxels_per_level"] = b.contoursPerLevel;
+    report["contour_voxel_share"] = voxels ? double(contourVoxels) / double(voxels) : 0.0;
     report["attributes"] = has(esvo::AttachmentKind::Dxt)         ? "dxt"
                            : has(esvo::AttachmentKind::DxtLookup) ? "dxt-lookup"
                            : has(esvo::AttachmentKind::Palette)   ? "raw"

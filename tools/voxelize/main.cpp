@@ -28,11 +28,12 @@ struct VoxelizeOptions {
     std::uint32_t nearPointerLimit = 0x7FFF;
     bool includeDynamic = false;
     bool noContours = false;
-    double contourError = 0;
+    bool fullRefinement = false;
+    double contourError = vox::kDefaultContourError;
     std::string attributes = "dxt";
     std::string attributeEffort = "default";
-    double colorError = 0;
-    double normalError = 0;
+    double colorError = vox::kDefaultColorError;
+    double normalError = vox::kDefaultNormalErrorDegrees;
     std::string stats;
     std::string depfile;
     std::vector<std::string> dynamicNames;
@@ -232,7 +233,7 @@ void voxelize(const VoxelizeOptions& options) {
         build.voxelize.depth = options.depth;
         build.voxelize.includeDynamic = options.includeDynamic;
         build.voxelize.contours = !options.noContours;
-        build.voxelize.contourError = options.contourError;
+        build.voxelize.contourError = options.fullRefinement ? 0.0 : options.contourError;
         build.voxelize.attributes = options.attributes != "none";
         build.voxelize.colorError = options.colorError;
         build.voxelize.normalErrorDegrees = options.normalError;
@@ -265,6 +266,11 @@ void voxelize(const VoxelizeOptions& options) {
                       static_cast<unsigned long long>(built.partitionsTotal), built.partitionLevel, built.batches);
         vox::log::info(summary);
         report["octree"] = octreeReport(options.output, built, options.attributes, buildSeconds, built.voxelizeSeconds);
+        const bool full = build.voxelize.contourError == 0 || !build.voxelize.contours;
+        report["octree"]["refinement"] = {{"full", full},
+                                          {"contour_error", full ? 0.0 : build.voxelize.contourError},
+                                          {"color_error", full ? 0.0 : build.voxelize.colorError},
+                                          {"normal_error_degrees", full ? 0.0 : build.voxelize.normalErrorDegrees}};
         if (partitions.count > 1) report["octree"]["partition"] = {{"run", partitions.index + 1}, {"runs", partitions.count}};
     }
 
@@ -321,14 +327,19 @@ int main(int argc, char** argv) {
     vox::tools::addCommonOptions(*mergeApp, options.common);
     app.add_option("input", options.input, "Scene file: .gltf .glb .obj .ply .stl .off .drc");
     app.add_option("-o,--output", options.output, "Write the sparse voxel octree here (.esvo)");
-    app.add_option("--depth", options.depth, "Leaf level: 2^N voxels along the scene's longest side")
+    app.add_option("--depth", options.depth,
+                   "Finest level allowed: at most 2^N voxels along the scene's longest side (voxels stop coarser where "
+                   "--contour-error, --normal-error and --color-error allow; --full-refinement: every voxel to this level)")
         ->check(CLI::Range(1, 20))->capture_default_str();
     app.add_option("--slice-bytes", options.sliceBytes, "Largest .esvo slice in bytes")
         ->check(CLI::Range(16384, 1 << 26))->capture_default_str();
     app.add_flag("--include-dynamic", options.includeDynamic, "Voxelize dynamic meshes too (left out by default)");
-    app.add_flag("--no-contours", options.noContours, "Cubes only: no contours (slabs) in the octree");
+    app.add_flag("--no-contours", options.noContours, "Cubes only: no contours (slabs), every voxel refined to --depth");
+    app.add_flag("--full-refinement", options.fullRefinement,
+                 "Refine every voxel to --depth (as --contour-error 0): no error-bounded early stop");
     app.add_option("--contour-error", options.contourError,
-                   "Stop refining where a voxel's cube and contour lie within E leaf voxels of the surface (0: refine to --depth)")
+                   "Stop refining where a voxel's cube and contour lie within E leaf voxels of the surface, and its colour "
+                   "and normal within --color-error and --normal-error (0: refine to --depth)")
         ->check(CLI::Range(0.0, 1e6))->capture_default_str();
     app.add_option("--attributes", options.attributes,
                    "Colour and normal per voxel: dxt (compressed, 6 words per pair of sibling descriptors), dxt-lookup "
@@ -340,10 +351,12 @@ int main(int argc, char** argv) {
                    "error) or best (the full search, about 1.8x slower than default for 0.02 dB and 1-2 % normal error)")
         ->check(CLI::IsMember({"fast", "default", "best"}))->capture_default_str();
     app.add_option("--color-error", options.colorError,
-                   "With --contour-error: keep refining where colour varies more than this (8-bit sRGB steps) inside a voxel (0: off)")
+                   "With --contour-error: keep refining where the colour's RMS deviation from the voxel's over its surface "
+                   "is above this (8-bit sRGB steps; 0: off)")
         ->check(CLI::Range(0.0, 255.0))->capture_default_str();
     app.add_option("--normal-error", options.normalError,
-                   "With --contour-error: keep refining where the normal varies more than this many degrees inside a voxel (0: off)")
+                   "With --contour-error: keep refining where the shading normal's RMS deviation from the voxel's over its "
+                   "surface is above this many degrees (0: off)")
         ->check(CLI::Range(0.0, 180.0))->capture_default_str();
     app.add_option("--radiance", options.radiance, "Bake a mipmapped anisotropic radiance volume here (.rvol)");
     app.add_option("--radiance-depth", options.radianceDepth, "Radiance volume: 2^N cells along the scene's longest side")

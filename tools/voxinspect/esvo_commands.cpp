@@ -29,15 +29,24 @@ void printInfo(const std::string& file, bool json) {
                 reader.header().leafDepth);
     std::printf("  voxels          %llu\n", static_cast<unsigned long long>(report["voxels"].get<std::uint64_t>()));
     const auto& perLevel = reader.directory().voxelsPerLevel;
+    std::printf("    %-9s %14s %14s %14s\n", "", "voxels", "leaves", "contours");
     for (std::size_t l = 0; l < perLevel.size(); ++l)
-        std::printf("    level %-3zu %14llu\n", l, static_cast<unsigned long long>(perLevel[l]));
+        std::printf("    level %-3zu %14llu %14llu %14llu\n", l, static_cast<unsigned long long>(perLevel[l]),
+                    static_cast<unsigned long long>(breakdown.leavesPerLevel[l]), static_cast<unsigned long long>(breakdown.contoursPerLevel[l]));
+    std::printf("  leaves          %llu\n", static_cast<unsigned long long>(report["leaves"].get<std::uint64_t>()));
     std::printf("  slices          %zu (largest %u bytes, limit %u)\n", reader.directory().slices.size(),
                 report["largest_slice_bytes"].get<std::uint32_t>(), reader.header().sliceBytesLimit);
     std::printf("  far pointers    %llu\n", static_cast<unsigned long long>(report["far_pointers"].get<std::uint64_t>()));
     std::printf("  file bytes      %llu\n", static_cast<unsigned long long>(reader.header().fileBytes));
     std::printf("  bytes per voxel %.3f\n", report["bytes_per_voxel"]["total"].get<double>());
-    std::printf("  contours        %s\n  attributes      %s\n", report["contours"].get<bool>() ? "yes" : "no",
-                report["attributes"].get<std::string>().c_str());
+    if (report["contours"].get<bool>())
+        std::printf("  contours        %llu voxels (%.1f %%), %llu bytes (%.3f per voxel)\n",
+                    static_cast<unsigned long long>(report["contour_voxels"].get<std::uint64_t>()),
+                    100 * report["contour_voxel_share"].get<double>(), static_cast<unsigned long long>(report["bytes"]["contours"].get<std::uint64_t>()),
+                    report["bytes_per_voxel"]["contours"].get<double>());
+    else
+        std::printf("  contours        none\n");
+    std::printf("  attributes      %s\n", report["attributes"].get<std::string>().c_str());
     for (const char* part : kEsvoByteParts)
         std::printf("    %-22s %.4f  (%llu bytes)\n", part, report["bytes_per_voxel"][part].get<double>(),
                     static_cast<unsigned long long>(report["bytes"][part].get<std::uint64_t>()));

@@ -61,6 +61,12 @@ struct SparseOctree {
 };
 
 
+/// The error bounds voxelize refines to unless told otherwise (docs/cli.md): see
+/// SurfaceVoxelizeOptions::contourError, colorError and normalErrorDegrees.
+inline constexpr double kDefaultContourError = 0.35;
+inline constexpr double kDefaultNormalErrorDegrees = 4;
+inline constexpr double kDefaultColorError = 6;
+
 /// Options for voxelizeSurface.
 struct SurfaceVoxelizeOptions {
     std::uint32_t depth = 10;       ///< leaf level: 2^depth voxels along the cube's edge (1 … 20)
@@ -74,14 +80,15 @@ struct SurfaceVoxelizeOptions {
     bool leafMaterials = false;
     bool contours = false;          ///< fit a contour (slab) to every voxel where it helps
     /// With contours: a voxel stops refining where cube ∩ slab lies within this many leaf
-    /// voxels of the surface; 0 refines everything to the leaf depth.
+    /// voxels of the surface; 0 refines everything to the leaf depth. With a bound, a voxel
+    /// stores a contour of its own only where the slab its ancestors impose is not within it.
     double contourError = 0;
     /// Filter a colour and a normal for every voxel (SparseOctree::attributes).
     bool attributes = false;
     /// With attributes and a contour error: a voxel whose geometry is within the contour error
-    /// still refines while its colour or normal varies more than these bounds over its fragments
-    /// (colour: largest 8-bit sRGB channel difference from the voxel's value; normal: degrees).
-    /// 0 disables the attribute criterion.
+    /// still refines while the root-mean-square deviation over its surface from its colour
+    /// (8-bit sRGB steps, linearised at the mean) or from its normal (degrees; the interpolated
+    /// shading normal, without normal maps) exceeds these bounds. 0 disables that criterion.
     double colorError = 0;
     double normalErrorDegrees = 0;
     Timings* timings = nullptr;

@@ -63,8 +63,11 @@ public:
     /// even the 1×1 level is spanned many times over (a heavily repeated texture) the result is
     /// that level's texel, the whole image's mean. A polygon without area, or one so far out that
     /// its texel coordinates pass 2^24 (huge UVs), gets sample(centroid, 0). Returns linear RGBA.
+    /// @p meanSquare: null, or receives the mean of the texel values squared (per channel) over
+    /// the same texels and weights, so that meanSquare − mean² is the texture's variance over the
+    /// polygon at that level (0 for a single texel or a point sample).
     [[nodiscard]] Vec4f integrate(std::span<const Vec2f> polygon, WrapMode wrapS = WrapMode::Repeat, WrapMode wrapT = WrapMode::Repeat,
-                                  int maxTexels = 8) const;
+                                  int maxTexels = 8, Vec4f* meanSquare = nullptr) const;
 
 private:
     struct Level {

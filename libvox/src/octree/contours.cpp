@@ -160,11 +160,11 @@ ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint3
 
 std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& thickness) { return ContourCarrier(encoded)(slot, thickness); }
 
-double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
-                  double h) {
-    // Vertices of cube ∩ slab in local coordinates: cube corners inside the slab, and where the
-    // cube's edges cross the slab's two planes.
-    std::array<Vec3d, 8 + 24> vertices;
+namespace {
+
+/// The vertices of cube ∩ slab (@p encoded may be 0: the cube) in the cube's local frame
+/// [−½, ½]³: cube corners inside the slab, and where the cube's edges cross the slab's two planes.
+std::size_t shapeVertices(std::uint32_t encoded, std::array<Vec3d, 8 + 24>& vertices) {
     std::size_t count = 0;
     const esvo::Contour contour = esvo::Contour::decode(encoded);
     const Vec3d n{double(contour.nx), double(contour.ny), double(contour.nz)};
@@ -191,6 +191,15 @@ double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, co
                     vertices[count++] = q;
                 }
             }
+    return count;
+}
+
+}  // namespace
+
+double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
+                  double h) {
+    std::array<Vec3d, 8 + 24> vertices;
+    const std::size_t count = shapeVertices(encoded, vertices);
     double error = 0;
     const double toLeaf = 2 * h;
     for (std::size_t i = 0; i < count; ++i) {
@@ -200,6 +209,35 @@ double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, co
         error = std::max(error, nearest);
     }
     return error;
+}
+
+bool shapeWithinError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
+                      double h, double bound) {
+    std::array<Vec3d, 8 + 24> vertices;
+    const std::size_t count = shapeVertices(encoded, vertices);
+    const double toLeaf = 2 * h;
+    std::size_t hint = 0;  // the entry of the triangle that was near the last vertex: often near the next
+    for (std::size_t i = 0; i < count; ++i) {
+        const Vec3d p = c + vertices[i] * toLeaf;
+        const auto near = [&](std::size_t entry) {
+            const BoxTestTriangle& t = triangles[list[entry]];
+            // Outside the triangle's bounds grown by the bound, no point of it is within the bound.
+            for (int axis = 0; axis < 3; ++axis)
+                if (p[axis] < std::min({t.v0[axis], t.v1[axis], t.v2[axis]}) - bound ||
+                    p[axis] > std::max({t.v0[axis], t.v1[axis], t.v2[axis]}) + bound)
+                    return false;
+            return pointTriangleDistance(p, t.v0, t.v1, t.v2) <= bound;
+        };
+        if (hint < list.size() && near(hint)) continue;
+        bool found = false;
+        for (std::size_t entry = 0; entry < list.size() && !found; ++entry)
+            if (entry != hint && near(entry)) {
+                hint = entry;
+                found = true;
+            }
+        if (!found) return false;
+    }
+    return true;
 }
 
 }  // namespace vox::detail

@@ -109,5 +109,9 @@ private:
 /// to the nearest of the triangles in @p list: the shape's geometric error.
 [[nodiscard]] double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles,
                                 Vec3d c, double h);
+/// shapeError(...) <= @p bound, without finding the largest distance: each vertex stops at the
+/// first triangle within the bound, and the test at the first vertex with none.
+[[nodiscard]] bool shapeWithinError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles,
+                                    Vec3d c, double h, double bound);
 
 }  // namespace vox::detail

@@ -36,6 +36,14 @@ struct AttributeSums {
     /// The heaviest fragment's normal: the fallback where opposite normals cancel in the mean.
     Vec3d dominantNormal{0, 0, 1};
     double dominantWeight = -1;
+    /// With AttributeSampler's error moments (0 otherwise): Σ weight × the variance of the
+    /// interpolated shading normal within each fragment (radians²), and per channel Σ weight ×
+    /// (linear colour² + the texture's variance within the fragment). What error() reads.
+    double normalSpread = 0;
+    Vec3d colorSquares{0, 0, 0};
+    /// With error moments: Σ weight over fragments of flat-shaded triangles at least as large as
+    /// the voxel's face (facets, whose edges are creases at the voxel's scale).
+    double facetWeight = 0;
 
     AttributeSums& operator+=(const AttributeSums& other) {  // inline: once per voxel
         weight += other.weight;
@@ -48,10 +56,24 @@ struct AttributeSums {
             dominantWeight = other.dominantWeight;
             dominantNormal = other.dominantNormal;
         }
+        normalSpread += other.normalSpread;
+        colorSquares += other.colorSquares;
+        facetWeight += other.facetWeight;
         return *this;
     }
     /// The voxel's attribute word pair: esvo::packColor (sRGB) | esvo::encodeNormal << 32.
     [[nodiscard]] std::uint64_t pack() const;
+
+    /// How well one colour and one normal stand for the surface inside the voxel (from the error
+    /// moments): the root-mean-square deviation over its area from the mean colour, in 8-bit
+    /// sRGB steps (each channel's linear deviation times the sRGB curve's slope at the mean,
+    /// averaged over the three channels), and from the mean normal, in degrees. The normal's is 0
+    /// where facets (facetWeight) make up more than half the surface.
+    struct Error {
+        double color = 0;
+        double normalDegrees = 0;
+    };
+    [[nodiscard]] Error error() const;
 };
 
 /// Sets @p sums to AttributeSums{} (a fixed-size copy: vector stores, where the default
@@ -78,8 +100,10 @@ struct TriangleView {
 /// Evaluates materials over fragments: linear attributes at their centroids, textures over their area.
 class AttributeSampler {
 public:
-    /// @p triangles are in leaf units and @p sources says where each came from.
-    AttributeSampler(const Scene& scene, const std::vector<BoxTestTriangle>& triangles, std::vector<TriangleSource> sources);
+    /// @p triangles are in leaf units and @p sources says where each came from. With
+    /// @p errorMoments, filter also sums what AttributeSums::error() reads.
+    AttributeSampler(const Scene& scene, const std::vector<BoxTestTriangle>& triangles, std::vector<TriangleSource> sources,
+                     bool errorMoments = false);
 
     /// Sums over the fragments of the triangles @p list inside the cube with centre @p c and
     /// half-extent @p h (leaf units).
@@ -93,17 +117,6 @@ public:
     /// The scale from leaf units to the local frame of a cube of half-extent @p h that filter clips in.
     [[nodiscard]] static double filterScale(double h) { return 1.0 / (2 * h); }
 
-    /// How far the attributes inside a cube stray from the voxel value @p packed (an
-    /// AttributeSums::pack() word pair): the largest 8-bit sRGB channel difference and the largest
-    /// normal angle (degrees) between it and the values its eight children would have, i.e. what
-    /// refining once more would show.
-    struct Variation {
-        double color = 0;
-        double normalDegrees = 0;
-    };
-    [[nodiscard]] Variation variation(std::span<const std::uint32_t> list, Vec3d c, double h, std::uint64_t packed,
-                                      AttributeScratch& scratch, TriangleView view = {}) const;
-
 private:
     /// @p view with its defaults filled in.
     [[nodiscard]] TriangleView resolve(TriangleView view) const {
@@ -114,6 +127,7 @@ private:
     const std::vector<BoxTestTriangle>& triangles_;
     std::vector<TriangleSource> sources_;
     std::vector<std::uint8_t> textured_;  ///< per mesh: its material has a texture
+    bool errorMoments_ = false;
 };
 
 }  // namespace vox::detail

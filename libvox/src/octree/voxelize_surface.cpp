@@ -217,27 +217,38 @@ private:
                 detail::AttributeSums& childSums = childSums_[level + 1];
                 if (attributes_) clear(childSums);
                 if (contours_) {
-                    // The child keeps a contour of its own only where it is much thinner than the
-                    // slab its ancestors already impose on it (the ray caster carries theirs);
-                    // below a gain's worth of the thinnest encodable slab, no fit can win.
                     double carriedThickness = 0;
                     const std::uint32_t carried = carrier(slot, carriedThickness);
-                    detail::ContourFit fit;
-                    if (!(carried && kOwnContourGain * carriedThickness <= kThinnestSlab))
-                        fit = detail::fitContour(*ownFragments, children[slot], local_,
-                                                 {normalLength_.data(), unitNormal_.data(), quantisedNormal_.data()});
-                    double thickness = carriedThickness;
-                    childSlab = carried;
-                    if (fit.encoded && (carried == 0 || fit.thickness < kOwnContourGain * carriedThickness)) {
-                        ownContour = fit.encoded;
-                        childSlab = fit.encoded;
-                        thickness = fit.thickness;
+                    // Error-bounded: where the slab its ancestors impose (the ray caster carries
+                    // theirs) already bounds the surface within the error, the child stores no
+                    // contour of its own, and stops refining there if its attributes allow.
+                    const auto withinError = [&](std::uint32_t candidate, double thickness) {
+                        // A slab thicker than twice the error cannot be (one of its planes is too far).
+                        return thickness * childHalf <= contourError_ &&
+                               detail::shapeWithinError(candidate, children[slot], local_, childCentre, childHalf, contourError_);
+                    };
+                    if (contourError_ > 0 && carried && withinError(carried, carriedThickness)) {
+                        childSlab = carried;
+                        if (!leaf) leaf = attributesWithinBounds(children[slot], *ownFragments, childCentre, childHalf, filtered);
+                    } else {
+                        // Otherwise the child keeps a contour of its own only where it is much
+                        // thinner than the carried slab; below a gain's worth of the thinnest
+                        // encodable slab, no fit can win.
+                        detail::ContourFit fit;
+                        if (!(carried && kOwnContourGain * carriedThickness <= kThinnestSlab))
+                            fit = detail::fitContour(*ownFragments, children[slot], local_,
+                                                     {normalLength_.data(), unitNormal_.data(), quantisedNormal_.data()});
+                        double thickness = carriedThickness;
+                        childSlab = carried;
+                        if (fit.encoded && (carried == 0 || fit.thickness < kOwnContourGain * carriedThickness)) {
+                            ownContour = fit.encoded;
+                            childSlab = fit.encoded;
+                            thickness = fit.thickness;
+                        }
+                        // Refinement stops where cube ∩ slab is within the error of the surface.
+                        if (!leaf && contourError_ > 0 && childSlab && withinError(childSlab, thickness))
+                            leaf = attributesWithinBounds(children[slot], *ownFragments, childCentre, childHalf, filtered);
                     }
-                    // Refinement stops where cube ∩ slab is within the error of the surface; a
-                    // slab thicker than twice the error cannot be (one of its planes is too far).
-                    if (!leaf && contourError_ > 0 && childSlab && thickness * childHalf <= contourError_ &&
-                        detail::shapeError(childSlab, children[slot], local_, childCentre, childHalf) <= contourError_)
-                        leaf = attributesWithinBounds(children[slot], *ownFragments, childCentre, childHalf, filtered);
                 }
                 if (leaf) {
                     if (level + 1 < depth_) masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
@@ -262,8 +273,8 @@ private:
         return mask;
     }
 
-    /// The attribute criterion of refinement: true where the voxel's own (encoded) colour and
-    /// normal represent everything inside it within the bounds, or where there are no bounds.
+    /// The attribute criterion of refinement: true where the voxel's colour and normal stand for
+    /// the surface inside it within the bounds (AttributeSums::error), or where there are none.
     /// criterionSums_ receive the voxel's sums where they were computed (@p computed set), from
     /// @p fragments, the voxel's.
     bool attributesWithinBounds(std::span<const std::uint32_t> list, const detail::CubeFragments& fragments, Vec3d centre, double half,
@@ -271,8 +282,8 @@ private:
         if (!attributes_ || (colorError_ <= 0 && normalError_ <= 0)) return true;
         criterionSums_ = attributes_->filter(fragments, list, centre, half, attributeScratch_, view());
         computed = true;
-        const auto v = attributes_->variation(list, centre, half, criterionSums_.pack(), attributeScratch_, view());
-        return (colorError_ <= 0 || v.color <= colorError_) && (normalError_ <= 0 || v.normalDegrees <= normalError_);
+        const detail::AttributeSums::Error e = criterionSums_.error();
+        return (colorError_ <= 0 || e.color <= colorError_) && (normalError_ <= 0 || e.normalDegrees <= normalError_);
     }
     [[nodiscard]] detail::TriangleView view() const { return {local_.data(), global_.data()}; }
 
@@ -387,7 +398,9 @@ detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene, const SurfaceVoxe
                                                             toLeaf(mesh.positions[mesh.indices[3 * t + 2]])));
         }
     }
-    if (attributes) sampler_.emplace(scene, triangles_, std::move(sources));
+    if (attributes)
+        sampler_.emplace(scene, triangles_, std::move(sources),
+                         options.contours && options.contourError > 0 && (options.colorError > 0 || options.normalErrorDegrees > 0));
     if (options.contours) {
         // What the contour fit would otherwise compute per cell (or voxel) a triangle is in.
         normalLengths_.resize(triangles_.size());

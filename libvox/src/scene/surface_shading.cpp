@@ -45,7 +45,7 @@ std::uint32_t packLinearColor(Vec4f color) {
 }
 
 SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std::array<Vec3d, 3>& corners, Vec3d b, double footprint,
-                            std::span<const Vec3d> fragment) {
+                            std::span<const Vec3d> fragment, Vec3f* colorVariance) {
     const Mesh& mesh = scene.meshes[source.mesh];
     const Material& material = scene.materials[mesh.material];
     const std::uint32_t* index = &mesh.indices[3 * std::size_t{source.triangle}];
@@ -66,13 +66,13 @@ SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std
     const auto at = [](const std::array<Vec2f, 3>& uv, const Vec3d& w) {
         return uv[0] * static_cast<float>(w.x) + uv[1] * static_cast<float>(w.y) + uv[2] * static_cast<float>(w.z);
     };
-    const auto lookup = [&](const TextureBinding& binding, const std::array<Vec2f, 3>& uv) {
+    const auto lookup = [&](const TextureBinding& binding, const std::array<Vec2f, 3>& uv, Vec4f* meanSquare = nullptr) {
         const Texture& texture = scene.textures[static_cast<std::size_t>(binding.texture)];
         if (!fragment.empty()) {
             std::array<Vec2f, 12> polygon;
             const std::size_t n = std::min(fragment.size(), polygon.size());
             for (std::size_t i = 0; i < n; ++i) polygon[i] = at(uv, fragment[i]);
-            return texture.integrate(std::span<const Vec2f>(polygon.data(), n), binding.wrapS, binding.wrapT);
+            return texture.integrate(std::span<const Vec2f>(polygon.data(), n), binding.wrapS, binding.wrapT, 8, meanSquare);
         }
         const auto width = static_cast<float>(footprint * uvPerLengthUnit(uv, area()));
         return texture.sample(at(uv, b), width, binding.wrapS, binding.wrapT);
@@ -81,7 +81,17 @@ SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std
     SurfaceSample out;
     out.color = material.baseColorFactor;
     if (!mesh.colors.empty()) out.color = out.color * interpolate(mesh.colors, index, b);
-    if (usable(material.baseColorTexture)) out.color = out.color * lookup(material.baseColorTexture, cornerUvs(material.baseColorTexture));
+    if (colorVariance) *colorVariance = {0, 0, 0};
+    if (usable(material.baseColorTexture)) {
+        Vec4f meanSquare;
+        const Vec4f texture = lookup(material.baseColorTexture, cornerUvs(material.baseColorTexture), colorVariance ? &meanSquare : nullptr);
+        if (colorVariance && !fragment.empty()) {
+            const auto variance = [&](float square, float mean, float scale) { return std::max(0.0f, square - mean * mean) * scale * scale; };
+            *colorVariance = {variance(meanSquare.x, texture.x, out.color.x), variance(meanSquare.y, texture.y, out.color.y),
+                              variance(meanSquare.z, texture.z, out.color.z)};
+        }
+        out.color = out.color * texture;
+    }
 
     const Vec3f shading = interpolate(mesh.normals, index, b);
     Vec3d normal{shading.x, shading.y, shading.z};

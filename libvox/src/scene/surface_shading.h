@@ -31,8 +31,10 @@ struct SurfaceSample {
 /// over (0: the finest mip level). With @p fragment (the barycentric coordinates of a convex
 /// polygon's vertices, @p b its centroid), textures are instead box-filtered over that polygon
 /// exactly (Texture::integrate): a fragment's mean, not a blur centred on it.
+/// @p colorVariance: null, or receives the variance of the base colour (linear RGB) over the
+/// fragment that its texture contributes (0 without a fragment or a texture).
 [[nodiscard]] SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std::array<Vec3d, 3>& corners, Vec3d b,
-                                          double footprint, std::span<const Vec3d> fragment = {});
+                                          double footprint, std::span<const Vec3d> fragment = {}, Vec3f* colorVariance = nullptr);
 
 /// esvo::packColor word of a linear RGBA colour: RGB sRGB-encoded, alpha linear, clamped to [0, 1]
 /// and rounded to 8 bits.

@@ -325,28 +325,33 @@ private:
 
 }  // namespace
 
-Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMode wrapT, int maxTexels) const {
-    if (levels_.empty()) return {1, 1, 1, 1};
-    if (polygon.empty()) return sample({0, 0}, 0, wrapS, wrapT);
+Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMode wrapT, int maxTexels, Vec4f* meanSquare) const {
+    // A single value: its square is the mean square.
+    const auto single = [&](Vec4f v) {
+        if (meanSquare) *meanSquare = {v.x * v.x, v.y * v.y, v.z * v.z, v.w * v.w};
+        return v;
+    };
+    if (levels_.empty()) return single({1, 1, 1, 1});
+    if (polygon.empty()) return single(sample({0, 0}, 0, wrapS, wrapT));
     Vec2f lo = polygon[0], hi = polygon[0], mean{0, 0};
     for (const Vec2f& p : polygon) {
         lo = {std::min(lo.x, p.x), std::min(lo.y, p.y)};
         hi = {std::max(hi.x, p.x), std::max(hi.y, p.y)};
         mean = mean + p * (1.0f / static_cast<float>(polygon.size()));
     }
-    if (!(std::isfinite(lo.x) && std::isfinite(lo.y) && std::isfinite(hi.x) && std::isfinite(hi.y))) return sample(mean, 0, wrapS, wrapT);
+    if (!(std::isfinite(lo.x) && std::isfinite(lo.y) && std::isfinite(hi.x) && std::isfinite(hi.y))) return single(sample(mean, 0, wrapS, wrapT));
     int level = 0;
     const auto span = [&](int l) {
         return std::max(double(hi.x - lo.x) * levels_[l].width, double(hi.y - lo.y) * levels_[l].height);
     };
     while (level + 1 < levelCount() && span(level) > maxTexels) ++level;
-    if (span(level) > 4.0 * maxTexels) return texel(level, 0, 0);  // the 1×1 level: the image's mean
+    if (span(level) > 4.0 * maxTexels) return single(texel(level, 0, 0));  // the 1×1 level: the image's mean
     const Level& l = levels_[level];
     // Texel indices beyond float's integers (2^24) are neither exact nor within int: a polygon that
     // far out (huge but finite UVs) is point-sampled at its mean, which sample() wraps first.
     const double reach = std::max({std::fabs(double(lo.x)), std::fabs(double(hi.x))}) * l.width +
                          std::max({std::fabs(double(lo.y)), std::fabs(double(hi.y))}) * l.height;
-    if (reach > 16777216.0) return sample(mean, 0, wrapS, wrapT);
+    if (reach > 16777216.0) return single(sample(mean, 0, wrapS, wrapT));
 
     const int x0 = static_cast<int>(std::floor(lo.x * l.width)), x1 = std::max(static_cast<int>(std::ceil(hi.x * l.width)), x0 + 1);
     const int y0 = static_cast<int>(std::floor(lo.y * l.height)), y1 = std::max(static_cast<int>(std::ceil(hi.y * l.height)), y0 + 1);
@@ -371,8 +376,8 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
         twiceArea += p.x * q.y - q.x * p.y;
     }
     // Most fragments of a fine voxelization lie within one texel: its value, where the polygon has area.
-    if (x1 == x0 + 1 && y1 == y0 + 1) return twiceArea != 0 ? texelAt(x0, y0) : sample(mean, 0, wrapS, wrapT);
-    if (x1 - x0 > CellCoverage::kMaxCells || y1 - y0 > CellCoverage::kMaxCells) return sample(mean, 0, wrapS, wrapT);  // unreachable (see above)
+    if (x1 == x0 + 1 && y1 == y0 + 1) return single(twiceArea != 0 ? texelAt(x0, y0) : sample(mean, 0, wrapS, wrapT));
+    if (x1 - x0 > CellCoverage::kMaxCells || y1 - y0 > CellCoverage::kMaxCells) return single(sample(mean, 0, wrapS, wrapT));  // unreachable (see above)
 
     // Otherwise the texels weigh by the areas of the polygon inside them.
     const int width = x1 - x0, height = y1 - y0;
@@ -383,16 +388,19 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
     }
     coverage.finish();
     const double orientation = twiceArea < 0 ? -1.0 : 1.0;
-    Vec4f sum{0, 0, 0, 0};
+    Vec4f sum{0, 0, 0, 0}, squares{0, 0, 0, 0};
     float total = 0;
     for (int y = 0; y < height; ++y)
         for (int x = 0; x < width; ++x) {
             const auto area = static_cast<float>(orientation * coverage.area(x, y));
             if (!(area > 0)) continue;
-            sum = sum + texelAt(x0 + x, y0 + y) * area;
+            const Vec4f v = texelAt(x0 + x, y0 + y);
+            sum = sum + v * area;
+            if (meanSquare) squares = squares + Vec4f{v.x * v.x, v.y * v.y, v.z * v.z, v.w * v.w} * area;
             total += area;
         }
-    if (!(total > 0)) return sample(mean, 0, wrapS, wrapT);
+    if (!(total > 0)) return single(sample(mean, 0, wrapS, wrapT));
+    if (meanSquare) *meanSquare = squares * (1.0f / total);
     return sum * (1.0f / total);
 }
 

@@ -70,6 +70,8 @@ struct FrontierDescriptor {
 struct BlockSummary {
     std::vector<FrontierDescriptor> frontier;  ///< in frontier-table order
     std::vector<std::uint64_t> voxelsPerLevel; ///< voxels this block holds, by level
+    std::vector<std::uint64_t> leavesPerLevel; ///< of them, voxels without children
+    std::vector<std::uint64_t> contoursPerLevel; ///< of them, voxels with a contour of their own
     std::uint64_t descriptorBytes = 0, farPointerBytes = 0, pageHeaderBytes = 0, infoBytes = 0, paddingBytes = 0, contourBytes = 0;
     /// Attribute attachment: lookup words (uncompressed), stored values, compressed blocks.
     std::uint64_t attributeLookupBytes = 0, attributeValueBytes = 0, attributeBlockBytes = 0;
@@ -103,11 +105,13 @@ BlockSummary validateBlock(const std::filesystem::path& file, const Header& head
                            const SliceEntry& entry, std::span<const std::uint8_t> block,
                            std::span<const FrontierDescriptor> parents);
 
-/// Per-part byte totals over a whole file (voxinspect info).
+/// Per-part byte totals over a whole file, and its leaves and contours by level (voxinspect info).
 struct FileBreakdown {
     std::uint64_t descriptorBytes = 0, farPointerBytes = 0, pageHeaderBytes = 0, infoBytes = 0, paddingBytes = 0,
                   contourBytes = 0, attributeLookupBytes = 0, attributeValueBytes = 0, attributeBlockBytes = 0,
                   headerAndDirectoryBytes = 0, slicePaddingBytes = 0;
+    std::vector<std::uint64_t> leavesPerLevel;    ///< voxels without children, levels 0 … leaf depth
+    std::vector<std::uint64_t> contoursPerLevel;  ///< voxels with a contour of their own, levels 0 … leaf depth
 };
 
 /// Validates the whole file: header, directory, every slice and the links between slices.
