@@ -22,7 +22,7 @@ if [ -f "$wuson" ]; then
     # shellcheck disable=SC2086
     "$build/tools/voxelize" "$wuson" -o "$out/wuson10.esvo" --depth 10 -q ${VOXELIZE_ARGS:-}
     "$build/bench/raycast_peer" "$wuson" "$out/wuson10.esvo" --eye 2.5,1.2,3 --target 0,0.75,0 --fov 50 > "$out/wuson_peer.json"
-    python3 -c "import json,sys; p=json.load(open(sys.argv[1])); print('Wuson depth 10, 1024x768: hit/miss agree %.2f%%, depth within a leaf diagonal %.1f%% (along the normal %.1f%%), p50/p99 error %.4f/%.4f (diagonal %.4f); triangles %.2f Mrays/s, octree %.2f (x%.2f)' % (100*p['hit_miss_agreement'], 100*p['depth_within_leaf_diagonal'], 100*p['surface_distance_within_leaf_diagonal'], p['depth_error_p50'], p['depth_error_p99'], p['leaf_diagonal'], p['triangle_mrays_per_second'], p['octree_mrays_per_second'], p['octree_over_triangle']))" "$out/wuson_peer.json"
+    python3 -c "import json,sys; p=json.load(open(sys.argv[1])); print('Wuson depth 10, 1024x768: hit/miss agree %.2f%%, depth within a leaf diagonal %.1f%% (along the normal %.1f%%), p50/p99 error %.3f/%.3f leaf diagonals; triangles %.2f Mrays/s, octree %.2f (x%.2f)' % (100*p['hit_miss_agreement'], 100*p['depth_within_leaf_diagonal'], 100*p['surface_distance_within_leaf_diagonal'], p['depth_error_diagonals']['p50'], p['depth_error_diagonals']['p99'], p['triangle_mrays_per_second'], p['octree_mrays_per_second'], p['octree_over_triangle']))" "$out/wuson_peer.json"
 fi
 printf '%-6s %12s %10s %12s %10s %10s %8s %11s %10s %10s\n' depth voxels build_s Mvoxels/s peak_MB file_MB B/voxel hierarchy Mrays/s Mrays/s_lod0
 for d in "${depths[@]}"; do
