@@ -164,46 +164,56 @@ namespace {
 
 /// The vertices of cube ∩ slab (@p encoded may be 0: the cube) in the cube's local frame
 /// [−½, ½]³: cube corners inside the slab, and where the cube's edges cross the slab's two planes.
-std::size_t shapeVertices(std::uint32_t encoded, std::array<Vec3d, 8 + 24>& vertices) {
+/// Plain arrays rather than Vec3d, whose members are zeroed on construction (this runs for every
+/// voxel a stop is tested at).
+struct ShapeVertices {
+    double p[8 + 24][3];
     std::size_t count = 0;
+};
+void shapeVertices(std::uint32_t encoded, ShapeVertices& out) {
+    out.count = 0;
     const esvo::Contour contour = esvo::Contour::decode(encoded);
-    const Vec3d n{double(contour.nx), double(contour.ny), double(contour.nz)};
+    const double n[3] = {double(contour.nx), double(contour.ny), double(contour.nz)};
     const double centre = contour.position * esvo::Contour::kStep, half = 0.5 * contour.thickness * esvo::Contour::kStep;
-    const auto inside = [&](Vec3d p) { return encoded == 0 || std::abs(dot(n, p) - centre) <= half + 1e-9; };
     for (int k = 0; k < 8; ++k) {
-        const Vec3d p{k & 1 ? 0.5 : -0.5, k & 2 ? 0.5 : -0.5, k & 4 ? 0.5 : -0.5};
-        if (inside(p)) vertices[count++] = p;
+        const double x = k & 1 ? 0.5 : -0.5, y = k & 2 ? 0.5 : -0.5, z = k & 4 ? 0.5 : -0.5;
+        if (encoded == 0 || std::abs(n[0] * x + n[1] * y + n[2] * z - centre) <= half + 1e-9) {
+            double* q = out.p[out.count++];
+            q[0] = x, q[1] = y, q[2] = z;
+        }
     }
-    if (encoded != 0)
-        for (int axis = 0; axis < 3; ++axis)
-            for (int k = 0; k < 4; ++k) {
-                Vec3d p{0, 0, 0};
-                const int u = (axis + 1) % 3, v = (axis + 2) % 3;
-                p[u] = k & 1 ? 0.5 : -0.5;
-                p[v] = k & 2 ? 0.5 : -0.5;
-                // Points of the edge: p + s·e_axis, s ∈ [−½, ½].
-                if (n[axis] == 0) continue;
-                for (double plane : {centre - half, centre + half}) {
-                    const double s = (plane - (dot(n, p))) / n[axis];
-                    if (s < -0.5 || s > 0.5) continue;
-                    Vec3d q = p;
-                    q[axis] = s;
-                    vertices[count++] = q;
-                }
+    if (encoded == 0) return;
+    for (int axis = 0; axis < 3; ++axis) {
+        // Points of the edge: p + s·e_axis, s ∈ [−½, ½].
+        if (n[axis] == 0) continue;
+        const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+        const double inverse = 1 / n[axis];
+        for (int k = 0; k < 4; ++k) {
+            double p[3] = {0, 0, 0};
+            p[u] = k & 1 ? 0.5 : -0.5;
+            p[v] = k & 2 ? 0.5 : -0.5;
+            const double along = n[0] * p[0] + n[1] * p[1] + n[2] * p[2];
+            for (const double plane : {centre - half, centre + half}) {
+                const double t = (plane - along) * inverse;
+                if (t < -0.5 || t > 0.5) continue;
+                double* q = out.p[out.count++];
+                q[0] = p[0], q[1] = p[1], q[2] = p[2];
+                q[axis] = t;
             }
-    return count;
+        }
+    }
 }
 
 }  // namespace
 
 double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
                   double h) {
-    std::array<Vec3d, 8 + 24> vertices;
-    const std::size_t count = shapeVertices(encoded, vertices);
+    ShapeVertices vertices;
+    shapeVertices(encoded, vertices);
     double error = 0;
     const double toLeaf = 2 * h;
-    for (std::size_t i = 0; i < count; ++i) {
-        const Vec3d p = c + vertices[i] * toLeaf;
+    for (std::size_t i = 0; i < vertices.count; ++i) {
+        const Vec3d p{c.x + vertices.p[i][0] * toLeaf, c.y + vertices.p[i][1] * toLeaf, c.z + vertices.p[i][2] * toLeaf};
         double nearest = std::numeric_limits<double>::infinity();
         for (std::uint32_t t : list) nearest = std::min(nearest, pointTriangleDistance(p, triangles[t].v0, triangles[t].v1, triangles[t].v2));
         error = std::max(error, nearest);
@@ -213,12 +223,12 @@ double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, co
 
 bool shapeWithinError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
                       double h, double bound) {
-    std::array<Vec3d, 8 + 24> vertices;
-    const std::size_t count = shapeVertices(encoded, vertices);
+    ShapeVertices vertices;
+    shapeVertices(encoded, vertices);
     const double toLeaf = 2 * h;
     std::size_t hint = 0;  // the entry of the triangle that was near the last vertex: often near the next
-    for (std::size_t i = 0; i < count; ++i) {
-        const Vec3d p = c + vertices[i] * toLeaf;
+    for (std::size_t i = 0; i < vertices.count; ++i) {
+        const Vec3d p{c.x + vertices.p[i][0] * toLeaf, c.y + vertices.p[i][1] * toLeaf, c.z + vertices.p[i][2] * toLeaf};
         const auto near = [&](std::size_t entry) {
             const BoxTestTriangle& t = triangles[list[entry]];
             // Outside the triangle's bounds grown by the bound, no point of it is within the bound.
