@@ -249,6 +249,70 @@ INSTANTIATE_TEST_SUITE_P(Encodings, RuntimeRaycast,
                              }
                          });
 
+// voxelize's default: error-bounded refinement, so many leaves stop above the leaf depth. The GPU
+// caster treats them as the CPU's does, with the whole file loaded and with part of it (16 KB
+// slices: coarser slices only), and full-resolution rays hit those coarse leaves.
+TEST(RuntimeRaycast, ErrorBoundedOctreeMatchesCpuReference) {
+    REQUIRE_GL();
+    vox::test::ScratchDir dir;
+    const vox::Scene scene = vox::importScene(vox::scenes::writeCornellBox(dir.path()));
+    vox::SurfaceVoxelizeOptions voxelize;
+    voxelize.depth = 7;
+    voxelize.contours = true;
+    voxelize.attributes = true;
+    voxelize.contourError = vox::kDefaultContourError;
+    voxelize.normalErrorDegrees = vox::kDefaultNormalErrorDegrees;
+    voxelize.colorError = vox::kDefaultColorError;
+    const vox::SparseOctree octree = vox::voxelizeSurface(scene, voxelize);
+    std::uint64_t coarseLeaves = 0;
+    for (std::uint32_t l = 1; l < octree.leafDepth; ++l)
+        coarseLeaves += static_cast<std::uint64_t>(std::count(octree.masks[l].begin(), octree.masks[l].end(), 0));
+    ASSERT_GT(coarseLeaves, 1000u);
+    vox::EsvoWriteOptions write;
+    write.sliceBytes = 16384;
+    const fs::path file = dir / "bounded.esvo";
+    vox::writeEsvo(file, octree, write);
+    const vox::esvo::EsvoReader reader(file);
+    ASSERT_GT(reader.sliceCount(), 2u);
+    vox::esvo::EsvoPool pool(reader);
+    pool.loadAll(4);
+    ASSERT_LT(pool.loadedSliceCount(), reader.sliceCount());
+    rt::EsvoGpuPool gpuPool(*gl, pool, 8u << 20);
+    rt::EsvoGpuRaycaster gpu(*gl, gpuPool);
+    const vox::EsvoRayCaster cpu(pool);
+    for (const bool all : {false, true}) {
+        if (all) {
+            pool.loadAll();
+            EXPECT_GT(gpuPool.sync(), 0u);
+        }
+        for (const View& view : kViews) {
+            for (const double lodScale : {0.0, 1.0}) {
+                const vox::PinholeCamera cc = cpuCamera(view);
+                const rt::Camera gc = gpuCamera(view);
+                vox::CastOptions options;
+                options.lodAngle = cc.pixelAngle() * lodScale;
+                options.attributes = true;
+                rt::GpuCastOptions gpuOptions;
+                gpuOptions.lodAngle = gc.pixelAngle() * lodScale;
+                const vox::RenderBuffers reference = vox::renderEsvo(cpu, cc, options);
+                const rt::GpuFrame frame = gpu.render(gc, gpuOptions);
+                ASSERT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
+                const Comparison c = compare(reference, frame, cc, gc);
+                report(std::string(all ? "bounded, all slices" : "bounded, coarse slices") + " lod " + std::to_string(lodScale), c,
+                       frame.wallMilliseconds);
+                expectEquivalent(c);
+                if (all && lodScale == 0.0) {
+                    // Full-resolution rays end in leaves above the leaf depth (the walls' coarse voxels).
+                    std::size_t coarseHits = 0;
+                    for (std::size_t i = 0; i < reference.level.size(); ++i)
+                        coarseHits += std::isfinite(reference.depth[i]) && std::uint32_t{reference.level[i]} + 1 < octree.leafDepth;
+                    EXPECT_GT(coarseHits, 100u);
+                }
+            }
+        }
+    }
+}
+
 // Depth 7 in 16 KB slices with far pointers: loads part of the tree (coarser levels stop where
 // child slices are missing, in both casters), then the rest, which EsvoGpuPool::sync() uploads
 // page by page.
