@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # voxelize against the peer a user would reach for, OpenVDB's meshToVolume (issue 9): for each
 # mesh (the generated 1,048,576-triangle bumpy sphere and the assimp-testmodels meshes with the
-# most triangles) and each depth, the default full build (voxelization, hierarchy, contours, dxt
-# colours and normals, .esvo written) against meshToVolume's unsigned distance field with a
+# most triangles) and each depth, the default build (error-bounded voxelization, hierarchy,
+# contours, dxt colours and normals, .esvo written) against meshToVolume's unsigned distance field with a
 # half-width of 0.87 voxel (the surface voxels) at the same voxel size and thread count
 # (bench/mesh_to_volume_peer), in the same run, each REPEAT times, interleaved (alternately ours
 # first and the peer's first), medians taken. Prints one table: triangles, voxels, build seconds,
@@ -114,7 +114,7 @@ for name in names:
         rows.append(row)
 head = (f'{"mesh":<16} {"depth":>5} {"triangles":>9} | {"voxels":>10} {"build_s":>8} {"wall_s":>7} {"cpu_s":>7} {"RSS_MB":>7} {"out_MB":>7} {"B/vox":>6} | '
         f'{"voxels":>10} {"m2v_s":>8} {"wall_s":>7} {"cpu_s":>7} {"RSS_MB":>7} {"out_MB":>7} {"B/vox":>6} | {"time":>6} {"wall":>6} {"cpu":>6} {"RSS":>6}')
-print(f'{"":<33}| {"voxelize (full build: contours + dxt)":<67}| {"OpenVDB meshToVolume (unsigned, 0.87 voxel)":<67}| {"peer / ours":<27}')
+print(f'{"":<33}| {"voxelize (default build: error-bounded, contours + dxt)":<67}| {"OpenVDB meshToVolume (unsigned, 0.87 voxel)":<67}| {"peer / ours":<27}')
 print(head)
 for r in rows:
     print(f'{r["mesh"]:<16} {r["depth"]:>5} {r["triangles"]:>9} | {r["ours_voxels"]:>10} {r["ours_build_seconds"]:>8.3f} {r["ours_wall_seconds"]:>7.2f} '

@@ -109,6 +109,39 @@ TEST(Contours, CarriedSlabContainsTheParentSlabInsideTheChild) {
     EXPECT_GT(carried, 10000);
 }
 
+TEST(Contours, ShapeWithinErrorAgreesWithShapeError) {
+    // Random triangle soups in a cube, with their fitted slab and without: the bounded test is
+    // shapeError <= bound, for bounds around the error itself.
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> coordinate(-1.5, 1.5);
+    int agreed = 0, within = 0;
+    for (int trial = 0; trial < 300; ++trial) {
+        std::vector<BoxTestTriangle> tris;
+        std::vector<std::uint32_t> list;
+        const int count = 1 + trial % 6;
+        for (int i = 0; i < count; ++i) {
+            const Vec3d a{coordinate(rng), coordinate(rng), coordinate(rng)};
+            tris.push_back(vox::detail::prepareBoxTest(a, a + Vec3d{coordinate(rng), coordinate(rng), 0.2 * coordinate(rng)},
+                                                       a + Vec3d{coordinate(rng), 0.2 * coordinate(rng), coordinate(rng)}));
+            list.push_back(static_cast<std::uint32_t>(i));
+        }
+        vox::detail::ContourScratch scratch;
+        const std::uint32_t slab = vox::detail::fitContour(list, tris, {0, 0, 0}, 1.0, scratch).encoded;
+        for (const std::uint32_t encoded : {0u, slab}) {
+            const double error = vox::detail::shapeError(encoded, list, tris, {0, 0, 0}, 1.0);
+            for (const double bound : {0.5 * error, 0.999 * error, 1.001 * error, 2 * error}) {
+                const bool expected = error <= bound;
+                EXPECT_EQ(vox::detail::shapeWithinError(encoded, list, tris, {0, 0, 0}, 1.0, bound), expected)
+                    << trial << " error " << error << " bound " << bound;
+                agreed += 1;
+                within += expected;
+            }
+        }
+    }
+    EXPECT_GT(within, agreed / 4);
+    EXPECT_LT(within, agreed);
+}
+
 TEST(Contours, ShapeErrorMeasuresCubeAndSlab) {
     // One big triangle on the plane z = 0.1 (leaf units) through a cube of centre 0, half 1.
     std::vector<BoxTestTriangle> tris{vox::detail::prepareBoxTest({-10, -10, 0.1}, {10, -10, 0.1}, {0, 10, 0.1})};

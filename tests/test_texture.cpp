@@ -256,6 +256,35 @@ TEST(Texture, IntegrateWeightsEveryTexelByTheAreaItCovers) {
     EXPECT_FLOAT_EQ(t.integrate(sliver).x, t.sample({0.35f, 0.1f}, 0.0f).x);
 }
 
+TEST(Texture, IntegrateGivesTheTexelsMeanSquareWithTheSameWeights) {
+    // The 4×4 grid of the test above: the mean square over a polygon is the texels' squares
+    // weighted by the areas they cover; inside one texel and for a point sample, the value².
+    std::vector<std::uint8_t> pixels(16);
+    for (int i = 0; i < 16; ++i) pixels[i] = static_cast<std::uint8_t>(10 * i);
+    const Texture t("grid", 4, 4, 1, pixels, ColorSpace::Linear);
+    const auto value = [](int x, int y) { return 10.0f * static_cast<float>(4 * (y & 3) + (x & 3)) / 255.0f; };
+    vox::Vec4f square{-1, -1, -1, -1};
+    const std::vector<vox::Vec2f> inside = {{0.30f, 0.55f}, {0.45f, 0.55f}, {0.30f, 0.70f}};
+    EXPECT_FLOAT_EQ(t.integrate(inside, vox::WrapMode::Repeat, vox::WrapMode::Repeat, 8, &square).x, value(1, 2));
+    EXPECT_FLOAT_EQ(square.x, value(1, 2) * value(1, 2));
+    const std::vector<vox::Vec2f> quad = {{0.125f, 0.375f}, {0.625f, 0.375f}, {0.625f, 0.75f}, {0.125f, 0.75f}};
+    float sum = 0, squares = 0, area = 0;
+    for (int y = 1; y <= 2; ++y)
+        for (int x = 0; x <= 2; ++x) {
+            const float a = (x == 1 ? 1.0f : 0.5f) * (y == 2 ? 1.0f : 0.5f);
+            sum += a * value(x, y);
+            squares += a * value(x, y) * value(x, y);
+            area += a;
+        }
+    const vox::Vec4f mean = t.integrate(quad, vox::WrapMode::Repeat, vox::WrapMode::Repeat, 8, &square);
+    EXPECT_NEAR(mean.x, sum / area, 1e-6f);
+    EXPECT_NEAR(square.x, squares / area, 1e-6f);
+    EXPECT_GT(square.x - mean.x * mean.x, 0.001f) << "the variance of six different texels";
+    const std::vector<vox::Vec2f> sliver = {{0.1f, 0.1f}, {0.6f, 0.1f}, {0.35f, 0.1f}};
+    const float point = t.integrate(sliver, vox::WrapMode::Repeat, vox::WrapMode::Repeat, 8, &square).x;
+    EXPECT_FLOAT_EQ(square.x, point * point);
+}
+
 TEST(Texture, IntegrateEqualsCuttingThePolygonIntoTexelsWithinRounding) {
     // Random convex polygons spanning up to 8 texels of textures of 64² and 2048² random texels
     // (texel coordinates up to 2048, where float products of absolute coordinates are coarse):
