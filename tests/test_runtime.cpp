@@ -153,6 +153,28 @@ void expectEquivalent(const Comparison& c) {
     EXPECT_GE(double(c.colorExact), 0.999 * double(c.bothHit));
 }
 
+/// Casts @p view with both casters, with attributes, at @p lodScale times the pixel angle (0:
+/// to the leaves); checks GL raised no error and compares the images. @p reference receives the
+/// CPU's.
+Comparison castBoth(vox::runtime::HeadlessGlContext& gl, const vox::EsvoRayCaster& cpu, rt::EsvoGpuRaycaster& gpu, const View& view,
+                    double lodScale, const std::string& what, vox::RenderBuffers* reference = nullptr) {
+    const vox::PinholeCamera cc = cpuCamera(view);
+    const rt::Camera gc = gpuCamera(view);
+    vox::CastOptions options;
+    options.lodAngle = cc.pixelAngle() * lodScale;
+    options.attributes = true;
+    rt::GpuCastOptions gpuOptions;
+    gpuOptions.lodAngle = gc.pixelAngle() * lodScale;
+    EXPECT_EQ(options.lodAngle, gpuOptions.lodAngle);
+    vox::RenderBuffers image = vox::renderEsvo(cpu, cc, options);
+    const rt::GpuFrame frame = gpu.render(gc, gpuOptions);
+    EXPECT_EQ(gl.errorCount(), 0u) << gl.errorSummary();
+    const Comparison c = compare(image, frame, cc, gc);
+    report(what + " lod " + std::to_string(lodScale), c, frame.wallMilliseconds);
+    if (reference) *reference = std::move(image);
+    return c;
+}
+
 }  // namespace
 
 TEST(RuntimeContext, CreatesOpenGl45Core) {
@@ -216,23 +238,12 @@ TEST_P(RuntimeRaycast, MatchesCpuReference) {
     rt::EsvoGpuRaycaster gpu(*gl, gpuPool);
     for (const View& view : kViews) {
         for (const double lodScale : {1.0, 0.0, 6.0}) {
-            const vox::PinholeCamera cc = cpuCamera(view);
-            const rt::Camera gc = gpuCamera(view);
-            vox::CastOptions options;
-            options.lodAngle = cc.pixelAngle() * lodScale;
-            options.attributes = true;
-            rt::GpuCastOptions gpuOptions;
-            gpuOptions.lodAngle = gc.pixelAngle() * lodScale;
-            ASSERT_EQ(options.lodAngle, gpuOptions.lodAngle);
-            const vox::RenderBuffers reference = vox::renderEsvo(cpu, cc, options);
-            const rt::GpuFrame frame = gpu.render(gc, gpuOptions);
-            ASSERT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
-            const Comparison c = compare(reference, frame, cc, gc);
-            report(std::string("encoding ") + std::to_string(int(GetParam())) + " lod " + std::to_string(lodScale), c, frame.wallMilliseconds);
-            expectEquivalent(c);
+            vox::RenderBuffers reference;
+            expectEquivalent(castBoth(*gl, cpu, gpu, view, lodScale, "encoding " + std::to_string(int(GetParam())), &reference));
             if (lodScale == 6.0) {
-                // Voxels of 6 pixels: the level-of-detail cut must stop above the leaves somewhere.
-                EXPECT_LT(*std::max_element(frame.level.begin(), frame.level.end()), reader.header().leafDepth);
+                // Voxels of 6 pixels: the level-of-detail cut must stop above the leaves somewhere
+                // (the GPU's levels agree with these).
+                EXPECT_LT(*std::max_element(reference.level.begin(), reference.level.end()), reader.header().leafDepth);
             }
         }
     }
@@ -287,20 +298,8 @@ TEST(RuntimeRaycast, ErrorBoundedOctreeMatchesCpuReference) {
         }
         for (const View& view : kViews) {
             for (const double lodScale : {0.0, 1.0}) {
-                const vox::PinholeCamera cc = cpuCamera(view);
-                const rt::Camera gc = gpuCamera(view);
-                vox::CastOptions options;
-                options.lodAngle = cc.pixelAngle() * lodScale;
-                options.attributes = true;
-                rt::GpuCastOptions gpuOptions;
-                gpuOptions.lodAngle = gc.pixelAngle() * lodScale;
-                const vox::RenderBuffers reference = vox::renderEsvo(cpu, cc, options);
-                const rt::GpuFrame frame = gpu.render(gc, gpuOptions);
-                ASSERT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
-                const Comparison c = compare(reference, frame, cc, gc);
-                report(std::string(all ? "bounded, all slices" : "bounded, coarse slices") + " lod " + std::to_string(lodScale), c,
-                       frame.wallMilliseconds);
-                expectEquivalent(c);
+                vox::RenderBuffers reference;
+                expectEquivalent(castBoth(*gl, cpu, gpu, view, lodScale, all ? "bounded, all slices" : "bounded, coarse slices", &reference));
                 if (all && lodScale == 0.0) {
                     // Full-resolution rays end in leaves above the leaf depth (the walls' coarse voxels).
                     std::size_t coarseHits = 0;
