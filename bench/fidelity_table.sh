@@ -72,7 +72,7 @@ for name, d, label in rows:
     a = p["attributes"] or {}
     n, nf = a.get("normal_error_degrees", {}), a.get("normal_error_degrees_filtered", {})
     table.append({
-        "mesh": name, "depth": int(d), "setting": label, "options": " ".join(s.get("command_line", [])[1:]) if "command_line" in s else "",
+        "mesh": name, "depth": int(d), "setting": label, "refinement": s["octree"].get("refinement"),
         "file_bytes": s["octree"]["file_bytes"], "voxels": s["octree"]["voxels"],
         "build_seconds": s["octree"]["build_seconds"],
         "leaves": i.get("leaves"), "contour_voxels": i.get("contour_voxels"), "contour_bytes": i["bytes"]["contours"],

@@ -98,6 +98,8 @@ private:
 /// sRGB-encoded value in [0, 1] to linear, and back (IEC 61966-2-1).
 [[nodiscard]] float srgbToLinear(float value);
 [[nodiscard]] float linearToSrgb(float value);
+/// The slope of linearToSrgb at a linear value (12.92 up to its linear segment's end).
+[[nodiscard]] double linearToSrgbSlope(double value);
 /// The 8-bit sRGB code of a linear value: exactly lround(255 · linearToSrgb(clamp(value, 0, 1))),
 /// by table instead of a pow (what packing a voxel's mean colour costs).
 [[nodiscard]] std::uint8_t srgbCode(float value);

@@ -75,13 +75,14 @@ AttributeSums::Error AttributeSums::error() const {
     Error out;
     if (!(weight > 0)) return out;
     const double w = 1.0 / weight;
-    // |n − m|² = 2 (1 − cos θ) ≈ θ² between unit normals n and the unit mean m; its mean over the
-    // fragments' own values is 2 (1 − |Σ weight n| / Σ weight), to which the spread inside them adds.
     // Where most of the surface is flat facets larger than the voxel, its normal changes only
     // across their edges and creases: refining narrows the voxels that straddle them, never
     // removes them, and costs as much as on a curved surface. Smooth shading and facets smaller
     // than the voxel (a fine tessellation of a curved surface) count.
     if (facetWeight <= 0.5 * weight) {
+        // |n − m|² = 2 (1 − cos θ) ≈ θ² between unit normals n and the unit mean m; its mean over
+        // the fragments' own values is 2 (1 − |Σ weight n| / Σ weight), to which the spread
+        // inside them adds.
         const double normalVariance = 2 * (1 - std::min(1.0, length(normal) * w)) + normalSpread * w;
         out.normalDegrees = std::sqrt(std::max(0.0, normalVariance)) * 57.29577951308232;
     }
@@ -90,7 +91,7 @@ AttributeSums::Error AttributeSums::error() const {
         const double mean = color[ch] * w;
         const double variance = std::max(0.0, colorSquares[ch] * w - mean * mean);
         // The slope of the sRGB curve at the mean turns a linear deviation into an encoded one.
-        const double slope = mean <= 0.0031308 ? 12.92 : 1.055 / 2.4 * std::pow(mean, 1.0 / 2.4 - 1.0);
+        const double slope = linearToSrgbSlope(mean);
         squared += variance * slope * slope;
     }
     out.color = 255.0 * std::sqrt(squared / 3.0);

@@ -87,7 +87,6 @@ inline void clear(AttributeSums& sums) {
 struct AttributeScratch {
     CubeFragments fragments;
     std::vector<Vec3d> barycentrics;  ///< of the polygon's vertices
-    std::vector<std::uint32_t> childList;
 };
 
 /// Triangles the sampler is handed by index: entry i of @p triangles (leaf units) is the

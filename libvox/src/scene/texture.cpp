@@ -90,6 +90,8 @@ float linearToSrgb(float v) {
     return v <= 0.0031308f ? v * 12.92f : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
 }
 
+double linearToSrgbSlope(double v) { return v <= 0.0031308 ? 12.92 : 1.055 / 2.4 * std::pow(v, 1.0 / 2.4 - 1.0); }
+
 std::uint8_t srgbCode(float linear) {
     const float v = std::clamp(linear, 0.0f, 1.0f);
     const auto direct = [](float x) { return static_cast<std::uint8_t>(std::lround(255.0f * linearToSrgb(x))); };
