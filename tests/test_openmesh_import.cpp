@@ -107,6 +107,14 @@ TEST(OpenMeshImport, PlyFormatLinesOpenMeshWouldLoopOnAreInvalid) {
         const std::string message = importError<vox::InvalidDataError>(dir / "format.ply");
         EXPECT_NE(message.find(std::string("PLY header: malformed format line '") + format), std::string::npos) << message;
     }
+    // OpenMesh reads the line after "ply" as the format line whatever its first word: the format
+    // line must come first ("fo\x94mat binary_little_endian uch1.0" hung it, found by fuzz_mesh).
+    for (const char* first : {"fo\x94mat binary_little_endian uch1.0\nformat binary_little_endian 1.0",
+                              "comment first\nformat binary_little_endian 1.0"}) {
+        writeBinary(dir / "format.ply", binaryPlyTriangle(first));
+        const std::string message = importError<vox::InvalidDataError>(dir / "format.ply");
+        EXPECT_NE(message.find("PLY header: the line after 'ply' is '"), std::string::npos) << message;
+    }
     // Plain versions still read.
     for (const char* format : {"format binary_little_endian 1.0", "format binary_little_endian 1", "format binary_little_endian 2.5e0"}) {
         writeBinary(dir / "format.ply", binaryPlyTriangle(format));

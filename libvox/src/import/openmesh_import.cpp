@@ -140,6 +140,11 @@ HeaderFacts checkPlyHeader(const ImportContext& context, const std::vector<std::
     while (reader.next(line)) {
         const auto t = tokens(line);
         if (t.empty()) continue;
+        // OpenMesh takes the words after the first as the format and version, whatever the first
+        // word is, and loops for good on a version it cannot read ("fo\x94mat … uch1.0", found by
+        // fuzz_mesh): the format line must come first, as the PLY format has it.
+        if (!hasFormat && t[0] != "format")
+            context.fail("PLY header: the line after 'ply' is '" + line + "', not its format line (e.g. 'format ascii 1.0')");
         if (t[0] == "end_header") {
             ended = true;
             break;
