@@ -27,17 +27,9 @@ mkdir -p "$out/runs"
 rm -f "$out"/runs/*.json
 threads=()
 [ -z "${THREADS:-}" ] || threads=(--threads "$THREADS")
-models=/usr/share/assimp/models
-if [ -n "${MESHES:-}" ]; then
-    read -r -a meshes <<< "$MESHES"
-else
-    "$build/examples/make_example_scene" bumpy-sphere -o "$out" >/dev/null
-    meshes=("bumpy-sphere:$out/bumpy_sphere.glb"
-            "2CylinderEngine:$models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb"
-            "ClearCoatTest:$models/glTF2/ClearCoat-glTF/ClearCoatTest.gltf"
-            "Wuson:$models/PLY/Wuson.ply"
-            "spider:$models/OBJ/spider.obj")
-fi
+# shellcheck source=bench/bench_meshes.sh
+. "$here/bench_meshes.sh"
+bench_meshes "$build" "$out"
 echo "peer_table: $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg); threads ${THREADS:-all}; REPEAT=$repeat; depths ${depths[*]}" >&2
 ours() {  # NAME DEPTH RUN
     # shellcheck disable=SC2086

@@ -5,25 +5,35 @@
 // and normals, a further (untimed) render compares them with the mesh's material at the same
 // pixels: colour PSNR (8-bit sRGB) and the angle between the voxel's normal and the mesh's
 // interpolated shading normal, as stored and after the post-process filter.
+// Where CMake found Embree 3 (libembree-dev), Embree's single rays (rtcIntersect1, BVH built at
+// RTC_BUILD_QUALITY_HIGH, build not timed) cast the same pixels too: "embree" gives its Mrays/s,
+// hit fraction and hit/miss agreement with the BVH caster, "octree_over_embree" the speed ratio.
 // With several views (--view repeated), every figure is over the pixels of all of them together
 // and the seconds are summed; "views" lists each view's own figures.
-// Usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z | --view dx,dy,dz [--view ...])
-//                    [--fov D] [--width W] [--height H] [--repeat N]
-// --view frames the mesh's bounds from direction (dx,dy,dz).
+// Usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z [--up x,y,z] | --view dx,dy,dz [--view ...])
+//                    [--fov D] [--width W] [--height H] [--repeat N] [--threads N] [--embree-only]
+// --view frames the mesh's bounds from direction (dx,dy,dz); each view's "eye", "target" and "up"
+// are in the JSON, to the last bit (voxinspect render --eye/--target/--up then casts the same rays).
+// --threads: TBB threads for every caster (default: all cores). --embree-only: cast only Embree
+// (ESVO is not read): bench/raycast_table.sh's peer run beside voxinspect render.
 #include <vox/formats/error.h>
 #include <vox/formats/esvo_attributes.h>
 #include <vox/import.h>
 #include <vox/util/log.h>
+#include <vox/util/parallel.h>
 #include <vox/raycast.h>
 #include <vox/texture.h>
 #include <vox/triangle_raycast.h>
 
 #include <nlohmann/json.hpp>
 
+#include "embree_peer.h"  // no Embree headers: its .cpp is built only with LIBVOX_HAVE_EMBREE
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -59,6 +69,10 @@ struct Comparison {
     double squared = 0, sameSurfaceSquared = 0, filteredSquared = 0, lodSquared = 0;
     std::uint64_t compared = 0, sameSurface = 0, lodCompared = 0;
     double radiusSum = 0, hits = 0;
+    // Embree (where built with it).
+    bool embree = false;
+    double embreeSeconds = 0;
+    std::uint64_t embreeHits = 0, embreeAgree = 0;
 
     void add(const Comparison& o) {
         rays += o.rays, meshSeconds += o.meshSeconds, octreeSeconds += o.octreeSeconds, lodSeconds += o.lodSeconds;
@@ -71,12 +85,33 @@ struct Comparison {
         squared += o.squared, sameSurfaceSquared += o.sameSurfaceSquared, filteredSquared += o.filteredSquared, lodSquared += o.lodSquared;
         compared += o.compared, sameSurface += o.sameSurface, lodCompared += o.lodCompared;
         radiusSum += o.radiusSum, hits += o.hits;
+        embree = embree || o.embree;
+        embreeSeconds += o.embreeSeconds, embreeHits += o.embreeHits, embreeAgree += o.embreeAgree;
     }
 };
 
+#ifdef LIBVOX_HAVE_EMBREE
+/// Embree's best of @p repeat casts from @p camera; hit/miss agreement against @p bvhDepth
+/// (the BVH caster's depths) where given.
+void castEmbree(const bench::EmbreePeer& embree, const vox::PinholeCamera& camera, int repeat, const std::vector<float>* bvhDepth,
+                Comparison& c) {
+    bench::EmbreeImage image = embree.render(camera);
+    for (int i = 1; i < repeat; ++i) {
+        bench::EmbreeImage again = embree.render(camera);
+        if (again.seconds < image.seconds) image = std::move(again);
+    }
+    c.embree = true;
+    c.rays = double(image.depth.size());
+    c.embreeSeconds = image.seconds;
+    c.embreeHits = image.hits;
+    if (bvhDepth)
+        for (std::size_t i = 0; i < image.depth.size(); ++i) c.embreeAgree += std::isfinite(image.depth[i]) == std::isfinite((*bvhDepth)[i]);
+}
+#endif
+
 /// Renders the mesh and the octree from @p camera and compares them.
 Comparison compareView(const vox::TriangleRayCaster& triangles, const vox::EsvoRayCaster& octree, bool withAttributes,
-                       const vox::PinholeCamera& camera, int repeat) {
+                       const vox::PinholeCamera& camera, int repeat, [[maybe_unused]] const bench::EmbreePeer* embree) {
     Comparison c;
     vox::CastOptions leaves;  // no LOD: the geometry comparison is against the leaves
     vox::CastOptions lod;
@@ -86,6 +121,9 @@ Comparison compareView(const vox::TriangleRayCaster& triangles, const vox::EsvoR
     const auto cut = best(repeat, [&] { return vox::renderEsvo(octree, camera, lod); });
     c.rays = double(mesh.depth.size());
     c.meshSeconds = mesh.seconds, c.octreeSeconds = full.seconds, c.lodSeconds = cut.seconds;
+#ifdef LIBVOX_HAVE_EMBREE
+    if (embree) castEmbree(*embree, camera, repeat, &mesh.depth, c);
+#endif
 
     const double diagonal = std::sqrt(3.0) * octree.leafVoxelSize();
     // |cos| between pixel i's ray and the mesh normal there: a distance along the ray times it is
@@ -179,6 +217,14 @@ double psnr(double squared, std::uint64_t n) {
     return n == 0 || squared == 0 ? 99.0 : 10.0 * std::log10(255.0 * 255.0 / (squared / (3.0 * double(n))));
 }
 
+/// Embree's figures, or null where it did not cast.
+nlohmann::json embreeReport(const Comparison& c, bool withBvh) {
+    if (!c.embree) return nullptr;
+    nlohmann::json out{{"mrays_per_second", c.rays / c.embreeSeconds / 1e6}, {"hit_fraction", double(c.embreeHits) / c.rays}};
+    if (withBvh) out["hit_miss_agreement_with_bvh"] = double(c.embreeAgree) / c.rays;
+    return out;
+}
+
 /// The comparison's figures (depth errors in leaf-voxel diagonals).
 nlohmann::json report(const Comparison& c) {
     const double bothHit = double(c.bothHit);
@@ -193,7 +239,12 @@ nlohmann::json report(const Comparison& c) {
                        {"depth_within_leaf_diagonal", c.bothHit ? double(c.within) / bothHit : 0.0},
                        {"surface_distance_within_leaf_diagonal", c.bothHit ? double(c.surfaceWithin) / bothHit : 0.0},
                        {"octree_not_behind_mesh", c.bothHit ? double(c.infront) / bothHit : 0.0},
-                       {"depth_error_diagonals", depth}};
+                       {"depth_error_diagonals", depth},
+                       {"embree", embreeReport(c, true)}};
+    if (c.embree) {
+        out["octree_over_embree"] = c.embreeSeconds / c.octreeSeconds;
+        out["octree_lod_over_embree"] = c.embreeSeconds / c.lodSeconds;
+    }
     if (!c.attributes) {
         out["attributes"] = nullptr;
         return out;
@@ -216,15 +267,21 @@ nlohmann::json report(const Comparison& c) {
 int main(int argc, char** argv) {
     try {
         if (argc < 3)
-            throw vox::UsageError("usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z | --view dx,dy,dz [--view ...]) [--fov D] "
-                                  "[--width W] [--height H] [--repeat N]");
+            throw vox::UsageError("usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z [--up x,y,z] | --view dx,dy,dz [--view ...]) "
+                                  "[--fov D] [--width W] [--height H] [--repeat N] [--threads N] [--embree-only]");
         vox::PinholeCamera camera;
         camera.width = 1024;
         camera.height = 768;
-        int repeat = 3;
+        int repeat = 3, threadCount = 0;
+        bool embreeOnly = false;
         std::vector<vox::Vec3d> views;
         for (int i = 3; i < argc; i += 2) {
             const std::string key = argv[i];
+            if (key == "--embree-only") {
+                embreeOnly = true;
+                --i;  // a flag: no value
+                continue;
+            }
             if (i + 1 >= argc) throw vox::UsageError(key + " needs a value");
             if (key == "--eye") camera.eye = parse(argv[i + 1]);
             else if (key == "--target") camera.target = parse(argv[i + 1]);
@@ -234,8 +291,13 @@ int main(int argc, char** argv) {
             else if (key == "--height") camera.height = std::stoi(argv[i + 1]);
             else if (key == "--repeat") repeat = std::max(1, std::stoi(argv[i + 1]));
             else if (key == "--view") views.push_back(parse(argv[i + 1]));
+            else if (key == "--threads") threadCount = std::max(0, std::stoi(argv[i + 1]));
             else throw vox::UsageError("unknown option " + key);
         }
+#ifndef LIBVOX_HAVE_EMBREE
+        if (embreeOnly) throw vox::UsageError("--embree-only: built without Embree (install libembree-dev and reconfigure)");
+#endif
+        const vox::ThreadLimit threads(threadCount);
         vox::log::setVerbosity(vox::log::Verbosity::Quiet);  // the benchmark's output is its JSON
         const vox::Scene scene = vox::importScene(argv[1]);
         std::vector<vox::PinholeCamera> cameras;
@@ -253,6 +315,39 @@ int main(int argc, char** argv) {
             cameras.push_back(framed);
         }
         for (const auto& c : cameras) c.validate();
+        const auto cameraJson = [](const vox::PinholeCamera& c, nlohmann::json& r) {
+            r["eye"] = {c.eye.x, c.eye.y, c.eye.z};
+            r["target"] = {c.target.x, c.target.y, c.target.z};
+            r["up"] = {c.up.x, c.up.y, c.up.z};
+        };
+        std::unique_ptr<bench::EmbreePeer> embree;
+        nlohmann::json embreeBuild = nullptr;
+#ifdef LIBVOX_HAVE_EMBREE
+        embree = std::make_unique<bench::EmbreePeer>(scene, threadCount);
+        embreeBuild = {{"version", bench::EmbreePeer::version()},
+                       {"build_quality", bench::EmbreePeer::buildQuality()},
+                       {"build_seconds", embree->buildSeconds()},
+                       {"triangles", embree->triangleCount()},
+                       {"api", "rtcIntersect1, 16x16 pixel tiles (TBB)"}};
+        if (embreeOnly) {
+            Comparison all;
+            nlohmann::json perView = nlohmann::json::array();
+            for (const auto& c : cameras) {
+                Comparison one;
+                castEmbree(*embree, c, repeat, nullptr, one);
+                nlohmann::json r{{"embree", embreeReport(one, false)}};
+                cameraJson(c, r);
+                perView.push_back(std::move(r));
+                all.add(one);
+            }
+            const nlohmann::json out{{"mesh", argv[1]},  {"width", camera.width}, {"height", camera.height},
+                                     {"fov", camera.fovYDegrees}, {"threads", vox::ThreadLimit::active()},
+                                     {"embree", embreeReport(all, false)},    {"embree_build", embreeBuild},
+                                     {"views", perView}};
+            std::cout << out.dump(2) << "\n";
+            return 0;
+        }
+#endif
         const vox::TriangleRayCaster triangles(scene);
         const vox::esvo::EsvoReader reader(argv[2]);
         vox::esvo::EsvoPool pool(reader);
@@ -262,10 +357,9 @@ int main(int argc, char** argv) {
         Comparison all;
         nlohmann::json perView = nlohmann::json::array();
         for (const auto& c : cameras) {
-            const Comparison one = compareView(triangles, octree, reader.header().hasAttributes(), c, repeat);
+            const Comparison one = compareView(triangles, octree, reader.header().hasAttributes(), c, repeat, embree.get());
             nlohmann::json r = report(one);
-            r["eye"] = {c.eye.x, c.eye.y, c.eye.z};
-            r["target"] = {c.target.x, c.target.y, c.target.z};
+            cameraJson(c, r);
             perView.push_back(std::move(r));
             all.add(one);
         }
@@ -277,7 +371,8 @@ int main(int argc, char** argv) {
                     {"width", camera.width},
                     {"height", camera.height},
                     {"fov", camera.fovYDegrees},
-                    {"threads", "all"},
+                    {"threads", vox::ThreadLimit::active()},
+                    {"embree_build", embreeBuild},
                     {"triangles", triangles.triangleCount()},
                     {"leaf_depth", reader.header().leafDepth},
                     {"leaf_diagonal", std::sqrt(3.0) * octree.leafVoxelSize()},

@@ -8,10 +8,10 @@ packages=(
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libblosc-dev
   libtinygltf-dev nlohmann-json3-dev libstb-dev
   libdraco-dev draco
-  libopenmesh-dev
   libopenimageio-dev openimageio-tools
   libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libembree-dev  # bench/raycast_peer's Embree peer (optional: bench/CMakeLists.txt skips it when missing)
   libegl-dev libopengl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libglx-mesa0
   libglfw3-dev xvfb xauth
   assimp-testmodels
