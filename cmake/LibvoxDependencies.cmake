@@ -16,8 +16,6 @@ find_package(Threads REQUIRED)
 libvox_find(TBB CONFIG)
 libvox_find(draco CONFIG)
 libvox_find(nlohmann_json CONFIG)
-# OpenMesh ships no version file: asking for a version makes find_package fail.
-libvox_find(OpenMesh)
 
 # OpenImageIO's config demands its command-line tools (openimageio-tools) and adds
 # /usr/include/opencv4 to the include path; we do not use OpenCV, so drop that directory.

@@ -1,5 +1,5 @@
-// libFuzzer harness: the mesh formats, OBJ (libvox's own reader) and PLY, STL and OFF (OpenMesh
-// behind libvox's header checks) (issue 10). The extension follows the contents the way a user's
+// libFuzzer harness: the mesh formats OBJ, PLY, STL and OFF, all read by libvox itself
+// (issue 10). The extension follows the contents the way a user's
 // file would be named: "ply" → .ply, an OFF keyword in the first line → .off, "solid" or a binary
 // STL's consistent size → .stl, anything else → .obj.
 #include "import_fuzzer.h"

@@ -13,7 +13,7 @@ void importObj(ImportContext& context, const std::vector<std::uint8_t>& bytes);
 void importDrc(ImportContext& context, const std::vector<std::uint8_t>& bytes);
 void importStl(ImportContext& context, const std::vector<std::uint8_t>& bytes);
 void importOff(ImportContext& context, const std::vector<std::uint8_t>& bytes);
-/// PLY through OpenMesh (openmesh_import.cpp).
+/// ASCII and binary PLY (ply_import.cpp).
 void importPly(ImportContext& context, const std::vector<std::uint8_t>& bytes);
 
 }  // namespace vox::detail
