@@ -11,8 +11,10 @@
 // With several views (--view repeated), every figure is over the pixels of all of them together
 // and the seconds are summed; "views" lists each view's own figures.
 // Usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z [--up x,y,z] | --view dx,dy,dz [--view ...])
-//                    [--fov D] [--width W] [--height H] [--repeat N] [--threads N] [--embree-only]
-// --view frames the mesh's bounds from direction (dx,dy,dz); each view's "eye", "target" and "up"
+//                    [--fov D] [--width W] [--height H] [--repeat N] [--threads N] [--embree-only] [--distance S]
+// --view frames the mesh's bounds from direction (dx,dy,dz): the bounding sphere just fits the
+// image height, or with --distance S the eye is S times as far (S < 1: closer, more rays hit);
+// each view's "eye", "target" and "up"
 // are in the JSON, to the last bit (voxinspect render --eye/--target/--up then casts the same rays).
 // --threads: TBB threads for every caster (default: all cores). --embree-only: cast only Embree
 // (ESVO is not read): bench/raycast_table.sh's peer run beside voxinspect render.
@@ -273,6 +275,7 @@ int main(int argc, char** argv) {
         camera.width = 1024;
         camera.height = 768;
         int repeat = 3, threadCount = 0;
+        double distanceScale = 1;
         bool embreeOnly = false;
         std::vector<vox::Vec3d> views;
         for (int i = 3; i < argc; i += 2) {
@@ -292,6 +295,7 @@ int main(int argc, char** argv) {
             else if (key == "--repeat") repeat = std::max(1, std::stoi(argv[i + 1]));
             else if (key == "--view") views.push_back(parse(argv[i + 1]));
             else if (key == "--threads") threadCount = std::max(0, std::stoi(argv[i + 1]));
+            else if (key == "--distance") distanceScale = std::stod(argv[i + 1]);
             else throw vox::UsageError("unknown option " + key);
         }
 #ifndef LIBVOX_HAVE_EMBREE
@@ -309,11 +313,12 @@ int main(int argc, char** argv) {
         for (const vox::Vec3d& view : views) {
             vox::PinholeCamera framed = camera;
             framed.target = centre;
-            framed.eye = centre + vox::normalize(view) * (radius / std::sin(0.5 * camera.fovYDegrees / kDegrees));
+            framed.eye = centre + vox::normalize(view) * (distanceScale * radius / std::sin(0.5 * camera.fovYDegrees / kDegrees));
             // A view straight along the up vector takes another up.
             if (std::abs(vox::normalize(view).y) > 0.99) framed.up = {0, 0, 1};
             cameras.push_back(framed);
         }
+        if (!(distanceScale > 0)) throw vox::UsageError("--distance must be > 0");
         for (const auto& c : cameras) c.validate();
         const auto cameraJson = [](const vox::PinholeCamera& c, nlohmann::json& r) {
             r["eye"] = {c.eye.x, c.eye.y, c.eye.z};

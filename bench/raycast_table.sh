@@ -7,14 +7,15 @@
 #           at one pixel), its --stats mrays_per_second (the cast alone, no PNG writing);
 #   Embree: bench/raycast_peer --embree-only: single rays (rtcIntersect1) on the mesh's triangles,
 #           BVH built at RTC_BUILD_QUALITY_HIGH and not timed, TBB tiles.
-# The camera frames the mesh's bounds from VIEW (raycast_peer --view); raycast_peer prints its
-# eye, target and up to the last bit and voxinspect render gets exactly those, with the same fov,
-# size and thread count. Prints one table: mesh, fov, hit % (ours / Embree), Mrays/s of both and
+# The camera frames the mesh's bounds from VIEW at DISTANCE times the distance where the bounding
+# sphere just fits the image height (raycast_peer --view, --distance: 0.5 puts most of the image on
+# the mesh, as users look at a model; at 1 most rays miss); raycast_peer prints its eye, target and
+# up to the last bit and voxinspect render gets exactly those, with the same fov, size and threads. Prints one table: mesh, fov, hit % (ours / Embree), Mrays/s of both and
 # the ratio ours / Embree (> 1: ours is faster). Needs raycast_peer built with Embree
 # (libembree-dev installed when CMake configured).
 # Usage: bench/raycast_table.sh [BUILD_DIR]     (default: build)
 # Environment: DEPTH (11), FOVS ("20 30"), SIZE (1024x768), THREADS (2), REPEAT (3),
-# VIEW (1,0.6,0.8: the direction the camera looks from), MESHES (space-separated NAME:PATH,
+# VIEW (1,0.6,0.8: the direction the camera looks from), DISTANCE (0.5), MESHES (space-separated NAME:PATH,
 # replacing the default list).
 # Outputs: BUILD_DIR/bench/raycast/raycast_table.{json,csv}, every run's JSON beside them.
 set -euo pipefail
@@ -27,6 +28,7 @@ height=${size#*x}
 threads=${THREADS:-2}
 repeat=${REPEAT:-3}
 view=${VIEW:-1,0.6,0.8}
+distance=${DISTANCE:-0.5}
 here=$(cd "$(dirname "$0")" && pwd)
 out=$build/bench/raycast
 mkdir -p "$out/runs"
@@ -37,10 +39,10 @@ bench_meshes "$build" "$out"
 # Fails early (and clearly) where raycast_peer was built without Embree.
 "$build/bench/raycast_peer" x x --embree-only >/dev/null 2>"$out/runs/probe.err" ||
     ! grep -q "built without Embree" "$out/runs/probe.err" || { cat "$out/runs/probe.err" >&2; exit 1; }
-echo "raycast_table: $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg); threads $threads; REPEAT=$repeat; depth $depth; ${width}x$height; view $view" >&2
+echo "raycast_table: $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg); threads $threads; REPEAT=$repeat; depth $depth; ${width}x$height; view $view at distance $distance" >&2
 
 peer() {  # NAME FOV RUN
-    "$build/bench/raycast_peer" "$mesh" - --embree-only --view "$view" --fov "$2" --width "$width" --height "$height" \
+    "$build/bench/raycast_peer" "$mesh" - --embree-only --view "$view" --distance "$distance" --fov "$2" --width "$width" --height "$height" \
         --threads "$threads" --repeat 1 > "$out/runs/$1-$2-peer-$3.json"
 }
 camera_vector() {  # PEER_JSON KEY: x,y,z with every bit (repr of the doubles raycast_peer printed)
