@@ -39,6 +39,7 @@
 #include <iostream>
 #include <memory>
 #include <new>
+#include <optional>
 
 namespace {
 
@@ -64,6 +65,8 @@ struct Options {
     std::string rvol, scene, gatherFilter = "hardware";
     double exposure = 1, specAperture = 10, shadowAperture = 10;
     bool noShadowCones = false, channelGiven = false;
+    std::string eglPlatform = "auto";
+    int benchmarkFrames = 0;  // --benchmark N: N timed frames after one warm-up, one JSON line on stdout
 };
 
 namespace rt = vox::runtime;
@@ -205,10 +208,49 @@ std::vector<vox::runtime::Camera> cameraPath(const Options& o, const vox::runtim
     return path;
 }
 
+/// The HeadlessGlContext platforms --egl-platform names; nullopt for auto.
+std::optional<rt::EglPlatform> eglPlatform(const std::string& name) {
+    if (name == "auto") return std::nullopt;
+    if (name == "device") return rt::EglPlatform::Device;
+    if (name == "surfaceless") return rt::EglPlatform::Surfaceless;
+    if (name == "default") return rt::EglPlatform::Default;
+    throw vox::UsageError("--egl-platform must be auto, device, surfaceless or default");
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+
+/// A pass's times over the timed frames (the warm-up left out): the GPU's GL_TIME_ELAPSED and the
+/// host's wall clock, and which of them "ms" is. llvmpipe's timer reads ~0 for compute work, so
+/// the wall clock stands in where the timer reads under a tenth of it.
+nlohmann::json passTimes(const std::vector<double>& gpuMs, const std::vector<double>& wallMs, std::size_t warmup) {
+    const std::vector<double> gpu(gpuMs.begin() + std::ptrdiff_t(warmup), gpuMs.end()), wall(wallMs.begin() + std::ptrdiff_t(warmup), wallMs.end());
+    const double gpuMedian = median(gpu), wallMedian = median(wall);
+    const bool timerWorks = gpuMedian > 0.1 * wallMedian;
+    return {{"ms", timerWorks ? gpuMedian : wallMedian},
+            {"timer", timerWorks ? "GL_TIME_ELAPSED" : "wall (GL_TIME_ELAPSED read ~0)"},
+            {"gpu_ms", gpuMedian},
+            {"wall_ms", wallMedian},
+            {"gpu_ms_per_frame", gpu},
+            {"wall_ms_per_frame", wall}};
+}
+
 void run(Options o) {
+    const std::optional<rt::EglPlatform> platform = eglPlatform(o.eglPlatform);
+    if (o.benchmarkFrames > 0) {
+        // A fixed camera, its first frame (which streams the slices in and compiles lazily) untimed.
+        if (!o.cameraPath.empty()) throw vox::UsageError("--benchmark renders a fixed camera: no --camera-path");
+        if (o.framesGiven) throw vox::UsageError("--benchmark N renders N + 1 frames: no --frames");
+        o.headless = true;
+        o.frames = o.benchmarkFrames + 1;
+    }
+    if (!o.headless && platform) throw vox::UsageError("--egl-platform applies with --headless (a window brings its own context)");
     if (!o.headless && !voxview::displayAvailable())
         throw vox::UsageError("no display to open a window on (DISPLAY and WAYLAND_DISPLAY are unset): pass --headless -o FILE.png");
-    if (o.headless && o.output.empty()) throw vox::UsageError("--headless needs -o FILE.png");
+    if (o.headless && o.output.empty() && o.benchmarkFrames == 0) throw vox::UsageError("--headless needs -o FILE.png");
     const bool gatherMode = !o.rvol.empty();
     if (gatherMode && !o.channelGiven) o.channel = "final";
     if (gatherMode) {
@@ -246,7 +288,7 @@ void run(Options o) {
     std::unique_ptr<voxview::Window> window;
     std::unique_ptr<rt::GlContext> contextHolder;
     if (o.headless) {
-        contextHolder = std::make_unique<rt::HeadlessGlContext>();
+        contextHolder = std::make_unique<rt::HeadlessGlContext>(platform);
     } else {
         window = std::make_unique<voxview::Window>(o.width, o.height, "voxview " + o.file);
         contextHolder = std::make_unique<rt::CurrentGlContext>();
@@ -312,7 +354,7 @@ void run(Options o) {
     options.attributes = gatherChannel || vox::runtime::channelNeedsAttributes(o.channel);
     ShadingPoints points;
     std::vector<rt::GpuGatherParts> parts;
-    std::vector<double> pointsMs, gatherMs;
+    std::vector<double> pointsMs, gatherMs, gatherGpuMs;
     vox::runtime::GpuFrame frame;
     std::vector<double> gpuMs, wallMs, updateMs;
     nlohmann::json perFrame = nlohmann::json::array();
@@ -339,6 +381,7 @@ void run(Options o) {
             }
             parts = gather->shade(*volume, points.points, lights);
             gatherMs.push_back(gather->lastSeconds() * 1e3);
+            gatherGpuMs.push_back(gather->lastGpuSeconds() * 1e3);
         }
         gpuMs.push_back(frame.gpuMilliseconds);
         wallMs.push_back(frame.wallMilliseconds);
@@ -384,11 +427,36 @@ void run(Options o) {
     if (!o.quiet && gatherChannel)
         std::fprintf(stderr, "voxview: final gather: %zu points, %zu lights, %.3f ms (%s filter)\n", points.points.size(), lights.size(),
                      gatherMs.back(), o.gatherFilter.c_str());
-    const auto median = [](std::vector<double> v) {
-        if (v.empty()) return 0.0;
-        std::sort(v.begin(), v.end());
-        return v[v.size() / 2];
-    };
+    if (o.benchmarkFrames > 0) {
+        const double pixels = double(frame.width) * double(frame.height);
+        nlohmann::json cast = passTimes(gpuMs, wallMs, 1);
+        cast["attributes"] = options.attributes;
+        nlohmann::json line{{"tool", "voxview --benchmark"},
+                            {"file", o.file},
+                            {"renderer", context.renderer()},
+                            {"gl_vendor", context.vendor()},
+                            {"gl_version", context.version()},
+                            {"egl_platform", context.platformName()},
+                            {"channel", o.channel},
+                            {"width", frame.width},
+                            {"height", frame.height},
+                            {"frames", o.benchmarkFrames},
+                            {"hits", frame.hits},
+                            {"full_detail_frame", fullDetailFrame},
+                            {"mrays_per_second", pixels / (cast["ms"].get<double>() * 1e-3) / 1e6},
+                            {"cast", cast},
+                            {"gather", nullptr},
+                            {"gl_errors", context.errorCount()}};
+        if (gatherChannel) {
+            nlohmann::json g = passTimes(gatherGpuMs, gatherMs, 1);
+            g["wall_ms_note"] = "shade(): upload, dispatch, glFinish, read-back";
+            g["points"] = points.points.size();
+            g["lights"] = lights.size();
+            g["points_ms"] = median(std::vector<double>(pointsMs.begin() + 1, pointsMs.end()));
+            line["gather"] = g;
+        }
+        std::printf("%s\n", line.dump().c_str());
+    }
     if (!o.stats.empty()) {
         std::uint64_t iterations = 0;
         for (std::uint32_t it : frame.iterations) iterations += it;
@@ -444,6 +512,9 @@ void run(Options o) {
                                             // FinalGatherGpu::shade: upload, dispatch, glFinish, read-back.
                                             {"gather_ms_per_frame", gatherMs},
                                             {"gather_ms_median", median(gatherMs)},
+                                            // The dispatch alone by GL_TIME_ELAPSED (llvmpipe: ~0).
+                                            {"gather_gpu_ms_per_frame", gatherGpuMs},
+                                            {"gather_gpu_ms_median", median(gatherGpuMs)},
                                             // Shading points built on the host from the read-back frame.
                                             {"points_ms_per_frame", pointsMs},
                                             {"points_ms_median", median(pointsMs)}}
@@ -497,6 +568,14 @@ int main(int argc, char** argv) {
     app.add_option("--gather-filter", o.gatherFilter,
                    "--rvol: hardware (one trilinear texture() per plane) or fetch (eight texelFetch, the CPU's interpolation)")
         ->capture_default_str();
+    app.add_option("--egl-platform", o.eglPlatform,
+                   "Headless: auto (a GPU through EGL_EXT_platform_device first, then Mesa's surfaceless platform, Mesa's "
+                   "software device, the default display), device, surfaceless or default")
+        ->capture_default_str();
+    app.add_option("--benchmark", o.benchmarkFrames,
+                   "Time N frames of the fixed camera after one warm-up frame (headless) and print one JSON line: GL renderer, "
+                   "ms per pass by GL_TIME_ELAPSED (the wall clock where the timer reads ~0, as on llvmpipe), Mrays/s")
+        ->check(CLI::Range(1, 10000));
     app.add_flag("-q,--quiet", o.quiet, "Print errors only");
     try {
         app.parse(argc, argv);

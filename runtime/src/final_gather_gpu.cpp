@@ -81,16 +81,22 @@ FinalGatherGpu::FinalGatherGpu(GlContext& context, const FinalGatherGpuOptions& 
     }
     glProgramUniform1fv(p, shadeProgram_.uniform("uDiffuseCos"), 5, cosines);
     glProgramUniform1fv(p, shadeProgram_.uniform("uDiffuseSin"), 5, sines);
+    glCreateQueries(GL_TIME_ELAPSED, 1, &query_);
     context_.throwOnErrors("final gather: setting up the shader");
 }
 
-FinalGatherGpu::~FinalGatherGpu() = default;
+FinalGatherGpu::~FinalGatherGpu() {
+    if (query_ != 0) glDeleteQueries(1, &query_);
+}
 
 std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume, std::span<const GpuShadingPoint> points,
                                                   std::span<const GpuPunctualLight> lights) {
     const auto start = std::chrono::steady_clock::now();
     std::vector<GpuGatherParts> out(points.size());
-    if (points.empty()) return out;
+    if (points.empty()) {
+        lastSeconds_ = lastGpuSeconds_ = 0;
+        return out;
+    }
     std::vector<float> pointData(points.size() * 20);
     for (std::size_t i = 0; i < points.size(); ++i) {
         float* d = &pointData[i * 20];
@@ -129,11 +135,16 @@ std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume, s
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, partsBuffer.id);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, lightBuffer.id);
     glUseProgram(p);
+    glBeginQuery(GL_TIME_ELAPSED, query_);
     glDispatchCompute(static_cast<GLuint>((points.size() + 63) / 64), 1, 1);
+    glEndQuery(GL_TIME_ELAPSED);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     glUseProgram(0);
     std::vector<float> raw(points.size() * 16);
     glGetNamedBufferSubData(partsBuffer.id, 0, static_cast<GLsizeiptr>(raw.size() * 4), raw.data());
+    GLuint64 nanoseconds = 0;
+    glGetQueryObjectui64v(query_, GL_QUERY_RESULT, &nanoseconds);
+    lastGpuSeconds_ = double(nanoseconds) * 1e-9;
     context_.throwOnErrors("final gather: shading " + std::to_string(points.size()) + " points");
     for (std::size_t i = 0; i < points.size(); ++i) {
         const float* d = &raw[i * 16];

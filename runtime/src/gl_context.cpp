@@ -7,6 +7,7 @@
 
 #include <cstring>
 #include <string_view>
+#include <vector>
 
 namespace vox::runtime {
 namespace {
@@ -65,37 +66,57 @@ bool initialise(EGLDisplay display) {
 
 }  // namespace
 
-HeadlessGlContext::HeadlessGlContext() {
+HeadlessGlContext::HeadlessGlContext(std::optional<EglPlatform> only) {
     // Client extensions (EGL 1.5 or EGL_EXT_client_extensions): which platforms exist.
     const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
-    std::string tried;
-    EGLDisplay display = EGL_NO_DISPLAY;
-    if (hasExtension(client, "EGL_MESA_platform_surfaceless")) {
-        display = eglGetPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
-        if (initialise(display)) platform_ = EglPlatform::Surfaceless;
-        else display = EGL_NO_DISPLAY, tried += "surfaceless: " + eglErrorName(eglGetError()) + "; ";
-    }
-    if (display == EGL_NO_DISPLAY && hasExtension(client, "EGL_EXT_platform_device")) {
+    const auto wanted = [&](EglPlatform p) { return !only || *only == p; };
+    std::string tried;  // why each platform tried gave no display, "; "-separated
+    const auto note = [&](const std::string& why) { tried += (tried.empty() ? "" : "; ") + why; };
+    // The EGL devices, GPUs apart from Mesa's software device (EGL_MESA_device_software).
+    std::vector<EGLDeviceEXT> gpus, softwareDevices;
+    if (wanted(EglPlatform::Device) && hasExtension(client, "EGL_EXT_platform_device")) {
         auto queryDevices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
+        auto queryDeviceString = reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(eglGetProcAddress("eglQueryDeviceStringEXT"));
         EGLDeviceEXT devices[16];
         EGLint count = 0;
-        if (queryDevices != nullptr && queryDevices(16, devices, &count) == EGL_TRUE) {
-            for (EGLint i = 0; i < count && display == EGL_NO_DISPLAY; ++i) {
-                display = eglGetPlatformDisplay(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr);
-                if (initialise(display)) platform_ = EglPlatform::Device;
-                else display = EGL_NO_DISPLAY;
+        if (queryDevices != nullptr && queryDevices(16, devices, &count) == EGL_TRUE)
+            for (EGLint i = 0; i < count; ++i) {
+                const char* deviceExtensions = queryDeviceString != nullptr ? queryDeviceString(devices[i], EGL_EXTENSIONS) : nullptr;
+                (hasExtension(deviceExtensions, "EGL_MESA_device_software") ? softwareDevices : gpus).push_back(devices[i]);
+            }
+        note("device: " + std::to_string(gpus.size()) + " GPUs and " + std::to_string(softwareDevices.size()) + " software devices");
+    } else if (wanted(EglPlatform::Device)) {
+        note("device: no EGL_EXT_platform_device");
+    }
+    const auto firstDevice = [&](const std::vector<EGLDeviceEXT>& devices) {
+        for (EGLDeviceEXT device : devices) {
+            EGLDisplay d = eglGetPlatformDisplay(EGL_PLATFORM_DEVICE_EXT, device, nullptr);
+            if (initialise(d)) {
+                platform_ = EglPlatform::Device;
+                return d;
             }
         }
-        if (display == EGL_NO_DISPLAY) tried += "device: " + std::to_string(count) + " devices, none initialised; ";
-    }
-    if (display == EGL_NO_DISPLAY) {
-        display = eglGetDisplay(EGL_DEFAULT_DISPLAY);
-        if (initialise(display)) platform_ = EglPlatform::Default;
-        else {
-            tried += "default: " + eglErrorName(eglGetError());
-            throw RuntimeError("OpenGL: no EGL display could be initialised (" + tried + ")");
+        return EGL_NO_DISPLAY;
+    };
+    // A GPU's device first: where NVIDIA's driver sits beside Mesa (glvnd), Mesa's surfaceless
+    // platform would answer too, with llvmpipe.
+    EGLDisplay display = firstDevice(gpus);
+    if (display == EGL_NO_DISPLAY && wanted(EglPlatform::Surfaceless)) {
+        if (hasExtension(client, "EGL_MESA_platform_surfaceless")) {
+            display = eglGetPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+            if (initialise(display)) platform_ = EglPlatform::Surfaceless;
+            else display = EGL_NO_DISPLAY, note("surfaceless: " + eglErrorName(eglGetError()));
+        } else {
+            note("surfaceless: no EGL_MESA_platform_surfaceless");
         }
     }
+    if (display == EGL_NO_DISPLAY) display = firstDevice(softwareDevices);
+    if (display == EGL_NO_DISPLAY && wanted(EglPlatform::Default)) {
+        display = eglGetDisplay(EGL_DEFAULT_DISPLAY);
+        if (initialise(display)) platform_ = EglPlatform::Default;
+        else display = EGL_NO_DISPLAY, note("default: " + eglErrorName(eglGetError()));
+    }
+    if (display == EGL_NO_DISPLAY) throw RuntimeError("OpenGL: no EGL display could be initialised (" + tried + ")");
     display_ = display;
 
     const char* extensions = eglQueryString(display, EGL_EXTENSIONS);

@@ -82,12 +82,16 @@ public:
     [[nodiscard]] const FinalGatherGpuOptions& options() const noexcept { return options_; }
     /// Seconds the last shade() took on the GPU, upload and read-back included (glFinish).
     [[nodiscard]] double lastSeconds() const noexcept { return lastSeconds_; }
+    /// The last shade()'s dispatch alone as the GPU timed it (GL_TIME_ELAPSED), seconds; llvmpipe
+    /// reads ~0 for compute work.
+    [[nodiscard]] double lastGpuSeconds() const noexcept { return lastGpuSeconds_; }
 
 private:
     GlContext& context_;
     FinalGatherGpuOptions options_;
     ComputeProgram shadeProgram_, sampleProgram_;
-    double lastSeconds_ = 0;
+    double lastSeconds_ = 0, lastGpuSeconds_ = 0;
+    unsigned query_ = 0;  // GL_TIME_ELAPSED around shade()'s dispatch
 };
 
 }  // namespace vox::runtime

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -83,16 +84,18 @@ private:
 };
 
 /// An OpenGL 4.5 core profile context without a window, made current on the constructing
-/// thread. Displays are tried in order: Mesa's surfaceless platform (EGL_MESA_platform_surfaceless:
-/// llvmpipe in CI, any Mesa driver), the device platform (EGL_EXT_platform_device: NVIDIA's
-/// headless path; the first device that initialises), then EGL_DEFAULT_DISPLAY. The context is
-/// a debug context. EGL displays are per process and the destructor terminates the display: one
-/// HeadlessGlContext at a time per process.
+/// thread. Displays are tried in order: a GPU through the device platform (EGL_EXT_platform_device
+/// with EGL_EXT_device_enumeration: NVIDIA's headless path; the first device that initialises and
+/// is not Mesa's software one), Mesa's surfaceless platform (EGL_MESA_platform_surfaceless:
+/// llvmpipe in CI, any Mesa driver), Mesa's software device, then EGL_DEFAULT_DISPLAY. The
+/// context is a debug context. EGL displays are per process and the destructor terminates the
+/// display: one HeadlessGlContext at a time per process.
 class HeadlessGlContext final : public GlContext {
 public:
+    /// @p only: try that platform alone (voxview --egl-platform), else all in the order above.
     /// @throws RuntimeError naming why no OpenGL 4.5 core context could be made (no EGL display,
     /// no OpenGL API, version below 4.5 ...), in one line.
-    HeadlessGlContext();
+    explicit HeadlessGlContext(std::optional<EglPlatform> only = std::nullopt);
     ~HeadlessGlContext() override;
 
     [[nodiscard]] EglPlatform platform() const noexcept { return platform_; }
