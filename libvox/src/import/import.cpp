@@ -99,6 +99,9 @@ Scene importScene(const std::filesystem::path& file, const ImportOptions& option
         detail::importDrc(context, bytes);
     }
 
+    // The importers copied what they need: the file's bytes go before finalizing grows the meshes'
+    // arrays, so that the peak of an import is the larger of the two, not their sum.
+    std::vector<std::uint8_t>().swap(bytes);
     context.decodeTextures();
     {
         Timings::Scope timer(options.timings, "import.finalize");

@@ -90,6 +90,11 @@ void finalizeScene(ImportContext& context, MissingNormals missingNormals);
 /// mesh that has none.
 void generateNormals(Mesh& mesh, MissingNormals mode);
 
+/// Per vertex, the angle-weighted average of the normals of the triangles around its position
+/// (vertices at equal positions weld, so UV seams do not split the shading); zero where no
+/// triangle touches the position. Positions must be finite. The same bits for any thread count.
+[[nodiscard]] std::vector<Vec3f> smoothNormals(const Mesh& mesh);
+
 /// Lower-case extension with its dot.
 [[nodiscard]] std::string lowerExtension(const std::filesystem::path& file);
 

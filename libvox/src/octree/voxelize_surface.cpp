@@ -377,25 +377,32 @@ detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene, const SurfaceVoxe
     if (triangleCount >= 0xFFFFFFFFull) throw InvalidDataError(source, "more than 2^32 triangles");
     cube_ = options.cube ? *options.cube : RootCube::enclosing(bounds);
 
-    // Triangles in leaf-voxel units: the cube is [0, 2^depth]³.
-    triangles_.reserve(triangleCount);
+    // Triangles in leaf-voxel units: the cube is [0, 2^depth]³. Each mesh's triangles fill their
+    // own range, in parallel.
     std::vector<TriangleSource> sources;
-    if (attributes) sources.reserve(triangleCount);
     {
         Timings::Scope timer(options.timings, "voxelize_prepare");
+        // No huge pages here: where the kernel must compact memory for them, the first touch of
+        // this array stalled for a second (55 ms otherwise).
+        triangles_.resize(triangleCount);
+        if (attributes) sources.resize(triangleCount);
         const double scale = std::ldexp(1.0, static_cast<int>(depth_)) / cube_.size;
         const auto toLeaf = [&](Vec3f p) {
             return Vec3d{(p.x - cube_.origin.x) * scale, (p.y - cube_.origin.y) * scale, (p.z - cube_.origin.z) * scale};
         };
+        std::size_t first = 0;
         for (std::uint32_t m = 0; m < scene.meshes.size(); ++m) {
             const Mesh& mesh = scene.meshes[m];
             if (!selected(mesh)) continue;
-            if (attributes)
-                for (std::size_t t = 0; t < mesh.triangleCount(); ++t) sources.push_back({m, static_cast<std::uint32_t>(t)});
-            for (std::size_t t = 0; t < mesh.triangleCount(); ++t)
-                triangles_.push_back(detail::prepareBoxTest(toLeaf(mesh.positions[mesh.indices[3 * t]]),
-                                                            toLeaf(mesh.positions[mesh.indices[3 * t + 1]]),
-                                                            toLeaf(mesh.positions[mesh.indices[3 * t + 2]])));
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.triangleCount(), 1 << 14), [&](const tbb::blocked_range<std::size_t>& r) {
+                for (std::size_t t = r.begin(); t != r.end(); ++t) {
+                    if (attributes) sources[first + t] = {m, static_cast<std::uint32_t>(t)};
+                    triangles_[first + t] = detail::prepareBoxTest(toLeaf(mesh.positions[mesh.indices[3 * t]]),
+                                                                   toLeaf(mesh.positions[mesh.indices[3 * t + 1]]),
+                                                                   toLeaf(mesh.positions[mesh.indices[3 * t + 2]]));
+                }
+            });
+            first += mesh.triangleCount();
         }
     }
     if (attributes)

@@ -2,14 +2,66 @@
 
 #include "../import/import_context.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
 #include <algorithm>
-#include <bit>
 #include <cstdio>
 #include <cmath>
-#include <numeric>
-#include <unordered_map>
+#include <functional>
+#include <limits>
 
 namespace vox {
+namespace {
+
+/// Chunks of a fixed size (whatever the thread count), so that reductions that depend on order
+/// (signed zeros in min/max) combine the same chunks in the same order.
+constexpr std::size_t kChunk = 1 << 15;
+
+/// The bounds of the vertices @p indices refer to, as adding them one by one would give.
+Bounds3f indexedBounds(const std::vector<Vec3f>& positions, const std::vector<std::uint32_t>& indices) {
+    const std::size_t chunks = (indices.size() + kChunk - 1) / kChunk;
+    std::vector<Bounds3f> partial(chunks);
+    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+        const std::size_t end = std::min(indices.size(), (c + 1) * kChunk);
+        for (std::size_t i = c * kChunk; i < end; ++i) partial[c].add(positions[indices[i]]);
+    });
+    Bounds3f bounds;
+    for (const Bounds3f& b : partial) {
+        // Min with min, max with max: the earlier of equal values (+0, -0) stays, as one by one.
+        bounds.min = {std::min(bounds.min.x, b.min.x), std::min(bounds.min.y, b.min.y), std::min(bounds.min.z, b.min.z)};
+        bounds.max = {std::max(bounds.max.x, b.max.x), std::max(bounds.max.y, b.max.y), std::max(bounds.max.z, b.max.z)};
+    }
+    return bounds;
+}
+
+/// The first i in [0, count) for which @p bad(i) holds, or count: the same one whatever the threads.
+template <typename Predicate>
+std::size_t firstWhere(std::size_t count, const Predicate& bad) {
+    return tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, count, kChunk), count,
+        [&](const tbb::blocked_range<std::size_t>& r, std::size_t found) {
+            for (std::size_t i = r.begin(); i < r.end() && i < found; ++i)
+                if (bad(i)) return i;
+            return found;
+        },
+        [](std::size_t a, std::size_t b) { return std::min(a, b); });
+}
+
+/// How many i in [0, count) @p visit(i) returns true for.
+template <typename Visit>
+std::size_t countWhere(std::size_t count, const Visit& visit) {
+    return tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, count, kChunk), std::size_t{0},
+        [&](const tbb::blocked_range<std::size_t>& r, std::size_t n) {
+            for (std::size_t i = r.begin(); i < r.end(); ++i) n += visit(i) ? 1 : 0;
+            return n;
+        },
+        std::plus<>());
+}
+
+}  // namespace
 
 std::size_t Scene::triangleCount() const noexcept {
     std::size_t n = 0;
@@ -26,8 +78,11 @@ std::size_t Scene::dynamicTriangleCount() const noexcept {
 
 Bounds3f Scene::bounds() const {
     Bounds3f bounds;
-    for (const Mesh& mesh : meshes)
-        for (std::uint32_t index : mesh.indices) bounds.add(mesh.positions[index]);
+    for (const Mesh& mesh : meshes) {
+        const Bounds3f b = indexedBounds(mesh.positions, mesh.indices);
+        bounds.min = {std::min(bounds.min.x, b.min.x), std::min(bounds.min.y, b.min.y), std::min(bounds.min.z, b.min.z)};
+        bounds.max = {std::max(bounds.max.x, b.max.x), std::max(bounds.max.y, b.max.y), std::max(bounds.max.z, b.max.z)};
+    }
     return bounds;
 }
 
@@ -41,16 +96,6 @@ constexpr float kMaxCoordinate = 1e30f;
 /// floats, above 1.2e-38, with full precision.
 constexpr double kMinExtent = 1e-30;
 
-struct PositionHash {
-    std::size_t operator()(const Vec3f& p) const noexcept {
-        const auto bits = [](float v) { return std::bit_cast<std::uint32_t>(v == 0.0f ? 0.0f : v); };
-        std::size_t h = bits(p.x);
-        h = h * 0x9E3779B97F4A7C15ull ^ bits(p.y);
-        h = h * 0x9E3779B97F4A7C15ull ^ bits(p.z);
-        return h;
-    }
-};
-
 Vec3d toDouble(Vec3f v) { return {v.x, v.y, v.z}; }
 Vec3f toFloat(Vec3d v) { return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)}; }
 
@@ -62,47 +107,26 @@ Vec3d faceNormal(const Mesh& mesh, std::size_t triangle) {
     return cross(b - a, c - a);
 }
 
-/// Angle-weighted normals per vertex, summed over every triangle touching the vertex's position
-/// (so UV seams, which split vertices, do not split the shading).
-std::vector<Vec3f> smoothNormals(const Mesh& mesh) {
-    std::unordered_map<Vec3f, Vec3d, PositionHash> byPosition;
-    byPosition.reserve(mesh.positions.size());
-    for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
-        const Vec3d n = normalize(faceNormal(mesh, t));
-        for (int k = 0; k < 3; ++k) {
-            const Vec3d p = toDouble(mesh.positions[mesh.indices[3 * t + k]]);
-            const Vec3d e1 = normalize(toDouble(mesh.positions[mesh.indices[3 * t + (k + 1) % 3]]) - p);
-            const Vec3d e2 = normalize(toDouble(mesh.positions[mesh.indices[3 * t + (k + 2) % 3]]) - p);
-            const double angle = std::acos(std::clamp(dot(e1, e2), -1.0, 1.0));
-            byPosition[mesh.positions[mesh.indices[3 * t + k]]] += n * angle;
-        }
-    }
-    std::vector<Vec3f> normals(mesh.positions.size());
-    for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
-        auto it = byPosition.find(mesh.positions[v]);
-        normals[v] = it == byPosition.end() ? Vec3f{} : toFloat(normalize(it->second));
-    }
-    return normals;
+/// Triangles without area contribute no surface; the exact zero test keeps slivers.
+bool isDegenerate(const Mesh& mesh, std::size_t triangle) {
+    const std::uint32_t* tri = &mesh.indices[3 * triangle];
+    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2]) return true;
+    const Vec3d n = faceNormal(mesh, triangle);
+    return (n.x == 0 && n.y == 0 && n.z == 0) || !isFinite(n);
 }
 
-template <typename T>
-void unweld(std::vector<T>& values, const std::vector<std::uint32_t>& indices) {
-    if (values.empty()) return;
-    std::vector<T> out(indices.size());
-    for (std::size_t i = 0; i < indices.size(); ++i) out[i] = values[indices[i]];
-    values = std::move(out);
-}
-
-void flatNormals(Mesh& mesh) {
-    unweld(mesh.positions, mesh.indices);
-    for (auto& set : mesh.uvs) unweld(set, mesh.indices);
-    unweld(mesh.colors, mesh.indices);
-    mesh.normals.assign(mesh.indices.size(), Vec3f{});
-    for (std::size_t t = 0; t < mesh.indices.size() / 3; ++t) {
-        std::iota(mesh.indices.begin() + 3 * t, mesh.indices.begin() + 3 * t + 3, static_cast<std::uint32_t>(3 * t));
-        const Vec3f n = toFloat(normalize(faceNormal(mesh, t)));
-        for (int k = 0; k < 3; ++k) mesh.normals[3 * t + k] = n;
+/// Drops the degenerate triangles of @p mesh, keeping the order of the others; returns how many.
+std::size_t dropDegenerateTriangles(Mesh& mesh) {
+    const std::size_t triangles = mesh.triangleCount();
+    const std::size_t degenerate = countWhere(triangles, [&](std::size_t t) { return isDegenerate(mesh, t); });
+    if (degenerate == 0) return 0;
+    std::size_t kept = 0;  // in place, in order: rare enough to stay serial
+    for (std::size_t t = 0; t < triangles; ++t) {
+        if (isDegenerate(mesh, t)) continue;
+        std::copy_n(&mesh.indices[3 * t], 3, &mesh.indices[3 * kept++]);
     }
+    mesh.indices.resize(3 * kept);
+    return degenerate;
 }
 
 std::string meshLabel(const Mesh& mesh, std::size_t index) {
@@ -111,79 +135,67 @@ std::string meshLabel(const Mesh& mesh, std::size_t index) {
 
 }  // namespace
 
-void generateNormals(Mesh& mesh, MissingNormals mode) {
-    if (mode == MissingNormals::Flat)
-        flatNormals(mesh);
-    else
-        mesh.normals = smoothNormals(mesh);
-}
-
 void finalizeScene(ImportContext& context, MissingNormals missingNormals) {
     Scene& scene = context.scene();
     std::size_t degenerate = 0, invalidNormals = 0, invalidUvs = 0, invalidColors = 0, trianglesBefore = 0;
     for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
         Mesh& mesh = scene.meshes[m];
         const std::size_t vertexCount = mesh.positions.size();
-        for (std::size_t v = 0; v < vertexCount; ++v) {
+        // Every check in parallel, each failing on the first offender in file order.
+        const std::size_t badVertex = firstWhere(vertexCount, [&](std::size_t v) {
             const Vec3f& p = mesh.positions[v];
-            if (!isFinite(p)) context.fail(meshLabel(mesh, m) + ": vertex " + std::to_string(v) + " has a non-finite position");
-            if (std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)}) > kMaxCoordinate)
-                context.fail(meshLabel(mesh, m) + ": vertex " + std::to_string(v) + " has a coordinate beyond ±1e30 (absurd scale)");
+            return !isFinite(p) || std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)}) > kMaxCoordinate;
+        });
+        if (badVertex < vertexCount) {
+            if (!isFinite(mesh.positions[badVertex]))
+                context.fail(meshLabel(mesh, m) + ": vertex " + std::to_string(badVertex) + " has a non-finite position");
+            context.fail(meshLabel(mesh, m) + ": vertex " + std::to_string(badVertex) + " has a coordinate beyond ±1e30 (absurd scale)");
         }
         if (mesh.indices.size() % 3 != 0) context.fail(meshLabel(mesh, m) + ": index count is not a multiple of 3");
-        for (std::uint32_t index : mesh.indices)
-            if (index >= vertexCount)
-                context.fail(meshLabel(mesh, m) + ": vertex index " + std::to_string(index) + " out of range (" +
-                             std::to_string(vertexCount) + " vertices)");
+        const std::size_t badIndex = firstWhere(mesh.indices.size(), [&](std::size_t i) { return mesh.indices[i] >= vertexCount; });
+        if (badIndex < mesh.indices.size())
+            context.fail(meshLabel(mesh, m) + ": vertex index " + std::to_string(mesh.indices[badIndex]) + " out of range (" +
+                         std::to_string(vertexCount) + " vertices)");
         trianglesBefore += mesh.triangleCount();
-
-        // Triangles without area contribute no surface; the exact zero test keeps slivers.
-        std::size_t kept = 0;
-        for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
-            const std::uint32_t* tri = &mesh.indices[3 * t];
-            const bool repeated = tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2];
-            const Vec3d n = faceNormal(mesh, t);
-            if (repeated || (n.x == 0 && n.y == 0 && n.z == 0) || !isFinite(n)) {
-                ++degenerate;
-                continue;
-            }
-            std::copy(tri, tri + 3, &mesh.indices[3 * kept++]);
-        }
-        mesh.indices.resize(3 * kept);
+        degenerate += dropDegenerateTriangles(mesh);
 
         for (auto& set : mesh.uvs)
-            for (Vec2f& uv : set)
-                if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) {
-                    uv = {0, 0};
-                    ++invalidUvs;
-                }
-        for (Vec4f& color : mesh.colors)
-            if (!std::isfinite(color.x) || !std::isfinite(color.y) || !std::isfinite(color.z) || !std::isfinite(color.w)) {
-                color = {1, 1, 1, 1};
-                ++invalidColors;
-            }
+            invalidUvs += countWhere(set.size(), [&](std::size_t v) {
+                Vec2f& uv = set[v];
+                if (std::isfinite(uv.x) && std::isfinite(uv.y)) return false;
+                uv = {0, 0};
+                return true;
+            });
+        invalidColors += countWhere(mesh.colors.size(), [&](std::size_t v) {
+            Vec4f& color = mesh.colors[v];
+            if (std::isfinite(color.x) && std::isfinite(color.y) && std::isfinite(color.z) && std::isfinite(color.w)) return false;
+            color = {1, 1, 1, 1};
+            return true;
+        });
 
         if (mesh.normals.empty()) {
             generateNormals(mesh, missingNormals);
         } else {
-            std::vector<Vec3f> replacements;
-            for (std::size_t v = 0; v < mesh.normals.size(); ++v) {
-                Vec3f& n = mesh.normals[v];
-                // In double: a huge or tiny but finite normal still has a direction.
+            // In double: a huge or tiny but finite normal still has a direction.
+            const auto validLength = [](Vec3f n) {
                 const double len = isFinite(n) ? length(toDouble(n)) : 0.0;
-                if (len > 0 && std::isfinite(len)) {
-                    n = toFloat(toDouble(n) / len);
-                    continue;
+                return len > 0 && std::isfinite(len) ? len : 0.0;
+            };
+            const std::size_t invalid = countWhere(mesh.normals.size(), [&](std::size_t v) { return validLength(mesh.normals[v]) == 0.0; });
+            const std::vector<Vec3f> replacements = invalid ? smoothNormals(mesh) : std::vector<Vec3f>();
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.normals.size(), kChunk), [&](const tbb::blocked_range<std::size_t>& r) {
+                for (std::size_t v = r.begin(); v != r.end(); ++v) {
+                    Vec3f& n = mesh.normals[v];
+                    const double len = validLength(n);
+                    n = len > 0 ? toFloat(toDouble(n) / len) : replacements[v];
                 }
-                if (replacements.empty()) replacements = smoothNormals(mesh);
-                n = replacements[v];
-                ++invalidNormals;
-            }
+            });
+            invalidNormals += invalid;
         }
     }
     std::erase_if(scene.meshes, [](const Mesh& mesh) { return mesh.indices.empty(); });
 
-    // Importers may have dropped degenerate triangles already (OpenMesh does): report them all.
+    // Importers may have dropped degenerate triangles already: report them all.
     scene.degenerateTrianglesDropped += degenerate;
     if (scene.meshes.empty()) {
         if (trianglesBefore > 0 || scene.degenerateTrianglesDropped > 0)
