@@ -32,6 +32,15 @@ const char* lightTypeName(Light::Type type) {
     return "unknown";
 }
 
+nlohmann::json importReport(const Scene& scene, double seconds, std::uint64_t peakRss) {
+    const double triangles = static_cast<double>(scene.triangleCount());
+    return {{"triangles", scene.triangleCount()},
+            {"seconds", seconds},
+            {"triangles_per_second", seconds > 0 ? triangles / seconds : 0.0},
+            {"peak_rss_bytes", peakRss},
+            {"peak_rss_bytes_per_triangle", triangles > 0 ? static_cast<double>(peakRss) / triangles : 0.0}};
+}
+
 nlohmann::json sceneReport(const Scene& scene) {
     nlohmann::json report;
     nlohmann::json inputs = nlohmann::json::array();

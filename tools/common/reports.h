@@ -21,6 +21,9 @@ namespace vox::tools {
 /// The scene part of a stats report: inputs, triangles, materials, textures, lights, bounds, ...
 /// (keys documented in docs/cli.md).
 [[nodiscard]] nlohmann::json sceneReport(const Scene& scene);
+/// The `import` keys of --stats: triangles, seconds, triangles_per_second, peak_rss_bytes and
+/// peak_rss_bytes_per_triangle, with @p peakRssBytes the process's peak taken right after the import.
+[[nodiscard]] nlohmann::json importReport(const Scene& scene, double seconds, std::uint64_t peakRssBytes);
 
 /// The keys of esvoReport's "bytes" and "bytes_per_voxel" parts, in the order tools print them.
 inline constexpr std::array<const char*, 10> kEsvoByteParts{"hierarchy",        "far_pointers",     "page_headers",

@@ -213,6 +213,7 @@ void voxelize(const VoxelizeOptions& options) {
         vox::Timings::Scope timer(&timings, "import");
         scene = vox::importScene(options.input, importOptions);
     }
+    const std::uint64_t importPeakRss = vox::peakRssBytes();  // before anything else grows it
     // Before anything is built or written: a scene over the limit leaves no output behind.
     if (options.maxTriangles > 0 && scene.triangleCount() > static_cast<std::uint64_t>(options.maxTriangles))
         throw vox::InvalidDataError(options.input, std::to_string(scene.triangleCount()) + " triangles, more than --max-triangles " +
@@ -228,6 +229,7 @@ void voxelize(const VoxelizeOptions& options) {
     vox::log::info(summary);
 
     nlohmann::json report = vox::tools::sceneReport(scene);
+    report["import"] = vox::tools::importReport(scene, timings.get("import") / 1000.0, importPeakRss);
     if (!options.output.empty()) {
         vox::EsvoBuildOptions build;
         build.voxelize.depth = options.depth;
