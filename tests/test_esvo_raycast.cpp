@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -365,6 +366,76 @@ TEST_F(EsvoRaycast, MaxLevelStopsTraversal) {
     EXPECT_GT(hits, 5000u);
     EXPECT_EQ(atFive, hits);  // every voxel above the leaves has children, so level 5 is where it stops
     EXPECT_EQ(violations, 0u);
+}
+
+namespace {
+
+/// Every field of two hits, bit for bit.
+bool sameHit(const vox::CastHit& a, const vox::CastHit& b) {
+    const auto bits = [](float f) { return std::bit_cast<std::uint32_t>(f); };
+    return a.hit == b.hit && bits(a.t) == bits(b.t) && a.level == b.level && a.iterations == b.iterations &&
+           bits(a.normal.x) == bits(b.normal.x) && bits(a.normal.y) == bits(b.normal.y) && bits(a.normal.z) == bits(b.normal.z) &&
+           a.hasAttributes == b.hasAttributes && a.color == b.color && bits(a.shadingNormal.x) == bits(b.shadingNormal.x) &&
+           bits(a.shadingNormal.y) == bits(b.shadingNormal.y) && bits(a.shadingNormal.z) == bits(b.shadingNormal.z);
+}
+
+}  // namespace
+
+// castMany traverses eight rays at a time where the CPU has AVX2; whatever it runs, each ray's
+// hit must be cast()'s, for every option the loop branches on: the level-of-detail cut, maxLevel,
+// contours off, attributes, per-ray start distances, and far pointers into unloaded slices.
+TEST_F(EsvoRaycast, CastManyMatchesCastBitForBit) {
+    // voxelize's defaults: contours, attributes, refinement stopped early under the error bounds;
+    // small slices, so that the root slice alone leaves far pointers to unloaded ones.
+    vox::SurfaceVoxelizeOptions options;
+    options.depth = kDepth;
+    options.contours = true;
+    options.attributes = true;
+    options.contourError = vox::kDefaultContourError;
+    const vox::SparseOctree octree = vox::voxelizeSurface(shared->scene, options);
+    ASSERT_FALSE(octree.contours.empty());
+    vox::EsvoWriteOptions write;
+    write.sceneBounds = shared->scene.bounds();
+    write.sliceBytes = 16384;
+    const fs::path file = shared->dir / "cast_many.esvo";
+    (void)vox::writeEsvo(file, octree, write);
+    const vox::esvo::EsvoReader reader(file);
+    ASSERT_GT(reader.sliceCount(), 1u);
+    vox::esvo::EsvoPool full(reader), rootOnly(reader);
+    full.loadAll();
+    const vox::EsvoRayCaster fullCaster(full), coarseCaster(rootOnly);
+    std::vector<vox::CastOptions> variants(5, exact());
+    variants[1].lodAngle = shared->cameras[0].pixelAngle() * 4;
+    variants[1].attributes = true;
+    variants[2].maxLevel = 5;
+    variants[3].contours = false;
+    variants[4].attributes = true;
+    variants[4].tStart = 0.25f * float(shared->octree.cube.size);
+    std::uint64_t rays = 0, hits = 0, mismatches = 0;
+    for (const vox::EsvoRayCaster* caster : {&fullCaster, &coarseCaster})
+        for (const vox::PinholeCamera& cam : shared->cameras)
+            for (std::size_t v = 0; v < variants.size(); ++v) {
+                std::vector<vox::Ray> camRays;
+                std::vector<float> starts;
+                for (int y = 0; y < cam.height; ++y)
+                    for (int x = 0; x < cam.width; ++x) {
+                        camRays.push_back(cam.rayThrough(x, y));
+                        // Variant 4 also gives every third ray a start of its own, some past the hit.
+                        starts.push_back(v == 4 && (x + y) % 3 == 0 ? float((x % 7) * 0.1 * shared->octree.cube.size) : 0.0f);
+                    }
+                std::vector<vox::CastHit> many(camRays.size());
+                caster->castMany(camRays.data(), starts.data(), camRays.size(), variants[v], many.data());
+                for (std::size_t i = 0; i < camRays.size(); ++i) {
+                    vox::CastOptions one = variants[v];
+                    one.tStart = std::max(one.tStart, starts[i]);
+                    const vox::CastHit expected = caster->cast(camRays[i], one);
+                    ++rays;
+                    hits += expected.hit;
+                    mismatches += !sameHit(expected, many[i]);
+                }
+            }
+    EXPECT_EQ(mismatches, 0u) << "of " << rays << " rays";
+    EXPECT_GT(hits, rays / 10);
 }
 
 TEST_F(EsvoRaycast, RaysOutsideAndInsideTheCube) {

@@ -5,7 +5,10 @@
 #include <vox/formats/esvo_attributes.h>
 #include <vox/raycast.h>
 
+#include "esvo_traversal.h"
+
 #include <tbb/blocked_range.h>
+#include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -72,66 +75,77 @@ EsvoRayCaster::EsvoRayCaster(const esvo::EsvoPool& pool) : pool_(pool) {
     leafSize_ = std::ldexp(1.0, -static_cast<int>(pool.reader().header().leafDepth)) / unitScale_;
 }
 
-CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
-    if (options.beamRadius > 0) return castBeam(ray, options);
-    constexpr int kScaleMax = 23;
+bool EsvoRayCaster::start(const Ray& ray, const CastOptions& options, detail::TraversalStart& s) const {
+    using detail::kScaleMax;
     const float epsilon = std::ldexp(1.0f, -kScaleMax);
-    const std::uint32_t* words = pool_.words();
-    struct StackEntry {
-        std::uint32_t parent;
-        float tMax;
-    } stack[kScaleMax + 1];
-
     // To octree coordinates [1,2]³; t stays the world distance because the direction is
     // transformed without renormalising.
     const auto& o = ray.origin;
     const auto& dw = ray.direction;
-    float px = static_cast<float>(a_[0] * o.x + a_[1] * o.y + a_[2] * o.z + a_[3] + 1.0);
-    float py = static_cast<float>(a_[4] * o.x + a_[5] * o.y + a_[6] * o.z + a_[7] + 1.0);
-    float pz = static_cast<float>(a_[8] * o.x + a_[9] * o.y + a_[10] * o.z + a_[11] + 1.0);
+    s.px = static_cast<float>(a_[0] * o.x + a_[1] * o.y + a_[2] * o.z + a_[3] + 1.0);
+    s.py = static_cast<float>(a_[4] * o.x + a_[5] * o.y + a_[6] * o.z + a_[7] + 1.0);
+    s.pz = static_cast<float>(a_[8] * o.x + a_[9] * o.y + a_[10] * o.z + a_[11] + 1.0);
     float dx = static_cast<float>(a_[0] * dw.x + a_[1] * dw.y + a_[2] * dw.z);
     float dy = static_cast<float>(a_[4] * dw.x + a_[5] * dw.y + a_[6] * dw.z);
     float dz = static_cast<float>(a_[8] * dw.x + a_[9] * dw.y + a_[10] * dw.z);
     if (std::abs(dx) < epsilon) dx = std::copysign(epsilon, dx);
     if (std::abs(dy) < epsilon) dy = std::copysign(epsilon, dy);
     if (std::abs(dz) < epsilon) dz = std::copysign(epsilon, dz);
+    s.dx = dx, s.dy = dy, s.dz = dz;
 
     // t(x) = x·coef − bias, mirrored so that every direction component is negative.
-    const float txCoef = 1.0f / -std::abs(dx), tyCoef = 1.0f / -std::abs(dy), tzCoef = 1.0f / -std::abs(dz);
-    float txBias = txCoef * px, tyBias = tyCoef * py, tzBias = tzCoef * pz;
-    int octantMask = 7;
-    if (dx > 0.0f) octantMask ^= 1, txBias = 3.0f * txCoef - txBias;
-    if (dy > 0.0f) octantMask ^= 2, tyBias = 3.0f * tyCoef - tyBias;
-    if (dz > 0.0f) octantMask ^= 4, tzBias = 3.0f * tzCoef - tzBias;
+    s.txCoef = 1.0f / -std::abs(dx), s.tyCoef = 1.0f / -std::abs(dy), s.tzCoef = 1.0f / -std::abs(dz);
+    s.txBias = s.txCoef * s.px, s.tyBias = s.tyCoef * s.py, s.tzBias = s.tzCoef * s.pz;
+    s.octantMask = 7;
+    if (dx > 0.0f) s.octantMask ^= 1, s.txBias = 3.0f * s.txCoef - s.txBias;
+    if (dy > 0.0f) s.octantMask ^= 2, s.tyBias = 3.0f * s.tyCoef - s.tyBias;
+    if (dz > 0.0f) s.octantMask ^= 4, s.tzBias = 3.0f * s.tzCoef - s.tzBias;
 
-    float tMin = std::max({2.0f * txCoef - txBias, 2.0f * tyCoef - tyBias, 2.0f * tzCoef - tzBias});
-    float tMax = std::min({txCoef - txBias, tyCoef - tyBias, tzCoef - tzBias});
+    float tMin = std::max({2.0f * s.txCoef - s.txBias, 2.0f * s.tyCoef - s.tyBias, 2.0f * s.tzCoef - s.tzBias});
+    float tMax = std::min({s.txCoef - s.txBias, s.tyCoef - s.tyBias, s.tzCoef - s.tzBias});
     tMin = std::max(tMin, std::max(options.tStart, 0.0f));
     tMax = std::min(tMax, static_cast<float>(std::min(options.tMax, 3.0e38)));
     // The span only shrinks from here (tMin never decreases, tMax never exceeds this), so an
     // empty one is a miss: a ray beside the cube, or a beam start past everything.
-    if (!(tMin <= tMax)) return CastHit{};
+    if (!(tMin <= tMax)) return false;
+    s.tMin = tMin, s.tMax = tMax;
     // Footprint of a pixel at distance t, in root-cube units: t·lodCoef.
-    const auto lodCoef = static_cast<float>(options.lodAngle * unitScale_);
+    s.lodCoef = static_cast<float>(options.lodAngle * unitScale_);
+    s.idx = 0;
+    s.posX = 1.0f, s.posY = 1.0f, s.posZ = 1.0f;
+    if (1.5f * s.txCoef - s.txBias > tMin) s.idx ^= 1, s.posX = 1.5f;
+    if (1.5f * s.tyCoef - s.tyBias > tMin) s.idx ^= 2, s.posY = 1.5f;
+    if (1.5f * s.tzCoef - s.tzBias > tMin) s.idx ^= 4, s.posZ = 1.5f;
+    return true;
+}
 
-    CastHit result;
+CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
+    if (options.beamRadius > 0) return castBeam(ray, options);
+    using detail::kScaleMax;
+    detail::TraversalStart s;
+    if (!start(ray, options, s)) return CastHit{};
+    const std::uint32_t* words = pool_.words();
+    struct StackEntry {
+        std::uint32_t parent;
+        float tMax;
+    } stack[kScaleMax + 1];
+
+    const float px = s.px, py = s.py, pz = s.pz, dx = s.dx, dy = s.dy, dz = s.dz;
+    const float txCoef = s.txCoef, tyCoef = s.tyCoef, tzCoef = s.tzCoef, txBias = s.txBias, tyBias = s.tyBias, tzBias = s.tzBias;
+    const float lodCoef = s.lodCoef;
+    const int octantMask = s.octantMask;
+    float tMin = s.tMin, tMax = s.tMax;
+    int idx = s.idx;
+    float posX = s.posX, posY = s.posY, posZ = s.posZ;
+
+    detail::TraversalStop stop;
     std::uint32_t parent = pool_.rootDescriptorWord();
     std::uint32_t descriptor = 0, descriptor2 = 0;  // the parent's two words: topology, contours
     bool haveDescriptor = false;
-    float slabT = -1.0f;          // where a contour last raised the span's start, and its normal
-    Vec3f slabNormal{0, 0, 0};
-    int idx = 0;
-    float posX = 1.0f, posY = 1.0f, posZ = 1.0f;
     int scale = kScaleMax - 1;
     float scaleExp2 = 0.5f;
-    if (1.5f * txCoef - txBias > tMin) idx ^= 1, posX = 1.5f;
-    if (1.5f * tyCoef - tyBias > tMin) idx ^= 2, posY = 1.5f;
-    if (1.5f * tzCoef - tzBias > tMin) idx ^= 4, posZ = 1.5f;
-
-    bool hit = false;
-    int hitSlot = 0;
     while (scale < kScaleMax) {
-        ++result.iterations;
+        ++stop.iterations;
         if (!haveDescriptor) {
             descriptor = words[parent];
             descriptor2 = words[parent + 1];
@@ -147,9 +161,9 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
         if (valid && tMin <= tMax) {
             const auto level = static_cast<std::uint32_t>(kScaleMax - scale);
             if (lodCoef > 0 && tcMax * lodCoef >= scaleExp2) {  // voxel smaller than the pixel
-                hit = true;
-                result.level = level;
-                hitSlot = slot;
+                stop.hit = true;
+                stop.level = level;
+                stop.hitSlot = slot;
                 break;
             }
             float tvMax = std::min(tMax, tcMax);
@@ -199,11 +213,11 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
                     offset = static_cast<std::int32_t>(words[parent + 2 * static_cast<std::uint32_t>(offset)]);
                     leaf = offset == 0;  // child slice not loaded: this is the finest level there is
                 }
-                if (fromSlab) slabT = tvMin, slabNormal = slabN;
+                if (fromSlab) stop.slabT = tvMin, stop.slabNormal = slabN;
                 if (leaf) {
-                    hit = true;
-                    result.level = level;
-                    hitSlot = slot;
+                    stop.hit = true;
+                    stop.level = level;
+                    stop.hitSlot = slot;
                     tMin = tvMin;
                     break;
                 }
@@ -256,24 +270,53 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
             haveDescriptor = false;
         }
     }
-    if (!hit) return result;
+    if (!stop.hit) {
+        CastHit miss;
+        miss.iterations = stop.iterations;
+        return miss;
+    }
+    stop.t = tMin;
+    stop.scale = scale;
+    stop.scaleExp2 = scaleExp2;
+    stop.posX = posX, stop.posY = posY, stop.posZ = posZ;
+    stop.parent = parent;
+    return finish(s, stop, options, &stack[0].parent, sizeof(StackEntry) / sizeof(std::uint32_t));
+}
 
+void EsvoRayCaster::castMany(const Ray* rays, const float* tStarts, std::size_t count, const CastOptions& options, CastHit* hits) const {
+    if (options.beamRadius > 0) throw UsageError("castMany: beamRadius must be 0");
+    // The lanes index words with signed 32-bit gathers.
+    static const bool lanes = detail::LaneCaster::available();
+    if (lanes && pool_.wordCount() < (std::size_t{1} << 31)) return detail::LaneCaster::cast(*this, rays, tStarts, count, options, hits);
+    CastOptions rayOptions = options;
+    for (std::size_t i = 0; i < count; ++i) {
+        if (tStarts) rayOptions.tStart = std::max(options.tStart, tStarts[i]);
+        hits[i] = cast(rays[i], rayOptions);
+    }
+}
+
+CastHit EsvoRayCaster::finish(const detail::TraversalStart& s, const detail::TraversalStop& stop, const CastOptions& options,
+                              const std::uint32_t* stackParent, std::size_t stackStride) const {
+    using detail::kScaleMax;
+    CastHit result;
     result.hit = true;
-    result.t = tMin;
+    result.t = stop.t;
+    result.level = stop.level;
+    result.iterations = stop.iterations;
     // The face the ray entered through: the axis whose entry plane it crossed last, or the
     // contour plane if that is where the span began.
-    const float txEntry = (posX + scaleExp2) * txCoef - txBias;
-    const float tyEntry = (posY + scaleExp2) * tyCoef - tyBias;
-    const float tzEntry = (posZ + scaleExp2) * tzCoef - tzBias;
+    const float txEntry = (stop.posX + stop.scaleExp2) * s.txCoef - s.txBias;
+    const float tyEntry = (stop.posY + stop.scaleExp2) * s.tyCoef - s.tyBias;
+    const float tzEntry = (stop.posZ + stop.scaleExp2) * s.tzCoef - s.tzBias;
     Vec3d n{0, 0, 0};
-    if (slabT == tMin && slabT >= std::max({txEntry, tyEntry, tzEntry}))
-        n = {slabNormal.x, slabNormal.y, slabNormal.z};
+    if (stop.slabT == stop.t && stop.slabT >= std::max({txEntry, tyEntry, tzEntry}))
+        n = {stop.slabNormal.x, stop.slabNormal.y, stop.slabNormal.z};
     else if (txEntry >= tyEntry && txEntry >= tzEntry)
-        n.x = dx > 0 ? -1 : 1;
+        n.x = s.dx > 0 ? -1 : 1;
     else if (tyEntry >= tzEntry)
-        n.y = dy > 0 ? -1 : 1;
+        n.y = s.dy > 0 ? -1 : 1;
     else
-        n.z = dz > 0 ? -1 : 1;
+        n.z = s.dz > 0 ? -1 : 1;
     // Normals transform with the inverse transpose; for libvox's uniform scale this is n itself,
     // but a general affine header is allowed.
     const Vec3d nw{a_[0] * n.x + a_[4] * n.y + a_[8] * n.z, a_[1] * n.x + a_[5] * n.y + a_[9] * n.z,
@@ -284,9 +327,10 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
     if (options.attributes) {
         // The hit voxel is child hitSlot of `parent`; where its value is omitted it inherits its
         // parent voxel's: child (position bits at that scale) of the descriptor the stack holds.
-        std::uint32_t descriptorWord = parent;
-        int slot = hitSlot;
-        for (int s = scale;;) {
+        const std::uint32_t* words = pool_.words();
+        std::uint32_t descriptorWord = stop.parent;
+        int slot = stop.hitSlot;
+        for (int sc = stop.scale;;) {
             esvo::AttributeValue value;
             if (esvo::readAttribute(words, descriptorWord, static_cast<std::uint32_t>(slot), value)) {
                 result.hasAttributes = true;
@@ -294,12 +338,12 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
                 result.shadingNormal = {value.normal[0], value.normal[1], value.normal[2]};
                 break;
             }
-            if (++s >= kScaleMax) break;  // the root's own value is stored nowhere
-            descriptorWord = stack[s].parent;
-            const int idxAbove = static_cast<int>(((std::bit_cast<std::uint32_t>(posX) >> s) & 1u) |
-                                                  (((std::bit_cast<std::uint32_t>(posY) >> s) & 1u) << 1) |
-                                                  (((std::bit_cast<std::uint32_t>(posZ) >> s) & 1u) << 2));
-            slot = idxAbove ^ octantMask ^ 7;
+            if (++sc >= kScaleMax) break;  // the root's own value is stored nowhere
+            descriptorWord = stackParent[std::size_t(sc) * stackStride];
+            const int idxAbove = static_cast<int>(((std::bit_cast<std::uint32_t>(stop.posX) >> sc) & 1u) |
+                                                  (((std::bit_cast<std::uint32_t>(stop.posY) >> sc) & 1u) << 1) |
+                                                  (((std::bit_cast<std::uint32_t>(stop.posZ) >> sc) & 1u) << 2));
+            slot = idxAbove ^ s.octantMask ^ 7;
         }
     }
     return result;
@@ -482,29 +526,57 @@ RenderBuffers emptyBuffers(const PinholeCamera& camera) {
     return out;
 }
 
-/// One cast per pixel in parallel, @p cast(x, y) giving the pixel's CastHit; returns the seconds.
-template <class Cast>
-double castPixels(const PinholeCamera& camera, RenderBuffers& out, const Cast& cast) {
+/// Pixels [x0, x1) × [y0, y1) of the image.
+struct PixelTile {
+    int x0, x1, y0, y1;
+    [[nodiscard]] std::size_t pixels() const { return std::size_t(x1 - x0) * std::size_t(y1 - y0); }
+};
+
+/// One cast per pixel in parallel, tile by tile: @p castTile(tile, hits) fills hits with the
+/// tile's CastHits, row by row. Returns the seconds.
+template <class CastTile>
+double castPixels(const PinholeCamera& camera, RenderBuffers& out, const CastTile& castTile) {
     std::atomic<std::uint64_t> hits{0};
     const auto start = std::chrono::steady_clock::now();
-    tbb::parallel_for(tbb::blocked_range<int>(0, camera.height, 4), [&](const tbb::blocked_range<int>& rows) {
+    // Square tiles rather than rows: neighbouring rays walk the same nodes, so a tile reuses the
+    // cache lines its first rays brought in.
+    constexpr int kTile = 16;
+    tbb::parallel_for(tbb::blocked_range2d<int>(0, camera.height, kTile, 0, camera.width, kTile), [&](const tbb::blocked_range2d<int>& range) {
+        const PixelTile tile{range.cols().begin(), range.cols().end(), range.rows().begin(), range.rows().end()};
+        std::vector<CastHit> tileHits(tile.pixels());
+        castTile(tile, tileHits.data());
         std::uint64_t localHits = 0;
-        for (int y = rows.begin(); y != rows.end(); ++y)
-            for (int x = 0; x < camera.width; ++x) {
-                const CastHit h = cast(x, y);
+        const CastHit* h = tileHits.data();
+        for (int y = tile.y0; y != tile.y1; ++y)
+            for (int x = tile.x0; x != tile.x1; ++x, ++h) {
                 const std::size_t i = std::size_t(y) * std::size_t(camera.width) + std::size_t(x);
-                out.iterations[i] = h.iterations;
-                if (!h.hit) continue;
+                out.iterations[i] = h->iterations;
+                if (!h->hit) continue;
                 ++localHits;
-                out.depth[i] = h.t;
-                out.normal[i] = h.normal;
-                out.level[i] = static_cast<std::uint8_t>(h.level);
-                if (h.hasAttributes) out.color[i] = h.color, out.shadingNormal[i] = h.shadingNormal;
+                out.depth[i] = h->t;
+                out.normal[i] = h->normal;
+                out.level[i] = static_cast<std::uint8_t>(h->level);
+                if (h->hasAttributes) out.color[i] = h->color, out.shadingNormal[i] = h->shadingNormal;
             }
         hits += localHits;
     });
     out.hits = hits;
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+/// castPixels' tile caster for the octree: the tile's rays through EsvoRayCaster::castMany, each
+/// starting where @p startOf(x, y) says.
+template <class StartOf>
+auto octreeTiles(const EsvoRayCaster& caster, const CameraBasis& basis, const CastOptions& options, const StartOf& startOf) {
+    return [&caster, &basis, &options, startOf](const PixelTile& tile, CastHit* hits) {
+        std::vector<Ray> rays;
+        std::vector<float> starts;
+        rays.reserve(tile.pixels());
+        starts.reserve(tile.pixels());
+        for (int y = tile.y0; y != tile.y1; ++y)
+            for (int x = tile.x0; x != tile.x1; ++x) rays.push_back(basis.ray(x, y)), starts.push_back(startOf(x, y));
+        caster.castMany(rays.data(), starts.data(), rays.size(), options, hits);
+    };
 }
 
 }  // namespace
@@ -513,7 +585,10 @@ RenderBuffers renderPixels(const PinholeCamera& camera, const std::function<Cast
     camera.validate();
     RenderBuffers out = emptyBuffers(camera);
     const CameraBasis basis(camera);
-    out.seconds = castPixels(camera, out, [&](int x, int y) { return cast(basis.ray(x, y)); });
+    out.seconds = castPixels(camera, out, [&](const PixelTile& tile, CastHit* hits) {
+        for (int y = tile.y0; y != tile.y1; ++y)
+            for (int x = tile.x0; x != tile.x1; ++x) *hits++ = cast(basis.ray(x, y));
+    });
     return out;
 }
 
@@ -523,7 +598,7 @@ RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camer
     RenderBuffers out = emptyBuffers(camera);
     const CameraBasis basis(camera);
     if (beam <= 1) {
-        out.seconds = castPixels(camera, out, [&](int x, int y) { return caster.cast(basis.ray(x, y), options); });
+        out.seconds = castPixels(camera, out, octreeTiles(caster, basis, options, [](int, int) { return 0.0f; }));
         return out;
     }
     out.beam = beam;
@@ -556,17 +631,13 @@ RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camer
     out.coarseRays = starts.size();
     out.coarseIterations = coarseIterations;
     // Fine pass: every pixel from the smallest start of its block's corners.
-    const float userStart = options.tStart;
-    const double fineSeconds = castPixels(camera, out, [&](int x, int y) {
+    const double fineSeconds = castPixels(camera, out, octreeTiles(caster, basis, options, [&](int x, int y) {
         const std::size_t bx = std::size_t(x / beam), by = std::size_t(y / beam);
         const float* row0 = &starts[by * std::size_t(cornersX) + bx];
         const float* row1 = row0 + cornersX;
-        CastOptions fine = options;
-        fine.tStart = std::max(userStart, std::min({row0[0], row0[1], row1[0], row1[1]}));
-        // No ray of the block can hit: cast() would return this at once; skip making the ray.
-        if (fine.tStart == std::numeric_limits<float>::infinity()) return CastHit{};
-        return caster.cast(basis.ray(x, y), fine);
-    });
+        // +inf where no ray of the block can hit: cast() then returns at once.
+        return std::min({row0[0], row0[1], row1[0], row1[1]});
+    }));
     out.seconds = out.coarseSeconds + fineSeconds;
     return out;
 }

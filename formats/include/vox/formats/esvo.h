@@ -92,7 +92,12 @@ struct Contour {
 
 /// Number of set bits in the low 8 bits.
 [[nodiscard]] constexpr std::uint32_t popc8(std::uint32_t mask) noexcept {
-    return static_cast<std::uint32_t>(__builtin_popcount(mask & 0xFFu));
+    // Bit arithmetic rather than __builtin_popcount: without -mpopcnt (baseline x86-64) that is a
+    // call into libgcc, in the ray caster's innermost loop.
+    mask &= 0xFFu;
+    mask -= (mask >> 1) & 0x55u;
+    mask = (mask & 0x33u) + ((mask >> 2) & 0x33u);
+    return (mask + (mask >> 4)) & 0x0Fu;
 }
 
 // ---- info section ---------------------------------------------------------------------------
