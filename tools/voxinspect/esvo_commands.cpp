@@ -328,7 +328,7 @@ void EsvoCommands::add(CLI::App& app) {
     render->add_option("--load-levels", loadLevels, "Load only slices starting above this level (streaming check)");
     render->add_option("--lod-scale", lodScale, "Stop at voxels smaller than this many pixels; 0: always to the leaves")
         ->capture_default_str();
-    render->add_option("--beam", beam, "Beam optimisation: a coarse pass per NxN pixel block (0: off, 4 or 8); same image")
+    render->add_option("--beam", beam, "Beam optimisation: a coarse pass per NxN pixel block (0: off, 4 or 8); the same image, faster")
         ->capture_default_str();
     render->add_option("--stats", stats, "Write a JSON report: rays, Mrays/s, iterations");
 }
