@@ -209,7 +209,10 @@ void render(const EsvoCommands& c) {
     const bool colorChannel = c.channel == "color" || c.channel == "shaded";
     if (c.filter && !colorChannel) throw UsageError("--filter applies to --channel color or shaded");
     if (!(c.lodScale >= 0)) throw UsageError("--lod-scale must be 0 or more");
-    if (c.beam != 0 && c.beam != 4 && c.beam != 8) throw UsageError("--beam must be 0, 4 or 8");
+    // The beam leaves every channel the same except iterations, which then counts the fine pass:
+    // that one shows a single pass's work unless --beam asks otherwise.
+    const int beam = c.beam != -1 ? c.beam : (c.channel == "iterations" ? 0 : 8);
+    if (beam != 0 && beam != 4 && beam != 8) throw UsageError("--beam must be 0, 4 or 8");
 
     const esvo::EsvoReader reader(c.file);
     esvo::EsvoPool pool(reader);
@@ -220,7 +223,7 @@ void render(const EsvoCommands& c) {
     options.maxLevel = c.maxLevel;
     options.attributes = c.channel != "depth" && c.channel != "iterations" && c.channel != "level" && c.channel != "face-normal";
     if (c.channel == "color" && !reader.header().hasAttributes()) throw UsageError(c.file + ": no colours in this file (voxelize --attributes none)");
-    const RenderBuffers image = renderEsvo(caster, camera, options, c.beam);
+    const RenderBuffers image = renderEsvo(caster, camera, options, beam);
     std::vector<Vec3f> linear;  // color / shaded
     if (colorChannel) {
         linear = c.channel == "color" ? albedoImage(image) : shadeHeadlight(image, camera);
@@ -268,7 +271,7 @@ void render(const EsvoCommands& c) {
     const double rays = double(pixels);
     log::info(c.output + ": " + std::to_string(image.width) + "x" + std::to_string(image.height) + ", " + std::to_string(image.hits) +
               " hits, " + std::to_string(rays / image.seconds / 1e6) + " Mrays/s" +
-              (c.beam ? " (beam " + std::to_string(c.beam) + ")" : std::string()));
+              (beam ? " (beam " + std::to_string(beam) + ")" : std::string()));
     if (!c.stats.empty()) {
         nlohmann::json report{{"file", c.file},
                               {"width", image.width},
@@ -282,7 +285,7 @@ void render(const EsvoCommands& c) {
         std::uint64_t iterations = 0;
         for (std::uint32_t it : image.iterations) iterations += it;
         report["mean_iterations"] = double(iterations) / rays;  // the fine pass's, per ray
-        report["beam"] = c.beam;
+        report["beam"] = beam;
         report["coarse_rays"] = image.coarseRays;
         report["coarse_iterations_per_pixel"] = double(image.coarseIterations) / rays;
         report["mean_iterations_with_coarse"] = double(iterations + image.coarseIterations) / rays;
@@ -290,7 +293,7 @@ void render(const EsvoCommands& c) {
         report["fine_seconds"] = image.seconds - image.coarseSeconds;
         Timings timings;
         timings.add("cast", image.seconds * 1000.0);
-        if (c.beam) {
+        if (beam) {
             timings.add("coarse", image.coarseSeconds * 1000.0);
             timings.add("fine", (image.seconds - image.coarseSeconds) * 1000.0);
         }
@@ -328,8 +331,9 @@ void EsvoCommands::add(CLI::App& app) {
     render->add_option("--load-levels", loadLevels, "Load only slices starting above this level (streaming check)");
     render->add_option("--lod-scale", lodScale, "Stop at voxels smaller than this many pixels; 0: always to the leaves")
         ->capture_default_str();
-    render->add_option("--beam", beam, "Beam optimisation: a coarse pass per NxN pixel block (0: off, 4 or 8); the same image, faster")
-        ->capture_default_str();
+    render->add_option("--beam", beam,
+                       "Beam optimisation: a coarse pass per NxN pixel block (0: off, 4 or 8; default 8, 0 for --channel iterations); "
+                       "the same image, faster");
     render->add_option("--stats", stats, "Write a JSON report: rays, Mrays/s, iterations");
 }
 

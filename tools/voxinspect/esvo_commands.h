@@ -21,7 +21,7 @@ struct EsvoCommands {
     unsigned maxLevel = 0xFFFFFFFFu;
     unsigned loadLevels = 0xFFFFFFFFu;
     double lodScale = 1.0;
-    int beam = 8;
+    int beam = -1;  // not given: 8, or 0 for --channel iterations
     bool filter = false;
 
     CLI::App* info = nullptr;
