@@ -76,8 +76,7 @@ EsvoRayCaster::EsvoRayCaster(const esvo::EsvoPool& pool) : pool_(pool) {
 }
 
 bool EsvoRayCaster::start(const Ray& ray, const CastOptions& options, detail::TraversalStart& s) const {
-    using detail::kScaleMax;
-    const float epsilon = std::ldexp(1.0f, -kScaleMax);
+    constexpr float epsilon = 0x1p-23f;  // 2^-kScaleMax
     // To octree coordinates [1,2]³; t stays the world distance because the direction is
     // transformed without renormalising.
     const auto& o = ray.origin;

@@ -229,13 +229,22 @@ VOX_AVX2 [[gnu::always_inline]] inline void step(LaneRegs& r, LaneState& L, cons
     // PUSH
     const __m256i push = andNot(leaf, nonEmpty);
     if (any(push)) {
-        alignas(32) std::int32_t scaleOf[kLanes], parentOf[kLanes];
-        alignas(32) float tMaxOf[kLanes];
-        storeI(scaleOf, scale), storeI(parentOf, parent), _mm256_store_ps(tMaxOf, tMax);
-        for (unsigned lanes = static_cast<unsigned>(_mm256_movemask_ps(asF(push))); lanes != 0; lanes &= lanes - 1) {
-            const int lane = std::countr_zero(lanes);
-            L.stackParent[scaleOf[lane]][lane] = parentOf[lane];
-            L.stackTMax[scaleOf[lane]][lane] = tMaxOf[lane];
+        const unsigned pushLanes = static_cast<unsigned>(_mm256_movemask_ps(asF(push)));
+        const int firstScale = _mm256_cvtsi256_si32(_mm256_permutevar8x32_epi32(scale, _mm256_set1_epi32(std::countr_zero(pushLanes))));
+        const unsigned sameScale = static_cast<unsigned>(_mm256_movemask_ps(asF(_mm256_cmpeq_epi32(scale, _mm256_set1_epi32(firstScale)))));
+        if ((sameScale & pushLanes) == pushLanes) {
+            // Neighbouring rays mostly push at the same scale: one masked store per array.
+            _mm256_maskstore_epi32(L.stackParent[firstScale], push, parent);
+            _mm256_maskstore_ps(L.stackTMax[firstScale], push, tMax);
+        } else {
+            alignas(32) std::int32_t scaleOf[kLanes], parentOf[kLanes];
+            alignas(32) float tMaxOf[kLanes];
+            storeI(scaleOf, scale), storeI(parentOf, parent), _mm256_store_ps(tMaxOf, tMax);
+            for (unsigned lanes = pushLanes; lanes != 0; lanes &= lanes - 1) {
+                const int lane = std::countr_zero(lanes);
+                L.stackParent[scaleOf[lane]][lane] = parentOf[lane];
+                L.stackTMax[scaleOf[lane]][lane] = tMaxOf[lane];
+            }
         }
         const __m256i below = _mm256_and_si256(descriptor, _mm256_sub_epi32(_mm256_sllv_epi32(one, slot), one));
         const __m256i childOffset = _mm256_add_epi32(offset, popc8(below));
