@@ -60,11 +60,9 @@ VOX_AVX2 inline __m256i selectI(__m256i mask, __m256i ifSet, __m256i otherwise) 
     return _mm256_blendv_epi8(otherwise, ifSet, mask);
 }
 VOX_AVX2 inline bool any(__m256i mask) { return !_mm256_testz_si256(mask, mask); }
-VOX_AVX2 inline int count(__m256i mask) { return std::popcount(static_cast<unsigned>(_mm256_movemask_ps(asF(mask)))); }
-// std::min(a, b) and std::max(a, b) pick a on ties; so do these (minps returns its second
-// operand unless the first is smaller).
+// std::min(a, b) picks a on ties; so does this (minps returns its second operand unless the
+// first is smaller).
 VOX_AVX2 inline __m256 minOf(__m256 a, __m256 b) { return _mm256_min_ps(b, a); }
-VOX_AVX2 inline __m256 maxOf(__m256 a, __m256 b) { return _mm256_max_ps(b, a); }
 VOX_AVX2 inline __m256i lessOrEqual(__m256 a, __m256 b) { return asI(_mm256_cmp_ps(a, b, _CMP_LE_OQ)); }
 VOX_AVX2 inline __m256i greater(__m256 a, __m256 b) { return asI(_mm256_cmp_ps(a, b, _CMP_GT_OQ)); }
 VOX_AVX2 inline __m256i bit(__m256i v, __m256i shift) {  // all ones where bit `shift` of v is set
