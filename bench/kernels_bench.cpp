@@ -359,12 +359,19 @@ void castImage(benchmark::State& state, Cast cast) {
     state.counters["hit_fraction"] = static_cast<double>(hits) / static_cast<double>(rays.size());
 }
 
-void BM_EsvoCast(benchmark::State& state) {
-    const CastData& d = castData();
+/// The options of mode state.range(0): 0 to the leaves, 1 with the level-of-detail cut, 2 with
+/// the attribute lookup; labels the benchmark.
+vox::CastOptions castMode(benchmark::State& state) {
     vox::CastOptions options;
-    if (state.range(0) == 1) options.lodAngle = d.camera.pixelAngle();
+    if (state.range(0) == 1) options.lodAngle = castData().camera.pixelAngle();
     if (state.range(0) == 2) options.attributes = true;
     state.SetLabel(state.range(0) == 0 ? "leaves" : state.range(0) == 1 ? "lod" : "leaves+attributes");
+    return options;
+}
+
+void BM_EsvoCast(benchmark::State& state) {
+    const CastData& d = castData();
+    const vox::CastOptions options = castMode(state);
     castImage(state, [&](const vox::Ray& ray) { return d.caster->cast(ray, options).hit; });
 }
 BENCHMARK(BM_EsvoCast)->ArgName("mode")->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
@@ -373,10 +380,7 @@ BENCHMARK(BM_EsvoCast)->ArgName("mode")->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark:
 /// group where the CPU has it; the same hits).
 void BM_EsvoCastMany(benchmark::State& state) {
     const CastData& d = castData();
-    vox::CastOptions options;
-    if (state.range(0) == 1) options.lodAngle = d.camera.pixelAngle();
-    if (state.range(0) == 2) options.attributes = true;
-    state.SetLabel(state.range(0) == 0 ? "leaves" : state.range(0) == 1 ? "lod" : "leaves+attributes");
+    const vox::CastOptions options = castMode(state);
     std::vector<vox::Ray> rays;
     for (int y = 0; y < d.camera.height; ++y)
         for (int x = 0; x < d.camera.width; ++x) rays.push_back(d.camera.rayThrough(x, y));
