@@ -21,7 +21,7 @@ build="${LIBVOX_SANITIZE_BUILD:-build-sanitize}"
 cmake --build "$build" --target "${names[@]/#/fuzz_}"
 
 # The same sanitizer options as CTest's (cmake/LibvoxSanitizers.cmake).
-export ASAN_OPTIONS="detect_leaks=1:check_initialization_order=1:strict_init_order=1"
+export ASAN_OPTIONS="detect_leaks=1:check_initialization_order=1:strict_init_order=1:intercept_tls_get_addr=0"
 export LSAN_OPTIONS="suppressions=$PWD/cmake/lsan-suppressions.txt:print_suppressions=0"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 
