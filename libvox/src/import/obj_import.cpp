@@ -8,11 +8,12 @@
 #include <vox/util/progress.h>
 #include <vox/util/timings.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <map>
 #include <string_view>
-#include <unordered_map>
+#include <vector>
 
 namespace vox::detail {
 namespace {
@@ -72,9 +73,50 @@ struct CornerHash {
     }
 };
 
+/// Corner → vertex, open addressing in flat arrays: a node-based map allocated once per
+/// distinct corner, which for a big OBJ is once per vertex.
+class CornerTable {
+public:
+    /// The vertex of @p corner, or @p vertex (recorded for it) if the corner is new; @p inserted
+    /// says which.
+    std::uint32_t findOrInsert(const Corner& corner, std::uint32_t vertex, bool& inserted) {
+        if (2 * (count_ + 1) > slots_.size()) grow();
+        const std::size_t mask = slots_.size() - 1;
+        for (std::size_t i = CornerHash{}(corner) & mask;; i = (i + 1) & mask) {
+            Slot& slot = slots_[i];
+            if (slot.corner.position == 0) {  // empty: every stored corner has a position
+                slot = {corner, vertex};
+                ++count_;
+                inserted = true;
+                return vertex;
+            }
+            if (slot.corner == corner) {
+                inserted = false;
+                return slot.vertex;
+            }
+        }
+    }
+
+private:
+    struct Slot {
+        Corner corner{0, 0, 0};
+        std::uint32_t vertex = 0;
+    };
+    void grow() {
+        std::vector<Slot> old = std::move(slots_);
+        slots_.assign(std::max<std::size_t>(64, 2 * old.size()), Slot{});
+        count_ = 0;
+        bool inserted = false;
+        for (const Slot& slot : old)
+            if (slot.corner.position != 0) (void)findOrInsert(slot.corner, slot.vertex, inserted);
+    }
+    std::vector<Slot> slots_;
+    std::size_t count_ = 0;
+};
+
 struct MeshBuilder {
     Mesh mesh;
-    std::unordered_map<Corner, std::uint32_t, CornerHash> corners;
+    CornerTable corners;
     bool anyUv = false, anyNormal = false;
 };
 
@@ -314,7 +356,8 @@ void ObjImporter::addFace(std::string_view args, std::size_t line) {
     MeshBuilder& builder = currentBuilder();
     Mesh& mesh = builder.mesh;
     auto vertexOf = [&](const Corner& corner) -> std::uint32_t {
-        auto [it, inserted] = builder.corners.try_emplace(corner, static_cast<std::uint32_t>(mesh.positions.size()));
+        bool inserted = false;
+        const std::uint32_t vertex = builder.corners.findOrInsert(corner, static_cast<std::uint32_t>(mesh.positions.size()), inserted);
         if (inserted) {
             mesh.positions.push_back(positions_[corner.position - 1]);
             mesh.normals.push_back(corner.normal ? normals_[corner.normal - 1] : Vec3f{});
@@ -329,7 +372,7 @@ void ObjImporter::addFace(std::string_view args, std::size_t line) {
             builder.anyUv = builder.anyUv || corner.uv;
             builder.anyNormal = builder.anyNormal || corner.normal;
         }
-        return it->second;
+        return vertex;
     };
     if (faceCorners_.size() == 3) {
         for (const Corner& c : faceCorners_) mesh.indices.push_back(vertexOf(c));
