@@ -54,8 +54,9 @@ for entry in "${meshes[@]}"; do
         echo "peer_table: $name depth $d done" >&2
     done
 done
-python3 - "$out" "$repeat" "${meshes[@]%%:*}" -- "${depths[@]}" <<'PY'
-import csv, json, os, statistics, sys
+PYTHONPATH="$here" python3 - "$out" "$repeat" "${meshes[@]%%:*}" -- "${depths[@]}" <<'PY'
+import json, os, statistics, sys
+from tables import write_json_and_csv
 out, repeat = sys.argv[1], int(sys.argv[2])
 rest = sys.argv[3:]
 names, depths = rest[:rest.index("--")], rest[rest.index("--") + 1:]
@@ -126,12 +127,5 @@ if any("cross_check" in r for r in rows):
         if c:
             print(f'{r["mesh"]:<16} {r["depth"]:>5} {c["octree_leaves"]:>10} {c["grid_active_voxels"]:>10} {c["octree_leaves_in_grid"]:>14.4f} '
                   f'{c["grid_voxels_in_octree"]:>16.4f} {c["grid_over_octree"]:>13.3f}')
-with open(f"{out}/peer_table.json", "w") as f:
-    json.dump(rows, f, indent=2)
-keys = [k for k in rows[0] if not isinstance(rows[0][k], (list, dict))]
-with open(f"{out}/peer_table.csv", "w", newline="") as f:
-    w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore")
-    w.writeheader()
-    w.writerows(rows)
-print(f"JSON and CSV: {out}/peer_table.json, {out}/peer_table.csv")
+write_json_and_csv(out, "peer_table", rows)
 PY

@@ -67,8 +67,9 @@ for entry in "${meshes[@]}"; do
     rm -f "$out/$name.esvo" "$out/$name.png"
     echo "raycast_table: $name done" >&2
 done
-python3 - "$out" "$repeat" "$depth" "${meshes[@]%%:*}" -- "${fovs[@]}" <<'PY'
-import csv, json, statistics, sys
+PYTHONPATH="$here" python3 - "$out" "$repeat" "$depth" "${meshes[@]%%:*}" -- "${fovs[@]}" <<'PY'
+import json, statistics, sys
+from tables import write_json_and_csv
 out, repeat, depth = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 rest = sys.argv[4:]
 names, fovs = rest[:rest.index("--")], rest[rest.index("--") + 1:]
@@ -104,12 +105,5 @@ for r in rows:
 print(f'depth {depth}, {rows[0]["width"]}x{rows[0]["height"]}, threads {rows[0]["threads"]} (Embree {rows[0]["peer_threads"]}); medians of {repeat}, '
       f'interleaved; ours: voxinspect render (defaults, --stats mrays_per_second); Embree {rows[0]["embree_version"]} rtcIntersect1, '
       f'build quality {rows[0]["embree_build_quality"]} (not timed); ratio = ours / Embree')
-with open(f"{out}/raycast_table.json", "w") as f:
-    json.dump(rows, f, indent=2)
-keys = [k for k in rows[0] if not isinstance(rows[0][k], (list, dict))]
-with open(f"{out}/raycast_table.csv", "w", newline="") as f:
-    w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore")
-    w.writeheader()
-    w.writerows(rows)
-print(f"JSON and CSV: {out}/raycast_table.json, {out}/raycast_table.csv")
+write_json_and_csv(out, "raycast_table", rows)
 PY

@@ -427,26 +427,30 @@ void run(Options o) {
     if (!o.quiet && gatherChannel)
         std::fprintf(stderr, "voxview: final gather: %zu points, %zu lights, %.3f ms (%s filter)\n", points.points.size(), lights.size(),
                      gatherMs.back(), o.gatherFilter.c_str());
+    // What the benchmark line and the --stats report both say of the last frame and the GL.
+    const auto frameReport = [&](const char* tool) {
+        return nlohmann::json{{"tool", tool},
+                              {"file", o.file},
+                              {"renderer", context.renderer()},
+                              {"gl_vendor", context.vendor()},
+                              {"gl_version", context.version()},
+                              {"egl_platform", context.platformName()},
+                              {"channel", o.channel},
+                              {"width", frame.width},
+                              {"height", frame.height},
+                              {"hits", frame.hits}};
+    };
     if (o.benchmarkFrames > 0) {
         const double pixels = double(frame.width) * double(frame.height);
         nlohmann::json cast = passTimes(gpuMs, wallMs, 1);
         cast["attributes"] = options.attributes;
-        nlohmann::json line{{"tool", "voxview --benchmark"},
-                            {"file", o.file},
-                            {"renderer", context.renderer()},
-                            {"gl_vendor", context.vendor()},
-                            {"gl_version", context.version()},
-                            {"egl_platform", context.platformName()},
-                            {"channel", o.channel},
-                            {"width", frame.width},
-                            {"height", frame.height},
-                            {"frames", o.benchmarkFrames},
-                            {"hits", frame.hits},
-                            {"full_detail_frame", fullDetailFrame},
-                            {"mrays_per_second", pixels / (cast["ms"].get<double>() * 1e-3) / 1e6},
-                            {"cast", cast},
-                            {"gather", nullptr},
-                            {"gl_errors", context.errorCount()}};
+        nlohmann::json line = frameReport("voxview --benchmark");
+        line["frames"] = o.benchmarkFrames;
+        line["full_detail_frame"] = fullDetailFrame;
+        line["mrays_per_second"] = pixels / (cast["ms"].get<double>() * 1e-3) / 1e6;
+        line["cast"] = cast;
+        line["gather"] = nullptr;
+        line["gl_errors"] = context.errorCount();
         if (gatherChannel) {
             nlohmann::json g = passTimes(gatherGpuMs, gatherMs, 1);
             g["wall_ms_note"] = "shade(): upload, dispatch, glFinish, read-back";
@@ -461,18 +465,9 @@ void run(Options o) {
         std::uint64_t iterations = 0;
         for (std::uint32_t it : frame.iterations) iterations += it;
         const double pixels = double(frame.width) * double(frame.height);
-        const nlohmann::json report{
-            {"tool", "voxview"},
-            {"file", o.file},
-            {"renderer", context.renderer()},
-            {"gl_version", context.version()},
-            {"gl_vendor", context.vendor()},
-            {"egl_platform", context.platformName()},
-            {"channel", o.channel},
-            {"width", frame.width},
-            {"height", frame.height},
+        nlohmann::json report = frameReport("voxview");
+        report.update(nlohmann::json{
             {"rays", frame.width * frame.height},
-            {"hits", frame.hits},
             {"mean_iterations", double(iterations) / pixels},
             {"frames", gpuMs.size()},
             {"gpu_ms_per_frame", gpuMs},
@@ -521,7 +516,7 @@ void run(Options o) {
                            : nlohmann::json(nullptr)},
             {"timings_ms",
              {{"load", std::chrono::duration<double, std::milli>(loaded - start).count()},
-              {"gl_and_render", std::chrono::duration<double, std::milli>(rendered - loaded).count()}}}};
+              {"gl_and_render", std::chrono::duration<double, std::milli>(rendered - loaded).count()}}}});
         vox::writeFileAtomically(o.stats, report.dump(2) + "\n");
     }
 }

@@ -5,6 +5,7 @@
 // allocates nothing per record. Polygons are fan-triangulated; elements other than the first
 // "vertex" and "face" are skipped, as are unknown properties (by their size, or token count).
 #include "importers.h"
+#include "text_tokens.h"
 
 #include <vox/texture.h>
 #include <vox/util/timings.h>
@@ -130,13 +131,7 @@ bool isSpace(std::uint8_t c) { return c == ' ' || c == '\t' || c == '\n' || c ==
 /// Whitespace-separated words of a header line (a handful: allocation does not matter here).
 std::vector<std::string_view> words(std::string_view line) {
     std::vector<std::string_view> out;
-    std::size_t i = 0;
-    while (i < line.size()) {
-        while (i < line.size() && isSpace(static_cast<std::uint8_t>(line[i]))) ++i;
-        const std::size_t start = i;
-        while (i < line.size() && !isSpace(static_cast<std::uint8_t>(line[i]))) ++i;
-        if (i > start) out.push_back(line.substr(start, i - start));
-    }
+    for (std::string_view word = nextToken(line); !word.empty(); word = nextToken(line)) out.push_back(word);
     return out;
 }
 

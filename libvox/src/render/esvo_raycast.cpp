@@ -285,8 +285,7 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
 void EsvoRayCaster::castMany(const Ray* rays, const float* tStarts, std::size_t count, const CastOptions& options, CastHit* hits) const {
     if (options.beamRadius > 0) throw UsageError("castMany: beamRadius must be 0");
     // The lanes index words with signed 32-bit gathers.
-    static const bool lanes = detail::LaneCaster::available();
-    if (lanes && pool_.wordCount() < (std::size_t{1} << 31)) return detail::LaneCaster::cast(*this, rays, tStarts, count, options, hits);
+    if (detail::LaneCaster::available() && pool_.wordCount() < (std::size_t{1} << 31)) return detail::LaneCaster::cast(*this, rays, tStarts, count, options, hits);
     CastOptions rayOptions = options;
     for (std::size_t i = 0; i < count; ++i) {
         if (tStarts) rayOptions.tStart = std::max(options.tStart, tStarts[i]);

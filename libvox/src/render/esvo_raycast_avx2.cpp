@@ -318,9 +318,19 @@ VOX_AVX2 void runLanes(LaneState& L, const std::uint32_t* words, const CastOptio
     storeLanes(L, r);
 }
 
+/// What this CPU (and its OS, which __builtin_cpu_supports also asks) can run, asked once.
+struct CpuFeatures {
+    bool avx2 = __builtin_cpu_supports("avx2") != 0;
+    bool avx512vl = __builtin_cpu_supports("avx512vl") != 0;
+};
+const CpuFeatures& cpuFeatures() {
+    static const CpuFeatures features;
+    return features;
+}
+
 }  // namespace
 
-bool LaneCaster::available() { return __builtin_cpu_supports("avx2") != 0; }
+bool LaneCaster::available() { return cpuFeatures().avx2; }
 
 #else
 
@@ -337,8 +347,8 @@ void LaneCaster::cast(const EsvoRayCaster& caster, const Ray* rays, const float*
     std::array<std::size_t, kLanes> rayOf;
     const std::uint32_t* words = caster.pool_.words();
     const std::uint32_t root = caster.pool_.rootDescriptorWord();
-    const float lodCoef = static_cast<float>(options.lodAngle * caster.unitScale_);  // start()'s
-    static const bool wideRegisters = __builtin_cpu_supports("avx512vl") != 0;
+    const bool wideRegisters = cpuFeatures().avx512vl;
+    float lodCoef = 0;  // start()'s, the same for every ray
     std::size_t next = 0;
     CastOptions rayOptions = options;
     // Rounds of eight rays: the lanes start together and run until the last one stops, which
@@ -357,6 +367,7 @@ void LaneCaster::cast(const EsvoRayCaster& caster, const Ray* rays, const float*
                     hits[i] = CastHit{};
                     continue;
                 }
+                lodCoef = s.lodCoef;
                 L.px[lane] = s.px, L.py[lane] = s.py, L.pz[lane] = s.pz, L.dx[lane] = s.dx, L.dy[lane] = s.dy, L.dz[lane] = s.dz;
                 L.txCoef[lane] = s.txCoef, L.tyCoef[lane] = s.tyCoef, L.tzCoef[lane] = s.tzCoef;
                 L.txBias[lane] = s.txBias, L.tyBias[lane] = s.tyBias, L.tzBias[lane] = s.tzBias;
