@@ -48,5 +48,6 @@ if [ -x "$build/examples/voxview" ] &&
      --headless -o "$work/voxview.png" "${view[@]}" >/dev/null 2>&1; then :; fi
 
 cd "$work"
+sed -i "s|$work|WORK|g" ./*.txt  # the temporary directory's name is not output
 find . -maxdepth 1 -type f \( -name '*.esvo' -o -name '*.esvopart' -o -name '*.rvol' \
   -o -name '*.png' -o -name '*.pfm' -o -name '*.txt' \) -print0 | sort -z | xargs -0 sha256sum
