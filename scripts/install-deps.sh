@@ -16,6 +16,8 @@ packages=(
   libglfw3-dev xvfb xauth
   assimp-testmodels
   clang libclang-rt-14-dev
+  python3                # scripts/voxelize-slurm, the bench scripts
+  slurm-wlm munge        # tests/slurm: scripts/voxelize-slurm on a real one-node Slurm cluster
 )
 
 missing=()
