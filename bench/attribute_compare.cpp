@@ -39,21 +39,27 @@ int main(int argc, char** argv) {
         pa.loadAll();
         pb.loadAll();
         const std::vector<Sample> a = collect(pa), b = collect(pb);
-        if (a.size() != b.size()) throw vox::InvalidDataError(argv[2], "holds a different octree than " + std::string(argv[1]));
+        if (a.size() != b.size())
+            throw vox::InvalidDataError(argv[2],
+                                        "holds a different octree than " + std::string(argv[1]));
         const std::uint32_t depth = ra.header().leafDepth;
         std::vector<double> squared(depth + 1, 0.0);
         std::vector<std::uint64_t> counts(depth + 1, 0);
         std::vector<std::vector<double>> angles(depth + 1);
         for (std::size_t i = 0; i < a.size(); ++i) {
-            if (!(a[i].position == b[i].position)) throw vox::InvalidDataError(argv[2], "holds a different octree than " + std::string(argv[1]));
+            if (!(a[i].position == b[i].position))
+                throw vox::InvalidDataError(
+                    argv[2], "holds a different octree than " + std::string(argv[1]));
             const std::uint32_t l = a[i].position.level;
             for (unsigned ch = 0; ch < 3; ++ch) {
-                const double d = double(vox::esvo::colorChannel(a[i].value.color, ch)) - double(vox::esvo::colorChannel(b[i].value.color, ch));
+                const double d = double(vox::esvo::colorChannel(a[i].value.color, ch)) -
+                                 double(vox::esvo::colorChannel(b[i].value.color, ch));
                 squared[l] += d * d;
             }
             const auto& n = a[i].value.normal;
             const auto& m = b[i].value.normal;
-            const double c = std::clamp(double(n[0]) * m[0] + double(n[1]) * m[1] + double(n[2]) * m[2], -1.0, 1.0);
+            const double c = std::clamp(
+                double(n[0]) * m[0] + double(n[1]) * m[1] + double(n[2]) * m[2], -1.0, 1.0);
             angles[l].push_back(std::acos(c) * 180.0 / 3.14159265358979323846);
             ++counts[l];
         }
@@ -62,12 +68,13 @@ int main(int argc, char** argv) {
             double sum = 0;
             for (double x : v) sum += x;
             const double mse = n ? sq / (3.0 * double(n)) : 0.0;
-            return nlohmann::json{{"voxels", n},
-                                  {"color_psnr_db", mse > 0 ? 10 * std::log10(255.0 * 255.0 / mse) : 99.0},
-                                  {"normal_mean_deg", v.empty() ? 0.0 : sum / double(v.size())},
-                                  {"normal_p50_deg", v.empty() ? 0.0 : v[v.size() / 2]},
-                                  {"normal_p99_deg", v.empty() ? 0.0 : v[v.size() * 99 / 100]},
-                                  {"normal_max_deg", v.empty() ? 0.0 : v.back()}};
+            return nlohmann::json{
+                {"voxels", n},
+                {"color_psnr_db", mse > 0 ? 10 * std::log10(255.0 * 255.0 / mse) : 99.0},
+                {"normal_mean_deg", v.empty() ? 0.0 : sum / double(v.size())},
+                {"normal_p50_deg", v.empty() ? 0.0 : v[v.size() / 2]},
+                {"normal_p99_deg", v.empty() ? 0.0 : v[v.size() * 99 / 100]},
+                {"normal_max_deg", v.empty() ? 0.0 : v.back()}};
         };
         nlohmann::json out{{"a", argv[1]}, {"b", argv[2]}};
         std::vector<double> all;

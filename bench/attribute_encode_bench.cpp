@@ -13,7 +13,8 @@
 // --effort fast|default|best picks the encoders' AttributeEffort (default: default).
 // --kernels sse2 runs the normal encoder's SSE2 kernels where the CPU has AVX-512 (whose are the
 // default there; the blocks are the same bits, only the time differs); the JSON says which ran.
-// Usage: attribute_encode_bench [--effort E] [TILES_PER_TEXTURE (default 4000)] [NORMAL_BLOCKS (default 20000)]
+// Usage: attribute_encode_bench [--effort E] [TILES_PER_TEXTURE (default 4000)] [NORMAL_BLOCKS
+// (default 20000)]
 //        attribute_encode_bench [--effort E] --scene FILE [--depth N (default 10)] [--dump FILE]
 //        attribute_encode_bench [--effort E] --blocks FILE [--stride K (default 1)]
 #include "attribute_corpus.h"
@@ -75,11 +76,17 @@ struct NormalBlock {
 /// 4×4 tiles of ten assimp-testmodels textures.
 std::vector<ColorBlock> textureTiles(std::size_t perTexture, std::vector<std::string>& used) {
     const std::filesystem::path models = "/usr/share/assimp/models";
-    const std::vector<std::filesystem::path> files{models / "glTF/CesiumMilkTruck/CesiumMilkTruck.png", models / "OBJ/drkwood2.jpg",
-                                                   models / "IQM/Head.jpg", models / "IQM/Body.jpg", models / "3DS/CWALL02.jpg",
-                                                   models / "3DS/IMAGE2.jpg", models / "LWO/LWO2/MappingModes/earthSpherical.jpg",
-                                                   models / "ReferenceImages/MappingModes/spherical.png",
-                                                   models / "Ogre/TheThing/Wrinkles.jpg", models / "IRRMesh/brownground_1-1.jpg"};
+    const std::vector<std::filesystem::path> files{
+        models / "glTF/CesiumMilkTruck/CesiumMilkTruck.png",
+        models / "OBJ/drkwood2.jpg",
+        models / "IQM/Head.jpg",
+        models / "IQM/Body.jpg",
+        models / "3DS/CWALL02.jpg",
+        models / "3DS/IMAGE2.jpg",
+        models / "LWO/LWO2/MappingModes/earthSpherical.jpg",
+        models / "ReferenceImages/MappingModes/spherical.png",
+        models / "Ogre/TheThing/Wrinkles.jpg",
+        models / "IRRMesh/brownground_1-1.jpg"};
     return vox::corpus::textureTiles(files, perTexture, &used);
 }
 
@@ -95,19 +102,27 @@ nlohmann::json colorRun(const std::vector<ColorBlock>& blocks, int repeat, Encod
     }
     std::uint64_t error = 0, samples = 0;
     for (std::size_t i = 0; i < blocks.size(); ++i) {
-        error += vox::detail::colorBlockError(blocks[i].colors, blocks[i].mask, words[i][0], words[i][1]);
+        error += vox::detail::colorBlockError(blocks[i].colors, blocks[i].mask, words[i][0],
+                                              words[i][1]);
         samples += 3u * static_cast<unsigned>(std::popcount(blocks[i].mask & 0xFFFFu));
     }
     const double mse = static_cast<double>(error) / static_cast<double>(samples);
-    return {{"psnr_db", mse > 0 ? 10 * std::log10(255.0 * 255.0 / mse) : 99.0}, {"mse", mse},
+    return {{"psnr_db", mse > 0 ? 10 * std::log10(255.0 * 255.0 / mse) : 99.0},
+            {"mse", mse},
             {"us_per_block", 1e6 * best / static_cast<double>(blocks.size())}};
 }
 
 nlohmann::json colorSuite(const std::vector<ColorBlock>& blocks) {
-    return {{"blocks", blocks.size()},
-            {"ours", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::detail::encodeColorBlock(b.colors, b.mask, g_effort); })},
-            {"stb_normal", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::corpus::stbEncode(b, false); })},
-            {"stb_highqual", colorRun(blocks, 3, [](const ColorBlock& b) { return vox::corpus::stbEncode(b, true); })}};
+    return {
+        {"blocks", blocks.size()},
+        {"ours", colorRun(blocks, 3,
+                          [](const ColorBlock& b) {
+                              return vox::detail::encodeColorBlock(b.colors, b.mask, g_effort);
+                          })},
+        {"stb_normal",
+         colorRun(blocks, 3, [](const ColorBlock& b) { return vox::corpus::stbEncode(b, false); })},
+        {"stb_highqual",
+         colorRun(blocks, 3, [](const ColorBlock& b) { return vox::corpus::stbEncode(b, true); })}};
 }
 
 // ---- normals ------------------------------------------------------------------------------------
@@ -125,7 +140,8 @@ std::array<std::array<double, 3>, 16> slotOffsets(unsigned longAxis) {
 
 /// Sphere of @p radius voxels: slots whose voxel the surface crosses (at least one), normals
 /// radial at the voxel centres; @p allSlots uses every slot instead.
-std::vector<NormalBlock> spherePatches(std::mt19937& rng, std::size_t count, double radius, bool allSlots) {
+std::vector<NormalBlock> spherePatches(std::mt19937& rng, std::size_t count, double radius,
+                                       bool allSlots) {
     std::vector<NormalBlock> blocks;
     while (blocks.size() < count) {
         const Vec3 d = randomDirection(rng);
@@ -133,9 +149,11 @@ std::vector<NormalBlock> spherePatches(std::mt19937& rng, std::size_t count, dou
         NormalBlock b;
         b.mask = 0;
         for (unsigned s = 0; s < 16; ++s) {
-            const double x = radius * d[0] + offsets[s][0], y = radius * d[1] + offsets[s][1], z = radius * d[2] + offsets[s][2];
+            const double x = radius * d[0] + offsets[s][0], y = radius * d[1] + offsets[s][1],
+                         z = radius * d[2] + offsets[s][2];
             b.normals[s] = normalised(x, y, z);
-            if (allSlots || std::fabs(std::sqrt(x * x + y * y + z * z) - radius) < 0.87) b.mask |= 1u << s;
+            if (allSlots || std::fabs(std::sqrt(x * x + y * y + z * z) - radius) < 0.87)
+                b.mask |= 1u << s;
         }
         if (b.mask) blocks.push_back(b);
     }
@@ -143,7 +161,8 @@ std::vector<NormalBlock> spherePatches(std::mt19937& rng, std::size_t count, dou
 }
 
 /// Height field z = A sin(x/λ) cos(0.7 y/λ), randomly rotated; slots the surface crosses.
-std::vector<NormalBlock> bumpyPatches(std::mt19937& rng, std::size_t count, double amplitude, double wavelength) {
+std::vector<NormalBlock> bumpyPatches(std::mt19937& rng, std::size_t count, double amplitude,
+                                      double wavelength) {
     std::uniform_real_distribution<double> unit(0, 1);
     std::vector<NormalBlock> blocks;
     while (blocks.size() < count) {
@@ -152,21 +171,27 @@ std::vector<NormalBlock> bumpyPatches(std::mt19937& rng, std::size_t count, doub
         double qw = g(rng), qx = g(rng), qy = g(rng), qz = g(rng);
         const double ql = std::sqrt(qw * qw + qx * qx + qy * qy + qz * qz);
         qw /= ql, qx /= ql, qy /= ql, qz /= ql;
-        const double rot[3][3]{{1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)},
-                               {2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)},
-                               {2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)}};
+        const double rot[3][3]{
+            {1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)},
+            {2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)},
+            {2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)}};
         const double cx = 1000 * unit(rng), cy = 1000 * unit(rng);
-        const auto height = [&](double x, double y) { return amplitude * std::sin(x / wavelength) * std::cos(0.7 * y / wavelength); };
+        const auto height = [&](double x, double y) {
+            return amplitude * std::sin(x / wavelength) * std::cos(0.7 * y / wavelength);
+        };
         const double cz = height(cx, cy);
         const auto offsets = slotOffsets(static_cast<unsigned>(rng() % 2));
         NormalBlock b;
         b.mask = 0;
         for (unsigned s = 0; s < 16; ++s) {
             const double x = cx + offsets[s][0], y = cy + offsets[s][1], z = cz + offsets[s][2];
-            const double hx = amplitude / wavelength * std::cos(x / wavelength) * std::cos(0.7 * y / wavelength);
-            const double hy = -0.7 * amplitude / wavelength * std::sin(x / wavelength) * std::sin(0.7 * y / wavelength);
+            const double hx =
+                amplitude / wavelength * std::cos(x / wavelength) * std::cos(0.7 * y / wavelength);
+            const double hy = -0.7 * amplitude / wavelength * std::sin(x / wavelength) *
+                              std::sin(0.7 * y / wavelength);
             const double n[3]{-hx, -hy, 1};
-            b.normals[s] = normalised(rot[0][0] * n[0] + rot[0][1] * n[1] + rot[0][2] * n[2], rot[1][0] * n[0] + rot[1][1] * n[1] + rot[1][2] * n[2],
+            b.normals[s] = normalised(rot[0][0] * n[0] + rot[0][1] * n[1] + rot[0][2] * n[2],
+                                      rot[1][0] * n[0] + rot[1][1] * n[1] + rot[1][2] * n[2],
                                       rot[2][0] * n[0] + rot[2][1] * n[1] + rot[2][2] * n[2]);
             if (std::fabs(z - height(x, y)) < 0.87) b.mask |= 1u << s;
         }
@@ -182,14 +207,17 @@ std::vector<NormalBlock> randomCones(std::mt19937& rng, std::size_t count, doubl
     return blocks;
 }
 
-double angleDegrees(const Vec3& a, const Vec3& b) { return vox::corpus::angle(a, b) * 180.0 / std::numbers::pi; }
+double angleDegrees(const Vec3& a, const Vec3& b) {
+    return vox::corpus::angle(a, b) * 180.0 / std::numbers::pi;
+}
 
 nlohmann::json normalSuite(const std::vector<NormalBlock>& blocks) {
     std::vector<std::array<std::uint32_t, 4>> words(blocks.size());
     double best = 1e30;
     for (int r = 0; r < 3; ++r) {
         const double start = threadSeconds();
-        for (std::size_t i = 0; i < blocks.size(); ++i) words[i] = vox::detail::encodeNormalBlock(blocks[i].normals, blocks[i].mask, g_effort);
+        for (std::size_t i = 0; i < blocks.size(); ++i)
+            words[i] = vox::detail::encodeNormalBlock(blocks[i].normals, blocks[i].mask, g_effort);
         best = std::min(best, threadSeconds() - start);
     }
     std::vector<double> errors, spread;
@@ -198,9 +226,12 @@ nlohmann::json normalSuite(const std::vector<NormalBlock>& blocks) {
         double widest = 0;
         for (unsigned s = 0; s < 16; ++s) {
             if (!((blocks[i].mask >> s) & 1u)) continue;
-            errors.push_back(angleDegrees(blocks[i].normals[s], esvo::decodeBlockNormal(block.data(), s)));
+            errors.push_back(
+                angleDegrees(blocks[i].normals[s], esvo::decodeBlockNormal(block.data(), s)));
             for (unsigned t = 0; t < s; ++t)
-                if ((blocks[i].mask >> t) & 1u) widest = std::max(widest, angleDegrees(blocks[i].normals[s], blocks[i].normals[t]));
+                if ((blocks[i].mask >> t) & 1u)
+                    widest =
+                        std::max(widest, angleDegrees(blocks[i].normals[s], blocks[i].normals[t]));
         }
         spread.push_back(widest);
     }
@@ -218,11 +249,13 @@ nlohmann::json normalSuite(const std::vector<NormalBlock>& blocks) {
 }
 
 /// A block as the writer hands it to encodeCompressedBlock: the 16 uncompressed values (colour
-/// word | normal word << 32) and the used slots (vox::corpus::sceneBlocks forms them from an octree).
+/// word | normal word << 32) and the used slots (vox::corpus::sceneBlocks forms them from an
+/// octree).
 using RawBlock = vox::corpus::SceneBlock;
 
 /// The colour and normal halves of raw blocks, as encodeCompressedBlock splits them.
-void splitBlocks(const std::vector<RawBlock>& raw, std::vector<ColorBlock>& colors, std::vector<NormalBlock>& normals) {
+void splitBlocks(const std::vector<RawBlock>& raw, std::vector<ColorBlock>& colors,
+                 std::vector<NormalBlock>& normals) {
     for (const RawBlock& r : raw) {
         ColorBlock c;
         NormalBlock n;
@@ -243,12 +276,15 @@ nlohmann::json compressedSuite(const std::vector<RawBlock>& raw) {
     for (int r = 0; r < 3; ++r) {
         const double start = threadSeconds();
         for (const RawBlock& b : raw) {
-            const esvo::CompressedBlock block = vox::detail::encodeCompressedBlock(b.values, b.mask, g_effort);
+            const esvo::CompressedBlock block =
+                vox::detail::encodeCompressedBlock(b.values, b.mask, g_effort);
             for (const std::uint32_t w : block) sink = std::rotl(sink, 5) ^ w;
         }
         best = std::min(best, threadSeconds() - start);
     }
-    return {{"blocks", raw.size()}, {"us_per_block", 1e6 * best / static_cast<double>(raw.size())}, {"checksum", sink}};
+    return {{"blocks", raw.size()},
+            {"us_per_block", 1e6 * best / static_cast<double>(raw.size())},
+            {"checksum", sink}};
 }
 
 constexpr char kDumpMagic[8] = {'V', 'O', 'X', 'B', 'L', 'K', '1', '\0'};
@@ -272,7 +308,8 @@ std::vector<RawBlock> readBlocks(const std::string& file, std::size_t stride) {
     std::uint64_t count = 0;
     in.read(magic, sizeof magic);
     in.read(reinterpret_cast<char*>(&count), sizeof count);
-    if (!in || !std::equal(magic, magic + 8, kDumpMagic)) throw vox::InvalidDataError(file, "not a block dump");
+    if (!in || !std::equal(magic, magic + 8, kDumpMagic))
+        throw vox::InvalidDataError(file, "not a block dump");
     std::vector<RawBlock> raw;
     for (std::uint64_t i = 0; i < count; ++i) {
         RawBlock b;
@@ -288,7 +325,9 @@ nlohmann::json blockSuites(const std::vector<RawBlock>& raw) {
     std::vector<ColorBlock> colors;
     std::vector<NormalBlock> normals;
     splitBlocks(raw, colors, normals);
-    return {{"color_blocks", colorSuite(colors)}, {"normal_blocks", normalSuite(normals)}, {"compressed_blocks", compressedSuite(raw)}};
+    return {{"color_blocks", colorSuite(colors)},
+            {"normal_blocks", normalSuite(normals)},
+            {"compressed_blocks", compressedSuite(raw)}};
 }
 
 int blocksMode(int argc, char** argv) {
@@ -296,8 +335,10 @@ int blocksMode(int argc, char** argv) {
     std::size_t stride = 1;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string key = argv[i];
-        if (key == "--blocks") file = argv[i + 1];
-        else if (key == "--stride") stride = std::max<std::size_t>(1, std::stoul(argv[i + 1]));
+        if (key == "--blocks")
+            file = argv[i + 1];
+        else if (key == "--stride")
+            stride = std::max<std::size_t>(1, std::stoul(argv[i + 1]));
     }
     nlohmann::json out = blockSuites(readBlocks(file, stride));
     out["blocks_file"] = file;
@@ -313,9 +354,12 @@ int sceneMode(int argc, char** argv) {
     std::uint32_t depth = 10;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string key = argv[i];
-        if (key == "--scene") file = argv[i + 1];
-        else if (key == "--depth") depth = static_cast<std::uint32_t>(std::stoul(argv[i + 1]));
-        else if (key == "--dump") dump = argv[i + 1];
+        if (key == "--scene")
+            file = argv[i + 1];
+        else if (key == "--depth")
+            depth = static_cast<std::uint32_t>(std::stoul(argv[i + 1]));
+        else if (key == "--dump")
+            dump = argv[i + 1];
     }
     vox::log::setVerbosity(vox::log::Verbosity::Quiet);
     const vox::Scene scene = vox::importScene(file);
@@ -345,17 +389,21 @@ int sceneMode(int argc, char** argv) {
                 if (valid) ++descriptors;
                 for (unsigned slot = 0; slot < 8; ++slot)
                     if (valid & (1u << slot)) {
-                        if (l == 0 || octree.attributes[l + 1][child] != octree.attributes[l][i]) ++stored;
+                        if (l == 0 || octree.attributes[l + 1][child] != octree.attributes[l][i])
+                            ++stored;
                         ++child;
                     }
             }
         }
     }
     const double voxels = static_cast<double>(octree.voxelCount());
-    out["bytes_per_voxel"] = {{"pair_blocks_without_padding", 24.0 * static_cast<double>(raw.size()) / voxels},
-                              {"combined_lookup_estimate", (4.0 * static_cast<double>(descriptors) + 24.0 * std::ceil(static_cast<double>(stored) / 16.0)) / voxels},
-                              {"combined_lookup_lookup_part", 4.0 * static_cast<double>(descriptors) / voxels},
-                              {"stored_value_fraction", static_cast<double>(stored) / voxels}};
+    out["bytes_per_voxel"] = {
+        {"pair_blocks_without_padding", 24.0 * static_cast<double>(raw.size()) / voxels},
+        {"combined_lookup_estimate", (4.0 * static_cast<double>(descriptors) +
+                                      24.0 * std::ceil(static_cast<double>(stored) / 16.0)) /
+                                         voxels},
+        {"combined_lookup_lookup_part", 4.0 * static_cast<double>(descriptors) / voxels},
+        {"stored_value_fraction", static_cast<double>(stored) / voxels}};
     out.update(blockSuites(raw));
     std::cout << out.dump(2) << '\n';
     return 0;
@@ -364,7 +412,8 @@ int sceneMode(int argc, char** argv) {
 }  // namespace
 
 constexpr const char* kUsage =
-    "usage: attribute_encode_bench [--effort fast|default|best] [--kernels sse2|auto] [TILES_PER_TEXTURE] [NORMAL_BLOCKS]\n"
+    "usage: attribute_encode_bench [--effort fast|default|best] [--kernels sse2|auto] "
+    "[TILES_PER_TEXTURE] [NORMAL_BLOCKS]\n"
     "       attribute_encode_bench [...] --scene FILE [--depth N] [--dump FILE]\n"
     "       attribute_encode_bench [...] --blocks FILE [--stride K]\n";
 
@@ -383,11 +432,15 @@ int run(int argc, char** argvIn) {
         }
         if (i + 1 < argc && std::string(argvIn[i]) == "--effort") {
             const std::string e = argvIn[++i];
-            if (e == "fast") g_effort = AttributeEffort::Fast;
-            else if (e == "best") g_effort = AttributeEffort::Best;
-            else if (e == "default") g_effort = AttributeEffort::Default;
+            if (e == "fast")
+                g_effort = AttributeEffort::Fast;
+            else if (e == "best")
+                g_effort = AttributeEffort::Best;
+            else if (e == "default")
+                g_effort = AttributeEffort::Default;
             else {
-                std::fprintf(stderr, "attribute_encode_bench: --effort must be fast, default or best\n");
+                std::fprintf(stderr,
+                             "attribute_encode_bench: --effort must be fast, default or best\n");
                 return 1;
             }
             continue;
@@ -422,28 +475,35 @@ int run(int argc, char** argvIn) {
     const std::vector<NormalBlock> sphere24 = spherePatches(rng, normalBlocks, 24, false);
     out["normal_sphere_r24_surface"] = normalSuite(sphere24);
     if (!tiles.empty()) {
-        // Whole blocks (encodeCompressedBlock): texture tile colours with the sphere's normals and masks.
+        // Whole blocks (encodeCompressedBlock): texture tile colours with the sphere's normals and
+        // masks.
         std::vector<std::array<std::uint64_t, 16>> values(sphere24.size());
         for (std::size_t i = 0; i < sphere24.size(); ++i)
             for (unsigned s = 0; s < 16; ++s)
-                values[i][s] = tiles[i % tiles.size()].colors[s] | (std::uint64_t{esvo::encodeNormal(sphere24[i].normals[s])} << 32);
+                values[i][s] = tiles[i % tiles.size()].colors[s] |
+                               (std::uint64_t{esvo::encodeNormal(sphere24[i].normals[s])} << 32);
         double best = 1e30;
         std::uint32_t sink = 0;
         for (int r = 0; r < 3; ++r) {
             const double start = threadSeconds();
-            for (std::size_t i = 0; i < values.size(); ++i) sink ^= vox::detail::encodeCompressedBlock(values[i], sphere24[i].mask, g_effort)[0];
+            for (std::size_t i = 0; i < values.size(); ++i)
+                sink ^=
+                    vox::detail::encodeCompressedBlock(values[i], sphere24[i].mask, g_effort)[0];
             best = std::min(best, threadSeconds() - start);
         }
-        out["compressed_block_tiles_and_sphere_r24"] = {{"blocks", values.size()},
-                                                        {"us_per_block", 1e6 * best / static_cast<double>(values.size())},
-                                                        {"checksum", sink}};
+        out["compressed_block_tiles_and_sphere_r24"] = {
+            {"blocks", values.size()},
+            {"us_per_block", 1e6 * best / static_cast<double>(values.size())},
+            {"checksum", sink}};
     }
     out["normal_sphere_r24_all_slots"] = normalSuite(spherePatches(rng, normalBlocks, 24, true));
     out["normal_sphere_r8_surface"] = normalSuite(spherePatches(rng, normalBlocks, 8, false));
     out["normal_sphere_r128_surface"] = normalSuite(spherePatches(rng, normalBlocks, 128, false));
     out["normal_bumpy_surface"] = normalSuite(bumpyPatches(rng, normalBlocks, 3.0, 6.0));
-    out["normal_random_cone_5deg"] = normalSuite(randomCones(rng, normalBlocks, 5 * std::numbers::pi / 180));
-    out["normal_random_cone_20deg"] = normalSuite(randomCones(rng, normalBlocks, 20 * std::numbers::pi / 180));
+    out["normal_random_cone_5deg"] =
+        normalSuite(randomCones(rng, normalBlocks, 5 * std::numbers::pi / 180));
+    out["normal_random_cone_20deg"] =
+        normalSuite(randomCones(rng, normalBlocks, 20 * std::numbers::pi / 180));
     std::cout << out.dump(2) << '\n';
     return 0;
 }
@@ -454,7 +514,8 @@ int main(int argc, char** argv) {
     } catch (const vox::Error& e) {
         std::fprintf(stderr, "attribute_encode_bench: error: %s\n", e.what());
         return static_cast<int>(e.exitCode());
-    } catch (const std::exception& e) {  // a number that does not parse (std::stoul), a bad allocation
+    } catch (
+        const std::exception& e) {  // a number that does not parse (std::stoul), a bad allocation
         std::fprintf(stderr, "attribute_encode_bench: error: %s\n%s", e.what(), kUsage);
         return 1;
     }

@@ -27,28 +27,37 @@ namespace {
 
 void throwOnError(RTCDevice device, const char* what) {
     const RTCError error = rtcGetDeviceError(device);
-    if (error != RTC_ERROR_NONE) throw std::runtime_error(std::string("Embree: ") + what + ": error " + std::to_string(int(error)));
+    if (error != RTC_ERROR_NONE)
+        throw std::runtime_error(std::string("Embree: ") + what + ": error " +
+                                 std::to_string(int(error)));
 }
 
 }  // namespace
 
-EmbreePeer::EmbreePeer(const vox::Scene& scene, int threads) : handles_(std::make_unique<Handles>()) {
+EmbreePeer::EmbreePeer(const vox::Scene& scene, int threads)
+    : handles_(std::make_unique<Handles>()) {
     const std::string config = threads > 0 ? "threads=" + std::to_string(threads) : std::string();
     handles_->device = rtcNewDevice(config.c_str());
-    if (handles_->device == nullptr) throw std::runtime_error("Embree: rtcNewDevice failed (error " + std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
+    if (handles_->device == nullptr)
+        throw std::runtime_error("Embree: rtcNewDevice failed (error " +
+                                 std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
     RTCDevice device = handles_->device;
     handles_->scene = rtcNewScene(device);
     rtcSetSceneBuildQuality(handles_->scene, RTC_BUILD_QUALITY_HIGH);
     const auto start = std::chrono::steady_clock::now();
     for (const vox::Mesh& mesh : scene.meshes) {
-        if (mesh.dynamic || mesh.triangleCount() == 0) continue;  // as TriangleRayCaster and voxelize: static meshes only
+        if (mesh.dynamic || mesh.triangleCount() == 0)
+            continue;  // as TriangleRayCaster and voxelize: static meshes only
         RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
         rtcSetGeometryBuildQuality(geometry, RTC_BUILD_QUALITY_HIGH);
-        // Embree's own buffers (it reads 16 bytes at the last vertex, past a shared std::vector's end).
+        // Embree's own buffers (it reads 16 bytes at the last vertex, past a shared std::vector's
+        // end).
         auto* vertices = static_cast<float*>(
-            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.positions.size()));
+            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                    3 * sizeof(float), mesh.positions.size()));
         auto* indices = static_cast<unsigned*>(
-            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangleCount()));
+            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                    3 * sizeof(unsigned), mesh.triangleCount()));
         throwOnError(device, "allocating geometry buffers");
         for (std::size_t v = 0; v < mesh.positions.size(); ++v)
             for (int a = 0; a < 3; ++a) vertices[3 * v + std::size_t(a)] = mesh.positions[v][a];
@@ -87,32 +96,36 @@ EmbreeImage EmbreePeer::render(const vox::PinholeCamera& camera) const {
     RTCScene scene = handles_->scene;
     const auto start = std::chrono::steady_clock::now();
     // 16×16 pixel tiles: coherent rays per task, and neighbouring tasks write distinct cache lines.
-    tbb::parallel_for(tbb::blocked_range2d<int>(0, height, 16, 0, width, 16), [&](const tbb::blocked_range2d<int>& tile) {
-        RTCIntersectContext context;
-        rtcInitIntersectContext(&context);
-        std::uint64_t tileHits = 0;
-        for (int y = tile.rows().begin(); y < tile.rows().end(); ++y)
-            for (int x = tile.cols().begin(); x < tile.cols().end(); ++x) {
-                const std::size_t i = std::size_t(y) * std::size_t(width) + std::size_t(x);
-                RTCRayHit rayHit;
-                rayHit.ray.org_x = origin[0], rayHit.ray.org_y = origin[1], rayHit.ray.org_z = origin[2];
-                rayHit.ray.dir_x = directions[3 * i], rayHit.ray.dir_y = directions[3 * i + 1], rayHit.ray.dir_z = directions[3 * i + 2];
-                rayHit.ray.tnear = 0;
-                rayHit.ray.tfar = std::numeric_limits<float>::infinity();
-                rayHit.ray.time = 0;
-                rayHit.ray.mask = ~0u;
-                rayHit.ray.id = 0;
-                rayHit.ray.flags = 0;
-                rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-                rayHit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-                rtcIntersect1(scene, &context, &rayHit);
-                if (rayHit.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
-                    image.depth[i] = rayHit.ray.tfar;
-                    ++tileHits;
+    tbb::parallel_for(
+        tbb::blocked_range2d<int>(0, height, 16, 0, width, 16),
+        [&](const tbb::blocked_range2d<int>& tile) {
+            RTCIntersectContext context;
+            rtcInitIntersectContext(&context);
+            std::uint64_t tileHits = 0;
+            for (int y = tile.rows().begin(); y < tile.rows().end(); ++y)
+                for (int x = tile.cols().begin(); x < tile.cols().end(); ++x) {
+                    const std::size_t i = std::size_t(y) * std::size_t(width) + std::size_t(x);
+                    RTCRayHit rayHit;
+                    rayHit.ray.org_x = origin[0], rayHit.ray.org_y = origin[1],
+                    rayHit.ray.org_z = origin[2];
+                    rayHit.ray.dir_x = directions[3 * i], rayHit.ray.dir_y = directions[3 * i + 1],
+                    rayHit.ray.dir_z = directions[3 * i + 2];
+                    rayHit.ray.tnear = 0;
+                    rayHit.ray.tfar = std::numeric_limits<float>::infinity();
+                    rayHit.ray.time = 0;
+                    rayHit.ray.mask = ~0u;
+                    rayHit.ray.id = 0;
+                    rayHit.ray.flags = 0;
+                    rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+                    rayHit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+                    rtcIntersect1(scene, &context, &rayHit);
+                    if (rayHit.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+                        image.depth[i] = rayHit.ray.tfar;
+                        ++tileHits;
+                    }
                 }
-            }
-        hits += tileHits;
-    });
+            hits += tileHits;
+        });
     image.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     image.hits = hits;
     return image;

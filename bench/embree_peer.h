@@ -17,7 +17,7 @@ namespace bench {
 struct EmbreeImage {
     std::vector<float> depth;  ///< distance along the (unit) ray; +inf where it missed
     std::uint64_t hits = 0;
-    double seconds = 0;        ///< wall time of the cast alone (no ray set-up, no BVH build)
+    double seconds = 0;  ///< wall time of the cast alone (no ray set-up, no BVH build)
 };
 
 /// The scene's static triangles (as TriangleRayCaster takes them) in an Embree scene built once,
@@ -25,8 +25,9 @@ struct EmbreeImage {
 /// bounds the threads as it bounds libvox's casters.
 class EmbreePeer {
 public:
-    /// Builds the BVH at RTC_BUILD_QUALITY_HIGH (SAH with spatial splits: Embree's fastest to trace,
-    /// the strongest peer). @p threads: Embree's build threads (0: all). @throws std::runtime_error.
+    /// Builds the BVH at RTC_BUILD_QUALITY_HIGH (SAH with spatial splits: Embree's fastest to
+    /// trace, the strongest peer). @p threads: Embree's build threads (0: all). @throws
+    /// std::runtime_error.
     EmbreePeer(const vox::Scene& scene, int threads);
     ~EmbreePeer();
     EmbreePeer(const EmbreePeer&) = delete;

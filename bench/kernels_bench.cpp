@@ -19,7 +19,8 @@
 //   caster on the mesh itself: the Mrays counter (per second).
 // items_per_second is the throughput of every benchmark: triangles, tests, pairs, voxels,
 // blocks or rays per second. Scenes are generated at start-up into a temporary directory.
-// Usage: kernels_bench [Google Benchmark options, e.g. --benchmark_filter=Box --benchmark_format=json]
+// Usage: kernels_bench [Google Benchmark options, e.g. --benchmark_filter=Box
+// --benchmark_format=json]
 #include "attribute_corpus.h"
 #include "octree/attribute_encode.h"
 #include "octree/triangle_box.h"
@@ -68,16 +69,21 @@ public:
 
     const std::filesystem::path& dir() const { return dir_; }
     const vox::Scene& sphere() {
-        if (sphere_.meshes.empty()) sphere_ = vox::importScene(vox::scenes::writeBumpySphere(dir_, 129, 256));  // 65,536 triangles
+        if (sphere_.meshes.empty())
+            sphere_ = vox::importScene(
+                vox::scenes::writeBumpySphere(dir_, 129, 256));  // 65,536 triangles
         return sphere_;
     }
     const vox::Scene& cornell() {
-        if (cornell_.meshes.empty()) cornell_ = vox::importScene(vox::scenes::writeCornellBox(dir_));
+        if (cornell_.meshes.empty())
+            cornell_ = vox::importScene(vox::scenes::writeCornellBox(dir_));
         return cornell_;
     }
 
 private:
-    Data() : dir_(std::filesystem::temp_directory_path() / ("libvox_kernels_bench_" + std::to_string(::getpid()))) {
+    Data()
+        : dir_(std::filesystem::temp_directory_path() /
+               ("libvox_kernels_bench_" + std::to_string(::getpid()))) {
         vox::log::setVerbosity(vox::log::Verbosity::Quiet);
         std::filesystem::create_directories(dir_);
     }
@@ -107,9 +113,11 @@ const LeafTriangles& leafTriangles(std::uint32_t depth) {
             std::array<Vec3d, 3> v;
             for (int k = 0; k < 3; ++k) {
                 const vox::Vec3f p = mesh.positions[mesh.indices[3 * t + k]];
-                v[k] = {(p.x - cube.origin.x) * scale, (p.y - cube.origin.y) * scale, (p.z - cube.origin.z) * scale};
+                v[k] = {(p.x - cube.origin.x) * scale, (p.y - cube.origin.y) * scale,
+                        (p.z - cube.origin.z) * scale};
             }
-            it->second.meanEdge += vox::length(v[1] - v[0]) + vox::length(v[2] - v[1]) + vox::length(v[0] - v[2]);
+            it->second.meanEdge +=
+                vox::length(v[1] - v[0]) + vox::length(v[2] - v[1]) + vox::length(v[0] - v[2]);
             it->second.vertices.push_back(v);
             it->second.prepared.push_back(vox::detail::prepareBoxTest(v[0], v[1], v[2]));
         }
@@ -126,10 +134,13 @@ struct Pair {
 /// Every (triangle, cell of edge @p cellSize) with the cell in the triangle's bounding box,
 /// keeping only overlapping ones when @p overlappingOnly; triangles are taken at a stride so that
 /// about @p limit pairs come out, spread over the whole mesh.
-std::vector<Pair> cellPairs(const LeafTriangles& tris, double cellSize, bool overlappingOnly, std::size_t limit) {
+std::vector<Pair> cellPairs(const LeafTriangles& tris, double cellSize, bool overlappingOnly,
+                            std::size_t limit) {
     const auto cellsOf = [&](const std::array<Vec3d, 3>& v, int axis) {
-        const double lo = std::min({v[0][axis], v[1][axis], v[2][axis]}), hi = std::max({v[0][axis], v[1][axis], v[2][axis]});
-        return std::pair{static_cast<std::int32_t>(std::floor(lo / cellSize)), static_cast<std::int32_t>(std::floor(hi / cellSize))};
+        const double lo = std::min({v[0][axis], v[1][axis], v[2][axis]}),
+                     hi = std::max({v[0][axis], v[1][axis], v[2][axis]});
+        return std::pair{static_cast<std::int32_t>(std::floor(lo / cellSize)),
+                         static_cast<std::int32_t>(std::floor(hi / cellSize))};
     };
     std::size_t total = 0;
     for (std::size_t t = 0; t < tris.vertices.size(); t += 97) {
@@ -141,7 +152,8 @@ std::vector<Pair> cellPairs(const LeafTriangles& tris, double cellSize, bool ove
         total += n;
     }
     const double estimate = static_cast<double>(total) * 97.0;
-    const std::size_t stride = std::max<std::size_t>(1, static_cast<std::size_t>(estimate / static_cast<double>(limit)));
+    const std::size_t stride =
+        std::max<std::size_t>(1, static_cast<std::size_t>(estimate / static_cast<double>(limit)));
     std::vector<Pair> pairs;
     for (std::size_t t = 0; t < tris.vertices.size(); t += stride) {
         const auto [x0, x1] = cellsOf(tris.vertices[t], 0);
@@ -150,8 +162,11 @@ std::vector<Pair> cellPairs(const LeafTriangles& tris, double cellSize, bool ove
         for (std::int32_t z = z0; z <= z1; ++z)
             for (std::int32_t y = y0; y <= y1; ++y)
                 for (std::int32_t x = x0; x <= x1; ++x) {
-                    const Vec3d centre{(x + 0.5) * cellSize, (y + 0.5) * cellSize, (z + 0.5) * cellSize};
-                    if (overlappingOnly && !vox::detail::triangleOverlapsCube(tris.prepared[t], centre, 0.5 * cellSize)) continue;
+                    const Vec3d centre{(x + 0.5) * cellSize, (y + 0.5) * cellSize,
+                                       (z + 0.5) * cellSize};
+                    if (overlappingOnly && !vox::detail::triangleOverlapsCube(
+                                               tris.prepared[t], centre, 0.5 * cellSize))
+                        continue;
                     pairs.push_back({static_cast<std::uint32_t>(t), x, y, z});
                 }
     }
@@ -161,7 +176,8 @@ std::vector<Pair> cellPairs(const LeafTriangles& tris, double cellSize, bool ove
 void BM_PrepareBoxTest(benchmark::State& state) {
     const LeafTriangles& tris = leafTriangles(static_cast<std::uint32_t>(state.range(0)));
     for (auto _ : state)
-        for (const auto& v : tris.vertices) benchmark::DoNotOptimize(vox::detail::prepareBoxTest(v[0], v[1], v[2]));
+        for (const auto& v : tris.vertices)
+            benchmark::DoNotOptimize(vox::detail::prepareBoxTest(v[0], v[1], v[2]));
     state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * tris.vertices.size()));
 }
 BENCHMARK(BM_PrepareBoxTest)->ArgName("depth")->Arg(8);
@@ -172,11 +188,14 @@ void BM_TriangleOverlapsCube(benchmark::State& state) {
     std::uint64_t hits = 0;
     for (auto _ : state) {
         hits = 0;
-        for (const Pair& p : pairs) hits += vox::detail::triangleOverlapsCube(tris.prepared[p.triangle], {p.x + 0.5, p.y + 0.5, p.z + 0.5}, 0.5);
+        for (const Pair& p : pairs)
+            hits += vox::detail::triangleOverlapsCube(tris.prepared[p.triangle],
+                                                      {p.x + 0.5, p.y + 0.5, p.z + 0.5}, 0.5);
         benchmark::DoNotOptimize(hits);
     }
     state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * pairs.size()));
-    state.counters["overlap_fraction"] = static_cast<double>(hits) / static_cast<double>(pairs.size());
+    state.counters["overlap_fraction"] =
+        static_cast<double>(hits) / static_cast<double>(pairs.size());
     state.counters["edge_voxels"] = tris.meanEdge;
 }
 BENCHMARK(BM_TriangleOverlapsCube)->ArgName("depth")->Arg(6)->Arg(8)->Arg(10);
@@ -198,7 +217,9 @@ void childMasks(benchmark::State& state) {
                 mask = vox::detail::childOverlapMask(tri, centre, 1.0);
             } else {
                 for (std::uint32_t slot = 0; slot < 8; ++slot) {
-                    const Vec3d c{centre.x + (slot & 1u ? 0.5 : -0.5), centre.y + (slot & 2u ? 0.5 : -0.5), centre.z + (slot & 4u ? 0.5 : -0.5)};
+                    const Vec3d c{centre.x + (slot & 1u ? 0.5 : -0.5),
+                                  centre.y + (slot & 2u ? 0.5 : -0.5),
+                                  centre.z + (slot & 4u ? 0.5 : -0.5)};
                     if (vox::detail::triangleOverlapsCube(tri, c, 0.5)) mask |= 1u << slot;
                 }
             }
@@ -207,7 +228,8 @@ void childMasks(benchmark::State& state) {
         benchmark::DoNotOptimize(children);
     }
     state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * pairs.size()));
-    state.counters["children_per_pair"] = static_cast<double>(children) / static_cast<double>(pairs.size());
+    state.counters["children_per_pair"] =
+        static_cast<double>(children) / static_cast<double>(pairs.size());
     state.counters["edge_voxels"] = tris.meanEdge;
 }
 void BM_ChildOverlapMask(benchmark::State& state) { childMasks<true>(state); }
@@ -232,7 +254,8 @@ const vox::SparseOctree& sphereOctree(std::uint32_t depth, bool contours, bool a
 
 void BM_WriteEsvo(benchmark::State& state) {
     const bool contours = state.range(1) != 0;
-    const vox::SparseOctree& octree = sphereOctree(static_cast<std::uint32_t>(state.range(0)), contours, false);
+    const vox::SparseOctree& octree =
+        sphereOctree(static_cast<std::uint32_t>(state.range(0)), contours, false);
     const std::filesystem::path file = Data::get().dir() / "layout.esvo";
     vox::EsvoWriteOptions options;
     options.attributes = vox::AttributeEncoding::None;
@@ -243,11 +266,16 @@ void BM_WriteEsvo(benchmark::State& state) {
     for (auto _ : state) bytes = vox::writeEsvo(file, octree, options).fileBytes;
     state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * octree.voxelCount()));
     state.counters["voxels"] = static_cast<double>(octree.voxelCount());
-    state.counters["bytes_per_voxel"] = static_cast<double>(bytes) / static_cast<double>(octree.voxelCount());
+    state.counters["bytes_per_voxel"] =
+        static_cast<double>(bytes) / static_cast<double>(octree.voxelCount());
     const double total = timings.get("esvo_layout") + timings.get("esvo_write");
     if (total > 0) state.counters["layout_share"] = timings.get("esvo_layout") / total;
 }
-BENCHMARK(BM_WriteEsvo)->ArgNames({"depth", "contours"})->Args({9, 0})->Args({9, 1})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_WriteEsvo)
+    ->ArgNames({"depth", "contours"})
+    ->Args({9, 0})
+    ->Args({9, 1})
+    ->Unit(benchmark::kMillisecond);
 
 // ---- DXT encode -----------------------------------------------------------------------------
 
@@ -258,7 +286,8 @@ const std::vector<vox::corpus::SceneBlock>& blocks(int scene) {
         vox::SurfaceVoxelizeOptions options;
         options.depth = 8;
         options.attributes = true;
-        const auto all = vox::corpus::sceneBlocks(vox::voxelizeSurface(scene == 0 ? Data::get().cornell() : Data::get().sphere(), options));
+        const auto all = vox::corpus::sceneBlocks(vox::voxelizeSurface(
+            scene == 0 ? Data::get().cornell() : Data::get().sphere(), options));
         // At most 16,384 blocks, taken at a stride over every level, so one pass stays short.
         const std::size_t stride = (all.size() + 16383) / 16384;
         for (std::size_t i = 0; i < all.size(); i += stride) it->second.push_back(all[i]);
@@ -269,11 +298,16 @@ const std::vector<vox::corpus::SceneBlock>& blocks(int scene) {
 void BM_EncodeCompressedBlock(benchmark::State& state) {
     const auto& corpus = blocks(static_cast<int>(state.range(0)));
     for (auto _ : state)
-        for (const auto& b : corpus) benchmark::DoNotOptimize(vox::detail::encodeCompressedBlock(b.values, b.mask));
+        for (const auto& b : corpus)
+            benchmark::DoNotOptimize(vox::detail::encodeCompressedBlock(b.values, b.mask));
     state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * corpus.size()));
     state.SetLabel(state.range(0) == 0 ? "cornell box" : "bumpy sphere");
 }
-BENCHMARK(BM_EncodeCompressedBlock)->ArgName("scene")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EncodeCompressedBlock)
+    ->ArgName("scene")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond);
 
 /// The colour halves of the same blocks, as encodeColorBlock and stb_dxt take them.
 std::vector<vox::corpus::ColorBlock> colorBlocks(int scene) {
@@ -281,7 +315,8 @@ std::vector<vox::corpus::ColorBlock> colorBlocks(int scene) {
     for (const auto& b : blocks(scene)) {
         vox::corpus::ColorBlock c;
         c.mask = b.mask;
-        for (unsigned s = 0; s < 16; ++s) c.colors[s] = static_cast<std::uint32_t>(b.values[s]) | 0xFF000000u;
+        for (unsigned s = 0; s < 16; ++s)
+            c.colors[s] = static_cast<std::uint32_t>(b.values[s]) | 0xFF000000u;
         out.push_back(c);
     }
     return out;
@@ -292,8 +327,10 @@ void colorEncode(benchmark::State& state) {
     const auto corpus = colorBlocks(static_cast<int>(state.range(0)));
     for (auto _ : state)
         for (const auto& b : corpus) {
-            if constexpr (Stb) benchmark::DoNotOptimize(vox::corpus::stbEncode(b, false));
-            else benchmark::DoNotOptimize(vox::detail::encodeColorBlock(b.colors, b.mask));
+            if constexpr (Stb)
+                benchmark::DoNotOptimize(vox::corpus::stbEncode(b, false));
+            else
+                benchmark::DoNotOptimize(vox::detail::encodeColorBlock(b.colors, b.mask));
         }
     state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * corpus.size()));
     state.SetLabel(state.range(0) == 0 ? "cornell box" : "bumpy sphere");
@@ -301,7 +338,11 @@ void colorEncode(benchmark::State& state) {
 void BM_EncodeColorBlock(benchmark::State& state) { colorEncode<false>(state); }
 void BM_EncodeColorBlock_PeerStbDxt(benchmark::State& state) { colorEncode<true>(state); }
 BENCHMARK(BM_EncodeColorBlock)->ArgName("scene")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_EncodeColorBlock_PeerStbDxt)->ArgName("scene")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EncodeColorBlock_PeerStbDxt)
+    ->ArgName("scene")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond);
 
 // ---- ray casting ----------------------------------------------------------------------------
 
@@ -355,7 +396,8 @@ void castImage(benchmark::State& state, Cast cast) {
         benchmark::DoNotOptimize(hits);
     }
     state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * rays.size()));
-    state.counters["Mrays"] = benchmark::Counter(static_cast<double>(state.iterations() * rays.size()) / 1e6, benchmark::Counter::kIsRate);
+    state.counters["Mrays"] = benchmark::Counter(
+        static_cast<double>(state.iterations() * rays.size()) / 1e6, benchmark::Counter::kIsRate);
     state.counters["hit_fraction"] = static_cast<double>(hits) / static_cast<double>(rays.size());
 }
 
@@ -365,7 +407,9 @@ vox::CastOptions castMode(benchmark::State& state) {
     vox::CastOptions options;
     if (state.range(0) == 1) options.lodAngle = castData().camera.pixelAngle();
     if (state.range(0) == 2) options.attributes = true;
-    state.SetLabel(state.range(0) == 0 ? "leaves" : state.range(0) == 1 ? "lod" : "leaves+attributes");
+    state.SetLabel(state.range(0) == 0   ? "leaves"
+                   : state.range(0) == 1 ? "lod"
+                                         : "leaves+attributes");
     return options;
 }
 
@@ -389,21 +433,25 @@ void BM_EsvoCastMany(benchmark::State& state) {
     std::uint64_t hitCount = 0;
     for (auto _ : state) {
         for (std::size_t i = 0; i < rays.size(); i += kBatch)
-            d.caster->castMany(&rays[i], nullptr, std::min(kBatch, rays.size() - i), options, &hits[i]);
+            d.caster->castMany(&rays[i], nullptr, std::min(kBatch, rays.size() - i), options,
+                               &hits[i]);
         hitCount = 0;
         for (const vox::CastHit& h : hits) hitCount += h.hit;
         benchmark::DoNotOptimize(hitCount);
     }
     state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * rays.size()));
-    state.counters["Mrays"] = benchmark::Counter(static_cast<double>(state.iterations() * rays.size()) / 1e6, benchmark::Counter::kIsRate);
-    state.counters["hit_fraction"] = static_cast<double>(hitCount) / static_cast<double>(rays.size());
+    state.counters["Mrays"] = benchmark::Counter(
+        static_cast<double>(state.iterations() * rays.size()) / 1e6, benchmark::Counter::kIsRate);
+    state.counters["hit_fraction"] =
+        static_cast<double>(hitCount) / static_cast<double>(rays.size());
 }
 BENCHMARK(BM_EsvoCastMany)->ArgName("mode")->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
 void BM_EsvoCast_PeerTriangles(benchmark::State& state) {
     const CastData& d = castData();
     state.SetLabel("BVH, 65,536 triangles");
-    castImage(state, [&](const vox::Ray& ray) { return std::isfinite(d.triangles->castSurface(ray).t); });
+    castImage(state,
+              [&](const vox::Ray& ray) { return std::isfinite(d.triangles->castSurface(ray).t); });
 }
 BENCHMARK(BM_EsvoCast_PeerTriangles)->Unit(benchmark::kMillisecond);
 

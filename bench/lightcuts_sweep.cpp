@@ -56,7 +56,8 @@ std::vector<std::size_t> parseCounts(const std::string& text) {
     while (std::getline(in, item, ',')) {
         std::size_t used = 0;
         const unsigned long long n = std::stoull(item, &used);
-        if (used != item.size() || n == 0) throw vox::UsageError("--counts: '" + item + "' is not a positive integer");
+        if (used != item.size() || n == 0)
+            throw vox::UsageError("--counts: '" + item + "' is not a positive integer");
         counts.push_back(static_cast<std::size_t>(n));
     }
     if (counts.empty()) throw vox::UsageError("--counts needs at least one count");
@@ -83,7 +84,8 @@ std::optional<std::size_t> crossover(const std::vector<Row>& rows, double (*rati
 int main(int argc, char** argv) {
     try {
         const std::string usage =
-            "usage: lightcuts_sweep SCENE [--depth D=7] [--counts 4,8,16,...] [--repeat R=1] [--spread] [--threads T] [--json FILE]";
+            "usage: lightcuts_sweep SCENE [--depth D=7] [--counts 4,8,16,...] [--repeat R=1] "
+            "[--spread] [--threads T] [--json FILE]";
         if (argc < 2 || std::string(argv[1]).starts_with("--")) throw vox::UsageError(usage);
         std::uint32_t depth = 7;
         std::vector<std::size_t> counts{4, 8, 16, 32, 64, 128, 256};
@@ -98,12 +100,18 @@ int main(int argc, char** argv) {
             }
             if (i + 1 >= argc) throw vox::UsageError(usage);
             const std::string value = argv[++i];
-            if (key == "--depth") depth = static_cast<std::uint32_t>(std::stoul(value));
-            else if (key == "--counts") counts = parseCounts(value);
-            else if (key == "--repeat") repeat = std::stoi(value);
-            else if (key == "--threads") threads = std::stoi(value);
-            else if (key == "--json") jsonFile = value;
-            else throw vox::UsageError("unknown option " + key + "\n" + usage);
+            if (key == "--depth")
+                depth = static_cast<std::uint32_t>(std::stoul(value));
+            else if (key == "--counts")
+                counts = parseCounts(value);
+            else if (key == "--repeat")
+                repeat = std::stoi(value);
+            else if (key == "--threads")
+                threads = std::stoi(value);
+            else if (key == "--json")
+                jsonFile = value;
+            else
+                throw vox::UsageError("unknown option " + key + "\n" + usage);
         }
         if (depth < 1 || depth > 10) throw vox::UsageError("--depth must be 1 … 10");
         if (repeat < 1) throw vox::UsageError("--repeat must be ≥ 1");
@@ -117,21 +125,28 @@ int main(int argc, char** argv) {
         std::sort(counts.begin(), counts.end());
         counts.erase(std::unique(counts.begin(), counts.end()), counts.end());
         if (counts.back() > all.size()) {
-            std::fprintf(stderr, "lightcuts_sweep: %s has %zu static lights; larger counts are left out\n", argv[1], all.size());
+            std::fprintf(stderr,
+                         "lightcuts_sweep: %s has %zu static lights; larger counts are left out\n",
+                         argv[1], all.size());
             while (!counts.empty() && counts.back() > all.size()) counts.pop_back();
             if (counts.empty() || counts.back() < all.size()) counts.push_back(all.size());
         }
 
-        std::printf("%s: depth %u, %zu static lights, %s lights of each count, %d thread(s), median of %d bake(s)\n", argv[1], depth,
-                    all.size(), spread ? "evenly spaced" : "first", vox::ThreadLimit::active(), repeat);
-        std::printf("%7s %9s %9s %9s %9s %8s %9s %9s %7s %9s %9s\n", "lights", "points", "lc_s", "lc_all_s", "brute_s", "lc/brute",
-                    "all/brute", "classic_s", "cut", "within2%", "max_err");
+        std::printf(
+            "%s: depth %u, %zu static lights, %s lights of each count, %d thread(s), median of %d "
+            "bake(s)\n",
+            argv[1], depth, all.size(), spread ? "evenly spaced" : "first",
+            vox::ThreadLimit::active(), repeat);
+        std::printf("%7s %9s %9s %9s %9s %8s %9s %9s %7s %9s %9s\n", "lights", "points", "lc_s",
+                    "lc_all_s", "brute_s", "lc/brute", "all/brute", "classic_s", "cut", "within2%",
+                    "max_err");
         std::fflush(stdout);
         std::vector<Row> rows;
         nlohmann::json runs = nlohmann::json::array();
         for (const std::size_t n : counts) {
             scene.lights.clear();
-            for (std::size_t k = 0; k < n; ++k) scene.lights.push_back(all[spread ? k * all.size() / n : k]);
+            for (std::size_t k = 0; k < n; ++k)
+                scene.lights.push_back(all[spread ? k * all.size() / n : k]);
             vox::RadianceBakeOptions options;
             options.depth = depth;
             options.bounces = 0;
@@ -143,10 +158,13 @@ int main(int argc, char** argv) {
             for (int r = 0; r < repeat; ++r) {
                 const auto start = std::chrono::steady_clock::now();
                 const vox::RadianceBake result = vox::bakeRadiance(scene, options);
-                bake.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+                bake.push_back(
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+                        .count());
                 const vox::ManyLightReport& d = result.directLight;
                 lc.push_back(d.lightcuts.seconds);
-                lcAll.push_back(d.lightcuts.seconds + d.lightcuts.treeSeconds + d.lightcuts.clusterSeconds);
+                lcAll.push_back(d.lightcuts.seconds + d.lightcuts.treeSeconds +
+                                d.lightcuts.clusterSeconds);
                 brute.push_back(d.bruteForce.seconds);
                 classic.push_back(d.classic.seconds);
                 if (r == 0) {
@@ -163,9 +181,11 @@ int main(int argc, char** argv) {
             row.brute = median(brute);
             row.classic = median(classic);
             row.bake = median(bake);
-            std::printf("%7zu %9llu %9.3f %9.3f %9.3f %8.2f %9.2f %9.3f %7.1f %9.4f %9.4f\n", n, static_cast<unsigned long long>(row.points),
-                        row.lc, row.lcAll, row.brute, row.brute > 0 ? row.lc / row.brute : 0.0,
-                        row.brute > 0 ? row.lcAll / row.brute : 0.0, row.classic, row.cut, row.within, row.maxError);
+            std::printf("%7zu %9llu %9.3f %9.3f %9.3f %8.2f %9.2f %9.3f %7.1f %9.4f %9.4f\n", n,
+                        static_cast<unsigned long long>(row.points), row.lc, row.lcAll, row.brute,
+                        row.brute > 0 ? row.lc / row.brute : 0.0,
+                        row.brute > 0 ? row.lcAll / row.brute : 0.0, row.classic, row.cut,
+                        row.within, row.maxError);
             std::fflush(stdout);
             runs.push_back({{"lights", n},
                             {"points", row.points},
@@ -181,21 +201,27 @@ int main(int argc, char** argv) {
                             {"classic_fraction_within", row.classicWithin}});
             rows.push_back(row);
         }
-        const auto describe = [](std::optional<std::size_t> n) { return n ? std::to_string(*n) + " lights" : std::string("none measured"); };
-        const auto byLc = crossover(rows, [](const Row& r) { return r.brute > 0 ? r.lc / r.brute : 2.0; });
-        const auto byAll = crossover(rows, [](const Row& r) { return r.brute > 0 ? r.lcAll / r.brute : 2.0; });
-        std::printf("crossover (Lightcuts faster from here on): %s by lc_s, %s by lc_all_s\n", describe(byLc).c_str(),
-                    describe(byAll).c_str());
+        const auto describe = [](std::optional<std::size_t> n) {
+            return n ? std::to_string(*n) + " lights" : std::string("none measured");
+        };
+        const auto byLc =
+            crossover(rows, [](const Row& r) { return r.brute > 0 ? r.lc / r.brute : 2.0; });
+        const auto byAll =
+            crossover(rows, [](const Row& r) { return r.brute > 0 ? r.lcAll / r.brute : 2.0; });
+        std::printf("crossover (Lightcuts faster from here on): %s by lc_s, %s by lc_all_s\n",
+                    describe(byLc).c_str(), describe(byAll).c_str());
         if (!jsonFile.empty()) {
-            const nlohmann::json out{{"scene", argv[1]},
-                                     {"depth", depth},
-                                     {"static_lights", all.size()},
-                                     {"spread", spread},
-                                     {"threads", vox::ThreadLimit::active()},
-                                     {"repeat", repeat},
-                                     {"runs", runs},
-                                     {"crossover_lights", byLc ? nlohmann::json(*byLc) : nlohmann::json(nullptr)},
-                                     {"crossover_lights_total", byAll ? nlohmann::json(*byAll) : nlohmann::json(nullptr)}};
+            const nlohmann::json out{
+                {"scene", argv[1]},
+                {"depth", depth},
+                {"static_lights", all.size()},
+                {"spread", spread},
+                {"threads", vox::ThreadLimit::active()},
+                {"repeat", repeat},
+                {"runs", runs},
+                {"crossover_lights", byLc ? nlohmann::json(*byLc) : nlohmann::json(nullptr)},
+                {"crossover_lights_total",
+                 byAll ? nlohmann::json(*byAll) : nlohmann::json(nullptr)}};
             std::ofstream file(jsonFile);
             file << out.dump(2) << '\n';
             if (!file) throw vox::IoError(jsonFile, "cannot write");

@@ -15,7 +15,8 @@
 // only, untimed, after peak memory has been taken) and counts the octree's leaves that are active
 // voxels of the grid and the other way round.
 // Usage: mesh_to_volume_peer MESH [--depth N (default 10)] [--threads N (default: all cores)]
-//        [--half-width W (voxels, default 0.87)] [--output FILE.vdb] [--stats FILE.json] [--cross-check]
+//        [--half-width W (voxels, default 0.87)] [--output FILE.vdb] [--stats FILE.json]
+//        [--cross-check]
 #include <vox/formats/atomic_file.h>
 #include <vox/formats/error.h>
 #include <vox/import.h>
@@ -45,7 +46,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+double secondsSince(Clock::time_point start) {
+    return std::chrono::duration<double>(Clock::now() - start).count();
+}
 
 struct Options {
     std::string input;
@@ -68,29 +71,42 @@ Options parseOptions(int argc, char** argv) {
             const std::string text = value();
             char* end = nullptr;
             const double v = std::strtod(text.c_str(), &end);
-            if (text.empty() || *end != '\0') throw vox::UsageError(key + ": expected a number, got '" + text + "'");
+            if (text.empty() || *end != '\0')
+                throw vox::UsageError(key + ": expected a number, got '" + text + "'");
             return v;
         };
-        if (key == "--depth") o.depth = static_cast<std::uint32_t>(std::clamp(number(), 0.0, 99.0));
+        if (key == "--depth")
+            o.depth = static_cast<std::uint32_t>(std::clamp(number(), 0.0, 99.0));
         else if (key == "--threads") {
             o.threads = static_cast<int>(std::clamp(number(), 0.0, 1e5));
-            if (o.threads < 1 || o.threads > 4096) throw vox::UsageError("--threads must be between 1 and 4096");
-        }
-        else if (key == "--half-width") o.halfWidth = number();
-        else if (key == "--output" || key == "-o") o.output = value();
-        else if (key == "--stats") o.stats = value();
-        else if (key == "--cross-check") o.crossCheck = true;
-        else if (!key.empty() && key[0] == '-') throw vox::UsageError("unknown option " + key);
-        else if (o.input.empty()) o.input = key;
-        else throw vox::UsageError("more than one input: " + key);
+            if (o.threads < 1 || o.threads > 4096)
+                throw vox::UsageError("--threads must be between 1 and 4096");
+        } else if (key == "--half-width")
+            o.halfWidth = number();
+        else if (key == "--output" || key == "-o")
+            o.output = value();
+        else if (key == "--stats")
+            o.stats = value();
+        else if (key == "--cross-check")
+            o.crossCheck = true;
+        else if (!key.empty() && key[0] == '-')
+            throw vox::UsageError("unknown option " + key);
+        else if (o.input.empty())
+            o.input = key;
+        else
+            throw vox::UsageError("more than one input: " + key);
     }
     if (o.input.empty())
-        throw vox::UsageError("usage: mesh_to_volume_peer MESH [--depth N] [--threads N] [--half-width W] [--output FILE.vdb] "
-                              "[--stats FILE.json] [--cross-check]");
+        throw vox::UsageError(
+            "usage: mesh_to_volume_peer MESH [--depth N] [--threads N] [--half-width W] [--output "
+            "FILE.vdb] "
+            "[--stats FILE.json] [--cross-check]");
     if (o.depth < 1 || o.depth > 20) throw vox::UsageError("--depth must be between 1 and 20");
     // meshToVolume returns an empty grid for a NaN or non-positive band, without a word.
-    if (!(o.halfWidth > 0 && o.halfWidth < 1e6)) throw vox::UsageError("--half-width must be a positive number of voxels");
-    if (!o.output.empty() && std::filesystem::path(o.output).extension() != ".vdb") throw vox::UsageError("--output: expected a .vdb file name");
+    if (!(o.halfWidth > 0 && o.halfWidth < 1e6))
+        throw vox::UsageError("--half-width must be a positive number of voxels");
+    if (!o.output.empty() && std::filesystem::path(o.output).extension() != ".vdb")
+        throw vox::UsageError("--output: expected a .vdb file name");
     return o;
 }
 
@@ -118,11 +134,14 @@ IndexSpaceMesh flatten(const vox::Scene& scene, const vox::RootCube& cube, doubl
                                    static_cast<float>((p.y - cube.origin.y) * scale - 0.5),
                                    static_cast<float>((p.z - cube.origin.z) * scale - 0.5));
             if (!std::isfinite(q.x()) || !std::isfinite(q.y()) || !std::isfinite(q.z()))
-                throw vox::InvalidDataError(scene.sourceFiles.empty() ? "scene" : scene.sourceFiles.front(), "non-finite vertex");
+                throw vox::InvalidDataError(
+                    scene.sourceFiles.empty() ? "scene" : scene.sourceFiles.front(),
+                    "non-finite vertex");
             mesh.points.push_back(q);
         }
         for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3)
-            mesh.triangles.emplace_back(base + m.indices[t], base + m.indices[t + 1], base + m.indices[t + 2]);
+            mesh.triangles.emplace_back(base + m.indices[t], base + m.indices[t + 1],
+                                        base + m.indices[t + 2]);
     }
     return mesh;
 }
@@ -133,7 +152,8 @@ IndexSpaceMesh flatten(const vox::Scene& scene, const vox::RootCube& cube, doubl
 template <typename Visit>
 void forEachLeaf(const vox::SparseOctree& octree, Visit visit) {
     std::vector<std::uint64_t> cursor(octree.leafDepth + 1, 0);
-    const auto walk = [&](auto& self, std::uint32_t level, std::uint64_t index, std::uint32_t x, std::uint32_t y, std::uint32_t z) -> void {
+    const auto walk = [&](auto& self, std::uint32_t level, std::uint64_t index, std::uint32_t x,
+                          std::uint32_t y, std::uint32_t z) -> void {
         if (level == octree.leafDepth) {
             visit(x, y, z);
             return;
@@ -141,7 +161,8 @@ void forEachLeaf(const vox::SparseOctree& octree, Visit visit) {
         const unsigned mask = octree.masks[level][index];
         for (unsigned slot = 0; slot < 8; ++slot)
             if (mask & (1u << slot))
-                self(self, level + 1, cursor[level + 1]++, 2 * x + (slot & 1u), 2 * y + ((slot >> 1) & 1u), 2 * z + ((slot >> 2) & 1u));
+                self(self, level + 1, cursor[level + 1]++, 2 * x + (slot & 1u),
+                     2 * y + ((slot >> 1) & 1u), 2 * z + ((slot >> 2) & 1u));
     };
     cursor[0] = 1;
     walk(walk, 0, 0, 0, 0, 0);
@@ -165,7 +186,8 @@ nlohmann::json run(const Options& o) {
             for (std::uint32_t index : m.indices) bounds.add(m.positions[index]);
             staticTriangles += m.triangleCount();
         }
-    if (staticTriangles == 0) throw vox::InvalidDataError(o.input, "no static triangles to voxelize");
+    if (staticTriangles == 0)
+        throw vox::InvalidDataError(o.input, "no static triangles to voxelize");
     const vox::RootCube cube = vox::RootCube::enclosing(bounds);
     const double voxelSize = std::ldexp(cube.size, -static_cast<int>(o.depth));
 
@@ -177,20 +199,26 @@ nlohmann::json run(const Options& o) {
         mesh = flatten(scene, cube, voxelSize);
     }
     const double prepareSeconds = secondsSince(prepareStart);
-    openvdb::math::Transform::Ptr transform = openvdb::math::Transform::createLinearTransform(voxelSize);
-    transform->postTranslate(openvdb::Vec3d(cube.origin.x + 0.5 * voxelSize, cube.origin.y + 0.5 * voxelSize, cube.origin.z + 0.5 * voxelSize));
+    openvdb::math::Transform::Ptr transform =
+        openvdb::math::Transform::createLinearTransform(voxelSize);
+    transform->postTranslate(openvdb::Vec3d(cube.origin.x + 0.5 * voxelSize,
+                                            cube.origin.y + 0.5 * voxelSize,
+                                            cube.origin.z + 0.5 * voxelSize));
 
     const auto buildStart = Clock::now();
     openvdb::FloatGrid::Ptr grid;
     {
         vox::Timings::Scope timer(&timings, "mesh_to_volume");
-        const openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec3I> adapter(mesh.points, mesh.triangles);
+        const openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec3I> adapter(
+            mesh.points, mesh.triangles);
         const auto band = static_cast<float>(o.halfWidth);
-        grid = openvdb::tools::meshToVolume<openvdb::FloatGrid>(adapter, *transform, band, band, openvdb::tools::UNSIGNED_DISTANCE_FIELD);
+        grid = openvdb::tools::meshToVolume<openvdb::FloatGrid>(
+            adapter, *transform, band, band, openvdb::tools::UNSIGNED_DISTANCE_FIELD);
     }
     const double buildSeconds = secondsSince(buildStart);
     const std::uint64_t activeVoxels = grid->activeVoxelCount();
-    if (activeVoxels == 0) throw vox::InvalidDataError(o.input, "meshToVolume produced an empty grid");
+    if (activeVoxels == 0)
+        throw vox::InvalidDataError(o.input, "meshToVolume produced an empty grid");
 
     nlohmann::json report;
     report["tool"] = "mesh_to_volume_peer";
@@ -221,10 +249,12 @@ nlohmann::json run(const Options& o) {
         report["grid"]["output"] = o.output;
         report["grid"]["write_seconds"] = secondsSince(writeStart);
         report["grid"]["file_bytes"] = bytes;
-        report["grid"]["bytes_per_voxel"] = static_cast<double>(bytes) / static_cast<double>(activeVoxels);
+        report["grid"]["bytes_per_voxel"] =
+            static_cast<double>(bytes) / static_cast<double>(activeVoxels);
     }
     report["peak_rss_bytes"] = vox::peakRssBytes();  // before the cross-check's octree
-    timings.add("total", std::chrono::duration<double, std::milli>(Clock::now() - processStart).count());
+    timings.add("total",
+                std::chrono::duration<double, std::milli>(Clock::now() - processStart).count());
 
     if (o.crossCheck) {
         vox::SurfaceVoxelizeOptions options;
@@ -234,9 +264,12 @@ nlohmann::json run(const Options& o) {
         std::uint64_t leaves = 0, shared = 0;
         forEachLeaf(octree, [&](std::uint32_t x, std::uint32_t y, std::uint32_t z) {
             ++leaves;
-            shared += accessor.isValueOn(openvdb::Coord(static_cast<int>(x), static_cast<int>(y), static_cast<int>(z)));
+            shared += accessor.isValueOn(
+                openvdb::Coord(static_cast<int>(x), static_cast<int>(y), static_cast<int>(z)));
         });
-        const auto fraction = [](std::uint64_t part, std::uint64_t whole) { return whole ? static_cast<double>(part) / static_cast<double>(whole) : 0.0; };
+        const auto fraction = [](std::uint64_t part, std::uint64_t whole) {
+            return whole ? static_cast<double>(part) / static_cast<double>(whole) : 0.0;
+        };
         report["cross_check"] = {{"octree_leaves", leaves},
                                  {"grid_active_voxels", activeVoxels},
                                  {"shared", shared},
@@ -258,8 +291,10 @@ int main(int argc, char** argv) {
         vox::log::setVerbosity(vox::log::Verbosity::Quiet);  // the benchmark's output is its JSON
         const vox::ThreadLimit threads(options.threads);
         const nlohmann::json report = run(options);
-        if (options.stats.empty()) std::cout << report.dump(2) << '\n';
-        else vox::writeFileAtomically(options.stats, report.dump(2) + "\n");
+        if (options.stats.empty())
+            std::cout << report.dump(2) << '\n';
+        else
+            vox::writeFileAtomically(options.stats, report.dump(2) + "\n");
         return 0;
     } catch (const vox::Error& e) {
         std::fprintf(stderr, "mesh_to_volume_peer: error: %s\n", e.what());

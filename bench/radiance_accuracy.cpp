@@ -120,7 +120,8 @@ struct Sample {
 
 /// The surface point standing for voxel @p v, or nothing where the voxel does not qualify (see
 /// the file comment).
-std::optional<Sample> qualify(const vox::Scene& scene, const vox::VoxelLighting& v, std::span<const std::uint32_t> overlapping,
+std::optional<Sample> qualify(const vox::Scene& scene, const vox::VoxelLighting& v,
+                              std::span<const std::uint32_t> overlapping,
                               const std::vector<StaticTriangle>& triangles, double cell) {
     if (overlapping.empty()) return std::nullopt;
     Vec3d sum{0, 0, 0};
@@ -137,12 +138,14 @@ std::optional<Sample> qualify(const vox::Scene& scene, const vox::VoxelLighting&
         const Vec3d w = closestPointWeights(v.centre, t.corners[0], t.corners[1], t.corners[2]);
         closest[i] = t.corners[0] * w.x + t.corners[1] * w.y + t.corners[2] * w.z;
         const double d = length(closest[i] - v.centre);
-        if (d < best) best = d, nearest = overlapping[i], nearestWeights = w, nearestPoint = closest[i];
+        if (d < best)
+            best = d, nearest = overlapping[i], nearestWeights = w, nearestPoint = closest[i];
     }
     for (const Vec3d& p : closest)
         if (std::abs(dot(mean, p - nearestPoint)) > kMaxPlaneOffset * cell) return std::nullopt;
     const StaticTriangle& t = triangles[nearest];
-    const vox::detail::SurfaceSample s = vox::detail::shadeTriangle(scene, t.source, t.corners, nearestWeights, 0);
+    const vox::detail::SurfaceSample s =
+        vox::detail::shadeTriangle(scene, t.source, t.corners, nearestWeights, 0);
     Sample out;
     out.point.position = nearestPoint;
     out.point.normal = dot(s.normal, t.normal) < 0 ? -s.normal : s.normal;  // the front side
@@ -174,15 +177,16 @@ nlohmann::json summarise(const std::vector<Compared>& values) {
         ++compared;
     }
     const auto ratio = [&](double x) { return sumRef > 0 ? x / sumRef : 0.0; };
-    return {{"mean_relative_error", ratio(sumAbs)},
-            {"bias", ratio(sumSigned)},
-            {"mean_point_relative_error", compared ? pointError / double(compared) : 0.0},
-            {"points_compared", compared},
-            {"reference_mean", meanRef},
-            {"bake_mean", values.empty() ? 0 : sumBake / double(values.size())},
-            {"reference_relative_standard_error", ratio(std::sqrt(sumVar))},
-            {"reference_point_relative_standard_error", compared ? pointSigma / double(compared) : 0.0},
-            {"reference_noise_bound", ratio(std::sqrt(2 / std::numbers::pi) * sumSigma)}};
+    return {
+        {"mean_relative_error", ratio(sumAbs)},
+        {"bias", ratio(sumSigned)},
+        {"mean_point_relative_error", compared ? pointError / double(compared) : 0.0},
+        {"points_compared", compared},
+        {"reference_mean", meanRef},
+        {"bake_mean", values.empty() ? 0 : sumBake / double(values.size())},
+        {"reference_relative_standard_error", ratio(std::sqrt(sumVar))},
+        {"reference_point_relative_standard_error", compared ? pointSigma / double(compared) : 0.0},
+        {"reference_noise_bound", ratio(std::sqrt(2 / std::numbers::pi) * sumSigma)}};
 }
 
 double seconds(std::chrono::steady_clock::time_point since) {
@@ -194,7 +198,8 @@ double seconds(std::chrono::steady_clock::time_point since) {
 int main(int argc, char** argv) {
     try {
         const std::string usage =
-            "usage: radiance_accuracy SCENE [--depth D=6] [--points N=300] [--samples S=65536] [--seed K=1] [--threads T] [--json FILE]";
+            "usage: radiance_accuracy SCENE [--depth D=6] [--points N=300] [--samples S=65536] "
+            "[--seed K=1] [--threads T] [--json FILE]";
         if (argc < 2) throw vox::UsageError(usage);
         std::uint32_t depth = 6, points = 300;
         vox::reference::PathReferenceOptions reference;
@@ -205,15 +210,23 @@ int main(int argc, char** argv) {
             const std::string key = argv[i];
             if (i + 1 >= argc) throw vox::UsageError(usage);
             const std::string value = argv[i + 1];
-            if (key == "--depth") depth = static_cast<std::uint32_t>(std::stoul(value));
-            else if (key == "--points") points = static_cast<std::uint32_t>(std::stoul(value));
-            else if (key == "--samples") reference.samples = static_cast<std::uint32_t>(std::stoul(value));
-            else if (key == "--seed") reference.seed = std::stoull(value);
-            else if (key == "--threads") threads = std::stoi(value);
-            else if (key == "--json") jsonFile = value;
-            else throw vox::UsageError("unknown option " + key + "\n" + usage);
+            if (key == "--depth")
+                depth = static_cast<std::uint32_t>(std::stoul(value));
+            else if (key == "--points")
+                points = static_cast<std::uint32_t>(std::stoul(value));
+            else if (key == "--samples")
+                reference.samples = static_cast<std::uint32_t>(std::stoul(value));
+            else if (key == "--seed")
+                reference.seed = std::stoull(value);
+            else if (key == "--threads")
+                threads = std::stoi(value);
+            else if (key == "--json")
+                jsonFile = value;
+            else
+                throw vox::UsageError("unknown option " + key + "\n" + usage);
         }
-        if (points == 0 || reference.samples < 2) throw vox::UsageError("--points must be ≥ 1 and --samples ≥ 2");
+        if (points == 0 || reference.samples < 2)
+            throw vox::UsageError("--points must be ≥ 1 and --samples ≥ 2");
         const vox::ThreadLimit limit(threads);
         vox::log::setVerbosity(vox::log::Verbosity::Quiet);  // the benchmark's output is its JSON
         const vox::Scene scene = vox::importScene(argv[1]);
@@ -233,7 +246,8 @@ int main(int argc, char** argv) {
         const Vec3d origin{bake.volume.origin[0], bake.volume.origin[1], bake.volume.origin[2]};
         std::unordered_map<std::uint64_t, std::size_t> voxelAt;
         for (std::size_t i = 0; i < bake.voxels.size(); ++i)
-            voxelAt.emplace(vox::rvol::morton3(bake.voxels[i].x, bake.voxels[i].y, bake.voxels[i].z), i);
+            voxelAt.emplace(
+                vox::rvol::morton3(bake.voxels[i].x, bake.voxels[i].y, bake.voxels[i].z), i);
         std::vector<StaticTriangle> triangles;
         std::vector<std::vector<std::uint32_t>> overlapping(bake.voxels.size());
         const std::int64_t last = (std::int64_t{1} << depth) - 1;
@@ -243,26 +257,35 @@ int main(int argc, char** argv) {
             for (std::uint32_t t = 0; t < mesh.triangleCount(); ++t) {
                 StaticTriangle tri;
                 tri.source = {m, t};
-                for (int k = 0; k < 3; ++k) tri.corners[k] = toDouble(mesh.positions[mesh.indices[3 * std::size_t{t} + std::size_t(k)]]);
-                tri.box = vox::detail::prepareBoxTest(tri.corners[0], tri.corners[1], tri.corners[2]);
+                for (int k = 0; k < 3; ++k)
+                    tri.corners[k] =
+                        toDouble(mesh.positions[mesh.indices[3 * std::size_t{t} + std::size_t(k)]]);
+                tri.box =
+                    vox::detail::prepareBoxTest(tri.corners[0], tri.corners[1], tri.corners[2]);
                 tri.area = 0.5 * length(tri.box.normal);
                 tri.normal = normalize(tri.box.normal);
                 if (!(tri.area > 0)) continue;
                 const auto id = static_cast<std::uint32_t>(triangles.size());
                 std::array<std::int64_t, 3> lo{}, hi{};
                 for (int a = 0; a < 3; ++a) {
-                    const double mn = std::min({tri.corners[0][a], tri.corners[1][a], tri.corners[2][a]});
-                    const double mx = std::max({tri.corners[0][a], tri.corners[1][a], tri.corners[2][a]});
+                    const double mn =
+                        std::min({tri.corners[0][a], tri.corners[1][a], tri.corners[2][a]});
+                    const double mx =
+                        std::max({tri.corners[0][a], tri.corners[1][a], tri.corners[2][a]});
                     // One cell of slack each way: touching counts as overlapping.
-                    lo[a] = std::clamp<std::int64_t>(std::int64_t(std::floor((mn - origin[a]) / cell)) - 1, 0, last);
-                    hi[a] = std::clamp<std::int64_t>(std::int64_t(std::floor((mx - origin[a]) / cell)) + 1, 0, last);
+                    lo[a] = std::clamp<std::int64_t>(
+                        std::int64_t(std::floor((mn - origin[a]) / cell)) - 1, 0, last);
+                    hi[a] = std::clamp<std::int64_t>(
+                        std::int64_t(std::floor((mx - origin[a]) / cell)) + 1, 0, last);
                 }
                 for (std::int64_t z = lo[2]; z <= hi[2]; ++z)
                     for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
                         for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
-                            const auto it = voxelAt.find(vox::rvol::morton3(std::uint32_t(x), std::uint32_t(y), std::uint32_t(z)));
+                            const auto it = voxelAt.find(vox::rvol::morton3(
+                                std::uint32_t(x), std::uint32_t(y), std::uint32_t(z)));
                             if (it == voxelAt.end()) continue;
-                            if (vox::detail::triangleOverlapsCube(tri.box, bake.voxels[it->second].centre, cell / 2))
+                            if (vox::detail::triangleOverlapsCube(
+                                    tri.box, bake.voxels[it->second].centre, cell / 2))
                                 overlapping[it->second].push_back(id);
                         }
                 triangles.push_back(tri);
@@ -273,7 +296,8 @@ int main(int argc, char** argv) {
         const vox::TriangleRayCaster caster(scene);
         for (std::size_t i = 0; i < bake.voxels.size(); ++i)
             if (auto s = qualify(scene, bake.voxels[i], overlapping[i], triangles, cell)) {
-                const vox::Ray ray{s->point.position + s->point.normal * (1e-4 * cell), s->point.normal};
+                const vox::Ray ray{s->point.position + s->point.normal * (1e-4 * cell),
+                                   s->point.normal};
                 if (caster.castSurface(ray, kMinClearanceCells * cell).hit) {
                     ++cavities;
                     continue;
@@ -281,17 +305,20 @@ int main(int argc, char** argv) {
                 s->voxel = i;
                 candidates.push_back(*s);
             }
-        if (candidates.empty()) throw vox::InvalidDataError(argv[1], "no voxel stands for a single surface");
+        if (candidates.empty())
+            throw vox::InvalidDataError(argv[1], "no voxel stands for a single surface");
         std::vector<Sample> chosen;
         const std::size_t n = std::min<std::size_t>(points, candidates.size());
-        for (std::size_t i = 0; i < n; ++i) chosen.push_back(candidates[(2 * i + 1) * candidates.size() / (2 * n)]);
+        for (std::size_t i = 0; i < n; ++i)
+            chosen.push_back(candidates[(2 * i + 1) * candidates.size() / (2 * n)]);
         const double selectSeconds = seconds(start);
 
         start = std::chrono::steady_clock::now();
         const vox::reference::PathReference tracer(scene);
         std::vector<vox::reference::SurfacePoint> where;
         for (const Sample& s : chosen) where.push_back(s.point);
-        const std::vector<vox::reference::PointIrradiance> truth = tracer.estimate(where, reference);
+        const std::vector<vox::reference::PointIrradiance> truth =
+            tracer.estimate(where, reference);
         const double referenceSeconds = seconds(start);
 
         std::vector<Compared> direct, bounce[2];
@@ -301,22 +328,35 @@ int main(int argc, char** argv) {
         std::vector<std::pair<double, std::size_t>> ranked[2];
         for (std::size_t i = 0; i < chosen.size(); ++i) {
             const vox::VoxelLighting& v = bake.voxels[chosen[i].voxel];
-            if (v.indirect.size() < 2) throw vox::InvalidDataError(argv[1], "the bake kept fewer than two bounces per voxel");
-            direct.push_back({vox::reference::luminance(toDouble(v.direct)), vox::reference::luminance(truth[i].direct), 0});
+            if (v.indirect.size() < 2)
+                throw vox::InvalidDataError(argv[1],
+                                            "the bake kept fewer than two bounces per voxel");
+            direct.push_back({vox::reference::luminance(toDouble(v.direct)),
+                              vox::reference::luminance(truth[i].direct), 0});
             for (int b = 0; b < 2; ++b) {
                 const auto& e = b == 0 ? truth[i].bounce1 : truth[i].bounce2;
-                bounce[b].push_back({vox::reference::luminance(toDouble(v.indirect[std::size_t(b)])), e.luminance, e.luminanceStandardError});
-                ranked[b].push_back({e.luminance > 0 ? std::abs(bounce[b].back().bake - e.luminance) / e.luminance : 0.0, i});
+                bounce[b].push_back(
+                    {vox::reference::luminance(toDouble(v.indirect[std::size_t(b)])), e.luminance,
+                     e.luminanceStandardError});
+                ranked[b].push_back(
+                    {e.luminance > 0 ? std::abs(bounce[b].back().bake - e.luminance) / e.luminance
+                                     : 0.0,
+                     i});
             }
-            normalDisagrees += dot(toDouble(v.normal), chosen[i].point.normal) < std::cos(kMaxNormalDegrees * std::numbers::pi / 180);
+            normalDisagrees += dot(toDouble(v.normal), chosen[i].point.normal) <
+                               std::cos(kMaxNormalDegrees * std::numbers::pi / 180);
             meanDistance += chosen[i].distance / cell;
         }
         // The five worst points per bounce (among those bright enough to count), to look at.
         for (int b = 0; b < 2; ++b) {
             double meanRef = 0;
             for (const Compared& c : bounce[b]) meanRef += c.reference / double(bounce[b].size());
-            std::erase_if(ranked[b], [&](const auto& r) { return bounce[b][r.second].reference < 0.01 * meanRef; });
-            std::sort(ranked[b].begin(), ranked[b].end(), [](const auto& x, const auto& y) { return x.first > y.first || (x.first == y.first && x.second < y.second); });
+            std::erase_if(ranked[b], [&](const auto& r) {
+                return bounce[b][r.second].reference < 0.01 * meanRef;
+            });
+            std::sort(ranked[b].begin(), ranked[b].end(), [](const auto& x, const auto& y) {
+                return x.first > y.first || (x.first == y.first && x.second < y.second);
+            });
             nlohmann::json list = nlohmann::json::array();
             for (std::size_t k = 0; k < std::min<std::size_t>(5, ranked[b].size()); ++k) {
                 const std::size_t i = ranked[b][k].second;
@@ -355,9 +395,11 @@ int main(int argc, char** argv) {
              {{"limit", kLimit},
               {"bounce1_ok", b1["mean_relative_error"].get<double>() < kLimit},
               {"bounce2_ok", b2["mean_relative_error"].get<double>() < kLimit},
-              {"reference_noise_ok", b1["reference_relative_standard_error"].get<double>() < kNoiseLimit &&
-                                         b2["reference_relative_standard_error"].get<double>() < kNoiseLimit}}},
-            {"seconds", {{"bake", bakeSeconds}, {"select", selectSeconds}, {"reference", referenceSeconds}}},
+              {"reference_noise_ok",
+               b1["reference_relative_standard_error"].get<double>() < kNoiseLimit &&
+                   b2["reference_relative_standard_error"].get<double>() < kNoiseLimit}}},
+            {"seconds",
+             {{"bake", bakeSeconds}, {"select", selectSeconds}, {"reference", referenceSeconds}}},
         };
         const std::string text = out.dump(2);
         std::cout << text << '\n';

@@ -10,12 +10,15 @@
 // hit fraction and hit/miss agreement with the BVH caster, "octree_over_embree" the speed ratio.
 // With several views (--view repeated), every figure is over the pixels of all of them together
 // and the seconds are summed; "views" lists each view's own figures.
-// Usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z [--up x,y,z] | --view dx,dy,dz [--view ...])
-//                    [--fov D] [--width W] [--height H] [--repeat N] [--threads N] [--embree-only] [--distance S]
+// Usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z [--up x,y,z] | --view dx,dy,dz [--view
+// ...])
+//                    [--fov D] [--width W] [--height H] [--repeat N] [--threads N] [--embree-only]
+//                    [--distance S]
 // --view frames the mesh's bounds from direction (dx,dy,dz): the bounding sphere just fits the
 // image height, or with --distance S the eye is S times as far (S < 1: closer, more rays hit);
 // each view's "eye", "target" and "up"
-// are in the JSON, to the last bit (voxinspect render --eye/--target/--up then casts the same rays).
+// are in the JSON, to the last bit (voxinspect render --eye/--target/--up then casts the same
+// rays).
 // --threads: TBB threads for every caster (default: all cores). --embree-only: cast only Embree
 // (ESVO is not read): bench/raycast_table.sh's peer run beside voxinspect render.
 #include <vox/formats/error.h>
@@ -45,7 +48,8 @@ constexpr double kDegrees = 180.0 / 3.14159265358979323846;
 
 vox::Vec3d parse(const char* text) {
     vox::Vec3d v;
-    if (std::sscanf(text, "%lf,%lf,%lf", &v.x, &v.y, &v.z) != 3) throw vox::UsageError(std::string("expected x,y,z: ") + text);
+    if (std::sscanf(text, "%lf,%lf,%lf", &v.x, &v.y, &v.z) != 3)
+        throw vox::UsageError(std::string("expected x,y,z: ") + text);
     return v;
 }
 
@@ -77,14 +81,19 @@ struct Comparison {
     std::uint64_t embreeHits = 0, embreeAgree = 0;
 
     void add(const Comparison& o) {
-        rays += o.rays, meshSeconds += o.meshSeconds, octreeSeconds += o.octreeSeconds, lodSeconds += o.lodSeconds;
-        agree += o.agree, bothHit += o.bothHit, within += o.within, infront += o.infront, surfaceWithin += o.surfaceWithin;
+        rays += o.rays, meshSeconds += o.meshSeconds, octreeSeconds += o.octreeSeconds,
+            lodSeconds += o.lodSeconds;
+        agree += o.agree, bothHit += o.bothHit, within += o.within, infront += o.infront,
+            surfaceWithin += o.surfaceWithin;
         depthErrors.insert(depthErrors.end(), o.depthErrors.begin(), o.depthErrors.end());
         attributes = attributes || o.attributes;
         angles.insert(angles.end(), o.angles.begin(), o.angles.end());
-        sameSurfaceAngles.insert(sameSurfaceAngles.end(), o.sameSurfaceAngles.begin(), o.sameSurfaceAngles.end());
-        filteredAngles.insert(filteredAngles.end(), o.filteredAngles.begin(), o.filteredAngles.end());
-        squared += o.squared, sameSurfaceSquared += o.sameSurfaceSquared, filteredSquared += o.filteredSquared, lodSquared += o.lodSquared;
+        sameSurfaceAngles.insert(sameSurfaceAngles.end(), o.sameSurfaceAngles.begin(),
+                                 o.sameSurfaceAngles.end());
+        filteredAngles.insert(filteredAngles.end(), o.filteredAngles.begin(),
+                              o.filteredAngles.end());
+        squared += o.squared, sameSurfaceSquared += o.sameSurfaceSquared,
+            filteredSquared += o.filteredSquared, lodSquared += o.lodSquared;
         compared += o.compared, sameSurface += o.sameSurface, lodCompared += o.lodCompared;
         radiusSum += o.radiusSum, hits += o.hits;
         embree = embree || o.embree;
@@ -95,8 +104,8 @@ struct Comparison {
 #ifdef LIBVOX_HAVE_EMBREE
 /// Embree's best of @p repeat casts from @p camera; hit/miss agreement against @p bvhDepth
 /// (the BVH caster's depths) where given.
-void castEmbree(const bench::EmbreePeer& embree, const vox::PinholeCamera& camera, int repeat, const std::vector<float>* bvhDepth,
-                Comparison& c) {
+void castEmbree(const bench::EmbreePeer& embree, const vox::PinholeCamera& camera, int repeat,
+                const std::vector<float>* bvhDepth, Comparison& c) {
     bench::EmbreeImage image = embree.render(camera);
     for (int i = 1; i < repeat; ++i) {
         bench::EmbreeImage again = embree.render(camera);
@@ -107,13 +116,15 @@ void castEmbree(const bench::EmbreePeer& embree, const vox::PinholeCamera& camer
     c.embreeSeconds = image.seconds;
     c.embreeHits = image.hits;
     if (bvhDepth)
-        for (std::size_t i = 0; i < image.depth.size(); ++i) c.embreeAgree += std::isfinite(image.depth[i]) == std::isfinite((*bvhDepth)[i]);
+        for (std::size_t i = 0; i < image.depth.size(); ++i)
+            c.embreeAgree += std::isfinite(image.depth[i]) == std::isfinite((*bvhDepth)[i]);
 }
 #endif
 
 /// Renders the mesh and the octree from @p camera and compares them.
-Comparison compareView(const vox::TriangleRayCaster& triangles, const vox::EsvoRayCaster& octree, bool withAttributes,
-                       const vox::PinholeCamera& camera, int repeat, [[maybe_unused]] const bench::EmbreePeer* embree) {
+Comparison compareView(const vox::TriangleRayCaster& triangles, const vox::EsvoRayCaster& octree,
+                       bool withAttributes, const vox::PinholeCamera& camera, int repeat,
+                       [[maybe_unused]] const bench::EmbreePeer* embree) {
     Comparison c;
     vox::CastOptions leaves;  // no LOD: the geometry comparison is against the leaves
     vox::CastOptions lod;
@@ -131,7 +142,8 @@ Comparison compareView(const vox::TriangleRayCaster& triangles, const vox::EsvoR
     // |cos| between pixel i's ray and the mesh normal there: a distance along the ray times it is
     // the distance along the normal, which grazing rays do not inflate.
     const auto normalCosine = [&](std::size_t i) {
-        const vox::Ray ray = camera.rayThrough(static_cast<int>(i % std::size_t(camera.width)), static_cast<int>(i / std::size_t(camera.width)));
+        const vox::Ray ray = camera.rayThrough(static_cast<int>(i % std::size_t(camera.width)),
+                                               static_cast<int>(i / std::size_t(camera.width)));
         const vox::Vec3f n = mesh.normal[i];
         return std::abs(n.x * ray.direction.x + n.y * ray.direction.y + n.z * ray.direction.z);
     };
@@ -156,20 +168,26 @@ Comparison compareView(const vox::TriangleRayCaster& triangles, const vox::EsvoR
     const auto squaredError = [&](std::uint32_t color, std::size_t i) {
         double sq = 0;
         for (unsigned ch = 0; ch < 3; ++ch) {
-            const double d = double(vox::esvo::colorChannel(color, ch)) - double(vox::esvo::colorChannel(mesh.color[i], ch));
+            const double d = double(vox::esvo::colorChannel(color, ch)) -
+                             double(vox::esvo::colorChannel(mesh.color[i], ch));
             sq += d * d;
         }
         return sq;
     };
     const auto compares = [&](const vox::RenderBuffers& image, std::size_t i) {
-        return std::isfinite(mesh.depth[i]) && std::isfinite(image.depth[i]) && vox::hasAttributes(image, i);
+        return std::isfinite(mesh.depth[i]) && std::isfinite(image.depth[i]) &&
+               vox::hasAttributes(image, i);
     };
-    const auto angle = [](vox::Vec3f a, vox::Vec3f b) { return std::acos(std::clamp(double(dot(a, b)), -1.0, 1.0)) * kDegrees; };
+    const auto angle = [](vox::Vec3f a, vox::Vec3f b) {
+        return std::acos(std::clamp(double(dot(a, b)), -1.0, 1.0)) * kDegrees;
+    };
     // The post-process filter (voxinspect render --filter), on the colours and on the normals
     // (renormalised): what a viewer of the filtered image sees.
     const std::vector<float> radius = vox::filterRadii(shaded, octree, camera);
-    const std::vector<vox::Vec3f> filteredColor = vox::postProcessFilter(vox::albedoImage(shaded), radius, camera.width, camera.height);
-    const std::vector<vox::Vec3f> filteredNormal = vox::postProcessFilter(shaded.shadingNormal, radius, camera.width, camera.height);
+    const std::vector<vox::Vec3f> filteredColor =
+        vox::postProcessFilter(vox::albedoImage(shaded), radius, camera.width, camera.height);
+    const std::vector<vox::Vec3f> filteredNormal =
+        vox::postProcessFilter(shaded.shadingNormal, radius, camera.width, camera.height);
     for (std::size_t i = 0; i < mesh.depth.size(); ++i) {
         if (!compares(shaded, i)) continue;
         const double a = angle(shaded.shadingNormal[i], mesh.shadingNormal[i]);
@@ -179,7 +197,8 @@ Comparison compareView(const vox::TriangleRayCaster& triangles, const vox::EsvoR
         ++c.compared;
         // The same surface: the hit points lie within a leaf diagonal of each other along the
         // normal (not a voxel that also holds a neighbouring surface).
-        if (std::abs(double(shaded.depth[i]) - double(mesh.depth[i])) * normalCosine(i) <= diagonal) {
+        if (std::abs(double(shaded.depth[i]) - double(mesh.depth[i])) * normalCosine(i) <=
+            diagonal) {
             c.sameSurfaceAngles.push_back(a);
             c.sameSurfaceSquared += sq;
             ++c.sameSurface;
@@ -188,7 +207,8 @@ Comparison compareView(const vox::TriangleRayCaster& triangles, const vox::EsvoR
         const float fl = std::sqrt(dot(fn, fn));
         c.filteredAngles.push_back(fl > 0 ? angle(fn * (1.0f / fl), mesh.shadingNormal[i]) : a);
         const auto byte = [&](int ch) {
-            return static_cast<std::uint32_t>(std::lround(255.0 * vox::linearToSrgb(std::clamp(filteredColor[i][ch], 0.0f, 1.0f))));
+            return static_cast<std::uint32_t>(std::lround(
+                255.0 * vox::linearToSrgb(std::clamp(filteredColor[i][ch], 0.0f, 1.0f))));
         };
         c.filteredSquared += squaredError(vox::esvo::packColor(byte(0), byte(1), byte(2)), i);
     }
@@ -211,18 +231,26 @@ nlohmann::json summary(std::vector<double> v) {
     std::sort(v.begin(), v.end());
     double sum = 0;
     for (double x : v) sum += x;
-    const auto at = [&](std::size_t percent) { return v.empty() ? 0.0 : v[v.size() * percent / 100]; };
-    return {{"mean", v.empty() ? 0.0 : sum / double(v.size())}, {"p50", at(50)}, {"p95", at(95)}, {"p99", at(99)}};
+    const auto at = [&](std::size_t percent) {
+        return v.empty() ? 0.0 : v[v.size() * percent / 100];
+    };
+    return {{"mean", v.empty() ? 0.0 : sum / double(v.size())},
+            {"p50", at(50)},
+            {"p95", at(95)},
+            {"p99", at(99)}};
 }
 
 double psnr(double squared, std::uint64_t n) {
-    return n == 0 || squared == 0 ? 99.0 : 10.0 * std::log10(255.0 * 255.0 / (squared / (3.0 * double(n))));
+    return n == 0 || squared == 0
+               ? 99.0
+               : 10.0 * std::log10(255.0 * 255.0 / (squared / (3.0 * double(n))));
 }
 
 /// Embree's figures, or null where it did not cast.
 nlohmann::json embreeReport(const Comparison& c, bool withBvh) {
     if (!c.embree) return nullptr;
-    nlohmann::json out{{"mrays_per_second", c.rays / c.embreeSeconds / 1e6}, {"hit_fraction", double(c.embreeHits) / c.rays}};
+    nlohmann::json out{{"mrays_per_second", c.rays / c.embreeSeconds / 1e6},
+                       {"hit_fraction", double(c.embreeHits) / c.rays}};
     if (withBvh) out["hit_miss_agreement_with_bvh"] = double(c.embreeAgree) / c.rays;
     return out;
 }
@@ -239,7 +267,8 @@ nlohmann::json report(const Comparison& c) {
                        {"hit_miss_agreement", c.agree / c.rays},
                        {"both_hit_pixels", c.bothHit},
                        {"depth_within_leaf_diagonal", c.bothHit ? double(c.within) / bothHit : 0.0},
-                       {"surface_distance_within_leaf_diagonal", c.bothHit ? double(c.surfaceWithin) / bothHit : 0.0},
+                       {"surface_distance_within_leaf_diagonal",
+                        c.bothHit ? double(c.surfaceWithin) / bothHit : 0.0},
                        {"octree_not_behind_mesh", c.bothHit ? double(c.infront) / bothHit : 0.0},
                        {"depth_error_diagonals", depth},
                        {"embree", embreeReport(c, true)}};
@@ -269,8 +298,10 @@ nlohmann::json report(const Comparison& c) {
 int main(int argc, char** argv) {
     try {
         if (argc < 3)
-            throw vox::UsageError("usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z [--up x,y,z] | --view dx,dy,dz [--view ...]) "
-                                  "[--fov D] [--width W] [--height H] [--repeat N] [--threads N] [--embree-only]");
+            throw vox::UsageError(
+                "usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z [--up x,y,z] | --view "
+                "dx,dy,dz [--view ...]) "
+                "[--fov D] [--width W] [--height H] [--repeat N] [--threads N] [--embree-only]");
         vox::PinholeCamera camera;
         camera.width = 1024;
         camera.height = 768;
@@ -286,20 +317,33 @@ int main(int argc, char** argv) {
                 continue;
             }
             if (i + 1 >= argc) throw vox::UsageError(key + " needs a value");
-            if (key == "--eye") camera.eye = parse(argv[i + 1]);
-            else if (key == "--target") camera.target = parse(argv[i + 1]);
-            else if (key == "--up") camera.up = parse(argv[i + 1]);
-            else if (key == "--fov") camera.fovYDegrees = std::stod(argv[i + 1]);
-            else if (key == "--width") camera.width = std::stoi(argv[i + 1]);
-            else if (key == "--height") camera.height = std::stoi(argv[i + 1]);
-            else if (key == "--repeat") repeat = std::max(1, std::stoi(argv[i + 1]));
-            else if (key == "--view") views.push_back(parse(argv[i + 1]));
-            else if (key == "--threads") threadCount = std::max(0, std::stoi(argv[i + 1]));
-            else if (key == "--distance") distanceScale = std::stod(argv[i + 1]);
-            else throw vox::UsageError("unknown option " + key);
+            if (key == "--eye")
+                camera.eye = parse(argv[i + 1]);
+            else if (key == "--target")
+                camera.target = parse(argv[i + 1]);
+            else if (key == "--up")
+                camera.up = parse(argv[i + 1]);
+            else if (key == "--fov")
+                camera.fovYDegrees = std::stod(argv[i + 1]);
+            else if (key == "--width")
+                camera.width = std::stoi(argv[i + 1]);
+            else if (key == "--height")
+                camera.height = std::stoi(argv[i + 1]);
+            else if (key == "--repeat")
+                repeat = std::max(1, std::stoi(argv[i + 1]));
+            else if (key == "--view")
+                views.push_back(parse(argv[i + 1]));
+            else if (key == "--threads")
+                threadCount = std::max(0, std::stoi(argv[i + 1]));
+            else if (key == "--distance")
+                distanceScale = std::stod(argv[i + 1]);
+            else
+                throw vox::UsageError("unknown option " + key);
         }
 #ifndef LIBVOX_HAVE_EMBREE
-        if (embreeOnly) throw vox::UsageError("--embree-only: built without Embree (install libembree-dev and reconfigure)");
+        if (embreeOnly)
+            throw vox::UsageError(
+                "--embree-only: built without Embree (install libembree-dev and reconfigure)");
 #endif
         const vox::ThreadLimit threads(threadCount);
         vox::log::setVerbosity(vox::log::Verbosity::Quiet);  // the benchmark's output is its JSON
@@ -307,13 +351,17 @@ int main(int argc, char** argv) {
         std::vector<vox::PinholeCamera> cameras;
         if (views.empty()) cameras.push_back(camera);
         const vox::Bounds3f b = scene.bounds();
-        const vox::Vec3d centre{(b.min.x + b.max.x) / 2.0, (b.min.y + b.max.y) / 2.0, (b.min.z + b.max.z) / 2.0};
+        const vox::Vec3d centre{(b.min.x + b.max.x) / 2.0, (b.min.y + b.max.y) / 2.0,
+                                (b.min.z + b.max.z) / 2.0};
         const vox::Vec3f e = b.extent();
-        const double radius = 0.5 * std::sqrt(double(e.x) * e.x + double(e.y) * e.y + double(e.z) * e.z);
+        const double radius =
+            0.5 * std::sqrt(double(e.x) * e.x + double(e.y) * e.y + double(e.z) * e.z);
         for (const vox::Vec3d& view : views) {
             vox::PinholeCamera framed = camera;
             framed.target = centre;
-            framed.eye = centre + vox::normalize(view) * (distanceScale * radius / std::sin(0.5 * camera.fovYDegrees / kDegrees));
+            framed.eye =
+                centre + vox::normalize(view) * (distanceScale * radius /
+                                                 std::sin(0.5 * camera.fovYDegrees / kDegrees));
             // A view straight along the up vector takes another up.
             if (std::abs(vox::normalize(view).y) > 0.99) framed.up = {0, 0, 1};
             cameras.push_back(framed);
@@ -345,9 +393,13 @@ int main(int argc, char** argv) {
                 perView.push_back(std::move(r));
                 all.add(one);
             }
-            const nlohmann::json out{{"mesh", argv[1]},  {"width", camera.width}, {"height", camera.height},
-                                     {"fov", camera.fovYDegrees}, {"threads", vox::ThreadLimit::active()},
-                                     {"embree", embreeReport(all, false)},    {"embree_build", embreeBuild},
+            const nlohmann::json out{{"mesh", argv[1]},
+                                     {"width", camera.width},
+                                     {"height", camera.height},
+                                     {"fov", camera.fovYDegrees},
+                                     {"threads", vox::ThreadLimit::active()},
+                                     {"embree", embreeReport(all, false)},
+                                     {"embree_build", embreeBuild},
                                      {"views", perView}};
             std::cout << out.dump(2) << "\n";
             return 0;
@@ -362,7 +414,8 @@ int main(int argc, char** argv) {
         Comparison all;
         nlohmann::json perView = nlohmann::json::array();
         for (const auto& c : cameras) {
-            const Comparison one = compareView(triangles, octree, reader.header().hasAttributes(), c, repeat, embree.get());
+            const Comparison one = compareView(triangles, octree, reader.header().hasAttributes(),
+                                               c, repeat, embree.get());
             nlohmann::json r = report(one);
             cameraJson(c, r);
             perView.push_back(std::move(r));

@@ -38,12 +38,18 @@ int main(int argc, char** argv) {
             if (i + 1 >= argc) throw std::runtime_error(a + " needs a value");
             return argv[++i];
         };
-        if (a == "--mb") totalMb = std::stoul(next());
-        else if (a == "--ring-mb") ringMb = std::stoul(next());
-        else if (a == "--repeat") repeat = std::stoi(next());
-        else if (a == "--json") json = next();
+        if (a == "--mb")
+            totalMb = std::stoul(next());
+        else if (a == "--ring-mb")
+            ringMb = std::stoul(next());
+        else if (a == "--repeat")
+            repeat = std::stoi(next());
+        else if (a == "--json")
+            json = next();
         else {
-            std::fprintf(stderr, "usage: upload_bench [--mb TOTAL] [--ring-mb R] [--repeat N] [--json FILE]\n");
+            std::fprintf(
+                stderr,
+                "usage: upload_bench [--mb TOTAL] [--ring-mb R] [--repeat N] [--json FILE]\n");
             return 1;
         }
     }
@@ -69,32 +75,39 @@ int main(int argc, char** argv) {
         return double(total) / 1e6 / median(seconds);
     };
     const double memcpyMbs = timeIt([&] { std::memcpy(host.data(), source.data(), total); });
-    std::printf("upload bench: %s (%s), %zu MB per run, ring %zu MB, median of %d\n", context.renderer().c_str(),
-                context.version().c_str(), totalMb, ringMb, repeat);
+    std::printf("upload bench: %s (%s), %zu MB per run, ring %zu MB, median of %d\n",
+                context.renderer().c_str(), context.version().c_str(), totalMb, ringMb, repeat);
     std::printf("memcpy host to host: %.0f MB/s\n", memcpyMbs);
-    std::printf("%10s %14s %14s %10s %10s\n", "part KB", "ring MB/s", "subdata MB/s", "ring/memcpy", "subdata/memcpy");
+    std::printf("%10s %14s %14s %10s %10s\n", "part KB", "ring MB/s", "subdata MB/s", "ring/memcpy",
+                "subdata/memcpy");
     nlohmann::json rows = nlohmann::json::array();
     for (std::size_t part : {std::size_t{8} << 10, std::size_t{64} << 10, std::size_t{1} << 20}) {
         const auto run = [&](vox::runtime::UploadRing& ring) {
             for (std::size_t done = 0; done < total; done += part) {
                 const std::size_t n = std::min(part, total - done);
-                ring.upload(buffer, done % (target - n + 1) / 4 * 4, std::span(source.data() + done, n));
+                ring.upload(buffer, done % (target - n + 1) / 4 * 4,
+                            std::span(source.data() + done, n));
             }
         };
-        vox::runtime::UploadRing persistent(context, ringMb << 20, vox::runtime::UploadPath::PersistentRing);
+        vox::runtime::UploadRing persistent(context, ringMb << 20,
+                                            vox::runtime::UploadPath::PersistentRing);
         vox::runtime::UploadRing subdata(context, 0, vox::runtime::UploadPath::BufferSubData);
         const double ringMbs = timeIt([&] { run(persistent); });
         const double subMbs = timeIt([&] { run(subdata); });
-        std::printf("%10zu %14.0f %14.0f %10.2f %10.2f\n", part >> 10, ringMbs, subMbs, ringMbs / memcpyMbs, subMbs / memcpyMbs);
-        rows.push_back({{"part_bytes", part}, {"ring_mb_per_s", ringMbs}, {"subdata_mb_per_s", subMbs},
+        std::printf("%10zu %14.0f %14.0f %10.2f %10.2f\n", part >> 10, ringMbs, subMbs,
+                    ringMbs / memcpyMbs, subMbs / memcpyMbs);
+        rows.push_back({{"part_bytes", part},
+                        {"ring_mb_per_s", ringMbs},
+                        {"subdata_mb_per_s", subMbs},
                         {"ring_fence_waits", persistent.fenceWaits()}});
     }
     context.throwOnErrors("upload bench");
     glDeleteBuffers(1, &buffer);
     if (!json.empty()) {
         std::ofstream out(json);
-        out << nlohmann::json{{"renderer", context.renderer()}, {"gl_version", context.version()}, {"total_bytes", total},
-                              {"ring_bytes", ringMb << 20}, {"memcpy_mb_per_s", memcpyMbs}, {"rows", rows}}
+        out << nlohmann::json{{"renderer", context.renderer()}, {"gl_version", context.version()},
+                              {"total_bytes", total},           {"ring_bytes", ringMb << 20},
+                              {"memcpy_mb_per_s", memcpyMbs},   {"rows", rows}}
                    .dump(2)
             << "\n";
     }

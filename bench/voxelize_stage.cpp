@@ -41,7 +41,8 @@ int main(int argc, char** argv) {
     try {
         if (argc < 2) {
             std::fprintf(stderr,
-                         "usage: voxelize_stage SCENE [--depth N] [--contour-error E] [--color-error C] [--normal-error D] "
+                         "usage: voxelize_stage SCENE [--depth N] [--contour-error E] "
+                         "[--color-error C] [--normal-error D] "
                          "[--no-contours] [--no-attributes] [--repeat R] [--threads T]\n");
             return 2;
         }
@@ -55,15 +56,24 @@ int main(int argc, char** argv) {
                 if (i + 1 >= argc) throw std::runtime_error(arg + " needs a value");
                 return std::strtod(argv[++i], nullptr);
             };
-            if (arg == "--depth") options.depth = static_cast<std::uint32_t>(value());
-            else if (arg == "--contour-error") options.contourError = value();
-            else if (arg == "--color-error") options.colorError = value();
-            else if (arg == "--normal-error") options.normalErrorDegrees = value();
-            else if (arg == "--no-contours") options.contours = false;
-            else if (arg == "--no-attributes") options.attributes = false;
-            else if (arg == "--repeat") repeat = static_cast<int>(value());
-            else if (arg == "--threads") threads = static_cast<int>(value());
-            else throw std::runtime_error("unknown option " + arg);
+            if (arg == "--depth")
+                options.depth = static_cast<std::uint32_t>(value());
+            else if (arg == "--contour-error")
+                options.contourError = value();
+            else if (arg == "--color-error")
+                options.colorError = value();
+            else if (arg == "--normal-error")
+                options.normalErrorDegrees = value();
+            else if (arg == "--no-contours")
+                options.contours = false;
+            else if (arg == "--no-attributes")
+                options.attributes = false;
+            else if (arg == "--repeat")
+                repeat = static_cast<int>(value());
+            else if (arg == "--threads")
+                threads = static_cast<int>(value());
+            else
+                throw std::runtime_error("unknown option " + arg);
         }
         const vox::ThreadLimit limit(threads);
         const vox::Scene scene = vox::importScene(argv[1], vox::ImportOptions{});
@@ -72,15 +82,19 @@ int main(int argc, char** argv) {
             options.timings = &timings;
             const auto start = std::chrono::steady_clock::now();
             const vox::SparseOctree octree = vox::voxelizeSurface(scene, options);
-            const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+            const double ms =
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                    .count();
             Digest digest;
             digest.vec(octree.voxelsPerLevel);
             for (const auto& level : octree.masks) digest.vec(level);
             for (const auto& level : octree.contours) digest.vec(level);
             for (const auto& level : octree.attributes) digest.vec(level);
-            std::printf("depth %u: %llu voxels, digest %016llx, voxelizeSurface %.1f ms", octree.leafDepth,
-                        static_cast<unsigned long long>(octree.voxelCount()), static_cast<unsigned long long>(digest.h), ms);
-            for (const auto& [name, value] : timings.entries()) std::printf(", %s %.1f ms", name.c_str(), value);
+            std::printf("depth %u: %llu voxels, digest %016llx, voxelizeSurface %.1f ms",
+                        octree.leafDepth, static_cast<unsigned long long>(octree.voxelCount()),
+                        static_cast<unsigned long long>(digest.h), ms);
+            for (const auto& [name, value] : timings.entries())
+                std::printf(", %s %.1f ms", name.c_str(), value);
             std::printf("\n");
         }
         return 0;

@@ -23,28 +23,28 @@ void readAndValidate(const std::filesystem::path& file) {
     }
     try {
         (void)vox::esvo::validateFile(*reader);
-    } catch (const vox::Error&) {
-    }
+    } catch (const vox::Error&) {}
     // The runtime never runs validateFile: it loads slices as it needs them, each validated on
     // its own (EsvoPool::load), so a file that fails validation must still only fail there.
     try {
         vox::esvo::EsvoPool pool(*reader);
         pool.loadAll();
         std::uint64_t voxels = 0;
-        pool.forEachVoxel([&](const vox::esvo::VoxelPosition&, const vox::esvo::AttributeValue*) { ++voxels; });
+        pool.forEachVoxel(
+            [&](const vox::esvo::VoxelPosition&, const vox::esvo::AttributeValue*) { ++voxels; });
         // Streaming evicts subtrees and loads them again into the freed pages.
         if (reader->sliceCount() > 1) {
             pool.unload(1);
             pool.loadAll();
         }
-    } catch (const vox::Error&) {
-    }
+    } catch (const vox::Error&) {}
 }
 
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     static vox::fuzz::InputFile input(".esvo");
-    vox::fuzz::asIsAndWithChecksumsRepaired(input, data, size, vox::fuzz::repairEsvoChecksums, readAndValidate);
+    vox::fuzz::asIsAndWithChecksumsRepaired(input, data, size, vox::fuzz::repairEsvoChecksums,
+                                            readAndValidate);
     return 0;
 }

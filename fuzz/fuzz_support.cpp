@@ -28,7 +28,8 @@ const std::filesystem::path& privateDirectory() {
         if (::access("/dev/shm", W_OK) == 0) base = "/dev/shm";  // no disk writes per input
         std::string pattern = base + "/libvox-fuzz-XXXXXX";
         if (::mkdtemp(pattern.data()) == nullptr)
-            throw std::system_error(errno, std::generic_category(), "cannot create a directory in " + base);
+            throw std::system_error(errno, std::generic_category(),
+                                    "cannot create a directory in " + base);
         std::atexit([] {
             std::error_code ignored;
             std::filesystem::remove_all(privateDirectory(), ignored);
@@ -47,8 +48,11 @@ T load(const std::vector<std::uint8_t>& bytes, std::uint64_t offset) {
 
 /// Stores the CRC-32C of [@p begin, @p begin + @p size) at @p at, if both lie inside @p bytes.
 /// Returns whether the stored value changed.
-bool storeChecksum(std::vector<std::uint8_t>& bytes, std::uint64_t at, std::uint64_t begin, std::uint64_t size) {
-    if (at > bytes.size() || bytes.size() - at < 4 || begin > bytes.size() || size > bytes.size() - begin) return false;
+bool storeChecksum(std::vector<std::uint8_t>& bytes, std::uint64_t at, std::uint64_t begin,
+                   std::uint64_t size) {
+    if (at > bytes.size() || bytes.size() - at < 4 || begin > bytes.size() ||
+        size > bytes.size() - begin)
+        return false;
     const std::uint32_t crc = crc32c(bytes.data() + begin, static_cast<std::size_t>(size));
     if (load<std::uint32_t>(bytes, at) == crc) return false;
     std::memcpy(bytes.data() + at, &crc, sizeof crc);
@@ -57,17 +61,20 @@ bool storeChecksum(std::vector<std::uint8_t>& bytes, std::uint64_t at, std::uint
 
 }  // namespace
 
-InputFile::InputFile(const std::string& extension) : path_(privateDirectory() / ("input" + extension)) {}
+InputFile::InputFile(const std::string& extension)
+    : path_(privateDirectory() / ("input" + extension)) {}
 
 const std::filesystem::path& InputFile::write(const std::uint8_t* data, std::size_t size) {
     const int fd = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
-    if (fd < 0) throw std::system_error(errno, std::generic_category(), "cannot write " + path_.string());
+    if (fd < 0)
+        throw std::system_error(errno, std::generic_category(), "cannot write " + path_.string());
     while (size > 0) {
         const ssize_t n = ::write(fd, data, size);
         if (n < 0 && errno == EINTR) continue;
         if (n <= 0) {
             ::close(fd);
-            throw std::system_error(errno, std::generic_category(), "cannot write " + path_.string());
+            throw std::system_error(errno, std::generic_category(),
+                                    "cannot write " + path_.string());
         }
         data += n;
         size -= static_cast<std::size_t>(n);
@@ -75,7 +82,6 @@ const std::filesystem::path& InputFile::write(const std::uint8_t* data, std::siz
     ::close(fd);
     return path_;
 }
-
 
 bool repairEsvoChecksums(std::vector<std::uint8_t>& bytes) {
     using namespace vox::esvo;
@@ -86,12 +92,14 @@ bool repairEsvoChecksums(std::vector<std::uint8_t>& bytes) {
     const std::uint64_t directoryOffset = load<std::uint64_t>(bytes, 216);
     const std::uint64_t directoryBytes = load<std::uint64_t>(bytes, 224);
     // The directory: voxel counts per level (8 bytes each, levels 0 … leafDepth), then the entries.
-    if (leafDepth <= kMaxLeafDepth && directoryOffset <= bytes.size() && directoryBytes <= bytes.size() - directoryOffset) {
+    if (leafDepth <= kMaxLeafDepth && directoryOffset <= bytes.size() &&
+        directoryBytes <= bytes.size() - directoryOffset) {
         const std::uint64_t entries = directoryOffset + 8ull * (leafDepth + 1);
         for (std::uint64_t i = 0; i < sliceCount; ++i) {
             const std::uint64_t entry = entries + i * kDirectoryEntryBytes;
             if (entry + kDirectoryEntryBytes > directoryOffset + directoryBytes) break;
-            changed |= storeChecksum(bytes, entry + 12, load<std::uint64_t>(bytes, entry), load<std::uint32_t>(bytes, entry + 8));
+            changed |= storeChecksum(bytes, entry + 12, load<std::uint64_t>(bytes, entry),
+                                     load<std::uint32_t>(bytes, entry + 8));
         }
         changed |= storeChecksum(bytes, 232, directoryOffset, directoryBytes);
     }
@@ -105,25 +113,36 @@ bool repairRvolChecksums(std::vector<std::uint8_t>& bytes) {
     if (bytes.size() < kHeaderBytes) return false;
     bool changed = false;
     const auto field64 = [&](std::size_t at) { return load<std::uint64_t>(bytes, at); };
-    const std::uint64_t levelTable = field64(o::kLevelTableOffset), levelTableBytes = field64(o::kLevelTableBytes);
-    const std::uint64_t directory = field64(o::kDirectoryOffset), directoryBytes = field64(o::kDirectoryBytes);
-    const bool directoryInside = directory <= bytes.size() && directoryBytes <= bytes.size() - directory;
+    const std::uint64_t levelTable = field64(o::kLevelTableOffset),
+                        levelTableBytes = field64(o::kLevelTableBytes);
+    const std::uint64_t directory = field64(o::kDirectoryOffset),
+                        directoryBytes = field64(o::kDirectoryBytes);
+    const bool directoryInside =
+        directory <= bytes.size() && directoryBytes <= bytes.size() - directory;
     // Bricks first (their checksums are in the directory), level by level as the table places them.
-    if (levelTable <= bytes.size() && levelTableBytes <= bytes.size() - levelTable && directoryInside) {
-        for (std::uint64_t e = levelTable; e + kLevelEntryBytes <= levelTable + levelTableBytes; e += kLevelEntryBytes) {
-            const std::uint64_t brickSize = load<std::uint32_t>(bytes, e + 12), count = load<std::uint32_t>(bytes, e + 16),
-                                first = load<std::uint32_t>(bytes, e + 20), dataOffset = load<std::uint64_t>(bytes, e + 24);
+    if (levelTable <= bytes.size() && levelTableBytes <= bytes.size() - levelTable &&
+        directoryInside) {
+        for (std::uint64_t e = levelTable; e + kLevelEntryBytes <= levelTable + levelTableBytes;
+             e += kLevelEntryBytes) {
+            const std::uint64_t brickSize = load<std::uint32_t>(bytes, e + 12),
+                                count = load<std::uint32_t>(bytes, e + 16),
+                                first = load<std::uint32_t>(bytes, e + 20),
+                                dataOffset = load<std::uint64_t>(bytes, e + 24);
             for (std::uint64_t i = 0; i < count; ++i) {
                 const std::uint64_t entry = directory + (first + i) * kBrickEntryBytes;
-                if (first + i >= directoryBytes / kBrickEntryBytes || dataOffset + (i + 1) * brickSize > bytes.size()) break;
+                if (first + i >= directoryBytes / kBrickEntryBytes ||
+                    dataOffset + (i + 1) * brickSize > bytes.size())
+                    break;
                 changed |= storeChecksum(bytes, entry + 8, dataOffset + i * brickSize, brickSize);
             }
         }
     }
     changed |= storeChecksum(bytes, o::kDirectoryChecksum, directory, directoryBytes);
     changed |= storeChecksum(bytes, o::kLevelTableChecksum, levelTable, levelTableBytes);
-    changed |= storeChecksum(bytes, o::kStaticChecksum, field64(o::kStaticOffset), field64(o::kStaticBytes));
-    changed |= storeChecksum(bytes, o::kDynamicChecksum, field64(o::kDynamicOffset), field64(o::kDynamicBytes));
+    changed |= storeChecksum(bytes, o::kStaticChecksum, field64(o::kStaticOffset),
+                             field64(o::kStaticBytes));
+    changed |= storeChecksum(bytes, o::kDynamicChecksum, field64(o::kDynamicOffset),
+                             field64(o::kDynamicBytes));
     changed |= storeChecksum(bytes, o::kChecksum, 0, o::kChecksum);
     return changed;
 }

@@ -23,7 +23,9 @@ public:
 
     /// Replaces the file's contents with @p size bytes at @p data; returns its path.
     const std::filesystem::path& write(const std::uint8_t* data, std::size_t size);
-    const std::filesystem::path& write(const std::vector<std::uint8_t>& bytes) { return write(bytes.data(), bytes.size()); }
+    const std::filesystem::path& write(const std::vector<std::uint8_t>& bytes) {
+        return write(bytes.data(), bytes.size());
+    }
     [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
 
 private:
@@ -34,8 +36,8 @@ private:
 /// @p repairChecksums changes it, once more on the repaired copy: the checksums must catch the
 /// damage, and past them the structure must be checked.
 template <typename Repair, typename Body>
-void asIsAndWithChecksumsRepaired(InputFile& input, const std::uint8_t* data, std::size_t size, Repair repairChecksums,
-                                  Body readAndValidate) {
+void asIsAndWithChecksumsRepaired(InputFile& input, const std::uint8_t* data, std::size_t size,
+                                  Repair repairChecksums, Body readAndValidate) {
     readAndValidate(input.write(data, size));
     std::vector<std::uint8_t> repaired(data, data + size);
     if (repairChecksums(repaired)) readAndValidate(input.write(repaired));

@@ -26,15 +26,15 @@ inline void importAndVoxelize(const std::filesystem::path& file) {
         if (scene.triangleCount() == 0) __builtin_trap();
         for (const Mesh& mesh : scene.meshes)
             for (std::uint32_t index : mesh.indices)
-                if (index >= mesh.positions.size() || !isFinite(mesh.positions[index])) __builtin_trap();
+                if (index >= mesh.positions.size() || !isFinite(mesh.positions[index]))
+                    __builtin_trap();
         SurfaceVoxelizeOptions voxelize;
         voxelize.depth = 4;
         voxelize.includeDynamic = true;
         voxelize.contours = true;
         voxelize.attributes = true;
         (void)voxelizeSurface(scene, voxelize);
-    } catch (const vox::Error&) {
-    }
+    } catch (const vox::Error&) {}
 }
 
 }  // namespace vox::fuzz

@@ -68,12 +68,15 @@ void writeGltfSeeds(const fs::path& dir) {
         GltfBuilder::LightDesc spot{"spot", "spot", {1, 1, 1}, 50, 0, 0.2f, 0.6f};
         GltfBuilder::LightDesc sun{"sun", "directional", {1, 1, 0.9f}, 3};
         const int bulb = gltf.addNode({"bulb", -1, gltf.addLight(point), {0, 3, 0}});
-        const int lamp = gltf.addNode({"lamp", -1, gltf.addLight(spot), {2, 3, 0}, {0.7071068, 0, 0, 0.7071068}});
+        const int lamp = gltf.addNode(
+            {"lamp", -1, gltf.addLight(spot), {2, 3, 0}, {0.7071068, 0, 0, 0.7071068}});
         const int sky = gltf.addNode({"sky", -1, gltf.addLight(sun)});
-        GltfBuilder::NodeDesc child{"child", mesh, -1, {1, 0, 0}, {0, 0, 0.3826834, 0.9238795}, {2, 1, 1}};
+        GltfBuilder::NodeDesc child{"child",  mesh, -1, {1, 0, 0}, {0, 0, 0.3826834, 0.9238795},
+                                    {2, 1, 1}};
         child.dynamic = true;
         const int moving = gltf.addNode(child);
-        const int parent = gltf.addNode({"parent", mesh, -1, {0, 0, -2}, {0, 0, 0, 1}, {1, 1, 1}, false, {moving, bulb, lamp}});
+        const int parent = gltf.addNode(
+            {"parent", mesh, -1, {0, 0, -2}, {0, 0, 0, 1}, {1, 1, 1}, false, {moving, bulb, lamp}});
         gltf.json()["nodes"][sky]["matrix"] = {1, 0, 0, 0, 0, 0, -1, 0, 0, 1, 0, 0, 5, 6, 7, 1};
         gltf.setSceneRoots({parent, sky});
         gltf.write(dir / "hierarchy.gltf", BufferStorage::DataUri);
@@ -85,15 +88,26 @@ void writeGltfSeeds(const fs::path& dir) {
         const int mesh = gltf.addMesh("tri", {p});
         const std::uint32_t index = 2;
         const float moved[3] = {0, 2, 0};
-        const int indexView = gltf.addBufferView({reinterpret_cast<const std::uint8_t*>(&index), sizeof index});
-        const int valueView = gltf.addBufferView({reinterpret_cast<const std::uint8_t*>(moved), sizeof moved});
-        auto& position = gltf.json()["accessors"][gltf.json()["meshes"][mesh]["primitives"][0]["attributes"]["POSITION"].get<int>()];
+        const int indexView =
+            gltf.addBufferView({reinterpret_cast<const std::uint8_t*>(&index), sizeof index});
+        const int valueView =
+            gltf.addBufferView({reinterpret_cast<const std::uint8_t*>(moved), sizeof moved});
+        auto& position =
+            gltf.json()["accessors"]
+                       [gltf.json()["meshes"][mesh]["primitives"][0]["attributes"]["POSITION"]
+                            .get<int>()];
         position["sparse"] = {{"count", 1},
                               {"indices", {{"bufferView", indexView}, {"componentType", 5125}}},
                               {"values", {{"bufferView", valueView}}}};
-        const std::int16_t shorts[12] = {0, 0, 0, 0, 32767, 0, 0, 0, 0, 32767, 0, 0};  // VEC3 padded to 8 bytes
-        const int view = gltf.addBufferView({reinterpret_cast<const std::uint8_t*>(shorts), sizeof shorts}, 8);
-        gltf.json()["accessors"].push_back({{"bufferView", view}, {"componentType", 5122}, {"normalized", true}, {"type", "VEC3"}, {"count", 3}});
+        const std::int16_t shorts[12] = {0, 0, 0, 0,     32767, 0,
+                                         0, 0, 0, 32767, 0,     0};  // VEC3 padded to 8 bytes
+        const int view =
+            gltf.addBufferView({reinterpret_cast<const std::uint8_t*>(shorts), sizeof shorts}, 8);
+        gltf.json()["accessors"].push_back({{"bufferView", view},
+                                            {"componentType", 5122},
+                                            {"normalized", true},
+                                            {"type", "VEC3"},
+                                            {"count", 3}});
         const int quantizedMesh = static_cast<int>(gltf.json()["meshes"].size());
         nlohmann::json primitive;
         primitive["attributes"]["POSITION"] = gltf.json()["accessors"].size() - 1;
@@ -103,7 +117,8 @@ void writeGltfSeeds(const fs::path& dir) {
         gltf.json()["meshes"].push_back(quantized);
         gltf.json()["extensionsUsed"].push_back("KHR_mesh_quantization");
         gltf.json()["extensionsRequired"] = {"KHR_mesh_quantization"};
-        gltf.setSceneRoots({gltf.addNode({"sparse", mesh}), gltf.addNode({"quantized", quantizedMesh})});
+        gltf.setSceneRoots(
+            {gltf.addNode({"sparse", mesh}), gltf.addNode({"quantized", quantizedMesh})});
         gltf.write(dir / "accessors.gltf", BufferStorage::DataUri);
     }
     {
@@ -111,8 +126,10 @@ void writeGltfSeeds(const fs::path& dir) {
         const auto box = vox::scenes::boxPrimitive({0, 0, 0}, {1, 2, 3}, -1);
         draco::TriangleSoupMeshBuilder builder;
         builder.Start(static_cast<int>(box.indices.size() / 3));
-        const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
-        const int nor = builder.AddAttribute(draco::GeometryAttribute::NORMAL, 3, draco::DT_FLOAT32);
+        const int pos =
+            builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+        const int nor =
+            builder.AddAttribute(draco::GeometryAttribute::NORMAL, 3, draco::DT_FLOAT32);
         for (std::size_t t = 0; t < box.indices.size() / 3; ++t) {
             const float* v[3];
             const float* n[3];
@@ -127,17 +144,24 @@ void writeGltfSeeds(const fs::path& dir) {
         const auto mesh = builder.Finalize();
         draco::Encoder encoder;
         draco::EncoderBuffer buffer;
-        if (!encoder.EncodeMeshToBuffer(*mesh, &buffer).ok()) throw std::runtime_error("Draco encoding failed");
+        if (!encoder.EncodeMeshToBuffer(*mesh, &buffer).ok())
+            throw std::runtime_error("Draco encoding failed");
         GltfBuilder gltf;
-        const int view = gltf.addBufferView({reinterpret_cast<const std::uint8_t*>(buffer.data()), buffer.size()});
+        const int view = gltf.addBufferView(
+            {reinterpret_cast<const std::uint8_t*>(buffer.data()), buffer.size()});
         const int count = static_cast<int>(box.indices.size());
-        gltf.json()["accessors"] = {{{"componentType", 5126}, {"count", count}, {"type", "VEC3"}},
-                                    {{"componentType", 5126}, {"count", count}, {"type", "VEC3"}},
-                                    {{"componentType", 5125}, {"count", count}, {"type", "SCALAR"}}};
+        gltf.json()["accessors"] = {
+            {{"componentType", 5126}, {"count", count}, {"type", "VEC3"}},
+            {{"componentType", 5126}, {"count", count}, {"type", "VEC3"}},
+            {{"componentType", 5125}, {"count", count}, {"type", "SCALAR"}}};
         const nlohmann::json draco = {{"bufferView", view},
-                                      {"attributes", {{"POSITION", mesh->attribute(pos)->unique_id()}, {"NORMAL", mesh->attribute(nor)->unique_id()}}}};
-        gltf.json()["meshes"] = {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}}, {"indices", 2},
-                                                   {"extensions", {{"KHR_draco_mesh_compression", draco}}}}}}}};
+                                      {"attributes",
+                                       {{"POSITION", mesh->attribute(pos)->unique_id()},
+                                        {"NORMAL", mesh->attribute(nor)->unique_id()}}}};
+        gltf.json()["meshes"] = {{{"primitives",
+                                   {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}},
+                                     {"indices", 2},
+                                     {"extensions", {{"KHR_draco_mesh_compression", draco}}}}}}}};
         gltf.json()["extensionsUsed"] = {"KHR_draco_mesh_compression"};
         gltf.json()["extensionsRequired"] = {"KHR_draco_mesh_compression"};
         gltf.setSceneRoots({gltf.addNode({"box", 0})});
@@ -168,12 +192,14 @@ void writeDrcSeeds(const fs::path& dir) {
         builder.SetAttributeValuesForFace(tex, face, t[v[0]], t[v[1]], t[v[2]]);
     }
     const auto quad = builder.Finalize();
-    for (const auto& [name, method] : {std::pair{"quad_edgebreaker.drc", draco::MESH_EDGEBREAKER_ENCODING},
-                                       std::pair{"quad_sequential.drc", draco::MESH_SEQUENTIAL_ENCODING}}) {
+    for (const auto& [name, method] :
+         {std::pair{"quad_edgebreaker.drc", draco::MESH_EDGEBREAKER_ENCODING},
+          std::pair{"quad_sequential.drc", draco::MESH_SEQUENTIAL_ENCODING}}) {
         draco::Encoder encoder;
         encoder.SetEncodingMethod(method);
         draco::EncoderBuffer buffer;
-        if (!encoder.EncodeMeshToBuffer(*quad, &buffer).ok()) throw std::runtime_error("Draco encoding failed");
+        if (!encoder.EncodeMeshToBuffer(*quad, &buffer).ok())
+            throw std::runtime_error("Draco encoding failed");
         writeBytes(dir / name, buffer);
     }
     {
@@ -182,18 +208,22 @@ void writeDrcSeeds(const fs::path& dir) {
         encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, 0);
         encoder.SetSpeedOptions(10, 10);
         draco::EncoderBuffer buffer;
-        if (!encoder.EncodeMeshToBuffer(*quad, &buffer).ok()) throw std::runtime_error("Draco encoding failed");
+        if (!encoder.EncodeMeshToBuffer(*quad, &buffer).ok())
+            throw std::runtime_error("Draco encoding failed");
         writeBytes(dir / "quad_lossless.drc", buffer);
     }
     {
         // A point cloud: no triangles, which import rejects.
         draco::PointCloudBuilder points;
         points.Start(3);
-        const int at = points.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
-        for (std::uint32_t i = 0; i < 3; ++i) points.SetAttributeValueForPoint(at, draco::PointIndex(i), p[i]);
+        const int at =
+            points.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+        for (std::uint32_t i = 0; i < 3; ++i)
+            points.SetAttributeValueForPoint(at, draco::PointIndex(i), p[i]);
         draco::Encoder encoder;
         draco::EncoderBuffer buffer;
-        if (!encoder.EncodePointCloudToBuffer(*points.Finalize(false), &buffer).ok()) throw std::runtime_error("Draco encoding failed");
+        if (!encoder.EncodePointCloudToBuffer(*points.Finalize(false), &buffer).ok())
+            throw std::runtime_error("Draco encoding failed");
         writeBytes(dir / "points.drc", buffer);
     }
 }

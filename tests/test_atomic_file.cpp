@@ -49,7 +49,8 @@ TEST(AtomicFile, WritesLargerThanItsBufferArriveWhole) {
     for (std::size_t i = 0; i < big.size(); ++i) big[i] = static_cast<char>(i * 7 + i / 256);
     {
         AtomicFile file(dir / "big.bin");
-        for (std::size_t at = 0; at < big.size(); at += 1000) file.write(big.data() + at, std::min<std::size_t>(1000, big.size() - at));
+        for (std::size_t at = 0; at < big.size(); at += 1000)
+            file.write(big.data() + at, std::min<std::size_t>(1000, big.size() - at));
         file.commit();
     }
     EXPECT_EQ(vox::test::readText(dir / "big.bin"), big);
@@ -69,7 +70,8 @@ TEST(AtomicFile, MissingDirectoryIsAnIoError) {
 TEST(AtomicFile, TemporaryNamesAreRecognisable) {
     ScratchDir dir;
     AtomicFile file(dir / "scene.esvo");
-    EXPECT_TRUE(AtomicFile::isTemporaryName(file.temporaryPath().filename().string())) << file.temporaryPath();
+    EXPECT_TRUE(AtomicFile::isTemporaryName(file.temporaryPath().filename().string()))
+        << file.temporaryPath();
     EXPECT_FALSE(AtomicFile::isTemporaryName("scene.esvo"));
     EXPECT_FALSE(AtomicFile::isTemporaryName(".tmp-"));
     EXPECT_FALSE(AtomicFile::isTemporaryName("scene.tmp-abcdef"));  // no leading dot
@@ -121,7 +123,8 @@ TEST(AtomicFile, TheNextWriterOfATargetRemovesTheTemporariesKilledWritersLeft) {
     {
         AtomicFile file(dir / "scene.esvo");
         // Only its own temporary is left.
-        EXPECT_EQ(temporariesIn(dir), std::vector<std::string>{file.temporaryPath().filename().string()});
+        EXPECT_EQ(temporariesIn(dir),
+                  std::vector<std::string>{file.temporaryPath().filename().string()});
         file.write("new");
         file.commit();
     }
@@ -179,8 +182,9 @@ TEST(AtomicFile, CleanUpLeavesOtherTargetsAndOtherNamesAlone) {
     // lock): abandoned, so removed.
     vox::test::writeText(dir / ".scene.esvo.tmp-oldver", "abandoned");
     vox::writeFileAtomically(dir / "scene.esvo", "new");
-    std::vector<std::string> expected = {".scene.esvo.tmp-abc", ".scene.esvo.tmp-dirdir", "scene.esvo", "scene.esvo.tmp-abcdef",
-                                         otherTarget, prefixOfAnother};
+    std::vector<std::string> expected = {".scene.esvo.tmp-abc", ".scene.esvo.tmp-dirdir",
+                                         "scene.esvo",          "scene.esvo.tmp-abcdef",
+                                         otherTarget,           prefixOfAnother};
     std::sort(expected.begin(), expected.end());
     EXPECT_EQ(dir.files(), expected);
 }

@@ -29,13 +29,13 @@ namespace {
 
 namespace esvo = vox::esvo;
 using esvo::Vec3;
-using vox::detail::AttributeEffort;
 using vox::corpus::angle;
 using vox::corpus::ColorBlock;
 using vox::corpus::normalised;
 using vox::corpus::randomCone;
 using vox::corpus::randomDirection;
 using vox::corpus::randomMask;
+using vox::detail::AttributeEffort;
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
@@ -44,7 +44,8 @@ struct NormalErrors {
 };
 
 /// Angular errors of the used slots of an encoded normal block, as decodeBlockNormal decodes them.
-NormalErrors normalErrors(const std::array<Vec3, 16>& normals, std::uint32_t mask, const std::array<std::uint32_t, 4>& words) {
+NormalErrors normalErrors(const std::array<Vec3, 16>& normals, std::uint32_t mask,
+                          const std::array<std::uint32_t, 4>& words) {
     const esvo::CompressedBlock block{0, 0, words[0], words[1], words[2], words[3]};
     NormalErrors e;
     unsigned count = 0;
@@ -66,9 +67,11 @@ std::array<Vec3, 16> spherePatch(std::mt19937& rng, double radius, unsigned long
     std::array<Vec3, 16> normals{};
     for (unsigned s = 0; s < 16; ++s) {
         const unsigned child = s & 7, descriptor = s >> 3;
-        std::array<double, 3> offset{(child & 1) - 0.5, ((child >> 1) & 1) - 0.5, ((child >> 2) & 1) - 0.5};
+        std::array<double, 3> offset{(child & 1) - 0.5, ((child >> 1) & 1) - 0.5,
+                                     ((child >> 2) & 1) - 0.5};
         offset[longAxis] = offset[longAxis] + 2.0 * descriptor - 1.0;
-        normals[s] = normalised(radius * d[0] + offset[0], radius * d[1] + offset[1], radius * d[2] + offset[2]);
+        normals[s] = normalised(radius * d[0] + offset[0], radius * d[1] + offset[1],
+                                radius * d[2] + offset[2]);
     }
     return normals;
 }
@@ -91,7 +94,9 @@ std::vector<ColorBlock> syntheticBlocks(std::mt19937& rng, std::size_t count) {
             const double t = kind == 0 ? (s % 4 + s / 4) / 6.0 : unit(rng);
             std::array<std::uint32_t, 3> c{};
             for (unsigned ch = 0; ch < 3; ++ch) {
-                double v = kind == 2 ? byte(rng) : a[ch] + t * (z[ch] - a[ch]) + (noise > 0 ? jitter(rng) : 0.0);
+                double v = kind == 2
+                               ? byte(rng)
+                               : a[ch] + t * (z[ch] - a[ch]) + (noise > 0 ? jitter(rng) : 0.0);
                 c[ch] = static_cast<std::uint32_t>(std::clamp(std::lround(v), 0l, 255l));
             }
             b.colors[s] = esvo::packColor(c[0], c[1], c[2]);
@@ -105,12 +110,16 @@ std::vector<ColorBlock> syntheticBlocks(std::mt19937& rng, std::size_t count) {
 class ByEffort : public ::testing::TestWithParam<AttributeEffort> {};
 
 std::string effortName(const ::testing::TestParamInfo<AttributeEffort>& info) {
-    return info.param == AttributeEffort::Fast ? "Fast" : info.param == AttributeEffort::Best ? "Best" : "Default";
+    return info.param == AttributeEffort::Fast   ? "Fast"
+           : info.param == AttributeEffort::Best ? "Best"
+                                                 : "Default";
 }
 
 }  // namespace
 
-INSTANTIATE_TEST_SUITE_P(AttributeEncode, ByEffort, ::testing::Values(AttributeEffort::Fast, AttributeEffort::Default, AttributeEffort::Best),
+INSTANTIATE_TEST_SUITE_P(AttributeEncode, ByEffort,
+                         ::testing::Values(AttributeEffort::Fast, AttributeEffort::Default,
+                                           AttributeEffort::Best),
                          effortName);
 
 TEST(AttributeEncode, CubeFaceNormalRoundTripsWithinItsPrecision) {
@@ -132,11 +141,14 @@ TEST(AttributeEncode, CubeFaceNormalRoundTripsWithinItsPrecision) {
         const std::uint32_t code = esvo::encodeNormal(n);
         worst = std::max(worst, angle(n, esvo::decodeNormal(code)));
         const Vec3 unit = esvo::decodeUnitNormal(code);
-        EXPECT_NEAR(std::sqrt(unit[0] * unit[0] + unit[1] * unit[1] + unit[2] * unit[2]), 1.0, 1e-6);
+        EXPECT_NEAR(std::sqrt(unit[0] * unit[0] + unit[1] * unit[1] + unit[2] * unit[2]), 1.0,
+                    1e-6);
     }
-    EXPECT_LT(worst, std::ldexp(1.0, -13));  // the bound esvo_attributes.h states (tighter than 2^-12)
+    EXPECT_LT(worst,
+              std::ldexp(1.0, -13));  // the bound esvo_attributes.h states (tighter than 2^-12)
     // The axes themselves are exact.
-    for (unsigned i = 0; i < 6; ++i) EXPECT_EQ(esvo::decodeNormal(esvo::encodeNormal(directions[i])), directions[i]);
+    for (unsigned i = 0; i < 6; ++i)
+        EXPECT_EQ(esvo::decodeNormal(esvo::encodeNormal(directions[i])), directions[i]);
 }
 
 TEST(AttributeEncode, AxisCodeRoundTrips) {
@@ -155,18 +167,22 @@ TEST(AttributeEncode, AxisCodeRoundTrips) {
         const std::uint32_t bits = esvo::encodeAxis(a);
         const float step = std::ldexp(1.0f, static_cast<int>(bits >> 12) - 13);
         const Vec3 d = esvo::decodeAxis(bits);
-        for (unsigned c = 0; c < 3; ++c) ASSERT_LE(std::fabs(d[c] - a[c]), 0.5f * step * 1.0001f) << i;
+        for (unsigned c = 0; c < 3; ++c)
+            ASSERT_LE(std::fabs(d[c] - a[c]), 0.5f * step * 1.0001f) << i;
         // and the exponent is the smallest whose range (−8 … 7 steps) holds every component.
         if ((bits >> 12) > 0) {
             const float finer = 0.5f * step;
-            EXPECT_TRUE(std::max({a[0], a[1], a[2]}) > 7.5f * finer || std::min({a[0], a[1], a[2]}) < -8.5f * finer) << i;
+            EXPECT_TRUE(std::max({a[0], a[1], a[2]}) > 7.5f * finer ||
+                        std::min({a[0], a[1], a[2]}) < -8.5f * finer)
+                << i;
         }
     }
 }
 
 TEST(AttributeEncode, EmptyMaskGivesZeroBlockWithValidBase) {
     std::array<std::uint64_t, 16> values{};
-    for (unsigned s = 0; s < 16; ++s) values[s] = 0x12345678u | (std::uint64_t{esvo::encodeNormal({1, 2, 3})} << 32);
+    for (unsigned s = 0; s < 16; ++s)
+        values[s] = 0x12345678u | (std::uint64_t{esvo::encodeNormal({1, 2, 3})} << 32);
     const esvo::CompressedBlock block = vox::detail::encodeCompressedBlock(values, 0);
     EXPECT_EQ(block[0], 0u);
     EXPECT_EQ(block[1], 0u);
@@ -190,8 +206,10 @@ TEST_P(ByEffort, RepresentableColourBlocksAreExact) {
         ASSERT_EQ(vox::detail::colorBlockError(colors, mask, words[0], words[1]), 0u) << i;
         const esvo::CompressedBlock block{words[0], words[1], 0, 0, 0, 0};
         for (unsigned s = 0; s < 16; ++s) {
-            if ((mask >> s) & 1u) ASSERT_EQ(esvo::decodeBlockColor(block.data(), s), colors[s] | 0xFF000000u);
-            else ASSERT_EQ(esvo::blockIndex(words[1], s), 0u);
+            if ((mask >> s) & 1u)
+                ASSERT_EQ(esvo::decodeBlockColor(block.data(), s), colors[s] | 0xFF000000u);
+            else
+                ASSERT_EQ(esvo::blockIndex(words[1], s), 0u);
         }
     }
 }
@@ -200,11 +218,14 @@ TEST_P(ByEffort, SingleColourBlocksAreOptimal) {
     const AttributeEffort effort = GetParam();
     // Brute force over every endpoint pair, per channel (channels are independent for one colour).
     const auto bestChannel = [](int value, int bits) {
-        const auto expand = [bits](int c) { return bits == 5 ? (c << 3) | (c >> 2) : (c << 2) | (c >> 4); };
+        const auto expand = [bits](int c) {
+            return bits == 5 ? (c << 3) | (c >> 2) : (c << 2) | (c >> 4);
+        };
         int best = 1 << 20;
         for (int a = 0; a < (1 << bits); ++a)
             for (int b = 0; b < (1 << bits); ++b)
-                for (int entry : {expand(a), (2 * expand(a) + expand(b) + 1) / 3}) best = std::min(best, (entry - value) * (entry - value));
+                for (int entry : {expand(a), (2 * expand(a) + expand(b) + 1) / 3})
+                    best = std::min(best, (entry - value) * (entry - value));
         return best;
     };
     std::array<std::array<int, 256>, 2> best{};
@@ -217,9 +238,11 @@ TEST_P(ByEffort, SingleColourBlocksAreOptimal) {
         colors.fill(esvo::packColor(r, g, b));
         const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 16));
         const auto words = vox::detail::encodeColorBlock(colors, mask, effort);
-        const std::uint64_t expected = static_cast<std::uint64_t>(std::popcount(mask)) *
-                                       static_cast<std::uint64_t>(best[0][r] + best[1][g] + best[0][b]);
-        ASSERT_EQ(vox::detail::colorBlockError(colors, mask, words[0], words[1]), expected) << r << ' ' << g << ' ' << b;
+        const std::uint64_t expected =
+            static_cast<std::uint64_t>(std::popcount(mask)) *
+            static_cast<std::uint64_t>(best[0][r] + best[1][g] + best[0][b]);
+        ASSERT_EQ(vox::detail::colorBlockError(colors, mask, words[0], words[1]), expected)
+            << r << ' ' << g << ' ' << b;
     }
 }
 
@@ -230,8 +253,11 @@ TEST_P(ByEffort, UnusedSlotsChangeNothing) {
     for (int i = 0; i < 500; ++i) {
         const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 15));
         std::array<std::uint64_t, 16> values{};
-        for (auto& v : values) v = (word(rng) & 0xFFFFFFu) | (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
-        const esvo::CompressedBlock block = vox::detail::encodeCompressedBlock(values, mask, effort);
+        for (auto& v : values)
+            v = (word(rng) & 0xFFFFFFu) |
+                (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
+        const esvo::CompressedBlock block =
+            vox::detail::encodeCompressedBlock(values, mask, effort);
         for (unsigned s = 0; s < 16; ++s) {
             if ((mask >> s) & 1u) continue;
             EXPECT_EQ(esvo::blockIndex(block[1], s), 0u);
@@ -240,7 +266,8 @@ TEST_P(ByEffort, UnusedSlotsChangeNothing) {
             values[s] = word(rng) | (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
         }
         ASSERT_EQ(vox::detail::encodeCompressedBlock(values, mask, effort), block) << i;
-        ASSERT_EQ(vox::detail::encodeCompressedBlock(values, mask | 0xFFFF0000u, effort), block) << "bits above 15 are ignored";
+        ASSERT_EQ(vox::detail::encodeCompressedBlock(values, mask | 0xFFFF0000u, effort), block)
+            << "bits above 15 are ignored";
     }
 }
 
@@ -248,41 +275,49 @@ TEST_P(ByEffort, EqualNormalsKeepTheCubeFacePrecision) {
     const AttributeEffort effort = GetParam();
     std::mt19937 rng(6);
     for (int i = 0; i < 2000; ++i) {
-        const Vec3 n = i < 6 ? Vec3{float(i == 0) - float(i == 1), float(i == 2) - float(i == 3), float(i == 4) - float(i == 5)}
+        const Vec3 n = i < 6 ? Vec3{float(i == 0) - float(i == 1), float(i == 2) - float(i == 3),
+                                    float(i == 4) - float(i == 5)}
                              : randomDirection(rng);
         std::array<Vec3, 16> normals{};
         normals.fill(n);
         const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 16));
         const auto words = vox::detail::encodeNormalBlock(normals, mask, effort);
         ASSERT_LT(normalErrors(normals, mask, words).max, 0.01 * kDegree) << i;
-        ASSERT_LE(normalErrors(normals, mask, words).max, angle(n, esvo::decodeNormal(esvo::encodeNormal(n))) + 2e-6) << i;
+        ASSERT_LE(normalErrors(normals, mask, words).max,
+                  angle(n, esvo::decodeNormal(esvo::encodeNormal(n))) + 2e-6)
+            << i;
     }
 }
 
 TEST_P(ByEffort, SmoothNormalBlocksDecodeWithinAFractionOfADegree) {
     const AttributeEffort effort = GetParam();
     std::mt19937 rng(7);
-    // Radius 24 voxels: a 4×2×2 block spans about 10°; smaller radii (more curvature) less strictly.
+    // Radius 24 voxels: a 4×2×2 block spans about 10°; smaller radii (more curvature) less
+    // strictly.
     for (const double radius : {24.0, 64.0, 400.0}) {
         double sum = 0, worst = 0;
         int count = 0;
         for (int i = 0; i < 1000; ++i) {
             const auto normals = spherePatch(rng, radius, static_cast<unsigned>(i % 3));
             const std::uint32_t mask = i % 2 ? 0xFFFFu : randomMask(rng, 8);
-            const NormalErrors e = normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask, effort));
+            const NormalErrors e =
+                normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask, effort));
             sum += e.mean;
             worst = std::max(worst, e.max);
             ++count;
         }
-        std::printf("sphere radius %g: mean %.3f°, max %.3f°\n", radius, sum / count / kDegree, worst / kDegree);
+        std::printf("sphere radius %g: mean %.3f°, max %.3f°\n", radius, sum / count / kDegree,
+                    worst / kDegree);
         EXPECT_LT(sum / count, 0.5 * kDegree * 24.0 / radius) << radius;
         EXPECT_LT(worst, 2.0 * kDegree * std::sqrt(24.0 / radius)) << radius;
     }
-    // Random normals in a 10° cone (half-angle 5°, no structure): still well under a degree on average.
+    // Random normals in a 10° cone (half-angle 5°, no structure): still well under a degree on
+    // average.
     double sum = 0, worst = 0;
     for (int i = 0; i < 1000; ++i) {
         const auto normals = randomCone(rng, 5 * kDegree);
-        const NormalErrors e = normalErrors(normals, 0xFFFFu, vox::detail::encodeNormalBlock(normals, 0xFFFFu, effort));
+        const NormalErrors e = normalErrors(
+            normals, 0xFFFFu, vox::detail::encodeNormalBlock(normals, 0xFFFFu, effort));
         sum += e.mean;
         worst = std::max(worst, e.max);
     }
@@ -318,11 +353,13 @@ TEST_P(ByEffort, WidelySpreadNormalsStaySane) {
 /// A block whose used slots (a random set, at least one per direction) cycle through
 /// @p directions in random order; the unused slots hold random directions. Returns the largest
 /// angular error of the used slots.
-double patternMaxError(std::mt19937& rng, const std::vector<Vec3>& directions, AttributeEffort effort) {
+double patternMaxError(std::mt19937& rng, const std::vector<Vec3>& directions,
+                       AttributeEffort effort) {
     std::array<unsigned, 16> slots{};
     for (unsigned i = 0; i < 16; ++i) slots[i] = i;
     std::shuffle(slots.begin(), slots.end(), rng);
-    const unsigned used = static_cast<unsigned>(directions.size() + rng() % (17 - directions.size()));
+    const unsigned used =
+        static_cast<unsigned>(directions.size() + rng() % (17 - directions.size()));
     std::array<Vec3, 16> normals{};
     std::uint32_t mask = 0;
     for (unsigned i = 0; i < 16; ++i) {
@@ -339,7 +376,9 @@ Vec3 axisDirection(unsigned axis, bool negative) {
     return d;
 }
 
-Vec3 sum(const Vec3& a, const Vec3& b) { return normalised(double(a[0]) + b[0], double(a[1]) + b[1], double(a[2]) + b[2]); }
+Vec3 sum(const Vec3& a, const Vec3& b) {
+    return normalised(double(a[0]) + b[0], double(a[1]) + b[1], double(a[2]) + b[2]);
+}
 
 // Voxels along the edge where two walls meet (of a box, a room) have children with either wall's
 // normal and, where both walls cross the child, their average: normals 90° apart in one block.
@@ -351,9 +390,11 @@ TEST_P(ByEffort, NormalsWhereTwoWallsMeetDecodeWithinTwoDegrees) {
         for (unsigned b = 0; b < 3; ++b) {
             if (a == b) continue;
             for (unsigned signs = 0; signs < 4; ++signs) {
-                const Vec3 wall0 = axisDirection(a, signs & 1u), wall1 = axisDirection(b, (signs & 2u) != 0);
+                const Vec3 wall0 = axisDirection(a, signs & 1u),
+                           wall1 = axisDirection(b, (signs & 2u) != 0);
                 for (int repeat = 0; repeat < 4; ++repeat) {
-                    worst = std::max(worst, patternMaxError(rng, {wall0, wall1, sum(wall0, wall1)}, effort));
+                    worst = std::max(
+                        worst, patternMaxError(rng, {wall0, wall1, sum(wall0, wall1)}, effort));
                     worst = std::max(worst, patternMaxError(rng, {wall0, wall1}, effort));
                 }
             }
@@ -368,7 +409,8 @@ TEST_P(ByEffort, NormalsWhereThreeWallsMeetDecodeWithinAFewDegrees) {
     std::mt19937 rng(12);
     double worst = 0;
     for (unsigned signs = 0; signs < 8; ++signs) {
-        const Vec3 x = axisDirection(0, signs & 1u), y = axisDirection(1, (signs & 2u) != 0), z = axisDirection(2, (signs & 4u) != 0);
+        const Vec3 x = axisDirection(0, signs & 1u), y = axisDirection(1, (signs & 2u) != 0),
+                   z = axisDirection(2, (signs & 4u) != 0);
         const Vec3 corner = normalised(double(x[0]), double(y[1]), double(z[2]));
         for (int repeat = 0; repeat < 8; ++repeat) {
             worst = std::max(worst, patternMaxError(rng, {x, y, z, corner}, effort));
@@ -390,9 +432,13 @@ TEST_P(ByEffort, BothSidesOfAThinSheetKeepTheirSide) {
         std::array<Vec3, 16> normals{};
         for (unsigned s = 0; s < 16; ++s) normals[s] = axisDirection(axis, s >= 4);
         const std::uint32_t mask = 0xFFu;
-        worst = std::max(worst, normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask, effort)).max);
+        worst = std::max(
+            worst,
+            normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask, effort)).max);
         for (int repeat = 0; repeat < 8; ++repeat)
-            worst = std::max(worst, patternMaxError(rng, {axisDirection(axis, false), axisDirection(axis, true)}, effort));
+            worst = std::max(
+                worst, patternMaxError(rng, {axisDirection(axis, false), axisDirection(axis, true)},
+                                       effort));
     }
     for (int i = 0; i < 300; ++i) {
         const Vec3 d = randomDirection(rng);
@@ -412,7 +458,8 @@ TEST_P(ByEffort, AnyTwoDirectionsDecodeWithinTwoDegrees) {
         worst = std::max(worst, e);
         sum += e;
     }
-    std::printf("two random directions: mean of block max %.3f°, max %.3f°\n", sum / 1000 / kDegree, worst / kDegree);
+    std::printf("two random directions: mean of block max %.3f°, max %.3f°\n", sum / 1000 / kDegree,
+                worst / kDegree);
     EXPECT_LT(worst, 2 * kDegree);
     EXPECT_LT(sum / 1000, 0.5 * kDegree);
 }
@@ -421,9 +468,10 @@ TEST_P(ByEffort, ColourBeatsStbDxtHighQuality) {
     const AttributeEffort effort = GetParam();
     std::mt19937 rng(9);
     const std::filesystem::path models = vox::test::assimpModels();
-    const std::array<std::filesystem::path, 5> textures{models / "glTF/CesiumMilkTruck/CesiumMilkTruck.png", models / "OBJ/drkwood2.jpg",
-                                                        models / "IQM/Head.jpg", models / "3DS/CWALL02.jpg",
-                                                        models / "LWO/LWO2/MappingModes/earthSpherical.jpg"};
+    const std::array<std::filesystem::path, 5> textures{
+        models / "glTF/CesiumMilkTruck/CesiumMilkTruck.png", models / "OBJ/drkwood2.jpg",
+        models / "IQM/Head.jpg", models / "3DS/CWALL02.jpg",
+        models / "LWO/LWO2/MappingModes/earthSpherical.jpg"};
     std::vector<ColorBlock> corpus = vox::corpus::textureTiles(textures, 1200);
     ASSERT_GE(corpus.size(), 1000u) << "texture corpus missing: is assimp-testmodels installed?";
     const std::size_t tiles = corpus.size();
@@ -443,7 +491,8 @@ TEST_P(ByEffort, ColourBeatsStbDxtHighQuality) {
         const auto words = vox::detail::encodeColorBlock(b.colors, b.mask, effort);
         const auto stbWords = vox::corpus::stbEncode(b, true);
         const std::uint64_t e = vox::detail::colorBlockError(b.colors, b.mask, words[0], words[1]);
-        const std::uint64_t es = vox::detail::colorBlockError(b.colors, b.mask, stbWords[0], stbWords[1]);
+        const std::uint64_t es =
+            vox::detail::colorBlockError(b.colors, b.mask, stbWords[0], stbWords[1]);
         ours[i >= full] += e;
         stb[i >= full] += es;
         if (i < tiles) tileOurs += e, tileStb += es;
@@ -451,10 +500,12 @@ TEST_P(ByEffort, ColourBeatsStbDxtHighQuality) {
     EXPECT_LE(ours[0], stb[0]);
     EXPECT_LE(ours[1], stb[1]);
     EXPECT_LE(tileOurs, tileStb);
-    std::printf("summed squared error, ours vs stb_dxt HIGHQUAL: tiles %llu vs %llu, full %llu vs %llu, partial %llu vs %llu\n",
-                static_cast<unsigned long long>(tileOurs), static_cast<unsigned long long>(tileStb),
-                static_cast<unsigned long long>(ours[0]), static_cast<unsigned long long>(stb[0]),
-                static_cast<unsigned long long>(ours[1]), static_cast<unsigned long long>(stb[1]));
+    std::printf(
+        "summed squared error, ours vs stb_dxt HIGHQUAL: tiles %llu vs %llu, full %llu vs %llu, "
+        "partial %llu vs %llu\n",
+        static_cast<unsigned long long>(tileOurs), static_cast<unsigned long long>(tileStb),
+        static_cast<unsigned long long>(ours[0]), static_cast<unsigned long long>(stb[0]),
+        static_cast<unsigned long long>(ours[1]), static_cast<unsigned long long>(stb[1]));
 }
 
 TEST_P(ByEffort, IsDeterministic) {
@@ -462,9 +513,12 @@ TEST_P(ByEffort, IsDeterministic) {
     std::mt19937 rng(10);
     for (int i = 0; i < 200; ++i) {
         std::array<std::uint64_t, 16> values{};
-        for (auto& v : values) v = (rng() & 0xFFFFFFu) | (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
+        for (auto& v : values)
+            v = (rng() & 0xFFFFFFu) |
+                (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
         const std::uint32_t mask = randomMask(rng, 1 + static_cast<unsigned>(i % 16));
-        EXPECT_EQ(vox::detail::encodeCompressedBlock(values, mask, effort), vox::detail::encodeCompressedBlock(values, mask, effort));
+        EXPECT_EQ(vox::detail::encodeCompressedBlock(values, mask, effort),
+                  vox::detail::encodeCompressedBlock(values, mask, effort));
     }
 }
 
@@ -476,7 +530,9 @@ TEST_P(ByEffort, DoesNotDependOnTheBlocksBefore) {
     std::vector<std::pair<std::array<std::uint64_t, 16>, std::uint32_t>> blocks;
     for (int i = 0; i < 120; ++i) {
         std::array<std::uint64_t, 16> values{};
-        for (auto& v : values) v = (rng() & 0xFFFFFFu) | (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
+        for (auto& v : values)
+            v = (rng() & 0xFFFFFFu) |
+                (std::uint64_t{esvo::encodeNormal(randomDirection(rng))} << 32);
         const std::uint32_t mask = randomMask(rng, 2 + static_cast<unsigned>(i % 15));
         blocks.emplace_back(values, mask);
         // The same normals in other slots, and the same slots with one normal changed.
@@ -493,10 +549,13 @@ TEST_P(ByEffort, DoesNotDependOnTheBlocksBefore) {
         blocks.emplace_back(values, mask);
     }
     std::vector<esvo::CompressedBlock> forward;
-    for (const auto& [values, mask] : blocks) forward.push_back(vox::detail::encodeCompressedBlock(values, mask, effort));
+    for (const auto& [values, mask] : blocks)
+        forward.push_back(vox::detail::encodeCompressedBlock(values, mask, effort));
     std::vector<esvo::CompressedBlock> backward(blocks.size());
     std::thread([&] {
-        for (std::size_t i = blocks.size(); i-- > 0;) backward[i] = vox::detail::encodeCompressedBlock(blocks[i].first, blocks[i].second, effort);
+        for (std::size_t i = blocks.size(); i-- > 0;)
+            backward[i] =
+                vox::detail::encodeCompressedBlock(blocks[i].first, blocks[i].second, effort);
     }).join();
     for (std::size_t i = 0; i < blocks.size(); ++i) ASSERT_EQ(forward[i], backward[i]) << i;
 }
@@ -504,9 +563,13 @@ TEST_P(ByEffort, DoesNotDependOnTheBlocksBefore) {
 namespace {
 
 /// Summed angular error (radians) of encodeNormalBlock at @p effort over @p blocks.
-double summedNormalError(const std::vector<std::pair<std::array<Vec3, 16>, std::uint32_t>>& blocks, AttributeEffort effort) {
+double summedNormalError(const std::vector<std::pair<std::array<Vec3, 16>, std::uint32_t>>& blocks,
+                         AttributeEffort effort) {
     double sum = 0;
-    for (const auto& [normals, mask] : blocks) sum += normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask, effort)).mean * std::popcount(mask);
+    for (const auto& [normals, mask] : blocks)
+        sum += normalErrors(normals, mask, vox::detail::encodeNormalBlock(normals, mask, effort))
+                   .mean *
+               std::popcount(mask);
     return sum;
 }
 
@@ -519,32 +582,40 @@ double summedNormalError(const std::vector<std::pair<std::array<Vec3, 16>, std::
 // against their bound in EarlyExitsStayWithinTheirBound.)
 TEST(AttributeEncode, FasterEffortsStayCloseToBest) {
     std::mt19937 rng(15);
-    const auto ratioLimit = [](AttributeEffort e, double defaultLimit, double fastLimit) { return e == AttributeEffort::Fast ? fastLimit : defaultLimit; };
+    const auto ratioLimit = [](AttributeEffort e, double defaultLimit, double fastLimit) {
+        return e == AttributeEffort::Fast ? fastLimit : defaultLimit;
+    };
     // Normals: sphere patches from curved (radius 8) to nearly flat (radius 128), random cones.
     for (const double radius : {8.0, 24.0, 128.0}) {
         std::vector<std::pair<std::array<Vec3, 16>, std::uint32_t>> blocks;
-        for (int i = 0; i < 400; ++i) blocks.emplace_back(spherePatch(rng, radius, static_cast<unsigned>(i % 3)), i % 2 ? 0xFFFFu : randomMask(rng, 8));
+        for (int i = 0; i < 400; ++i)
+            blocks.emplace_back(spherePatch(rng, radius, static_cast<unsigned>(i % 3)),
+                                i % 2 ? 0xFFFFu : randomMask(rng, 8));
         const double best = summedNormalError(blocks, AttributeEffort::Best);
         for (const AttributeEffort e : {AttributeEffort::Default, AttributeEffort::Fast}) {
             const double ratio = summedNormalError(blocks, e) / best;
-            std::printf("sphere radius %g: %s / Best = %.4f\n", radius, e == AttributeEffort::Fast ? "Fast" : "Default", ratio);
+            std::printf("sphere radius %g: %s / Best = %.4f\n", radius,
+                        e == AttributeEffort::Fast ? "Fast" : "Default", ratio);
             EXPECT_LT(ratio, ratioLimit(e, 1.05, 1.25)) << radius;
         }
     }
     for (const double halfAngle : {2.0, 5.0, 20.0}) {
         std::vector<std::pair<std::array<Vec3, 16>, std::uint32_t>> blocks;
-        for (int i = 0; i < 300; ++i) blocks.emplace_back(randomCone(rng, halfAngle * kDegree), 0xFFFFu);
+        for (int i = 0; i < 300; ++i)
+            blocks.emplace_back(randomCone(rng, halfAngle * kDegree), 0xFFFFu);
         const double best = summedNormalError(blocks, AttributeEffort::Best);
         for (const AttributeEffort e : {AttributeEffort::Default, AttributeEffort::Fast}) {
             const double ratio = summedNormalError(blocks, e) / best;
-            std::printf("random %g° cone: %s / Best = %.4f\n", halfAngle, e == AttributeEffort::Fast ? "Fast" : "Default", ratio);
+            std::printf("random %g° cone: %s / Best = %.4f\n", halfAngle,
+                        e == AttributeEffort::Fast ? "Fast" : "Default", ratio);
             EXPECT_LT(ratio, ratioLimit(e, 1.05, 1.25)) << halfAngle;
         }
     }
     // Colours: texture tiles and synthetic gradients, whole and half used.
     const std::filesystem::path models = vox::test::assimpModels();
-    const std::array<std::filesystem::path, 3> textures{models / "glTF/CesiumMilkTruck/CesiumMilkTruck.png", models / "IQM/Head.jpg",
-                                                        models / "3DS/CWALL02.jpg"};
+    const std::array<std::filesystem::path, 3> textures{
+        models / "glTF/CesiumMilkTruck/CesiumMilkTruck.png", models / "IQM/Head.jpg",
+        models / "3DS/CWALL02.jpg"};
     std::vector<ColorBlock> corpus = vox::corpus::textureTiles(textures, 600);
     const std::vector<ColorBlock> synthetic = syntheticBlocks(rng, 600);
     corpus.insert(corpus.end(), synthetic.begin(), synthetic.end());
@@ -555,14 +626,21 @@ TEST(AttributeEncode, FasterEffortsStayCloseToBest) {
     }
     std::array<std::uint64_t, 3> error{};
     for (const ColorBlock& b : corpus)
-        for (const AttributeEffort e : {AttributeEffort::Fast, AttributeEffort::Default, AttributeEffort::Best}) {
+        for (const AttributeEffort e :
+             {AttributeEffort::Fast, AttributeEffort::Default, AttributeEffort::Best}) {
             const auto words = vox::detail::encodeColorBlock(b.colors, b.mask, e);
-            error[static_cast<unsigned>(e)] += vox::detail::colorBlockError(b.colors, b.mask, words[0], words[1]);
+            error[static_cast<unsigned>(e)] +=
+                vox::detail::colorBlockError(b.colors, b.mask, words[0], words[1]);
         }
     const double best = static_cast<double>(error[static_cast<unsigned>(AttributeEffort::Best)]);
-    const double defaultRatio = static_cast<double>(error[static_cast<unsigned>(AttributeEffort::Default)]) / best,
-                 fastRatio = static_cast<double>(error[static_cast<unsigned>(AttributeEffort::Fast)]) / best;
-    std::printf("colour summed squared error: Default / Best = %.4f, Fast / Best = %.4f\n", defaultRatio, fastRatio);
+    const double defaultRatio =
+                     static_cast<double>(error[static_cast<unsigned>(AttributeEffort::Default)]) /
+                     best,
+                 fastRatio =
+                     static_cast<double>(error[static_cast<unsigned>(AttributeEffort::Fast)]) /
+                     best;
+    std::printf("colour summed squared error: Default / Best = %.4f, Fast / Best = %.4f\n",
+                defaultRatio, fastRatio);
     EXPECT_LT(defaultRatio, 1.02);  // 0.09 dB
     EXPECT_LT(fastRatio, 1.04);
 }
@@ -585,7 +663,9 @@ TEST(AttributeEncode, EarlyExitsStayWithinTheirBound) {
                 }();
                 double sum = 0;
                 for (unsigned s = 0; s < 16; ++s)
-                    if ((mask >> s) & 1u) sum += std::pow(angle(normals[s], esvo::decodeBlockNormal(block.data(), s)), 2);
+                    if ((mask >> s) & 1u)
+                        sum += std::pow(angle(normals[s], esvo::decodeBlockNormal(block.data(), s)),
+                                        2);
                 return std::sqrt(sum / std::popcount(mask));
             };
             const double best = rms(AttributeEffort::Best);
@@ -611,24 +691,32 @@ TEST_P(ByEffort, Avx512KernelsGiveTheSameBlocks) {
     const AttributeEffort effort = GetParam();
     std::mt19937 rng(21);
     std::vector<std::pair<std::array<Vec3, 16>, std::uint32_t>> blocks;
-    const auto mask = [&](int i) { return i % 3 == 0 ? 0xFFFFu : randomMask(rng, 1 + static_cast<unsigned>(i % 16)); };
+    const auto mask = [&](int i) {
+        return i % 3 == 0 ? 0xFFFFu : randomMask(rng, 1 + static_cast<unsigned>(i % 16));
+    };
     for (const double radius : {6.0, 24.0, 128.0, 1000.0})
-        for (int i = 0; i < 150; ++i) blocks.emplace_back(spherePatch(rng, radius, static_cast<unsigned>(i % 3)), mask(i));
+        for (int i = 0; i < 150; ++i)
+            blocks.emplace_back(spherePatch(rng, radius, static_cast<unsigned>(i % 3)), mask(i));
     for (const double halfAngle : {1.0, 5.0, 20.0, 60.0})
-        for (int i = 0; i < 150; ++i) blocks.emplace_back(randomCone(rng, halfAngle * kDegree), mask(i));
-    for (int i = 0; i < 300; ++i) {  // two to four directions (edges, corners, sheets) and random ones
+        for (int i = 0; i < 150; ++i)
+            blocks.emplace_back(randomCone(rng, halfAngle * kDegree), mask(i));
+    for (int i = 0; i < 300;
+         ++i) {  // two to four directions (edges, corners, sheets) and random ones
         std::array<Vec3, 4> directions{};
         for (auto& d : directions) d = randomDirection(rng);
         if (i % 4 == 0) directions = {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}, Vec3{0, -1, 0}};
         const unsigned count = 2 + static_cast<unsigned>(i % 3);
         std::array<Vec3, 16> normals{};
-        for (unsigned s = 0; s < 16; ++s) normals[s] = i % 5 == 4 ? randomDirection(rng) : directions[rng() % count];
+        for (unsigned s = 0; s < 16; ++s)
+            normals[s] = i % 5 == 4 ? randomDirection(rng) : directions[rng() % count];
         blocks.emplace_back(normals, mask(i));
     }
     const auto encodeAll = [&] {
         std::vector<std::array<std::uint32_t, 4>> words(blocks.size());
         std::thread([&] {
-            for (std::size_t i = 0; i < blocks.size(); ++i) words[i] = vox::detail::encodeNormalBlock(blocks[i].first, blocks[i].second, effort);
+            for (std::size_t i = 0; i < blocks.size(); ++i)
+                words[i] =
+                    vox::detail::encodeNormalBlock(blocks[i].first, blocks[i].second, effort);
         }).join();
         return words;
     };

@@ -45,23 +45,33 @@ void sweep(const fs::path& file, const fs::path& scratch) {
         for (std::size_t i = 0; i < planned.size(); ++i) {
             const FlipOutcome o = outcomes[i];
             ++flips, ++outcome[o];
-            const std::string what = std::to_string(planned[i].offset) + "^" + std::to_string(planned[i].mask);
+            const std::string what =
+                std::to_string(planned[i].offset) + "^" + std::to_string(planned[i].mask);
             if (o == kUndetected && undetected.size() < 10) undetected.push_back(what);
-            if (o > kUndetected && failures.size() < 10) failures.push_back(what + (o == kCrashed ? " crashed" : o == kTimedOut ? " hung" : " threw non-vox::Error"));
+            if (o > kUndetected && failures.size() < 10)
+                failures.push_back(what + (o == kCrashed    ? " crashed"
+                                           : o == kTimedOut ? " hung"
+                                                            : " threw non-vox::Error"));
         }
         totalFlips += flips;
-        std::printf("[ byteflip ] %s %s: %llu flips, %llu detected, %llu undetected, %llu other exception, %llu crashed, %llu timed out\n",
-                    file.filename().c_str(), region.name.c_str(), (unsigned long long)flips, (unsigned long long)outcome[kDetected],
-                    (unsigned long long)outcome[kUndetected], (unsigned long long)outcome[kOtherException], (unsigned long long)outcome[kCrashed],
-                    (unsigned long long)outcome[kTimedOut]);
+        std::printf(
+            "[ byteflip ] %s %s: %llu flips, %llu detected, %llu undetected, %llu other exception, "
+            "%llu crashed, %llu timed out\n",
+            file.filename().c_str(), region.name.c_str(), (unsigned long long)flips,
+            (unsigned long long)outcome[kDetected], (unsigned long long)outcome[kUndetected],
+            (unsigned long long)outcome[kOtherException], (unsigned long long)outcome[kCrashed],
+            (unsigned long long)outcome[kTimedOut]);
         std::string list;
         for (const auto& u : undetected) list += " " + u;
-        EXPECT_EQ(outcome[kUndetected], 0u) << file << " " << region.name << ": undetected flips (offset^mask):" << list;
+        EXPECT_EQ(outcome[kUndetected], 0u)
+            << file << " " << region.name << ": undetected flips (offset^mask):" << list;
         list.clear();
         for (const auto& f : failures) list += " " + f;
-        EXPECT_EQ(outcome[kOtherException] + outcome[kCrashed] + outcome[kTimedOut], 0u) << file << " " << region.name << ":" << list;
+        EXPECT_EQ(outcome[kOtherException] + outcome[kCrashed] + outcome[kTimedOut], 0u)
+            << file << " " << region.name << ":" << list;
     }
-    std::printf("[ byteflip ] %s: %llu flips in %.1f s\n", file.filename().c_str(), (unsigned long long)totalFlips,
+    std::printf("[ byteflip ] %s: %llu flips in %.1f s\n", file.filename().c_str(),
+                (unsigned long long)totalFlips,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
 }
 
@@ -80,7 +90,8 @@ TEST(ByteFlip, EveryFlipOfASmallEsvoIsDetected) {
     options.nearPointerLimit = 64;
     const fs::path file = dir / "cornell.esvo";
     vox::writeEsvo(file, vox::voxelizeSurface(scene, voxelize), options);
-    ASSERT_GT(vox::esvo::EsvoReader(file).sliceCount(), 1u) << "several slices: a directory of several entries";
+    ASSERT_GT(vox::esvo::EsvoReader(file).sliceCount(), 1u)
+        << "several slices: a directory of several entries";
     sweep(file, dir.path());
 }
 

@@ -34,14 +34,16 @@ TEST(Checksum, Crc32cMatchesTheCheckValueAndRfc3720Vectors) {
 }
 
 TEST(Checksum, Crc32cByTheInstructionAgreesWithTheTablesOnEveryLengthAndAlignment) {
-    if (!vox::detail::crc32cHardwareAvailable()) GTEST_SKIP() << "no crc32 instruction on this CPU (crc32c is the tables)";
+    if (!vox::detail::crc32cHardwareAvailable())
+        GTEST_SKIP() << "no crc32 instruction on this CPU (crc32c is the tables)";
     std::mt19937 random(7);
     std::vector<std::uint8_t> bytes(4096 + 8);
     for (auto& b : bytes) b = static_cast<std::uint8_t>(random());
     for (std::size_t offset = 0; offset < 8; ++offset)
         for (std::size_t size = 0; size <= 300; ++size) {
             const std::uint32_t seed = static_cast<std::uint32_t>(random());
-            ASSERT_EQ(crc32c(bytes.data() + offset, size, seed), crc32cPortable(bytes.data() + offset, size, seed))
+            ASSERT_EQ(crc32c(bytes.data() + offset, size, seed),
+                      crc32cPortable(bytes.data() + offset, size, seed))
                 << "offset " << offset << ", " << size << " bytes";
         }
     EXPECT_EQ(crc32c(bytes.data(), 4096), crc32cPortable(bytes.data(), 4096));
@@ -52,7 +54,8 @@ TEST(Checksum, Crc32cContinuesOverPieces) {
     for (std::size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<std::uint8_t>(i * 7 + 3);
     const std::uint32_t whole = crc32c(bytes.data(), bytes.size());
     for (std::size_t cut : {0u, 1u, 7u, 8u, 333u, 999u, 1000u})
-        EXPECT_EQ(crc32c(bytes.data() + cut, bytes.size() - cut, crc32c(bytes.data(), cut)), whole) << "cut at " << cut;
+        EXPECT_EQ(crc32c(bytes.data() + cut, bytes.size() - cut, crc32c(bytes.data(), cut)), whole)
+            << "cut at " << cut;
     bytes[500] ^= 1;
     EXPECT_NE(crc32c(bytes.data(), bytes.size()), whole);
 }

@@ -19,12 +19,14 @@ using vox::detail::BoxTestTriangle;
 bool insideSlab(std::uint32_t encoded, Vec3d u, double slack = 1e-9) {
     const vox::esvo::Contour c = vox::esvo::Contour::decode(encoded);
     const double v = c.nx * u.x + c.ny * u.y + c.nz * u.z;
-    return std::abs(v - c.position * vox::esvo::Contour::kStep) <= 0.5 * c.thickness * vox::esvo::Contour::kStep + slack;
+    return std::abs(v - c.position * vox::esvo::Contour::kStep) <=
+           0.5 * c.thickness * vox::esvo::Contour::kStep + slack;
 }
 
 TEST(Contours, EncodeDecodeRoundTripsEveryField) {
-    for (const vox::esvo::Contour c : {vox::esvo::Contour{31, -5, 0, -64, 127}, vox::esvo::Contour{-31, 31, -32, 63, 0},
-                                       vox::esvo::Contour{0, 0, 31, 0, 1}}) {
+    for (const vox::esvo::Contour c :
+         {vox::esvo::Contour{31, -5, 0, -64, 127}, vox::esvo::Contour{-31, 31, -32, 63, 0},
+          vox::esvo::Contour{0, 0, 31, 0, 1}}) {
         const auto d = vox::esvo::Contour::decode(c.encode());
         EXPECT_EQ(d.nx, c.nx);
         EXPECT_EQ(d.ny, c.ny);
@@ -32,7 +34,8 @@ TEST(Contours, EncodeDecodeRoundTripsEveryField) {
         EXPECT_EQ(d.position, c.position);
         EXPECT_EQ(d.thickness, c.thickness);
     }
-    // Bit positions from the reference layout: thickness 25-31, position 18-24, nx 12-17, ny 6-11, nz 0-5.
+    // Bit positions from the reference layout: thickness 25-31, position 18-24, nx 12-17, ny 6-11,
+    // nz 0-5.
     EXPECT_EQ((vox::esvo::Contour{1, 0, 0, 0, 0}.encode()), 1u << 12);
     EXPECT_EQ((vox::esvo::Contour{0, 0, 0, 1, 0}.encode()), 1u << 18);
     EXPECT_EQ((vox::esvo::Contour{0, 0, 0, 0, 1}.encode()), 1u << 25);
@@ -71,7 +74,8 @@ TEST(Contours, FittedSlabContainsEveryFragmentAfterQuantisation) {
             for (int i = 0; i <= 20; ++i)
                 for (int j = 0; i + j <= 20; ++j) {
                     const BoxTestTriangle& tri = tris[t];
-                    const Vec3d p = tri.v0 + (tri.v1 - tri.v0) * (i / 20.0) + (tri.v2 - tri.v0) * (j / 20.0);
+                    const Vec3d p =
+                        tri.v0 + (tri.v1 - tri.v0) * (i / 20.0) + (tri.v2 - tri.v0) * (j / 20.0);
                     if (std::abs(p.x) > 1 || std::abs(p.y) > 1 || std::abs(p.z) > 1) continue;
                     ASSERT_TRUE(insideSlab(fit.encoded, p * 0.5)) << "trial " << trial;
                 }
@@ -87,7 +91,8 @@ TEST(Contours, CarriedSlabContainsTheParentSlabInsideTheChild) {
     std::uniform_real_distribution<double> unit(-0.5, 0.5);
     int carried = 0;
     for (int trial = 0; trial < 3000; ++trial) {
-        vox::esvo::Contour c{component(rng), component(rng), 31, position(rng), static_cast<unsigned>(thickness(rng))};
+        vox::esvo::Contour c{component(rng), component(rng), 31, position(rng),
+                             static_cast<unsigned>(thickness(rng))};
         if (trial % 3 == 1) std::swap(c.nx, c.nz);
         const std::uint32_t parent = c.encode();
         for (std::uint32_t slot = 0; slot < 8; ++slot) {
@@ -98,7 +103,8 @@ TEST(Contours, CarriedSlabContainsTheParentSlabInsideTheChild) {
             // Any point of the child cube inside the parent's slab is inside the carried slab.
             for (int k = 0; k < 40; ++k) {
                 const Vec3d uc{unit(rng), unit(rng), unit(rng)};
-                const Vec3d up{0.5 * uc.x + (slot & 1u ? 0.25 : -0.25), 0.5 * uc.y + (slot & 2u ? 0.25 : -0.25),
+                const Vec3d up{0.5 * uc.x + (slot & 1u ? 0.25 : -0.25),
+                               0.5 * uc.y + (slot & 2u ? 0.25 : -0.25),
                                0.5 * uc.z + (slot & 4u ? 0.25 : -0.25)};
                 if (insideSlab(parent, up)) {
                     ASSERT_TRUE(insideSlab(child, uc, 1e-9)) << trial << " slot " << slot;
@@ -121,17 +127,20 @@ TEST(Contours, ShapeWithinErrorAgreesWithShapeError) {
         const int count = 1 + trial % 6;
         for (int i = 0; i < count; ++i) {
             const Vec3d a{coordinate(rng), coordinate(rng), coordinate(rng)};
-            tris.push_back(vox::detail::prepareBoxTest(a, a + Vec3d{coordinate(rng), coordinate(rng), 0.2 * coordinate(rng)},
-                                                       a + Vec3d{coordinate(rng), 0.2 * coordinate(rng), coordinate(rng)}));
+            tris.push_back(vox::detail::prepareBoxTest(
+                a, a + Vec3d{coordinate(rng), coordinate(rng), 0.2 * coordinate(rng)},
+                a + Vec3d{coordinate(rng), 0.2 * coordinate(rng), coordinate(rng)}));
             list.push_back(static_cast<std::uint32_t>(i));
         }
         vox::detail::ContourScratch scratch;
-        const std::uint32_t slab = vox::detail::fitContour(list, tris, {0, 0, 0}, 1.0, scratch).encoded;
+        const std::uint32_t slab =
+            vox::detail::fitContour(list, tris, {0, 0, 0}, 1.0, scratch).encoded;
         for (const std::uint32_t encoded : {0u, slab}) {
             const double error = vox::detail::shapeError(encoded, list, tris, {0, 0, 0}, 1.0);
             for (const double bound : {0.5 * error, 0.999 * error, 1.001 * error, 2 * error}) {
                 const bool expected = error <= bound;
-                EXPECT_EQ(vox::detail::shapeWithinError(encoded, list, tris, {0, 0, 0}, 1.0, bound), expected)
+                EXPECT_EQ(vox::detail::shapeWithinError(encoded, list, tris, {0, 0, 0}, 1.0, bound),
+                          expected)
                     << trial << " error " << error << " bound " << bound;
                 agreed += 1;
                 within += expected;
@@ -144,7 +153,8 @@ TEST(Contours, ShapeWithinErrorAgreesWithShapeError) {
 
 TEST(Contours, ShapeErrorMeasuresCubeAndSlab) {
     // One big triangle on the plane z = 0.1 (leaf units) through a cube of centre 0, half 1.
-    std::vector<BoxTestTriangle> tris{vox::detail::prepareBoxTest({-10, -10, 0.1}, {10, -10, 0.1}, {0, 10, 0.1})};
+    std::vector<BoxTestTriangle> tris{
+        vox::detail::prepareBoxTest({-10, -10, 0.1}, {10, -10, 0.1}, {0, 10, 0.1})};
     const std::vector<std::uint32_t> list{0};
     // Cube alone: the far corners are 1.1 away.
     EXPECT_NEAR(vox::detail::shapeError(0, list, tris, {0, 0, 0}, 1.0), 1.1, 1e-9);

@@ -32,19 +32,23 @@ TEST(CornellBox, GeneratedSceneImportsWithEverythingTheExampleNeeds) {
         const vox::Material& green = scene.materials[meshNamed(scene, "GreenWall").material];
         EXPECT_GT(red.baseColorFactor.x, 5 * red.baseColorFactor.y);
         EXPECT_GT(green.baseColorFactor.y, 2 * green.baseColorFactor.x);
-        EXPECT_LT(meshNamed(scene, "RedWall").positions[0].x, meshNamed(scene, "GreenWall").positions[0].x);
+        EXPECT_LT(meshNamed(scene, "RedWall").positions[0].x,
+                  meshNamed(scene, "GreenWall").positions[0].x);
         EXPECT_TRUE(scene.materials[meshNamed(scene, "LightPanel").material].isEmissive());
-        EXPECT_TRUE(scene.materials[meshNamed(scene, CornellBoxFacts::kTexturedNode).material].baseColorTexture.valid());
+        EXPECT_TRUE(scene.materials[meshNamed(scene, CornellBoxFacts::kTexturedNode).material]
+                        .baseColorTexture.valid());
 
         // Every closed part faces outwards and agrees with its normals.
         for (const vox::Mesh& mesh : scene.meshes) {
             double volume = 0;
             for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
-                const vox::Vec3f a = mesh.positions[mesh.indices[3 * t]], b = mesh.positions[mesh.indices[3 * t + 1]],
+                const vox::Vec3f a = mesh.positions[mesh.indices[3 * t]],
+                                 b = mesh.positions[mesh.indices[3 * t + 1]],
                                  c = mesh.positions[mesh.indices[3 * t + 2]];
                 const vox::Vec3f n = vox::cross(b - a, c - a);
                 volume += vox::dot(a, vox::cross(b, c)) / 6.0;
-                EXPECT_GT(vox::dot(n, mesh.normals[mesh.indices[3 * t]]), 0.0f) << mesh.name << " triangle " << t;
+                EXPECT_GT(vox::dot(n, mesh.normals[mesh.indices[3 * t]]), 0.0f)
+                    << mesh.name << " triangle " << t;
             }
             EXPECT_GT(volume, 0.0) << mesh.name;
         }

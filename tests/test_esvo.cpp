@@ -34,23 +34,33 @@ constexpr double kPi = 3.14159265358979323846;
 vox::Scene bumpySphere(int stacks = 32, int slices = 64) {
     vox::Mesh mesh;
     mesh.name = "sphere";
-    const auto radius = [](double theta, double phi) { return 1.0 + 0.08 * std::sin(3 * theta) * std::cos(2 * phi) + 0.03 * std::sin(5 * phi); };
+    const auto radius = [](double theta, double phi) {
+        return 1.0 + 0.08 * std::sin(3 * theta) * std::cos(2 * phi) + 0.03 * std::sin(5 * phi);
+    };
     for (int i = 0; i <= stacks; ++i) {
         const double theta = kPi * i / stacks;
         for (int j = 0; j < slices; ++j) {
             const double phi = 2 * kPi * j / slices;
             const double r = radius(theta, phi);
-            const vox::Vec3d p{r * std::sin(theta) * std::cos(phi), r * std::cos(theta), r * std::sin(theta) * std::sin(phi)};
-            mesh.positions.push_back({static_cast<float>(p.x + 0.3), static_cast<float>(p.y - 0.1), static_cast<float>(p.z + 2.0)});
+            const vox::Vec3d p{r * std::sin(theta) * std::cos(phi), r * std::cos(theta),
+                               r * std::sin(theta) * std::sin(phi)};
+            mesh.positions.push_back({static_cast<float>(p.x + 0.3), static_cast<float>(p.y - 0.1),
+                                      static_cast<float>(p.z + 2.0)});
             const vox::Vec3d n = vox::normalize(p);
-            mesh.normals.push_back({static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)});
+            mesh.normals.push_back(
+                {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)});
         }
     }
-    const auto at = [&](int i, int j) { return static_cast<std::uint32_t>(i * slices + (j % slices)); };
+    const auto at = [&](int i, int j) {
+        return static_cast<std::uint32_t>(i * slices + (j % slices));
+    };
     for (int i = 0; i < stacks; ++i)
         for (int j = 0; j < slices; ++j) {
-            if (i > 0) mesh.indices.insert(mesh.indices.end(), {at(i, j), at(i, j + 1), at(i + 1, j)});
-            if (i + 1 < stacks) mesh.indices.insert(mesh.indices.end(), {at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)});
+            if (i > 0)
+                mesh.indices.insert(mesh.indices.end(), {at(i, j), at(i, j + 1), at(i + 1, j)});
+            if (i + 1 < stacks)
+                mesh.indices.insert(mesh.indices.end(),
+                                    {at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)});
         }
     vox::Scene scene;
     scene.materials.push_back(vox::Material{});
@@ -72,7 +82,8 @@ const vox::SparseOctree& sphere(std::uint32_t depth) {
     return it->second;
 }
 
-vox::EsvoWriteResult write(const fs::path& file, const vox::SparseOctree& octree, std::uint32_t sliceBytes = 1u << 20,
+vox::EsvoWriteResult write(const fs::path& file, const vox::SparseOctree& octree,
+                           std::uint32_t sliceBytes = 1u << 20,
                            std::uint32_t nearPointerLimit = 0x7FFF) {
     vox::EsvoWriteOptions options;
     options.sliceBytes = sliceBytes;
@@ -89,7 +100,8 @@ std::vector<std::uint8_t> readBytes(const fs::path& file) {
 using Key = std::uint64_t;  // x | y << 21 | z << 42
 Key key(std::uint64_t x, std::uint64_t y, std::uint64_t z) { return x | (y << 21) | (z << 42); }
 Key childKey(Key k, std::uint32_t slot) {
-    return key(2 * (k & 0x1FFFFF) + (slot & 1u), 2 * ((k >> 21) & 0x1FFFFF) + ((slot >> 1) & 1u), 2 * (k >> 42) + (slot >> 2));
+    return key(2 * (k & 0x1FFFFF) + (slot & 1u), 2 * ((k >> 21) & 0x1FFFFF) + ((slot >> 1) & 1u),
+               2 * (k >> 42) + (slot >> 2));
 }
 using Levels = std::vector<std::set<Key>>;  // voxel positions per level
 
@@ -116,7 +128,8 @@ struct WalkStats {
     std::uint32_t maxNearPointer = 0;
     std::uint64_t farDescriptors = 0;  ///< descriptors that reach their children through a far slot
 };
-Levels poolVoxels(const vox::esvo::EsvoPool& pool, std::uint32_t leafDepth, WalkStats* stats = nullptr) {
+Levels poolVoxels(const vox::esvo::EsvoPool& pool, std::uint32_t leafDepth,
+                  WalkStats* stats = nullptr) {
     Levels levels(leafDepth + 1);
     levels[0].insert(0);
     const std::uint32_t* words = pool.words();
@@ -148,18 +161,23 @@ Levels poolVoxels(const vox::esvo::EsvoPool& pool, std::uint32_t leafDepth, Walk
             levels[d.level + 1].insert(child);
             if (!(desc.nonLeafMask() & (1u << slot))) continue;
             if (loaded)
-                stack.push_back({static_cast<std::uint64_t>(static_cast<std::int64_t>(d.word) + 2 * (offset + nonLeafSeen)), d.level + 1, child});
+                stack.push_back({static_cast<std::uint64_t>(static_cast<std::int64_t>(d.word) +
+                                                            2 * (offset + nonLeafSeen)),
+                                 d.level + 1, child});
             ++nonLeafSeen;
         }
     }
     return levels;
 }
 
-std::uint64_t pagesBytes(std::uint32_t byteSize) { return (byteSize + vox::esvo::kPageBytes - 1) / vox::esvo::kPageBytes * vox::esvo::kPageBytes; }
+std::uint64_t pagesBytes(std::uint32_t byteSize) {
+    return (byteSize + vox::esvo::kPageBytes - 1) / vox::esvo::kPageBytes * vox::esvo::kPageBytes;
+}
 
 /// Checks everything a written file must satisfy against the octree it came from.
-void expectFileMatches(const fs::path& file, const vox::SparseOctree& octree, const vox::EsvoWriteResult& result,
-                       std::uint32_t sliceBytes, std::uint32_t nearPointerLimit) {
+void expectFileMatches(const fs::path& file, const vox::SparseOctree& octree,
+                       const vox::EsvoWriteResult& result, std::uint32_t sliceBytes,
+                       std::uint32_t nearPointerLimit) {
     const vox::esvo::EsvoReader reader(file);
     const vox::esvo::Header& h = reader.header();
     EXPECT_EQ(h.leafDepth, octree.leafDepth);
@@ -197,9 +215,10 @@ void expectFileMatches(const fs::path& file, const vox::SparseOctree& octree, co
     EXPECT_EQ(b.descriptorBytes, 8 * descriptors);
     EXPECT_EQ(b.farPointerBytes, 8 * far);
     EXPECT_EQ(b.attributeLookupBytes + b.attributeValueBytes + b.attributeBlockBytes, 0u);
-    EXPECT_EQ(b.headerAndDirectoryBytes, 256 + vox::esvo::directoryBytes(h.leafDepth, h.sliceCount));
-    EXPECT_EQ(b.descriptorBytes + b.farPointerBytes + b.pageHeaderBytes + b.infoBytes + b.paddingBytes +
-                  b.headerAndDirectoryBytes + b.slicePaddingBytes,
+    EXPECT_EQ(b.headerAndDirectoryBytes,
+              256 + vox::esvo::directoryBytes(h.leafDepth, h.sliceCount));
+    EXPECT_EQ(b.descriptorBytes + b.farPointerBytes + b.pageHeaderBytes + b.infoBytes +
+                  b.paddingBytes + b.headerAndDirectoryBytes + b.slicePaddingBytes,
               h.fileBytes);
 
     // Loaded into a pool, the file holds exactly the octree's voxels.
@@ -217,7 +236,8 @@ void expectFileMatches(const fs::path& file, const vox::SparseOctree& octree, co
 /// Rewrites the directory's and the header's checksums after an edit of either.
 void fixDirectoryAndHeaderChecksums(std::vector<std::uint8_t>& bytes) {
     using namespace vox::esvo;
-    const std::uint64_t dirBytes = directoryBytes(load<std::uint32_t>(bytes.data() + 192), load<std::uint32_t>(bytes.data() + 212));
+    const std::uint64_t dirBytes = directoryBytes(load<std::uint32_t>(bytes.data() + 192),
+                                                  load<std::uint32_t>(bytes.data() + 212));
     store<std::uint32_t>(bytes.data() + 232, crc32c(bytes.data() + 256, dirBytes));
     store<std::uint32_t>(bytes.data() + 252, crc32c(bytes.data(), 252));
 }
@@ -263,12 +283,14 @@ TEST(Esvo, SingleSliceFileHoldsTheOctree) {
     const fs::path file = dir / "sphere.esvo";
     const vox::EsvoWriteResult result = write(file, octree);
     std::printf("depth 8: %llu voxels, %llu bytes, %u slices, %llu far pointers\n",
-                static_cast<unsigned long long>(octree.voxelCount()), static_cast<unsigned long long>(result.fileBytes),
-                result.slices, static_cast<unsigned long long>(result.farPointers));
+                static_cast<unsigned long long>(octree.voxelCount()),
+                static_cast<unsigned long long>(result.fileBytes), result.slices,
+                static_cast<unsigned long long>(result.farPointers));
     EXPECT_GT(octree.voxelsPerLevel.back(), 100000u);
     EXPECT_EQ(result.slices, 1u);  // < 1 MiB of descriptors
     expectFileMatches(file, octree, result, 1u << 20, 0x7FFF);
-    EXPECT_TRUE(dir.files() == std::vector<std::string>{"sphere.esvo"});  // no temporary left behind
+    EXPECT_TRUE(dir.files() ==
+                std::vector<std::string>{"sphere.esvo"});  // no temporary left behind
 }
 
 TEST(Esvo, ManySmallSlices) {
@@ -305,7 +327,8 @@ TEST(Esvo, ManySmallSlices) {
             EXPECT_GE(i, reader.slice(s.parent).firstChild);
             EXPECT_LT(i, reader.slice(s.parent).firstChild + reader.slice(s.parent).childCount);
         }
-        EXPECT_EQ(deepest, depth);  // the last levels of descriptors sit at depth − 1 … describing depth
+        EXPECT_EQ(deepest,
+                  depth);  // the last levels of descriptors sit at depth − 1 … describing depth
     }
 }
 
@@ -328,7 +351,8 @@ TEST(Esvo, LowNearPointerLimitForcesFarPointers) {
         expectFileMatches(file, octree, result, sliceBytes, 32);
         const vox::esvo::EsvoReader reader(file);
         std::uint64_t far = 0;
-        for (std::uint32_t i = 0; i < reader.sliceCount(); ++i) far += reader.slice(i).farPointerCount;
+        for (std::uint32_t i = 0; i < reader.sliceCount(); ++i)
+            far += reader.slice(i).farPointerCount;
         EXPECT_GT(far, 0u);
         EXPECT_EQ(far, result.farPointers);
         if (sliceBytes == (1u << 20)) {
@@ -365,15 +389,19 @@ TEST(Esvo, PageHeadersEvery8KiBInsideLargeSlices) {
             const vox::esvo::SliceEntry& s = reader.slice(i);
             const std::vector<std::uint8_t> block = reader.readSlice(i);
             std::span<const vox::esvo::FrontierDescriptor> parents(&rootParent, 1);
-            if (i > 0) parents = std::span<const vox::esvo::FrontierDescriptor>(frontiers[s.parent].data() + s.firstFrontier, s.rootGroupCount);
-            const vox::esvo::BlockSummary summary = vox::esvo::validateBlock(file, reader.header(), i, s, block, parents);
+            if (i > 0)
+                parents = std::span<const vox::esvo::FrontierDescriptor>(
+                    frontiers[s.parent].data() + s.firstFrontier, s.rootGroupCount);
+            const vox::esvo::BlockSummary summary =
+                vox::esvo::validateBlock(file, reader.header(), i, s, block, parents);
             frontiers[i] = summary.frontier;
             // One page header per 8 KiB page before the info section, each pointing at it.
             const auto infoWord = vox::esvo::load<std::int32_t>(block.data());
             const std::uint64_t pages = (4ull * infoWord + 8191) / 8192;
             EXPECT_EQ(summary.pageHeaderBytes, 8 * pages) << "slice " << i;
             for (std::uint64_t p = 0; p < pages; ++p) {
-                EXPECT_EQ(vox::esvo::load<std::int32_t>(block.data() + 8192 * p), infoWord - static_cast<std::int32_t>(2048 * p));
+                EXPECT_EQ(vox::esvo::load<std::int32_t>(block.data() + 8192 * p),
+                          infoWord - static_cast<std::int32_t>(2048 * p));
                 EXPECT_EQ(vox::esvo::load<std::uint32_t>(block.data() + 8192 * p + 4), 0u);
             }
             if (s.byteSize > 8192 && 4ull * infoWord > 8192) {
@@ -391,8 +419,10 @@ TEST(Esvo, OutputIsDeterministic) {
     const vox::Scene scene = bumpySphere();
     vox::SurfaceVoxelizeOptions options;
     options.depth = 8;
-    for (const auto& [sliceBytes, nearLimit] : {std::pair{1u << 20, 0x7FFFu}, std::pair{16384u, 64u}}) {
-        SCOPED_TRACE("slice bytes " + std::to_string(sliceBytes) + ", near pointer limit " + std::to_string(nearLimit));
+    for (const auto& [sliceBytes, nearLimit] :
+         {std::pair{1u << 20, 0x7FFFu}, std::pair{16384u, 64u}}) {
+        SCOPED_TRACE("slice bytes " + std::to_string(sliceBytes) + ", near pointer limit " +
+                     std::to_string(nearLimit));
         const vox::SparseOctree all = vox::voxelizeSurface(scene, options);
         write(dir / "a.esvo", all, sliceBytes, nearLimit);
         write(dir / "b.esvo", all, sliceBytes, nearLimit);
@@ -432,16 +462,20 @@ TEST(Esvo, CorruptedFilesAreInvalidData) {
     // Bytes in every slice (a spread of positions: descriptors, page headers, info section).
     for (std::uint32_t s = 0; s < reader.sliceCount(); ++s) {
         const vox::esvo::SliceEntry& e = reader.slice(s);
-        for (std::uint64_t at : {std::uint64_t{0}, std::uint64_t{5}, std::uint64_t{e.byteSize / 2}, std::uint64_t{e.byteSize - 1}}) {
+        for (std::uint64_t at : {std::uint64_t{0}, std::uint64_t{5}, std::uint64_t{e.byteSize / 2},
+                                 std::uint64_t{e.byteSize - 1}}) {
             std::vector<std::uint8_t> data = bytes;
             data[e.fileOffset + at] ^= 0x01;
-            expectInvalid(data, "slice " + std::to_string(s) + " byte " + std::to_string(at) + " flipped");
+            expectInvalid(
+                data, "slice " + std::to_string(s) + " byte " + std::to_string(at) + " flipped");
         }
     }
     // Truncated (a byte short, or cut inside the header / directory / last slice) and appended to.
-    for (std::uint64_t size : {std::uint64_t{0}, std::uint64_t{100}, std::uint64_t{256}, directoryEnd - 1, directoryEnd + 100,
-                               std::uint64_t{bytes.size() - 1}})
-        expectInvalid(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(size)),
+    for (std::uint64_t size :
+         {std::uint64_t{0}, std::uint64_t{100}, std::uint64_t{256}, directoryEnd - 1,
+          directoryEnd + 100, std::uint64_t{bytes.size() - 1}})
+        expectInvalid(std::vector<std::uint8_t>(bytes.begin(),
+                                                bytes.begin() + static_cast<std::ptrdiff_t>(size)),
                       "truncated to " + std::to_string(size));
     std::vector<std::uint8_t> appended = bytes;
     appended.push_back(0);
@@ -467,16 +501,21 @@ TEST(Esvo, SliceOffsetsThatWrapPastTwoToThe64AreInvalidData) {
         const vox::esvo::SliceEntry& e = reader.slice(s);
         constexpr std::uint64_t align = vox::esvo::kSliceAlignment;
         for (const std::uint64_t offset : {0 - align, 0 - e.byteSize / align * align}) {
-            ASSERT_LE(offset + e.byteSize, h.fileBytes) << "the sum must wrap into the file for the test to mean anything";
+            ASSERT_LE(offset + e.byteSize, h.fileBytes)
+                << "the sum must wrap into the file for the test to mean anything";
             std::vector<std::uint8_t> data = bytes;
-            vox::esvo::store<std::uint64_t>(data.data() + 256 + 8 * (h.leafDepth + 1) + 64 * s, offset);
-            fixDirectoryAndHeaderChecksums(data);  // not fixChecksums: it would read the slice at the offset
+            vox::esvo::store<std::uint64_t>(data.data() + 256 + 8 * (h.leafDepth + 1) + 64 * s,
+                                            offset);
+            fixDirectoryAndHeaderChecksums(
+                data);  // not fixChecksums: it would read the slice at the offset
             vox::test::writeBinary(bad, data);
             try {
                 const vox::esvo::EsvoReader r(bad);
                 ADD_FAILURE() << "slice " << s << " at offset " << offset << " accepted";
             } catch (const vox::InvalidDataError& error) {
-                EXPECT_NE(std::string(error.what()).find("slice directory entry " + std::to_string(s) + ": extends past the end"),
+                EXPECT_NE(std::string(error.what())
+                              .find("slice directory entry " + std::to_string(s) +
+                                    ": extends past the end"),
                           std::string::npos)
                     << error.what();
             }
@@ -520,11 +559,13 @@ TEST(Esvo, RootGroupsAboveTheirSlicesRegionAreInvalidData) {
             (void)vox::esvo::validateFile(r);
             ADD_FAILURE() << "slice " << s << " with its region below its root groups validated";
         } catch (const vox::InvalidDataError& error) {
-            const std::string expected = "slice directory entry " + std::to_string(s) + ": a root group lies above the slice's region";
+            const std::string expected = "slice directory entry " + std::to_string(s) +
+                                         ": a root group lies above the slice's region";
             EXPECT_NE(std::string(error.what()).find(expected), std::string::npos) << error.what();
         }
     }
-    EXPECT_GT(tampered, 0u) << "no slice of the file could be tampered with this way; the test means nothing";
+    EXPECT_GT(tampered, 0u)
+        << "no slice of the file could be tampered with this way; the test means nothing";
 }
 
 TEST(Esvo, StructuralCorruptionIsCaughtBehindValidChecksums) {
@@ -551,11 +592,13 @@ TEST(Esvo, StructuralCorruptionIsCaughtBehindValidChecksums) {
                 caught += rejected;
                 if (!rejected) {
                     // Accepted only if it changed nothing that matters: the same voxels.
-                    std::printf("accepted: slice %u (size %u) byte %llu bit 0x%02x\n", s, e.byteSize, (unsigned long long)at, bit);
+                    std::printf("accepted: slice %u (size %u) byte %llu bit 0x%02x\n", s,
+                                e.byteSize, (unsigned long long)at, bit);
                     const vox::esvo::EsvoReader changed(bad);
                     vox::esvo::EsvoPool pool(changed);
                     pool.loadAll();
-                    EXPECT_TRUE(poolVoxels(pool, 7) == original) << "a changed octree passed validation";
+                    EXPECT_TRUE(poolVoxels(pool, 7) == original)
+                        << "a changed octree passed validation";
                 }
             }
         }
@@ -659,7 +702,8 @@ TEST(Esvo, PoolStreamsSlices) {
 
     // Loading a deep slice brings its ancestors back; loading the rest restores everything.
     pool.load(subtree.back());
-    for (std::uint32_t s = subtree.back(); s != vox::esvo::kNoSlice; s = reader.slice(s).parent) EXPECT_TRUE(pool.loaded(s));
+    for (std::uint32_t s = subtree.back(); s != vox::esvo::kNoSlice; s = reader.slice(s).parent)
+        EXPECT_TRUE(pool.loaded(s));
     pool.loadAll();
     EXPECT_EQ(pool.loadedSliceCount(), count);
     EXPECT_EQ(pool.residentBytes(), allBytes);
@@ -676,7 +720,8 @@ TEST(Esvo, PoolStreamsSlices) {
     // Loading by level: the slices starting above level 5 only.
     vox::esvo::EsvoPool byLevel(reader);
     byLevel.loadAll(5);
-    for (std::uint32_t i = 0; i < count; ++i) EXPECT_EQ(byLevel.loaded(i), reader.slice(i).firstLevel < 5) << "slice " << i;
+    for (std::uint32_t i = 0; i < count; ++i)
+        EXPECT_EQ(byLevel.loaded(i), reader.slice(i).firstLevel < 5) << "slice " << i;
     (void)expectConsistentSubset(byLevel);
     EXPECT_THROW(byLevel.load(count), vox::InvalidDataError);
 }

@@ -44,7 +44,8 @@ const Fixture& cornellBox(std::uint32_t depth) {
     return cache.emplace(depth, std::move(f)).first->second;
 }
 
-fs::path write(const vox::SparseOctree& octree, const fs::path& file, vox::AttributeEncoding encoding, std::uint32_t sliceBytes = 1u << 20,
+fs::path write(const vox::SparseOctree& octree, const fs::path& file,
+               vox::AttributeEncoding encoding, std::uint32_t sliceBytes = 1u << 20,
                std::uint32_t nearLimit = 0x7FFF) {
     vox::EsvoWriteOptions options;
     options.attributes = encoding;
@@ -73,13 +74,15 @@ vox::RenderBuffers renderColours(const fs::path& file, const vox::PinholeCamera&
 }
 
 /// PSNR (dB) of 8-bit sRGB colours over the pixels both images hit; counts those pixels.
-double psnr(const vox::RenderBuffers& a, const vox::RenderBuffers& b, std::size_t* compared = nullptr) {
+double psnr(const vox::RenderBuffers& a, const vox::RenderBuffers& b,
+            std::size_t* compared = nullptr) {
     double squared = 0;
     std::size_t n = 0;
     for (std::size_t i = 0; i < a.color.size(); ++i) {
         if (!std::isfinite(a.depth[i]) || !std::isfinite(b.depth[i])) continue;
         for (unsigned ch = 0; ch < 3; ++ch) {
-            const double d = double(vox::esvo::colorChannel(a.color[i], ch)) - double(vox::esvo::colorChannel(b.color[i], ch));
+            const double d = double(vox::esvo::colorChannel(a.color[i], ch)) -
+                             double(vox::esvo::colorChannel(b.color[i], ch));
             squared += d * d;
         }
         ++n;
@@ -93,16 +96,20 @@ double psnr(const vox::RenderBuffers& a, const vox::RenderBuffers& b, std::size_
 TEST(EsvoAttributes, BothEncodingsValidateAcrossSmallSlicesAndFarPointers) {
     vox::test::ScratchDir dir;
     const vox::SparseOctree& octree = cornellBox(7).octree;
-    for (const auto encoding : {vox::AttributeEncoding::Raw, vox::AttributeEncoding::Compressed, vox::AttributeEncoding::CompressedLookup}) {
+    for (const auto encoding : {vox::AttributeEncoding::Raw, vox::AttributeEncoding::Compressed,
+                                vox::AttributeEncoding::CompressedLookup}) {
         const fs::path file = write(octree, dir / "small.esvo", encoding, 16384, 32);
         const vox::esvo::EsvoReader reader(file);
         EXPECT_GT(reader.sliceCount(), 4u);
         const vox::esvo::FileBreakdown b = vox::esvo::validateFile(reader);
-        EXPECT_EQ(b.descriptorBytes + b.farPointerBytes + b.pageHeaderBytes + b.infoBytes + b.paddingBytes + b.contourBytes +
-                      b.attributeLookupBytes + b.attributeValueBytes + b.attributeBlockBytes + b.headerAndDirectoryBytes + b.slicePaddingBytes,
+        EXPECT_EQ(b.descriptorBytes + b.farPointerBytes + b.pageHeaderBytes + b.infoBytes +
+                      b.paddingBytes + b.contourBytes + b.attributeLookupBytes +
+                      b.attributeValueBytes + b.attributeBlockBytes + b.headerAndDirectoryBytes +
+                      b.slicePaddingBytes,
                   reader.header().fileBytes);
         std::uint64_t descriptors = 0, far = 0;
-        for (const auto& s : reader.directory().slices) descriptors += s.descriptorCount, far += s.farPointerCount;
+        for (const auto& s : reader.directory().slices)
+            descriptors += s.descriptorCount, far += s.farPointerCount;
         EXPECT_GT(far, 0u);
         if (encoding == vox::AttributeEncoding::Raw) {
             EXPECT_EQ(reader.header().attachmentKinds, 0b011u);
@@ -135,7 +142,8 @@ TEST(EsvoAttributes, EveryVoxelReadsBackItsValueThroughLookupAndInheritance) {
     // values on the box's walls are inherited, not stored); the compressed ones to close values.
     vox::test::ScratchDir dir;
     const vox::SparseOctree& octree = cornellBox(7).octree;
-    std::map<std::tuple<std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>, std::uint64_t> expected;
+    std::map<std::tuple<std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>, std::uint64_t>
+        expected;
     {
         std::vector<vox::esvo::VoxelPosition> level{vox::esvo::VoxelPosition{}};
         for (std::uint32_t l = 0; l <= octree.leafDepth; ++l) {
@@ -154,10 +162,11 @@ TEST(EsvoAttributes, EveryVoxelReadsBackItsValueThroughLookupAndInheritance) {
         vox::esvo::EsvoPool pool(reader);
         pool.loadAll();
         std::vector<std::pair<vox::esvo::VoxelPosition, vox::esvo::AttributeValue>> out;
-        pool.forEachVoxel([&](const vox::esvo::VoxelPosition& p, const vox::esvo::AttributeValue* v) {
-            ASSERT_NE(v, nullptr);
-            out.emplace_back(p, *v);
-        });
+        pool.forEachVoxel(
+            [&](const vox::esvo::VoxelPosition& p, const vox::esvo::AttributeValue* v) {
+                ASSERT_NE(v, nullptr);
+                out.emplace_back(p, *v);
+            });
         return out;
     };
     const auto raw = resolve(write(octree, dir / "raw.esvo", vox::AttributeEncoding::Raw, 16384));
@@ -168,24 +177,30 @@ TEST(EsvoAttributes, EveryVoxelReadsBackItsValueThroughLookupAndInheritance) {
         const auto n = vox::esvo::decodeUnitNormal(static_cast<std::uint32_t>(value >> 32));
         ASSERT_EQ(v.normal, n);
     }
-    for (const auto encoding : {vox::AttributeEncoding::Compressed, vox::AttributeEncoding::CompressedLookup}) {
+    for (const auto encoding :
+         {vox::AttributeEncoding::Compressed, vox::AttributeEncoding::CompressedLookup}) {
         const auto compressed = resolve(write(octree, dir / "c.esvo", encoding, 16384));
         ASSERT_EQ(compressed.size(), raw.size());
         double squared = 0, angles = 0;
         for (std::size_t i = 0; i < raw.size(); ++i) {
             ASSERT_EQ(compressed[i].first, raw[i].first);
             for (unsigned ch = 0; ch < 3; ++ch) {
-                const double d = double(vox::esvo::colorChannel(raw[i].second.color, ch)) - double(vox::esvo::colorChannel(compressed[i].second.color, ch));
+                const double d = double(vox::esvo::colorChannel(raw[i].second.color, ch)) -
+                                 double(vox::esvo::colorChannel(compressed[i].second.color, ch));
                 squared += d * d;
             }
             const auto& a = raw[i].second.normal;
             const auto& b = compressed[i].second.normal;
-            angles += std::acos(std::clamp(double(a[0]) * b[0] + double(a[1]) * b[1] + double(a[2]) * b[2], -1.0, 1.0)) * 180 / 3.14159265358979;
+            angles +=
+                std::acos(std::clamp(
+                    double(a[0]) * b[0] + double(a[1]) * b[1] + double(a[2]) * b[2], -1.0, 1.0)) *
+                180 / 3.14159265358979;
         }
         const double psnrDb = 10 * std::log10(255.0 * 255.0 * 3.0 * double(raw.size()) / squared);
         // Pair blocks hold siblings; the lookup's blocks hold 16 consecutive stored values, which
         // on this scene are the edges' and the checker's — a harder mix (docs/esvo-format.md).
-        EXPECT_GT(psnrDb, encoding == vox::AttributeEncoding::Compressed ? 40.0 : 30.0) << "encoding " << int(encoding);
+        EXPECT_GT(psnrDb, encoding == vox::AttributeEncoding::Compressed ? 40.0 : 30.0)
+            << "encoding " << int(encoding);
         EXPECT_LT(angles / double(raw.size()), 3.0) << "encoding " << int(encoding);
     }
 }
@@ -198,8 +213,10 @@ TEST(EsvoAttributes, RenderedColoursMatchTheTriangleRendering) {
     const vox::PinholeCamera camera = frontView(256);
     const vox::TriangleRayCaster triangles(f.scene);
     const vox::RenderBuffers reference = vox::renderTriangles(triangles, camera);
-    const vox::RenderBuffers raw = renderColours(write(f.octree, dir / "raw.esvo", vox::AttributeEncoding::Raw), camera);
-    const vox::RenderBuffers dxt = renderColours(write(f.octree, dir / "dxt.esvo", vox::AttributeEncoding::Compressed), camera);
+    const vox::RenderBuffers raw =
+        renderColours(write(f.octree, dir / "raw.esvo", vox::AttributeEncoding::Raw), camera);
+    const vox::RenderBuffers dxt = renderColours(
+        write(f.octree, dir / "dxt.esvo", vox::AttributeEncoding::Compressed), camera);
     std::size_t compared = 0;
     const double rawPsnr = psnr(raw, reference, &compared);
     EXPECT_GT(compared, 40000u);
@@ -207,18 +224,23 @@ TEST(EsvoAttributes, RenderedColoursMatchTheTriangleRendering) {
     // material's 8-bit value; a wrong lookup or a broken inheritance gives another wall's colour.
     std::size_t exact = 0;
     for (std::size_t i = 0; i < raw.color.size(); ++i)
-        if (std::isfinite(raw.depth[i]) && std::isfinite(reference.depth[i]) && (raw.color[i] & 0xFFFFFFu) == (reference.color[i] & 0xFFFFFFu)) ++exact;
+        if (std::isfinite(raw.depth[i]) && std::isfinite(reference.depth[i]) &&
+            (raw.color[i] & 0xFFFFFFu) == (reference.color[i] & 0xFFFFFFu))
+            ++exact;
     EXPECT_GT(double(exact) / double(compared), 0.85);
     EXPECT_GT(rawPsnr, 30.0);
     const double dxtPsnr = psnr(dxt, reference);
     EXPECT_GT(dxtPsnr, 29.0);
     EXPECT_GT(psnr(dxt, raw), 35.0) << "compressed against raw";
-    std::printf("colour PSNR against the triangle rendering: raw %.2f dB, compressed %.2f dB; compressed against raw %.2f dB\n", rawPsnr,
-                dxtPsnr, psnr(dxt, raw));
+    std::printf(
+        "colour PSNR against the triangle rendering: raw %.2f dB, compressed %.2f dB; compressed "
+        "against raw %.2f dB\n",
+        rawPsnr, dxtPsnr, psnr(dxt, raw));
     // Shading normals: the walls' and the floor's, exactly the faces' on flat surfaces.
     std::size_t aligned = 0;
     for (std::size_t i = 0; i < raw.color.size(); ++i)
-        if (std::isfinite(raw.depth[i]) && std::isfinite(reference.depth[i]) && dot(raw.shadingNormal[i], reference.shadingNormal[i]) > 0.9999f)
+        if (std::isfinite(raw.depth[i]) && std::isfinite(reference.depth[i]) &&
+            dot(raw.shadingNormal[i], reference.shadingNormal[i]) > 0.9999f)
             ++aligned;
     EXPECT_GT(double(aligned) / double(compared), 0.85);
 }
@@ -233,10 +255,12 @@ TEST(EsvoAttributes, ValidatorRejectsBrokenAttachments) {
         std::vector<std::uint8_t> block = reader.readSlice(0);
         const vox::esvo::BlockTables t = vox::esvo::readBlockTables(block, file, 0);
         ASSERT_TRUE(t.hasAttributes());
-        EXPECT_NO_THROW(vox::esvo::validateBlock(file, reader.header(), 0, reader.slice(0), block, {&rootParent, 1}));
+        EXPECT_NO_THROW(vox::esvo::validateBlock(file, reader.header(), 0, reader.slice(0), block,
+                                                 {&rootParent, 1}));
         corrupt(block.data(), t);
         try {
-            (void)vox::esvo::validateBlock(file, reader.header(), 0, reader.slice(0), block, {&rootParent, 1});
+            (void)vox::esvo::validateBlock(file, reader.header(), 0, reader.slice(0), block,
+                                           {&rootParent, 1});
             ADD_FAILURE() << what << ": not detected";
         } catch (const vox::InvalidDataError& e) {
             EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
@@ -244,38 +268,60 @@ TEST(EsvoAttributes, ValidatorRejectsBrokenAttachments) {
     };
     const fs::path raw = write(octree, dir / "raw.esvo", vox::AttributeEncoding::Raw);
     const std::uint32_t rootUnit = 1;  // the root descriptor follows page 0's header
-    expectRejected(raw, [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
-        // The first descriptor that stores values and has an empty slot.
-        for (std::uint32_t u = 1; u < t.descriptorEndWord / 2; ++u) {
-            const std::uint32_t at = 4 * (t.attributeWord + u);
-            const std::uint32_t valid = vox::esvo::load<std::uint32_t>(b + 8 * u) >> 8 & 0xFFu;
-            if (vox::esvo::load<std::uint32_t>(b + at) == 0 || valid == 0xFFu) continue;
-            vox::esvo::store<std::uint32_t>(b + at, vox::esvo::load<std::uint32_t>(b + at) | (~valid & 0xFFu));
-            return;
-        }
-        ADD_FAILURE() << "no descriptor with an empty slot stores values";
-    }, "mask has bits outside the valid mask");
-    expectRejected(raw, [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
-        const std::uint32_t at = 4 * (t.attributeWord + rootUnit);
-        vox::esvo::store<std::uint32_t>(b + at, vox::esvo::load<std::uint32_t>(b + at) + (2u << 8));
-    }, "not stored in descriptor order");
-    expectRejected(raw, [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
-        vox::esvo::store<std::uint32_t>(b + 4 * (t.attributeWord + 0), 0x101u);  // unit 0 is the page header
-    }, "no descriptor");
+    expectRejected(
+        raw,
+        [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
+            // The first descriptor that stores values and has an empty slot.
+            for (std::uint32_t u = 1; u < t.descriptorEndWord / 2; ++u) {
+                const std::uint32_t at = 4 * (t.attributeWord + u);
+                const std::uint32_t valid = vox::esvo::load<std::uint32_t>(b + 8 * u) >> 8 & 0xFFu;
+                if (vox::esvo::load<std::uint32_t>(b + at) == 0 || valid == 0xFFu) continue;
+                vox::esvo::store<std::uint32_t>(
+                    b + at, vox::esvo::load<std::uint32_t>(b + at) | (~valid & 0xFFu));
+                return;
+            }
+            ADD_FAILURE() << "no descriptor with an empty slot stores values";
+        },
+        "mask has bits outside the valid mask");
+    expectRejected(
+        raw,
+        [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
+            const std::uint32_t at = 4 * (t.attributeWord + rootUnit);
+            vox::esvo::store<std::uint32_t>(b + at,
+                                            vox::esvo::load<std::uint32_t>(b + at) + (2u << 8));
+        },
+        "not stored in descriptor order");
+    expectRejected(
+        raw,
+        [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
+            vox::esvo::store<std::uint32_t>(b + 4 * (t.attributeWord + 0),
+                                            0x101u);  // unit 0 is the page header
+        },
+        "no descriptor");
     const fs::path dxt = write(octree, dir / "dxt.esvo", vox::AttributeEncoding::Compressed);
-    expectRejected(dxt, [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
-        vox::esvo::store<std::uint32_t>(b + 4 * (t.attributeWord + 2), 0x60000000u);  // block 0's base normal: axis 3
-    }, "invalid cube face");
+    expectRejected(
+        dxt,
+        [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
+            vox::esvo::store<std::uint32_t>(b + 4 * (t.attributeWord + 2),
+                                            0x60000000u);  // block 0's base normal: axis 3
+        },
+        "invalid cube face");
     // An unknown kind is named, with where it is in the file.
-    expectRejected(dxt, [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
-        vox::esvo::store<std::uint32_t>(b + 4 * (t.infoWord + vox::esvo::info::kAttachments + 2), 7u);
-    }, "(file offset");
+    expectRejected(
+        dxt,
+        [&](std::uint8_t* b, const vox::esvo::BlockTables& t) {
+            vox::esvo::store<std::uint32_t>(
+                b + 4 * (t.infoWord + vox::esvo::info::kAttachments + 2), 7u);
+        },
+        "(file offset");
     // The header must declare the kind the blocks hold.
     const vox::esvo::EsvoReader reader(dxt);
     vox::esvo::Header header = reader.header();
     header.attachmentKinds = 0b011u;
     const std::vector<std::uint8_t> block = reader.readSlice(0);
-    EXPECT_THROW((void)vox::esvo::validateBlock(dxt, header, 0, reader.slice(0), block, {&rootParent, 1}), vox::InvalidDataError);
+    EXPECT_THROW(
+        (void)vox::esvo::validateBlock(dxt, header, 0, reader.slice(0), block, {&rootParent, 1}),
+        vox::InvalidDataError);
 }
 
 TEST(EsvoAttributes, CorruptedBlocksAreRejectedOrReadSafely) {
@@ -288,7 +334,8 @@ TEST(EsvoAttributes, CorruptedBlocksAreRejectedOrReadSafely) {
     const vox::esvo::FrontierDescriptor rootParent{1, {}};
     std::uint32_t seed = 12345;
     const auto next = [&] { return seed = seed * 1664525u + 1013904223u; };
-    for (const auto encoding : {vox::AttributeEncoding::Raw, vox::AttributeEncoding::Compressed, vox::AttributeEncoding::CompressedLookup}) {
+    for (const auto encoding : {vox::AttributeEncoding::Raw, vox::AttributeEncoding::Compressed,
+                                vox::AttributeEncoding::CompressedLookup}) {
         const fs::path file = write(octree, dir / "c.esvo", encoding);
         const vox::esvo::EsvoReader reader(file);
         ASSERT_EQ(reader.sliceCount(), 1u);
@@ -299,11 +346,17 @@ TEST(EsvoAttributes, CorruptedBlocksAreRejectedOrReadSafely) {
             std::vector<std::uint8_t> block = original;
             // Mostly inside the colour/normal attachment, sometimes anywhere.
             const std::uint32_t words = static_cast<std::uint32_t>(block.size() / 4);
-            const std::uint32_t w = trial % 4 == 0 ? next() % words : t.attributeWord + next() % (t.attributeEndWord - t.attributeWord);
-            const std::uint32_t value = trial % 3 == 0 ? next() : vox::esvo::load<std::uint32_t>(block.data() + 4 * w) ^ (1u << (next() % 32));
+            const std::uint32_t w =
+                trial % 4 == 0 ? next() % words
+                               : t.attributeWord + next() % (t.attributeEndWord - t.attributeWord);
+            const std::uint32_t value =
+                trial % 3 == 0
+                    ? next()
+                    : vox::esvo::load<std::uint32_t>(block.data() + 4 * w) ^ (1u << (next() % 32));
             vox::esvo::store<std::uint32_t>(block.data() + 4 * w, value);
             try {
-                (void)vox::esvo::validateBlock(file, reader.header(), 0, reader.slice(0), block, {&rootParent, 1});
+                (void)vox::esvo::validateBlock(file, reader.header(), 0, reader.slice(0), block,
+                                               {&rootParent, 1});
             } catch (const vox::InvalidDataError&) {
                 ++rejected;
                 continue;
@@ -316,7 +369,8 @@ TEST(EsvoAttributes, CorruptedBlocksAreRejectedOrReadSafely) {
                 if (d.validMask() == 0) continue;
                 for (std::uint32_t slot = 0; slot < 8; ++slot) {
                     vox::esvo::AttributeValue v;
-                    if ((d.validMask() >> slot) & 1u) (void)vox::esvo::readAttribute(words32, 2 * u, slot, v);
+                    if ((d.validMask() >> slot) & 1u)
+                        (void)vox::esvo::readAttribute(words32, 2 * u, slot, v);
                 }
             }
         }
@@ -327,7 +381,8 @@ TEST(EsvoAttributes, CorruptedBlocksAreRejectedOrReadSafely) {
 
 TEST(EsvoAttributes, FilesWithoutAttributesRenderWithoutThem) {
     vox::test::ScratchDir dir;
-    const fs::path none = write(cornellBox(5).octree, dir / "none.esvo", vox::AttributeEncoding::None);
+    const fs::path none =
+        write(cornellBox(5).octree, dir / "none.esvo", vox::AttributeEncoding::None);
     const vox::esvo::EsvoReader reader(none);
     EXPECT_EQ(reader.header().attachmentKinds, 1u);
     (void)vox::esvo::validateFile(reader);

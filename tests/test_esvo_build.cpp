@@ -30,7 +30,8 @@ std::vector<char> bytesOf(const fs::path& file) {
 /// imported once per process, outside the tests' scratch directories.
 const vox::Scene& cornellBox() {
     static const vox::Scene scene = [] {
-        const fs::path dir = fs::temp_directory_path() / ("libvox-test-esvo-build-" + std::to_string(::getpid()));
+        const fs::path dir =
+            fs::temp_directory_path() / ("libvox-test-esvo-build-" + std::to_string(::getpid()));
         fs::create_directories(dir);
         vox::Scene imported = vox::importScene(vox::scenes::writeCornellBox(dir));
         fs::remove_all(dir);
@@ -39,8 +40,9 @@ const vox::Scene& cornellBox() {
     return scene;
 }
 
-vox::EsvoBuildOptions buildOptions(std::uint32_t depth, std::int32_t partitionLevel,
-                                   vox::AttributeEncoding encoding = vox::AttributeEncoding::Compressed, bool contours = true) {
+vox::EsvoBuildOptions buildOptions(
+    std::uint32_t depth, std::int32_t partitionLevel,
+    vox::AttributeEncoding encoding = vox::AttributeEncoding::Compressed, bool contours = true) {
     vox::EsvoBuildOptions options;
     options.voxelize.depth = depth;
     options.voxelize.contours = contours;
@@ -87,12 +89,14 @@ TEST(EsvoBuild, WritesTheBytesOfVoxelizeThenWriteAtEveryPartitionLevel) {
 
 TEST(EsvoBuild, EveryAttributeEncodingAndCubesOnlyAgreeWithTheInMemoryPath) {
     ScratchDir dir;
-    for (const auto encoding : {vox::AttributeEncoding::None, vox::AttributeEncoding::Raw, vox::AttributeEncoding::CompressedLookup}) {
+    for (const auto encoding : {vox::AttributeEncoding::None, vox::AttributeEncoding::Raw,
+                                vox::AttributeEncoding::CompressedLookup}) {
         for (const bool contours : {true, false}) {
             SCOPED_TRACE(static_cast<int>(encoding) * 2 + contours);
             const auto options = buildOptions(7, 2, encoding, contours);
             vox::buildEsvo(dir / "built.esvo", cornellBox(), options);
-            ASSERT_EQ(bytesOf(dir / "built.esvo"), bytesOf(writeInMemory(dir / "memory.esvo", options)));
+            ASSERT_EQ(bytesOf(dir / "built.esvo"),
+                      bytesOf(writeInMemory(dir / "memory.esvo", options)));
         }
     }
 }
@@ -127,7 +131,8 @@ TEST(EsvoBuild, TheThreadCountDoesNotChangeTheBytes) {
 
 TEST(EsvoBuild, EightRunsMergeIntoTheBytesOfTheWholeBuild) {
     ScratchDir dir;
-    for (const auto& [level, runs] : {std::pair{3, 8u}, std::pair{3, 3u}, std::pair{2, 100u}}) {  // 100: more runs than partitions
+    for (const auto& [level, runs] : {std::pair{3, 8u}, std::pair{3, 3u},
+                                      std::pair{2, 100u}}) {  // 100: more runs than partitions
         SCOPED_TRACE(runs);
         const auto options = buildOptions(7, level);
         const auto whole = vox::buildEsvo(dir / "whole.esvo", cornellBox(), options);
@@ -184,12 +189,15 @@ TEST(EsvoBuild, MergeRejectsMissingRepeatedForeignAndCorruptParts) {
     for (const std::size_t at : {std::size_t{400}, bytes.size() - 10, std::size_t{20}}) {
         auto flipped = bytes;
         flipped[at] = static_cast<char>(flipped[at] ^ 0x40);
-        vox::test::writeBinary(dir / "flipped.esvopart", std::vector<std::uint8_t>(flipped.begin(), flipped.end()));
+        vox::test::writeBinary(dir / "flipped.esvopart",
+                               std::vector<std::uint8_t>(flipped.begin(), flipped.end()));
         expectInvalid({parts[0], dir / "flipped.esvopart", parts[2]}, "checksum");
     }
     // Truncated, and not a part file at all.
-    vox::test::writeBinary(dir / "short.esvopart", std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + 1000));
-    expectInvalid({parts[0], dir / "short.esvopart", parts[2]}, "part file header: inconsistent fields");
+    vox::test::writeBinary(dir / "short.esvopart",
+                           std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + 1000));
+    expectInvalid({parts[0], dir / "short.esvopart", parts[2]},
+                  "part file header: inconsistent fields");
     vox::test::writeText(dir / "text.esvopart", std::string(400, 'x'));
     expectInvalid({parts[0], dir / "text.esvopart", parts[2]}, "not a part file");
     EXPECT_NO_THROW(vox::mergeEsvoParts(dir / "out.esvo", parts));

@@ -52,7 +52,8 @@ Vec3d closestOnTriangle(Vec3d p, Vec3d a, Vec3d b, Vec3d c) {
     const double vb = d5 * d2 - d1 * d6;
     if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
     const double va = d3 * d6 - d5 * d4;
-    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
     const double denom = 1.0 / (va + vb + vc);
     return a + ab * (vb * denom) + ac * (vc * denom);
 }
@@ -73,7 +74,7 @@ double meshDistance(const vox::Scene& scene, Vec3d p) {
 
 struct MeshHit {
     double t = std::numeric_limits<double>::infinity();  ///< +inf on a miss
-    Vec3d normal{0, 0, 0};                                 ///< unit normal of the triangle hit, facing the ray
+    Vec3d normal{0, 0, 0};  ///< unit normal of the triangle hit, facing the ray
 };
 
 // ---- shared data: the mesh, its octree and the files, built once ------------------------------
@@ -94,7 +95,8 @@ class EsvoRaycast : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
         shared = new Shared;
-        shared->dir = fs::temp_directory_path() / ("libvox_test_esvo_raycast_" + std::to_string(::getpid()));
+        shared->dir =
+            fs::temp_directory_path() / ("libvox_test_esvo_raycast_" + std::to_string(::getpid()));
         fs::remove_all(shared->dir);
         fs::create_directories(shared->dir);
         shared->scene = vox::importScene(vox::test::assimpModels() / "PLY/Wuson.ply");
@@ -105,7 +107,8 @@ protected:
         options.depth = kDepth;
         const auto start = std::chrono::steady_clock::now();
         shared->octree = vox::voxelizeSurface(shared->scene, options);
-        shared->voxelizeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        shared->voxelizeSeconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
         vox::EsvoWriteOptions write;
         write.sceneBounds = shared->scene.bounds();
@@ -117,10 +120,13 @@ protected:
 
         // Three cameras around the model, each framing it whole.
         const vox::Bounds3f b = shared->scene.bounds();
-        const Vec3d centre{(b.min.x + b.max.x) / 2.0, (b.min.y + b.max.y) / 2.0, (b.min.z + b.max.z) / 2.0};
+        const Vec3d centre{(b.min.x + b.max.x) / 2.0, (b.min.y + b.max.y) / 2.0,
+                           (b.min.z + b.max.z) / 2.0};
         const vox::Vec3f e = b.extent();
-        const double radius = 0.5 * std::sqrt(double(e.x) * e.x + double(e.y) * e.y + double(e.z) * e.z);
-        for (const Vec3d dir : {Vec3d{1, 0.35, 0.3}, Vec3d{-0.9, 0.5, -0.4}, Vec3d{0.5, -0.45, -1}}) {
+        const double radius =
+            0.5 * std::sqrt(double(e.x) * e.x + double(e.y) * e.y + double(e.z) * e.z);
+        for (const Vec3d dir :
+             {Vec3d{1, 0.35, 0.3}, Vec3d{-0.9, 0.5, -0.4}, Vec3d{0.5, -0.45, -1}}) {
             vox::PinholeCamera cam;
             cam.target = centre;
             cam.eye = centre + vox::normalize(dir) * (2.0 * radius);
@@ -150,7 +156,8 @@ std::vector<MeshHit> renderMesh(const vox::PinholeCamera& cam) {
     for (int y = 0; y < cam.height; ++y)
         for (int x = 0; x < cam.width; ++x) {
             const vox::CastHit h = shared->mesh->cast(cam.rayThrough(x, y));
-            if (h.hit) hits[std::size_t(y) * cam.width + x] = {h.t, {h.normal.x, h.normal.y, h.normal.z}};
+            if (h.hit)
+                hits[std::size_t(y) * cam.width + x] = {h.t, {h.normal.x, h.normal.y, h.normal.z}};
         }
     return hits;
 }
@@ -163,21 +170,28 @@ TEST_F(EsvoRaycast, OctreeMatchesTheMeshWithinALeafVoxel) {
     vox::esvo::EsvoPool pool(reader);
     pool.loadAll();
     const vox::EsvoRayCaster caster(pool);
-    EXPECT_NEAR(caster.leafVoxelSize(), shared->octree.cube.size / (1 << kDepth), 1e-12 * shared->octree.cube.size);
+    EXPECT_NEAR(caster.leafVoxelSize(), shared->octree.cube.size / (1 << kDepth),
+                1e-12 * shared->octree.cube.size);
     const double diagonal = std::sqrt(3.0) * caster.leafVoxelSize();
-    std::printf("Wuson depth %u: voxelized in %.2f s, %llu leaves, %u slices (1 MiB), leaf %.5g, diagonal %.5g\n", kDepth,
-                shared->voxelizeSeconds, static_cast<unsigned long long>(shared->octree.voxelsPerLevel.back()), reader.sliceCount(),
-                caster.leafVoxelSize(), diagonal);
+    std::printf(
+        "Wuson depth %u: voxelized in %.2f s, %llu leaves, %u slices (1 MiB), leaf %.5g, diagonal "
+        "%.5g\n",
+        kDepth, shared->voxelizeSeconds,
+        static_cast<unsigned long long>(shared->octree.voxelsPerLevel.back()), reader.sliceCount(),
+        caster.leafVoxelSize(), diagonal);
 
     std::uint64_t pixels = 0, agree = 0, both = 0, meshHits = 0, onlyOctree = 0, onlyMesh = 0;
-    std::uint64_t close = 0;       // |t_octree − t_mesh| <= diagonal
-    std::uint64_t notBehind = 0;   // t_octree <= t_mesh + diagonal
-    std::uint64_t slopeClose = 0;  // t_mesh − t_octree <= diagonal / |cos(incidence)|, and not behind
-    std::uint64_t onSurface = 0;   // the octree hit point lies within a diagonal of the mesh
-    std::uint64_t facing = 0, facingClose = 0;  // pixels whose incidence is within 45° of the normal
-    std::uint64_t coarse = 0;      // hits above the leaf level: none with every slice loaded
-    std::uint64_t badNormals = 0;  // normals that are not the entered face's
-    std::uint64_t octreeOnlyNearMesh = 0;  // octree-only pixels whose hit point is within a diagonal of the mesh
+    std::uint64_t close = 0;      // |t_octree − t_mesh| <= diagonal
+    std::uint64_t notBehind = 0;  // t_octree <= t_mesh + diagonal
+    std::uint64_t slopeClose =
+        0;  // t_mesh − t_octree <= diagonal / |cos(incidence)|, and not behind
+    std::uint64_t onSurface = 0;  // the octree hit point lies within a diagonal of the mesh
+    std::uint64_t facing = 0,
+                  facingClose = 0;  // pixels whose incidence is within 45° of the normal
+    std::uint64_t coarse = 0;       // hits above the leaf level: none with every slice loaded
+    std::uint64_t badNormals = 0;   // normals that are not the entered face's
+    std::uint64_t octreeOnlyNearMesh =
+        0;  // octree-only pixels whose hit point is within a diagonal of the mesh
     double worstBehind = -1e300, worstSurface = 0;
     for (std::size_t c = 0; c < shared->cameras.size(); ++c) {
         const vox::PinholeCamera& cam = shared->cameras[c];
@@ -201,9 +215,12 @@ TEST_F(EsvoRaycast, OctreeMatchesTheMeshWithinALeafVoxel) {
                     // and the hit point lies on a leaf grid plane across that axis.
                     const vox::Vec3f n = oct.normal[i];
                     const int axis = std::abs(n.x) == 1 ? 0 : (std::abs(n.y) == 1 ? 1 : 2);
-                    const double along = (point[axis] - shared->octree.cube.origin[axis]) / caster.leafVoxelSize();
-                    const bool faceOk = std::abs(n.x) + std::abs(n.y) + std::abs(n.z) == 1 && std::abs(n[axis]) == 1 &&
-                                        n[axis] * ray.direction[axis] < 0 && std::abs(along - std::round(along)) < 1e-3;
+                    const double along =
+                        (point[axis] - shared->octree.cube.origin[axis]) / caster.leafVoxelSize();
+                    const bool faceOk = std::abs(n.x) + std::abs(n.y) + std::abs(n.z) == 1 &&
+                                        std::abs(n[axis]) == 1 &&
+                                        n[axis] * ray.direction[axis] < 0 &&
+                                        std::abs(along - std::round(along)) < 1e-3;
                     badNormals += !faceOk;
                     const double dist = meshDistance(shared->scene, point);
                     worstSurface = std::max(worstSurface, dist / diagonal);
@@ -229,7 +246,8 @@ TEST_F(EsvoRaycast, OctreeMatchesTheMeshWithinALeafVoxel) {
             }
         meshHits += camMeshHits;
         EXPECT_EQ(oct.hits, camOctHits);
-        EXPECT_GT(camMeshHits, std::uint64_t(kImage) * kImage / 20) << "camera " << c << ": the model is in view";
+        EXPECT_GT(camMeshHits, std::uint64_t(kImage) * kImage / 20)
+            << "camera " << c << ": the model is in view";
         // renderEsvo is caster.cast through camera.rayThrough, pixel by pixel.
         for (int y = 0; y < kImage; y += 17)
             for (int x = 0; x < kImage; x += 13) {
@@ -241,25 +259,35 @@ TEST_F(EsvoRaycast, OctreeMatchesTheMeshWithinALeafVoxel) {
                 }
             }
     }
-    const auto pct = [](std::uint64_t n, std::uint64_t of) { return of ? 100.0 * double(n) / double(of) : 0.0; };
+    const auto pct = [](std::uint64_t n, std::uint64_t of) {
+        return of ? 100.0 * double(n) / double(of) : 0.0;
+    };
     const std::uint64_t octHits = both + onlyOctree;
-    std::printf("hit/miss agreement: %.3f%% of %llu pixels (%llu mesh hits; octree-only %llu, of them %llu within a diagonal of "
-                "the mesh; mesh-only %llu)\n",
-                pct(agree, pixels), static_cast<unsigned long long>(pixels), static_cast<unsigned long long>(meshHits),
-                static_cast<unsigned long long>(onlyOctree), static_cast<unsigned long long>(octreeOnlyNearMesh),
-                static_cast<unsigned long long>(onlyMesh));
+    std::printf(
+        "hit/miss agreement: %.3f%% of %llu pixels (%llu mesh hits; octree-only %llu, of them %llu "
+        "within a diagonal of "
+        "the mesh; mesh-only %llu)\n",
+        pct(agree, pixels), static_cast<unsigned long long>(pixels),
+        static_cast<unsigned long long>(meshHits), static_cast<unsigned long long>(onlyOctree),
+        static_cast<unsigned long long>(octreeOnlyNearMesh),
+        static_cast<unsigned long long>(onlyMesh));
     std::printf("pixels both hit: %llu\n", static_cast<unsigned long long>(both));
     std::printf("  |t_octree - t_mesh| <= leaf diagonal:           %.3f%%\n", pct(close, both));
-    std::printf("  ... where the ray is within 45 deg of normal:   %.3f%% of %llu\n", pct(facingClose, facing),
-                static_cast<unsigned long long>(facing));
-    std::printf("  within diagonal / |cos incidence|, not behind:  %.3f%%\n", pct(slopeClose, both));
-    std::printf("  octree not more than a diagonal behind:         %.3f%% (worst: %.3g diagonals behind)\n", pct(notBehind, both),
-                worstBehind / diagonal);
-    std::printf("octree hit points within a leaf diagonal of the mesh: %.3f%% of %llu (worst %.3g diagonals)\n",
-                pct(onSurface, octHits), static_cast<unsigned long long>(octHits), worstSurface);
+    std::printf("  ... where the ray is within 45 deg of normal:   %.3f%% of %llu\n",
+                pct(facingClose, facing), static_cast<unsigned long long>(facing));
+    std::printf("  within diagonal / |cos incidence|, not behind:  %.3f%%\n",
+                pct(slopeClose, both));
+    std::printf(
+        "  octree not more than a diagonal behind:         %.3f%% (worst: %.3g diagonals behind)\n",
+        pct(notBehind, both), worstBehind / diagonal);
+    std::printf(
+        "octree hit points within a leaf diagonal of the mesh: %.3f%% of %llu (worst %.3g "
+        "diagonals)\n",
+        pct(onSurface, octHits), static_cast<unsigned long long>(octHits), worstSurface);
     RecordProperty("hit_agreement_percent", std::to_string(pct(agree, pixels)));
     RecordProperty("depth_within_diagonal_percent", std::to_string(pct(close, both)));
-    RecordProperty("depth_within_diagonal_facing_percent", std::to_string(pct(facingClose, facing)));
+    RecordProperty("depth_within_diagonal_facing_percent",
+                   std::to_string(pct(facingClose, facing)));
     RecordProperty("depth_within_slope_bound_percent", std::to_string(pct(slopeClose, both)));
     RecordProperty("not_behind_percent", std::to_string(pct(notBehind, both)));
     RecordProperty("hit_point_on_surface_percent", std::to_string(pct(onSurface, octHits)));
@@ -290,7 +318,8 @@ TEST_F(EsvoRaycast, SliceSizeDoesNotChangeTheImage) {
     const vox::esvo::EsvoReader big(shared->bigSlices), small(shared->smallSlices);
     ASSERT_GT(small.sliceCount(), 10u);
     EXPECT_LT(big.sliceCount(), small.sliceCount());
-    for (std::uint32_t i = 0; i < small.sliceCount(); ++i) ASSERT_LE(small.slice(i).byteSize, 16384u);
+    for (std::uint32_t i = 0; i < small.sliceCount(); ++i)
+        ASSERT_LE(small.slice(i).byteSize, 16384u);
     vox::esvo::EsvoPool bigPool(big), smallPool(small);
     bigPool.loadAll();
     smallPool.loadAll();
@@ -301,7 +330,8 @@ TEST_F(EsvoRaycast, SliceSizeDoesNotChangeTheImage) {
         const vox::RenderBuffers b = vox::renderEsvo(smallCaster, cam, exact());
         std::uint64_t differ = 0;
         for (std::size_t i = 0; i < a.depth.size(); ++i)
-            differ += a.depth[i] != b.depth[i] || a.level[i] != b.level[i] || !(a.normal[i] == b.normal[i]);
+            differ += a.depth[i] != b.depth[i] || a.level[i] != b.level[i] ||
+                      !(a.normal[i] == b.normal[i]);
         EXPECT_EQ(differ, 0u);
         EXPECT_EQ(a.hits, b.hits);
         hits += a.hits;
@@ -334,8 +364,10 @@ TEST_F(EsvoRaycast, RootSliceAloneShowsCoarserSupersets) {
             if (!ch || c.depth[i] > f.depth[i] * (1 + 1e-6f) + 1e-6f) ++violations;
         }
     }
-    std::printf("root slice only: %llu hits (full octree %llu), %llu at levels < %u\n", static_cast<unsigned long long>(coarseHits),
-                static_cast<unsigned long long>(fullHits), static_cast<unsigned long long>(coarseLevel), kDepth);
+    std::printf("root slice only: %llu hits (full octree %llu), %llu at levels < %u\n",
+                static_cast<unsigned long long>(coarseHits),
+                static_cast<unsigned long long>(fullHits),
+                static_cast<unsigned long long>(coarseLevel), kDepth);
     EXPECT_EQ(violations, 0u);
     EXPECT_GT(coarseLevel, 0u);
     EXPECT_GT(extra, 0u);  // coarse voxels are bigger, so they also catch rays the leaves miss
@@ -360,11 +392,13 @@ TEST_F(EsvoRaycast, MaxLevelStopsTraversal) {
             ++hits;
             EXPECT_LE(c.level[i], 5u);
             atFive += c.level[i] == 5;
-            if (std::isfinite(f.depth[i]) && c.depth[i] > f.depth[i] * (1 + 1e-6f) + 1e-6f) ++violations;
+            if (std::isfinite(f.depth[i]) && c.depth[i] > f.depth[i] * (1 + 1e-6f) + 1e-6f)
+                ++violations;
         }
     }
     EXPECT_GT(hits, 5000u);
-    EXPECT_EQ(atFive, hits);  // every voxel above the leaves has children, so level 5 is where it stops
+    EXPECT_EQ(atFive,
+              hits);  // every voxel above the leaves has children, so level 5 is where it stops
     EXPECT_EQ(violations, 0u);
 }
 
@@ -373,10 +407,13 @@ namespace {
 /// Every field of two hits, bit for bit.
 bool sameHit(const vox::CastHit& a, const vox::CastHit& b) {
     const auto bits = [](float f) { return std::bit_cast<std::uint32_t>(f); };
-    return a.hit == b.hit && bits(a.t) == bits(b.t) && a.level == b.level && a.iterations == b.iterations &&
-           bits(a.normal.x) == bits(b.normal.x) && bits(a.normal.y) == bits(b.normal.y) && bits(a.normal.z) == bits(b.normal.z) &&
-           a.hasAttributes == b.hasAttributes && a.color == b.color && bits(a.shadingNormal.x) == bits(b.shadingNormal.x) &&
-           bits(a.shadingNormal.y) == bits(b.shadingNormal.y) && bits(a.shadingNormal.z) == bits(b.shadingNormal.z);
+    return a.hit == b.hit && bits(a.t) == bits(b.t) && a.level == b.level &&
+           a.iterations == b.iterations && bits(a.normal.x) == bits(b.normal.x) &&
+           bits(a.normal.y) == bits(b.normal.y) && bits(a.normal.z) == bits(b.normal.z) &&
+           a.hasAttributes == b.hasAttributes && a.color == b.color &&
+           bits(a.shadingNormal.x) == bits(b.shadingNormal.x) &&
+           bits(a.shadingNormal.y) == bits(b.shadingNormal.y) &&
+           bits(a.shadingNormal.z) == bits(b.shadingNormal.z);
 }
 
 }  // namespace
@@ -420,11 +457,15 @@ TEST_F(EsvoRaycast, CastManyMatchesCastBitForBit) {
                 for (int y = 0; y < cam.height; ++y)
                     for (int x = 0; x < cam.width; ++x) {
                         camRays.push_back(cam.rayThrough(x, y));
-                        // Variant 4 also gives every third ray a start of its own, some past the hit.
-                        starts.push_back(v == 4 && (x + y) % 3 == 0 ? float((x % 7) * 0.1 * shared->octree.cube.size) : 0.0f);
+                        // Variant 4 also gives every third ray a start of its own, some past the
+                        // hit.
+                        starts.push_back(v == 4 && (x + y) % 3 == 0
+                                             ? float((x % 7) * 0.1 * shared->octree.cube.size)
+                                             : 0.0f);
                     }
                 std::vector<vox::CastHit> many(camRays.size());
-                caster->castMany(camRays.data(), starts.data(), camRays.size(), variants[v], many.data());
+                caster->castMany(camRays.data(), starts.data(), camRays.size(), variants[v],
+                                 many.data());
                 for (std::size_t i = 0; i < camRays.size(); ++i) {
                     vox::CastOptions one = variants[v];
                     one.tStart = std::max(one.tStart, starts[i]);
@@ -466,7 +507,8 @@ TEST_F(EsvoRaycast, RaysOutsideAndInsideTheCube) {
         const vox::CastHit h = caster.cast(ray, exact());
         ASSERT_TRUE(h.hit) << "vertex " << k;
         EXPECT_LE(h.t, t + 1e-5) << "vertex " << k;
-        EXPECT_LE(meshDistance(shared->scene, ray.origin + ray.direction * double(h.t)), diagonal) << "vertex " << k;
+        EXPECT_LE(meshDistance(shared->scene, ray.origin + ray.direction * double(h.t)), diagonal)
+            << "vertex " << k;
         EXPECT_EQ(h.level, kDepth);
         // tMax short of the octree hit: no hit.
         vox::CastOptions shortRay = exact();
@@ -479,10 +521,12 @@ TEST_F(EsvoRaycast, RaysOutsideAndInsideTheCube) {
     // Starting inside the cube, in empty space (the centre of the model's bounds, inside its
     // body): finds the same surface the mesh does.
     const vox::Bounds3f b = shared->scene.bounds();
-    const Vec3d middle{(b.min.x + b.max.x) / 2.0, (b.min.y + b.max.y) / 2.0, (b.min.z + b.max.z) / 2.0};
+    const Vec3d middle{(b.min.x + b.max.x) / 2.0, (b.min.y + b.max.y) / 2.0,
+                       (b.min.z + b.max.z) / 2.0};
     EXPECT_GT(meshDistance(shared->scene, middle), 10 * diagonal);
     int inside = 0;
-    for (const Vec3d dir : {Vec3d{1, 0, 0}, Vec3d{0, -1, 0}, Vec3d{0, 0.3, 1}, Vec3d{-1, -0.2, 0.1}, Vec3d{0.3, 1, -0.5}}) {
+    for (const Vec3d dir : {Vec3d{1, 0, 0}, Vec3d{0, -1, 0}, Vec3d{0, 0.3, 1}, Vec3d{-1, -0.2, 0.1},
+                            Vec3d{0.3, 1, -0.5}}) {
         const vox::Ray ray{middle, vox::normalize(dir)};
         const vox::CastHit meshHit = shared->mesh->cast(ray);
         const double t = meshHit.hit ? double(meshHit.t) : std::numeric_limits<double>::infinity();
@@ -497,7 +541,8 @@ TEST_F(EsvoRaycast, RaysOutsideAndInsideTheCube) {
     EXPECT_GE(inside, 3);
     // Starting on the surface (a mesh vertex): inside a leaf voxel, so t = 0 at the leaf level.
     const vox::Vec3f v = shared->scene.meshes[0].positions[shared->scene.meshes[0].indices[0]];
-    const vox::CastHit onSurface = caster.cast({{v.x, v.y, v.z}, vox::normalize(Vec3d{0.3, 0.4, 0.5})}, exact());
+    const vox::CastHit onSurface =
+        caster.cast({{v.x, v.y, v.z}, vox::normalize(Vec3d{0.3, 0.4, 0.5})}, exact());
     ASSERT_TRUE(onSurface.hit);
     EXPECT_EQ(onSurface.t, 0.0f);
     EXPECT_EQ(onSurface.level, kDepth);
@@ -511,7 +556,8 @@ struct DepthAgreement {
 };
 
 /// Octree (with @p options for the voxelizer) against the mesh over the three cameras.
-DepthAgreement compareWithMesh(const vox::SurfaceVoxelizeOptions& options, const std::string& name) {
+DepthAgreement compareWithMesh(const vox::SurfaceVoxelizeOptions& options,
+                               const std::string& name) {
     const vox::SparseOctree octree = vox::voxelizeSurface(shared->scene, options);
     vox::EsvoWriteOptions write;
     write.sceneBounds = shared->scene.bounds();
@@ -547,9 +593,11 @@ DepthAgreement compareWithMesh(const vox::SurfaceVoxelizeOptions& options, const
     for (double e : errors) r.meanError += e / double(errors.size());
     r.p95Error = errors[errors.size() * 95 / 100];
     r.voxels = octree.voxelCount();
-    std::printf("%-22s voxels %9llu  hit/miss %.3f%%  within a diagonal %.2f%%  mean %.3f  p95 %.3f diagonals  worst behind %.4f\n",
-                name.c_str(), static_cast<unsigned long long>(r.voxels), 100 * r.hitMiss, 100 * r.withinDiagonal, r.meanError,
-                r.p95Error, r.worstBehind);
+    std::printf(
+        "%-22s voxels %9llu  hit/miss %.3f%%  within a diagonal %.2f%%  mean %.3f  p95 %.3f "
+        "diagonals  worst behind %.4f\n",
+        name.c_str(), static_cast<unsigned long long>(r.voxels), 100 * r.hitMiss,
+        100 * r.withinDiagonal, r.meanError, r.p95Error, r.worstBehind);
     return r;
 }
 

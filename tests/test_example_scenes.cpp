@@ -29,7 +29,8 @@ std::string readBytes(const std::filesystem::path& file) {
 void expectSameFiles(const vox::test::ScratchDir& a, const vox::test::ScratchDir& b) {
     ASSERT_EQ(a.files(), b.files());
     ASSERT_FALSE(a.files().empty());
-    for (const std::string& name : a.files()) EXPECT_TRUE(readBytes(a / name) == readBytes(b / name)) << name;
+    for (const std::string& name : a.files())
+        EXPECT_TRUE(readBytes(a / name) == readBytes(b / name)) << name;
 }
 
 void expectInside(const vox::Light& light, const vox::Bounds3f& bounds, float above = 0.0f) {
@@ -51,9 +52,10 @@ void expectBounds(const vox::Bounds3f& bounds, std::array<float, 3> min, std::ar
 }
 
 bool sameLight(const vox::Light& a, const vox::Light& b) {
-    return a.name == b.name && a.type == b.type && a.color == b.color && a.intensity == b.intensity && a.range == b.range &&
-           a.innerConeAngle == b.innerConeAngle && a.outerConeAngle == b.outerConeAngle && a.position == b.position &&
-           a.direction == b.direction && a.dynamic == b.dynamic;
+    return a.name == b.name && a.type == b.type && a.color == b.color &&
+           a.intensity == b.intensity && a.range == b.range &&
+           a.innerConeAngle == b.innerConeAngle && a.outerConeAngle == b.outerConeAngle &&
+           a.position == b.position && a.direction == b.direction && a.dynamic == b.dynamic;
 }
 
 std::string prefixOf(const std::string& name) { return name.substr(0, name.find('.')); }
@@ -80,7 +82,9 @@ TEST(ExampleScenes, CorridorHas30StaticCeilingLampsWithFiniteRanges) {
         EXPECT_NEAR(std::pow(CorridorFacts::kLampHeight / light.range, 3.0f), 0.01f, 0.0005f);
         EXPECT_GE(light.intensity, CorridorFacts::kLampMinIntensity);
         EXPECT_LE(light.intensity, CorridorFacts::kLampMaxIntensity);
-        EXPECT_FLOAT_EQ(light.position.x, -CorridorFacts::kLength / 2 + CorridorFacts::kLampSpacing * (static_cast<float>(i) + 0.5f));
+        EXPECT_FLOAT_EQ(light.position.x,
+                        -CorridorFacts::kLength / 2 +
+                            CorridorFacts::kLampSpacing * (static_cast<float>(i) + 0.5f));
         EXPECT_FLOAT_EQ(light.position.y, CorridorFacts::kLampHeight);
         EXPECT_FLOAT_EQ(light.position.z, 0.0f);
         expectInside(light, bounds);
@@ -90,7 +94,8 @@ TEST(ExampleScenes, CorridorHas30StaticCeilingLampsWithFiniteRanges) {
     EXPECT_GE(intensities.size(), 3u);
     EXPECT_GE(colors.size(), 2u);
     // The two ends do not overlap: a light forest splits the corridor.
-    EXPECT_GT(scene.lights.back().position.x - scene.lights.front().position.x, 2 * CorridorFacts::kLampRange);
+    EXPECT_GT(scene.lights.back().position.x - scene.lights.front().position.x,
+              2 * CorridorFacts::kLampRange);
 }
 
 TEST(ExampleScenes, MovingCorridorAddsTwoDynamicLightsThatMoveBetweenFrames) {
@@ -105,7 +110,8 @@ TEST(ExampleScenes, MovingCorridorAddsTwoDynamicLightsThatMoveBetweenFrames) {
     for (int frame : {0, 1}) {
         const vox::Scene& scene = frames[static_cast<std::size_t>(frame)];
         EXPECT_TRUE(scene.warnings.empty());
-        ASSERT_EQ(scene.lights.size(), static_cast<std::size_t>(CorridorFacts::kLamps + CorridorFacts::kMovingLights));
+        ASSERT_EQ(scene.lights.size(),
+                  static_cast<std::size_t>(CorridorFacts::kLamps + CorridorFacts::kMovingLights));
         const vox::Bounds3f bounds = scene.bounds();
         int dynamic = 0;
         for (const vox::Light& light : scene.lights) {
@@ -114,14 +120,16 @@ TEST(ExampleScenes, MovingCorridorAddsTwoDynamicLightsThatMoveBetweenFrames) {
         }
         EXPECT_EQ(dynamic, CorridorFacts::kMovingLights);
         // The static part is the still corridor's, light for light and triangle for triangle.
-        for (std::size_t i = 0; i < still.lights.size(); ++i) EXPECT_TRUE(sameLight(scene.lights[i], still.lights[i])) << i;
+        for (std::size_t i = 0; i < still.lights.size(); ++i)
+            EXPECT_TRUE(sameLight(scene.lights[i], still.lights[i])) << i;
         ASSERT_EQ(scene.meshes.size(), still.meshes.size());
         for (std::size_t m = 0; m < still.meshes.size(); ++m) {
             EXPECT_EQ(scene.meshes[m].positions, still.meshes[m].positions);
             EXPECT_EQ(scene.meshes[m].indices, still.meshes[m].indices);
         }
         for (int k = 0; k < CorridorFacts::kMovingLights; ++k) {
-            const vox::Light& mover = scene.lights[static_cast<std::size_t>(CorridorFacts::kLamps + k)];
+            const vox::Light& mover =
+                scene.lights[static_cast<std::size_t>(CorridorFacts::kLamps + k)];
             EXPECT_TRUE(mover.dynamic);
             EXPECT_EQ(mover.name, CorridorFacts::kMovingNames[static_cast<std::size_t>(k)]);
             const auto at = vox::scenes::corridorMovingLightPosition(k, frame);
@@ -144,7 +152,8 @@ TEST(ExampleScenes, MovingCorridorAddsTwoDynamicLightsThatMoveBetweenFrames) {
     }
     // Later frames bounce between the corridor's ends.
     for (int frame = 0; frame < 100; ++frame)
-        for (int k = 0; k < 2; ++k) EXPECT_LE(std::abs(vox::scenes::corridorMovingLightPosition(k, frame)[0]), 28.0);
+        for (int k = 0; k < 2; ++k)
+            EXPECT_LE(std::abs(vox::scenes::corridorMovingLightPosition(k, frame)[0]), 28.0);
 }
 
 TEST(ExampleScenes, LightGridHas256EqualRangeLightsAboveTheCubes) {
@@ -235,8 +244,8 @@ TEST(ExampleScenes, CityBlockHas10000LightsSplitAsDocumented) {
         EXPECT_EQ(prefixOf(light.name), CityBlockFacts::kStreetLampPrefix);
         EXPECT_NEAR(box.min.y, CityBlockFacts::kSidewalkHeight, 1e-4f) << mesh.name;
         EXPECT_GT(box.max.y, light.position.y) << mesh.name;
-        EXPECT_TRUE(light.position.x > box.min.x && light.position.x < box.max.x && light.position.z > box.min.z &&
-                    light.position.z < box.max.z)
+        EXPECT_TRUE(light.position.x > box.min.x && light.position.x < box.max.x &&
+                    light.position.z > box.min.z && light.position.z < box.max.z)
             << mesh.name;
     }
     EXPECT_EQ(lamp, static_cast<std::size_t>(CityBlockFacts::kStreetLamps));
@@ -244,8 +253,9 @@ TEST(ExampleScenes, CityBlockHas10000LightsSplitAsDocumented) {
     std::size_t inside = 0;
     for (const vox::Light& light : scene.lights)
         for (const vox::Bounds3f& b : buildings)
-            inside += light.position.x > b.min.x && light.position.x < b.max.x && light.position.y < b.max.y &&
-                      light.position.z > b.min.z && light.position.z < b.max.z;
+            inside += light.position.x > b.min.x && light.position.x < b.max.x &&
+                      light.position.y < b.max.y && light.position.z > b.min.z &&
+                      light.position.z < b.max.z;
     EXPECT_EQ(inside, 0u);
 
     // Finite ranges keep the overlap local: on average a light's range overlaps a few dozen
@@ -257,7 +267,8 @@ TEST(ExampleScenes, CityBlockHas10000LightsSplitAsDocumented) {
             const float reach = scene.lights[i].range + scene.lights[j].range;
             overlaps += vox::dot(d, d) < reach * reach;
         }
-    const double meanOverlaps = 2.0 * static_cast<double>(overlaps) / static_cast<double>(scene.lights.size());
+    const double meanOverlaps =
+        2.0 * static_cast<double>(overlaps) / static_cast<double>(scene.lights.size());
     EXPECT_LT(meanOverlaps, 100.0);
     RecordProperty("mean_overlaps", std::to_string(meanOverlaps));
 }

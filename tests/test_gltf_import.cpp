@@ -25,8 +25,6 @@ using vox::test::ScratchDir;
 
 namespace {
 
-
-
 GltfBuilder::Primitive triangle(int material = -1) {
     GltfBuilder::Primitive p;
     p.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0};
@@ -35,8 +33,10 @@ GltfBuilder::Primitive triangle(int material = -1) {
     return p;
 }
 
-std::filesystem::path writeSingleNode(const ScratchDir& dir, GltfBuilder& gltf, GltfBuilder::NodeDesc node,
-                                      BufferStorage storage = BufferStorage::DataUri, const std::string& name = "scene.gltf") {
+std::filesystem::path writeSingleNode(const ScratchDir& dir, GltfBuilder& gltf,
+                                      GltfBuilder::NodeDesc node,
+                                      BufferStorage storage = BufferStorage::DataUri,
+                                      const std::string& name = "scene.gltf") {
     gltf.setSceneRoots({gltf.addNode(node)});
     const auto file = dir / name;
     gltf.write(file, storage);
@@ -48,7 +48,8 @@ bool near(vox::Vec3f a, vox::Vec3f b, float eps = 1e-5f) {
 }
 
 vox::Vec3f faceNormal(const vox::Mesh& mesh, std::size_t t) {
-    const vox::Vec3f a = mesh.positions[mesh.indices[3 * t]], b = mesh.positions[mesh.indices[3 * t + 1]],
+    const vox::Vec3f a = mesh.positions[mesh.indices[3 * t]],
+                     b = mesh.positions[mesh.indices[3 * t + 1]],
                      c = mesh.positions[mesh.indices[3 * t + 2]];
     return vox::normalize(vox::cross(b - a, c - a));
 }
@@ -57,7 +58,8 @@ vox::Vec3f faceNormal(const vox::Mesh& mesh, std::size_t t) {
 double signedVolume(const vox::Mesh& mesh) {
     double v = 0;
     for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
-        const vox::Vec3f a = mesh.positions[mesh.indices[3 * t]], b = mesh.positions[mesh.indices[3 * t + 1]],
+        const vox::Vec3f a = mesh.positions[mesh.indices[3 * t]],
+                         b = mesh.positions[mesh.indices[3 * t + 1]],
                          c = mesh.positions[mesh.indices[3 * t + 2]];
         v += vox::dot(a, vox::cross(b, c)) / 6.0;
     }
@@ -72,7 +74,8 @@ TEST(GltfImport, NodeTransformsAreAppliedInOrderScaleRotateTranslate) {
     const int mesh = gltf.addMesh("tri", {triangle()});
     // 90 degrees about Z, then scale 2 first, then translate (10, 0, 0).
     const double s = std::sin(std::numbers::pi / 4), c = std::cos(std::numbers::pi / 4);
-    const auto file = writeSingleNode(dir, gltf, {"node", mesh, -1, {10, 0, 0}, {0, 0, s, c}, {2, 2, 2}});
+    const auto file =
+        writeSingleNode(dir, gltf, {"node", mesh, -1, {10, 0, 0}, {0, 0, s, c}, {2, 2, 2}});
     const vox::Scene scene = importOk(file);
     ASSERT_EQ(scene.meshes.size(), 1u);
     const vox::Mesh& m = scene.meshes[0];
@@ -89,7 +92,8 @@ TEST(GltfImport, MatrixAndParentTransformsCompose) {
     const int child = gltf.addNode({"child", mesh, -1, {0, 0, 5}});
     const int parent = gltf.addNode({"parent"});
     gltf.json()["nodes"][parent]["children"] = {child};
-    gltf.json()["nodes"][parent]["matrix"] = {3, 0, 0, 0, 0, 3, 0, 0, 0, 0, 3, 0, 1, 2, 3, 1};  // scale 3, then move (1,2,3)
+    gltf.json()["nodes"][parent]["matrix"] = {3, 0, 0, 0, 0, 3, 0, 0, 0,
+                                              0, 3, 0, 1, 2, 3, 1};  // scale 3, then move (1,2,3)
     gltf.setSceneRoots({parent});
     gltf.write(dir / "scene.gltf", BufferStorage::DataUri);
     const vox::Scene scene = importOk(dir / "scene.gltf");
@@ -102,12 +106,14 @@ TEST(GltfImport, MirroringTransformKeepsTrianglesFacingOutwards) {
     ScratchDir dir;
     GltfBuilder gltf;
     const int mesh = gltf.addMesh("box", {vox::scenes::boxPrimitive({0, 0, 0}, {1, 2, 3}, -1)});
-    const auto file = writeSingleNode(dir, gltf, {"mirrored", mesh, -1, {0, 0, 0}, {0, 0, 0, 1}, {-1, 1, 1}});
+    const auto file =
+        writeSingleNode(dir, gltf, {"mirrored", mesh, -1, {0, 0, 0}, {0, 0, 0, 1}, {-1, 1, 1}});
     const vox::Scene scene = importOk(file);
     const vox::Mesh& m = scene.meshes.at(0);
     EXPECT_NEAR(signedVolume(m), 6.0, 1e-4);
     for (std::size_t t = 0; t < m.triangleCount(); ++t)
-        EXPECT_GT(vox::dot(faceNormal(m, t), m.normals[m.indices[3 * t]]), 0.99f) << "triangle " << t;
+        EXPECT_GT(vox::dot(faceNormal(m, t), m.normals[m.indices[3 * t]]), 0.99f)
+            << "triangle " << t;
 }
 
 TEST(GltfImport, MissingNormalsAreFlatAsTheSpecificationRequires) {
@@ -121,7 +127,8 @@ TEST(GltfImport, MissingNormalsAreFlatAsTheSpecificationRequires) {
     ASSERT_EQ(m.triangleCount(), 2u);
     EXPECT_EQ(m.positions.size(), 6u) << "flat normals need unwelded vertices";
     for (std::size_t t = 0; t < 2; ++t)
-        for (int k = 0; k < 3; ++k) EXPECT_TRUE(near(m.normals[m.indices[3 * t + k]], faceNormal(m, t)));
+        for (int k = 0; k < 3; ++k)
+            EXPECT_TRUE(near(m.normals[m.indices[3 * t + k]], faceNormal(m, t)));
     EXPECT_TRUE(near(faceNormal(m, 0), {0, 0, 1}));
     EXPECT_TRUE(near(faceNormal(m, 1), {0, -1, 0}));
 }
@@ -158,9 +165,11 @@ TEST(GltfImport, SparseAccessorsSubstituteValues) {
     const std::vector<std::uint8_t> index = {2, 0, 0, 0};
     const std::vector<float> value = {0, 7, 0};
     const int indexView = gltf.addBufferView(index);
-    const int valueView = gltf.addBufferView({reinterpret_cast<const std::uint8_t*>(value.data()), 12});
+    const int valueView =
+        gltf.addBufferView({reinterpret_cast<const std::uint8_t*>(value.data()), 12});
     auto& positionAccessor = gltf.json()["accessors"][0];
-    positionAccessor["sparse"] = {{"count", 1}, {"indices", {{"bufferView", indexView}, {"componentType", 5121}}},
+    positionAccessor["sparse"] = {{"count", 1},
+                                  {"indices", {{"bufferView", indexView}, {"componentType", 5121}}},
                                   {"values", {{"bufferView", valueView}}}};
     positionAccessor.erase("max");
     positionAccessor.erase("min");
@@ -179,12 +188,15 @@ TEST(GltfImport, SparseAccessorWithoutBufferViewStartsFromZeros) {
     const std::vector<std::uint8_t> indices = {1, 2};
     const std::vector<float> values = {1, 0, 0, 0, 1, 0};
     const int indexView = gltf.addBufferView(indices);
-    const int valueView = gltf.addBufferView({reinterpret_cast<const std::uint8_t*>(values.data()), 24});
+    const int valueView =
+        gltf.addBufferView({reinterpret_cast<const std::uint8_t*>(values.data()), 24});
     auto& accessor = gltf.json()["accessors"][0];
     accessor.erase("bufferView");
     accessor.erase("max");
     accessor.erase("min");
-    accessor["sparse"] = {{"count", 2}, {"indices", {{"bufferView", indexView}, {"componentType", 5121}}}, {"values", {{"bufferView", valueView}}}};
+    accessor["sparse"] = {{"count", 2},
+                          {"indices", {{"bufferView", indexView}, {"componentType", 5121}}},
+                          {"values", {{"bufferView", valueView}}}};
     const auto file = writeSingleNode(dir, gltf, {"n", mesh});
     const vox::Mesh m = importOk(file).meshes.at(0);
     EXPECT_TRUE(near(m.positions[0], {0, 0, 0}));
@@ -200,11 +212,15 @@ TEST(GltfImport, NormalizedAndQuantizedAttributesAreDecoded) {
     const std::vector<std::int16_t> positions = {0, 0, 0, 0, 100, 0, 0, 0, 0, -200, 0, 0};
     const std::vector<std::uint8_t> uvs = {0, 0, 255, 0, 128, 255};
     const std::vector<std::uint16_t> colors = {65535, 0, 0, 0, 32768, 0, 0, 0, 65535};
-    const int p = gltf.addRawAccessor({reinterpret_cast<const std::uint8_t*>(positions.data()), 24}, 5122, "VEC3", 3);
-    gltf.json()["bufferViews"][gltf.json()["accessors"][p]["bufferView"].get<int>()]["byteStride"] = 8;
+    const int p = gltf.addRawAccessor({reinterpret_cast<const std::uint8_t*>(positions.data()), 24},
+                                      5122, "VEC3", 3);
+    gltf.json()["bufferViews"][gltf.json()["accessors"][p]["bufferView"].get<int>()]["byteStride"] =
+        8;
     const int t = gltf.addRawAccessor(uvs, 5121, "VEC2", 3, true);
-    const int c = gltf.addRawAccessor({reinterpret_cast<const std::uint8_t*>(colors.data()), 18}, 5123, "VEC3", 3, true);
-    gltf.json()["meshes"] = {{{"primitives", {{{"attributes", {{"POSITION", p}, {"TEXCOORD_0", t}, {"COLOR_0", c}}}}}}}};
+    const int c = gltf.addRawAccessor({reinterpret_cast<const std::uint8_t*>(colors.data()), 18},
+                                      5123, "VEC3", 3, true);
+    gltf.json()["meshes"] = {
+        {{"primitives", {{{"attributes", {{"POSITION", p}, {"TEXCOORD_0", t}, {"COLOR_0", c}}}}}}}};
     gltf.json()["extensionsUsed"] = {"KHR_mesh_quantization"};
     gltf.json()["extensionsRequired"] = {"KHR_mesh_quantization"};
     const auto file = writeSingleNode(dir, gltf, {"n", 0});
@@ -227,7 +243,8 @@ TEST(GltfImport, MaterialsTexturesAndExtensions) {
     const std::vector<std::uint8_t> pixels = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};
     vox::writePng(dir / "tex.png", 2, 2, 3, pixels);
     const int texture = gltf.addTexture(gltf.addImage("tex.png"), 33071, 33648);
-    const int material = gltf.addMaterial({"glow", {0.5f, 0.25f, 1.0f, 0.5f}, texture, {1.0f, 0.5f, 0.0f}, 40.0f});
+    const int material =
+        gltf.addMaterial({"glow", {0.5f, 0.25f, 1.0f, 0.5f}, texture, {1.0f, 0.5f, 0.0f}, 40.0f});
     auto& m = gltf.json()["materials"][material];
     m["alphaMode"] = "MASK";
     m["alphaCutoff"] = 0.3;
@@ -236,7 +253,8 @@ TEST(GltfImport, MaterialsTexturesAndExtensions) {
         {"offset", {0.5, 0.25}}, {"rotation", std::numbers::pi / 2}, {"scale", {2, 3}}};
     m["emissiveTexture"] = {{"index", texture}};
     m["normalTexture"] = {{"index", texture}, {"scale", 0.5}};
-    const auto file = writeSingleNode(dir, gltf, {"n", gltf.addMesh("tri", {triangle(material)})}, BufferStorage::External);
+    const auto file = writeSingleNode(dir, gltf, {"n", gltf.addMesh("tri", {triangle(material)})},
+                                      BufferStorage::External);
     const vox::Scene scene = importOk(file);
     ASSERT_EQ(scene.materials.size(), 1u);
     const vox::Material& mat = scene.materials[0];
@@ -249,7 +267,8 @@ TEST(GltfImport, MaterialsTexturesAndExtensions) {
     ASSERT_TRUE(mat.baseColorTexture.valid());
     EXPECT_EQ(mat.baseColorTexture.wrapS, vox::WrapMode::ClampToEdge);
     EXPECT_EQ(mat.baseColorTexture.wrapT, vox::WrapMode::MirroredRepeat);
-    // uv' = T·R·S·uv: (1, 0) -> scale (2, 0) -> rotate by 90 degrees as glTF does (0, -2) -> offset (0.5, -1.75)
+    // uv' = T·R·S·uv: (1, 0) -> scale (2, 0) -> rotate by 90 degrees as glTF does (0, -2) -> offset
+    // (0.5, -1.75)
     const vox::Vec2f uv = mat.baseColorTexture.transformUv({1, 0});
     EXPECT_NEAR(uv.x, 0.5f, 1e-5f);
     EXPECT_NEAR(uv.y, -1.75f, 1e-5f);
@@ -268,9 +287,12 @@ TEST(GltfImport, PunctualLightsTakeTheirNodesPositionAndDirection) {
     const int point = gltf.addLight({"bulb", "point", {1, 0.5f, 0.25f}, 12.0f, 4.0f});
     const int spot = gltf.addLight({"spot", "spot", {1, 1, 1}, 3.0f, 0.0f, 0.2f, 0.6f});
     const int sun = gltf.addLight({"sun", "directional", {1, 1, 1}, 2.0f});
-    gltf.setSceneRoots({gltf.addNode({"geo", mesh}), gltf.addNode({"bulbNode", -1, point, {1, 2, 3}}),
-                        gltf.addNode({"spotNode", -1, spot, {0, 5, 0}, vox::scenes::rotationFromMinusZ({0, -1, 0})}),
-                        gltf.addNode({"sunNode", -1, sun, {0, 0, 0}, vox::scenes::rotationFromMinusZ({1, 0, 0})})});
+    gltf.setSceneRoots(
+        {gltf.addNode({"geo", mesh}), gltf.addNode({"bulbNode", -1, point, {1, 2, 3}}),
+         gltf.addNode(
+             {"spotNode", -1, spot, {0, 5, 0}, vox::scenes::rotationFromMinusZ({0, -1, 0})}),
+         gltf.addNode(
+             {"sunNode", -1, sun, {0, 0, 0}, vox::scenes::rotationFromMinusZ({1, 0, 0})})});
     gltf.write(dir / "lights.gltf", BufferStorage::DataUri);
     const vox::Scene scene = importOk(dir / "lights.gltf");
     ASSERT_EQ(scene.lights.size(), 3u);
@@ -293,17 +315,22 @@ TEST(GltfImport, PunctualLightsTakeTheirNodesPositionAndDirection) {
 TEST(GltfImport, InvalidLightParametersAreRejected) {
     ScratchDir dir;
     GltfBuilder gltf;
-    const int spot = gltf.addLight({"bad", "spot", {1, 1, 1}, 1.0f, 0.0f, 0.7f, 0.5f});  // inner > outer
-    gltf.setSceneRoots({gltf.addNode({"geo", gltf.addMesh("tri", {triangle()})}), gltf.addNode({"s", -1, spot})});
+    const int spot =
+        gltf.addLight({"bad", "spot", {1, 1, 1}, 1.0f, 0.0f, 0.7f, 0.5f});  // inner > outer
+    gltf.setSceneRoots(
+        {gltf.addNode({"geo", gltf.addMesh("tri", {triangle()})}), gltf.addNode({"s", -1, spot})});
     gltf.write(dir / "lights.gltf", BufferStorage::DataUri);
-    EXPECT_NE(importError<vox::InvalidDataError>(dir / "lights.gltf").find("cone angles"), std::string::npos);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "lights.gltf").find("cone angles"),
+              std::string::npos);
 
     // A light as far out as no vertex may be (issue 10: absurd scales).
     GltfBuilder far;
     const int bulb = far.addLight({"bulb", "point", {1, 1, 1}, 1.0f});
-    far.setSceneRoots({far.addNode({"geo", far.addMesh("tri", {triangle()})}), far.addNode({"b", -1, bulb, {0, 2e30, 0}})});
+    far.setSceneRoots({far.addNode({"geo", far.addMesh("tri", {triangle()})}),
+                       far.addNode({"b", -1, bulb, {0, 2e30, 0}})});
     far.write(dir / "far.gltf", BufferStorage::DataUri);
-    EXPECT_NE(importError<vox::InvalidDataError>(dir / "far.gltf").find("light 'bulb' has a position beyond ±1e30 (absurd scale)"),
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "far.gltf")
+                  .find("light 'bulb' has a position beyond ±1e30 (absurd scale)"),
               std::string::npos);
 }
 
@@ -343,12 +370,14 @@ TEST(GltfImport, DynamicFlagFromExtrasAndFromNamesIsInherited) {
 TEST(GltfImport, ExternalEmbeddedAndGlbStorageGiveTheSameScene) {
     ScratchDir dir;
     std::vector<std::size_t> counts;
-    for (BufferStorage storage : {BufferStorage::External, BufferStorage::DataUri, BufferStorage::Glb}) {
+    for (BufferStorage storage :
+         {BufferStorage::External, BufferStorage::DataUri, BufferStorage::Glb}) {
         GltfBuilder gltf;
         const std::vector<std::uint8_t> pixels(4 * 4 * 3, 200);
-        const int image = storage == BufferStorage::External
-                              ? (vox::writePng(dir / "t.png", 4, 4, 3, pixels), gltf.addImage("t.png"))
-                              : gltf.addBufferImage(vox::encodePng(4, 4, 3, pixels), "image/png");
+        const int image =
+            storage == BufferStorage::External
+                ? (vox::writePng(dir / "t.png", 4, 4, 3, pixels), gltf.addImage("t.png"))
+                : gltf.addBufferImage(vox::encodePng(4, 4, 3, pixels), "image/png");
         const int material = gltf.addMaterial({"m", {1, 1, 1, 1}, gltf.addTexture(image)});
         GltfBuilder::Primitive box = vox::scenes::boxPrimitive({0, 0, 0}, {1, 1, 1}, material);
         const auto file = writeSingleNode(dir, gltf, {"box", gltf.addMesh("box", {box})}, storage,
@@ -359,7 +388,9 @@ TEST(GltfImport, ExternalEmbeddedAndGlbStorageGiveTheSameScene) {
         EXPECT_EQ(scene.textures[0].width(), 4);
         EXPECT_NEAR(scene.textures[0].texel(0, 0, 0).x, vox::srgbToLinear(200.0f / 255.0f), 1e-6f);
         std::vector<std::filesystem::path> expected = {file.lexically_normal()};
-        if (storage == BufferStorage::External) expected = {file.lexically_normal(), (dir / "s.bin").lexically_normal(), (dir / "t.png").lexically_normal()};
+        if (storage == BufferStorage::External)
+            expected = {file.lexically_normal(), (dir / "s.bin").lexically_normal(),
+                        (dir / "t.png").lexically_normal()};
         EXPECT_EQ(scene.sourceFiles, expected);
     }
     EXPECT_EQ(counts, (std::vector<std::size_t>{12, 12, 12}));
@@ -368,8 +399,10 @@ TEST(GltfImport, ExternalEmbeddedAndGlbStorageGiveTheSameScene) {
 TEST(GltfImport, MissingReferencedFilesAreIoErrors) {
     ScratchDir dir;
     GltfBuilder gltf;
-    const int material = gltf.addMaterial({"m", {1, 1, 1, 1}, gltf.addTexture(gltf.addImage("missing.png"))});
-    writeSingleNode(dir, gltf, {"n", gltf.addMesh("tri", {triangle(material)})}, BufferStorage::External);
+    const int material =
+        gltf.addMaterial({"m", {1, 1, 1, 1}, gltf.addTexture(gltf.addImage("missing.png"))});
+    writeSingleNode(dir, gltf, {"n", gltf.addMesh("tri", {triangle(material)})},
+                    BufferStorage::External);
     const std::string imageError = importError<vox::IoError>(dir / "scene.gltf");
     EXPECT_NE(imageError.find("missing.png"), std::string::npos) << imageError;
     // Without textures the image is not needed.
@@ -383,12 +416,17 @@ TEST(GltfImport, MissingReferencedFilesAreIoErrors) {
     // reading would block the import until something writes to it, or never end.
     ASSERT_EQ(::mkfifo((dir / "scene.bin").c_str(), 0600), 0);
     const std::string fifoError = importError<vox::IoError>(dir / "scene.gltf", noTextures);
-    EXPECT_NE(fifoError.find("cannot read '" + (dir / "scene.bin").string() + "': is not a regular file"), std::string::npos) << fifoError;
+    EXPECT_NE(
+        fifoError.find("cannot read '" + (dir / "scene.bin").string() + "': is not a regular file"),
+        std::string::npos)
+        << fifoError;
     std::filesystem::remove(dir / "scene.bin");
-    writeSingleNode(dir, gltf, {"n", gltf.addMesh("tri", {triangle(material)})}, BufferStorage::External);
+    writeSingleNode(dir, gltf, {"n", gltf.addMesh("tri", {triangle(material)})},
+                    BufferStorage::External);
     ASSERT_EQ(::mkfifo((dir / "missing.png").c_str(), 0600), 0);
     const std::string imageFifoError = importError<vox::IoError>(dir / "scene.gltf");
-    EXPECT_NE(imageFifoError.find("missing.png': is not a regular file"), std::string::npos) << imageFifoError;
+    EXPECT_NE(imageFifoError.find("missing.png': is not a regular file"), std::string::npos)
+        << imageFifoError;
 }
 
 TEST(GltfImport, MalformedDocumentsAreInvalidData) {
@@ -404,17 +442,36 @@ TEST(GltfImport, MalformedDocumentsAreInvalidData) {
         const char* expected;
     };
     const std::vector<Case> cases = {
-        {"wrong type", [](nlohmann::json& j) { j["nodes"][0]["name"] = 5; }, "nodes[0].name: expected a string"},
-        {"index out of range", [](nlohmann::json& j) { j["nodes"][0]["mesh"] = 7; }, "nodes[0].mesh: index 7 out of range"},
-        {"accessor past its view", [](nlohmann::json& j) { j["accessors"][0]["count"] = 4; }, "exceed buffer view"},
-        {"view past its buffer", [](nlohmann::json& j) { j["bufferViews"][0]["byteLength"] = 4000; }, "exceed buffer 0"},
-        {"unsupported required extension", [](nlohmann::json& j) { j["extensionsRequired"] = {"EXT_meshopt_compression"}; }, "EXT_meshopt_compression"},
+        {"wrong type", [](nlohmann::json& j) { j["nodes"][0]["name"] = 5; },
+         "nodes[0].name: expected a string"},
+        {"index out of range", [](nlohmann::json& j) { j["nodes"][0]["mesh"] = 7; },
+         "nodes[0].mesh: index 7 out of range"},
+        {"accessor past its view", [](nlohmann::json& j) { j["accessors"][0]["count"] = 4; },
+         "exceed buffer view"},
+        {"view past its buffer",
+         [](nlohmann::json& j) { j["bufferViews"][0]["byteLength"] = 4000; }, "exceed buffer 0"},
+        {"unsupported required extension",
+         [](nlohmann::json& j) { j["extensionsRequired"] = {"EXT_meshopt_compression"}; },
+         "EXT_meshopt_compression"},
         {"glTF 1", [](nlohmann::json& j) { j["asset"]["version"] = "1.0"; }, "version '1.0'"},
         {"node cycle", [](nlohmann::json& j) { j["nodes"][0]["children"] = {0}; }, "cycle"},
-        {"only points", [](nlohmann::json& j) { j["meshes"][0]["primitives"][0]["mode"] = 0; }, "contains no triangles"},
-        {"non-finite position", [](nlohmann::json& j) { j["accessors"][0].erase("min"); j["accessors"][0].erase("max"); j["nodes"][0]["scale"] = {1e39, 1, 1}; }, "non-finite"},
-        {"component type", [](nlohmann::json& j) { j["accessors"][0]["componentType"] = 5130; }, "unknown component type"},
-        {"bad alpha mode", [](nlohmann::json& j) { j["materials"] = {{{"alphaMode", "SOMETIMES"}}}; j["meshes"][0]["primitives"][0]["material"] = 0; }, "alphaMode"},
+        {"only points", [](nlohmann::json& j) { j["meshes"][0]["primitives"][0]["mode"] = 0; },
+         "contains no triangles"},
+        {"non-finite position",
+         [](nlohmann::json& j) {
+             j["accessors"][0].erase("min");
+             j["accessors"][0].erase("max");
+             j["nodes"][0]["scale"] = {1e39, 1, 1};
+         },
+         "non-finite"},
+        {"component type", [](nlohmann::json& j) { j["accessors"][0]["componentType"] = 5130; },
+         "unknown component type"},
+        {"bad alpha mode",
+         [](nlohmann::json& j) {
+             j["materials"] = {{{"alphaMode", "SOMETIMES"}}};
+             j["meshes"][0]["primitives"][0]["material"] = 0;
+         },
+         "alphaMode"},
     };
     for (const Case& c : cases) {
         GltfBuilder gltf = base();
@@ -425,11 +482,14 @@ TEST(GltfImport, MalformedDocumentsAreInvalidData) {
         EXPECT_NE(message.find(c.expected), std::string::npos) << c.name << ": " << message;
     }
     vox::test::writeText(dir / "truncated.gltf", R"({"asset": {"version": "2.0"}, "nodes": [)");
-    EXPECT_NE(importError<vox::InvalidDataError>(dir / "truncated.gltf").find("malformed JSON"), std::string::npos);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "truncated.gltf").find("malformed JSON"),
+              std::string::npos);
     // Found by fuzz_gltf: a number beyond double is nlohmann's out_of_range, not a parse_error,
     // and escaped as an internal error (exit 4).
-    vox::test::writeText(dir / "overflow.gltf", R"({"asset": {"version": "2.0"}, "scene": 0.8e39929})");
-    EXPECT_NE(importError<vox::InvalidDataError>(dir / "overflow.gltf").find("malformed JSON: number overflow parsing '0.8e39929'"),
+    vox::test::writeText(dir / "overflow.gltf",
+                         R"({"asset": {"version": "2.0"}, "scene": 0.8e39929})");
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "overflow.gltf")
+                  .find("malformed JSON: number overflow parsing '0.8e39929'"),
               std::string::npos);
 }
 
@@ -440,33 +500,44 @@ TEST(GltfImport, VertexIndexOutOfRangeNamesThePrimitive) {
     p.indices = {0, 1, 3};
     writeSingleNode(dir, gltf, {"n", gltf.addMesh("broken", {p})});
     const std::string message = importError<vox::InvalidDataError>(dir / "scene.gltf");
-    EXPECT_NE(message.find("mesh 0 'broken' primitive 0: vertex index 3 out of range (3 vertices)"), std::string::npos) << message;
+    EXPECT_NE(message.find("mesh 0 'broken' primitive 0: vertex index 3 out of range (3 vertices)"),
+              std::string::npos)
+        << message;
 }
 
 TEST(GltfImport, ContentsMustMatchTheExtension) {
     ScratchDir dir;
     GltfBuilder gltf;
-    writeSingleNode(dir, gltf, {"n", gltf.addMesh("tri", {triangle()})}, BufferStorage::Glb, "real.glb");
+    writeSingleNode(dir, gltf, {"n", gltf.addMesh("tri", {triangle()})}, BufferStorage::Glb,
+                    "real.glb");
     std::filesystem::copy_file(dir / "real.glb", dir / "fake.gltf");
-    EXPECT_NE(importError<vox::InvalidDataError>(dir / "fake.gltf").find("binary GLB"), std::string::npos);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "fake.gltf").find("binary GLB"),
+              std::string::npos);
     vox::test::writeText(dir / "fake.glb", "{\"asset\":{\"version\":\"2.0\"}}");
-    EXPECT_NE(importError<vox::InvalidDataError>(dir / "fake.glb").find("not a GLB"), std::string::npos);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "fake.glb").find("not a GLB"),
+              std::string::npos);
     // A GLB whose JSON chunk claims more bytes than the file has.
     auto bytes = std::vector<std::uint8_t>(std::filesystem::file_size(dir / "real.glb"));
-    std::ifstream(dir / "real.glb", std::ios::binary).read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    std::ifstream(dir / "real.glb", std::ios::binary)
+        .read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
     const std::uint32_t huge = 0x7fffffff;
     std::memcpy(bytes.data() + 12, &huge, 4);
     vox::test::writeBinary(dir / "chunk.glb", bytes);
-    EXPECT_NE(importError<vox::InvalidDataError>(dir / "chunk.glb").find("JSON chunk"), std::string::npos);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "chunk.glb").find("JSON chunk"),
+              std::string::npos);
     // Found by fuzz_gltf: a total length below the headers' 20 bytes wrapped `length - 20` around,
     // and the JSON chunk's claimed length then passed, reading past the file.
     const std::uint32_t zero = 0, chunk = static_cast<std::uint32_t>(bytes.size() + 100);
     std::memcpy(bytes.data() + 8, &zero, 4);
     std::memcpy(bytes.data() + 12, &chunk, 4);
     vox::test::writeBinary(dir / "length.glb", bytes);
-    EXPECT_NE(importError<vox::InvalidDataError>(dir / "length.glb").find("less than its own 20-byte headers"), std::string::npos);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "length.glb")
+                  .find("less than its own 20-byte headers"),
+              std::string::npos);
     vox::test::writeText(dir / "scene.fbx", "whatever");
-    EXPECT_NE(importError<vox::InvalidDataError>(dir / "scene.fbx").find("unsupported file type '.fbx'"), std::string::npos);
+    EXPECT_NE(
+        importError<vox::InvalidDataError>(dir / "scene.fbx").find("unsupported file type '.fbx'"),
+        std::string::npos);
     EXPECT_THROW((void)vox::importScene(dir / "absent.gltf"), vox::IoError);
 }
 
@@ -474,7 +545,10 @@ TEST(GltfImport, MissingUvSetReadsZeroWithAWarning) {
     ScratchDir dir;
     GltfBuilder gltf;
     const std::vector<std::uint8_t> pixels(3, 255);
-    const int material = gltf.addMaterial({"m", {1, 1, 1, 1}, gltf.addTexture(gltf.addBufferImage(vox::encodePng(1, 1, 3, pixels), "image/png"))});
+    const int material = gltf.addMaterial(
+        {"m",
+         {1, 1, 1, 1},
+         gltf.addTexture(gltf.addBufferImage(vox::encodePng(1, 1, 3, pixels), "image/png"))});
     gltf.json()["materials"][material]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] = 1;
     writeSingleNode(dir, gltf, {"n", gltf.addMesh("tri", {triangle(material)})});
     const vox::Scene scene = importOk(dir / "scene.gltf");
@@ -497,7 +571,8 @@ TEST(GltfImport, DegenerateTrianglesAreDroppedWithAWarningOrRejectedWhenStrict) 
     EXPECT_EQ(scene.degenerateTrianglesDropped, 2u);
     vox::ImportOptions strict;
     strict.strict = true;
-    EXPECT_NE(importError<vox::InvalidDataError>(dir / "scene.gltf", strict).find("degenerate"), std::string::npos);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "scene.gltf", strict).find("degenerate"),
+              std::string::npos);
 }
 
 namespace {
@@ -516,8 +591,10 @@ std::vector<std::uint8_t> dracoBox(int& positionId, int& normalId) {
             v[k] = &box.positions[3 * box.indices[3 * t + k]];
             n[k] = &box.normals[3 * box.indices[3 * t + k]];
         }
-        builder.SetAttributeValuesForFace(positionId, draco::FaceIndex(static_cast<std::uint32_t>(t)), v[0], v[1], v[2]);
-        builder.SetAttributeValuesForFace(normalId, draco::FaceIndex(static_cast<std::uint32_t>(t)), n[0], n[1], n[2]);
+        builder.SetAttributeValuesForFace(
+            positionId, draco::FaceIndex(static_cast<std::uint32_t>(t)), v[0], v[1], v[2]);
+        builder.SetAttributeValuesForFace(normalId, draco::FaceIndex(static_cast<std::uint32_t>(t)),
+                                          n[0], n[1], n[2]);
     }
     auto mesh = builder.Finalize();
     draco::Encoder encoder;
@@ -542,23 +619,34 @@ TEST(GltfImport, DracoCompressedPrimitivesDecode) {
         gltf.json()["accessors"] = {{{"componentType", 5126}, {"count", 24}, {"type", "VEC3"}},
                                     {{"componentType", 5126}, {"count", 24}, {"type", "VEC3"}},
                                     {{"componentType", 5125}, {"count", 36}, {"type", "SCALAR"}}};
-        gltf.json()["meshes"] = {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}}, {"indices", 2},
-                                                    {"extensions", {{"KHR_draco_mesh_compression", {{"bufferView", view}, {"attributes", {{"POSITION", positionId}, {"NORMAL", normalId}}}}}}}}}}}};
+        gltf.json()["meshes"] = {
+            {{"primitives",
+              {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}},
+                {"indices", 2},
+                {"extensions",
+                 {{"KHR_draco_mesh_compression",
+                   {{"bufferView", view},
+                    {"attributes", {{"POSITION", positionId}, {"NORMAL", normalId}}}}}}}}}}}};
         gltf.json()["extensionsUsed"] = {"KHR_draco_mesh_compression"};
         gltf.json()["extensionsRequired"] = {"KHR_draco_mesh_compression"};
-        const auto file = writeSingleNode(dir, gltf, {"box", 0}, storage, storage == BufferStorage::Glb ? "d.glb" : "d.gltf");
+        const auto file = writeSingleNode(dir, gltf, {"box", 0}, storage,
+                                          storage == BufferStorage::Glb ? "d.glb" : "d.gltf");
         const vox::Scene scene = importOk(file);
         ASSERT_EQ(scene.triangleCount(), 12u);
         const vox::Mesh& m = scene.meshes[0];
         EXPECT_NEAR(signedVolume(m), 6.0, 1e-2);
         const vox::Bounds3f b = scene.bounds();
         EXPECT_TRUE(near(b.max, {1, 2, 3}, 1e-3f));
-        for (std::size_t t = 0; t < m.triangleCount(); ++t) EXPECT_GT(vox::dot(faceNormal(m, t), m.normals[m.indices[3 * t]]), 0.99f);
+        for (std::size_t t = 0; t < m.triangleCount(); ++t)
+            EXPECT_GT(vox::dot(faceNormal(m, t), m.normals[m.indices[3 * t]]), 0.99f);
 
         // An attribute id the Draco data does not have is invalid data, not a crash.
-        gltf.json()["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["attributes"]["NORMAL"] = 77;
-        const auto broken = writeSingleNode(dir, gltf, {"box", 0}, storage, storage == BufferStorage::Glb ? "bad.glb" : "bad.gltf");
-        EXPECT_NE(importError<vox::InvalidDataError>(broken).find("Draco attribute 77"), std::string::npos);
+        gltf.json()["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]
+                   ["attributes"]["NORMAL"] = 77;
+        const auto broken = writeSingleNode(dir, gltf, {"box", 0}, storage,
+                                            storage == BufferStorage::Glb ? "bad.glb" : "bad.gltf");
+        EXPECT_NE(importError<vox::InvalidDataError>(broken).find("Draco attribute 77"),
+                  std::string::npos);
     }
 }
 
@@ -572,8 +660,10 @@ TEST(GltfImport, DeepHierarchiesAndNestingNeitherRecurseNorCrash) {
     nodes = nlohmann::json::array();
     for (int i = 0; i < kDepth; ++i) {
         nlohmann::json node = {{"translation", {0.0, 0.0, 1e-4}}};
-        if (i + 1 < kDepth) node["children"] = {i + 1};
-        else node["mesh"] = mesh;
+        if (i + 1 < kDepth)
+            node["children"] = {i + 1};
+        else
+            node["mesh"] = mesh;
         nodes.push_back(node);
     }
     gltf.setSceneRoots({0});
@@ -586,5 +676,6 @@ TEST(GltfImport, DeepHierarchiesAndNestingNeitherRecurseNorCrash) {
     std::string deep = R"({"asset": {"version": "2.0"}, "extras": )";
     deep += std::string(1000000, '[') + std::string(1000000, ']') + "}";
     vox::test::writeText(dir / "nested.gltf", deep);
-    EXPECT_NE(importError<vox::InvalidDataError>(dir / "nested.gltf").find("nests deeper"), std::string::npos);
+    EXPECT_NE(importError<vox::InvalidDataError>(dir / "nested.gltf").find("nests deeper"),
+              std::string::npos);
 }

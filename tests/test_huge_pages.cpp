@@ -37,15 +37,20 @@ std::string mappingFlags(std::uintptr_t address) {
     return "";
 }
 
-bool advised(std::uintptr_t address) { return mappingFlags(address).find(" hg") != std::string::npos; }
+bool advised(std::uintptr_t address) {
+    return mappingFlags(address).find(" hg") != std::string::npos;
+}
 
 TEST(AdviseHugePages, AdvisesTheWholeHugePagesInsideTheRangeOnly) {
-    if (!std::filesystem::exists("/sys/kernel/mm/transparent_hugepage/enabled")) GTEST_SKIP() << "no transparent huge pages here";
+    if (!std::filesystem::exists("/sys/kernel/mm/transparent_hugepage/enabled"))
+        GTEST_SKIP() << "no transparent huge pages here";
     // Eight huge pages of address space, from a huge-page boundary; advise from half a page into
     // the second to half a page into the seventh: pages 2 to 5 (0-based) are whole inside.
     std::vector<std::byte> memory(9 * kHugePageBytes);
-    const auto base = (reinterpret_cast<std::uintptr_t>(memory.data()) + kHugePageBytes - 1) & ~std::uintptr_t{kHugePageBytes - 1};
-    const std::uintptr_t from = base + kHugePageBytes + kHugePageBytes / 2, to = base + 6 * kHugePageBytes + kHugePageBytes / 2;
+    const auto base = (reinterpret_cast<std::uintptr_t>(memory.data()) + kHugePageBytes - 1) &
+                      ~std::uintptr_t{kHugePageBytes - 1};
+    const std::uintptr_t from = base + kHugePageBytes + kHugePageBytes / 2,
+                         to = base + 6 * kHugePageBytes + kHugePageBytes / 2;
     adviseHugePages(reinterpret_cast<void*>(from), to - from);
     EXPECT_FALSE(advised(base + kHugePageBytes + kHugePageBytes - 1));  // the partial page before
     EXPECT_TRUE(advised(base + 2 * kHugePageBytes));
@@ -58,12 +63,14 @@ TEST(AdviseHugePages, AdvisesTheWholeHugePagesInsideTheRangeOnly) {
 }
 
 TEST(AdviseHugePages, VectorOverloadCoversItsCapacity) {
-    if (!std::filesystem::exists("/sys/kernel/mm/transparent_hugepage/enabled")) GTEST_SKIP() << "no transparent huge pages here";
+    if (!std::filesystem::exists("/sys/kernel/mm/transparent_hugepage/enabled"))
+        GTEST_SKIP() << "no transparent huge pages here";
     std::vector<std::uint64_t> values;
     values.reserve(3 * kHugePageBytes / sizeof(std::uint64_t));
     adviseHugePages(values);
     const auto data = reinterpret_cast<std::uintptr_t>(values.data());
-    const std::uintptr_t firstWhole = (data + kHugePageBytes - 1) & ~std::uintptr_t{kHugePageBytes - 1};
+    const std::uintptr_t firstWhole =
+        (data + kHugePageBytes - 1) & ~std::uintptr_t{kHugePageBytes - 1};
     EXPECT_TRUE(advised(firstWhole));
     EXPECT_TRUE(advised(firstWhole + kHugePageBytes));
 }
@@ -87,18 +94,22 @@ TEST(HugePageArena, CopiesStayIntactAlignedAndInPlaceAsItGrows) {
         if (i == 1500) words.resize((std::size_t{20} << 20) / sizeof(std::uint64_t));
         std::iota(bytes.begin(), bytes.end(), static_cast<std::uint8_t>(seed));
         std::iota(words.begin(), words.end(), seed * 1000003);
-        copies.push_back({arena.copy(std::span<const std::uint8_t>(bytes)), arena.copy(std::span<const std::uint64_t>(words)), seed});
+        copies.push_back({arena.copy(std::span<const std::uint8_t>(bytes)),
+                          arena.copy(std::span<const std::uint64_t>(words)), seed});
         ASSERT_EQ(copies.back().bytes.size(), bytes.size());
         ASSERT_EQ(copies.back().words.size(), words.size());
-        ASSERT_NE(static_cast<const void*>(copies.back().words.data()), static_cast<const void*>(words.data()));
+        ASSERT_NE(static_cast<const void*>(copies.back().words.data()),
+                  static_cast<const void*>(words.data()));
         ++seed;
     }
     EXPECT_GE(arena.reservedBytes(), std::size_t{20} << 20);
     for (const Copy& c : copies) {
         EXPECT_EQ(reinterpret_cast<std::uintptr_t>(c.words.data()) % alignof(std::uint64_t), 0u);
         for (std::size_t i = 0; i < c.bytes.size(); ++i)
-            ASSERT_EQ(c.bytes[i], static_cast<std::uint8_t>(c.seed + i)) << "copy " << c.seed << " byte " << i;
-        for (std::size_t i = 0; i < c.words.size(); ++i) ASSERT_EQ(c.words[i], c.seed * 1000003 + i) << "copy " << c.seed << " word " << i;
+            ASSERT_EQ(c.bytes[i], static_cast<std::uint8_t>(c.seed + i))
+                << "copy " << c.seed << " byte " << i;
+        for (std::size_t i = 0; i < c.words.size(); ++i)
+            ASSERT_EQ(c.words[i], c.seed * 1000003 + i) << "copy " << c.seed << " word " << i;
     }
 }
 

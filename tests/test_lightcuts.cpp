@@ -33,8 +33,8 @@ Vec3f f(Vec3d v) { return {float(v.x), float(v.y), float(v.z)}; }
 Vec3d d(Vec3f v) { return {v.x, v.y, v.z}; }
 
 struct LightMix {
-    double spotShare = 0.3;       ///< of the point/spot lights
-    double rangedShare = 0.5;     ///< of the point/spot lights
+    double spotShare = 0.3;    ///< of the point/spot lights
+    double rangedShare = 0.5;  ///< of the point/spot lights
     double rangeLo = 2, rangeHi = 6;
     int directional = 0;
     Vec3d lo{-10, 1, -10}, hi{10, 6, 10};
@@ -54,8 +54,10 @@ std::vector<Light> randomLights(std::size_t n, std::uint64_t seed, const LightMi
             l.intensity = float(rng.uniform(0.5, 3));
         } else {
             l.type = rng.uniform() < mix.spotShare ? Light::Type::Spot : Light::Type::Point;
-            l.position = f({rng.uniform(mix.lo.x, mix.hi.x), rng.uniform(mix.lo.y, mix.hi.y), rng.uniform(mix.lo.z, mix.hi.z)});
-            if (rng.uniform() < mix.rangedShare) l.range = float(rng.uniform(mix.rangeLo, mix.rangeHi));
+            l.position = f({rng.uniform(mix.lo.x, mix.hi.x), rng.uniform(mix.lo.y, mix.hi.y),
+                            rng.uniform(mix.lo.z, mix.hi.z)});
+            if (rng.uniform() < mix.rangedShare)
+                l.range = float(rng.uniform(mix.rangeLo, mix.rangeHi));
             if (l.type == Light::Type::Spot) {
                 l.direction = f(rng.around({0, -1, 0}, 1.0));
                 l.outerConeAngle = float(rng.uniform(0.3, 1.2));
@@ -73,7 +75,9 @@ bool within(const vox::Bounds3f& outer, const vox::Bounds3f& inner) {
     return true;
 }
 
-double angleBetween(Vec3d a, Vec3d b) { return std::acos(std::clamp(vox::dot(vox::normalize(a), vox::normalize(b)), -1.0, 1.0)); }
+double angleBetween(Vec3d a, Vec3d b) {
+    return std::acos(std::clamp(vox::dot(vox::normalize(a), vox::normalize(b)), -1.0, 1.0));
+}
 
 /// Every structural invariant of a light tree.
 void expectInvariants(const LightTree& tree) {
@@ -107,7 +111,9 @@ void expectInvariants(const LightTree& tree) {
             EXPECT_EQ(a.parent, k);
             EXPECT_EQ(b.parent, k);
             EXPECT_EQ(n.lightCount, a.lightCount + b.lightCount);
-            for (int c = 0; c < 3; ++c) EXPECT_NEAR(n.intensity[c], a.intensity[c] + b.intensity[c], 1e-12 * n.intensity[c]);
+            for (int c = 0; c < 3; ++c)
+                EXPECT_NEAR(n.intensity[c], a.intensity[c] + b.intensity[c],
+                            1e-12 * n.intensity[c]);
             EXPECT_NEAR(n.luminance, a.luminance + b.luminance, 1e-12 * n.luminance);
             EXPECT_TRUE(within(n.bounds, a.bounds) && within(n.bounds, b.bounds)) << k;
             EXPECT_TRUE(within(n.influence, a.influence) && within(n.influence, b.influence)) << k;
@@ -117,7 +123,9 @@ void expectInvariants(const LightTree& tree) {
             EXPECT_EQ(n.hasOmni, a.hasOmni || b.hasOmni);
             if (n.hasSpot && !n.hasOmni) {
                 for (const vox::LightTreeNode* c : {&a, &b})
-                    EXPECT_LE(angleBetween(d(n.coneAxis), d(c->coneAxis)) + c->coneHalfAngle, n.coneHalfAngle + 1e-5) << k;
+                    EXPECT_LE(angleBetween(d(n.coneAxis), d(c->coneAxis)) + c->coneHalfAngle,
+                              n.coneHalfAngle + 1e-5)
+                        << k;
             }
             stack.push_back(n.left);
             stack.push_back(n.right);
@@ -131,7 +139,8 @@ void expectInvariants(const LightTree& tree) {
 }
 
 std::size_t directionalRoots(const LightTree& tree) {
-    return std::size_t(std::count_if(tree.roots().begin(), tree.roots().end(), [](const LightTree::Root& r) { return r.directional; }));
+    return std::size_t(std::count_if(tree.roots().begin(), tree.roots().end(),
+                                     [](const LightTree::Root& r) { return r.directional; }));
 }
 
 double relativeError(Vec3d estimate, Vec3d exact) {
@@ -142,11 +151,12 @@ double relativeError(Vec3d estimate, Vec3d exact) {
 }
 
 /// The result's cut meets its criterion (unless it was truncated), checked from the bounds anew.
-void expectCutMeetsCriterion(const LightTree& tree, const vox::LightcutResult& r, Vec3d p, Vec3d n, Vec3d albedo,
-                             const vox::LightcutOptions& o) {
+void expectCutMeetsCriterion(const LightTree& tree, const vox::LightcutResult& r, Vec3d p, Vec3d n,
+                             Vec3d albedo, const vox::LightcutOptions& o) {
     EXPECT_EQ(r.stats.cutSize, r.cut.size());
     if (r.stats.truncated) return;
-    const double threshold = std::max(o.relativeError * vox::lightLuminance(r.radiance), o.absoluteError);
+    const double threshold =
+        std::max(o.relativeError * vox::lightLuminance(r.radiance), o.absoluteError);
     double largest = 0, sum = 0, sum2 = 0;
     for (std::uint32_t k : r.cut) {
         if (tree.nodes()[k].leaf()) continue;
@@ -164,14 +174,18 @@ void expectCutMeetsCriterion(const LightTree& tree, const vox::LightcutResult& r
 
 const char* name(vox::LightcutCriterion c) {
     switch (c) {
-    case vox::LightcutCriterion::PerNode: return "per-node";
-    case vox::LightcutCriterion::Sum: return "sum";
-    case vox::LightcutCriterion::RootSumSquare: return "root-sum-square";
+        case vox::LightcutCriterion::PerNode:
+            return "per-node";
+        case vox::LightcutCriterion::Sum:
+            return "sum";
+        case vox::LightcutCriterion::RootSumSquare:
+            return "root-sum-square";
     }
     return "?";
 }
 
-constexpr vox::LightcutCriterion kCriteria[] = {vox::LightcutCriterion::PerNode, vox::LightcutCriterion::Sum,
+constexpr vox::LightcutCriterion kCriteria[] = {vox::LightcutCriterion::PerNode,
+                                                vox::LightcutCriterion::Sum,
                                                 vox::LightcutCriterion::RootSumSquare};
 
 }  // namespace
@@ -180,8 +194,8 @@ TEST(LightTree, InvariantsHoldForMixedLights) {
     LightMix mix;
     mix.directional = 5;
     std::vector<Light> lights = randomLights(500, 1, mix);
-    lights[7].dynamic = true;                                        // left out
-    lights[8].intensity = std::numeric_limits<float>::quiet_NaN();   // left out
+    lights[7].dynamic = true;                                       // left out
+    lights[8].intensity = std::numeric_limits<float>::quiet_NaN();  // left out
     for (bool forest : {true, false}) {
         vox::LightTreeOptions options;
         options.forest = forest;
@@ -232,7 +246,9 @@ TEST(LightTree, ForestSplitsLightsWhoseInfluencesDoNotOverlap) {
                 const auto& b = tree.nodes()[tree.roots()[j].node];
                 vox::Bounds3f both = a.bounds;
                 both.add(b.bounds);
-                EXPECT_GT(vox::length(d(both.extent())), tree.influenceRadius(a.representative) + tree.influenceRadius(b.representative));
+                EXPECT_GT(vox::length(d(both.extent())),
+                          tree.influenceRadius(a.representative) +
+                              tree.influenceRadius(b.representative));
             }
     };
     expectNoAllowedPair(forest);
@@ -245,7 +261,9 @@ TEST(LightTree, ForestSplitsLightsWhoseInfluencesDoNotOverlap) {
         std::vector<std::uint32_t> expected;
         for (std::uint32_t t = 0; t < forest.roots().size(); ++t) {
             const auto& b = forest.nodes()[forest.roots()[t].node].influence;
-            if (p.x >= b.min.x && p.x <= b.max.x && p.y >= b.min.y && p.y <= b.max.y && p.z >= b.min.z && p.z <= b.max.z) expected.push_back(t);
+            if (p.x >= b.min.x && p.x <= b.max.x && p.y >= b.min.y && p.y <= b.max.y &&
+                p.z >= b.min.z && p.z <= b.max.z)
+                expected.push_back(t);
         }
         EXPECT_EQ(found, expected);
     }
@@ -264,8 +282,10 @@ TEST(LightTree, ForestSplitsLightsWhoseInfluencesDoNotOverlap) {
     expectInvariants(cubes);
     expectNoAllowedPair(cubes);
     EXPECT_GE(cubes.roots().size(), 9u);
-    for (const auto& root : cubes.roots()) EXPECT_LE(vox::length(d(cubes.nodes()[root.node].bounds.extent())), 10.0 + 1e-5);
-    std::printf("[lightcuts] 16 x 16 grid of 5 m lights 2 m apart: %zu trees\n", cubes.roots().size());
+    for (const auto& root : cubes.roots())
+        EXPECT_LE(vox::length(d(cubes.nodes()[root.node].bounds.extent())), 10.0 + 1e-5);
+    std::printf("[lightcuts] 16 x 16 grid of 5 m lights 2 m apart: %zu trees\n",
+                cubes.roots().size());
 
     vox::LightTreeOptions classic;
     classic.forest = false;
@@ -276,7 +296,8 @@ TEST(LightTree, ForestSplitsLightsWhoseInfluencesDoNotOverlap) {
     // Lights without a range: the default influence (1e-3 of the brightest at 1 m: ≈ 31.6 m for
     // equal lights) splits groups 1 km apart; with relativeInfluence = 0 they reach everywhere.
     std::vector<Light> unranged(4);
-    for (std::size_t i = 0; i < 4; ++i) unranged[i].position = f({i < 2 ? 0.0 : 1000.0, 2, double(i % 2)});
+    for (std::size_t i = 0; i < 4; ++i)
+        unranged[i].position = f({i < 2 ? 0.0 : 1000.0, 2, double(i % 2)});
     const LightTree split(unranged);
     EXPECT_EQ(split.roots().size(), 2u);
     EXPECT_NEAR(split.influenceRadius(0), std::sqrt(1000.0), 1e-9);
@@ -304,12 +325,15 @@ TEST(Lightcuts, BoundIsConservative) {
             const Vec3d albedo{rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(0, 1)};
             // Children come before their parents in nodes(): sum the subtree totals upwards.
             for (std::size_t k = 0; k < nodes.size(); ++k)
-                exact[k] = nodes[k].leaf() ? vox::lightContribution(tree.lights()[nodes[k].representative], p, n, albedo)
-                                           : exact[nodes[k].left] + exact[nodes[k].right];
+                exact[k] = nodes[k].leaf()
+                               ? vox::lightContribution(tree.lights()[nodes[k].representative], p,
+                                                        n, albedo)
+                               : exact[nodes[k].left] + exact[nodes[k].right];
             for (std::size_t k = 0; k < nodes.size(); ++k) {
                 const Vec3d bound = vox::lightcutBound(tree, std::uint32_t(k), p, n, albedo);
                 for (int c = 0; c < 3; ++c)
-                    ASSERT_GE(bound[c], exact[k][c] * (1 - 1e-12)) << "node " << k << " channel " << c << " trial " << trial;
+                    ASSERT_GE(bound[c], exact[k][c] * (1 - 1e-12))
+                        << "node " << k << " channel " << c << " trial " << trial;
             }
         }
     }
@@ -327,8 +351,9 @@ struct AccuracyStats {
         within += e <= threshold;
         worst = std::max(worst, e);
         // The guaranteed bound: |estimate − exact| ≤ Σ bounds of the cut's clusters.
-        withinBound += std::abs(vox::lightLuminance(cut.radiance) - vox::lightLuminance(exact.radiance)) <=
-                       cut.errorBound * (1 + 1e-9) + 1e-12 * vox::lightLuminance(exact.radiance);
+        withinBound +=
+            std::abs(vox::lightLuminance(cut.radiance) - vox::lightLuminance(exact.radiance)) <=
+            cut.errorBound * (1 + 1e-9) + 1e-12 * vox::lightLuminance(exact.radiance);
         cutSize += cut.stats.cutSize;
         visibility += cut.stats.visibilityEvaluations;
         bruteVisibility += exact.stats.visibilityEvaluations;
@@ -337,25 +362,36 @@ struct AccuracyStats {
     void expectAccuracy(vox::LightcutCriterion criterion, const char* what) const {
         EXPECT_EQ(withinBound, points) << what;
         switch (criterion) {
-        case vox::LightcutCriterion::Sum: EXPECT_EQ(within, points) << what << ", worst " << worst; break;
-        case vox::LightcutCriterion::RootSumSquare: EXPECT_GE(within, points * 99 / 100) << what << ", worst " << worst; break;
-        // Per node (Walter 2005): each cluster within the threshold, the sum of their errors not;
-        // a sanity check only.
-        case vox::LightcutCriterion::PerNode: EXPECT_LE(worst, 0.2) << what; break;
+            case vox::LightcutCriterion::Sum:
+                EXPECT_EQ(within, points) << what << ", worst " << worst;
+                break;
+            case vox::LightcutCriterion::RootSumSquare:
+                EXPECT_GE(within, points * 99 / 100) << what << ", worst " << worst;
+                break;
+            // Per node (Walter 2005): each cluster within the threshold, the sum of their errors
+            // not; a sanity check only.
+            case vox::LightcutCriterion::PerNode:
+                EXPECT_LE(worst, 0.2) << what;
+                break;
         }
-        std::printf("[lightcuts] %-34s %-16s %3d/%d points within 2%%, worst %.4f, mean cut %.1f, visibility calls %.1f (brute %.1f)\n",
-                    what, name(criterion), within, points, worst, cutSize / points, visibility / points, bruteVisibility / points);
+        std::printf(
+            "[lightcuts] %-34s %-16s %3d/%d points within 2%%, worst %.4f, mean cut %.1f, "
+            "visibility calls %.1f (brute %.1f)\n",
+            what, name(criterion), within, points, worst, cutSize / points, visibility / points,
+            bruteVisibility / points);
     }
 };
 
 /// Cuts at random points on the floor (y ∈ [0, 0.5], half of them tilted) against brute force.
-AccuracyStats accuracy(const LightTree& tree, double extent, int count, vox::LightcutCriterion criterion) {
+AccuracyStats accuracy(const LightTree& tree, double extent, int count,
+                       vox::LightcutCriterion criterion) {
     Rng rng(8);
     AccuracyStats s;
     vox::LightcutOptions options;
     options.criterion = criterion;
     for (int i = 0; i < count; ++i) {
-        const Vec3d p{rng.uniform(-extent, extent), rng.uniform(0, 0.5), rng.uniform(-extent, extent)};
+        const Vec3d p{rng.uniform(-extent, extent), rng.uniform(0, 0.5),
+                      rng.uniform(-extent, extent)};
         const Vec3d n = rng.uniform() < 0.5 ? Vec3d{0, 1, 0} : rng.around({0, 1, 0}, 1.3);
         const Vec3d albedo{rng.uniform(0.2, 1), rng.uniform(0.2, 1), rng.uniform(0.2, 1)};
         const auto cut = vox::evaluateCut(tree, p, n, albedo, options);
@@ -419,11 +455,14 @@ TEST(Lightcuts, AgainstBruteForceWithVisibility) {
             const Vec3d p{pointRng.uniform(-11, 11), 0, pointRng.uniform(-11, 11)};
             bool inside = false;
             for (const auto& [lo, hi] : boxes)
-                inside = inside || (p.x >= lo.x - 0.01 && p.x <= hi.x + 0.01 && p.z >= lo.z - 0.01 && p.z <= hi.z + 0.01);
+                inside = inside || (p.x >= lo.x - 0.01 && p.x <= hi.x + 0.01 &&
+                                    p.z >= lo.z - 0.01 && p.z <= hi.z + 0.01);
             if (inside) continue;
             const Vec3d n{0, 1, 0}, albedo{0.8, 0.6, 0.4};
-            const vox::LightVisibility shadow = [&](const Light&, const vox::LightArrival& a) -> double {
-                const double tMax = std::isinf(a.distance) ? std::numeric_limits<double>::infinity() : a.distance - 1e-3;
+            const vox::LightVisibility shadow = [&](const Light&,
+                                                    const vox::LightArrival& a) -> double {
+                const double tMax = std::isinf(a.distance) ? std::numeric_limits<double>::infinity()
+                                                           : a.distance - 1e-3;
                 return caster.castSurface({p + n * 1e-4, a.toLight}, tMax).hit ? 0.0 : 1.0;
             };
             const auto cut = vox::evaluateCut(tree, p, n, albedo, options, shadow);
@@ -432,7 +471,8 @@ TEST(Lightcuts, AgainstBruteForceWithVisibility) {
         }
         s.expectAccuracy(criterion, "shadow rays");
         // Fewer shadow rays than brute force (per node: under half).
-        EXPECT_LT(s.visibility * (criterion == vox::LightcutCriterion::PerNode ? 2 : 1), s.bruteVisibility);
+        EXPECT_LT(s.visibility * (criterion == vox::LightcutCriterion::PerNode ? 2 : 1),
+                  s.bruteVisibility);
     }
 }
 
@@ -444,7 +484,8 @@ TEST(Lightcuts, CutReuseMatchesFreshCutsWithFewerSearchSteps) {
     mix.rangeLo = 3;
     mix.rangeHi = 8;
     for (bool forest : {true, false})
-        for (vox::LightcutCriterion criterion : {vox::LightcutCriterion::PerNode, vox::LightcutCriterion::RootSumSquare}) {
+        for (vox::LightcutCriterion criterion :
+             {vox::LightcutCriterion::PerNode, vox::LightcutCriterion::RootSumSquare}) {
             vox::LightTreeOptions treeOptions;
             treeOptions.forest = forest;
             const LightTree tree(randomLights(200, forest ? 13 : 14, mix), treeOptions);
@@ -452,7 +493,8 @@ TEST(Lightcuts, CutReuseMatchesFreshCutsWithFewerSearchSteps) {
             options.criterion = criterion;
             vox::LightcutCursor cursor(tree, options);
             const Vec3d n{0, 1, 0}, albedo{0.9, 0.8, 0.7};
-            std::uint64_t freshSteps = 0, reuseSteps = 0, freshCut = 0, reuseCut = 0, mergedBack = 0;
+            std::uint64_t freshSteps = 0, reuseSteps = 0, freshCut = 0, reuseCut = 0,
+                          mergedBack = 0;
             int agree = 0;
             AccuracyStats fresh, reuse;
             double worstPair = 0;
@@ -460,7 +502,8 @@ TEST(Lightcuts, CutReuseMatchesFreshCutsWithFewerSearchSteps) {
             for (int row = 0; row < kSide; ++row)
                 for (int c = 0; c < kSide; ++c) {
                     const int col = row % 2 ? kSide - 1 - c : c;
-                    const Vec3d p{-5 + 10.0 * (col + 0.5) / kSide, 0, -5 + 10.0 * (row + 0.5) / kSide};
+                    const Vec3d p{-5 + 10.0 * (col + 0.5) / kSide, 0,
+                                  -5 + 10.0 * (row + 0.5) / kSide};
                     const auto f = vox::evaluateCut(tree, p, n, albedo, options);
                     const auto r = cursor.evaluate(p, n, albedo);
                     const auto exact = vox::bruteForce(tree, p, n, albedo);
@@ -480,13 +523,18 @@ TEST(Lightcuts, CutReuseMatchesFreshCutsWithFewerSearchSteps) {
             EXPECT_EQ(agree, points) << "worst relative difference " << worstPair;
             const std::string what = std::string(forest ? "forest" : "classic") + ", plane, fresh";
             fresh.expectAccuracy(criterion, what.c_str());
-            reuse.expectAccuracy(criterion, (std::string(forest ? "forest" : "classic") + ", plane, reused").c_str());
+            reuse.expectAccuracy(
+                criterion,
+                (std::string(forest ? "forest" : "classic") + ", plane, reused").c_str());
             EXPECT_LT(double(reuseSteps), 0.8 * double(freshSteps));
-            std::printf("[lightcuts] reuse, %s, %s: search steps %.1f vs %.1f fresh per point (%.1f %% fewer), cut %.1f vs %.1f, "
-                        "%.2f merged back per point, worst reuse/fresh difference %.4f\n",
-                        forest ? "forest" : "classic", name(criterion), double(reuseSteps) / points, double(freshSteps) / points,
-                        100.0 * (1.0 - double(reuseSteps) / double(freshSteps)), double(reuseCut) / points,
-                        double(freshCut) / points, double(mergedBack) / points, worstPair);
+            std::printf(
+                "[lightcuts] reuse, %s, %s: search steps %.1f vs %.1f fresh per point (%.1f %% "
+                "fewer), cut %.1f vs %.1f, "
+                "%.2f merged back per point, worst reuse/fresh difference %.4f\n",
+                forest ? "forest" : "classic", name(criterion), double(reuseSteps) / points,
+                double(freshSteps) / points,
+                100.0 * (1.0 - double(reuseSteps) / double(freshSteps)), double(reuseCut) / points,
+                double(freshCut) / points, double(mergedBack) / points, worstPair);
         }
 }
 
@@ -515,7 +563,8 @@ TEST(Lightcuts, DirectionalLightsAreCutToo) {
         const Vec3d n = rng.around({0, 1, 0}, 1.4), albedo{1, 1, 1};
         const auto cut = vox::evaluateCut(tree, {0, 0, 0}, n, albedo);
         const auto exact = vox::bruteForce(tree, {0, 0, 0}, n, albedo);
-        EXPECT_LE(std::abs(vox::lightLuminance(cut.radiance) - vox::lightLuminance(exact.radiance)), cut.errorBound * (1 + 1e-9) + 1e-12);
+        EXPECT_LE(std::abs(vox::lightLuminance(cut.radiance) - vox::lightLuminance(exact.radiance)),
+                  cut.errorBound * (1 + 1e-9) + 1e-12);
         EXPECT_LE(relativeError(cut.radiance, exact.radiance), 0.05);
     }
 }
@@ -531,12 +580,14 @@ TEST(LightTree, SameTreeWhateverTheThreadCount) {
     const LightTree a = build(1), b = build(0);
     ASSERT_EQ(a.nodes().size(), b.nodes().size());
     ASSERT_EQ(a.roots().size(), b.roots().size());
-    for (std::size_t i = 0; i < a.roots().size(); ++i) EXPECT_EQ(a.roots()[i].node, b.roots()[i].node);
+    for (std::size_t i = 0; i < a.roots().size(); ++i)
+        EXPECT_EQ(a.roots()[i].node, b.roots()[i].node);
     for (std::size_t k = 0; k < a.nodes().size(); ++k) {
         const auto& x = a.nodes()[k];
         const auto& y = b.nodes()[k];
-        ASSERT_TRUE(x.left == y.left && x.right == y.right && x.parent == y.parent && x.representative == y.representative &&
-                    x.intensity == y.intensity && x.bounds.min == y.bounds.min && x.bounds.max == y.bounds.max &&
+        ASSERT_TRUE(x.left == y.left && x.right == y.right && x.parent == y.parent &&
+                    x.representative == y.representative && x.intensity == y.intensity &&
+                    x.bounds.min == y.bounds.min && x.bounds.max == y.bounds.max &&
                     x.coneAxis == y.coneAxis && x.coneHalfAngle == y.coneHalfAngle)
             << k;
     }
@@ -552,7 +603,8 @@ TEST(LightTree, SameTreeWhateverTheThreadCount) {
 }
 
 TEST(LightTree, TenThousandLightsBuild) {
-    // A sanity check that the clustering is not quadratic: it runs, it is not timed against a limit.
+    // A sanity check that the clustering is not quadratic: it runs, it is not timed against a
+    // limit.
     LightMix mix;
     mix.lo = {-100, 1, -100};
     mix.hi = {100, 10, 100};
@@ -563,11 +615,15 @@ TEST(LightTree, TenThousandLightsBuild) {
         options.forest = forest;
         const auto start = std::chrono::steady_clock::now();
         const LightTree tree(lights, options);
-        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        const double ms =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                .count();
         EXPECT_EQ(tree.leafCount(), lights.size());
         EXPECT_EQ(tree.nodes().size(), 2 * lights.size() - tree.roots().size());
-        std::printf("[lightcuts] 10 000 lights, %s: %zu trees, built in %.1f ms\n", forest ? "forest" : "classic", tree.roots().size(), ms);
-        ::testing::Test::RecordProperty(forest ? "forest_build_ms" : "classic_build_ms", std::to_string(ms));
+        std::printf("[lightcuts] 10 000 lights, %s: %zu trees, built in %.1f ms\n",
+                    forest ? "forest" : "classic", tree.roots().size(), ms);
+        ::testing::Test::RecordProperty(forest ? "forest_build_ms" : "classic_build_ms",
+                                        std::to_string(ms));
         const auto cut = vox::evaluateCut(tree, {0, 0, 0}, {0, 1, 0}, {1, 1, 1});
         EXPECT_GT(cut.stats.cutSize, 0u);
     }
@@ -611,7 +667,8 @@ TEST(Lightcuts, EdgeCases) {
     tight.maxCutSize = 5;
     vox::LightTreeOptions classic;
     classic.forest = false;
-    const auto small = vox::evaluateCut(LightTree(randomLights(100, 21), classic), {0, 0, 0}, n, albedo, tight);
+    const auto small =
+        vox::evaluateCut(LightTree(randomLights(100, 21), classic), {0, 0, 0}, n, albedo, tight);
     EXPECT_EQ(small.stats.cutSize, 5u);
     EXPECT_TRUE(small.stats.truncated);
     const auto forestCut = vox::evaluateCut(many, {0, 0, 0}, n, albedo, tight);
@@ -623,13 +680,17 @@ TEST(Lightcuts, EdgeCases) {
 
 namespace {
 
-constexpr vox::Attenuation kAttenuations[] = {vox::Attenuation::Weighted, vox::Attenuation::Paper, vox::Attenuation::Average};
+constexpr vox::Attenuation kAttenuations[] = {vox::Attenuation::Weighted, vox::Attenuation::Paper,
+                                              vox::Attenuation::Average};
 
 const char* name(vox::Attenuation a) {
     switch (a) {
-    case vox::Attenuation::Weighted: return "weighted";
-    case vox::Attenuation::Paper: return "paper";
-    case vox::Attenuation::Average: return "average";
+        case vox::Attenuation::Weighted:
+            return "weighted";
+        case vox::Attenuation::Paper:
+            return "paper";
+        case vox::Attenuation::Average:
+            return "average";
     }
     return "?";
 }
@@ -645,7 +706,8 @@ vox::VoxelNormals fragmentNormals(Rng& rng, Vec3d up, double spread) {
     auto add = [&](Vec3d n, double a) {
         sum += n * a;
         area += a;
-        for (int axis = 0; axis < 3; ++axis) moments[std::size_t(2 * axis + (n[axis] < 0 ? 1 : 0))] += a * std::abs(n[axis]);
+        for (int axis = 0; axis < 3; ++axis)
+            moments[std::size_t(2 * axis + (n[axis] < 0 ? 1 : 0))] += a * std::abs(n[axis]);
     };
     for (int i = 0; i < fragments; ++i) add(rng.around(up, spread), rng.uniform(0.1, 1));
     if (rng.uniform() < 0.15) add(-rng.around(up, spread), rng.uniform(0.1, 1));  // the wall's back
@@ -674,7 +736,8 @@ TEST(LightcutPoint, VoxelResponseMatchesAttenuate) {
     Worst worst[3];
     Rng rng(40);
     for (int trial = 0; trial < 400; ++trial) {
-        const vox::VoxelNormals normals = trial % 2 ? randomNormals(rng) : fragmentNormals(rng, rng.unit(), 1.2);
+        const vox::VoxelNormals normals =
+            trial % 2 ? randomNormals(rng) : fragmentNormals(rng, rng.unit(), 1.2);
         const Vec3d position{rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-5, 5)};
         const Vec3d albedo{rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(0, 1)};
         for (int m = 0; m < 3; ++m) {
@@ -695,28 +758,34 @@ TEST(LightcutPoint, VoxelResponseMatchesAttenuate) {
             for (const Vec3d& l : directions) {
                 const double expected = vox::attenuate(mode, normals, l);
                 const double got = p.response(l);
-                if (std::abs(got - expected) > worst[m].difference) worst[m] = {std::abs(got - expected), got, expected, d(normals.mean), l};
+                if (std::abs(got - expected) > worst[m].difference)
+                    worst[m] = {std::abs(got - expected), got, expected, d(normals.mean), l};
             }
         }
     }
     for (int m = 0; m < 3; ++m) {
         const Worst& w = worst[m];
-        std::printf("[lightcuts] voxel response vs attenuate, %-8s largest difference %.3g\n", name(kAttenuations[m]), w.difference);
-        EXPECT_LE(w.difference, 1e-12) << name(kAttenuations[m]) << ": response " << w.got << " vs attenuate " << w.expected
-                                       << " for mean normal (" << w.mean.x << ", " << w.mean.y << ", " << w.mean.z << "), l = (" << w.l.x
-                                       << ", " << w.l.y << ", " << w.l.z << ")";
+        std::printf("[lightcuts] voxel response vs attenuate, %-8s largest difference %.3g\n",
+                    name(kAttenuations[m]), w.difference);
+        EXPECT_LE(w.difference, 1e-12)
+            << name(kAttenuations[m]) << ": response " << w.got << " vs attenuate " << w.expected
+            << " for mean normal (" << w.mean.x << ", " << w.mean.y << ", " << w.mean.z
+            << "), l = (" << w.l.x << ", " << w.l.y << ", " << w.l.z << ")";
     }
     // The plain Lambertian point is max(0, n·l).
-    const vox::LightcutPoint lambert = vox::LightcutPoint::lambertian({0, 0, 0}, {0, 0, 2}, {1, 1, 1});
+    const vox::LightcutPoint lambert =
+        vox::LightcutPoint::lambertian({0, 0, 0}, {0, 0, 2}, {1, 1, 1});
     EXPECT_EQ(lambert.normal, (Vec3d{0, 0, 1}));
     EXPECT_FALSE(lambert.axisWeighted);
     EXPECT_NEAR(lambert.response(vox::normalize(Vec3d{1, 0, 1})), std::sqrt(0.5), 1e-15);
     EXPECT_EQ(lambert.response({0, 0, -1}), 0.0);
-    // A thin wall (both sides, mean normal cancelled): Weighted still lights the side facing the light.
+    // A thin wall (both sides, mean normal cancelled): Weighted still lights the side facing the
+    // light.
     vox::VoxelNormals wall;
     wall.mean = {0, 0, 0};
     wall.moments = {0, 0, 0, 0, 0.5f, 0.5f};
-    const auto w = vox::LightcutPoint::voxel({0, 0, 0}, wall, vox::Attenuation::Weighted, {1, 1, 1});
+    const auto w =
+        vox::LightcutPoint::voxel({0, 0, 0}, wall, vox::Attenuation::Weighted, {1, 1, 1});
     EXPECT_DOUBLE_EQ(w.response({0, 0, 1}), 0.5);
     EXPECT_DOUBLE_EQ(w.response({0, 0, -1}), 0.5);
     EXPECT_EQ(w.response({1, 0, 0}), 0.0);
@@ -738,14 +807,17 @@ TEST(LightcutBound, AxisWeightedIsConservative) {
         for (int trial = 0; trial < 150; ++trial) {
             // Points among the lights too (inside their boxes), any normals, coloured albedo.
             const Vec3d p{rng.uniform(-6, 6), rng.uniform(-2, 5), rng.uniform(-6, 6)};
-            const vox::VoxelNormals normals = trial % 3 == 0 ? randomNormals(rng) : fragmentNormals(rng, rng.unit(), 1.0);
+            const vox::VoxelNormals normals =
+                trial % 3 == 0 ? randomNormals(rng) : fragmentNormals(rng, rng.unit(), 1.0);
             const Vec3d albedo{rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(0, 1)};
-            const vox::Attenuation mode = trial % 4 == 3 ? vox::Attenuation::Paper : vox::Attenuation::Weighted;
+            const vox::Attenuation mode =
+                trial % 4 == 3 ? vox::Attenuation::Paper : vox::Attenuation::Weighted;
             const vox::LightcutPoint point = vox::LightcutPoint::voxel(p, normals, mode, albedo);
             ASSERT_TRUE(point.axisWeighted);
             // Children come before their parents in nodes(): sum the subtree totals upwards.
             for (std::size_t k = 0; k < nodes.size(); ++k)
-                exact[k] = nodes[k].leaf() ? vox::lightContribution(tree.lights()[nodes[k].representative], point)
+                exact[k] = nodes[k].leaf() ? vox::lightContribution(
+                                                 tree.lights()[nodes[k].representative], point)
                                            : exact[nodes[k].left] + exact[nodes[k].right];
             for (std::size_t k = 0; k < nodes.size(); ++k) {
                 const Vec3d bound = vox::lightcutBound(tree, std::uint32_t(k), point);
@@ -753,7 +825,8 @@ TEST(LightcutBound, AxisWeightedIsConservative) {
                 positive += vox::lightLuminance(exact[k]) > 0;
                 for (int c = 0; c < 3; ++c)
                     ASSERT_GE(bound[c], exact[k][c] * (1 - 1e-12))
-                        << "node " << k << " channel " << c << " trial " << trial << (forest ? " forest" : " classic");
+                        << "node " << k << " channel " << c << " trial " << trial
+                        << (forest ? " forest" : " classic");
             }
         }
     }
@@ -784,7 +857,9 @@ TEST(Lightcuts, AxisWeightedAgainstBruteForce) {
             const Vec3d p{rng.uniform(-11, 11), rng.uniform(0, 0.5), rng.uniform(-11, 11)};
             const vox::VoxelNormals normals = fragmentNormals(rng, {0, 1, 0}, i % 2 ? 0.3 : 1.2);
             const Vec3d albedo{rng.uniform(0.2, 1), rng.uniform(0.2, 1), rng.uniform(0.2, 1)};
-            const vox::Attenuation mode = i % 5 == 3 ? vox::Attenuation::Paper : i % 5 == 4 ? vox::Attenuation::Average : vox::Attenuation::Weighted;
+            const vox::Attenuation mode = i % 5 == 3   ? vox::Attenuation::Paper
+                                          : i % 5 == 4 ? vox::Attenuation::Average
+                                                       : vox::Attenuation::Weighted;
             const vox::LightcutPoint point = vox::LightcutPoint::voxel(p, normals, mode, albedo);
             const auto cut = vox::evaluateCut(*tree, point, options);
             const auto exact = vox::bruteForce(*tree, point);
@@ -800,10 +875,12 @@ TEST(Lightcuts, AxisWeightedAgainstBruteForce) {
                     sum2 += b * b;
                 }
                 EXPECT_NEAR(sum, cut.errorBound, 1e-9 * sum + 1e-300);
-                EXPECT_LE(std::sqrt(sum2), options.relativeError * vox::lightLuminance(cut.radiance) * (1 + 1e-9));
+                EXPECT_LE(std::sqrt(sum2),
+                          options.relativeError * vox::lightLuminance(cut.radiance) * (1 + 1e-9));
             }
         }
         EXPECT_GT(lit, 250);
-        s.expectAccuracy(options.criterion, tree == &forest ? "axis-weighted voxels, forest" : "axis-weighted voxels, classic");
+        s.expectAccuracy(options.criterion, tree == &forest ? "axis-weighted voxels, forest"
+                                                            : "axis-weighted voxels, classic");
     }
 }

@@ -43,8 +43,8 @@ Vec3f f(Vec3d v) { return {float(v.x), float(v.y), float(v.z)}; }
 
 /// Point and spot lights, every one with a range (so that skipping a tree is exact), above the
 /// floor y = 0 in [lo, hi].
-std::vector<Light> rangedLights(std::size_t n, std::uint64_t seed, Vec3d lo, Vec3d hi, double rangeLo = 3, double rangeHi = 8,
-                                double spotShare = 0.3) {
+std::vector<Light> rangedLights(std::size_t n, std::uint64_t seed, Vec3d lo, Vec3d hi,
+                                double rangeLo = 3, double rangeHi = 8, double spotShare = 0.3) {
     Rng rng(seed);
     std::vector<Light> lights;
     for (std::size_t i = 0; i < n; ++i) {
@@ -68,7 +68,8 @@ std::vector<Light> rangedLights(std::size_t n, std::uint64_t seed, Vec3d lo, Vec
 std::uint64_t morton(const Cell& c) {
     std::uint64_t code = 0;
     for (int bit = 0; bit < 10; ++bit)
-        for (int axis = 0; axis < 3; ++axis) code |= std::uint64_t((c[std::size_t(axis)] >> bit) & 1u) << (3 * bit + axis);
+        for (int axis = 0; axis < 3; ++axis)
+            code |= std::uint64_t((c[std::size_t(axis)] >> bit) & 1u) << (3 * bit + axis);
     return code;
 }
 
@@ -80,7 +81,8 @@ std::uint32_t runEnd(const RenderPointClusters& c, std::size_t r) {
 /// The structural invariants every clustering keeps: a permutation, cluster and run boundaries
 /// ascending, every cluster starting a run, every run's points similar to its first and each point
 /// in the first run of its cluster it is similar to.
-void expectStructure(const RenderPointClusters& c, std::span<const LightcutPoint> points, const vox::SimilarityOptions& similarity = {}) {
+void expectStructure(const RenderPointClusters& c, std::span<const LightcutPoint> points,
+                     const vox::SimilarityOptions& similarity = {}) {
     ASSERT_EQ(c.order.size(), points.size());
     std::vector<int> seen(points.size(), 0);
     for (std::uint32_t i : c.order) {
@@ -91,7 +93,8 @@ void expectStructure(const RenderPointClusters& c, std::span<const LightcutPoint
     ASSERT_FALSE(c.begin.empty());
     EXPECT_EQ(c.begin.front(), 0u);
     EXPECT_EQ(c.begin.back(), c.order.size());
-    for (std::size_t k = 0; k + 1 < c.begin.size(); ++k) ASSERT_LT(c.begin[k], c.begin[k + 1]) << "empty or unordered cluster " << k;
+    for (std::size_t k = 0; k + 1 < c.begin.size(); ++k)
+        ASSERT_LT(c.begin[k], c.begin[k + 1]) << "empty or unordered cluster " << k;
     if (points.empty()) {
         EXPECT_EQ(c.count(), 0u);
         EXPECT_TRUE(c.runs.empty());
@@ -101,16 +104,21 @@ void expectStructure(const RenderPointClusters& c, std::span<const LightcutPoint
     ASSERT_FALSE(c.runs.empty());
     EXPECT_LT(c.runs.back(), c.order.size());
     for (std::size_t k = 0; k < c.count(); ++k)
-        EXPECT_TRUE(std::binary_search(c.runs.begin(), c.runs.end(), c.begin[k])) << "cluster " << k << " does not start a run";
+        EXPECT_TRUE(std::binary_search(c.runs.begin(), c.runs.end(), c.begin[k]))
+            << "cluster " << k << " does not start a run";
     for (std::size_t k = 0; k < c.count(); ++k) {
-        const auto firstRun = std::size_t(std::lower_bound(c.runs.begin(), c.runs.end(), c.begin[k]) - c.runs.begin());
+        const auto firstRun = std::size_t(
+            std::lower_bound(c.runs.begin(), c.runs.end(), c.begin[k]) - c.runs.begin());
         for (std::size_t r = firstRun; r < c.runs.size() && c.runs[r] < c.begin[k + 1]; ++r) {
-            ASSERT_LE(runEnd(c, r), c.begin[k + 1]) << "run " << r << " crosses the end of cluster " << k;
+            ASSERT_LE(runEnd(c, r), c.begin[k + 1])
+                << "run " << r << " crosses the end of cluster " << k;
             const LightcutPoint& head = points[c.order[c.runs[r]]];
             for (std::uint32_t j = c.runs[r]; j < runEnd(c, r); ++j) {
-                ASSERT_TRUE(vox::similarRenderPoints(head, points[c.order[j]], similarity)) << "run " << r << " position " << j;
+                ASSERT_TRUE(vox::similarRenderPoints(head, points[c.order[j]], similarity))
+                    << "run " << r << " position " << j;
                 for (std::size_t earlier = firstRun; earlier < r; ++earlier)
-                    ASSERT_FALSE(vox::similarRenderPoints(points[c.order[c.runs[earlier]]], points[c.order[j]], similarity))
+                    ASSERT_FALSE(vox::similarRenderPoints(points[c.order[c.runs[earlier]]],
+                                                          points[c.order[j]], similarity))
                         << "point " << c.order[j] << " skipped an earlier similar run";
             }
         }
@@ -147,15 +155,19 @@ TEST(SimilarRenderPoints, NormalsWithinTenDegreesAndTheSameMaterial) {
     wide.normalDegrees = 45;
     EXPECT_TRUE(vox::similarRenderPoints(a, tilted(40), wide));
     // Albedo: within 1/64 per channel.
-    EXPECT_TRUE(vox::similarRenderPoints(a, floorPoint({0, 0, 0}, {0, 0, 1}, {0.5, 0.5 + 0.015, 0.5})));
-    EXPECT_FALSE(vox::similarRenderPoints(a, floorPoint({0, 0, 0}, {0, 0, 1}, {0.5, 0.5, 0.5 - 0.02})));
+    EXPECT_TRUE(
+        vox::similarRenderPoints(a, floorPoint({0, 0, 0}, {0, 0, 1}, {0.5, 0.5 + 0.015, 0.5})));
+    EXPECT_FALSE(
+        vox::similarRenderPoints(a, floorPoint({0, 0, 0}, {0, 0, 1}, {0.5, 0.5, 0.5 - 0.02})));
     // A cosine point and an axis-weighted one are different materials.
     vox::VoxelNormals normals;
     normals.mean = {0, 0, 1};
     normals.moments = {0, 0, 0, 0, 1, 0};
-    EXPECT_FALSE(vox::similarRenderPoints(a, LightcutPoint::voxel({0, 0, 0}, normals, vox::Attenuation::Weighted, albedo)));
-    EXPECT_TRUE(vox::similarRenderPoints(LightcutPoint::voxel({0, 0, 0}, normals, vox::Attenuation::Weighted, albedo),
-                                         LightcutPoint::voxel({1, 0, 0}, normals, vox::Attenuation::Weighted, albedo)));
+    EXPECT_FALSE(vox::similarRenderPoints(
+        a, LightcutPoint::voxel({0, 0, 0}, normals, vox::Attenuation::Weighted, albedo)));
+    EXPECT_TRUE(vox::similarRenderPoints(
+        LightcutPoint::voxel({0, 0, 0}, normals, vox::Attenuation::Weighted, albedo),
+        LightcutPoint::voxel({1, 0, 0}, normals, vox::Attenuation::Weighted, albedo)));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -170,18 +182,23 @@ TEST(ClusterVoxelPoints, StructureOnRandomPoints) {
     const Vec3d albedos[] = {{0.2, 0.2, 0.2}, {0.8, 0.5, 0.2}, {0.21, 0.2, 0.2}};
     for (int i = 0; i < 700; ++i) {
         // Mostly a coherent floor, some random cells; several points per cell sometimes.
-        const Cell c = i < 450 ? Cell{rng.below(16), rng.below(2), rng.below(16)} : Cell{rng.below(16), rng.below(16), rng.below(16)};
+        const Cell c = i < 450 ? Cell{rng.below(16), rng.below(2), rng.below(16)}
+                               : Cell{rng.below(16), rng.below(16), rng.below(16)};
         cells.push_back(c);
         const Vec3d n = i < 450 && rng.uniform() < 0.8 ? normals[0] : normals[rng.below(4)];
-        points.push_back(floorPoint({double(c[0]), double(c[1]), double(c[2])}, n, albedos[rng.below(3)]));
+        points.push_back(
+            floorPoint({double(c[0]), double(c[1]), double(c[2])}, n, albedos[rng.below(3)]));
     }
     for (std::uint32_t maxPoints : {1u, 8u, 64u, 512u, 100000u})
         for (std::uint32_t minCells : {1u, 2u, 4u, 16u}) {
-            SCOPED_TRACE(::testing::Message() << "maxPoints " << maxPoints << ", minCells " << minCells);
-            const RenderPointClusters c = vox::clusterVoxelPoints(points, cells, kDepth, maxPoints, minCells);
+            SCOPED_TRACE(::testing::Message()
+                         << "maxPoints " << maxPoints << ", minCells " << minCells);
+            const RenderPointClusters c =
+                vox::clusterVoxelPoints(points, cells, kDepth, maxPoints, minCells);
             expectStructure(c, points);
             // Deterministic.
-            EXPECT_TRUE(sameClusters(c, vox::clusterVoxelPoints(points, cells, kDepth, maxPoints, minCells)));
+            EXPECT_TRUE(sameClusters(
+                c, vox::clusterVoxelPoints(points, cells, kDepth, maxPoints, minCells)));
             // The level at which the subdivision stops: nodes minCells cells wide.
             std::uint32_t finest = kDepth;
             for (std::uint32_t edge = 1; edge < minCells; edge *= 2) --finest;
@@ -201,18 +218,23 @@ TEST(ClusterVoxelPoints, StructureOnRandomPoints) {
                 previousMax = hi;
                 // A cluster is small and similar, or a node of the finest level.
                 std::sort(m.begin(), m.end(), [&](std::uint32_t a, std::uint32_t b) {
-                    return std::make_tuple(morton(cells[a]), a) < std::make_tuple(morton(cells[b]), b);
+                    return std::make_tuple(morton(cells[a]), a) <
+                           std::make_tuple(morton(cells[b]), b);
                 });
                 bool similar = true;
-                for (std::uint32_t i : m) similar = similar && vox::similarRenderPoints(points[m.front()], points[i]);
+                for (std::uint32_t i : m)
+                    similar = similar && vox::similarRenderPoints(points[m.front()], points[i]);
                 const bool finestNode = (lo >> finestShift) == (hi >> finestShift);
-                EXPECT_TRUE((m.size() <= maxPoints && similar) || finestNode) << "cluster " << k << " of " << m.size();
+                EXPECT_TRUE((m.size() <= maxPoints && similar) || finestNode)
+                    << "cluster " << k << " of " << m.size();
             }
             // Each run in Morton order (ties: by index).
             for (std::size_t r = 0; r < c.runs.size(); ++r)
                 for (std::uint32_t j = c.runs[r] + 1; j < runEnd(c, r); ++j) {
                     const std::uint32_t a = c.order[j - 1], b = c.order[j];
-                    EXPECT_LT(std::make_tuple(morton(cells[a]), a), std::make_tuple(morton(cells[b]), b)) << "run " << r;
+                    EXPECT_LT(std::make_tuple(morton(cells[a]), a),
+                              std::make_tuple(morton(cells[b]), b))
+                        << "run " << r;
                 }
             if (maxPoints == 1 && minCells == 1) {
                 // Every occupied cell its own cluster, at least.
@@ -225,7 +247,9 @@ TEST(ClusterVoxelPoints, StructureOnRandomPoints) {
     const RenderPointClusters none = vox::clusterVoxelPoints({}, {}, 5);
     EXPECT_EQ(none.count(), 0u);
     EXPECT_EQ(none.begin, (std::vector<std::uint32_t>{0}));
-    EXPECT_THROW((void)vox::clusterVoxelPoints(points, std::span<const Cell>(cells).first(3), kDepth), vox::UsageError);
+    EXPECT_THROW(
+        (void)vox::clusterVoxelPoints(points, std::span<const Cell>(cells).first(3), kDepth),
+        vox::UsageError);
     EXPECT_THROW((void)vox::clusterVoxelPoints(points, cells, 11), vox::UsageError);
 }
 
@@ -243,14 +267,16 @@ TEST(ClusterVoxelPoints, FlatFloorGivesFewClusters) {
     expectStructure(one, points);
     EXPECT_EQ(one.count(), 1u);
     EXPECT_EQ(one.runs, (std::vector<std::uint32_t>{0}));
-    for (std::size_t j = 1; j < one.order.size(); ++j) EXPECT_LT(morton(cells[one.order[j - 1]]), morton(cells[one.order[j]]));
+    for (std::size_t j = 1; j < one.order.size(); ++j)
+        EXPECT_LT(morton(cells[one.order[j - 1]]), morton(cells[one.order[j]]));
     // 1023: the root is split once; its four occupied octants (16 × 16) fit.
     EXPECT_EQ(vox::clusterVoxelPoints(points, cells, 5, 1023).count(), 4u);
     // 64: twice; sixteen aligned 8 × 8 squares of 64, each one run.
     const RenderPointClusters sixteen = vox::clusterVoxelPoints(points, cells, 5, 64);
     expectStructure(sixteen, points);
     ASSERT_EQ(sixteen.count(), 16u);
-    EXPECT_EQ(sixteen.runs, std::vector<std::uint32_t>(sixteen.begin.begin(), sixteen.begin.end() - 1));
+    EXPECT_EQ(sixteen.runs,
+              std::vector<std::uint32_t>(sixteen.begin.begin(), sixteen.begin.end() - 1));
     for (std::size_t k = 0; k < 16; ++k) {
         const auto m = members(sixteen, k);
         ASSERT_EQ(m.size(), 64u);
@@ -297,7 +323,8 @@ TEST(ClusterVoxelPoints, CheckerOfMaterialsSplitsIntoRuns) {
         EXPECT_EQ(runEnd(mixed, r) - mixed.runs[r], 32u);
         const std::uint32_t material = materialOf(cells[mixed.order[mixed.runs[r]]]);
         EXPECT_EQ(material, r % 2) << "run " << r;
-        for (std::uint32_t j = mixed.runs[r]; j < runEnd(mixed, r); ++j) EXPECT_EQ(materialOf(cells[mixed.order[j]]), material);
+        for (std::uint32_t j = mixed.runs[r]; j < runEnd(mixed, r); ++j)
+            EXPECT_EQ(materialOf(cells[mixed.order[j]]), material);
     }
     // minCells 32 (the whole volume): one cluster, two runs of 512.
     const RenderPointClusters whole = vox::clusterVoxelPoints(points, cells, 5, 1, 32);
@@ -347,28 +374,38 @@ TEST(ClusterPixelPoints, StructureAndCells) {
         const Pixel px{rng.below(64), rng.below(64)};
         pixels.push_back(px);
         depths.push_back(rng.uniform(1, 60));
-        points.push_back(floorPoint({double(px[0]), double(px[1]), -depths.back()}, normals[rng.below(3)],
-                                    rng.uniform() < 0.7 ? Vec3d{0.5, 0.5, 0.5} : Vec3d{0.9, 0.1, 0.1}));
+        points.push_back(
+            floorPoint({double(px[0]), double(px[1]), -depths.back()}, normals[rng.below(3)],
+                       rng.uniform() < 0.7 ? Vec3d{0.5, 0.5, 0.5} : Vec3d{0.9, 0.1, 0.1}));
     }
     const double nearest = *std::min_element(depths.begin(), depths.end());
     for (std::uint32_t tile : {8u, 16u})
         for (std::uint32_t minTile : {1u, 2u, 4u, 16u}) {
             SCOPED_TRACE(::testing::Message() << "tile " << tile << ", min tile " << minTile);
-            const RenderPointClusters c = vox::clusterPixelPoints(points, pixels, depths, camera, tile, minTile);
+            const RenderPointClusters c =
+                vox::clusterPixelPoints(points, pixels, depths, camera, tile, minTile);
             expectStructure(c, points);
-            EXPECT_TRUE(sameClusters(c, vox::clusterPixelPoints(points, pixels, depths, camera, tile, minTile)));
+            EXPECT_TRUE(sameClusters(
+                c, vox::clusterPixelPoints(points, pixels, depths, camera, tile, minTile)));
             const double logQ = std::log(slabRatio(camera, tile));
-            auto slabOf = [&](double z) { return std::uint32_t(std::floor(std::log(z / nearest) / logQ)); };
+            auto slabOf = [&](double z) {
+                return std::uint32_t(std::floor(std::log(z / nearest) / logQ));
+            };
             std::set<std::tuple<std::uint32_t, std::uint32_t, std::uint32_t>> cellsSeen;
             for (std::size_t k = 0; k < c.count(); ++k) {
                 const auto m = members(c, k);
-                // One (tile, slab) cell per cluster; each cell's points in one cluster when all similar.
-                const auto key = std::make_tuple(pixels[m[0]][0] / tile, pixels[m[0]][1] / tile, slabOf(depths[m[0]]));
+                // One (tile, slab) cell per cluster; each cell's points in one cluster when all
+                // similar.
+                const auto key = std::make_tuple(pixels[m[0]][0] / tile, pixels[m[0]][1] / tile,
+                                                 slabOf(depths[m[0]]));
                 cellsSeen.insert(key);
                 bool similar = true;
                 std::uint32_t x0 = 64, x1 = 0, y0 = 64, y1 = 0;
                 for (std::uint32_t i : m) {
-                    EXPECT_EQ(std::make_tuple(pixels[i][0] / tile, pixels[i][1] / tile, slabOf(depths[i])), key) << "cluster " << k;
+                    EXPECT_EQ(std::make_tuple(pixels[i][0] / tile, pixels[i][1] / tile,
+                                              slabOf(depths[i])),
+                              key)
+                        << "cluster " << k;
                     similar = similar && vox::similarRenderPoints(points[m[0]], points[i]);
                     x0 = std::min(x0, pixels[i][0]);
                     x1 = std::max(x1, pixels[i][0]);
@@ -377,7 +414,8 @@ TEST(ClusterPixelPoints, StructureAndCells) {
                 }
                 // Not all similar: a tile of at most minTile pixels (its points within one).
                 if (!similar) {
-                    EXPECT_TRUE(x1 - x0 < std::max(minTile, 1u) && y1 - y0 < std::max(minTile, 1u)) << "cluster " << k;
+                    EXPECT_TRUE(x1 - x0 < std::max(minTile, 1u) && y1 - y0 < std::max(minTile, 1u))
+                        << "cluster " << k;
                 }
             }
             EXPECT_GE(c.count(), cellsSeen.size());
@@ -385,13 +423,16 @@ TEST(ClusterPixelPoints, StructureAndCells) {
             for (std::size_t r = 0; r < c.runs.size(); ++r)
                 for (std::uint32_t j = c.runs[r] + 1; j < runEnd(c, r); ++j) {
                     const std::uint32_t a = c.order[j - 1], b = c.order[j];
-                    EXPECT_LT(std::make_tuple(pixels[a][1], pixels[a][0], a), std::make_tuple(pixels[b][1], pixels[b][0], b));
+                    EXPECT_LT(std::make_tuple(pixels[a][1], pixels[a][0], a),
+                              std::make_tuple(pixels[b][1], pixels[b][0], b));
                 }
         }
     const RenderPointClusters none = vox::clusterPixelPoints({}, {}, {}, camera);
     EXPECT_EQ(none.count(), 0u);
     EXPECT_EQ(none.begin, (std::vector<std::uint32_t>{0}));
-    EXPECT_THROW((void)vox::clusterPixelPoints(points, pixels, std::span<const double>(depths).first(5), camera), vox::UsageError);
+    EXPECT_THROW((void)vox::clusterPixelPoints(points, pixels,
+                                               std::span<const double>(depths).first(5), camera),
+                 vox::UsageError);
 }
 
 TEST(ClusterPixelPoints, SimilarPointsGiveOneClusterPerOccupiedCell) {
@@ -452,8 +493,10 @@ TEST(ClusterPixelPoints, DissimilarNormalsSplitTilesDownToTheMinimum) {
     const std::vector<double> depths(256, 5.0);
     {
         // Normals alternate by column: every tile down to the minimum holds both.
-        const auto [points, pixels] = tileWith([&](std::uint32_t x, std::uint32_t) { return x % 2 ? side : up; });
-        const RenderPointClusters four = vox::clusterPixelPoints(points, pixels, depths, camera, 16, 4);
+        const auto [points, pixels] =
+            tileWith([&](std::uint32_t x, std::uint32_t) { return x % 2 ? side : up; });
+        const RenderPointClusters four =
+            vox::clusterPixelPoints(points, pixels, depths, camera, 16, 4);
         expectStructure(four, points);
         ASSERT_EQ(four.count(), 16u);  // 4 × 4-pixel tiles
         ASSERT_EQ(four.runs.size(), 32u);
@@ -465,17 +508,21 @@ TEST(ClusterPixelPoints, DissimilarNormalsSplitTilesDownToTheMinimum) {
                 EXPECT_EQ(pixels[i][1] / 4, pixels[m[0]][1] / 4);
             }
         }
-        for (std::size_t r = 0; r < four.runs.size(); ++r) EXPECT_EQ(runEnd(four, r) - four.runs[r], 8u);
+        for (std::size_t r = 0; r < four.runs.size(); ++r)
+            EXPECT_EQ(runEnd(four, r) - four.runs[r], 8u);
         EXPECT_EQ(vox::clusterPixelPoints(points, pixels, depths, camera, 16, 2).count(), 64u);
         EXPECT_EQ(vox::clusterPixelPoints(points, pixels, depths, camera, 16, 1).count(), 256u);
-        const RenderPointClusters whole = vox::clusterPixelPoints(points, pixels, depths, camera, 16, 16);
+        const RenderPointClusters whole =
+            vox::clusterPixelPoints(points, pixels, depths, camera, 16, 16);
         EXPECT_EQ(whole.count(), 1u);
         EXPECT_EQ(whole.runs, (std::vector<std::uint32_t>{0, 128}));
     }
     {
         // Left half up, right half sideways: the quarter tiles are uniform.
-        const auto [points, pixels] = tileWith([&](std::uint32_t x, std::uint32_t) { return x < 24 ? up : side; });
-        const RenderPointClusters quarters = vox::clusterPixelPoints(points, pixels, depths, camera, 16, 4);
+        const auto [points, pixels] =
+            tileWith([&](std::uint32_t x, std::uint32_t) { return x < 24 ? up : side; });
+        const RenderPointClusters quarters =
+            vox::clusterPixelPoints(points, pixels, depths, camera, 16, 4);
         expectStructure(quarters, points);
         EXPECT_EQ(quarters.count(), 4u);
         EXPECT_EQ(quarters.runs.size(), 4u);
@@ -483,7 +530,8 @@ TEST(ClusterPixelPoints, DissimilarNormalsSplitTilesDownToTheMinimum) {
     {
         // 5° apart: similar, one cluster.
         const Vec3d tilted = vox::normalize(Vec3d{std::tan(5 * kPi / 180), 0, 1});
-        const auto [points, pixels] = tileWith([&](std::uint32_t x, std::uint32_t) { return x % 2 ? tilted : up; });
+        const auto [points, pixels] =
+            tileWith([&](std::uint32_t x, std::uint32_t) { return x % 2 ? tilted : up; });
         EXPECT_EQ(vox::clusterPixelPoints(points, pixels, depths, camera, 16, 4).count(), 1u);
     }
 }
@@ -508,7 +556,9 @@ PointSet makePoints(std::size_t scattered, std::uint64_t seed) {
         s.cells.push_back(c);
         s.points.push_back(p);
     };
-    auto centre = [](Cell c) { return Vec3d{-8 + 0.5 * (c[0] + 0.5), 0.5 * c[1], -8 + 0.5 * (c[2] + 0.5)}; };
+    auto centre = [](Cell c) {
+        return Vec3d{-8 + 0.5 * (c[0] + 0.5), 0.5 * c[1], -8 + 0.5 * (c[2] + 0.5)};
+    };
     for (std::uint32_t z = 4; z < 20; ++z)
         for (std::uint32_t x = 4; x < 20; ++x) {
             const Cell c{x, 0, z};
@@ -532,17 +582,21 @@ PointSet makePoints(std::size_t scattered, std::uint64_t seed) {
     return s;
 }
 
-std::vector<Light> testLights(std::size_t n, std::uint64_t seed) { return rangedLights(n, seed, {-9, 1, -9}, {9, 5, 9}); }
+std::vector<Light> testLights(std::size_t n, std::uint64_t seed) {
+    return rangedLights(n, seed, {-9, 1, -9}, {9, 5, 9});
+}
 
 /// lightPoints' cluster loop written out with one LightcutCursor over every tree (no cluster
 /// lists): the same cuts, and their error bounds.
-std::vector<vox::LightcutResult> cursorReference(const LightTree& tree, const PointSet& s, const vox::LightcutOptions& options, bool reuse) {
+std::vector<vox::LightcutResult> cursorReference(const LightTree& tree, const PointSet& s,
+                                                 const vox::LightcutOptions& options, bool reuse) {
     std::vector<vox::LightcutResult> out(s.points.size());
     vox::LightcutCursor cursor(tree, options);
     for (std::size_t k = 0; k < s.clusters.count(); ++k) {
         cursor.clearRoots();
         for (std::uint32_t j = s.clusters.begin[k]; j < s.clusters.begin[k + 1]; ++j) {
-            if (!reuse || std::binary_search(s.clusters.runs.begin(), s.clusters.runs.end(), j)) cursor.reset();
+            if (!reuse || std::binary_search(s.clusters.runs.begin(), s.clusters.runs.end(), j))
+                cursor.reset();
             const std::uint32_t i = s.clusters.order[j];
             out[i] = cursor.evaluate(s.points[i]);
         }
@@ -587,8 +641,9 @@ TEST(LightPoints, WithinTheErrorGuaranteeOfBruteForce) {
     const std::vector<Vec3d>* results[] = {&reused, &fresh, &single};
     for (int m = 0; m < 3; ++m) {
         const vox::LightcutErrorStats e = vox::compareWithBruteForce(*results[m], brute, 0.02);
-        std::printf("[many lights] %-22s %llu/%llu points within 2%%, max %.4f, mean %.5f\n", names[m],
-                    static_cast<unsigned long long>(e.within), static_cast<unsigned long long>(e.points), e.maxRelative, e.meanRelative);
+        std::printf("[many lights] %-22s %llu/%llu points within 2%%, max %.4f, mean %.5f\n",
+                    names[m], static_cast<unsigned long long>(e.within),
+                    static_cast<unsigned long long>(e.points), e.maxRelative, e.meanRelative);
         EXPECT_GT(e.points, n * 9 / 10) << names[m];
         EXPECT_GE(e.fractionWithin(), 0.99) << names[m];
         EXPECT_LT(e.maxRelative, 0.1) << names[m];
@@ -607,10 +662,16 @@ TEST(LightPoints, WithinTheErrorGuaranteeOfBruteForce) {
         ASSERT_EQ(fresh[i], cut.radiance) << i;  // (the same trees, a fresh cut)
         const double exact = vox::lightLuminance(brute[i]);
         for (const vox::LightcutResult* res : {&cut, &reference[i]})
-            EXPECT_LE(std::abs(vox::lightLuminance(res->radiance) - exact), res->errorBound * (1 + 1e-9) + 1e-12 * exact) << i;
+            EXPECT_LE(std::abs(vox::lightLuminance(res->radiance) - exact),
+                      res->errorBound * (1 + 1e-9) + 1e-12 * exact)
+                << i;
     }
-    EXPECT_THROW((void)vox::lightPoints(tree, s.points, s.clusters, reuse, {}, std::span<Vec3d>(reused).first(3)), vox::UsageError);
-    EXPECT_THROW((void)vox::lightPointsBruteForce(lights, s.points, {}, std::span<Vec3d>(brute).first(3)), vox::UsageError);
+    EXPECT_THROW((void)vox::lightPoints(tree, s.points, s.clusters, reuse, {},
+                                        std::span<Vec3d>(reused).first(3)),
+                 vox::UsageError);
+    EXPECT_THROW(
+        (void)vox::lightPointsBruteForce(lights, s.points, {}, std::span<Vec3d>(brute).first(3)),
+        vox::UsageError);
 }
 
 TEST(LightPoints, VisibilityIsAskedForTheRightPoint) {
@@ -619,7 +680,8 @@ TEST(LightPoints, VisibilityIsAskedForTheRightPoint) {
     const PointSet s = makePoints(150, 13);
     const std::size_t n = s.points.size();
     // Every third point (by index) fully shadowed; elsewhere lights with x < 0 at half.
-    const vox::PointVisibility visibility = [&](std::size_t point, const Light& light, const vox::LightArrival&) {
+    const vox::PointVisibility visibility = [&](std::size_t point, const Light& light,
+                                                const vox::LightArrival&) {
         return point % 3 == 0 ? 0.0 : (light.position.x < 0 ? 0.5 : 1.0);
     };
     std::vector<Vec3d> brute(n), cuts(n), unshadowed(n);
@@ -652,8 +714,10 @@ TEST(LightPoints, SameResultWhateverTheThreadCount) {
     const LightTree tree(lights);
     const PointSet s = makePoints(250, 15);
     const std::size_t n = s.points.size();
-    auto run = [&](int threads, const RenderPointClusters& clusters, bool reuse, std::vector<Vec3d>& out) {
-        const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+    auto run = [&](int threads, const RenderPointClusters& clusters, bool reuse,
+                   std::vector<Vec3d>& out) {
+        const tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                                        std::size_t(threads));
         out.assign(n, Vec3d{-1, -1, -1});
         vox::ManyLightOptions options;
         options.reuseCuts = reuse;
@@ -666,7 +730,9 @@ TEST(LightPoints, SameResultWhateverTheThreadCount) {
             std::vector<Vec3d> one, two;
             const auto a = run(1, clusters, reuse, one);
             const auto b = run(2, clusters, reuse, two);
-            for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(one[i], two[i]) << "point " << i << (clustered ? " clusters" : "") << (reuse ? " reuse" : "");
+            for (std::size_t i = 0; i < n; ++i)
+                ASSERT_EQ(one[i], two[i])
+                    << "point " << i << (clustered ? " clusters" : "") << (reuse ? " reuse" : "");
             EXPECT_EQ(a.searchSteps, b.searchSteps);
             EXPECT_EQ(a.cutNodes, b.cutNodes);
             EXPECT_EQ(a.lightEvaluations, b.lightEvaluations);
@@ -693,7 +759,8 @@ TEST(LightPoints, ClustersAndReuseTakeFewerSearchStepsThanClassic) {
     for (std::uint32_t z = 0; z < 40; ++z)
         for (std::uint32_t x = 0; x < 40; ++x) {
             cells.push_back({x, 0, z});
-            points.push_back(LightcutPoint::lambertian({-10 + 0.5 * (x + 0.5), 0, -10 + 0.5 * (z + 0.5)}, {0, 1, 0}, {0.8, 0.7, 0.6}));
+            points.push_back(LightcutPoint::lambertian(
+                {-10 + 0.5 * (x + 0.5), 0, -10 + 0.5 * (z + 0.5)}, {0, 1, 0}, {0.8, 0.7, 0.6}));
         }
     const RenderPointClusters clusters = vox::clusterVoxelPoints(points, cells, 6);
     const LightTree forest(lights);
@@ -706,10 +773,14 @@ TEST(LightPoints, ClustersAndReuseTakeFewerSearchStepsThanClassic) {
         vox::ManyLightOptions options;
         options.clusterLists = clustered;
         options.reuseCuts = reuse;
-        const vox::ManyLightStats s = vox::lightPoints(tree, points, clustered ? clusters : RenderPointClusters{}, options, {}, out);
+        const vox::ManyLightStats s = vox::lightPoints(
+            tree, points, clustered ? clusters : RenderPointClusters{}, options, {}, out);
         const vox::LightcutErrorStats e = vox::compareWithBruteForce(out, brute, 0.02);
-        std::printf("[many lights] plane, %-30s %6.1f search steps, cut %5.1f, %5.2f trees per point; %.4f within 2%%, max %.4f\n", what,
-                    s.meanSearchSteps(), s.meanCutSize(), double(s.treesSearched) / double(s.points), e.fractionWithin(), e.maxRelative);
+        std::printf(
+            "[many lights] plane, %-30s %6.1f search steps, cut %5.1f, %5.2f trees per point; %.4f "
+            "within 2%%, max %.4f\n",
+            what, s.meanSearchSteps(), s.meanCutSize(), double(s.treesSearched) / double(s.points),
+            e.fractionWithin(), e.maxRelative);
         EXPECT_GE(e.fractionWithin(), 0.99) << what;
         EXPECT_LT(e.maxRelative, 0.1) << what;
         return s.meanSearchSteps();
@@ -719,13 +790,15 @@ TEST(LightPoints, ClustersAndReuseTakeFewerSearchStepsThanClassic) {
     const double forestAlone = steps(forest, false, false, "forest, no clusters");
     const double classicReuse = steps(classic, true, true, "classic tree, clusters, reuse");
     const double classicFresh = steps(classic, false, false, "classic");
-    std::printf("[many lights] plane: %.1f %% fewer search steps than classic (reuse alone: %.1f %%)\n", 100 * (1 - paper / classicFresh),
-                100 * (1 - paper / forestFresh));
+    std::printf(
+        "[many lights] plane: %.1f %% fewer search steps than classic (reuse alone: %.1f %%)\n",
+        100 * (1 - paper / classicFresh), 100 * (1 - paper / forestFresh));
     EXPECT_LT(paper, 0.8 * classicFresh);
     // Both parts pay: reuse on the forest, and on the classic tree.
     EXPECT_LT(paper, 0.85 * forestFresh);
     EXPECT_LT(classicReuse, 0.85 * classicFresh);
-    EXPECT_EQ(forestFresh, forestAlone);  // cluster lists skip no tree a point needs, and search no other
+    EXPECT_EQ(forestFresh,
+              forestAlone);  // cluster lists skip no tree a point needs, and search no other
 }
 
 TEST(LightPointsBruteForce, OneLightByHand) {
@@ -742,8 +815,9 @@ TEST(LightPointsBruteForce, OneLightByHand) {
     const std::vector<Light> lights{dynamic, light};
     const Vec3d albedo{0.8, 0.6, 0.4};
     // (1, 0, 0), facing up: d² = 5, cos θ = 2/√5.
-    const std::vector<LightcutPoint> points{LightcutPoint::lambertian({1, 0, 0}, {0, 1, 0}, albedo),
-                                            LightcutPoint::lambertian({0, 0, 0}, {0, -1, 0}, albedo)};
+    const std::vector<LightcutPoint> points{
+        LightcutPoint::lambertian({1, 0, 0}, {0, 1, 0}, albedo),
+        LightcutPoint::lambertian({0, 0, 0}, {0, -1, 0}, albedo)};
     std::vector<Vec3d> out(2);
     const vox::ManyLightStats s = vox::lightPointsBruteForce(lights, points, {}, out);
     EXPECT_EQ(s.lights, 1u);
@@ -751,7 +825,8 @@ TEST(LightPointsBruteForce, OneLightByHand) {
     EXPECT_EQ(s.cutNodes, 2u);
     const double cosine = 2 / std::sqrt(5.0);
     const Vec3d colour{1, 0.5, 0.25};
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(out[0][c], 4 * colour[c] * cosine / 5 * albedo[c] / kPi, 1e-15) << c;
+    for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(out[0][c], 4 * colour[c] * cosine / 5 * albedo[c] / kPi, 1e-15) << c;
     EXPECT_EQ(out[1], (Vec3d{0, 0, 0}));  // facing away
     // With a range of 3 m: the window (1 − (d/3)⁴)².
     const std::vector<Light> windowed{ranged};
@@ -762,20 +837,27 @@ TEST(LightPointsBruteForce, OneLightByHand) {
     vox::VoxelNormals normals;
     normals.mean = {0, 1, 0};
     normals.moments = {0.25f, 0, 0.5f, 0, 0, 0};
-    const std::vector<LightcutPoint> voxel{LightcutPoint::voxel({1, 0, 0}, normals, vox::Attenuation::Weighted, albedo)};
+    const std::vector<LightcutPoint> voxel{
+        LightcutPoint::voxel({1, 0, 0}, normals, vox::Attenuation::Weighted, albedo)};
     (void)vox::lightPointsBruteForce(lights, voxel, {}, std::span<Vec3d>(out).first(1));
-    const double lx = -1 / std::sqrt(5.0), ly = 2 / std::sqrt(5.0);  // towards the light; l_x < 0 gets the −x weight 0
+    const double lx = -1 / std::sqrt(5.0),
+                 ly = 2 / std::sqrt(5.0);  // towards the light; l_x < 0 gets the −x weight 0
     EXPECT_NEAR(out[0].x, 4 * (0.5 * ly + 0 * lx) / 5 * albedo.x / kPi, 1e-15);
     // Visibility scales, and is clamped to [0, 1].
-    const vox::PointVisibility half = [](std::size_t, const Light&, const vox::LightArrival&) { return 0.5; };
-    const vox::PointVisibility over = [](std::size_t, const Light&, const vox::LightArrival&) { return 7.0; };
+    const vox::PointVisibility half = [](std::size_t, const Light&, const vox::LightArrival&) {
+        return 0.5;
+    };
+    const vox::PointVisibility over = [](std::size_t, const Light&, const vox::LightArrival&) {
+        return 7.0;
+    };
     (void)vox::lightPointsBruteForce(lights, points, half, out);
     EXPECT_NEAR(out[0].x, 0.5 * 4 * cosine / 5 * albedo.x / kPi, 1e-15);
     (void)vox::lightPointsBruteForce(lights, points, over, out);
     EXPECT_NEAR(out[0].x, 4 * cosine / 5 * albedo.x / kPi, 1e-15);
     // Matches bruteForce on a tree and lightContribution.
     const LightTree tree(lights);
-    EXPECT_NEAR(vox::bruteForce(tree, points[0]).radiance.x, 4 * cosine / 5 * albedo.x / kPi, 1e-15);
+    EXPECT_NEAR(vox::bruteForce(tree, points[0]).radiance.x, 4 * cosine / 5 * albedo.x / kPi,
+                1e-15);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -791,7 +873,9 @@ TEST(CompareWithBruteForce, RelativeLuminanceErrors) {
     EXPECT_NEAR(e.meanRelative, (0.01 + 0.05 + 0) / 3, 1e-12);
     EXPECT_NEAR(e.fractionWithin(), 2.0 / 3, 1e-15);
     EXPECT_EQ(vox::compareWithBruteForce({}, {}, 0.02).fractionWithin(), 1.0);
-    EXPECT_THROW((void)vox::compareWithBruteForce(std::span<const Vec3d>(estimate).first(2), exact, 0.02), vox::UsageError);
+    EXPECT_THROW(
+        (void)vox::compareWithBruteForce(std::span<const Vec3d>(estimate).first(2), exact, 0.02),
+        vox::UsageError);
 }
 
 TEST(DirectLight, ChoosesTheMethodAndCompares) {
@@ -808,11 +892,13 @@ TEST(DirectLight, ChoosesTheMethodAndCompares) {
         for (std::size_t i = staticCount; i < lights.size(); ++i) lights[i].dynamic = true;
         return lights;
     };
-    const std::vector<Light> few = lightsWith(vox::kLightcutsAutoLights - 1), enough = lightsWith(vox::kLightcutsAutoLights);
+    const std::vector<Light> few = lightsWith(vox::kLightcutsAutoLights - 1),
+                             enough = lightsWith(vox::kLightcutsAutoLights);
     std::vector<Vec3d> out(n), alone(n);
 
     // Off: brute force, no clustering.
-    auto report = vox::directLight(enough, s.points, vox::LightcutsMode::Off, cut, false, clusters, {}, out);
+    auto report =
+        vox::directLight(enough, s.points, vox::LightcutsMode::Off, cut, false, clusters, {}, out);
     EXPECT_EQ(report.used.method, "brute-force");
     EXPECT_FALSE(report.compared);
     EXPECT_EQ(clusterCalls, 0);
@@ -830,20 +916,30 @@ TEST(DirectLight, ChoosesTheMethodAndCompares) {
         EXPECT_EQ(out, alone);
     }
     // Auto: the static light count decides (dynamic lights do not count).
-    EXPECT_EQ(vox::directLight(few, s.points, vox::LightcutsMode::Auto, cut, false, clusters, {}, out).used.method, "brute-force");
-    EXPECT_EQ(vox::directLight(enough, s.points, vox::LightcutsMode::Auto, cut, false, clusters, {}, out).used.method, "lightcuts");
+    EXPECT_EQ(
+        vox::directLight(few, s.points, vox::LightcutsMode::Auto, cut, false, clusters, {}, out)
+            .used.method,
+        "brute-force");
+    EXPECT_EQ(
+        vox::directLight(enough, s.points, vox::LightcutsMode::Auto, cut, false, clusters, {}, out)
+            .used.method,
+        "lightcuts");
     // No clustering function: lightcuts without clusters.
     report = vox::directLight(enough, s.points, vox::LightcutsMode::On, cut, false, {}, {}, out);
     EXPECT_EQ(report.used.method, "lightcuts");
     EXPECT_EQ(report.used.clusters, 0u);
 
     // compare: all three filled, and out what the chosen method gives alone, bit for bit.
-    for (vox::LightcutsMode mode : {vox::LightcutsMode::Off, vox::LightcutsMode::On, vox::LightcutsMode::Auto})
+    for (vox::LightcutsMode mode :
+         {vox::LightcutsMode::Off, vox::LightcutsMode::On, vox::LightcutsMode::Auto})
         for (const std::vector<Light>* lights : {&few, &enough}) {
-            SCOPED_TRACE(::testing::Message() << "mode " << int(mode) << ", " << lights->size() << " lights");
+            SCOPED_TRACE(::testing::Message()
+                         << "mode " << int(mode) << ", " << lights->size() << " lights");
             std::vector<Vec3d> compared(n, Vec3d{-1, -1, -1});
-            const auto r = vox::directLight(*lights, s.points, mode, cut, true, clusters, {}, compared);
-            const auto plain = vox::directLight(*lights, s.points, mode, cut, false, clusters, {}, alone);
+            const auto r =
+                vox::directLight(*lights, s.points, mode, cut, true, clusters, {}, compared);
+            const auto plain =
+                vox::directLight(*lights, s.points, mode, cut, false, clusters, {}, alone);
             EXPECT_TRUE(r.compared);
             EXPECT_EQ(r.used.method, plain.used.method);
             EXPECT_EQ(compared, alone);
@@ -864,11 +960,14 @@ TEST(DirectLight, ChoosesTheMethodAndCompares) {
             EXPECT_GE(r.lightcutsError.fractionWithin(), 0.99);
             EXPECT_GE(r.classicError.fractionWithin(), 0.99);
             EXPECT_EQ(r.lightcutsError.threshold, cut.relativeError);
-            const std::string expected = mode == vox::LightcutsMode::On || (mode == vox::LightcutsMode::Auto && lights == &enough)
-                                             ? "lightcuts"
-                                             : "brute-force";
+            const std::string expected =
+                mode == vox::LightcutsMode::On ||
+                        (mode == vox::LightcutsMode::Auto && lights == &enough)
+                    ? "lightcuts"
+                    : "brute-force";
             EXPECT_EQ(r.used.method, expected);
-            EXPECT_EQ(r.used.cutNodes, expected == "lightcuts" ? r.lightcuts.cutNodes : r.bruteForce.cutNodes);
+            EXPECT_EQ(r.used.cutNodes,
+                      expected == "lightcuts" ? r.lightcuts.cutNodes : r.bruteForce.cutNodes);
         }
 }
 
@@ -883,7 +982,8 @@ TEST(ParseLightcuts, ModesAndCriteria) {
     EXPECT_EQ(vox::parseLightcutCriterion("rss"), vox::LightcutCriterion::RootSumSquare);
     for (const char* bad : {"", "pernode", "per_node", "RSS", "root-sum-square", "max", "sum "})
         EXPECT_THROW((void)vox::parseLightcutCriterion(bad), vox::UsageError) << "'" << bad << "'";
-    for (vox::LightcutCriterion c : {vox::LightcutCriterion::PerNode, vox::LightcutCriterion::Sum, vox::LightcutCriterion::RootSumSquare})
+    for (vox::LightcutCriterion c : {vox::LightcutCriterion::PerNode, vox::LightcutCriterion::Sum,
+                                     vox::LightcutCriterion::RootSumSquare})
         EXPECT_EQ(vox::parseLightcutCriterion(vox::lightcutCriterionName(c)), c);
     try {
         (void)vox::parseLightcutsMode("maybe");

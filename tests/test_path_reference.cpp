@@ -45,13 +45,15 @@ double formFactor(double x0, double x1, double z0, double z1, double h) {
 
 void expectNear(Vec3d actual, Vec3d expected, double relative, const char* what) {
     for (int c = 0; c < 3; ++c)
-        EXPECT_NEAR(actual[c], expected[c], relative * std::abs(expected[c]) + 1e-12) << what << " channel " << c;
+        EXPECT_NEAR(actual[c], expected[c], relative * std::abs(expected[c]) + 1e-12)
+            << what << " channel " << c;
 }
 
 /// |estimate − exact| within four standard errors (plus rounding), per channel.
 void expectWithinNoise(const vox::reference::IrradianceEstimate& e, Vec3d exact, const char* what) {
     for (int c = 0; c < 3; ++c)
-        EXPECT_NEAR(e.mean[c], exact[c], 4 * e.standardError[c] + 1e-9 * std::abs(exact[c])) << what << " channel " << c;
+        EXPECT_NEAR(e.mean[c], exact[c], 4 * e.standardError[c] + 1e-9 * std::abs(exact[c]))
+            << what << " channel " << c;
 }
 
 TEST(PathReference, ClosedEmissiveBlackBoxGivesPiLeAndNoSecondBounce) {
@@ -59,9 +61,10 @@ TEST(PathReference, ClosedEmissiveBlackBoxGivesPiLeAndNoSecondBounce) {
     const Vec3f le{1.0f, 0.5f, 0.25f};
     addBox(scene, {-1, -1, -1}, {1, 1, 1}, addMaterial(scene, {0, 0, 0}, le), true);
     const PathReference reference(scene);
-    const std::vector<SurfacePoint> points{{{0, 0, 0}, vox::normalize(Vec3d{1, 2, 3})},   // the centre, any normal
-                                           {{0.3, -1, 0.2}, {0, 1, 0}},                    // on the floor
-                                           {{0.99, 0.99, 0.99}, vox::normalize(Vec3d{-1, -1, -1})}};  // near a corner
+    const std::vector<SurfacePoint> points{
+        {{0, 0, 0}, vox::normalize(Vec3d{1, 2, 3})},               // the centre, any normal
+        {{0.3, -1, 0.2}, {0, 1, 0}},                               // on the floor
+        {{0.99, 0.99, 0.99}, vox::normalize(Vec3d{-1, -1, -1})}};  // near a corner
     const auto result = reference.estimate(points, {.samples = 2000, .seed = 7});
     const Vec3d exact{kPi * le.x, kPi * le.y, kPi * le.z};
     for (const auto& r : result) {
@@ -81,11 +84,13 @@ TEST(PathReference, ClosedEmissiveGreyBoxGivesPiRhoLeForTheSecondBounce) {
     const Vec3f le{2.0f, 1.0f, 1.0f}, rho{0.5f, 0.25f, 0.8f};
     addBox(scene, {-1, -2, -1}, {3, 1, 1}, addMaterial(scene, rho, le), false);
     const PathReference reference(scene);
-    const std::vector<SurfacePoint> points{{{0, 0, 0}, {0, 1, 0}}, {{2.5, -2, 0.5}, {0, 1, 0}}, {{-1, 0.5, 0}, {1, 0, 0}}};
+    const std::vector<SurfacePoint> points{
+        {{0, 0, 0}, {0, 1, 0}}, {{2.5, -2, 0.5}, {0, 1, 0}}, {{-1, 0.5, 0}, {1, 0, 0}}};
     const auto result = reference.estimate(points, {.samples = 3000});
     for (const auto& r : result) {
         expectNear(r.bounce1.mean, {kPi * le.x, kPi * le.y, kPi * le.z}, 1e-9, "E1 = π·Le");
-        expectNear(r.bounce2.mean, {kPi * rho.x * le.x, kPi * rho.y * le.y, kPi * rho.z * le.z}, 1e-6, "E2 = π·ρ·Le");
+        expectNear(r.bounce2.mean, {kPi * rho.x * le.x, kPi * rho.y * le.y, kPi * rho.z * le.z},
+                   1e-6, "E2 = π·ρ·Le");
     }
 }
 
@@ -95,24 +100,30 @@ TEST(PathReference, EmissiveRectangleGivesItsFormFactorWithTheRightStandardError
     vox::Scene scene;
     const Vec3f le{3.0f, 2.0f, 1.0f};
     const double h = 1.0;
-    addQuad(scene, {-1.5, h, -0.5}, {0, 0, 2.5}, {2.5, 0, 0}, addMaterial(scene, {0.7f, 0.7f, 0.7f}, le));  // front faces up, away: two-sided
+    addQuad(scene, {-1.5, h, -0.5}, {0, 0, 2.5}, {2.5, 0, 0},
+            addMaterial(scene, {0.7f, 0.7f, 0.7f}, le));  // front faces up, away: two-sided
     const PathReference reference(scene);
     const std::uint32_t samples = 1u << 16;
-    const auto result = reference.estimate(std::vector<SurfacePoint>{{{0, 0, 0}, {0, 1, 0}}}, {.samples = samples, .seed = 3});
+    const auto result = reference.estimate(std::vector<SurfacePoint>{{{0, 0, 0}, {0, 1, 0}}},
+                                           {.samples = samples, .seed = 3});
     const double f = formFactor(-1.5, 1.0, -0.5, 2.0, h);
     const Vec3d exact{kPi * le.x * f, kPi * le.y * f, kPi * le.z * f};
     const auto& e1 = result[0].bounce1;
     expectWithinNoise(e1, exact, "E1 = π·Le·F");
     // Each sample is π·Le or 0 with probability F: standard error π·Le·√(F(1 − F)/N).
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(e1.standardError[c], exact[c] / f * std::sqrt(f * (1 - f) / samples), 0.02 * e1.standardError[c]);
-    EXPECT_NEAR(e1.relativeStandardError(), std::sqrt((1 - f) / (f * samples)), 0.02 * e1.relativeStandardError());
+    for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(e1.standardError[c], exact[c] / f * std::sqrt(f * (1 - f) / samples),
+                    0.02 * e1.standardError[c]);
+    EXPECT_NEAR(e1.relativeStandardError(), std::sqrt((1 - f) / (f * samples)),
+                0.02 * e1.relativeStandardError());
     // Light leaving the emitter's far side can only escape.
     expectNear(result[0].bounce2.mean, {0, 0, 0}, 0, "E2");
 }
 
 TEST(PathReference, PunctualLightsGiveIntensityTimesCosineOverDistanceSquared) {
     vox::Scene scene;
-    addQuad(scene, {-100, 0, -100}, {0, 0, 200}, {200, 0, 0}, addMaterial(scene, {0.5f, 0.5f, 0.5f}));
+    addQuad(scene, {-100, 0, -100}, {0, 0, 200}, {200, 0, 0},
+            addMaterial(scene, {0.5f, 0.5f, 0.5f}));
     vox::Light point;
     point.type = vox::Light::Type::Point;
     point.color = {1.0f, 0.5f, 0.25f};
@@ -132,12 +143,15 @@ TEST(PathReference, PunctualLightsGiveIntensityTimesCosineOverDistanceSquared) {
     const Vec3d e = reference.directIrradiance({{1.5, 0, 0}, {0, 1, 0}});
     // d² = 2² + 1.5² = 6.25, cos θ = 2 / 2.5; the sun at cos θ = 0.8.
     const double cosine = 0.8, d2 = 6.25;
-    expectNear(e, Vec3d{10 * cosine / d2 * 1.0 + 3 * 0.8, 10 * cosine / d2 * 0.5 + 3 * 0.8, 10 * cosine / d2 * 0.25 + 3 * 0.8}, 1e-5,
-               "E_direct");
+    expectNear(e,
+               Vec3d{10 * cosine / d2 * 1.0 + 3 * 0.8, 10 * cosine / d2 * 0.5 + 3 * 0.8,
+                     10 * cosine / d2 * 0.25 + 3 * 0.8},
+               1e-5, "E_direct");
     // The floor's other side faces away from both lights (and is in the floor's shadow).
     expectNear(reference.directIrradiance({{1.5, 0, 0}, {0, -1, 0}}), {0, 0, 0}, 0, "underside");
     // The same through estimate(), which also reports it.
-    const auto result = reference.estimate(std::vector<SurfacePoint>{{{1.5, 0, 0}, {0, 1, 0}}}, {.samples = 1});
+    const auto result =
+        reference.estimate(std::vector<SurfacePoint>{{{1.5, 0, 0}, {0, 1, 0}}}, {.samples = 1});
     expectNear(result[0].direct, e, 1e-12, "estimate().direct");
     // Nothing above the floor reflects: no indirect light.
     expectNear(result[0].bounce1.mean, {0, 0, 0}, 0, "E1");
@@ -153,8 +167,10 @@ TEST(PathReference, ShadowRaysStopAtOccludersButNotAtTheSurfaceItself) {
     light.intensity = 4;
     scene.lights = {light};
     const PathReference reference(scene);
-    expectNear(reference.directIrradiance({{2.5, 0, 0}, {0, 1, 0}}), {0, 0, 0}, 0, "under the tile");
-    expectNear(reference.directIrradiance({{2.5, 1, 0}, {0, 1, 0}}), {4, 4, 4}, 1e-4, "on the tile (4 / 1²), no self-shadow");
+    expectNear(reference.directIrradiance({{2.5, 0, 0}, {0, 1, 0}}), {0, 0, 0}, 0,
+               "under the tile");
+    expectNear(reference.directIrradiance({{2.5, 1, 0}, {0, 1, 0}}), {4, 4, 4}, 1e-4,
+               "on the tile (4 / 1²), no self-shadow");
     // Grazing: the light 1e-3 above the plane, 1 away along it.
     const double d2 = 1 + 1e-6, cosine = 1e-3 / std::sqrt(d2);
     scene.lights[0].position = {-5, 1e-3f, 0};
@@ -177,7 +193,8 @@ TEST(PathReference, LightReflectedOnceByATwoSidedCeiling) {
     sun.direction = {0.5f, float(std::sqrt(3.0) / 2), 0};
     scene.lights = {sun};
     const PathReference reference(scene);
-    const auto result = reference.estimate(std::vector<SurfacePoint>{{{0, 0, 0}, {0, 1, 0}}}, {.samples = 1u << 15});
+    const auto result = reference.estimate(std::vector<SurfacePoint>{{{0, 0, 0}, {0, 1, 0}}},
+                                           {.samples = 1u << 15});
     const double f = formFactor(-1, 1, -1.2, 1.0, h), e = 2 * std::sqrt(3.0) / 2 * f;
     expectWithinNoise(result[0].bounce1, {rho.x * e, rho.y * e, rho.z * e}, "E1 = ρ·I·cos θ·F");
     EXPECT_LT(result[0].bounce1.relativeStandardError(), 0.01);
@@ -193,16 +210,21 @@ TEST(PathReference, EmissionReflectedOnceBetweenParallelPlanesIsTheSecondBounce)
     for (const Vec3f rho : {Vec3f{0.5f, 0.25f, 0.8f}, Vec3f{0, 0, 0}}) {
         vox::Scene scene;
         const Vec3f le{1, 2, 3};
-        addQuad(scene, {-100, 0, -100}, {0, 0, 200}, {200, 0, 0}, addMaterial(scene, {0.3f, 0.3f, 0.3f}, le));
+        addQuad(scene, {-100, 0, -100}, {0, 0, 200}, {200, 0, 0},
+                addMaterial(scene, {0.3f, 0.3f, 0.3f}, le));
         addQuad(scene, {-100, 1, -100}, {200, 0, 0}, {0, 0, 200}, addMaterial(scene, rho));
         const PathReference reference(scene);
-        const auto result = reference.estimate(std::vector<SurfacePoint>{{{0.25, 0, -0.5}, {0, 1, 0}}, {{3, 1, 2}, {0, -1, 0}}}, {.samples = 4096});
+        const auto result = reference.estimate(
+            std::vector<SurfacePoint>{{{0.25, 0, -0.5}, {0, 1, 0}}, {{3, 1, 2}, {0, -1, 0}}},
+            {.samples = 4096});
         const auto& floor = result[0];
         expectNear(floor.bounce1.mean, {0, 0, 0}, 0, "E1 on the floor");
-        expectNear(floor.bounce2.mean, {kPi * rho.x * le.x, kPi * rho.y * le.y, kPi * rho.z * le.z}, 2e-3, "E2 on the floor");
+        expectNear(floor.bounce2.mean, {kPi * rho.x * le.x, kPi * rho.y * le.y, kPi * rho.z * le.z},
+                   2e-3, "E2 on the floor");
         // On the ceiling, facing down: E1 = π·Le; E2 = 0 (the floor's reflections reach the
         // ceiling only after the ceiling's own).
-        expectNear(result[1].bounce1.mean, {kPi * le.x, kPi * le.y, kPi * le.z}, 2e-3, "E1 on the ceiling");
+        expectNear(result[1].bounce1.mean, {kPi * le.x, kPi * le.y, kPi * le.z}, 2e-3,
+                   "E1 on the ceiling");
         expectNear(result[1].bounce2.mean, {0, 0, 0}, 0, "E2 on the ceiling");
     }
 }
@@ -210,14 +232,17 @@ TEST(PathReference, EmissionReflectedOnceBetweenParallelPlanesIsTheSecondBounce)
 TEST(PathReference, ResultsDependOnTheSeedButNotOnTheThreadCount) {
     vox::Scene scene;
     addBox(scene, {-1, 0, -1}, {1, 2, 1}, addMaterial(scene, {0.7f, 0.6f, 0.5f}), true);
-    addQuad(scene, {-0.3, 1.99, -0.3}, {0.6, 0, 0}, {0, 0, 0.6}, addMaterial(scene, {0, 0, 0}, {5, 5, 5}));
+    addQuad(scene, {-0.3, 1.99, -0.3}, {0.6, 0, 0}, {0, 0, 0.6},
+            addMaterial(scene, {0, 0, 0}, {5, 5, 5}));
     vox::Light light;
     light.position = {0.2f, 1.5f, 0.1f};
     light.intensity = 2;
     scene.lights = {light};
     const PathReference reference(scene);
-    const std::vector<SurfacePoint> points{{{0, 0, 0}, {0, 1, 0}}, {{-1, 1, 0.3}, {1, 0, 0}}, {{0.5, 2, 0.5}, {0, -1, 0}}};
-    const PathReferenceOptions options{.samples = 3000, .seed = 11};  // not a whole number of chunks
+    const std::vector<SurfacePoint> points{
+        {{0, 0, 0}, {0, 1, 0}}, {{-1, 1, 0.3}, {1, 0, 0}}, {{0.5, 2, 0.5}, {0, -1, 0}}};
+    const PathReferenceOptions options{.samples = 3000,
+                                       .seed = 11};  // not a whole number of chunks
     const auto run = [&](int threads) {
         const vox::ThreadLimit limit(threads);
         return reference.estimate(points, options);
@@ -236,7 +261,8 @@ TEST(PathReference, ResultsDependOnTheSeedButNotOnTheThreadCount) {
     EXPECT_NE(other[0].bounce1.mean, one[0].bounce1.mean);
     // Different seeds agree within their noise.
     for (std::size_t p = 0; p < points.size(); ++p) {
-        const double se = std::hypot(one[p].bounce1.luminanceStandardError, other[p].bounce1.luminanceStandardError);
+        const double se = std::hypot(one[p].bounce1.luminanceStandardError,
+                                     other[p].bounce1.luminanceStandardError);
         EXPECT_NEAR(one[p].bounce1.luminance, other[p].bounce1.luminance, 5 * se);
     }
 }
@@ -260,7 +286,8 @@ TEST(TriangleRayCaster, CastSurfaceReportsTheTriangleItsWeightsAndItsWindingNorm
         const vox::Mesh& mesh = scene.meshes[hit.mesh];
         Vec3d p{0, 0, 0};
         for (int k = 0; k < 3; ++k) {
-            const Vec3f c = mesh.positions[mesh.indices[3 * std::size_t{hit.triangle} + std::size_t(k)]];
+            const Vec3f c =
+                mesh.positions[mesh.indices[3 * std::size_t{hit.triangle} + std::size_t(k)]];
             p += Vec3d{c.x, c.y, c.z} * hit.barycentric[k];
             EXPECT_GE(hit.barycentric[k], -1e-6);
         }

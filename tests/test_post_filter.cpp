@@ -15,7 +15,8 @@ std::size_t at(int x, int y) { return std::size_t(y) * kSize + std::size_t(x); }
 std::vector<vox::Vec3f> twoColours(int edge) {
     std::vector<vox::Vec3f> image(kSize * kSize);
     for (int y = 0; y < kSize; ++y)
-        for (int x = 0; x < kSize; ++x) image[at(x, y)] = x < edge ? vox::Vec3f{1, 0, 0} : vox::Vec3f{0, 0, 1};
+        for (int x = 0; x < kSize; ++x)
+            image[at(x, y)] = x < edge ? vox::Vec3f{1, 0, 0} : vox::Vec3f{0, 0, 1};
     return image;
 }
 
@@ -23,13 +24,15 @@ std::vector<vox::Vec3f> twoColours(int edge) {
 
 TEST(PostFilter, RadiiOfAPixelOrLessLeaveTheImageAlone) {
     const auto image = twoColours(32);
-    const auto out = vox::postProcessFilter(image, std::vector<float>(kSize * kSize, 1.0f), kSize, kSize);
+    const auto out =
+        vox::postProcessFilter(image, std::vector<float>(kSize * kSize, 1.0f), kSize, kSize);
     EXPECT_EQ(out, image);
 }
 
 TEST(PostFilter, BlendsAcrossAColourEdgeWithinTheRadiusOnly) {
     const auto image = twoColours(32);
-    const auto out = vox::postProcessFilter(image, std::vector<float>(kSize * kSize, 6.0f), kSize, kSize);
+    const auto out =
+        vox::postProcessFilter(image, std::vector<float>(kSize * kSize, 6.0f), kSize, kSize);
     // At the edge both colours mix, the nearer one weighing more; 8 pixels away nothing changes.
     const vox::Vec3f left = out[at(31, 32)], right = out[at(32, 32)];
     EXPECT_GT(left.z, 0.1f);

@@ -1,5 +1,5 @@
-// The radiance bake (libvox/src/radiance): physical sanity on the Cornell-like example and on scenes
-// built in code, determinism, and the pieces (direct light, shadows, mips, cones).
+// The radiance bake (libvox/src/radiance): physical sanity on the Cornell-like example and on
+// scenes built in code, determinism, and the pieces (direct light, shadows, mips, cones).
 #include <vox/import.h>
 #include <vox/radiance.h>
 #include <vox/radiance_field.h>
@@ -21,7 +21,9 @@ constexpr double kPi = 3.14159265358979323846;
 
 double luminance(Vec3f c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
 
-vox::Scene cornellBox(const vox::test::ScratchDir& dir) { return vox::importScene(vox::scenes::writeCornellBox(dir.path())); }
+vox::Scene cornellBox(const vox::test::ScratchDir& dir) {
+    return vox::importScene(vox::scenes::writeCornellBox(dir.path()));
+}
 
 vox::RadianceBake bake(const vox::Scene& scene, std::uint32_t depth, std::uint32_t bounces) {
     vox::RadianceBakeOptions options;
@@ -36,7 +38,9 @@ vox::RadianceBake bake(const vox::Scene& scene, std::uint32_t depth, std::uint32
 double floorRedShare(const vox::RadianceBake& b, double xLo, double xHi) {
     double red = 0, total = 0;
     for (const auto& v : b.voxels) {
-        if (v.normal.y < 0.9 || v.centre.y > 0.05 || v.centre.x < xLo || v.centre.x > xHi || std::abs(v.centre.z) > 0.5) continue;
+        if (v.normal.y < 0.9 || v.centre.y > 0.05 || v.centre.x < xLo || v.centre.x > xHi ||
+            std::abs(v.centre.z) > 0.5)
+            continue;
         Vec3f e{0, 0, 0};
         for (const Vec3f& i : v.indirect) e = e + i;
         red += e.x;
@@ -76,7 +80,8 @@ TEST(RadianceBake, WithAllAlbedosZeroBouncesAddNothing) {
     }
     const auto none = bake(scene, 5, 0), two = bake(scene, 5, 2);
     ASSERT_EQ(none.volume.levels.size(), two.volume.levels.size());
-    for (std::size_t l = 0; l < none.volume.levels.size(); ++l) EXPECT_TRUE(none.volume.levels[l].texels == two.volume.levels[l].texels) << l;
+    for (std::size_t l = 0; l < none.volume.levels.size(); ++l)
+        EXPECT_TRUE(none.volume.levels[l].texels == two.volume.levels[l].texels) << l;
     // Light still arrives (the panel's emission), it just is not reflected.
     double gathered = 0;
     for (const auto& v : two.voxels) gathered += luminance(v.indirect.at(0));
@@ -127,7 +132,8 @@ TEST(RadianceBake, ClosedBoxWithTheLightsOutsideStaysBlackInside) {
 TEST(RadianceBake, DirectLightOnAFloorIsAlbedoOverPiTimesIntensityOverDistanceSquared) {
     vox::Scene scene;
     const Vec3f albedo{0.5f, 0.25f, 0.8f};
-    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4}, vox::test::addMaterial(scene, albedo));
+    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4},
+                       vox::test::addMaterial(scene, albedo));
     vox::Light point;
     point.position = {0, 1, 0};
     point.intensity = 3;
@@ -144,9 +150,11 @@ TEST(RadianceBake, DirectLightOnAFloorIsAlbedoOverPiTimesIntensityOverDistanceSq
 
 TEST(RadianceBake, AnOccluderCastsAShadowRayShadowAndEmissionStillArrivesThroughCones) {
     vox::Scene scene;
-    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4}, vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
+    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4},
+                       vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
     // A black, emissive slab above the floor between it and the light.
-    vox::test::addBox(scene, {-0.5, 0.6, -0.5}, {0.5, 0.7, 0.5}, vox::test::addMaterial(scene, {0, 0, 0}, {2, 2, 2}));
+    vox::test::addBox(scene, {-0.5, 0.6, -0.5}, {0.5, 0.7, 0.5},
+                      vox::test::addMaterial(scene, {0, 0, 0}, {2, 2, 2}));
     vox::Light point;
     point.position = {0, 2, 0};
     point.intensity = 4;
@@ -256,7 +264,8 @@ TEST(RadianceBake, LightcutsGiveTheSameVolumeWhateverTheThreadCount) {
         two = vox::bakeRadiance(scene, options);
     }
     EXPECT_EQ(one.directLight.used.searchSteps, two.directLight.used.searchSteps);
-    for (std::size_t l = 0; l < one.volume.levels.size(); ++l) EXPECT_TRUE(one.volume.levels[l].texels == two.volume.levels[l].texels) << l;
+    for (std::size_t l = 0; l < one.volume.levels.size(); ++l)
+        EXPECT_TRUE(one.volume.levels[l].texels == two.volume.levels[l].texels) << l;
 }
 
 TEST(RadianceBake, LightcutsAutoTurnsOnWithManyLights) {
@@ -267,7 +276,8 @@ TEST(RadianceBake, LightcutsAutoTurnsOnWithManyLights) {
     const auto few = vox::bakeRadiance(cornellBox(dir), options);
     EXPECT_EQ(few.directLight.used.method, "brute-force");
     EXPECT_EQ(few.directLight.used.lights, few.volume.bake.lights);
-    const auto many = vox::bakeRadiance(vox::importScene(vox::scenes::writeLightGrid(dir.path())), options);
+    const auto many =
+        vox::bakeRadiance(vox::importScene(vox::scenes::writeLightGrid(dir.path())), options);
     EXPECT_EQ(many.directLight.used.method, "lightcuts");
     EXPECT_EQ(many.directLight.used.lights, 256u);
 }
@@ -281,14 +291,17 @@ TEST(RadianceBake, DynamicMeshesStayOutOfTheStaticVolumeAndFormTheirOwnLayer) {
     // The sphere's voxels are not solid in level 0 unless a static surface shares them.
     const vox::RadianceField field(b.volume);
     std::size_t alsoStatic = 0;
-    for (const auto& v : b.volume.dynamicVoxels) alsoStatic += field.cellTexels(0, v.x, v.y, v.z) != nullptr && field.cellTexels(0, v.x, v.y, v.z)->a > 0;
+    for (const auto& v : b.volume.dynamicVoxels)
+        alsoStatic += field.cellTexels(0, v.x, v.y, v.z) != nullptr &&
+                      field.cellTexels(0, v.x, v.y, v.z)->a > 0;
     EXPECT_LT(alsoStatic, b.dynamicVoxels / 4);
 }
 
 TEST(RadianceField, UniformRadianceGathersPiL) {
     // A closed emissive box: every cone ends on the walls, whose radiance is Le.
     vox::Scene scene;
-    vox::test::addBox(scene, {-1, -1, -1}, {1, 1, 1}, vox::test::addMaterial(scene, {0, 0, 0}, {1, 1, 1}), true);
+    vox::test::addBox(scene, {-1, -1, -1}, {1, 1, 1},
+                      vox::test::addMaterial(scene, {0, 0, 0}, {1, 1, 1}), true);
     const auto b = bake(scene, 5, 1);
     double sum = 0;
     for (const auto& v : b.voxels) sum += v.indirect[0].x;

@@ -35,7 +35,6 @@ namespace rt = vox::runtime;
 
 namespace {
 
-
 /// The Cornell box voxelized once per depth (contours and attributes on).
 const vox::SparseOctree& cornellOctree(std::uint32_t depth) {
     static std::map<std::uint32_t, vox::SparseOctree> cache;
@@ -50,8 +49,8 @@ const vox::SparseOctree& cornellOctree(std::uint32_t depth) {
     return cache.emplace(depth, vox::voxelizeSurface(scene, options)).first->second;
 }
 
-fs::path writeOctree(const fs::path& file, std::uint32_t depth, vox::AttributeEncoding encoding, std::uint32_t sliceBytes = 1u << 20,
-                     std::uint32_t nearLimit = 0x7FFF) {
+fs::path writeOctree(const fs::path& file, std::uint32_t depth, vox::AttributeEncoding encoding,
+                     std::uint32_t sliceBytes = 1u << 20, std::uint32_t nearLimit = 0x7FFF) {
     vox::EsvoWriteOptions options;
     options.attributes = encoding;
     options.sliceBytes = sliceBytes;
@@ -74,14 +73,15 @@ vox::PinholeCamera cpuCamera(const View& v) {
 }
 rt::Camera gpuCamera(const View& v) {
     rt::Camera c;
-    c.eye = {v.eye.x, v.eye.y, v.eye.z}, c.target = {v.target.x, v.target.y, v.target.z}, c.width = v.width, c.height = v.height;
+    c.eye = {v.eye.x, v.eye.y, v.eye.z}, c.target = {v.target.x, v.target.y, v.target.z},
+    c.width = v.width, c.height = v.height;
     return c;
 }
 
 /// What differs between the CPU and GPU images of one view.
 struct Comparison {
-    std::size_t pixels = 0, cpuHits = 0, maskAgree = 0, bothHit = 0, depthExact = 0, levelAgree = 0, normalAgree = 0,
-                colorExact = 0, iterationsExact = 0;
+    std::size_t pixels = 0, cpuHits = 0, maskAgree = 0, bothHit = 0, depthExact = 0, levelAgree = 0,
+                normalAgree = 0, colorExact = 0, iterationsExact = 0;
     double maxRelDepth = 0, maxNormalDiff = 0, shadedPsnr = 0, colorPsnr = 0;
 };
 
@@ -96,11 +96,13 @@ std::vector<std::uint8_t> toBytes(const std::vector<vox::Vec3f>& linear) {
     std::vector<std::uint8_t> out(3 * linear.size());
     for (std::size_t i = 0; i < linear.size(); ++i)
         for (int k = 0; k < 3; ++k)
-            out[3 * i + std::size_t(k)] = static_cast<std::uint8_t>(std::lround(255.0f * vox::linearToSrgb(std::clamp(linear[i][k], 0.0f, 1.0f))));
+            out[3 * i + std::size_t(k)] = static_cast<std::uint8_t>(
+                std::lround(255.0f * vox::linearToSrgb(std::clamp(linear[i][k], 0.0f, 1.0f))));
     return out;
 }
 
-Comparison compare(const vox::RenderBuffers& cpu, const rt::GpuFrame& gpu, const vox::PinholeCamera& cpuCam, const rt::Camera& gpuCam) {
+Comparison compare(const vox::RenderBuffers& cpu, const rt::GpuFrame& gpu,
+                   const vox::PinholeCamera& cpuCam, const rt::Camera& gpuCam) {
     Comparison c;
     c.pixels = cpu.depth.size();
     const std::vector<std::uint8_t> cpuShaded = toBytes(vox::shadeHeadlight(cpu, cpuCam));
@@ -116,13 +118,16 @@ Comparison compare(const vox::RenderBuffers& cpu, const rt::GpuFrame& gpu, const
         if (!(ch && gh)) continue;
         ++c.bothHit;
         c.depthExact += cpu.depth[i] == gpu.depth[i];
-        c.maxRelDepth = std::max(c.maxRelDepth, double(std::abs(cpu.depth[i] - gpu.depth[i]) / cpu.depth[i]));
+        c.maxRelDepth =
+            std::max(c.maxRelDepth, double(std::abs(cpu.depth[i] - gpu.depth[i]) / cpu.depth[i]));
         c.levelAgree += cpu.level[i] == gpu.level[i];
-        const float dn = std::abs(cpu.normal[i].x - gpu.normal[3 * i]) + std::abs(cpu.normal[i].y - gpu.normal[3 * i + 1]) +
+        const float dn = std::abs(cpu.normal[i].x - gpu.normal[3 * i]) +
+                         std::abs(cpu.normal[i].y - gpu.normal[3 * i + 1]) +
                          std::abs(cpu.normal[i].z - gpu.normal[3 * i + 2]);
         c.normalAgree += dn < 1e-6f;
         c.maxNormalDiff = std::max(c.maxNormalDiff, double(dn));
-        c.colorExact += cpu.color[i] == gpu.color[i] && vox::hasAttributes(cpu, i) == gpu.hasAttributes(i);
+        c.colorExact +=
+            cpu.color[i] == gpu.color[i] && vox::hasAttributes(cpu, i) == gpu.hasAttributes(i);
         for (std::size_t k = 0; k < 3; ++k) {
             const double ds = double(cpuShaded[3 * i + k]) - double(gpuShaded[3 * i + k]);
             const double dc = double(cpuColor[3 * i + k]) - double(gpuColor[3 * i + k]);
@@ -135,10 +140,14 @@ Comparison compare(const vox::RenderBuffers& cpu, const rt::GpuFrame& gpu, const
 }
 
 void report(const std::string& what, const Comparison& c, double gpuMs) {
-    std::printf("[ runtime  ] %s: %zu px, %zu hits; mask %zu/%zu; of %zu common hits: depth exact %zu (max rel %.2g), level %zu, "
-                "normal %zu (max %.2g), colour word %zu; iterations exact %zu; shaded PSNR %.1f dB, colour PSNR %.1f dB; %.2f ms wall\n",
-                what.c_str(), c.pixels, c.cpuHits, c.maskAgree, c.pixels, c.bothHit, c.depthExact, c.maxRelDepth, c.levelAgree,
-                c.normalAgree, c.maxNormalDiff, c.colorExact, c.iterationsExact, c.shadedPsnr, c.colorPsnr, gpuMs);
+    std::printf(
+        "[ runtime  ] %s: %zu px, %zu hits; mask %zu/%zu; of %zu common hits: depth exact %zu (max "
+        "rel %.2g), level %zu, "
+        "normal %zu (max %.2g), colour word %zu; iterations exact %zu; shaded PSNR %.1f dB, colour "
+        "PSNR %.1f dB; %.2f ms wall\n",
+        what.c_str(), c.pixels, c.cpuHits, c.maskAgree, c.pixels, c.bothHit, c.depthExact,
+        c.maxRelDepth, c.levelAgree, c.normalAgree, c.maxNormalDiff, c.colorExact,
+        c.iterationsExact, c.shadedPsnr, c.colorPsnr, gpuMs);
 }
 
 /// The acceptance bar, and tighter checks on what must agree where both hit.
@@ -156,8 +165,9 @@ void expectEquivalent(const Comparison& c) {
 /// Casts @p view with both casters, with attributes, at @p lodScale times the pixel angle (0:
 /// to the leaves); checks GL raised no error and compares the images. @p reference receives the
 /// CPU's.
-Comparison castBoth(vox::runtime::HeadlessGlContext& gl, const vox::EsvoRayCaster& cpu, rt::EsvoGpuRaycaster& gpu, const View& view,
-                    double lodScale, const std::string& what, vox::RenderBuffers* reference = nullptr) {
+Comparison castBoth(vox::runtime::HeadlessGlContext& gl, const vox::EsvoRayCaster& cpu,
+                    rt::EsvoGpuRaycaster& gpu, const View& view, double lodScale,
+                    const std::string& what, vox::RenderBuffers* reference = nullptr) {
     const vox::PinholeCamera cc = cpuCamera(view);
     const rt::Camera gc = gpuCamera(view);
     vox::CastOptions options;
@@ -185,9 +195,11 @@ TEST(RuntimeContext, CreatesOpenGl45Core) {
     GLint flags = 0, profile = 0;
     glGetIntegerv(GL_CONTEXT_FLAGS, &flags);
     glGetIntegerv(GL_CONTEXT_PROFILE_MASK, &profile);
-    EXPECT_TRUE(flags & GL_CONTEXT_FLAG_DEBUG_BIT) << "the context must be a debug context (KHR_debug output)";
+    EXPECT_TRUE(flags & GL_CONTEXT_FLAG_DEBUG_BIT)
+        << "the context must be a debug context (KHR_debug output)";
     EXPECT_TRUE(profile & GL_CONTEXT_CORE_PROFILE_BIT);
-    std::printf("[ runtime  ] %s | %s | EGL %s\n", gl->renderer().c_str(), gl->version().c_str(), gl->platformName());
+    std::printf("[ runtime  ] %s | %s | EGL %s\n", gl->renderer().c_str(), gl->version().c_str(),
+                gl->platformName());
     EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
 }
 
@@ -202,7 +214,9 @@ TEST(RuntimeContext, DebugCallbackCatchesGlErrors) {
     glCreateBuffers(1, &buffer);
     glNamedBufferStorage(buffer, 16, nullptr, 0);
     const std::uint32_t data[4]{};
-    glNamedBufferSubData(buffer, 0, 16, data);  // immutable storage without DYNAMIC_STORAGE_BIT: GL_INVALID_OPERATION
+    glNamedBufferSubData(
+        buffer, 0, 16,
+        data);  // immutable storage without DYNAMIC_STORAGE_BIT: GL_INVALID_OPERATION
     glDeleteBuffers(1, &buffer);
     EXPECT_EQ(gl->errorCount(), 2u);
     gl->clearDebugMessages();
@@ -213,7 +227,9 @@ TEST(RuntimeContext, DebugCallbackCatchesGlErrors) {
 TEST(RuntimeContext, ShaderCompileErrorCarriesTheLog) {
     REQUIRE_GL();
     try {
-        rt::ComputeProgram bad("broken shader", "#version 450 core\nlayout(local_size_x = 1) in;\nvoid main() { undefined_thing = 1; }\n");
+        rt::ComputeProgram bad("broken shader",
+                               "#version 450 core\nlayout(local_size_x = 1) in;\nvoid main() { "
+                               "undefined_thing = 1; }\n");
         FAIL() << "compiled a broken shader";
     } catch (const rt::RuntimeError& e) {
         const std::string what = e.what();
@@ -239,24 +255,30 @@ TEST_P(RuntimeRaycast, MatchesCpuReference) {
     for (const View& view : kViews) {
         for (const double lodScale : {1.0, 0.0, 6.0}) {
             vox::RenderBuffers reference;
-            expectEquivalent(castBoth(*gl, cpu, gpu, view, lodScale, "encoding " + std::to_string(int(GetParam())), &reference));
+            expectEquivalent(castBoth(*gl, cpu, gpu, view, lodScale,
+                                      "encoding " + std::to_string(int(GetParam())), &reference));
             if (lodScale == 6.0) {
                 // Voxels of 6 pixels: the level-of-detail cut must stop above the leaves somewhere
                 // (the GPU's levels agree with these).
-                EXPECT_LT(*std::max_element(reference.level.begin(), reference.level.end()), reader.header().leafDepth);
+                EXPECT_LT(*std::max_element(reference.level.begin(), reference.level.end()),
+                          reader.header().leafDepth);
             }
         }
     }
 }
 
 INSTANTIATE_TEST_SUITE_P(Encodings, RuntimeRaycast,
-                         ::testing::Values(vox::AttributeEncoding::Raw, vox::AttributeEncoding::Compressed,
+                         ::testing::Values(vox::AttributeEncoding::Raw,
+                                           vox::AttributeEncoding::Compressed,
                                            vox::AttributeEncoding::CompressedLookup),
                          [](const auto& param) {
                              switch (param.param) {
-                                 case vox::AttributeEncoding::Raw: return std::string("raw");
-                                 case vox::AttributeEncoding::Compressed: return std::string("dxt");
-                                 default: return std::string("dxt_lookup");
+                                 case vox::AttributeEncoding::Raw:
+                                     return std::string("raw");
+                                 case vox::AttributeEncoding::Compressed:
+                                     return std::string("dxt");
+                                 default:
+                                     return std::string("dxt_lookup");
                              }
                          });
 
@@ -277,7 +299,8 @@ TEST(RuntimeRaycast, ErrorBoundedOctreeMatchesCpuReference) {
     const vox::SparseOctree octree = vox::voxelizeSurface(scene, voxelize);
     std::uint64_t coarseLeaves = 0;
     for (std::uint32_t l = 1; l < octree.leafDepth; ++l)
-        coarseLeaves += static_cast<std::uint64_t>(std::count(octree.masks[l].begin(), octree.masks[l].end(), 0));
+        coarseLeaves += static_cast<std::uint64_t>(
+            std::count(octree.masks[l].begin(), octree.masks[l].end(), 0));
     ASSERT_GT(coarseLeaves, 1000u);
     vox::EsvoWriteOptions write;
     write.sliceBytes = 16384;
@@ -299,12 +322,16 @@ TEST(RuntimeRaycast, ErrorBoundedOctreeMatchesCpuReference) {
         for (const View& view : kViews) {
             for (const double lodScale : {0.0, 1.0}) {
                 vox::RenderBuffers reference;
-                expectEquivalent(castBoth(*gl, cpu, gpu, view, lodScale, all ? "bounded, all slices" : "bounded, coarse slices", &reference));
+                expectEquivalent(castBoth(*gl, cpu, gpu, view, lodScale,
+                                          all ? "bounded, all slices" : "bounded, coarse slices",
+                                          &reference));
                 if (all && lodScale == 0.0) {
-                    // Full-resolution rays end in leaves above the leaf depth (the walls' coarse voxels).
+                    // Full-resolution rays end in leaves above the leaf depth (the walls' coarse
+                    // voxels).
                     std::size_t coarseHits = 0;
                     for (std::size_t i = 0; i < reference.level.size(); ++i)
-                        coarseHits += std::isfinite(reference.depth[i]) && std::uint32_t{reference.level[i]} + 1 < octree.leafDepth;
+                        coarseHits += std::isfinite(reference.depth[i]) &&
+                                      std::uint32_t{reference.level[i]} + 1 < octree.leafDepth;
                     EXPECT_GT(coarseHits, 100u);
                 }
             }
@@ -318,7 +345,8 @@ TEST(RuntimeRaycast, ErrorBoundedOctreeMatchesCpuReference) {
 TEST(RuntimeRaycastStreaming, PartialLoadThenSyncMatchesCpu) {
     REQUIRE_GL();
     vox::test::ScratchDir dir;
-    const fs::path file = writeOctree(dir / "sliced.esvo", 7, vox::AttributeEncoding::Compressed, 16384, 64);
+    const fs::path file =
+        writeOctree(dir / "sliced.esvo", 7, vox::AttributeEncoding::Compressed, 16384, 64);
     const vox::esvo::EsvoReader reader(file);
     ASSERT_GT(reader.sliceCount(), 4u);
     vox::esvo::EsvoPool pool(reader);
@@ -334,7 +362,8 @@ TEST(RuntimeRaycastStreaming, PartialLoadThenSyncMatchesCpu) {
     options.attributes = true;
     const auto check = [&](const std::string& what) -> vox::RenderBuffers {
         const vox::RenderBuffers reference = vox::renderEsvo(cpu, cpuCamera(view), options);
-        const rt::GpuFrame frame = gpu.render(gpuCamera(view), rt::GpuCastOptions{0, 0xFFFFFFFFu, true, true});
+        const rt::GpuFrame frame =
+            gpu.render(gpuCamera(view), rt::GpuCastOptions{0, 0xFFFFFFFFu, true, true});
         EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
         const Comparison c = compare(reference, frame, cpuCamera(view), gpuCamera(view));
         report(what, c, frame.wallMilliseconds);
@@ -347,7 +376,8 @@ TEST(RuntimeRaycastStreaming, PartialLoadThenSyncMatchesCpu) {
     EXPECT_GT(uploaded, 0u);
     EXPECT_LE(uploaded, pool.wordCount() * 4);
     EXPECT_EQ(gpuPool.sync(), 0u) << "nothing changed: nothing to upload";
-    const vox::RenderBuffers fine = check("streaming: all " + std::to_string(pool.loadedSliceCount()) + " slices");
+    const vox::RenderBuffers fine =
+        check("streaming: all " + std::to_string(pool.loadedSliceCount()) + " slices");
     // The loaded slices made a difference (finer levels appear), so the upload mattered.
     std::size_t finer = 0;
     for (std::size_t i = 0; i < fine.level.size(); ++i) finer += fine.level[i] > coarse.level[i];
@@ -357,7 +387,8 @@ TEST(RuntimeRaycastStreaming, PartialLoadThenSyncMatchesCpu) {
 TEST(EsvoStream, AFlightStaysUnderTheBudgetWithoutHolesAndMatchesTheCpuOnTheResidentSlices) {
     REQUIRE_GL();
     vox::test::ScratchDir dir;
-    const fs::path file = writeOctree(dir / "flight.esvo", 7, vox::AttributeEncoding::Compressed, 16384, 64);
+    const fs::path file =
+        writeOctree(dir / "flight.esvo", 7, vox::AttributeEncoding::Compressed, 16384, 64);
     const vox::esvo::EsvoReader full(file);
     vox::esvo::EsvoPool everything(full);
     everything.loadAll();
@@ -378,25 +409,33 @@ TEST(EsvoStream, AFlightStaysUnderTheBudgetWithoutHolesAndMatchesTheCpuOnTheResi
         loaded += update.loaded, evicted += update.evicted, uploaded += update.uploadedBytes;
         EXPECT_LE(update.residentBytes, options.budgetBytes) << frame;
         EXPECT_LE(update.loadedBytes, std::uint64_t(options.frameLoadBytes)) << frame;
-        // What is uploaded: the loaded slices, and a page per parent whose far pointers were patched.
+        // What is uploaded: the loaded slices, and a page per parent whose far pointers were
+        // patched.
         EXPECT_GE(update.uploadedBytes, update.loadedBytes) << frame;
-        EXPECT_LE(update.uploadedBytes, update.loadedBytes + 8192u * (update.loaded + update.evicted)) << frame;
-        std::printf("[ runtime  ] flight frame %d: %u loaded (%llu B), %u evicted, %llu B uploaded, %llu B resident, %u pending\n", frame,
-                    update.loaded, (unsigned long long)update.loadedBytes, update.evicted, (unsigned long long)update.uploadedBytes,
-                    (unsigned long long)update.residentBytes, update.pending);
+        EXPECT_LE(update.uploadedBytes,
+                  update.loadedBytes + 8192u * (update.loaded + update.evicted))
+            << frame;
+        std::printf(
+            "[ runtime  ] flight frame %d: %u loaded (%llu B), %u evicted, %llu B uploaded, %llu B "
+            "resident, %u pending\n",
+            frame, update.loaded, (unsigned long long)update.loadedBytes, update.evicted,
+            (unsigned long long)update.uploadedBytes, (unsigned long long)update.residentBytes,
+            update.pending);
         const rt::GpuFrame gpu = stream.render(stream.castOptions());
         ASSERT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
         // The same image as the CPU reference on the same resident slices ...
         vox::CastOptions cast;
         cast.lodAngle = cpuCamera(view).pixelAngle() * options.lodScale;
         cast.attributes = true;
-        const Comparison c = compare(vox::renderEsvo(cpu, cpuCamera(view), cast), gpu, cpuCamera(view), gpuCamera(view));
+        const Comparison c = compare(vox::renderEsvo(cpu, cpuCamera(view), cast), gpu,
+                                     cpuCamera(view), gpuCamera(view));
         expectEquivalent(c);
         // ... and no holes: every pixel that hits at full detail hits here (coarser voxels cover
         // their children).
         const vox::RenderBuffers fine = vox::renderEsvo(reference, cpuCamera(view), cast);
         std::size_t holes = 0;
-        for (std::size_t i = 0; i < fine.depth.size(); ++i) holes += std::isfinite(fine.depth[i]) && !gpu.hit(i);
+        for (std::size_t i = 0; i < fine.depth.size(); ++i)
+            holes += std::isfinite(fine.depth[i]) && !gpu.hit(i);
         EXPECT_EQ(holes, 0u) << frame;
     }
     EXPECT_GT(loaded, 0u);
@@ -428,20 +467,32 @@ TEST(Voxview, MatchesVoxinspectRenderAndReportsErrors) {
     REQUIRE_GL();
     vox::test::ScratchDir dir;
     const fs::path file = writeOctree(dir / "cornell.esvo", 7, vox::AttributeEncoding::Compressed);
-    const std::vector<std::string> camera{"--eye", "1.3,1.7,2.4", "--target", "-0.2,0.8,-0.3", "--width", "96", "--height", "72"};
+    const std::vector<std::string> camera{"--eye",   "1.3,1.7,2.4", "--target", "-0.2,0.8,-0.3",
+                                          "--width", "96",          "--height", "72"};
     for (const std::string channel : {"shaded", "color", "normal", "depth", "iterations"}) {
-        const fs::path cpuPng = dir / ("cpu_" + channel + ".png"), gpuPng = dir / ("gpu_" + channel + ".png");
-        std::vector<std::string> args{"render", file.string(), "-o", cpuPng.string(), "--channel", channel, "-q"};
+        const fs::path cpuPng = dir / ("cpu_" + channel + ".png"),
+                       gpuPng = dir / ("gpu_" + channel + ".png");
+        std::vector<std::string> args{"render",    file.string(), "-o", cpuPng.string(),
+                                      "--channel", channel,       "-q"};
         args.insert(args.end(), camera.begin(), camera.end());
-        const vox::test::ProcessResult cpuRun = vox::test::runProcess(vox::test::voxinspectPath(), args);
+        const vox::test::ProcessResult cpuRun =
+            vox::test::runProcess(vox::test::voxinspectPath(), args);
         ASSERT_EQ(cpuRun.exitCode, 0) << cpuRun.err;
-        std::vector<std::string> viewArgs{file.string(), "--headless", "-o", gpuPng.string(), "--channel", channel, "-q",
-                                          "--stats", (dir / "stats.json").string()};
+        std::vector<std::string> viewArgs{file.string(),
+                                          "--headless",
+                                          "-o",
+                                          gpuPng.string(),
+                                          "--channel",
+                                          channel,
+                                          "-q",
+                                          "--stats",
+                                          (dir / "stats.json").string()};
         viewArgs.insert(viewArgs.end(), camera.begin(), camera.end());
         const vox::test::ProcessResult gpuRun = vox::test::runProcess(LIBVOX_VOXVIEW, viewArgs);
         ASSERT_EQ(gpuRun.exitCode, 0) << gpuRun.err;
         EXPECT_TRUE(gpuRun.err.empty()) << gpuRun.err;
-        const vox::Texture a = vox::loadTexture(cpuPng, vox::ColorSpace::Linear), b = vox::loadTexture(gpuPng, vox::ColorSpace::Linear);
+        const vox::Texture a = vox::loadTexture(cpuPng, vox::ColorSpace::Linear),
+                           b = vox::loadTexture(gpuPng, vox::ColorSpace::Linear);
         ASSERT_EQ(b.width(), 96);
         ASSERT_EQ(b.height(), 72);
         std::size_t differing = 0;
@@ -450,10 +501,12 @@ TEST(Voxview, MatchesVoxinspectRenderAndReportsErrors) {
                 const vox::Vec4f p = a.texel(0, x, y), q = b.texel(0, x, y);
                 differing += p.x != q.x || p.y != q.y || p.z != q.z;
             }
-        EXPECT_LE(double(differing), 0.001 * 96 * 72) << channel << ": " << differing << " pixels differ";
+        EXPECT_LE(double(differing), 0.001 * 96 * 72)
+            << channel << ": " << differing << " pixels differ";
     }
     const std::string stats = vox::test::readText(dir / "stats.json");
-    for (const char* key : {"\"renderer\"", "\"gl_version\"", "\"gpu_ms_per_frame\"", "\"wall_ms_per_frame\"", "\"resident_bytes\"", "\"hits\""})
+    for (const char* key : {"\"renderer\"", "\"gl_version\"", "\"gpu_ms_per_frame\"",
+                            "\"wall_ms_per_frame\"", "\"resident_bytes\"", "\"hits\""})
         EXPECT_NE(stats.find(key), std::string::npos) << key;
     EXPECT_NE(stats.find("\"gl_errors\": 0"), std::string::npos) << stats;
 
@@ -465,19 +518,27 @@ TEST(Voxview, MatchesVoxinspectRenderAndReportsErrors) {
         EXPECT_NE(r.err.find(text), std::string::npos) << r.err;
     };
     const std::string out = (dir / "x.png").string();
-    expectError({file.string(), "--headless", "-o", out, "--eye", "0,1,3", "--target", "0,1,0", "--channel", "nope"}, 1, "--channel");
+    expectError({file.string(), "--headless", "-o", out, "--eye", "0,1,3", "--target", "0,1,0",
+                 "--channel", "nope"},
+                1, "--channel");
     {
         // Without --headless and without a display to open a window on (whatever this shell has).
         const vox::test::ProcessResult r = vox::test::runProcess(
-            "/usr/bin/env", {"-u", "DISPLAY", "-u", "WAYLAND_DISPLAY", LIBVOX_VOXVIEW, file.string(), "-o", out, "--eye", "0,1,3", "--target", "0,1,0"});
+            "/usr/bin/env", {"-u", "DISPLAY", "-u", "WAYLAND_DISPLAY", LIBVOX_VOXVIEW,
+                             file.string(), "-o", out, "--eye", "0,1,3", "--target", "0,1,0"});
         EXPECT_EQ(r.exitCode, 1) << r.err;
         EXPECT_NE(r.err.find("no display"), std::string::npos) << r.err;
         EXPECT_NE(r.err.find("--headless"), std::string::npos) << r.err;
     }
-    expectError({file.string(), "--headless", "-o", out, "--eye", "0,1", "--target", "0,1,0"}, 1, "--eye expects x,y,z");
-    expectError({(dir / "missing.esvo").string(), "--headless", "-o", out, "--eye", "0,1,3", "--target", "0,1,0"}, 2, "missing.esvo");
+    expectError({file.string(), "--headless", "-o", out, "--eye", "0,1", "--target", "0,1,0"}, 1,
+                "--eye expects x,y,z");
+    expectError({(dir / "missing.esvo").string(), "--headless", "-o", out, "--eye", "0,1,3",
+                 "--target", "0,1,0"},
+                2, "missing.esvo");
     vox::test::writeText(dir / "bad.esvo", "not an octree");
-    expectError({(dir / "bad.esvo").string(), "--headless", "-o", out, "--eye", "0,1,3", "--target", "0,1,0"}, 3, "bad.esvo");
+    expectError({(dir / "bad.esvo").string(), "--headless", "-o", out, "--eye", "0,1,3", "--target",
+                 "0,1,0"},
+                3, "bad.esvo");
     EXPECT_FALSE(fs::exists(dir / "x.png"));
 }
 
@@ -485,15 +546,26 @@ TEST(Voxview, MatchesVoxinspectRenderAndReportsErrors) {
 // window's context, adopted (CurrentGlContext), and shows the same image it writes headless.
 TEST(Voxview, AWindowOnAVirtualDisplayShowsWhatHeadlessWrites) {
     REQUIRE_GL();
-    if (!fs::exists("/usr/bin/xvfb-run")) GTEST_SKIP() << "no xvfb-run (Debian package xvfb) to give the window a display";
+    if (!fs::exists("/usr/bin/xvfb-run"))
+        GTEST_SKIP() << "no xvfb-run (Debian package xvfb) to give the window a display";
     vox::test::ScratchDir dir;
     const fs::path file = writeOctree(dir / "cornell.esvo", 6, vox::AttributeEncoding::Compressed);
-    const std::vector<std::string> camera{"--eye", "0,1,3.2", "--target", "0,1,0", "--width", "80", "--height", "60", "--channel", "shaded"};
-    std::vector<std::string> headless{file.string(), "--headless", "-o", (dir / "headless.png").string(), "-q"};
+    const std::vector<std::string> camera{"--eye", "0,1,3.2",  "--target", "0,1,0",     "--width",
+                                          "80",    "--height", "60",       "--channel", "shaded"};
+    std::vector<std::string> headless{file.string(), "--headless", "-o",
+                                      (dir / "headless.png").string(), "-q"};
     headless.insert(headless.end(), camera.begin(), camera.end());
     ASSERT_EQ(vox::test::runProcess(LIBVOX_VOXVIEW, headless).exitCode, 0);
-    std::vector<std::string> windowed{"-a", LIBVOX_VOXVIEW, file.string(), "-o", (dir / "window.png").string(), "--frames", "3", "-q",
-                                      "--stats", (dir / "window.json").string()};
+    std::vector<std::string> windowed{"-a",
+                                      LIBVOX_VOXVIEW,
+                                      file.string(),
+                                      "-o",
+                                      (dir / "window.png").string(),
+                                      "--frames",
+                                      "3",
+                                      "-q",
+                                      "--stats",
+                                      (dir / "window.json").string()};
     windowed.insert(windowed.end(), camera.begin(), camera.end());
     const vox::test::ProcessResult r = vox::test::runProcess("/usr/bin/xvfb-run", windowed);
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -521,26 +593,46 @@ TEST(Voxview, FinalGatherMatchesVoxinspectRender) {
         vox::rvol::writeRvol(rvol, vox::bakeRadiance(vox::importScene(gltf), options).volume);
     }
     const int width = 96, height = 72;
-    const std::vector<std::string> camera{"--eye", "1.3,1.7,2.4", "--target", "-0.2,0.8,-0.3", "--width", std::to_string(width), "--height",
-                                          std::to_string(height)};
+    const std::vector<std::string> camera{
+        "--eye",   "1.3,1.7,2.4",         "--target", "-0.2,0.8,-0.3",
+        "--width", std::to_string(width), "--height", std::to_string(height)};
     for (const std::string channel : {"final", "direct", "indirect"}) {
-        const fs::path cpuPng = dir / ("cpu_" + channel + ".png"), gpuPng = dir / ("gpu_" + channel + ".png");
-        std::vector<std::string> args{"render", rvol.string(), "--esvo", esvo.string(), "--scene", gltf.string(), "-o", cpuPng.string(),
-                                      "--channel", channel, "-q"};
+        const fs::path cpuPng = dir / ("cpu_" + channel + ".png"),
+                       gpuPng = dir / ("gpu_" + channel + ".png");
+        std::vector<std::string> args{"render",    rvol.string(), "--esvo", esvo.string(),
+                                      "--scene",   gltf.string(), "-o",     cpuPng.string(),
+                                      "--channel", channel,       "-q"};
         args.insert(args.end(), camera.begin(), camera.end());
         const auto cpuStart = std::chrono::steady_clock::now();
-        const vox::test::ProcessResult cpuRun = vox::test::runProcess(vox::test::voxinspectPath(), args);
-        const double cpuMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - cpuStart).count();
+        const vox::test::ProcessResult cpuRun =
+            vox::test::runProcess(vox::test::voxinspectPath(), args);
+        const double cpuMs =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - cpuStart)
+                .count();
         ASSERT_EQ(cpuRun.exitCode, 0) << cpuRun.err;
-        std::vector<std::string> viewArgs{esvo.string(), "--rvol", rvol.string(), "--scene", gltf.string(), "--headless", "-o",
-                                          gpuPng.string(), "--channel", channel, "-q", "--stats", (dir / "stats.json").string()};
+        std::vector<std::string> viewArgs{esvo.string(),
+                                          "--rvol",
+                                          rvol.string(),
+                                          "--scene",
+                                          gltf.string(),
+                                          "--headless",
+                                          "-o",
+                                          gpuPng.string(),
+                                          "--channel",
+                                          channel,
+                                          "-q",
+                                          "--stats",
+                                          (dir / "stats.json").string()};
         viewArgs.insert(viewArgs.end(), camera.begin(), camera.end());
         const auto gpuStart = std::chrono::steady_clock::now();
         const vox::test::ProcessResult gpuRun = vox::test::runProcess(LIBVOX_VOXVIEW, viewArgs);
-        const double gpuMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - gpuStart).count();
+        const double gpuMs =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - gpuStart)
+                .count();
         ASSERT_EQ(gpuRun.exitCode, 0) << gpuRun.err;
         EXPECT_TRUE(gpuRun.err.empty()) << gpuRun.err;
-        const vox::Texture a = vox::loadTexture(cpuPng, vox::ColorSpace::Linear), b = vox::loadTexture(gpuPng, vox::ColorSpace::Linear);
+        const vox::Texture a = vox::loadTexture(cpuPng, vox::ColorSpace::Linear),
+                           b = vox::loadTexture(gpuPng, vox::ColorSpace::Linear);
         ASSERT_EQ(b.width(), width);
         ASSERT_EQ(b.height(), height);
         std::size_t cpuHits = 0, maskAgree = 0, shown = 0, exact = 0;
@@ -561,9 +653,11 @@ TEST(Voxview, FinalGatherMatchesVoxinspectRender) {
             }
         const double db = psnr(sumSq, 3 * shown);
         const std::size_t pixels = std::size_t(width) * std::size_t(height);
-        std::printf("[ runtime  ] voxview --rvol %s: %zu px, %zu non-black (CPU); mask %zu/%zu; exact %zu; PSNR %.1f dB over %zu px; "
-                    "voxinspect %.0f ms, voxview %.0f ms (processes)\n",
-                    channel.c_str(), pixels, cpuHits, maskAgree, pixels, exact, db, shown, cpuMs, gpuMs);
+        std::printf(
+            "[ runtime  ] voxview --rvol %s: %zu px, %zu non-black (CPU); mask %zu/%zu; exact %zu; "
+            "PSNR %.1f dB over %zu px; "
+            "voxinspect %.0f ms, voxview %.0f ms (processes)\n",
+            channel.c_str(), pixels, cpuHits, maskAgree, pixels, exact, db, shown, cpuMs, gpuMs);
         EXPECT_GT(cpuHits, pixels / 4) << channel << ": the view must show the lit box";
         EXPECT_GE(double(maskAgree), 0.999 * double(pixels)) << channel << ": hit masks differ";
         EXPECT_GE(db, 40.0) << channel;
@@ -579,7 +673,8 @@ TEST(Voxview, FinalGatherMatchesVoxinspectRender) {
 TEST(EsvoStream, ACorruptSliceIsReportedAndSkippedAndTheRestRenders) {
     REQUIRE_GL();
     vox::test::ScratchDir dir;
-    const fs::path file = writeOctree(dir / "corrupt.esvo", 7, vox::AttributeEncoding::Compressed, 16384, 64);
+    const fs::path file =
+        writeOctree(dir / "corrupt.esvo", 7, vox::AttributeEncoding::Compressed, 16384, 64);
     const View view = kViews[0];
     const double lodScale = 1e-3;  // finer than any voxel: the view needs every slice it sees
     std::vector<std::uint32_t> needed;
@@ -588,17 +683,20 @@ TEST(EsvoStream, ACorruptSliceIsReportedAndSkippedAndTheRestRenders) {
     {
         const vox::esvo::EsvoReader reader(file);
         const auto regions = rt::sliceRegions(reader.directory());
-        needed = rt::selectSlices(reader, regions, {gpuCamera(view), lodScale}, ~std::uint64_t{0}).slices;
+        needed = rt::selectSlices(reader, regions, {gpuCamera(view), lodScale}, ~std::uint64_t{0})
+                     .slices;
         ASSERT_GT(needed.size(), 4u);
         // A needed non-root slice with needed children, so that its subtree is left out too.
         for (std::uint32_t s : needed)
             if (s != 0 && victim == 0 && reader.slice(s).childCount > 0 &&
-                std::any_of(needed.begin(), needed.end(), [&](std::uint32_t c) { return c != 0 && reader.slice(c).parent == s; }))
+                std::any_of(needed.begin(), needed.end(),
+                            [&](std::uint32_t c) { return c != 0 && reader.slice(c).parent == s; }))
                 victim = s;
         ASSERT_NE(victim, 0u);
         below.assign(reader.sliceCount(), 0);
         below[victim] = 1;
-        for (std::uint32_t s = 1; s < reader.sliceCount(); ++s) below[s] = below[s] || below[reader.slice(s).parent];
+        for (std::uint32_t s = 1; s < reader.sliceCount(); ++s)
+            below[s] = below[s] || below[reader.slice(s).parent];
         // Flip one byte in the middle of the victim's block on disk.
         const vox::esvo::SliceEntry& e = reader.slice(victim);
         std::FILE* f = std::fopen(file.c_str(), "r+b");
@@ -617,12 +715,14 @@ TEST(EsvoStream, ACorruptSliceIsReportedAndSkippedAndTheRestRenders) {
     stream.setCamera(gpuCamera(view));
     rt::EsvoStreamUpdate update;
     ASSERT_NO_THROW(update = stream.update());
-    std::printf("[ runtime  ] corrupt slice %u: %u loaded, %u bad, %zu error(s): %s\n", victim, update.loaded, update.badSlices,
-                update.errors.size(), update.errors.empty() ? "" : update.errors[0].c_str());
+    std::printf("[ runtime  ] corrupt slice %u: %u loaded, %u bad, %zu error(s): %s\n", victim,
+                update.loaded, update.badSlices, update.errors.size(),
+                update.errors.empty() ? "" : update.errors[0].c_str());
     EXPECT_EQ(update.badSlices, 1u);
     ASSERT_EQ(update.errors.size(), 1u);
     EXPECT_NE(update.errors[0].find(file.string()), std::string::npos) << update.errors[0];
-    EXPECT_NE(update.errors[0].find("slice " + std::to_string(victim) + " "), std::string::npos) << update.errors[0];
+    EXPECT_NE(update.errors[0].find("slice " + std::to_string(victim) + " "), std::string::npos)
+        << update.errors[0];
     EXPECT_EQ(update.errors[0].find('\n'), std::string::npos) << "one line";
     EXPECT_EQ(update.pending, 0u);
     std::size_t resident = 0;

@@ -32,7 +32,6 @@ using vox::Vec3d;
 
 namespace {
 
-
 /// The Cornell box baked once (depth 5, one bounce), through an .rvol file: the reader, the volume
 /// it reads (the CPU reference samples the same decoded texels the GPU holds) and its field.
 struct Baked {
@@ -77,7 +76,9 @@ rt::GpuPunctualLight toGpu(const vox::Light& l) {
     return g;
 }
 
-std::array<float, 3> f3(Vec3d v) { return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)}; }
+std::array<float, 3> f3(Vec3d v) {
+    return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
+}
 
 /// PSNR over points of one term: peak the reference's largest component.
 struct Psnr {
@@ -114,13 +115,17 @@ TEST(RvolGpuVolume, UploadsEveryBrickIntoAtlasSlotsAndEvictedBricksFallBackToThe
     EXPECT_EQ(volume.rgbSlots().used(), rgbPlanes);
     EXPECT_EQ(volume.alphaSlots().used(), alphaPlanes);
     EXPECT_GT(volume.residentBytes(), volume.usedAtlasBytes());
-    std::printf("[ rvol gpu ] %llu bricks, RGB atlas %u×%u×%u slots (%u used), A8 atlas %u×%u×%u slots (%u used), resident %llu bytes "
-                "(atlas slots in use %llu, indirection %llu), uploaded %llu bytes\n",
-                static_cast<unsigned long long>(volume.residentBricks()), volume.rgbSlotGrid()[0], volume.rgbSlotGrid()[1],
-                volume.rgbSlotGrid()[2], volume.rgbSlots().used(), volume.alphaSlotGrid()[0], volume.alphaSlotGrid()[1],
-                volume.alphaSlotGrid()[2], volume.alphaSlots().used(), static_cast<unsigned long long>(volume.residentBytes()),
-                static_cast<unsigned long long>(volume.usedAtlasBytes()), static_cast<unsigned long long>(volume.indirectionBytes()),
-                static_cast<unsigned long long>(volume.uploadedBytesTotal()));
+    std::printf(
+        "[ rvol gpu ] %llu bricks, RGB atlas %u×%u×%u slots (%u used), A8 atlas %u×%u×%u slots (%u "
+        "used), resident %llu bytes "
+        "(atlas slots in use %llu, indirection %llu), uploaded %llu bytes\n",
+        static_cast<unsigned long long>(volume.residentBricks()), volume.rgbSlotGrid()[0],
+        volume.rgbSlotGrid()[1], volume.rgbSlotGrid()[2], volume.rgbSlots().used(),
+        volume.alphaSlotGrid()[0], volume.alphaSlotGrid()[1], volume.alphaSlotGrid()[2],
+        volume.alphaSlots().used(), static_cast<unsigned long long>(volume.residentBytes()),
+        static_cast<unsigned long long>(volume.usedAtlasBytes()),
+        static_cast<unsigned long long>(volume.indirectionBytes()),
+        static_cast<unsigned long long>(volume.uploadedBytesTotal()));
 
     // Evicting a level-1 brick frees its 6 + 3 slots and makes it sample as the level above;
     // uploading it again reuses them and restores the samples.
@@ -130,9 +135,13 @@ TEST(RvolGpuVolume, UploadsEveryBrickIntoAtlasSlotsAndEvictedBricksFallBackToThe
     const auto& o = b.reader->header().origin;
     std::vector<rt::FinalGatherGpu::SampleQuery> queries;
     for (int i = 0; i < 27; ++i) {
-        // Points strictly inside the brick's cells (cell centres 1 … N − 2 of the brick and between).
-        const double u[3] = {e.x * 4.0 + 1 + 0.5 * (i % 3), e.y * 4.0 + 1 + 0.5 * (i / 3 % 3), e.z * 4.0 + 1 + 0.5 * (i / 9)};
-        queries.push_back({1, {float(o[0] + (u[0] + 0.5) * cell), float(o[1] + (u[1] + 0.5) * cell), float(o[2] + (u[2] + 0.5) * cell)},
+        // Points strictly inside the brick's cells (cell centres 1 … N − 2 of the brick and
+        // between).
+        const double u[3] = {e.x * 4.0 + 1 + 0.5 * (i % 3), e.y * 4.0 + 1 + 0.5 * (i / 3 % 3),
+                             e.z * 4.0 + 1 + 0.5 * (i / 9)};
+        queries.push_back({1,
+                           {float(o[0] + (u[0] + 0.5) * cell), float(o[1] + (u[1] + 0.5) * cell),
+                            float(o[2] + (u[2] + 0.5) * cell)},
                            {0.3f, -0.5f, 0.8f}});
     }
     const auto before = gather.sample(volume, queries);
@@ -169,9 +178,11 @@ TEST(FinalGatherGpu, SamplesMatchRadianceFieldAtRandomPointsLevelsAndDirections)
     std::vector<Vec3d> points, dirs;
     const std::uint32_t levels = h.levelCount;
     for (int i = 0; i < 6000; ++i) {
-        const Vec3d p{h.origin[0] + pos(rng) * h.size, h.origin[1] + pos(rng) * h.size, h.origin[2] + pos(rng) * h.size};
+        const Vec3d p{h.origin[0] + pos(rng) * h.size, h.origin[1] + pos(rng) * h.size,
+                      h.origin[2] + pos(rng) * h.size};
         Vec3d d{unit(rng), unit(rng), unit(rng)};
-        if (i % 5 == 0) d.x = 0;  // directions in a plane or along an axis: combineDirectional's skipped axes
+        if (i % 5 == 0)
+            d.x = 0;  // directions in a plane or along an axis: combineDirectional's skipped axes
         if (i % 7 == 0) d.y = 0;
         if (length(d) < 1e-3) d = {0, 0, 1};
         d = normalize(d);
@@ -191,7 +202,8 @@ TEST(FinalGatherGpu, SamplesMatchRadianceFieldAtRandomPointsLevelsAndDirections)
     // texelFetch with float weights: float rounding only. The texture unit: RGB9E5 is filtered in
     // float on llvmpipe, but a filtered GL_R8 comes back at 8 bits (up to 1/255 off, and the
     // directional opacity's log(1 − a) turns that into up to 0.1 near a = 1): GL_R16 fixes it.
-    for (const Variant& v : {Variant{"texelFetch, R8", false, &volume, 1e-5}, Variant{"hardware, R16", true, &volume16, 1e-4},
+    for (const Variant& v : {Variant{"texelFetch, R8", false, &volume, 1e-5},
+                             Variant{"hardware, R16", true, &volume16, 1e-4},
                              Variant{"hardware, R8", true, &volume, 0.2}}) {
         const bool hardware = v.hardware;
         rt::FinalGatherGpu gather(*gl, {.hardwareFilter = hardware});
@@ -204,7 +216,9 @@ TEST(FinalGatherGpu, SamplesMatchRadianceFieldAtRandomPointsLevelsAndDirections)
             if (c.a > 0) ++nonZero;
             maxRgb[l] = std::max({maxRgb[l], double(c.r), double(c.g), double(c.b)});
             maxA[l] = std::max(maxA[l], double(c.a));
-            errRgb[l] = std::max({errRgb[l], std::abs(double(c.r) - gpu[i][0]), std::abs(double(c.g) - gpu[i][1]), std::abs(double(c.b) - gpu[i][2])});
+            errRgb[l] =
+                std::max({errRgb[l], std::abs(double(c.r) - gpu[i][0]),
+                          std::abs(double(c.g) - gpu[i][1]), std::abs(double(c.b) - gpu[i][2])});
             errA[l] = std::max(errA[l], std::abs(double(c.a) - gpu[i][3]));
         }
         EXPECT_GT(nonZero, queries.size() / 10);
@@ -212,8 +226,10 @@ TEST(FinalGatherGpu, SamplesMatchRadianceFieldAtRandomPointsLevelsAndDirections)
         for (std::uint32_t l = 0; l < levels; ++l) {
             const double rgb = maxRgb[l] > 0 ? errRgb[l] / maxRgb[l] : errRgb[l];
             const double a = maxA[l] > 0 ? errA[l] / maxA[l] : errA[l];
-            std::printf("[ rvol gpu ] %s, level %u: max |error| / max: radiance %.3g (max %.4g), opacity %.3g\n", v.name, l, rgb,
-                        maxRgb[l], a);
+            std::printf(
+                "[ rvol gpu ] %s, level %u: max |error| / max: radiance %.3g (max %.4g), opacity "
+                "%.3g\n",
+                v.name, l, rgb, maxRgb[l], a);
             worstRgb = std::max(worstRgb, rgb);
             worstA = std::max(worstA, a);
         }
@@ -240,11 +256,16 @@ TEST(FinalGatherGpu, FinalGatherMatchesTheCpuAtA64x48CamerasSurfacePoints) {
     for (int y = 0; y < camera.height; ++y)
         for (int x = 0; x < camera.width; ++x) {
             vox::ShadingPoint p;
-            if (!vox::sceneShadingPoint(b.scene, caster, camera.rayThrough(x, y), camera.pixelAngle(), p)) continue;
+            if (!vox::sceneShadingPoint(b.scene, caster, camera.rayThrough(x, y),
+                                        camera.pixelAngle(), p))
+                continue;
             // Both sides shade the float-rounded point.
-            const rt::GpuShadingPoint g{f3(p.position), f3(p.normal), f3(p.albedo), f3(p.emission), f3(p.view)};
-            p = {{g.position[0], g.position[1], g.position[2]}, {g.normal[0], g.normal[1], g.normal[2]},
-                 {g.albedo[0], g.albedo[1], g.albedo[2]}, {g.emission[0], g.emission[1], g.emission[2]},
+            const rt::GpuShadingPoint g{f3(p.position), f3(p.normal), f3(p.albedo), f3(p.emission),
+                                        f3(p.view)};
+            p = {{g.position[0], g.position[1], g.position[2]},
+                 {g.normal[0], g.normal[1], g.normal[2]},
+                 {g.albedo[0], g.albedo[1], g.albedo[2]},
+                 {g.emission[0], g.emission[1], g.emission[2]},
                  {g.view[0], g.view[1], g.view[2]}};
             points.push_back(p);
             gpuPoints.push_back(g);
@@ -260,15 +281,17 @@ TEST(FinalGatherGpu, FinalGatherMatchesTheCpuAtA64x48CamerasSurfacePoints) {
     const auto cpuStart = std::chrono::steady_clock::now();
     std::vector<vox::FinalGatherParts> reference(points.size());
     for (std::size_t i = 0; i < points.size(); ++i) reference[i] = cpu.shade(points[i]);
-    const double cpuSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - cpuStart).count();
+    const double cpuSeconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - cpuStart).count();
 
     struct Variant {
         const char* name;
         bool hardware;
         const rt::RvolGpuVolume* volume;
     };
-    for (const Variant& v : {Variant{"hardware, R8", true, &volume}, Variant{"hardware, R16", true, &volume16},
-                             Variant{"texelFetch, R8", false, &volume}}) {
+    for (const Variant& v :
+         {Variant{"hardware, R8", true, &volume}, Variant{"hardware, R16", true, &volume16},
+          Variant{"texelFetch, R8", false, &volume}}) {
         const bool hardware = v.hardware;
         rt::FinalGatherGpuOptions options;
         options.aoLambda = cpuOptions.aoLambda;
@@ -278,18 +301,22 @@ TEST(FinalGatherGpu, FinalGatherMatchesTheCpuAtA64x48CamerasSurfacePoints) {
         Psnr finalP, directP, indirectP, specularP, aoP;
         for (std::size_t i = 0; i < points.size(); ++i) {
             const vox::FinalGatherParts& r = reference[i];
-            const double fin[3] = {r.final.x, r.final.y, r.final.z}, dir[3] = {r.direct.x, r.direct.y, r.direct.z},
-                         ind[3] = {r.indirect.x, r.indirect.y, r.indirect.z}, spe[3] = {r.specular.x, r.specular.y, r.specular.z};
+            const double fin[3] = {r.final.x, r.final.y, r.final.z},
+                         dir[3] = {r.direct.x, r.direct.y, r.direct.z},
+                         ind[3] = {r.indirect.x, r.indirect.y, r.indirect.z},
+                         spe[3] = {r.specular.x, r.specular.y, r.specular.z};
             finalP.add(fin, gpu[i].final.data(), 3);
             directP.add(dir, gpu[i].direct.data(), 3);
             indirectP.add(ind, gpu[i].indirect.data(), 3);
             specularP.add(spe, gpu[i].specular.data(), 3);
             aoP.add(&r.ao, &gpu[i].ao, 1);
         }
-        std::printf("[ rvol gpu ] %s, %zu points (3 lights, shadow cones): PSNR final %.1f, direct %.1f, indirect %.1f, "
-                    "specular %.1f, ao %.1f dB; GPU %.3f s, CPU %.3f s\n",
-                    v.name, points.size(), finalP.db(), directP.db(), indirectP.db(), specularP.db(),
-                    aoP.db(), gather.lastSeconds(), cpuSeconds);
+        std::printf(
+            "[ rvol gpu ] %s, %zu points (3 lights, shadow cones): PSNR final %.1f, direct %.1f, "
+            "indirect %.1f, "
+            "specular %.1f, ao %.1f dB; GPU %.3f s, CPU %.3f s\n",
+            v.name, points.size(), finalP.db(), directP.db(), indirectP.db(), specularP.db(),
+            aoP.db(), gather.lastSeconds(), cpuSeconds);
         EXPECT_GE(finalP.db(), 40.0);
         EXPECT_GE(directP.db(), 40.0);
         EXPECT_GE(indirectP.db(), 40.0);
@@ -305,15 +332,19 @@ TEST(RvolResidency, AClipmapAroundTheEyeWithinTheBudgetFallsBackToCoarserLevelsA
     const auto& h = b.reader->header();
     const rt::RvolGpuVolume full(*gl, *b.reader);
     std::uint64_t fullBytes = 0;
-    for (std::uint32_t l = 0; l < h.levelCount; ++l) fullBytes += b.reader->level(l).brickCount * full.brickBytes(l);
+    for (std::uint32_t l = 0; l < h.levelCount; ++l)
+        fullBytes += b.reader->level(l).brickCount * full.brickBytes(l);
     const std::uint64_t budget = fullBytes / 4;
     rt::RvolGpuVolume streamed(*gl, *b.reader, {.uploadAll = false, .atlasBytes = budget});
-    EXPECT_LT(streamed.residentBytes(), full.residentBytes()) << "the atlas is sized for the budget";
+    EXPECT_LT(streamed.residentBytes(), full.residentBytes())
+        << "the atlas is sized for the budget";
     rt::RvolResidency residency(streamed, budget);
     // An eye in a lower corner of the box: fine bricks there, coarse ones elsewhere.
     rt::Camera camera;
-    camera.eye = {h.origin[0] + 0.2 * h.size, h.origin[1] + 0.2 * h.size, h.origin[2] + 0.7 * h.size};
-    camera.target = {h.origin[0] + 0.5 * h.size, h.origin[1] + 0.4 * h.size, h.origin[2] + 0.5 * h.size};
+    camera.eye = {h.origin[0] + 0.2 * h.size, h.origin[1] + 0.2 * h.size,
+                  h.origin[2] + 0.7 * h.size};
+    camera.target = {h.origin[0] + 0.5 * h.size, h.origin[1] + 0.4 * h.size,
+                     h.origin[2] + 0.5 * h.size};
     const auto update = residency.update(camera);
     EXPECT_GT(update.uploaded, 0u);
     EXPECT_GT(update.neededNotFitting, 0u) << "the budget must leave needed bricks out";
@@ -321,9 +352,11 @@ TEST(RvolResidency, AClipmapAroundTheEyeWithinTheBudgetFallsBackToCoarserLevelsA
     EXPECT_EQ(update.residentBytes, residency.residentBytes());
     // The top level is whole, and every resident brick's level above is resident where it samples.
     const std::uint32_t top = h.levelCount - 1;
-    for (std::uint32_t i = 0; i < b.reader->level(top).brickCount; ++i) EXPECT_TRUE(streamed.resident(top, i));
+    for (std::uint32_t i = 0; i < b.reader->level(top).brickCount; ++i)
+        EXPECT_TRUE(streamed.resident(top, i));
     std::uint32_t fine = 0;
-    for (std::uint32_t i = 0; i < b.reader->level(0).brickCount; ++i) fine += streamed.resident(0, i);
+    for (std::uint32_t i = 0; i < b.reader->level(0).brickCount; ++i)
+        fine += streamed.resident(0, i);
     EXPECT_GT(fine, 0u);
     EXPECT_LT(fine, b.reader->level(0).brickCount);
 
@@ -334,13 +367,18 @@ TEST(RvolResidency, AClipmapAroundTheEyeWithinTheBudgetFallsBackToCoarserLevelsA
     std::uniform_real_distribution<double> pos(0.02, 0.98), near(-0.04, 0.04);
     std::vector<rt::FinalGatherGpu::SampleQuery> anywhere, close;
     for (int i = 0; i < 3000; ++i) {
-        anywhere.push_back({0, f3({h.origin[0] + pos(rng) * h.size, h.origin[1] + pos(rng) * h.size, h.origin[2] + pos(rng) * h.size}),
+        anywhere.push_back({0,
+                            f3({h.origin[0] + pos(rng) * h.size, h.origin[1] + pos(rng) * h.size,
+                                h.origin[2] + pos(rng) * h.size}),
                             {0.3f, 0.5f, -0.8f}});
-        close.push_back({0, f3({camera.eye[0] + near(rng) * h.size, camera.eye[1] + near(rng) * h.size, camera.eye[2] + near(rng) * h.size}),
+        close.push_back({0,
+                         f3({camera.eye[0] + near(rng) * h.size, camera.eye[1] + near(rng) * h.size,
+                             camera.eye[2] + near(rng) * h.size}),
                          {0.3f, 0.5f, -0.8f}});
     }
     EXPECT_EQ(gather.sample(streamed, close), gather.sample(full, close));
-    const auto streamedSamples = gather.sample(streamed, anywhere), fullSamples = gather.sample(full, anywhere);
+    const auto streamedSamples = gather.sample(streamed, anywhere),
+               fullSamples = gather.sample(full, anywhere);
     std::size_t solid = 0, holes = 0, coarser = 0;
     for (std::size_t i = 0; i < anywhere.size(); ++i) {
         if (!(fullSamples[i][3] > 0)) continue;
@@ -351,12 +389,16 @@ TEST(RvolResidency, AClipmapAroundTheEyeWithinTheBudgetFallsBackToCoarserLevelsA
     EXPECT_GT(solid, 100u);
     EXPECT_EQ(holes, 0u);
     EXPECT_GT(coarser, solid / 10) << "far from the eye the samples come from coarser levels";
-    std::printf("[ rvol gpu ] residency: %u of %u needed bricks within %llu of %llu bytes, %u level-0 bricks of %u; %zu of %zu solid "
-                "samples from coarser levels, no holes\n",
-                update.selected, update.selected + update.neededNotFitting, static_cast<unsigned long long>(budget),
-                static_cast<unsigned long long>(fullBytes), fine, b.reader->level(0).brickCount, coarser, solid);
+    std::printf(
+        "[ rvol gpu ] residency: %u of %u needed bricks within %llu of %llu bytes, %u level-0 "
+        "bricks of %u; %zu of %zu solid "
+        "samples from coarser levels, no holes\n",
+        update.selected, update.selected + update.neededNotFitting,
+        static_cast<unsigned long long>(budget), static_cast<unsigned long long>(fullBytes), fine,
+        b.reader->level(0).brickCount, coarser, solid);
     // Moving the eye to the opposite corner moves the fine bricks, within the budget.
-    camera.eye = {h.origin[0] + 0.8 * h.size, h.origin[1] + 0.8 * h.size, h.origin[2] + 0.3 * h.size};
+    camera.eye = {h.origin[0] + 0.8 * h.size, h.origin[1] + 0.8 * h.size,
+                  h.origin[2] + 0.3 * h.size};
     const auto moved = residency.update(camera);
     EXPECT_GT(moved.evicted, 0u);
     EXPECT_GT(moved.uploaded, 0u);

@@ -53,8 +53,10 @@ rvol::Texel representableTexel(std::mt19937& rng, double zeroChance = 0.3) {
     if (std::uniform_real_distribution<double>(0, 1)(rng) < zeroChance) return {};
     std::uniform_int_distribution<int> mantissa(0, 511), exponent(8, 22), alpha(0, 255);
     const int e = exponent(rng) - 24;
-    return {std::ldexp(static_cast<float>(mantissa(rng)), e), std::ldexp(static_cast<float>(mantissa(rng)), e),
-            std::ldexp(static_cast<float>(mantissa(rng)), e), static_cast<float>(alpha(rng)) / 255.0f};
+    return {std::ldexp(static_cast<float>(mantissa(rng)), e),
+            std::ldexp(static_cast<float>(mantissa(rng)), e),
+            std::ldexp(static_cast<float>(mantissa(rng)), e),
+            static_cast<float>(alpha(rng)) / 255.0f};
 }
 
 /// Any texel: RGB in [0, 40), alpha in [0, 1].
@@ -68,7 +70,8 @@ rvol::Texel anyTexel(std::mt19937& rng, double zeroChance = 0.3) {
 /// cells inside the level non-zero at random, at least one per block), and random static and
 /// dynamic voxels. As in a baked volume, the ± channels of an axis have the same opacity (the
 /// format stores it once per axis).
-rvol::Volume makeVolume(std::uint32_t depth, std::uint32_t seed, bool representable = true, double blockChance = 0.35) {
+rvol::Volume makeVolume(std::uint32_t depth, std::uint32_t seed, bool representable = true,
+                        double blockChance = 0.35) {
     std::mt19937 rng(seed);
     rvol::Volume v;
     v.depth = depth;
@@ -80,12 +83,14 @@ rvol::Volume makeVolume(std::uint32_t depth, std::uint32_t seed, bool representa
         rvol::Level level;
         level.resolution = 1u << (depth - l);
         level.channels = l == 0 ? 1 : rvol::kDirections;
-        const std::uint32_t blocksPerAxis = (level.resolution + rvol::kBlockCells - 1) / rvol::kBlockCells;
+        const std::uint32_t blocksPerAxis =
+            (level.resolution + rvol::kBlockCells - 1) / rvol::kBlockCells;
         std::vector<std::uint64_t> codes;
         for (std::uint32_t z = 0; z < blocksPerAxis; ++z)
             for (std::uint32_t y = 0; y < blocksPerAxis; ++y)
                 for (std::uint32_t x = 0; x < blocksPerAxis; ++x)
-                    if (blocksPerAxis == 1 || std::uniform_real_distribution<double>(0, 1)(rng) < blockChance)
+                    if (blocksPerAxis == 1 ||
+                        std::uniform_real_distribution<double>(0, 1)(rng) < blockChance)
                         codes.push_back(rvol::morton3(x, y, z));
         std::sort(codes.begin(), codes.end());
         level.blocks = codes;
@@ -94,12 +99,18 @@ rvol::Volume makeVolume(std::uint32_t depth, std::uint32_t seed, bool representa
             const auto block = rvol::demorton3(codes[b]);
             bool any = false;
             for (std::uint32_t i = 0; i < rvol::kBlockTexels; ++i) {
-                const std::uint32_t x = block[0] * 8 + i % 8, y = block[1] * 8 + i / 8 % 8, z = block[2] * 8 + i / 64;
-                if (x >= level.resolution || y >= level.resolution || z >= level.resolution) continue;  // stays zero
+                const std::uint32_t x = block[0] * 8 + i % 8, y = block[1] * 8 + i / 8 % 8,
+                                    z = block[2] * 8 + i / 64;
+                if (x >= level.resolution || y >= level.resolution || z >= level.resolution)
+                    continue;  // stays zero
                 for (std::uint32_t c = 0; c < level.channels; ++c) {
                     rvol::Texel t = representable ? representableTexel(rng) : anyTexel(rng);
-                    if (!any && i == 0 && c == 0 && t == rvol::Texel{}) t = {0.5f, 0.25f, 1.0f, 1.0f};  // no empty block
-                    if (c % 2 == 1) t.a = level.texels[rvol::Level::texelIndex(b, level.channels, c - 1, x, y, z)].a;  // NegX = PosX …
+                    if (!any && i == 0 && c == 0 && t == rvol::Texel{})
+                        t = {0.5f, 0.25f, 1.0f, 1.0f};  // no empty block
+                    if (c % 2 == 1)
+                        t.a =
+                            level.texels[rvol::Level::texelIndex(b, level.channels, c - 1, x, y, z)]
+                                .a;  // NegX = PosX …
                     any = any || t != rvol::Texel{};
                     level.texels[rvol::Level::texelIndex(b, level.channels, c, x, y, z)] = t;
                 }
@@ -112,7 +123,8 @@ rvol::Volume makeVolume(std::uint32_t depth, std::uint32_t seed, bool representa
         std::set<std::uint64_t> used;
         std::uniform_int_distribution<std::uint32_t> cell(0, res - 1);
         std::uniform_real_distribution<float> unit(0, 1), signedUnit(-1, 1), emission(0, 20);
-        for (int i = 0; i < (voxels == &v.staticVoxels ? 60 : 25); ++i) used.insert(rvol::morton3(cell(rng), cell(rng), cell(rng)));
+        for (int i = 0; i < (voxels == &v.staticVoxels ? 60 : 25); ++i)
+            used.insert(rvol::morton3(cell(rng), cell(rng), cell(rng)));
         for (std::uint64_t code : used) {
             rvol::VoxelAttributes a;
             const auto c = rvol::demorton3(code);
@@ -121,8 +133,11 @@ rvol::Volume makeVolume(std::uint32_t depth, std::uint32_t seed, bool representa
             a.coverage = unit(rng);
             std::array<float, 3> n{signedUnit(rng), signedUnit(rng), signedUnit(rng)};
             const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-            a.normal = len > 0.01f ? std::array<float, 3>{n[0] / len, n[1] / len, n[2] / len} : std::array<float, 3>{0, 0, 1};
-            a.emission = code % 3 == 0 ? std::array<float, 3>{emission(rng), emission(rng), emission(rng)} : std::array<float, 3>{0, 0, 0};
+            a.normal = len > 0.01f ? std::array<float, 3>{n[0] / len, n[1] / len, n[2] / len}
+                                   : std::array<float, 3>{0, 0, 1};
+            a.emission = code % 3 == 0
+                             ? std::array<float, 3>{emission(rng), emission(rng), emission(rng)}
+                             : std::array<float, 3>{0, 0, 0};
             a.occlusion = unit(rng);
             voxels->push_back(a);
         }
@@ -132,13 +147,17 @@ rvol::Volume makeVolume(std::uint32_t depth, std::uint32_t seed, bool representa
 
 /// Trilinear interpolation of @p channel of @p level at world @p p, straight from the in-memory
 /// level: the reference that RvolReader::sample must reproduce.
-rvol::Texel trilinear(const rvol::Volume& v, std::uint32_t l, std::uint32_t channel, const std::array<double, 3>& p) {
+rvol::Texel trilinear(const rvol::Volume& v, std::uint32_t l, std::uint32_t channel,
+                      const std::array<double, 3>& p) {
     const rvol::Level& level = v.levels[l];
     std::array<std::uint32_t, 3> i0{};
     std::array<double, 3> f{};
     for (int a = 0; a < 3; ++a) {
-        const double u = std::clamp((p[a] - v.origin[a]) / v.cellSize(l) - 0.5, 0.0, double(level.resolution - 1));
-        i0[a] = level.resolution == 1 ? 0 : std::min(static_cast<std::uint32_t>(u), level.resolution - 2);
+        const double u = std::clamp((p[a] - v.origin[a]) / v.cellSize(l) - 0.5, 0.0,
+                                    double(level.resolution - 1));
+        i0[a] = level.resolution == 1
+                    ? 0
+                    : std::min(static_cast<std::uint32_t>(u), level.resolution - 2);
         f[a] = u - i0[a];
     }
     double sum[4] = {0, 0, 0, 0};
@@ -160,7 +179,8 @@ float rgb9e5Tolerance(const rvol::Texel& t) {
     return std::max(m / 511.5f, 0x1p-25f) * 1.0001f;
 }
 
-void expectTexelNear(const rvol::Texel& got, const rvol::Texel& want, float rgbTolerance, float alphaTolerance, const std::string& what) {
+void expectTexelNear(const rvol::Texel& got, const rvol::Texel& want, float rgbTolerance,
+                     float alphaTolerance, const std::string& what) {
     EXPECT_NEAR(got.r, want.r, rgbTolerance) << what;
     EXPECT_NEAR(got.g, want.g, rgbTolerance) << what;
     EXPECT_NEAR(got.b, want.b, rgbTolerance) << what;
@@ -188,7 +208,9 @@ Outcome openAndValidate(const fs::path& file) {
 /// the (possibly edited) header places outside the file are left alone.
 void fixChecksums(std::vector<std::uint8_t>& bytes) {
     std::uint8_t* h = bytes.data();
-    const auto inside = [&](std::uint64_t offset, std::uint64_t size) { return offset <= bytes.size() && size <= bytes.size() - offset; };
+    const auto inside = [&](std::uint64_t offset, std::uint64_t size) {
+        return offset <= bytes.size() && size <= bytes.size() - offset;
+    };
     const auto crcAt = [&](std::size_t field, std::uint64_t offset, std::uint64_t size) {
         if (inside(offset, size)) store<std::uint32_t>(h + field, vox::crc32c(h + offset, size));
     };
@@ -198,11 +220,13 @@ void fixChecksums(std::vector<std::uint8_t>& bytes) {
     if (levelCount <= 11 && inside(directoryOffset, directoryBytes))
         for (std::uint32_t l = 0; l < levelCount; ++l) {
             const std::uint8_t* e = h + 256 + 32 * l;
-            const auto brickBytes = load<std::uint32_t>(e + 12), count = load<std::uint32_t>(e + 16), first = load<std::uint32_t>(e + 20);
+            const auto brickBytes = load<std::uint32_t>(e + 12),
+                       count = load<std::uint32_t>(e + 16), first = load<std::uint32_t>(e + 20);
             const auto dataOffset = load<std::uint64_t>(e + 24);
             for (std::uint32_t i = 0; i < count; ++i)
                 if (inside(directoryOffset + 12 * (std::uint64_t{first} + i), 12))
-                    crcAt(directoryOffset + 12 * (first + i) + 8, dataOffset + std::uint64_t{i} * brickBytes, brickBytes);
+                    crcAt(directoryOffset + 12 * (first + i) + 8,
+                          dataOffset + std::uint64_t{i} * brickBytes, brickBytes);
         }
     if (levelCount <= 11) crcAt(152, 256, 32 * levelCount);
     crcAt(156, directoryOffset, directoryBytes);
@@ -219,7 +243,9 @@ TEST(Rvol, MortonCodesInterleaveXFirst) {
     EXPECT_EQ(rvol::morton3(1, 0, 0), 1u);
     EXPECT_EQ(rvol::morton3(0, 1, 0), 2u);
     EXPECT_EQ(rvol::morton3(0, 0, 1), 4u);
-    EXPECT_EQ(rvol::morton3(3, 5, 6), 427u);  // x = 011, y = 101, z = 110: 0b110'101'011 (bit i of x, y, z at 3i, 3i+1, 3i+2)
+    EXPECT_EQ(
+        rvol::morton3(3, 5, 6),
+        427u);  // x = 011, y = 101, z = 110: 0b110'101'011 (bit i of x, y, z at 3i, 3i+1, 3i+2)
     EXPECT_EQ(rvol::morton3(0x1FFFFF, 0x1FFFFF, 0x1FFFFF), (std::uint64_t{1} << 63) - 1);
     std::mt19937 rng(5);
     std::uniform_int_distribution<std::uint32_t> coord(0, 0x1FFFFF);
@@ -227,7 +253,8 @@ TEST(Rvol, MortonCodesInterleaveXFirst) {
         const std::uint32_t x = coord(rng), y = coord(rng), z = coord(rng);
         std::uint64_t expected = 0;
         for (int b = 0; b < 21; ++b)
-            expected |= std::uint64_t{(x >> b) & 1u} << (3 * b) | std::uint64_t{(y >> b) & 1u} << (3 * b + 1) |
+            expected |= std::uint64_t{(x >> b) & 1u} << (3 * b) |
+                        std::uint64_t{(y >> b) & 1u} << (3 * b + 1) |
                         std::uint64_t{(z >> b) & 1u} << (3 * b + 2);
         ASSERT_EQ(rvol::morton3(x, y, z), expected);
         ASSERT_EQ(rvol::demorton3(expected), (std::array<std::uint32_t, 3>{x, y, z}));
@@ -244,7 +271,8 @@ TEST(Rvol, LevelFindsBlocksAndCells) {
     const std::int64_t b = level.findBlock(9, 17, 5);
     ASSERT_GE(b, 0);
     EXPECT_EQ(level.blocks[static_cast<std::size_t>(b)], rvol::morton3(1, 2, 0));
-    level.texels[rvol::Level::texelIndex(static_cast<std::size_t>(b), 2, 1, 9, 17, 5)] = {1, 2, 3, 0.5f};
+    level.texels[rvol::Level::texelIndex(static_cast<std::size_t>(b), 2, 1, 9, 17, 5)] = {1, 2, 3,
+                                                                                          0.5f};
     EXPECT_EQ(level.at(9, 17, 5, 1), (rvol::Texel{1, 2, 3, 0.5f}));
     EXPECT_EQ(level.at(9, 17, 5, 0), rvol::Texel{});
     EXPECT_EQ(level.at(10, 17, 5, 1), rvol::Texel{});
@@ -257,7 +285,9 @@ TEST(Rvol, LevelFindsBlocksAndCells) {
 // ---- encodings --------------------------------------------------------------------------------
 
 TEST(Rvol, Rgb9e5FollowsOpenGl) {
-    const auto word = [](std::uint32_t r, std::uint32_t g, std::uint32_t b, std::uint32_t e) { return r | g << 9 | b << 18 | e << 27; };
+    const auto word = [](std::uint32_t r, std::uint32_t g, std::uint32_t b, std::uint32_t e) {
+        return r | g << 9 | b << 18 | e << 27;
+    };
     EXPECT_EQ(rvol::encodeRgb9e5(0, 0, 0), 0u);
     EXPECT_EQ(rvol::decodeRgb9e5(0), (std::array<float, 3>{0, 0, 0}));
     // 1.0: ⌊log2 1⌋ = 0, exponent 16, mantissa 1 · 2^(24 − 16) = 256.
@@ -276,7 +306,8 @@ TEST(Rvol, Rgb9e5FollowsOpenGl) {
     EXPECT_EQ(rvol::encodeRgb9e5(0x1.fp-26f, 0, 0), 0u);
     EXPECT_EQ(rvol::encodeRgb9e5(0x1p-16f, 0, 0), word(256, 0, 0, 0));  // still exponent 0
     EXPECT_EQ(rvol::decodeRgb9e5(word(1, 0, 0, 0))[0], 0x1p-24f);
-    // Rounding to nearest: 1 + 2^-9 is half a step (2^-8) above 1 and rounds up; 1 + 2^-10 rounds down.
+    // Rounding to nearest: 1 + 2^-9 is half a step (2^-8) above 1 and rounds up; 1 + 2^-10 rounds
+    // down.
     EXPECT_EQ(rvol::encodeRgb9e5(1 + 0x1p-9f, 0, 0), word(257, 0, 0, 16));
     EXPECT_EQ(rvol::encodeRgb9e5(1 + 0x1p-10f, 0, 0), word(256, 0, 0, 16));
     // A maximum that rounds up to 2^9 moves to the next exponent: 511.5/256 → 2.0.
@@ -317,15 +348,17 @@ TEST(Rvol, Unorm8AndSrgb8) {
     EXPECT_EQ(rvol::encodeUnorm8(2), 255);
     EXPECT_EQ(rvol::encodeUnorm8(-1), 0);
     EXPECT_EQ(rvol::encodeUnorm8(NAN), 0);
-    for (int k = 0; k < 256; ++k) EXPECT_EQ(rvol::encodeUnorm8(rvol::decodeUnorm8(static_cast<std::uint8_t>(k))), k);
+    for (int k = 0; k < 256; ++k)
+        EXPECT_EQ(rvol::encodeUnorm8(rvol::decodeUnorm8(static_cast<std::uint8_t>(k))), k);
 
     EXPECT_EQ(rvol::encodeSrgb8(0), 0);
     EXPECT_EQ(rvol::encodeSrgb8(1), 255);
-    EXPECT_EQ(rvol::encodeSrgb8(0.5f), 188);      // 1.055 · 0.5^(1/2.4) − 0.055 = 0.7354
-    EXPECT_EQ(rvol::encodeSrgb8(0.002f), 7);      // linear segment: 12.92 · 0.002 · 255 = 6.59
+    EXPECT_EQ(rvol::encodeSrgb8(0.5f), 188);  // 1.055 · 0.5^(1/2.4) − 0.055 = 0.7354
+    EXPECT_EQ(rvol::encodeSrgb8(0.002f), 7);  // linear segment: 12.92 · 0.002 · 255 = 6.59
     EXPECT_NEAR(rvol::decodeSrgb8(188), 0.5029f, 1e-4f);
     EXPECT_NEAR(rvol::decodeSrgb8(10), 10 / 255.0f / 12.92f, 1e-7f);
-    for (int k = 0; k < 256; ++k) EXPECT_EQ(rvol::encodeSrgb8(rvol::decodeSrgb8(static_cast<std::uint8_t>(k))), k) << k;
+    for (int k = 0; k < 256; ++k)
+        EXPECT_EQ(rvol::encodeSrgb8(rvol::decodeSrgb8(static_cast<std::uint8_t>(k))), k) << k;
 }
 
 TEST(Rvol, OctahedralNormals) {
@@ -333,12 +366,15 @@ TEST(Rvol, OctahedralNormals) {
     EXPECT_EQ(rvol::encodeOctahedral({0, 0, 1}), 2048u | 2048u << 12);
     EXPECT_EQ(rvol::encodeOctahedral({1, 0, 0}), 4095u | 2048u << 12);
     EXPECT_EQ(rvol::encodeOctahedral({0, -1, 0}), 2048u | 1u << 12);
-    EXPECT_EQ(rvol::encodeOctahedral({0, 0, -1}), 4095u | 4095u << 12);  // folded to the corner (1, 1)
-    EXPECT_EQ(rvol::encodeOctahedral({0, 0, 0}), 2048u | 2048u << 12);   // degenerate: +z
-    for (const std::array<float, 3>& axis : {std::array<float, 3>{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}})
+    EXPECT_EQ(rvol::encodeOctahedral({0, 0, -1}),
+              4095u | 4095u << 12);  // folded to the corner (1, 1)
+    EXPECT_EQ(rvol::encodeOctahedral({0, 0, 0}), 2048u | 2048u << 12);  // degenerate: +z
+    for (const std::array<float, 3>& axis :
+         {std::array<float, 3>{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}})
         EXPECT_EQ(rvol::decodeOctahedral(rvol::encodeOctahedral(axis)), axis);
     // Bits 24–31 are ignored (the occlusion byte shares the word).
-    EXPECT_EQ(rvol::decodeOctahedral(0xAB000000u | rvol::encodeOctahedral({0, 1, 0})), (std::array<float, 3>{0, 1, 0}));
+    EXPECT_EQ(rvol::decodeOctahedral(0xAB000000u | rvol::encodeOctahedral({0, 1, 0})),
+              (std::array<float, 3>{0, 1, 0}));
 
     std::mt19937 rng(3);
     std::normal_distribution<float> gauss;
@@ -349,10 +385,12 @@ TEST(Rvol, OctahedralNormals) {
         for (float& c : n) c /= len;
         const auto d = rvol::decodeOctahedral(rvol::encodeOctahedral(n));
         ASSERT_NEAR(d[0] * d[0] + d[1] * d[1] + d[2] * d[2], 1.0f, 1e-5f);
-        const double dot = std::min(1.0, double(d[0]) * n[0] + double(d[1]) * n[1] + double(d[2]) * n[2]);
+        const double dot =
+            std::min(1.0, double(d[0]) * n[0] + double(d[1]) * n[1] + double(d[2]) * n[2]);
         worst = std::max(worst, std::acos(dot));
     }
-    std::printf("octahedral 12+12: worst angular error %.4f degrees\n", worst * 180 / 3.14159265358979);
+    std::printf("octahedral 12+12: worst angular error %.4f degrees\n",
+                worst * 180 / 3.14159265358979);
     EXPECT_LT(worst * 180 / 3.14159265358979, 0.08);
 }
 
@@ -368,7 +406,8 @@ TEST(Rvol, BricksShareFacesAndEmptyOnesAreNotStored) {
     l0.blocks = {0};
     l0.texels.assign(rvol::kBlockTexels, {});
     const rvol::Texel a{0.5f, 1.0f, 2.0f, 128 / 255.0f}, b{3.0f, 0.0f, 0.25f, 1.0f};
-    l0.texels[rvol::Level::texelIndex(0, 1, 0, 3, 0, 0)] = a;  // on the face shared by bricks 0 and 1
+    l0.texels[rvol::Level::texelIndex(0, 1, 0, 3, 0, 0)] =
+        a;  // on the face shared by bricks 0 and 1
     l0.texels[rvol::Level::texelIndex(0, 1, 0, 7, 7, 7)] = b;  // inside the last brick only
     const rvol::RvolWriteResult result = rvol::writeRvol(dir / "v.rvol", v, kFourTexels);
     EXPECT_EQ(result.bricks, 3u);
@@ -390,17 +429,22 @@ TEST(Rvol, BricksShareFacesAndEmptyOnesAreNotStored) {
     EXPECT_EQ(reader.brickOffset(0, 2), e.dataOffset + 640);
     EXPECT_EQ(e.dataOffset % 64, 0u);
 
-    const auto texelAt = [](std::uint32_t i, std::uint32_t j, std::uint32_t k) { return (k * 4 + j) * 4 + i; };
-    const std::vector<rvol::Texel> b0 = reader.readBrick(0, 0), b1 = reader.readBrick(0, 1), b2 = reader.readBrick(0, 2);
+    const auto texelAt = [](std::uint32_t i, std::uint32_t j, std::uint32_t k) {
+        return (k * 4 + j) * 4 + i;
+    };
+    const std::vector<rvol::Texel> b0 = reader.readBrick(0, 0), b1 = reader.readBrick(0, 1),
+                                   b2 = reader.readBrick(0, 2);
     for (std::uint32_t t = 0; t < 64; ++t) {
-        EXPECT_EQ(b0[t], t == texelAt(3, 0, 0) ? a : rvol::Texel{}) << t;  // cell 3 is brick 0's last texel …
+        EXPECT_EQ(b0[t], t == texelAt(3, 0, 0) ? a : rvol::Texel{})
+            << t;  // cell 3 is brick 0's last texel …
         EXPECT_EQ(b1[t], t == texelAt(0, 0, 0) ? a : rvol::Texel{}) << t;  // … and brick 1's first
         EXPECT_EQ(b2[t], t == texelAt(1, 1, 1) ? b : rvol::Texel{}) << t;  // cell 7 = 6 + 1
     }
     // The stored bytes: per channel the RGB9E5 plane, then the A8 plane.
     const std::vector<std::uint8_t> raw = reader.readBrickBytes(0, 0);
     ASSERT_EQ(raw.size(), 320u);
-    EXPECT_EQ(load<std::uint32_t>(raw.data() + 4 * texelAt(3, 0, 0)), rvol::encodeRgb9e5(0.5f, 1.0f, 2.0f));
+    EXPECT_EQ(load<std::uint32_t>(raw.data() + 4 * texelAt(3, 0, 0)),
+              rvol::encodeRgb9e5(0.5f, 1.0f, 2.0f));
     EXPECT_EQ(raw[256 + texelAt(3, 0, 0)], 128);
     std::vector<std::uint8_t> rest = raw;  // everything else is zero
     std::fill_n(rest.begin() + 4 * texelAt(3, 0, 0), 4, 0);
@@ -410,20 +454,26 @@ TEST(Rvol, BricksShareFacesAndEmptyOnesAreNotStored) {
     // Sampling across the shared face is continuous, and the cell centre gives the texel.
     const double cell = v.cellSize(0);
     const auto world = [&](double ux, double uy, double uz) {
-        return std::array<double, 3>{v.origin[0] + (ux + 0.5) * cell, v.origin[1] + (uy + 0.5) * cell, v.origin[2] + (uz + 0.5) * cell};
+        return std::array<double, 3>{v.origin[0] + (ux + 0.5) * cell,
+                                     v.origin[1] + (uy + 0.5) * cell,
+                                     v.origin[2] + (uz + 0.5) * cell};
     };
     EXPECT_EQ(reader.sample(0, 0, world(3, 0, 0)), a);
-    const rvol::Texel left = reader.sample(0, 0, world(3 - 1e-9, 0, 0)), right = reader.sample(0, 0, world(3 + 1e-9, 0, 0));
+    const rvol::Texel left = reader.sample(0, 0, world(3 - 1e-9, 0, 0)),
+                      right = reader.sample(0, 0, world(3 + 1e-9, 0, 0));
     EXPECT_NEAR(left.r, a.r, 1e-6);
     EXPECT_NEAR(right.r, a.r, 1e-6);
-    const rvol::Texel half = reader.sample(0, 0, world(3.5, 0, 0));  // halfway to the zero cell 4, in brick 1
+    const rvol::Texel half =
+        reader.sample(0, 0, world(3.5, 0, 0));  // halfway to the zero cell 4, in brick 1
     EXPECT_NEAR(half.g, 0.5f, 1e-6);
-    EXPECT_NEAR(reader.sample(0, 0, world(2.75, 0, 0)).b, 1.5f, 1e-6);  // brick 0, 3/4 of the way to cell 3
-    EXPECT_EQ(reader.sample(0, 0, world(0, 4, 0)), rvol::Texel{});      // brick (0,1,0) not stored
+    EXPECT_NEAR(reader.sample(0, 0, world(2.75, 0, 0)).b, 1.5f,
+                1e-6);  // brick 0, 3/4 of the way to cell 3
+    EXPECT_EQ(reader.sample(0, 0, world(0, 4, 0)), rvol::Texel{});  // brick (0,1,0) not stored
     // Outside the cube: clamped to the edge cells.
     EXPECT_EQ(reader.sample(0, 0, world(100, 100, 100)), b);
     EXPECT_EQ(reader.sample(0, 0, world(3, -50, -50)), a);
-    EXPECT_EQ(rvol::validateRvol(reader).nonZeroTexelsPerLevel, (std::vector<std::uint64_t>{2, 0, 0, 0}));
+    EXPECT_EQ(rvol::validateRvol(reader).nonZeroTexelsPerLevel,
+              (std::vector<std::uint64_t>{2, 0, 0, 0}));
 }
 
 TEST(Rvol, WorkedExampleOfTheSpec) {
@@ -438,7 +488,8 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     l0.texels[0] = {0.5f, 0, 0, 0.5f};
     l0.texels[1] = {0, 1, 0, 1};
     rvol::Level l1{1, 6, {0}, std::vector<rvol::Texel>(6 * rvol::kBlockTexels)};
-    for (std::uint32_t c = 0; c < 6; ++c) l1.texels[rvol::Level::texelIndex(0, 6, c, 0, 0, 0)] = {0.125f, 0.25f, 0, 0.375f};
+    for (std::uint32_t c = 0; c < 6; ++c)
+        l1.texels[rvol::Level::texelIndex(0, 6, c, 0, 0, 0)] = {0.125f, 0.25f, 0, 0.375f};
     l1.texels[rvol::Level::texelIndex(0, 6, 0, 0, 0, 0)] = {0.125f, 0.125f, 0, 0.25f};
     l1.texels[rvol::Level::texelIndex(0, 6, 1, 0, 0, 0)] = {0, 0.25f, 0, 0.25f};
     v.levels = {l0, l1};
@@ -469,12 +520,12 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     for (int i = 0; i < 6; ++i) store<float>(w + 64 + 4 * i, v.sceneBounds[i]);
     EXPECT_EQ(load<std::uint32_t>(w + 64), 0x3DCCCCCDu);  // 0.1f
     EXPECT_EQ(load<std::uint32_t>(w + 76), 0x3FF33333u);  // 1.9f
-    store<std::uint32_t>(w + 88, 2);  // bounces
-    store<float>(w + 96, 8.0f);       // λ (aperture 0)
-    store<std::uint32_t>(w + 100, 1);  // attenuation
-    store<std::uint32_t>(w + 104, 1);  // lights
-    store<std::uint64_t>(w + 112, 2);  // bricks
-    store<std::uint64_t>(w + 120, 1);  // static voxels (0 dynamic)
+    store<std::uint32_t>(w + 88, 2);                      // bounces
+    store<float>(w + 96, 8.0f);                           // λ (aperture 0)
+    store<std::uint32_t>(w + 100, 1);                     // attenuation
+    store<std::uint32_t>(w + 104, 1);                     // lights
+    store<std::uint64_t>(w + 112, 2);                     // bricks
+    store<std::uint64_t>(w + 120, 1);                     // static voxels (0 dynamic)
     store<std::uint64_t>(w + 136, 256);
     store<std::uint64_t>(w + 144, 64);
     store<std::uint32_t>(w + 152, 0x4AC5680Bu);  // level table checksum
@@ -485,13 +536,15 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     store<std::uint64_t>(w + 184, 2048);
     store<std::uint64_t>(w + 192, 2432);
     store<std::uint64_t>(w + 200, 16);
-    store<std::uint64_t>(w + 208, 2496);  // dynamic layer, 0 bytes
+    store<std::uint64_t>(w + 208, 2496);         // dynamic layer, 0 bytes
     store<std::uint32_t>(w + 224, 0x1F01AA95u);  // static layer checksum (dynamic: 0)
     store<std::uint64_t>(w + 232, 2496);
     store<std::uint32_t>(w + 252, 0x5E6FFBE4u);  // header checksum
-    // Level table: resolution, channels, bricks per axis, brick bytes, bricks, first entry, data offset.
-    for (const auto& [at, entry, offset] : {std::tuple{256, std::array<std::uint32_t, 6>{2, 1, 1, 320, 1, 0}, 384},
-                                            std::tuple{288, std::array<std::uint32_t, 6>{1, 6, 1, 1728, 1, 1}, 704}}) {
+    // Level table: resolution, channels, bricks per axis, brick bytes, bricks, first entry, data
+    // offset.
+    for (const auto& [at, entry, offset] :
+         {std::tuple{256, std::array<std::uint32_t, 6>{2, 1, 1, 320, 1, 0}, 384},
+          std::tuple{288, std::array<std::uint32_t, 6>{1, 6, 1, 1728, 1, 1}, 704}}) {
         for (int i = 0; i < 6; ++i) store<std::uint32_t>(w + at + 4 * i, entry[i]);
         store<std::uint64_t>(w + at + 24, static_cast<std::uint64_t>(offset));
     }
@@ -506,16 +559,20 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     // Level 1's brick: the RGB9E5 planes of PosX … NegZ at brick byte 256·c, then the A8 planes
     // of the x, y and z axes at 1536, 1600, 1664.
     for (std::uint32_t c = 0; c < 6; ++c)
-        store<std::uint32_t>(w + 704 + 256 * c, c == 0 ? 0x68020100u : c == 1 ? 0x70020000u : 0x70020080u);
+        store<std::uint32_t>(w + 704 + 256 * c, c == 0   ? 0x68020100u
+                                                : c == 1 ? 0x70020000u
+                                                         : 0x70020080u);
     w[704 + 1536] = 64;
     w[704 + 1600] = 96;
     w[704 + 1664] = 96;
-    // Static layer: Morton code 1, albedo sRGB 188 ×3 and coverage 255, normal +y with occlusion 64.
+    // Static layer: Morton code 1, albedo sRGB 188 ×3 and coverage 255, normal +y with
+    // occlusion 64.
     store<std::uint32_t>(w + 2432, 1);
     store<std::uint32_t>(w + 2436, 0xFFBCBCBCu);
     store<std::uint32_t>(w + 2440, 0x40FFF800u);
     const auto mismatch = std::mismatch(b.begin(), b.end(), want.begin());
-    EXPECT_TRUE(mismatch.first == b.end()) << "first difference at byte " << (mismatch.first - b.begin());
+    EXPECT_TRUE(mismatch.first == b.end())
+        << "first difference at byte " << (mismatch.first - b.begin());
 
     const rvol::RvolReader reader(dir / "ex.rvol");
     EXPECT_EQ(rvol::validateRvol(reader).paddingBytes, 88u);
@@ -529,7 +586,7 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     EXPECT_NEAR(along.a, 0.325493f, 1e-6f);
     EXPECT_NEAR(against.r, 0.078599f, 1e-6f);  // NegX instead of PosX: other light …
     EXPECT_NEAR(against.g, 0.245622f, 1e-6f);
-    EXPECT_EQ(against.a, along.a);          // … the same opacity
+    EXPECT_EQ(against.a, along.a);  // … the same opacity
 }
 
 TEST(Rvol, OpacityIsStoredOncePerAxis) {
@@ -537,9 +594,10 @@ TEST(Rvol, OpacityIsStoredOncePerAxis) {
     // the ± channels of an axis always have the same opacity: bricks of levels ≥ 1 hold six
     // RGB9E5 planes and three A8 planes (x, y, z), level 0's one RGB9E5 and one A8 plane.
     EXPECT_EQ(rvol::brickBytes(4, 6), 6u * 256 + 3 * 64);
-    EXPECT_EQ(rvol::brickBytes(4, 6), 1728u);                // 1.x: 6 × 320 = 1920
-    EXPECT_EQ(rvol::brickBytes(4, 1), 320u);                 // unchanged
-    EXPECT_EQ(rvol::brickBytes(5, 6), 6u * 500 + 3 * 128);  // 125 opacities padded to 128; 1.x: 6 × 628 = 3768
+    EXPECT_EQ(rvol::brickBytes(4, 6), 1728u);  // 1.x: 6 × 320 = 1920
+    EXPECT_EQ(rvol::brickBytes(4, 1), 320u);   // unchanged
+    EXPECT_EQ(rvol::brickBytes(5, 6),
+              6u * 500 + 3 * 128);  // 125 opacities padded to 128; 1.x: 6 × 628 = 3768
     EXPECT_EQ(rvol::brickBytes(5, 1), 628u);
     EXPECT_EQ(rvol::brickBytes(3, 6), 6u * 108 + 3 * 28);
     EXPECT_EQ(rvol::alphaPlanes(1), 1u);
@@ -566,7 +624,8 @@ TEST(Rvol, OpacityIsStoredOncePerAxis) {
     l1.texels.assign(6 * rvol::kBlockTexels, {});
     const float axisAlpha[3] = {51 / 255.0f, 153 / 255.0f, 1.0f};
     for (std::uint32_t c = 0; c < 6; ++c)
-        l1.texels[rvol::Level::texelIndex(0, 6, c, 1, 0, 0)] = {float(c + 1), 0.5f * float(c), 0.25f, axisAlpha[c / 2]};
+        l1.texels[rvol::Level::texelIndex(0, 6, c, 1, 0, 0)] = {float(c + 1), 0.5f * float(c),
+                                                                0.25f, axisAlpha[c / 2]};
     l1.texels[rvol::Level::texelIndex(0, 6, 0, 0, 1, 0)] = {1, 0, 0, 0.2f};
     l1.texels[rvol::Level::texelIndex(0, 6, 1, 0, 1, 0)] = {0, 1, 0, 0.6f};
     const rvol::RvolWriteResult result = rvol::writeRvol(dir / "v.rvol", v, kFourTexels);
@@ -576,7 +635,8 @@ TEST(Rvol, OpacityIsStoredOncePerAxis) {
     EXPECT_EQ(e.brickBytes, 1728u);
     ASSERT_EQ(e.brickCount, 1u);
     EXPECT_EQ(reader.level(0).brickBytes, 320u);
-    EXPECT_EQ(result.radianceBytes, reader.level(0).brickCount * 320u + 1728u + reader.level(2).brickCount * 1728u);
+    EXPECT_EQ(result.radianceBytes,
+              reader.level(0).brickCount * 320u + 1728u + reader.level(2).brickCount * 1728u);
     EXPECT_EQ(result.radianceBytes, rvol::validateRvol(reader).radianceBytes);
 
     // The stored bytes: RGB9E5 planes of PosX … NegZ at 256·c, then the x, y, z A8 planes at
@@ -585,8 +645,11 @@ TEST(Rvol, OpacityIsStoredOncePerAxis) {
     ASSERT_EQ(raw.size(), 1728u);
     const std::size_t t = 1, u = 4;  // texels (1,0,0) and (0,1,0)
     for (std::uint32_t c = 0; c < 6; ++c)
-        EXPECT_EQ(load<std::uint32_t>(raw.data() + 256 * c + 4 * t), rvol::encodeRgb9e5(float(c + 1), 0.5f * float(c), 0.25f)) << c;
-    for (std::uint32_t p = 0; p < 3; ++p) EXPECT_EQ(raw[1536 + 64 * p + t], rvol::encodeUnorm8(axisAlpha[p])) << p;
+        EXPECT_EQ(load<std::uint32_t>(raw.data() + 256 * c + 4 * t),
+                  rvol::encodeRgb9e5(float(c + 1), 0.5f * float(c), 0.25f))
+            << c;
+    for (std::uint32_t p = 0; p < 3; ++p)
+        EXPECT_EQ(raw[1536 + 64 * p + t], rvol::encodeUnorm8(axisAlpha[p])) << p;
     EXPECT_EQ(raw[1536 + u], 102);  // (0.2 + 0.6)/2 = 0.4 → 102
     EXPECT_EQ(raw[1536 + 64 + u], 0);
     EXPECT_EQ(raw[1536 + 128 + u], 0);
@@ -607,13 +670,15 @@ TEST(Rvol, OpacityIsStoredOncePerAxis) {
     // Sampled at the cell's centre, and directionally: +x and −x see the same opacity, not the
     // same light.
     const double cell = v.cellSize(1);
-    const std::array<double, 3> p{v.origin[0] + 1.5 * cell, v.origin[1] + 0.5 * cell, v.origin[2] + 0.5 * cell};
+    const std::array<double, 3> p{v.origin[0] + 1.5 * cell, v.origin[1] + 0.5 * cell,
+                                  v.origin[2] + 0.5 * cell};
     const rvol::Texel posX = reader.sample(1, 0, p), negX = reader.sample(1, 1, p);
     EXPECT_EQ(posX.a, negX.a);
     EXPECT_FLOAT_EQ(posX.a, 0.2f);
     EXPECT_FLOAT_EQ(posX.r, 1);
     EXPECT_FLOAT_EQ(negX.r, 2);
-    const rvol::Texel along = reader.sampleDirectional(1, p, {0.6, 0.8, 0}), against = reader.sampleDirectional(1, p, {-0.6, -0.8, 0});
+    const rvol::Texel along = reader.sampleDirectional(1, p, {0.6, 0.8, 0}),
+                      against = reader.sampleDirectional(1, p, {-0.6, -0.8, 0});
     EXPECT_FLOAT_EQ(along.a, against.a);
     // 1 − Π (1 − a)^(|d_a| / Σ|d|), not the d²-weighted mean 0.36·0.2 + 0.64·0.6 = 0.456.
     EXPECT_NEAR(along.a, 1 - std::pow(0.8, 0.6 / 1.4) * std::pow(0.4, 0.8 / 1.4), 1e-6);
@@ -631,11 +696,13 @@ TEST(Rvol, OpacityIsStoredOncePerAxis) {
 
     // decodeBrick takes 1 or 6 channels and exactly brickBytes.
     EXPECT_THROW((void)rvol::decodeBrick(raw, 4, 2), std::invalid_argument);
-    EXPECT_THROW((void)rvol::decodeBrick(std::vector<std::uint8_t>(1920), 4, 6), std::invalid_argument);  // 1.x's size
+    EXPECT_THROW((void)rvol::decodeBrick(std::vector<std::uint8_t>(1920), 4, 6),
+                 std::invalid_argument);  // 1.x's size
     EXPECT_EQ(rvol::decodeBrick(raw, 4, 6), texels);
 }
 
-// ---- binary level-0 opacity ----------------------------------------------------------------------
+// ---- binary level-0 opacity
+// ----------------------------------------------------------------------
 
 namespace {
 
@@ -645,7 +712,8 @@ rvol::Volume makeBinaryVolume(std::uint32_t depth, std::uint32_t seed) {
     rvol::Volume v = makeVolume(depth, seed);
     std::size_t solid = 0;
     for (rvol::Texel& t : v.levels[0].texels)
-        if (t != rvol::Texel{}) t = solid++ % 3 == 0 ? rvol::Texel{0, 0, 0, 1} : rvol::Texel{t.r, t.g, t.b, 1};
+        if (t != rvol::Texel{})
+            t = solid++ % 3 == 0 ? rvol::Texel{0, 0, 0, 1} : rvol::Texel{t.r, t.g, t.b, 1};
     return v;
 }
 
@@ -702,24 +770,28 @@ TEST(Rvol, BinaryLevel0OpacityWorkedExampleOfTheSpec) {
     store<std::uint64_t>(w + 160, 320);
     store<std::uint64_t>(w + 168, 12);
     store<std::uint64_t>(w + 176, 384);
-    store<std::uint64_t>(w + 184, 512);  // level 0's 500 bytes, the gap to level 1's (empty) data at 896
+    store<std::uint64_t>(w + 184,
+                         512);  // level 0's 500 bytes, the gap to level 1's (empty) data at 896
     store<std::uint64_t>(w + 192, 896);  // static layer, 0 bytes
     store<std::uint64_t>(w + 208, 896);  // dynamic layer, 0 bytes
     store<std::uint64_t>(w + 232, 896);
     store<std::uint32_t>(w + 252, 0x82BF50A6u);  // header checksum
-    for (const auto& [at, entry, offset] : {std::tuple{256, std::array<std::uint32_t, 6>{2, 1, 1, 500, 1, 0}, 384},
-                                            std::tuple{288, std::array<std::uint32_t, 6>{1, 6, 1, 3384, 0, 1}, 896}}) {
+    for (const auto& [at, entry, offset] :
+         {std::tuple{256, std::array<std::uint32_t, 6>{2, 1, 1, 500, 1, 0}, 384},
+          std::tuple{288, std::array<std::uint32_t, 6>{1, 6, 1, 3384, 0, 1}, 896}}) {
         for (int i = 0; i < 6; ++i) store<std::uint32_t>(w + at + 4 * i, entry[i]);
         store<std::uint64_t>(w + at + 24, static_cast<std::uint64_t>(offset));
     }
     store<std::uint32_t>(w + 320 + 8, 0x92C74FC6u);  // brick (0,0,0) of level 0
     // Level 0's brick: the RGB9E5 plane alone, 125 words.
-    store<std::uint32_t>(w + 384, rvol::kSolidBlackWord);  // solid black: the smallest non-zero word
-    store<std::uint32_t>(w + 388, 0x80020000u);            // green (0, 1, 0)
+    store<std::uint32_t>(w + 384,
+                         rvol::kSolidBlackWord);  // solid black: the smallest non-zero word
+    store<std::uint32_t>(w + 388, 0x80020000u);   // green (0, 1, 0)
     EXPECT_EQ(rvol::kSolidBlackWord, 1u);
     EXPECT_EQ(rvol::encodeRgb9e5(0x1p-24f, 0, 0), rvol::kSolidBlackWord);
     const auto mismatch = std::mismatch(b.begin(), b.end(), want.begin());
-    EXPECT_TRUE(mismatch.first == b.end()) << "first difference at byte " << (mismatch.first - b.begin());
+    EXPECT_TRUE(mismatch.first == b.end())
+        << "first difference at byte " << (mismatch.first - b.begin());
 
     const rvol::RvolReader reader(dir / "ex.rvol");
     EXPECT_EQ(rvol::validateRvol(reader).paddingBytes, 64u);
@@ -728,7 +800,8 @@ TEST(Rvol, BinaryLevel0OpacityWorkedExampleOfTheSpec) {
     EXPECT_EQ(texels[1], (rvol::Texel{0, 1, 0, 1}));
     EXPECT_EQ(texels[5], rvol::Texel{});  // cell (0,1,0): empty
     // Halfway between the black and the green cell; halfway between the black cell and empty space.
-    const rvol::Texel between = reader.sample(0, 0, {1.0, 0.5, 0.5}), edge = reader.sample(0, 0, {0.5, 1.0, 0.5});
+    const rvol::Texel between = reader.sample(0, 0, {1.0, 0.5, 0.5}),
+                      edge = reader.sample(0, 0, {0.5, 1.0, 0.5});
     EXPECT_EQ(between, (rvol::Texel{0x1p-25f, 0.5f, 0, 1}));
     EXPECT_EQ(edge, (rvol::Texel{0x1p-25f, 0, 0, 0.5f}));
     EXPECT_EQ(reader.sampleDirectional(0, {0.5, 1.0, 0.5}, {0, 1, 0}), edge);
@@ -744,7 +817,8 @@ TEST(Rvol, BinaryLevel0OpacityIsChosenOnlyWhenEveryOpacityIs0Or1) {
         EXPECT_EQ(binary, reader.header().binaryLevel0Opacity());
         EXPECT_EQ(reader.header().versionMajor, 3u);
         EXPECT_EQ(reader.level(0).brickBytes, rvol::brickBytes(options.brickTexels, 1, binary));
-        EXPECT_EQ(reader.level(1).brickBytes, rvol::brickBytes(options.brickTexels, 6));  // unchanged above level 0
+        EXPECT_EQ(reader.level(1).brickBytes,
+                  rvol::brickBytes(options.brickTexels, 6));  // unchanged above level 0
         const rvol::RvolReport report = rvol::validateRvol(reader);
         EXPECT_EQ(report.radianceBytes, result.radianceBytes);
         EXPECT_EQ(report.paddingBytes, result.paddingBytes);
@@ -766,11 +840,13 @@ TEST(Rvol, BinaryLevel0OpacityIsChosenOnlyWhenEveryOpacityIs0Or1) {
     EXPECT_EQ(withA8.bricksPerLevel, result.bricksPerLevel);
     EXPECT_EQ(withA8.radianceBytes - result.radianceBytes, 128 * result.bricksPerLevel[0]);
     EXPECT_EQ(withA8.bricks, result.bricks);
-    {   // The A8 layout reads black solid cells back as (0, 0, 0, 1); the binary one (below) as (2^-24, 0, 0, 1).
+    {  // The A8 layout reads black solid cells back as (0, 0, 0, 1); the binary one (below) as
+       // (2^-24, 0, 0, 1).
         const rvol::Volume back = rvol::RvolReader(dir / "v.rvol").readVolume();
         EXPECT_TRUE(back.levels[0].texels == v.levels[0].texels);
         write(v);
-        EXPECT_TRUE(rvol::RvolReader(dir / "v.rvol").readVolume().levels[0].texels == decodedBinary(v).levels[0].texels);
+        EXPECT_TRUE(rvol::RvolReader(dir / "v.rvol").readVolume().levels[0].texels ==
+                    decodedBinary(v).levels[0].texels);
     }
 
     const auto withCell = [&](rvol::Texel t) {
@@ -778,12 +854,14 @@ TEST(Rvol, BinaryLevel0OpacityIsChosenOnlyWhenEveryOpacityIs0Or1) {
         w.levels[0].texels[rvol::Level::texelIndex(0, 1, 0, 1, 2, 3)] = t;
         return w;
     };
-    EXPECT_FALSE(write(withCell({1, 1, 1, 0.5f})).first);   // a fractional opacity
-    EXPECT_FALSE(write(withCell({1, 0, 0, 0})).first);      // radiance without opacity: a word ≠ 0 would read as solid
+    EXPECT_FALSE(write(withCell({1, 1, 1, 0.5f})).first);  // a fractional opacity
+    EXPECT_FALSE(write(withCell({1, 0, 0, 0}))
+                     .first);  // radiance without opacity: a word ≠ 0 would read as solid
     EXPECT_FALSE(write(withCell({0, 0, 0, 0.01f})).first);  // A8 3
     EXPECT_TRUE(write(withCell({1e-9f, 0, 0, 0})).first);   // encodes to word 0 and A8 0: empty
-    EXPECT_TRUE(write(withCell({0, 0, 0, 0.999f})).first);  // A8 255, as the A8 layout stores it: solid
-    EXPECT_TRUE(write(withCell({0.5f, 0, 0, 1.5f})).first); // clamped to 1
+    EXPECT_TRUE(
+        write(withCell({0, 0, 0, 0.999f})).first);  // A8 255, as the A8 layout stores it: solid
+    EXPECT_TRUE(write(withCell({0.5f, 0, 0, 1.5f})).first);  // clamped to 1
     // Fractional opacities of levels ≥ 1 do not matter (makeVolume has them); other brick sizes.
     for (std::uint32_t n : {2u, 3u, 4u, 8u}) EXPECT_TRUE(write(v, {n, true}).first) << n;
     // A volume with nothing at level 0 qualifies trivially.
@@ -802,11 +880,12 @@ TEST(Rvol, BinaryLevel0OpacityRoundTripsAndSamplesAsTrilinear) {
         const fs::path file = dir / "v.rvol";
         const rvol::RvolWriteResult result = rvol::writeRvol(file, v, {n, true});
         ASSERT_TRUE(result.binaryLevel0Opacity);
-        EXPECT_EQ(result.headerBytes + result.levelTableBytes + result.directoryBytes + result.radianceBytes + result.attributeBytes +
-                      result.paddingBytes,
+        EXPECT_EQ(result.headerBytes + result.levelTableBytes + result.directoryBytes +
+                      result.radianceBytes + result.attributeBytes + result.paddingBytes,
                   result.fileBytes);
         const rvol::RvolReader reader(file);
-        EXPECT_EQ(reader.header().flags, rvol::kFlagStaticAttributes | rvol::kFlagBinaryLevel0Opacity);
+        EXPECT_EQ(reader.header().flags,
+                  rvol::kFlagStaticAttributes | rvol::kFlagBinaryLevel0Opacity);
         EXPECT_EQ(reader.level(0).brickBytes, 4u * n * n * n);
         const rvol::RvolReport report = rvol::validateRvol(reader);
         EXPECT_EQ(report.radianceBytes, result.radianceBytes);
@@ -822,12 +901,14 @@ TEST(Rvol, BinaryLevel0OpacityRoundTripsAndSamplesAsTrilinear) {
             const std::vector<rvol::Texel> texels = reader.readBrick(0, i);
             ASSERT_EQ(texels.size(), std::size_t{n} * n * n);
             EXPECT_EQ(rvol::decodeBrick(raw, n, 1, true), texels);
-            EXPECT_THROW((void)rvol::decodeBrick(raw, n, 1), std::invalid_argument);  // the A8 layout's size differs
+            EXPECT_THROW((void)rvol::decodeBrick(raw, n, 1),
+                         std::invalid_argument);  // the A8 layout's size differs
             for (std::uint32_t k = 0; k < n; ++k)
                 for (std::uint32_t j = 0; j < n; ++j)
                     for (std::uint32_t ii = 0; ii < n; ++ii) {
                         const std::size_t t = (std::size_t{k} * n + j) * n + ii;
-                        const rvol::Texel cell = v.levels[0].at(e.x * step + ii, e.y * step + j, e.z * step + k, 0);
+                        const rvol::Texel cell =
+                            v.levels[0].at(e.x * step + ii, e.y * step + j, e.z * step + k, 0);
                         const std::uint32_t word = load<std::uint32_t>(raw.data() + 4 * t);
                         if (cell == rvol::Texel{}) {
                             ASSERT_EQ(word, 0u);
@@ -836,7 +917,8 @@ TEST(Rvol, BinaryLevel0OpacityRoundTripsAndSamplesAsTrilinear) {
                         } else if (cell == rvol::Texel{0, 0, 0, 1}) {
                             ASSERT_EQ(word, rvol::kSolidBlackWord);
                             ASSERT_EQ(texels[t].a, 1.0f);
-                            ASSERT_LE(std::max({texels[t].r, texels[t].g, texels[t].b}), 6e-8f);  // 2^-24 ≈ 5.96e-8
+                            ASSERT_LE(std::max({texels[t].r, texels[t].g, texels[t].b}),
+                                      6e-8f);  // 2^-24 ≈ 5.96e-8
                             ++black;
                         } else {
                             ASSERT_EQ(word, rvol::encodeRgb9e5(cell.r, cell.g, cell.b));
@@ -866,9 +948,13 @@ TEST(Rvol, BinaryLevel0OpacityRoundTripsAndSamplesAsTrilinear) {
                 for (int a = 0; a < 3; ++a) p[a] = v.origin[a] + v.size * inside(rng);
                 if (i % 4 == 0)  // on cell centres and brick faces
                     for (int a = 0; a < 3; ++a)
-                        p[a] = v.origin[a] + (std::floor(inside(rng) * v.levels[l].resolution / step) * step + 0.5) * v.cellSize(l);
+                        p[a] =
+                            v.origin[a] +
+                            (std::floor(inside(rng) * v.levels[l].resolution / step) * step + 0.5) *
+                                v.cellSize(l);
                 for (std::uint32_t c = 0; c < v.levels[l].channels; ++c) {
-                    const rvol::Texel want = trilinear(expected, l, c, p), got = reader.sample(l, c, p);
+                    const rvol::Texel want = trilinear(expected, l, c, p),
+                                      got = reader.sample(l, c, p);
                     const float tol = std::max({want.r, want.g, want.b, 1e-3f}) * 2e-6f;
                     ASSERT_NEAR(got.r, want.r, tol) << "level " << l;
                     ASSERT_NEAR(got.g, want.g, tol);
@@ -899,8 +985,8 @@ TEST(Rvol, RoundTripIsExactForRepresentableTexels) {
         const fs::path file = dir / ("v" + std::to_string(n) + ".rvol");
         const rvol::RvolWriteResult result = rvol::writeRvol(file, v, {n, true});
         EXPECT_EQ(result.fileBytes, fs::file_size(file));
-        EXPECT_EQ(result.headerBytes + result.levelTableBytes + result.directoryBytes + result.radianceBytes + result.attributeBytes +
-                      result.paddingBytes,
+        EXPECT_EQ(result.headerBytes + result.levelTableBytes + result.directoryBytes +
+                      result.radianceBytes + result.attributeBytes + result.paddingBytes,
                   result.fileBytes);
         EXPECT_EQ(result.staticVoxels, v.staticVoxels.size());
         EXPECT_EQ(result.dynamicVoxels, v.dynamicVoxels.size());
@@ -920,7 +1006,8 @@ TEST(Rvol, RoundTripIsExactForRepresentableTexels) {
         for (std::uint32_t l = 0; l <= 5; ++l) {
             EXPECT_EQ(reader.level(l).channels, l == 0 ? 1u : 6u);
             // Level 0: an RGB9E5 and an A8 plane; above: six RGB9E5 planes and three A8 planes.
-            EXPECT_EQ(reader.level(l).brickBytes, (l == 0 ? 1 : 6) * rvol::rgbPlaneBytes(n) + (l == 0 ? 1 : 3) * rvol::alphaPlaneBytes(n));
+            EXPECT_EQ(reader.level(l).brickBytes, (l == 0 ? 1 : 6) * rvol::rgbPlaneBytes(n) +
+                                                      (l == 0 ? 1 : 3) * rvol::alphaPlaneBytes(n));
             EXPECT_EQ(reader.level(l).brickCount, result.bricksPerLevel[l]);
         }
 
@@ -928,7 +1015,8 @@ TEST(Rvol, RoundTripIsExactForRepresentableTexels) {
         EXPECT_EQ(report.bricksPerLevel, result.bricksPerLevel);
         EXPECT_EQ(report.radianceBytes, result.radianceBytes);
         EXPECT_EQ(report.paddingBytes, result.paddingBytes);
-        EXPECT_EQ(report.headerBytes + report.levelTableBytes + report.directoryBytes + report.radianceBytes + report.staticAttributeBytes +
+        EXPECT_EQ(report.headerBytes + report.levelTableBytes + report.directoryBytes +
+                      report.radianceBytes + report.staticAttributeBytes +
                       report.dynamicAttributeBytes + report.paddingBytes,
                   report.fileBytes);
         // Distinct non-zero cells equal the in-memory count.
@@ -939,7 +1027,8 @@ TEST(Rvol, RoundTripIsExactForRepresentableTexels) {
                 for (std::uint32_t y = 0; y < level.resolution; ++y)
                     for (std::uint32_t x = 0; x < level.resolution; ++x) {
                         bool any = false;
-                        for (std::uint32_t c = 0; c < level.channels; ++c) any = any || level.at(x, y, z, c) != rvol::Texel{};
+                        for (std::uint32_t c = 0; c < level.channels; ++c)
+                            any = any || level.at(x, y, z, c) != rvol::Texel{};
                         cells += any;
                     }
             EXPECT_EQ(report.nonZeroTexelsPerLevel[l], cells) << "level " << l;
@@ -969,12 +1058,16 @@ TEST(Rvol, RoundTripIsExactForRepresentableTexels) {
                 const rvol::VoxelAttributes &a = got[i], &o = original[i];
                 EXPECT_EQ(std::tie(a.x, a.y, a.z), std::tie(o.x, o.y, o.z));
                 for (int c = 0; c < 3; ++c) {
-                    EXPECT_NEAR(a.albedo[c], o.albedo[c], 0.0046f);  // half an sRGB8 step, × the curve's slope ≤ 2.3
-                    EXPECT_NEAR(a.emission[c], o.emission[c], std::max({o.emission[0], o.emission[1], o.emission[2]}) / 511.5f + 1e-6f);
+                    EXPECT_NEAR(a.albedo[c], o.albedo[c],
+                                0.0046f);  // half an sRGB8 step, × the curve's slope ≤ 2.3
+                    EXPECT_NEAR(
+                        a.emission[c], o.emission[c],
+                        std::max({o.emission[0], o.emission[1], o.emission[2]}) / 511.5f + 1e-6f);
                 }
                 EXPECT_NEAR(a.coverage, o.coverage, 0.5f / 255 + 1e-6f);
                 EXPECT_NEAR(a.occlusion, o.occlusion, 0.5f / 255 + 1e-6f);
-                const float dot = a.normal[0] * o.normal[0] + a.normal[1] * o.normal[1] + a.normal[2] * o.normal[2];
+                const float dot = a.normal[0] * o.normal[0] + a.normal[1] * o.normal[1] +
+                                  a.normal[2] * o.normal[2];
                 EXPECT_GT(dot, std::cos(0.08f * 3.14159265f / 180));
             }
         }
@@ -996,7 +1089,8 @@ TEST(Rvol, ArbitraryTexelsRoundTripWithinEncodingPrecision) {
                     for (std::uint32_t c = 0; c < a.channels; ++c) {
                         const rvol::Texel want = a.at(x, y, z, c), got = b.at(x, y, z, c);
                         expectTexelNear(got, want, rgb9e5Tolerance(want), 0.5f / 255 + 1e-7f,
-                                        "level " + std::to_string(l) + " cell " + std::to_string(x) + "," + std::to_string(y) + "," +
+                                        "level " + std::to_string(l) + " cell " +
+                                            std::to_string(x) + "," + std::to_string(y) + "," +
                                             std::to_string(z) + " channel " + std::to_string(c));
                         ++compared;
                         inexact += got != want;
@@ -1019,7 +1113,8 @@ TEST(Rvol, OutputIsDeterministic) {
     // Reading and writing again gives the same file: the encodings are idempotent.
     rvol::writeRvol(dir / "c.rvol", rvol::RvolReader(dir / "a.rvol").readVolume(), kFourTexels);
     EXPECT_TRUE(a == readBytes(dir / "c.rvol"));
-    EXPECT_EQ(dir.files(), (std::vector<std::string>{"a.rvol", "b.rvol", "c.rvol"}));  // no temporaries left
+    EXPECT_EQ(dir.files(),
+              (std::vector<std::string>{"a.rvol", "b.rvol", "c.rvol"}));  // no temporaries left
 }
 
 TEST(Rvol, StaticAttributesCanBeLeftOut) {
@@ -1047,7 +1142,8 @@ TEST(Rvol, EmptyVolume) {
     EXPECT_EQ(rvol::validateRvol(reader).bricks, 0u);
     EXPECT_EQ(reader.sample(0, 0, {0, 1, 2}), rvol::Texel{});
     EXPECT_TRUE(reader.readVolume().levels[0].blocks.empty());
-    EXPECT_EQ(result.fileBytes, 384u);  // header 256, level table 3 × 32 = 96 → 352, padded to 384, nothing else
+    EXPECT_EQ(result.fileBytes,
+              384u);  // header 256, level table 3 × 32 = 96 → 352, padded to 384, nothing else
 }
 
 // ---- sampling ---------------------------------------------------------------------------------
@@ -1066,20 +1162,24 @@ TEST(Rvol, SampleEqualsTrilinearInterpolationOfTheLevel) {
             const std::uint32_t res = v.levels[l].resolution, step = n - 1;
             std::vector<std::array<double, 3>> points;
             for (int i = 0; i < 300; ++i)
-                points.push_back({v.origin[0] + v.size * inside(rng), v.origin[1] + v.size * inside(rng), v.origin[2] + v.size * inside(rng)});
+                points.push_back({v.origin[0] + v.size * inside(rng),
+                                  v.origin[1] + v.size * inside(rng),
+                                  v.origin[2] + v.size * inside(rng)});
             // Exactly on brick boundaries and cell centres, and just either side of a boundary.
             std::uniform_int_distribution<std::uint32_t> brick(0, reader.level(l).bricksPerAxis);
             for (int i = 0; i < 100; ++i) {
                 std::array<double, 3> p{};
                 const double eps = (i % 3 - 1) * 1e-7;
-                for (int a = 0; a < 3; ++a) p[a] = v.origin[a] + ((brick(rng) * step) + 0.5 + eps) * v.cellSize(l);
+                for (int a = 0; a < 3; ++a)
+                    p[a] = v.origin[a] + ((brick(rng) * step) + 0.5 + eps) * v.cellSize(l);
                 points.push_back(p);
             }
             for (const auto& p : points)
                 for (std::uint32_t c = 0; c < v.levels[l].channels; ++c) {
                     const rvol::Texel want = trilinear(v, l, c, p), got = reader.sample(l, c, p);
                     const float tol = std::max({want.r, want.g, want.b, want.a, 1e-3f}) * 2e-6f;
-                    ASSERT_NEAR(got.r, want.r, tol) << "level " << l << " channel " << c << " res " << res;
+                    ASSERT_NEAR(got.r, want.r, tol)
+                        << "level " << l << " channel " << c << " res " << res;
                     ASSERT_NEAR(got.g, want.g, tol);
                     ASSERT_NEAR(got.b, want.b, tol);
                     ASSERT_NEAR(got.a, want.a, 2e-6f);
@@ -1096,11 +1196,15 @@ TEST(Rvol, SampleOfQuantisedTexelsIsWithinPrecision) {
     std::mt19937 rng(1);
     std::uniform_real_distribution<double> inside(0, 1);
     for (int i = 0; i < 2000; ++i) {
-        const std::array<double, 3> p{v.origin[0] + v.size * inside(rng), v.origin[1] + v.size * inside(rng), v.origin[2] + v.size * inside(rng)};
-        const std::uint32_t l = static_cast<std::uint32_t>(i % (v.depth + 1)), c = static_cast<std::uint32_t>(i % v.levels[l].channels);
+        const std::array<double, 3> p{v.origin[0] + v.size * inside(rng),
+                                      v.origin[1] + v.size * inside(rng),
+                                      v.origin[2] + v.size * inside(rng)};
+        const std::uint32_t l = static_cast<std::uint32_t>(i % (v.depth + 1)),
+                            c = static_cast<std::uint32_t>(i % v.levels[l].channels);
         const rvol::Texel want = trilinear(v, l, c, p), got = reader.sample(l, c, p);
         // A convex combination of texels each off by at most 40/511.5 and 0.5/255.
-        expectTexelNear(got, want, 40 / 511.5f * 1.0001f, 0.5f / 255 + 1e-6f, "sample " + std::to_string(i));
+        expectTexelNear(got, want, 40 / 511.5f * 1.0001f, 0.5f / 255 + 1e-6f,
+                        "sample " + std::to_string(i));
     }
 }
 
@@ -1116,7 +1220,8 @@ TEST(Rvol, DirectionalSamplesBlendColourBySquaredCosinesAndMultiplyTransmittance
         for (std::uint32_t z = 0; z < 4; ++z)
             for (std::uint32_t y = 0; y < 4; ++y)
                 for (std::uint32_t x = 0; x < 4; ++x)
-                    l1.texels[rvol::Level::texelIndex(0, 6, c, x, y, z)] = {float(c + 1), float(10 * (c + 1)), 0.5f, (c / 2 + 1) / 10.0f};
+                    l1.texels[rvol::Level::texelIndex(0, 6, c, x, y, z)] = {
+                        float(c + 1), float(10 * (c + 1)), 0.5f, (c / 2 + 1) / 10.0f};
     rvol::writeRvol(dir / "v.rvol", v, kFourTexels);
     const rvol::RvolReader reader(dir / "v.rvol");
     const std::array<double, 3> p{v.origin[0] + 1.3, v.origin[1] + 0.7, v.origin[2] + 2.2};
@@ -1124,9 +1229,10 @@ TEST(Rvol, DirectionalSamplesBlendColourBySquaredCosinesAndMultiplyTransmittance
     // Decoded values of the constant channels (alpha quantised to 8 bits).
     EXPECT_NEAR(channelValue(0).r, 1, 1e-6);
     EXPECT_NEAR(channelValue(static_cast<std::uint32_t>(rvol::Direction::NegY)).g, 40, 1e-5);
-    // The spec's directional sample: colour blended by d_a²/|d|², opacity 1 − Π (1 − a)^(|d_a|/Σ|d|),
-    // the colour rescaled to that opacity.
-    const auto expectMix = [&](std::array<double, 3> d, std::array<std::pair<rvol::Direction, double>, 3> mix) {
+    // The spec's directional sample: colour blended by d_a²/|d|², opacity 1 − Π (1 −
+    // a)^(|d_a|/Σ|d|), the colour rescaled to that opacity.
+    const auto expectMix = [&](std::array<double, 3> d,
+                               std::array<std::pair<rvol::Direction, double>, 3> mix) {
         double r = 0, blend = 0, transmittance = 1;
         const double sumAbs = std::abs(d[0]) + std::abs(d[1]) + std::abs(d[2]);
         for (const auto& [channel, w] : mix) {
@@ -1167,18 +1273,26 @@ TEST(Rvol, SamplingIsThreadSafeWithASmallCache) {
     std::vector<std::array<double, 3>> points;
     std::mt19937 rng(4);
     std::uniform_real_distribution<double> inside(0, 1);
-    for (int i = 0; i < 4000; ++i) points.push_back({v.origin[0] + 3 * inside(rng), v.origin[1] + 3 * inside(rng), v.origin[2] + 3 * inside(rng)});
+    for (int i = 0; i < 4000; ++i)
+        points.push_back({v.origin[0] + 3 * inside(rng), v.origin[1] + 3 * inside(rng),
+                          v.origin[2] + 3 * inside(rng)});
     std::vector<rvol::Texel> expected;
-    for (std::size_t i = 0; i < points.size(); ++i) expected.push_back(trilinear(v, i % 3, i % 3 == 0 ? 0 : i % 6, points[i]));
+    for (std::size_t i = 0; i < points.size(); ++i)
+        expected.push_back(trilinear(v, i % 3, i % 3 == 0 ? 0 : i % 6, points[i]));
     std::vector<std::thread> threads;
     std::vector<int> mismatches(4, 0);
     for (int t = 0; t < 4; ++t)
         threads.emplace_back([&, t] {
             for (std::size_t i = static_cast<std::size_t>(t); i < points.size() * 4; i += 3) {
                 const std::size_t k = i % points.size();
-                const rvol::Texel got = reader.sample(static_cast<std::uint32_t>(k % 3), k % 3 == 0 ? 0 : static_cast<std::uint32_t>(k % 6), points[k]);
-                const float tol = std::max({expected[k].r, expected[k].g, expected[k].b, 1e-3f}) * 2e-6f;
-                if (std::abs(got.r - expected[k].r) > tol || std::abs(got.a - expected[k].a) > 2e-6f) ++mismatches[t];
+                const rvol::Texel got =
+                    reader.sample(static_cast<std::uint32_t>(k % 3),
+                                  k % 3 == 0 ? 0 : static_cast<std::uint32_t>(k % 6), points[k]);
+                const float tol =
+                    std::max({expected[k].r, expected[k].g, expected[k].b, 1e-3f}) * 2e-6f;
+                if (std::abs(got.r - expected[k].r) > tol ||
+                    std::abs(got.a - expected[k].a) > 2e-6f)
+                    ++mismatches[t];
             }
         });
     for (auto& t : threads) t.join();
@@ -1202,7 +1316,8 @@ void expectCorruptionsRejected(const fs::path& good) {
     const fs::path bad = good.parent_path() / "bad.rvol";
     std::uint64_t tried = 0;
     const auto expectInvalid = [&](const std::vector<std::uint8_t>& data, const std::string& what) {
-        // Removed first: rewriting a truncated file in place makes ext4 flush it on close (auto_da_alloc).
+        // Removed first: rewriting a truncated file in place makes ext4 flush it on close
+        // (auto_da_alloc).
         fs::remove(bad);
         vox::test::writeBinary(bad, data);
         ++tried;
@@ -1216,17 +1331,23 @@ void expectCorruptionsRejected(const fs::path& good) {
         data[i] ^= static_cast<std::uint8_t>(1u << (i % 8));
         expectInvalid(data, "byte " + std::to_string(i) + " flipped");
     }
-    for (std::uint64_t i = h.staticAttributesOffset - 1; i < bytes.size(); i += 5) {  // every attribute record, and the gap before it
+    for (std::uint64_t i = h.staticAttributesOffset - 1; i < bytes.size();
+         i += 5) {  // every attribute record, and the gap before it
         std::vector<std::uint8_t> data = bytes;
         data[i] ^= 0x80;
         expectInvalid(data, "attribute byte " + std::to_string(i) + " flipped");
     }
-    std::printf("%llu corrupted variants of a %zu-byte file\n", static_cast<unsigned long long>(tried), bytes.size());
+    std::printf("%llu corrupted variants of a %zu-byte file\n",
+                static_cast<unsigned long long>(tried), bytes.size());
     EXPECT_GT(tried, 1500u);
-    // Truncated (inside the header, level table, directory, bricks, attributes; a byte short) and appended to.
-    for (std::uint64_t size : {std::uint64_t{0}, std::uint64_t{4}, std::uint64_t{255}, std::uint64_t{256}, std::uint64_t{300},
-                               h.directoryOffset + 5, h.brickDataOffset + 1000, h.staticAttributesOffset + 16, std::uint64_t{bytes.size() - 1}})
-        expectInvalid(std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(size)),
+    // Truncated (inside the header, level table, directory, bricks, attributes; a byte short) and
+    // appended to.
+    for (std::uint64_t size :
+         {std::uint64_t{0}, std::uint64_t{4}, std::uint64_t{255}, std::uint64_t{256},
+          std::uint64_t{300}, h.directoryOffset + 5, h.brickDataOffset + 1000,
+          h.staticAttributesOffset + 16, std::uint64_t{bytes.size() - 1}})
+        expectInvalid(std::vector<std::uint8_t>(bytes.begin(),
+                                                bytes.begin() + static_cast<std::ptrdiff_t>(size)),
                       "truncated to " + std::to_string(size));
     std::vector<std::uint8_t> appended = bytes;
     appended.push_back(0);
@@ -1239,7 +1360,8 @@ void expectCorruptionsRejected(const fs::path& good) {
 TEST(Rvol, CorruptedFilesAreInvalidData) {
     ScratchDir dir;
     rvol::writeRvol(dir / "good.rvol", makeVolume(4, 5), kFourTexels);
-    ASSERT_EQ(rvol::RvolReader(dir / "good.rvol").header().flags & rvol::kFlagBinaryLevel0Opacity, 0u);  // fractional opacities: A8
+    ASSERT_EQ(rvol::RvolReader(dir / "good.rvol").header().flags & rvol::kFlagBinaryLevel0Opacity,
+              0u);  // fractional opacities: A8
     expectCorruptionsRejected(dir / "good.rvol");
 }
 
@@ -1266,12 +1388,12 @@ TEST(Rvol, BinaryLevel0OpacityCorruptionIsInvalidData) {
             EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
         }
     };
-    {   // The flag cleared (or set on an A8 file): level 0's brick size no longer matches.
+    {  // The flag cleared (or set on an A8 file): level 0's brick size no longer matches.
         std::vector<std::uint8_t> data = bytes;
         data[28] &= static_cast<std::uint8_t>(~rvol::kFlagBinaryLevel0Opacity);
         rejectedWith(data, "level table, level 0: bricks per axis or brick size wrong");
     }
-    {   // A shared face's word changed in one brick only (a solid cell made empty, or the reverse).
+    {  // A shared face's word changed in one brick only (a solid cell made empty, or the reverse).
         bool found = false;
         for (std::uint32_t i = 0; i < l0.brickCount && !found; ++i) {
             const rvol::BrickEntry& b = reader.bricks(0)[i];
@@ -1279,25 +1401,29 @@ TEST(Rvol, BinaryLevel0OpacityCorruptionIsInvalidData) {
             std::vector<std::uint8_t> data = bytes;
             const std::uint64_t texel = 3 + 4 * (1 + 4 * 2);  // (3, 1, 2): on the +x face
             data[reader.brickOffset(0, i) + 4 * texel] ^= 0x01;
-            rejectedWith(data, "shared face with brick (" + std::to_string(b.x + 1) + "," + std::to_string(b.y) + "," + std::to_string(b.z) +
+            rejectedWith(data, "shared face with brick (" + std::to_string(b.x + 1) + "," +
+                                   std::to_string(b.y) + "," + std::to_string(b.z) +
                                    ") differs (channel 0)");
             found = true;
         }
         EXPECT_TRUE(found);
     }
-    {   // A brick made all zero: every word 0, every cell empty.
+    {  // A brick made all zero: every word 0, every cell empty.
         std::vector<std::uint8_t> data = bytes;
-        std::fill_n(data.begin() + static_cast<std::ptrdiff_t>(reader.brickOffset(0, 0)), l0.brickBytes, 0);
+        std::fill_n(data.begin() + static_cast<std::ptrdiff_t>(reader.brickOffset(0, 0)),
+                    l0.brickBytes, 0);
         rejectedWith(data, "level 0, brick 0");
     }
-    {   // A non-zero word (a solid cell) on a face towards a brick that is not stored.
+    {  // A non-zero word (a solid cell) on a face towards a brick that is not stored.
         bool found = false;
         for (std::uint32_t i = 0; i < l0.brickCount && !found; ++i) {
             const rvol::BrickEntry& b = reader.bricks(0)[i];
-            if (b.x + 1u >= l0.bricksPerAxis || reader.findBrick(0, b.x + 1u, b.y, b.z) >= 0) continue;
+            if (b.x + 1u >= l0.bricksPerAxis || reader.findBrick(0, b.x + 1u, b.y, b.z) >= 0)
+                continue;
             std::vector<std::uint8_t> data = bytes;
             const std::uint64_t texel = 3 + 4 * (1 + 4 * 2);
-            store<std::uint32_t>(data.data() + reader.brickOffset(0, i) + 4 * texel, rvol::kSolidBlackWord);
+            store<std::uint32_t>(data.data() + reader.brickOffset(0, i) + 4 * texel,
+                                 rvol::kSolidBlackWord);
             rejectedWith(data, "which is not stored, is not zero");
             found = true;
         }
@@ -1329,27 +1455,36 @@ TEST(Rvol, ErrorMessagesSayWhere) {
         return data;
     };
     EXPECT_EQ(message(flipped(40)), bad.string() + ": header: checksum mismatch");
-    EXPECT_EQ(message(flipped(h.levelTableOffset + 3)), bad.string() + ": level table: checksum mismatch");
-    EXPECT_EQ(message(flipped(h.directoryOffset + 13)), bad.string() + ": brick directory: checksum mismatch");
+    EXPECT_EQ(message(flipped(h.levelTableOffset + 3)),
+              bad.string() + ": level table: checksum mismatch");
+    EXPECT_EQ(message(flipped(h.directoryOffset + 13)),
+              bad.string() + ": brick directory: checksum mismatch");
     const rvol::LevelEntry& l1 = reader.level(1);
     const rvol::BrickEntry& b = reader.bricks(1)[2];
     EXPECT_EQ(message(flipped(reader.brickOffset(1, 2) + 100)),
-              bad.string() + ": level 1, brick 2 (" + std::to_string(b.x) + "," + std::to_string(b.y) + "," + std::to_string(b.z) +
-                  "), file offset " + std::to_string(l1.dataOffset + 2 * l1.brickBytes) + ": checksum mismatch");
-    EXPECT_EQ(message(flipped(h.staticAttributesOffset + 16 * 3 + 5)), bad.string() + ": static attribute layer: checksum mismatch");
-    EXPECT_EQ(message(flipped(h.dynamicAttributesOffset + 1)), bad.string() + ": dynamic attribute layer: checksum mismatch");
+              bad.string() + ": level 1, brick 2 (" + std::to_string(b.x) + "," +
+                  std::to_string(b.y) + "," + std::to_string(b.z) + "), file offset " +
+                  std::to_string(l1.dataOffset + 2 * l1.brickBytes) + ": checksum mismatch");
+    EXPECT_EQ(message(flipped(h.staticAttributesOffset + 16 * 3 + 5)),
+              bad.string() + ": static attribute layer: checksum mismatch");
+    EXPECT_EQ(message(flipped(h.dynamicAttributesOffset + 1)),
+              bad.string() + ": dynamic attribute layer: checksum mismatch");
     EXPECT_EQ(message(std::vector<std::uint8_t>(bytes.begin(), bytes.end() - 1)),
-              bad.string() + ": header says " + std::to_string(bytes.size()) + " bytes but the file has " + std::to_string(bytes.size() - 1) +
+              bad.string() + ": header says " + std::to_string(bytes.size()) +
+                  " bytes but the file has " + std::to_string(bytes.size() - 1) +
                   " (truncated or appended to)");
     // A 1.x file (one A8 plane per channel) and a 2.x file (always an A8 plane at level 0) are
     // rejected by their version, never misread.
     std::vector<std::uint8_t> version = bytes;
     version[4] = 1;
-    EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version 1.0 (this reader reads 3.x)");
+    EXPECT_EQ(message(version),
+              bad.string() + ": unsupported .rvol version 1.0 (this reader reads 3.x)");
     version[4] = 2;
-    EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version 2.0 (this reader reads 3.x)");
+    EXPECT_EQ(message(version),
+              bad.string() + ": unsupported .rvol version 2.0 (this reader reads 3.x)");
     version[4] = 4;
-    EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version 4.0 (this reader reads 3.x)");
+    EXPECT_EQ(message(version),
+              bad.string() + ": unsupported .rvol version 4.0 (this reader reads 3.x)");
     // Any minor of the reader's major is accepted (the header checksum made right).
     version = bytes;
     version[6] = 7;
@@ -1376,32 +1511,32 @@ TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
             EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
         }
     };
-    {   // The fix-up leaves a good file as it is.
+    {  // The fix-up leaves a good file as it is.
         std::vector<std::uint8_t> same = bytes;
         fixChecksums(same);
         EXPECT_TRUE(same == bytes);
     }
     const rvol::LevelEntry& l0 = reader.level(0);
     ASSERT_GT(l0.brickCount, 3u);
-    {   // Two directory entries swapped: no longer in Morton order.
+    {  // Two directory entries swapped: no longer in Morton order.
         std::vector<std::uint8_t> data = bytes;
         std::swap_ranges(data.begin() + static_cast<std::ptrdiff_t>(h.directoryOffset),
                          data.begin() + static_cast<std::ptrdiff_t>(h.directoryOffset + 12),
                          data.begin() + static_cast<std::ptrdiff_t>(h.directoryOffset + 12));
         rejectedWith(data, "not in strictly ascending Morton order");
     }
-    {   // A brick coordinate past the level.
+    {  // A brick coordinate past the level.
         std::vector<std::uint8_t> data = bytes;
         const std::uint64_t last = h.directoryOffset + 12 * (l0.brickCount - 1);
         store<std::uint16_t>(data.data() + last + 4, static_cast<std::uint16_t>(l0.bricksPerAxis));
         rejectedWith(data, "outside the level's");
     }
-    {   // Non-zero directory padding.
+    {  // Non-zero directory padding.
         std::vector<std::uint8_t> data = bytes;
         data[h.directoryOffset + 6] = 1;
         rejectedWith(data, "directory entry padding is not zero");
     }
-    {   // One texel of a shared face changed in only one of the two bricks.
+    {  // One texel of a shared face changed in only one of the two bricks.
         bool found = false;
         for (std::uint32_t i = 0; i < l0.brickCount && !found; ++i) {
             const rvol::BrickEntry& b = reader.bricks(0)[i];
@@ -1409,12 +1544,14 @@ TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
             std::vector<std::uint8_t> data = bytes;
             const std::uint64_t texel = 3 + 4 * (1 + 4 * 2);  // (3, 1, 2): on the +x face
             data[reader.brickOffset(0, i) + 4 * texel] ^= 0x01;
-            rejectedWith(data, "shared face with brick (" + std::to_string(b.x + 1) + "," + std::to_string(b.y) + "," + std::to_string(b.z) + ") differs");
+            rejectedWith(data, "shared face with brick (" + std::to_string(b.x + 1) + "," +
+                                   std::to_string(b.y) + "," + std::to_string(b.z) + ") differs");
             found = true;
         }
         EXPECT_TRUE(found);
     }
-    {   // One opacity of a shared face changed in only one of two level-1 bricks (the x axis' A8 plane).
+    {  // One opacity of a shared face changed in only one of two level-1 bricks (the x axis' A8
+       // plane).
         bool found = false;
         const rvol::LevelEntry& l1 = reader.level(1);
         for (std::uint32_t i = 0; i < l1.brickCount && !found; ++i) {
@@ -1423,36 +1560,41 @@ TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
             std::vector<std::uint8_t> data = bytes;
             const std::uint64_t texel = 3 + 4 * (1 + 4 * 2);  // (3, 1, 2): on the +x face
             data[reader.brickOffset(1, i) + rvol::alphaPlaneOffset(4, 6, 0) + texel] ^= 0x01;
-            rejectedWith(data, "shared face with brick (" + std::to_string(b.x + 1) + "," + std::to_string(b.y) + "," +
-                                   std::to_string(b.z) + ") differs (x-axis A8 plane)");
+            rejectedWith(data, "shared face with brick (" + std::to_string(b.x + 1) + "," +
+                                   std::to_string(b.y) + "," + std::to_string(b.z) +
+                                   ") differs (x-axis A8 plane)");
             found = true;
         }
         EXPECT_TRUE(found);
     }
-    {   // A brick made all zero.
+    {  // A brick made all zero.
         std::vector<std::uint8_t> data = bytes;
-        std::fill_n(data.begin() + static_cast<std::ptrdiff_t>(reader.brickOffset(0, 0)), l0.brickBytes, 0);
+        std::fill_n(data.begin() + static_cast<std::ptrdiff_t>(reader.brickOffset(0, 0)),
+                    l0.brickBytes, 0);
         rejectedWith(data, "level 0, brick 0");
     }
-    {   // Two attribute records swapped.
+    {  // Two attribute records swapped.
         std::vector<std::uint8_t> data = bytes;
         const auto at = data.begin() + static_cast<std::ptrdiff_t>(h.staticAttributesOffset);
         std::swap_ranges(at, at + 16, at + 16);
-        rejectedWith(data, "static attribute layer, record 1, file offset " + std::to_string(h.staticAttributesOffset + 16) +
+        rejectedWith(data, "static attribute layer, record 1, file offset " +
+                               std::to_string(h.staticAttributesOffset + 16) +
                                ": Morton codes not strictly ascending");
     }
-    {   // A Morton code outside level 0 (depth 4: 12 bits).
+    {  // A Morton code outside level 0 (depth 4: 12 bits).
         std::vector<std::uint8_t> data = bytes;
-        store<std::uint32_t>(data.data() + h.dynamicAttributesOffset + 16 * (h.dynamicVoxelCount - 1), 1u << 12);
+        store<std::uint32_t>(
+            data.data() + h.dynamicAttributesOffset + 16 * (h.dynamicVoxelCount - 1), 1u << 12);
         rejectedWith(data, "outside level 0");
     }
-    {   // Padding between sections.
+    {  // Padding between sections.
         std::vector<std::uint8_t> data = bytes;
         ASSERT_GT(h.directoryOffset, h.levelTableOffset + h.levelTableBytes);
         data[h.directoryOffset - 1] = 0xFF;
-        rejectedWith(data, "padding at file offset " + std::to_string(h.directoryOffset - 1) + " is not zero");
+        rejectedWith(data, "padding at file offset " + std::to_string(h.directoryOffset - 1) +
+                               " is not zero");
     }
-    {   // A header claiming far more than the file holds: rejected before any allocation.
+    {  // A header claiming far more than the file holds: rejected before any allocation.
         std::vector<std::uint8_t> data = bytes;
         store<std::uint64_t>(data.data() + 112, std::uint64_t{1} << 60);  // brickCount
         store<std::uint64_t>(data.data() + 168, std::uint64_t{12} << 60);
@@ -1470,7 +1612,8 @@ TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
         store<std::uint32_t>(data.data() + 24, 1);  // 1.x's texel format: an A8 plane per channel
         rejectedWith(data, "header: unknown texel format 1");
         data = bytes;
-        store<std::uint32_t>(data.data() + 256 + 32 + 16, l0.brickCount + 1);  // level 1 claims a brick more
+        store<std::uint32_t>(data.data() + 256 + 32 + 16,
+                             l0.brickCount + 1);  // level 1 claims a brick more
         rejectedWith(data, "level table, level 1");
     }
 }
@@ -1487,7 +1630,8 @@ TEST(Rvol, AlphaPlanePaddingMustBeZero) {
     ASSERT_GT(reader.level(1).brickCount, 0u);
     EXPECT_EQ(reader.level(0).brickBytes, 108u + 28);
     EXPECT_EQ(reader.level(1).brickBytes, 6u * 108 + 3 * 28);
-    const auto rejectedWith = [&](std::uint32_t level, std::uint32_t plane, const std::string& expected) {
+    const auto rejectedWith = [&](std::uint32_t level, std::uint32_t plane,
+                                  const std::string& expected) {
         std::vector<std::uint8_t> data = bytes;
         const std::uint32_t channels = reader.level(level).channels;
         data[reader.brickOffset(level, 0) + rvol::alphaPlaneOffset(3, channels, plane) + 27] = 1;
@@ -1502,8 +1646,10 @@ TEST(Rvol, AlphaPlanePaddingMustBeZero) {
         }
     };
     const rvol::BrickEntry& first = reader.bricks(0)[0];
-    rejectedWith(0, 0, "level 0, brick 0 (" + std::to_string(first.x) + "," + std::to_string(first.y) + "," + std::to_string(first.z) +
-                           "), file offset " + std::to_string(reader.brickOffset(0, 0)) + ": A8 plane padding is not zero");
+    rejectedWith(0, 0,
+                 "level 0, brick 0 (" + std::to_string(first.x) + "," + std::to_string(first.y) +
+                     "," + std::to_string(first.z) + "), file offset " +
+                     std::to_string(reader.brickOffset(0, 0)) + ": A8 plane padding is not zero");
     rejectedWith(1, 0, "level 1, brick 0");
     rejectedWith(1, 0, "x-axis A8 plane padding is not zero");
     rejectedWith(1, 2, "z-axis A8 plane padding is not zero");

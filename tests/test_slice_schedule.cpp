@@ -72,10 +72,12 @@ TEST(SliceSchedule, RegionsNestInTheirParentsAndHoldTheirVoxels) {
     std::size_t checked = 0;
     pool.forEachVoxel([&](const vox::esvo::VoxelPosition& v, const vox::esvo::AttributeValue*) {
         if (v.level < 8 || ++checked % 97) return;
-        const bool inside = std::any_of(regions.begin() + 1, regions.end(), [&](const SliceRegion& r) {
-            const std::uint32_t shift = v.level - r.level;
-            return v.level >= r.level && (v.x >> shift) == r.x && (v.y >> shift) == r.y && (v.z >> shift) == r.z;
-        });
+        const bool inside =
+            std::any_of(regions.begin() + 1, regions.end(), [&](const SliceRegion& r) {
+                const std::uint32_t shift = v.level - r.level;
+                return v.level >= r.level && (v.x >> shift) == r.x && (v.y >> shift) == r.y &&
+                       (v.z >> shift) == r.z;
+            });
         EXPECT_TRUE(inside) << v.level << " " << v.x << " " << v.y << " " << v.z;
     });
     EXPECT_GT(checked, 1000u);
@@ -87,15 +89,18 @@ TEST(SliceSchedule, ANearViewNeedsMoreThanAFarOneAndOnlyWhatItSees) {
     const auto regions = vox::runtime::sliceRegions(reader.directory());
     const std::uint64_t unlimited = ~std::uint64_t{0};
     // The box spans about 2 m; seen whole from 3 m at 256 pixels, and from 30 m at 64.
-    const auto near = vox::runtime::selectSlices(reader, regions, view({0, 1, 3.2}, {0, 1, 0}, 512), unlimited);
-    const auto far = vox::runtime::selectSlices(reader, regions, view({0, 1, 30}, {0, 1, 0}, 64), unlimited);
+    const auto near =
+        vox::runtime::selectSlices(reader, regions, view({0, 1, 3.2}, {0, 1, 0}, 512), unlimited);
+    const auto far =
+        vox::runtime::selectSlices(reader, regions, view({0, 1, 30}, {0, 1, 0}, 64), unlimited);
     EXPECT_EQ(near.neededNotFitting, 0u);
     EXPECT_EQ(near.slices.front(), 0u);
     EXPECT_GT(near.slices.size(), 3 * far.slices.size());
     EXPECT_GE(far.slices.size(), 1u);
     EXPECT_EQ(near.bytes, sum(reader, near.slices));
     // Looking away from the box: the root only.
-    const auto away = vox::runtime::selectSlices(reader, regions, view({0, 1, 3.2}, {0, 1, 10}, 512), unlimited);
+    const auto away =
+        vox::runtime::selectSlices(reader, regions, view({0, 1, 3.2}, {0, 1, 10}, 512), unlimited);
     EXPECT_EQ(away.slices, std::vector<std::uint32_t>{0});
     // Parents before children, no repeats.
     std::set<std::uint32_t> seen;
@@ -106,7 +111,9 @@ TEST(SliceSchedule, ANearViewNeedsMoreThanAFarOneAndOnlyWhatItSees) {
         EXPECT_TRUE(seen.insert(s).second) << s;
     }
     // Deterministic.
-    EXPECT_EQ(near.slices, vox::runtime::selectSlices(reader, regions, view({0, 1, 3.2}, {0, 1, 0}, 512), unlimited).slices);
+    EXPECT_EQ(near.slices, vox::runtime::selectSlices(reader, regions,
+                                                      view({0, 1, 3.2}, {0, 1, 0}, 512), unlimited)
+                               .slices);
 }
 
 TEST(SliceSchedule, ABudgetKeepsTheCoarsestNeededSlices) {
@@ -133,13 +140,17 @@ TEST(SliceSchedule, ABudgetKeepsTheCoarsestNeededSlices) {
     }
     for (std::uint32_t s : all.slices) {
         const std::uint32_t level = reader.slice(s).firstLevel;
-        if (kept.count(s)) keptFinest = std::max(keptFinest, level);
-        else droppedCoarsest = std::min(droppedCoarsest, level);
+        if (kept.count(s))
+            keptFinest = std::max(keptFinest, level);
+        else
+            droppedCoarsest = std::min(droppedCoarsest, level);
     }
-    EXPECT_LE(droppedCoarsest + 0u, keptFinest + 2u) << "a budget drops fine slices, not coarse ones";
+    EXPECT_LE(droppedCoarsest + 0u, keptFinest + 2u)
+        << "a budget drops fine slices, not coarse ones";
     EXPECT_GE(droppedCoarsest, reader.slice(some.slices[1]).firstLevel);
     // Even a budget of nothing keeps the root.
-    EXPECT_EQ(vox::runtime::selectSlices(reader, regions, v, 0).slices, std::vector<std::uint32_t>{0});
+    EXPECT_EQ(vox::runtime::selectSlices(reader, regions, v, 0).slices,
+              std::vector<std::uint32_t>{0});
 }
 
 TEST(SliceSchedule, ResidencyAlongAFlightStaysUnderTheBudgetAndCachesWhatFits) {
@@ -148,7 +159,8 @@ TEST(SliceSchedule, ResidencyAlongAFlightStaysUnderTheBudgetAndCachesWhatFits) {
     vox::esvo::EsvoPool pool(reader);
     const auto regions = vox::runtime::sliceRegions(reader.directory());
     const StreamingView close = view({0, 1, 3.2}, {0, 1, 0}, 512);
-    const std::uint64_t budget = vox::runtime::selectSlices(reader, regions, close, ~std::uint64_t{0}).bytes * 2 / 3;
+    const std::uint64_t budget =
+        vox::runtime::selectSlices(reader, regions, close, ~std::uint64_t{0}).bytes * 2 / 3;
     vox::runtime::SliceResidency residency(pool, budget);
     std::uint64_t loads = 0, evictions = 0;
     // A flight from far away to close up, round the box, and back out.
@@ -156,12 +168,14 @@ TEST(SliceSchedule, ResidencyAlongAFlightStaysUnderTheBudgetAndCachesWhatFits) {
         const double t = frame / 23.0;
         const double angle = 6.2831853 * t;
         const double distance = 12 - 9 * std::sin(3.14159265 * t);
-        const auto update = residency.update(view({distance * std::sin(angle), 1, distance * std::cos(angle)}, {0, 1, 0}, 512));
+        const auto update = residency.update(
+            view({distance * std::sin(angle), 1, distance * std::cos(angle)}, {0, 1, 0}, 512));
         loads += update.loaded.size();
         evictions += update.evicted.size();
         EXPECT_LE(pool.residentBytes(), budget) << frame;
         // Everything selected is resident afterwards: no holes.
-        for (std::uint32_t s : update.selection.slices) EXPECT_TRUE(pool.loaded(s)) << frame << " " << s;
+        for (std::uint32_t s : update.selection.slices)
+            EXPECT_TRUE(pool.loaded(s)) << frame << " " << s;
         EXPECT_EQ(update.selection.bytes, sum(reader, update.selection.slices));
     }
     EXPECT_GT(loads, 0u);
@@ -205,7 +219,8 @@ TEST(SliceSchedule, AFrameLoadLimitSpreadsACameraJumpOverFramesCoarseFirst) {
         ASSERT_LT(frames, 1000);
     }
     EXPECT_TRUE(coarseFirst);
-    const auto all = vox::runtime::selectSlices(reader, vox::runtime::sliceRegions(reader.directory()), close, ~std::uint64_t{0});
+    const auto all = vox::runtime::selectSlices(
+        reader, vox::runtime::sliceRegions(reader.directory()), close, ~std::uint64_t{0});
     EXPECT_EQ(pool.loadedSliceCount(), all.slices.size());
     // The bytes the jump needs, 64 KB a frame (slices are 8 or 16 KB, so frames fill up but
     // for the last slice that does not fit).

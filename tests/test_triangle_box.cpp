@@ -38,7 +38,8 @@ namespace esvo = vox::esvo;
     const double q = 0.5 * h;  // children's half-extent; their centres are c ± q per axis
     const Vec3d a = tri.v0 - c, b = tri.v1 - c, d = tri.v2 - c;
     std::uint32_t mask = 0xFF;
-    static constexpr std::uint32_t kLowHalf[3] = {0x55, 0x33, 0x0F};  // slots with the axis bit clear
+    static constexpr std::uint32_t kLowHalf[3] = {0x55, 0x33,
+                                                  0x0F};  // slots with the axis bit clear
     for (int axis = 0; axis < 3; ++axis) {
         const double lo = std::min({a[axis], b[axis], d[axis]});
         const double hi = std::max({a[axis], b[axis], d[axis]});
@@ -57,7 +58,8 @@ namespace esvo = vox::esvo;
         const double low = pmin - grow, high = pmax + grow;
         for (std::uint32_t bits = mask; bits; bits &= bits - 1) {
             const auto slot = static_cast<std::uint32_t>(__builtin_ctz(bits));
-            const double cp = (slot & 1u ? ax : -ax) + (slot & 2u ? ay : -ay) + (slot & 4u ? az : -az);
+            const double cp =
+                (slot & 1u ? ax : -ax) + (slot & 2u ? ay : -ay) + (slot & 4u ? az : -az);
             if (cp < low || cp > high) mask &= ~(1u << slot);
         }
     };
@@ -66,19 +68,22 @@ namespace esvo = vox::esvo;
     const Vec3d edges[3] = {b - a, d - b, a - d};
     for (const Vec3d& e : edges) {
         if (mask == 0) return 0;
-        for (const Vec3d axisVector : {Vec3d{0, e.z, -e.y}, Vec3d{-e.z, 0, e.x}, Vec3d{e.y, -e.x, 0}}) {
+        for (const Vec3d axisVector :
+             {Vec3d{0, e.z, -e.y}, Vec3d{-e.z, 0, e.x}, Vec3d{e.y, -e.x, 0}}) {
             const double pa = dot(axisVector, a), pb = dot(axisVector, b), pd = dot(axisVector, d);
-            testAxis(axisVector, std::min({pa, pb, pd}), std::max({pa, pb, pd}), std::abs(pa) + std::abs(pb) + std::abs(pd));
+            testAxis(axisVector, std::min({pa, pb, pd}), std::max({pa, pb, pd}),
+                     std::abs(pa) + std::abs(pb) + std::abs(pd));
         }
     }
     return mask;
 }
 
 /// Clips a triangle to the cube [−½, ½]³ (Sutherland–Hodgman), appending the polygon to @p out.
-inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out, std::array<Vec3d, 12>& bufferA,
-                    std::array<Vec3d, 12>& bufferB) {
+inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out,
+                           std::array<Vec3d, 12>& bufferA, std::array<Vec3d, 12>& bufferB) {
     bool inside = true;
-    for (const Vec3d& p : triangle) inside = inside && std::abs(p.x) <= 0.5 && std::abs(p.y) <= 0.5 && std::abs(p.z) <= 0.5;
+    for (const Vec3d& p : triangle)
+        inside = inside && std::abs(p.x) <= 0.5 && std::abs(p.y) <= 0.5 && std::abs(p.z) <= 0.5;
     if (inside) {  // common for fine triangles in coarse voxels
         out.insert(out.end(), triangle.begin(), triangle.end());
         return;
@@ -96,7 +101,8 @@ inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec
                 const Vec3d& q = a[i + 1 == n ? 0 : i + 1];
                 const double dp = side * p[axis] - 0.5, dq = side * q[axis] - 0.5;
                 if (dp <= 0) b[m++] = p;
-                if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) b[m++] = p + (q - p) * (dp / (dp - dq));
+                if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0))
+                    b[m++] = p + (q - p) * (dp / (dp - dq));
             }
             n = m;
             std::swap(a, b);
@@ -104,7 +110,6 @@ inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec
         }
     out.insert(out.end(), a, a + n);
 }
-
 
 struct ClipScratch {
     std::vector<Vec3d> points;
@@ -119,12 +124,14 @@ namespace {
 std::array<int, 3> quantiseNormal(Vec3d m) {
     const double largest = std::max({std::abs(m.x), std::abs(m.y), std::abs(m.z)});
     if (!(largest > 0)) return {0, 0, 0};
-    return {static_cast<int>(std::lround(31 * m.x / largest)), static_cast<int>(std::lround(31 * m.y / largest)),
+    return {static_cast<int>(std::lround(31 * m.x / largest)),
+            static_cast<int>(std::lround(31 * m.y / largest)),
             static_cast<int>(std::lround(31 * m.z / largest))};
 }
 
 /// Encodes the slab along @p n covering every point; 0 if it cannot be represented.
-std::uint32_t encodeSlab(const std::array<int, 3>& n, std::span<const Vec3d> points, double& thickness) {
+std::uint32_t encodeSlab(const std::array<int, 3>& n, std::span<const Vec3d> points,
+                         double& thickness) {
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     for (const Vec3d& p : points) {
         const double v = n[0] * p.x + n[1] * p.y + n[2] * p.z;
@@ -132,7 +139,8 @@ std::uint32_t encodeSlab(const std::array<int, 3>& n, std::span<const Vec3d> poi
         hi = std::max(hi, v);
     }
     constexpr double step = esvo::Contour::kStep;
-    const auto position = static_cast<int>(std::clamp<long>(std::lround(0.5 * (lo + hi) / step), -64, 63));
+    const auto position =
+        static_cast<int>(std::clamp<long>(std::lround(0.5 * (lo + hi) / step), -64, 63));
     // Conservative: the half thickness reaches both ends from the quantised position, with a
     // little room for the ray caster's float arithmetic.
     const double reach = std::max(hi - position * step, position * step - lo) + 1e-4;
@@ -145,7 +153,8 @@ std::uint32_t encodeSlab(const std::array<int, 3>& n, std::span<const Vec3d> poi
 
 }  // namespace
 
-ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c, double h,
+ContourFit fitContour(std::span<const std::uint32_t> list,
+                      const std::vector<BoxTestTriangle>& triangles, Vec3d c, double h,
                       ClipScratch& scratch) {
     auto& points = scratch.points;
     points.clear();
@@ -159,10 +168,12 @@ ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<Box
     for (std::uint32_t t : list) {
         const BoxTestTriangle& tri = triangles[t];
         const std::size_t before = points.size();
-        clipToUnitCube({(tri.v0 - c) * toLocal, (tri.v1 - c) * toLocal, (tri.v2 - c) * toLocal}, points, scratch.clipA, scratch.clipB);
+        clipToUnitCube({(tri.v0 - c) * toLocal, (tri.v1 - c) * toLocal, (tri.v2 - c) * toLocal},
+                       points, scratch.clipA, scratch.clipB);
         // Fragment area (fan) weighs the triangle's unit normal.
         double area = 0;
-        for (std::size_t i = before + 2; i < points.size(); ++i) area += 0.5 * length(cross(points[i - 1] - points[before], points[i] - points[before]));
+        for (std::size_t i = before + 2; i < points.size(); ++i)
+            area += 0.5 * length(cross(points[i - 1] - points[before], points[i] - points[before]));
         const double nl = length(tri.normal);
         if (!(nl > 0) || area <= 0) continue;
         const Vec3d unit = tri.normal * (1.0 / nl);
@@ -182,7 +193,8 @@ ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<Box
         double thickness = 0;
         const std::uint32_t encoded = encodeSlab(n, points, thickness);
         if (!encoded) return;
-        const double extent = (std::abs(n[0]) + std::abs(n[1]) + std::abs(n[2])) / std::sqrt(double(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]));
+        const double extent = (std::abs(n[0]) + std::abs(n[1]) + std::abs(n[2])) /
+                              std::sqrt(double(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]));
         const double ratio = thickness / extent;
         if (ratio < bestRatio) {
             bestRatio = ratio;
@@ -196,13 +208,13 @@ ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<Box
     return best;
 }
 
-
 std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& thickness) {
     if (encoded == 0) return 0;
     esvo::Contour c = esvo::Contour::decode(encoded);
     // Positions are in steps of 0.75, the offsets Σ n·(½ − bit) in steps of 0.5: only whole steps
     // survive exactly; round the position outward by widening the slab instead.
-    const double offset = 0.5 * ((slot & 1u ? -c.nx : c.nx) + (slot & 2u ? -c.ny : c.ny) + (slot & 4u ? -c.nz : c.nz));
+    const double offset = 0.5 * ((slot & 1u ? -c.nx : c.nx) + (slot & 2u ? -c.ny : c.ny) +
+                                 (slot & 4u ? -c.nz : c.nz));
     const double centre = 2 * c.position * esvo::Contour::kStep + offset;
     const double half = c.thickness * esvo::Contour::kStep;  // doubled, then halved
     const long position = std::lround(centre / esvo::Contour::kStep);
@@ -211,7 +223,8 @@ std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& th
     if (position < -64 || position > 63 || t > 127) return 0;
     c.position = static_cast<int>(position);
     c.thickness = static_cast<unsigned>(t);
-    thickness = c.thickness * esvo::Contour::kStep / std::sqrt(double(c.nx * c.nx + c.ny * c.ny + c.nz * c.nz));
+    thickness = c.thickness * esvo::Contour::kStep /
+                std::sqrt(double(c.nx * c.nx + c.ny * c.ny + c.nz * c.nz));
     return c.encode();
 }
 
@@ -231,38 +244,66 @@ public:
 
     BoxTestTriangle next(Vec3d c, double h) {
         const int kind = static_cast<int>(rng_() % 8);
-        const auto around = [&](double spread) { return Vec3d{c.x + spread * h * u(), c.y + spread * h * u(), c.z + spread * h * u()}; };
+        const auto around = [&](double spread) {
+            return Vec3d{c.x + spread * h * u(), c.y + spread * h * u(), c.z + spread * h * u()};
+        };
         const auto snapped = [&](int steps) {
             const auto k = [&] { return static_cast<int>(rng_() % (2 * steps + 1)) - steps; };
             return Vec3d{c.x + h * k() / 2.0, c.y + h * k() / 2.0, c.z + h * k() / 2.0};
         };
         Vec3d p0, p1, p2;
         switch (kind) {
-            case 0: p0 = around(1.5); p1 = around(1.5); p2 = around(1.5); break;          // generic
-            case 1: {                                                                      // small
+            case 0:
+                p0 = around(1.5);
+                p1 = around(1.5);
+                p2 = around(1.5);
+                break;  // generic
+            case 1: {   // small
                 const Vec3d base = around(1.1);
                 const double s = 0.3 * h * std::abs(u());
-                p0 = base; p1 = base + Vec3d{s * u(), s * u(), s * u()}; p2 = base + Vec3d{s * u(), s * u(), s * u()};
+                p0 = base;
+                p1 = base + Vec3d{s * u(), s * u(), s * u()};
+                p2 = base + Vec3d{s * u(), s * u(), s * u()};
                 break;
             }
-            case 2: p0 = around(6); p1 = around(6); p2 = around(6); break;                // large
-            case 3: {                                                                      // sliver / needle
-                p0 = around(1.5); p1 = around(1.5);
+            case 2:
+                p0 = around(6);
+                p1 = around(6);
+                p2 = around(6);
+                break;  // large
+            case 3: {   // sliver / needle
+                p0 = around(1.5);
+                p1 = around(1.5);
                 const double t = 0.5 + 0.5 * u(), off = std::pow(10.0, -3 - 10 * std::abs(u())) * h;
                 p2 = p0 + (p1 - p0) * t + Vec3d{off * u(), off * u(), off * u()};
                 break;
             }
-            case 4: p0 = snapped(3); p1 = snapped(3); p2 = snapped(3); break;            // on the grid
-            case 5: p0 = snapped(2); p1 = snapped(4); p2 = around(1.5); break;            // partly on it
-            case 6: {                                                                      // degenerate
-                p0 = around(1.5); p1 = rng_() % 2 ? p0 : around(1.5); p2 = p0 + (p1 - p0) * u();
+            case 4:
+                p0 = snapped(3);
+                p1 = snapped(3);
+                p2 = snapped(3);
+                break;  // on the grid
+            case 5:
+                p0 = snapped(2);
+                p1 = snapped(4);
+                p2 = around(1.5);
+                break;  // partly on it
+            case 6: {   // degenerate
+                p0 = around(1.5);
+                p1 = rng_() % 2 ? p0 : around(1.5);
+                p2 = p0 + (p1 - p0) * u();
                 break;
             }
-            default: {                                                                     // next to a boundary, by a hair
-                p0 = snapped(2); p1 = snapped(2); p2 = snapped(2);
-                const double hair = h * std::pow(10.0, -6 - 8 * std::abs(u())) * (rng_() % 2 ? 1 : -1);
+            default: {  // next to a boundary, by a hair
+                p0 = snapped(2);
+                p1 = snapped(2);
+                p2 = snapped(2);
+                const double hair =
+                    h * std::pow(10.0, -6 - 8 * std::abs(u())) * (rng_() % 2 ? 1 : -1);
                 const int axis = static_cast<int>(rng_() % 3);
-                p0[axis] += hair; p1[axis] += hair; p2[axis] += hair;
+                p0[axis] += hair;
+                p1[axis] += hair;
+                p2[axis] += hair;
                 break;
             }
         }
@@ -273,7 +314,9 @@ public:
     std::pair<Vec3d, double> cube() {
         const int level = static_cast<int>(rng_() % 12);
         const double h = std::ldexp(1.0, level);
-        const auto centre = [&] { return (2.0 * static_cast<double>(rng_() % (1u << (12 - level))) + 1) * h; };
+        const auto centre = [&] {
+            return (2.0 * static_cast<double>(rng_() % (1u << (12 - level))) + 1) * h;
+        };
         return {{centre(), centre(), centre()}, h};
     }
     double u() { return std::uniform_real_distribution<double>(-1, 1)(rng_); }
@@ -290,8 +333,10 @@ TEST(TriangleBox, ChildOverlapMaskEqualsTheReferenceBitForBit) {
         const BoxTestTriangle tri = source.next(c, h);
         const std::uint32_t expected = reference::childOverlapMask(tri, c, h);
         ASSERT_EQ(vox::detail::childOverlapMask(tri, c, h), expected)
-            << "trial " << trial << ": (" << tri.v0.x << " " << tri.v0.y << " " << tri.v0.z << ") (" << tri.v1.x << " " << tri.v1.y << " "
-            << tri.v1.z << ") (" << tri.v2.x << " " << tri.v2.y << " " << tri.v2.z << ") c " << c.x << " " << c.y << " " << c.z << " h " << h;
+            << "trial " << trial << ": (" << tri.v0.x << " " << tri.v0.y << " " << tri.v0.z << ") ("
+            << tri.v1.x << " " << tri.v1.y << " " << tri.v1.z << ") (" << tri.v2.x << " "
+            << tri.v2.y << " " << tri.v2.z << ") c " << c.x << " " << c.y << " " << c.z << " h "
+            << h;
         inside += expected != 0;
     }
     EXPECT_GT(inside, 500000);
@@ -309,7 +354,8 @@ TEST(TriangleBox, ChildOverlapMaskEqualsEightSingleCubeTests) {
         const BoxTestTriangle tri = source.next(c, h);
         std::uint32_t expected = 0;
         for (std::uint32_t slot = 0; slot < 8; ++slot) {
-            const Vec3d child{slot & 1u ? 0.5 : -0.5, slot & 2u ? 0.5 : -0.5, slot & 4u ? 0.5 : -0.5};
+            const Vec3d child{slot & 1u ? 0.5 : -0.5, slot & 2u ? 0.5 : -0.5,
+                              slot & 4u ? 0.5 : -0.5};
             if (vox::detail::triangleOverlapsCube(tri, child, 0.5)) expected |= 1u << slot;
         }
         const std::uint32_t mask = vox::detail::childOverlapMask(tri, c, h);
@@ -319,12 +365,15 @@ TEST(TriangleBox, ChildOverlapMaskEqualsEightSingleCubeTests) {
             for (const Vec3d& v : {tri.v0, tri.v1, tri.v2})
                 for (int axis = 0; axis < 3; ++axis)
                     for (double plane : {-1.0, -0.5, 0.0, 0.5, 1.0})
-                        if (const double gap = std::abs(v[axis] - plane); gap > 0 && gap < 1e-5) return true;
+                        if (const double gap = std::abs(v[axis] - plane); gap > 0 && gap < 1e-5)
+                            return true;
             return false;
         };
         if (mask != expected && nearBoundary()) continue;
-        ASSERT_EQ(mask, expected) << "trial " << trial << ": (" << tri.v0.x << " " << tri.v0.y << " " << tri.v0.z << ") (" << tri.v1.x << " "
-                                  << tri.v1.y << " " << tri.v1.z << ") (" << tri.v2.x << " " << tri.v2.y << " " << tri.v2.z << ")";
+        ASSERT_EQ(mask, expected) << "trial " << trial << ": (" << tri.v0.x << " " << tri.v0.y
+                                  << " " << tri.v0.z << ") (" << tri.v1.x << " " << tri.v1.y << " "
+                                  << tri.v1.z << ") (" << tri.v2.x << " " << tri.v2.y << " "
+                                  << tri.v2.z << ")";
         touching += std::popcount(mask) > 1;
     }
     EXPECT_GT(touching, 10000);
@@ -333,19 +382,33 @@ TEST(TriangleBox, ChildOverlapMaskEqualsEightSingleCubeTests) {
 TEST(TriangleBox, TouchingTrianglesMarkEveryChildTheyTouch) {
     const auto tri = [](Vec3d a, Vec3d b, Vec3d c) { return vox::detail::prepareBoxTest(a, b, c); };
     // A triangle in the mid-plane z = 0 touches all eight children (closed cubes).
-    EXPECT_EQ(vox::detail::childOverlapMask(tri({-0.9, -0.9, 0}, {0.9, -0.9, 0}, {0, 0.9, 0}), {0, 0, 0}, 1), 0xFFu);
+    EXPECT_EQ(vox::detail::childOverlapMask(tri({-0.9, -0.9, 0}, {0.9, -0.9, 0}, {0, 0.9, 0}),
+                                            {0, 0, 0}, 1),
+              0xFFu);
     // A small one in the mid-plane x = 0 inside the y−, z− quarter touches slots 0 and 1.
-    EXPECT_EQ(vox::detail::childOverlapMask(tri({0, -0.5, -0.5}, {0, -0.25, -0.5}, {0, -0.5, -0.25}), {0, 0, 0}, 1), 0x03u);
+    EXPECT_EQ(vox::detail::childOverlapMask(
+                  tri({0, -0.5, -0.5}, {0, -0.25, -0.5}, {0, -0.5, -0.25}), {0, 0, 0}, 1),
+              0x03u);
     // One whose vertex is the cube's centre touches every child that vertex belongs to: all eight
     // touch it, but a triangle leaving it into the +x+y+z octant only meets the others at a point.
-    EXPECT_EQ(vox::detail::childOverlapMask(tri({0, 0, 0}, {0.5, 0.25, 0.25}, {0.25, 0.5, 0.25}), {0, 0, 0}, 1), 0xFFu);
+    EXPECT_EQ(vox::detail::childOverlapMask(tri({0, 0, 0}, {0.5, 0.25, 0.25}, {0.25, 0.5, 0.25}),
+                                            {0, 0, 0}, 1),
+              0xFFu);
     // On the cube's outer face x = +1: the +x children only.
-    EXPECT_EQ(vox::detail::childOverlapMask(tri({1, -0.5, -0.5}, {1, 0.5, -0.5}, {1, 0, 0.5}), {0, 0, 0}, 1), 0xAAu);
+    EXPECT_EQ(vox::detail::childOverlapMask(tri({1, -0.5, -0.5}, {1, 0.5, -0.5}, {1, 0, 0.5}),
+                                            {0, 0, 0}, 1),
+              0xAAu);
     // Inside one child entirely, and split by one mid-plane.
-    EXPECT_EQ(vox::detail::childOverlapMask(tri({0.1, 0.1, 0.1}, {0.9, 0.2, 0.3}, {0.4, 0.8, 0.9}), {0, 0, 0}, 1), 0x80u);
-    EXPECT_EQ(vox::detail::childOverlapMask(tri({-0.5, 0.1, 0.1}, {0.5, 0.2, 0.3}, {0.4, 0.8, 0.9}), {0, 0, 0}, 1), 0xC0u);
+    EXPECT_EQ(vox::detail::childOverlapMask(tri({0.1, 0.1, 0.1}, {0.9, 0.2, 0.3}, {0.4, 0.8, 0.9}),
+                                            {0, 0, 0}, 1),
+              0x80u);
+    EXPECT_EQ(vox::detail::childOverlapMask(tri({-0.5, 0.1, 0.1}, {0.5, 0.2, 0.3}, {0.4, 0.8, 0.9}),
+                                            {0, 0, 0}, 1),
+              0xC0u);
     // Beyond the cube by a clear gap: none.
-    EXPECT_EQ(vox::detail::childOverlapMask(tri({1.1, 0, 0}, {1.5, 0.2, 0}, {1.2, 0, 0.5}), {0, 0, 0}, 1), 0u);
+    EXPECT_EQ(
+        vox::detail::childOverlapMask(tri({1.1, 0, 0}, {1.5, 0.2, 0}, {1.2, 0, 0.5}), {0, 0, 0}, 1),
+        0u);
 }
 
 TEST(TriangleBox, ClipToUnitCubeEqualsTheReferenceCoordinateForCoordinate) {
@@ -361,7 +424,8 @@ TEST(TriangleBox, ClipToUnitCubeEqualsTheReferenceCoordinateForCoordinate) {
         vox::detail::clipToUnitCube(local, got, a, b);
         reference::clipToUnitCube(local, expected, ra, rb);
         ASSERT_EQ(got.size(), expected.size()) << "trial " << trial;
-        for (std::size_t i = 0; i < got.size(); ++i) ASSERT_TRUE(got[i] == expected[i]) << "trial " << trial << " vertex " << i;
+        for (std::size_t i = 0; i < got.size(); ++i)
+            ASSERT_TRUE(got[i] == expected[i]) << "trial " << trial << " vertex " << i;
         clipped += got.size() != 3;
     }
     EXPECT_GT(clipped, 100000);
@@ -387,7 +451,8 @@ TEST(TriangleBox, ContourFitOnSharedFragmentsEqualsTheReference) {
                 const auto flatten = [&, centre = c, half = h](Vec3d p) {
                     return p - n * (vox::dot(p - centre, n) - 0.01 * half * source.u());
                 };
-                tri = vox::detail::prepareBoxTest(flatten(tri.v0), flatten(tri.v1), flatten(tri.v2));
+                tri =
+                    vox::detail::prepareBoxTest(flatten(tri.v0), flatten(tri.v1), flatten(tri.v2));
             }
             tris.push_back(tri);
         }
@@ -403,29 +468,36 @@ TEST(TriangleBox, ContourFitOnSharedFragmentsEqualsTheReference) {
         fragments.clip(list, tris, c, vox::detail::fitContourScale(h));
         const auto shared = vox::detail::fitContour(fragments, list, tris);
         ASSERT_EQ(shared.encoded, expected.encoded) << "trial " << trial;
-        ASSERT_TRUE(std::ranges::equal(fragments.points(), referenceScratch.points)) << "trial " << trial;
+        ASSERT_TRUE(std::ranges::equal(fragments.points(), referenceScratch.points))
+            << "trial " << trial;
         // With per-triangle normal lengths, an unclipped triangle's area comes from them: bit for
         // bit the fan's.
         std::vector<double> lengths;
         for (const BoxTestTriangle& tri : tris) lengths.push_back(vox::length(tri.normal));
         vox::detail::CubeFragments withLengths;
         withLengths.clip(list, tris, c, vox::detail::fitContourScale(h), lengths.data());
-        ASSERT_TRUE(std::ranges::equal(withLengths.points(), fragments.points())) << "trial " << trial;
+        ASSERT_TRUE(std::ranges::equal(withLengths.points(), fragments.points()))
+            << "trial " << trial;
         for (std::size_t entry = 0; entry < list.size(); ++entry) {
             ASSERT_EQ(withLengths.area(entry), fragments.area(entry)) << "trial " << trial;
             const auto polygon = fragments.polygon(entry);
-            for (std::size_t i = 2; i < polygon.size(); ++i) ASSERT_EQ(withLengths.fanArea(entry)[i], fragments.fanArea(entry)[i]);
+            for (std::size_t i = 2; i < polygon.size(); ++i)
+                ASSERT_EQ(withLengths.fanArea(entry)[i], fragments.fanArea(entry)[i]);
         }
         std::vector<Vec3d> units;
-        for (std::size_t t = 0; t < tris.size(); ++t) units.push_back(lengths[t] > 0 ? tris[t].normal * (1.0 / lengths[t]) : Vec3d{0, 0, 0});
-        const auto cached = vox::detail::fitContour(withLengths, list, tris, {lengths.data(), units.data()});
+        for (std::size_t t = 0; t < tris.size(); ++t)
+            units.push_back(lengths[t] > 0 ? tris[t].normal * (1.0 / lengths[t]) : Vec3d{0, 0, 0});
+        const auto cached =
+            vox::detail::fitContour(withLengths, list, tris, {lengths.data(), units.data()});
         ASSERT_EQ(cached.encoded, expected.encoded) << "trial " << trial;
         ASSERT_EQ(cached.thickness, expected.thickness) << "trial " << trial;
         // With the unit normals quantised per triangle too (and a lone fragment's mean taken from
         // them where that is scale-invariant): the same fit.
         std::vector<vox::detail::QuantisedNormal> quantised;
-        for (const Vec3d& unit : units) quantised.push_back(vox::detail::quantiseDirection(unit, true));
-        const auto quantisedOnce = vox::detail::fitContour(withLengths, list, tris, {lengths.data(), units.data(), quantised.data()});
+        for (const Vec3d& unit : units)
+            quantised.push_back(vox::detail::quantiseDirection(unit, true));
+        const auto quantisedOnce = vox::detail::fitContour(
+            withLengths, list, tris, {lengths.data(), units.data(), quantised.data()});
         ASSERT_EQ(quantisedOnce.encoded, expected.encoded) << "trial " << trial;
         ASSERT_EQ(quantisedOnce.thickness, expected.thickness) << "trial " << trial;
         fitted += expected.encoded != 0;
@@ -444,7 +516,9 @@ TEST(TriangleBox, SplitFragmentsEqualDirectlyClippedOnesWithinRounding) {
     // Every vertex of one on the other's boundary (a cut can leave an extra vertex on an edge).
     const auto onSegment = [&](Vec3d p, Vec3d a, Vec3d b) {
         const Vec3d ab = b - a;
-        const double t = vox::dot(ab, ab) > 0 ? std::clamp(vox::dot(p - a, ab) / vox::dot(ab, ab), 0.0, 1.0) : 0.0;
+        const double t = vox::dot(ab, ab) > 0
+                             ? std::clamp(vox::dot(p - a, ab) / vox::dot(ab, ab), 0.0, 1.0)
+                             : 0.0;
         return vox::length(p - (a + ab * t)) <= kTolerance;
     };
     const auto covers = [&](std::span<const Vec3d> from, std::span<const Vec3d> to) {
@@ -459,7 +533,8 @@ TEST(TriangleBox, SplitFragmentsEqualDirectlyClippedOnesWithinRounding) {
     for (int trial = 0; trial < 30000; ++trial) {
         const auto [c, h] = source.cube();
         std::vector<BoxTestTriangle> tris;
-        for (int t = 0, count = 1 + static_cast<int>(rng() % 8); t < count; ++t) tris.push_back(source.next(c, h));
+        for (int t = 0, count = 1 + static_cast<int>(rng() % 8); t < count; ++t)
+            tris.push_back(source.next(c, h));
         std::vector<std::uint32_t> list;
         for (std::uint32_t t = 0; t < tris.size(); ++t)
             if (vox::detail::triangleOverlapsCube(tris[t], c, h)) list.push_back(t);
@@ -477,26 +552,32 @@ TEST(TriangleBox, SplitFragmentsEqualDirectlyClippedOnesWithinRounding) {
                 for (std::uint32_t slot = 0; slot < 8; ++slot)
                     if (masks.back() & (1u << slot)) children[slot].push_back(t);
             }
-            for (std::uint32_t slot = 0; slot < 8; ++slot) levels[depth][slot].start(children[slot].size());
+            for (std::uint32_t slot = 0; slot < 8; ++slot)
+                levels[depth][slot].start(children[slot].size());
             for (std::size_t entry = 0; entry < list.size(); ++entry)
                 if (masks[entry]) fragments->splitInto(entry, masks[entry], levels[depth]);
             const double q = 0.5 * half;
             for (std::uint32_t slot = 0; slot < 8; ++slot) {
-                const Vec3d childCentre{centre.x + (slot & 1u ? q : -q), centre.y + (slot & 2u ? q : -q), centre.z + (slot & 4u ? q : -q)};
+                const Vec3d childCentre{centre.x + (slot & 1u ? q : -q),
+                                        centre.y + (slot & 2u ? q : -q),
+                                        centre.z + (slot & 4u ? q : -q)};
                 vox::detail::CubeFragments direct;
                 direct.clip(children[slot], tris, childCentre, vox::detail::fitContourScale(q));
                 const vox::detail::CubeFragments& split = levels[depth][slot];
                 ASSERT_EQ(split.size(), children[slot].size());
                 for (std::size_t entry = 0; entry < children[slot].size(); ++entry) {
                     const auto a = split.polygon(entry), b = direct.polygon(entry);
-                    ASSERT_NEAR(split.area(entry), direct.area(entry), kTolerance) << "trial " << trial << " depth " << depth << " slot " << slot;
+                    ASSERT_NEAR(split.area(entry), direct.area(entry), kTolerance)
+                        << "trial " << trial << " depth " << depth << " slot " << slot;
                     if (std::max(split.area(entry), direct.area(entry)) <= kTolerance) {
                         // A contact without area (a touching edge or vertex, or nothing within the
                         // box test's margin): its points may differ with the order of the cuts.
                         ++contacts;
                         continue;
                     }
-                    ASSERT_TRUE(covers(a, b) && covers(b, a)) << "trial " << trial << " depth " << depth << " slot " << slot << " entry " << entry;
+                    ASSERT_TRUE(covers(a, b) && covers(b, a))
+                        << "trial " << trial << " depth " << depth << " slot " << slot << " entry "
+                        << entry;
                     ++compared;
                     cut += b.size() != 3;
                 }
@@ -505,7 +586,8 @@ TEST(TriangleBox, SplitFragmentsEqualDirectlyClippedOnesWithinRounding) {
             std::uint32_t slot = static_cast<std::uint32_t>(rng() % 8);
             for (int tries = 0; tries < 8 && children[slot].empty(); ++tries) slot = (slot + 1) % 8;
             const double quarter = 0.5 * half;
-            centre = {centre.x + (slot & 1u ? quarter : -quarter), centre.y + (slot & 2u ? quarter : -quarter),
+            centre = {centre.x + (slot & 1u ? quarter : -quarter),
+                      centre.y + (slot & 2u ? quarter : -quarter),
                       centre.z + (slot & 4u ? quarter : -quarter)};
             half = quarter;
             list = children[slot];
@@ -514,7 +596,8 @@ TEST(TriangleBox, SplitFragmentsEqualDirectlyClippedOnesWithinRounding) {
     }
     EXPECT_GT(compared, 200000);
     EXPECT_GT(cut, 50000);
-    EXPECT_LT(contacts, compared);  // the source makes many touching and degenerate triangles on purpose
+    EXPECT_LT(contacts,
+              compared);  // the source makes many touching and degenerate triangles on purpose
 }
 
 TEST(TriangleBox, LinearBarycentricsEqualTheProjectionsWithinRounding) {
@@ -530,18 +613,24 @@ TEST(TriangleBox, LinearBarycentricsEqualTheProjectionsWithinRounding) {
         const vox::detail::BarycentricFrame frame(corners);
         const auto linear = frame.linear();
         const double a = 0.5 + 0.5 * source.u(), b = (1 - a) * (0.5 + 0.6 * source.u());
-        const Vec3d p = tri.v0 * (1 - a - b) + tri.v1 * a + tri.v2 * b;  // slightly outside now and then
+        const Vec3d p =
+            tri.v0 * (1 - a - b) + tri.v1 * a + tri.v2 * b;  // slightly outside now and then
         const Vec3d expected = vox::detail::barycentric(corners, p), got = linear(p);
         ASSERT_EQ(frame(p).x, expected.x);  // the frame is barycentric() itself
         // Relative to the triangle's conditioning: its coordinates solve the normal equations
         // either way, accurate to about ε times the square of the ratio of its longest edge to its
-        // height, and times the ratio of the coordinates' magnitude to its size (p is rounded there).
-        const double edge2 = std::max({vox::dot(tri.v1 - tri.v0, tri.v1 - tri.v0), vox::dot(tri.v2 - tri.v0, tri.v2 - tri.v0),
+        // height, and times the ratio of the coordinates' magnitude to its size (p is rounded
+        // there).
+        const double edge2 = std::max({vox::dot(tri.v1 - tri.v0, tri.v1 - tri.v0),
+                                       vox::dot(tri.v2 - tri.v0, tri.v2 - tri.v0),
                                        vox::dot(tri.v2 - tri.v1, tri.v2 - tri.v1)});
         const double area2 = vox::dot(tri.normal, tri.normal);
-        if (!(area2 > 1e-12 * edge2 * edge2)) continue;  // degenerate or a needle: ill-conditioned either way
-        const double magnitude = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)}) / std::sqrt(edge2);
-        const double tolerance = 64 * std::numeric_limits<double>::epsilon() * (edge2 * edge2 / area2) * (1 + magnitude);
+        if (!(area2 > 1e-12 * edge2 * edge2))
+            continue;  // degenerate or a needle: ill-conditioned either way
+        const double magnitude =
+            std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)}) / std::sqrt(edge2);
+        const double tolerance =
+            64 * std::numeric_limits<double>::epsilon() * (edge2 * edge2 / area2) * (1 + magnitude);
         for (int k = 0; k < 3; ++k) {
             ASSERT_NEAR(got[k], expected[k], tolerance) << "trial " << trial << " coordinate " << k;
             worst = std::max(worst, std::abs(got[k] - expected[k]) / tolerance);
@@ -557,25 +646,38 @@ TEST(TriangleBox, CarryContourEqualsTheReference) {
     std::mt19937 rng(6);
     std::uniform_int_distribution<int> component(-32, 31), position(-64, 63), thickness(0, 127);
     for (int trial = 0; trial < 200000; ++trial) {
-        const vox::esvo::Contour c{component(rng), component(rng), component(rng), position(rng), static_cast<unsigned>(thickness(rng))};
+        const vox::esvo::Contour c{component(rng), component(rng), component(rng), position(rng),
+                                   static_cast<unsigned>(thickness(rng))};
         const std::uint32_t encoded = trial % 50 == 0 ? 0u : c.encode();
         for (std::uint32_t slot = 0; slot < 8; ++slot) {
             double expectedThickness = -1, thicknessOut = -1;
-            const std::uint32_t expected = reference::carryContour(encoded, slot, expectedThickness);
-            ASSERT_EQ(vox::detail::carryContour(encoded, slot, thicknessOut), expected) << trial << " slot " << slot;
+            const std::uint32_t expected =
+                reference::carryContour(encoded, slot, expectedThickness);
+            ASSERT_EQ(vox::detail::carryContour(encoded, slot, thicknessOut), expected)
+                << trial << " slot " << slot;
             ASSERT_EQ(thicknessOut, expectedThickness) << trial << " slot " << slot;
         }
     }
     // Every position and thickness for normals at the ends of the range.
-    for (const std::array<int, 3> n : {std::array<int, 3>{31, 0, 0}, {-32, 31, -32}, {31, 31, 31}, {-32, -32, -32}, {0, 0, -32},
-                                       {17, -5, 31}, {-31, 30, 1}, {1, 1, 31}, {0, -1, 0}, {-7, 31, -13}}) {
+    for (const std::array<int, 3> n : {std::array<int, 3>{31, 0, 0},
+                                       {-32, 31, -32},
+                                       {31, 31, 31},
+                                       {-32, -32, -32},
+                                       {0, 0, -32},
+                                       {17, -5, 31},
+                                       {-31, 30, 1},
+                                       {1, 1, 31},
+                                       {0, -1, 0},
+                                       {-7, 31, -13}}) {
         for (int p = -64; p <= 63; ++p)
             for (unsigned t = 0; t <= 127; ++t) {
                 const std::uint32_t encoded = vox::esvo::Contour{n[0], n[1], n[2], p, t}.encode();
                 for (std::uint32_t slot = 0; slot < 8; ++slot) {
                     double expectedThickness = -1, thicknessOut = -1;
-                    const std::uint32_t expected = reference::carryContour(encoded, slot, expectedThickness);
-                    ASSERT_EQ(vox::detail::carryContour(encoded, slot, thicknessOut), expected) << p << " " << t << " slot " << slot;
+                    const std::uint32_t expected =
+                        reference::carryContour(encoded, slot, expectedThickness);
+                    ASSERT_EQ(vox::detail::carryContour(encoded, slot, thicknessOut), expected)
+                        << p << " " << t << " slot " << slot;
                     ASSERT_EQ(thicknessOut, expectedThickness);
                 }
             }

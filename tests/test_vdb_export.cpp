@@ -38,10 +38,12 @@ std::vector<char> readBytes(const fs::path& file) {
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-rvol::Texel& texel(rvol::Level& level, std::uint32_t channel, std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+rvol::Texel& texel(rvol::Level& level, std::uint32_t channel, std::uint32_t x, std::uint32_t y,
+                   std::uint32_t z) {
     const std::int64_t block = level.findBlock(x, y, z);
     EXPECT_GE(block, 0);
-    return level.texels[rvol::Level::texelIndex(static_cast<std::size_t>(block), level.channels, channel, x, y, z)];
+    return level.texels[rvol::Level::texelIndex(static_cast<std::size_t>(block), level.channels,
+                                                channel, x, y, z)];
 }
 
 /// A patterned level: cells of its blocks non-zero where (x + 2y + 3z + channel) % 5 != 0, some of
@@ -53,9 +55,13 @@ void fill(rvol::Level& level, std::uint32_t levelIndex) {
             for (std::uint32_t z = 0; z < rvol::kBlockCells; ++z)
                 for (std::uint32_t y = 0; y < rvol::kBlockCells; ++y)
                     for (std::uint32_t x = 0; x < rvol::kBlockCells; ++x) {
-                        const std::uint32_t cx = block[0] * 8 + x, cy = block[1] * 8 + y, cz = block[2] * 8 + z;
-                        if (cx >= level.resolution || cy >= level.resolution || cz >= level.resolution) continue;
-                        rvol::Texel& t = level.texels[rvol::Level::texelIndex(b, level.channels, c, cx, cy, cz)];
+                        const std::uint32_t cx = block[0] * 8 + x, cy = block[1] * 8 + y,
+                                            cz = block[2] * 8 + z;
+                        if (cx >= level.resolution || cy >= level.resolution ||
+                            cz >= level.resolution)
+                            continue;
+                        rvol::Texel& t =
+                            level.texels[rvol::Level::texelIndex(b, level.channels, c, cx, cy, cz)];
                         const std::uint32_t k = cx + 2 * cy + 3 * cz + c;
                         if (k % 5 == 0) continue;
                         t.a = static_cast<float>(k % 4) / 4.0f;  // 0, ¼, ½, ¾
@@ -86,9 +92,10 @@ rvol::Volume makeVolume() {
         fill(level, l);
     }
     // Known cells, overriding the pattern.
-    texel(v.levels[0], 0, 3, 5, 7) = {0.4f, 0.2f, 0.1f, 0.5f};   // radiance (0.8, 0.4, 0.2), density 0.5
-    texel(v.levels[0], 0, 9, 10, 2) = {0.3f, 0.6f, 0.9f, 1.0f};  // block (1, 1, 0)
-    texel(v.levels[0], 0, 4, 4, 4) = {};                         // empty
+    texel(v.levels[0], 0, 3, 5, 7) = {0.4f, 0.2f, 0.1f,
+                                      0.5f};  // radiance (0.8, 0.4, 0.2), density 0.5
+    texel(v.levels[0], 0, 9, 10, 2) = {0.3f, 0.6f, 0.9f, 1.0f};   // block (1, 1, 0)
+    texel(v.levels[0], 0, 4, 4, 4) = {};                          // empty
     texel(v.levels[1], 2, 1, 6, 3) = {0.25f, 0.5f, 0.0f, 0.25f};  // PosY: radiance (1, 2, 0)
     texel(v.levels[1], 5, 1, 6, 3) = {0.0f, 0.0f, 0.0f, 0.75f};   // NegZ: opaque black
 
@@ -107,13 +114,16 @@ rvol::Volume makeVolume() {
     c.albedo = {0.9f, 0.9f, 0.9f};
     c.normal = {1, 0, 0};
     v.staticVoxels = {a, b, c};
-    std::sort(v.staticVoxels.begin(), v.staticVoxels.end(),
-              [](const auto& p, const auto& q) { return rvol::morton3(p.x, p.y, p.z) < rvol::morton3(q.x, q.y, q.z); });
+    std::sort(v.staticVoxels.begin(), v.staticVoxels.end(), [](const auto& p, const auto& q) {
+        return rvol::morton3(p.x, p.y, p.z) < rvol::morton3(q.x, q.y, q.z);
+    });
     return v;
 }
 
-/// Cells of @p channel of @p level with non-zero opacity, and with non-zero un-premultiplied radiance.
-std::pair<openvdb::Index64, openvdb::Index64> nonZeroCells(const rvol::Level& level, std::uint32_t channel) {
+/// Cells of @p channel of @p level with non-zero opacity, and with non-zero un-premultiplied
+/// radiance.
+std::pair<openvdb::Index64, openvdb::Index64> nonZeroCells(const rvol::Level& level,
+                                                           std::uint32_t channel) {
     openvdb::Index64 opacity = 0, radiance = 0;
     for (std::uint32_t z = 0; z < level.resolution; ++z)
         for (std::uint32_t y = 0; y < level.resolution; ++y)
@@ -155,7 +165,8 @@ typename GridT::Ptr grid(const VdbFile& f, const std::string& name) {
 /// World position of the centre of cell (i, j, k) of @p level.
 openvdb::Vec3d cellCentre(std::uint32_t level, std::uint32_t i, std::uint32_t j, std::uint32_t k) {
     const double cell = kSize / double(1u << (kDepth - level));
-    return {kOrigin[0] + (i + 0.5) * cell, kOrigin[1] + (j + 0.5) * cell, kOrigin[2] + (k + 0.5) * cell};
+    return {kOrigin[0] + (i + 0.5) * cell, kOrigin[1] + (j + 0.5) * cell,
+            kOrigin[2] + (k + 0.5) * cell};
 }
 
 /// The value a world position reads from @p g: nearest voxel through the transform, and the
@@ -182,7 +193,8 @@ TEST(VdbExport, GridNamesTypesAndMetadata) {
     EXPECT_EQ(dir.files(), std::vector<std::string>{"bake.vdb"});
     const VdbFile f = readVdb(dir / "bake.vdb");
 
-    std::vector<std::string> want{"albedo", "emission", "normal", "occlusion", "radiance", "density"};
+    std::vector<std::string> want{"albedo",    "emission", "normal",
+                                  "occlusion", "radiance", "density"};
     for (const auto& d : kDirs) want.push_back("radiance_" + d);
     for (const auto& d : kDirs) want.push_back("opacity_" + d);
     std::sort(want.begin(), want.end());
@@ -207,7 +219,8 @@ TEST(VdbExport, GridNamesTypesAndMetadata) {
     ASSERT_TRUE(f.meta);
     EXPECT_EQ(f.meta->metaValue<std::string>("source"), "libvox .rvol bake");
     EXPECT_EQ(f.meta->metaValue<openvdb::Int32>("depth"), static_cast<openvdb::Int32>(kDepth));
-    EXPECT_EQ(f.meta->metaValue<openvdb::Vec3d>("origin"), openvdb::Vec3d(kOrigin[0], kOrigin[1], kOrigin[2]));
+    EXPECT_EQ(f.meta->metaValue<openvdb::Vec3d>("origin"),
+              openvdb::Vec3d(kOrigin[0], kOrigin[1], kOrigin[2]));
     EXPECT_EQ(f.meta->metaValue<double>("size"), kSize);
 }
 
@@ -227,7 +240,8 @@ TEST(VdbExport, AllLevelsAddSuffixedCoarserLevels) {
     EXPECT_FALSE(f.grids.count("radiance_px_L1"));
     // The coarsest level is one cell: its centre is the cube's centre.
     const auto top = grid<openvdb::FloatGrid>(f, "opacity_py_L4");
-    const openvdb::Vec3d centre(kOrigin[0] + kSize / 2, kOrigin[1] + kSize / 2, kOrigin[2] + kSize / 2);
+    const openvdb::Vec3d centre(kOrigin[0] + kSize / 2, kOrigin[1] + kSize / 2,
+                                kOrigin[2] + kSize / 2);
     EXPECT_EQ(top->transform().worldToIndexCellCentered(centre), openvdb::Coord(0, 0, 0));
     EXPECT_NEAR(top->transform().worldToIndex(centre).length(), 0.0, 1e-12);
 }
@@ -248,12 +262,14 @@ TEST(VdbExport, CellCentresMapToTheirCells) {
 
     // OpenVDB voxel i spans index [i − ½, i + ½]: the root cube's corners are at −½ and res − ½.
     const openvdb::math::Transform& xf = radiance->transform();
-    const openvdb::Vec3d lo = xf.indexToWorld(openvdb::Vec3d(-0.5)), hi = xf.indexToWorld(openvdb::Vec3d(15.5));
+    const openvdb::Vec3d lo = xf.indexToWorld(openvdb::Vec3d(-0.5)),
+                         hi = xf.indexToWorld(openvdb::Vec3d(15.5));
     for (int i = 0; i < 3; ++i) {
         EXPECT_NEAR(lo[i], kOrigin[static_cast<std::size_t>(i)], 1e-12);
         EXPECT_NEAR(hi[i], kOrigin[static_cast<std::size_t>(i)] + kSize, 1e-12);
     }
-    EXPECT_NEAR((xf.worldToIndex(cellCentre(0, 3, 5, 7)) - openvdb::Vec3d(3, 5, 7)).length(), 0.0, 1e-12);
+    EXPECT_NEAR((xf.worldToIndex(cellCentre(0, 3, 5, 7)) - openvdb::Vec3d(3, 5, 7)).length(), 0.0,
+                1e-12);
     EXPECT_EQ(xf.worldToIndexCellCentered(cellCentre(0, 3, 5, 7)), openvdb::Coord(3, 5, 7));
 
     // Known cells at their world centres; un-premultiplied radiance.
@@ -263,13 +279,17 @@ TEST(VdbExport, CellCentresMapToTheirCells) {
     EXPECT_FLOAT_EQ(sampleWorld(*density, cellCentre(0, 9, 10, 2)), 1.0f);
     EXPECT_FALSE(density->tree().isValueOn(openvdb::Coord(4, 4, 4)));
     expectVec(sampleWorld(*py, cellCentre(1, 1, 6, 3)), {1.0f, 2.0f, 0.0f});
-    EXPECT_FLOAT_EQ(sampleWorld(*grid<openvdb::FloatGrid>(f, "opacity_py"), cellCentre(1, 1, 6, 3)), 0.25f);
+    EXPECT_FLOAT_EQ(sampleWorld(*grid<openvdb::FloatGrid>(f, "opacity_py"), cellCentre(1, 1, 6, 3)),
+                    0.25f);
     // Opaque black: opacity active, radiance not.
-    EXPECT_FLOAT_EQ(sampleWorld(*grid<openvdb::FloatGrid>(f, "opacity_nz"), cellCentre(1, 1, 6, 3)), 0.75f);
-    EXPECT_FALSE(grid<openvdb::Vec3SGrid>(f, "radiance_nz")->tree().isValueOn(openvdb::Coord(1, 6, 3)));
+    EXPECT_FLOAT_EQ(sampleWorld(*grid<openvdb::FloatGrid>(f, "opacity_nz"), cellCentre(1, 1, 6, 3)),
+                    0.75f);
+    EXPECT_FALSE(
+        grid<openvdb::Vec3SGrid>(f, "radiance_nz")->tree().isValueOn(openvdb::Coord(1, 6, 3)));
 
     // Near a cell's corner (still inside it) reads the same cell; just across, the neighbour.
-    const openvdb::Vec3d corner(kOrigin[0] + 3 * 0.25, kOrigin[1] + 5 * 0.25, kOrigin[2] + 7 * 0.25);
+    const openvdb::Vec3d corner(kOrigin[0] + 3 * 0.25, kOrigin[1] + 5 * 0.25,
+                                kOrigin[2] + 7 * 0.25);
     EXPECT_EQ(xf.worldToIndexCellCentered(corner + openvdb::Vec3d(0.01)), openvdb::Coord(3, 5, 7));
     EXPECT_EQ(xf.worldToIndexCellCentered(corner - openvdb::Vec3d(0.01)), openvdb::Coord(2, 4, 6));
 
@@ -280,8 +300,10 @@ TEST(VdbExport, CellCentresMapToTheirCells) {
                 const rvol::Texel t = volume.levels[0].at(x, y, z, 0);
                 const openvdb::Vec3d w = cellCentre(0, x, y, z);
                 ASSERT_EQ(sampleWorld(*density, w), t.a) << x << "," << y << "," << z;
-                if (t.a > 0) expectVec(sampleWorld(*radiance, w), {t.r / t.a, t.g / t.a, t.b / t.a});
-                else ASSERT_EQ(sampleWorld(*radiance, w), openvdb::Vec3s(0.0f));
+                if (t.a > 0)
+                    expectVec(sampleWorld(*radiance, w), {t.r / t.a, t.g / t.a, t.b / t.a});
+                else
+                    ASSERT_EQ(sampleWorld(*radiance, w), openvdb::Vec3s(0.0f));
             }
     for (std::uint32_t d = 0; d < rvol::kDirections; ++d) {
         const auto rgb = grid<openvdb::Vec3SGrid>(f, "radiance_" + kDirs[d]);
@@ -291,7 +313,9 @@ TEST(VdbExport, CellCentresMapToTheirCells) {
                 for (std::uint32_t x = 0; x < 8; ++x) {
                     const rvol::Texel t = volume.levels[1].at(x, y, z, d);
                     ASSERT_EQ(sampleWorld(*a, cellCentre(1, x, y, z)), t.a);
-                    if (t.a > 0) expectVec(sampleWorld(*rgb, cellCentre(1, x, y, z)), {t.r / t.a, t.g / t.a, t.b / t.a});
+                    if (t.a > 0)
+                        expectVec(sampleWorld(*rgb, cellCentre(1, x, y, z)),
+                                  {t.r / t.a, t.g / t.a, t.b / t.a});
                 }
     }
 
@@ -322,8 +346,10 @@ TEST(VdbExport, ActiveVoxelsAreTheNonZeroCells) {
         for (std::uint32_t d = 0; d < rvol::kDirections; ++d) {
             const std::string suffix = l == 1 ? "" : "_L" + std::to_string(l);
             const auto [a, rgb] = nonZeroCells(volume.levels[l], d);
-            EXPECT_EQ(f.grids.at("opacity_" + kDirs[d] + suffix)->activeVoxelCount(), a) << l << kDirs[d];
-            EXPECT_EQ(f.grids.at("radiance_" + kDirs[d] + suffix)->activeVoxelCount(), rgb) << l << kDirs[d];
+            EXPECT_EQ(f.grids.at("opacity_" + kDirs[d] + suffix)->activeVoxelCount(), a)
+                << l << kDirs[d];
+            EXPECT_EQ(f.grids.at("radiance_" + kDirs[d] + suffix)->activeVoxelCount(), rgb)
+                << l << kDirs[d];
         }
     EXPECT_EQ(f.grids.at("albedo")->activeVoxelCount(), 2u);  // one static voxel is black
     EXPECT_EQ(f.grids.at("normal")->activeVoxelCount(), 3u);
@@ -359,7 +385,8 @@ TEST(VdbExport, RepeatedExportsAreByteIdentical) {
     vox::exportVdb(dir / "c.vdb", other, {.allLevels = true});
     const std::vector<char> c = readBytes(dir / "c.vdb");
     ASSERT_GT(c.size(), 57u);
-    EXPECT_NE(std::string(a.begin() + 21, a.begin() + 57), std::string(c.begin() + 21, c.begin() + 57));
+    EXPECT_NE(std::string(a.begin() + 21, a.begin() + 57),
+              std::string(c.begin() + 21, c.begin() + 57));
     EXPECT_EQ(a[21 + 8], '-');
     EXPECT_EQ(a[21 + 14], '8');  // version-8 (custom) UUID
     // io::File reports the UUID it read back.
@@ -414,9 +441,11 @@ TEST(VdbExport, DepthZeroHasNoDirectionalGrids) {
     volume.levels[0].texels[0] = {0.5f, 0.5f, 0.5f, 0.5f};
     vox::exportVdb(dir / "one.vdb", volume, {.allLevels = true});
     const VdbFile f = readVdb(dir / "one.vdb");
-    EXPECT_EQ(f.names, (std::vector<std::string>{"albedo", "density", "normal", "occlusion", "radiance"}));
+    EXPECT_EQ(f.names,
+              (std::vector<std::string>{"albedo", "density", "normal", "occlusion", "radiance"}));
     EXPECT_EQ(f.grids.at("density")->activeVoxelCount(), 1u);
-    expectVec(grid<openvdb::Vec3SGrid>(f, "radiance")->tree().getValue(openvdb::Coord(0)), {1, 1, 1});
+    expectVec(grid<openvdb::Vec3SGrid>(f, "radiance")->tree().getValue(openvdb::Coord(0)),
+              {1, 1, 1});
 }
 
 }  // namespace

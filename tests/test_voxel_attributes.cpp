@@ -14,9 +14,11 @@
 
 namespace {
 
-using Key = std::tuple<std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>;  // level, x, y, z
+using Key =
+    std::tuple<std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>;  // level, x, y, z
 
-/// Every voxel's attributes by position: level l's voxels are the children of level l−1's, in order.
+/// Every voxel's attributes by position: level l's voxels are the children of level l−1's, in
+/// order.
 std::map<Key, std::uint64_t> attributesByPosition(const vox::SparseOctree& octree) {
     std::map<Key, std::uint64_t> out;
     std::vector<std::array<std::uint32_t, 3>> level{{0, 0, 0}};
@@ -28,7 +30,9 @@ std::map<Key, std::uint64_t> attributesByPosition(const vox::SparseOctree& octre
             if (l == octree.leafDepth) continue;
             const std::uint32_t mask = octree.masks[l][i];
             for (std::uint32_t s = 0; s < 8; ++s)
-                if (mask & (1u << s)) next.push_back({2 * level[i][0] + (s & 1u), 2 * level[i][1] + ((s >> 1) & 1u), 2 * level[i][2] + (s >> 2)});
+                if (mask & (1u << s))
+                    next.push_back({2 * level[i][0] + (s & 1u), 2 * level[i][1] + ((s >> 1) & 1u),
+                                    2 * level[i][2] + (s >> 2)});
         }
         level = std::move(next);
     }
@@ -37,13 +41,17 @@ std::map<Key, std::uint64_t> attributesByPosition(const vox::SparseOctree& octre
 
 vox::Vec3f rgb(std::uint64_t value) {
     const auto c = static_cast<std::uint32_t>(value);
-    return {float(vox::esvo::colorChannel(c, 0)), float(vox::esvo::colorChannel(c, 1)), float(vox::esvo::colorChannel(c, 2))};
+    return {float(vox::esvo::colorChannel(c, 0)), float(vox::esvo::colorChannel(c, 1)),
+            float(vox::esvo::colorChannel(c, 2))};
 }
-vox::esvo::Vec3 normalOf(std::uint64_t value) { return vox::esvo::decodeUnitNormal(static_cast<std::uint32_t>(value >> 32)); }
+vox::esvo::Vec3 normalOf(std::uint64_t value) {
+    return vox::esvo::decodeUnitNormal(static_cast<std::uint32_t>(value >> 32));
+}
 float srgb8(float linear) { return std::round(255.0f * vox::linearToSrgb(linear)); }
 
 /// A quad [x0,x1]×[0,1] in the plane z = 0 with material @p material; normals +z unless given.
-void addQuad(vox::Scene& scene, float x0, float x1, std::uint32_t material, vox::Vec3f n0 = {0, 0, 1}, vox::Vec3f n1 = {0, 0, 1}) {
+void addQuad(vox::Scene& scene, float x0, float x1, std::uint32_t material,
+             vox::Vec3f n0 = {0, 0, 1}, vox::Vec3f n1 = {0, 0, 1}) {
     vox::Mesh mesh;
     mesh.material = material;
     mesh.positions = {{x0, 0, 0}, {x1, 0, 0}, {x1, 1, 0}, {x0, 1, 0}};
@@ -58,7 +66,8 @@ vox::Scene checkerQuad(int squareTexels) {
     std::vector<std::uint8_t> pixels(64 * 64);
     for (int y = 0; y < 64; ++y)
         for (int x = 0; x < 64; ++x)
-            pixels[std::size_t(y) * 64 + std::size_t(x)] = ((x / squareTexels + y / squareTexels) % 2) ? 255 : 0;
+            pixels[std::size_t(y) * 64 + std::size_t(x)] =
+                ((x / squareTexels + y / squareTexels) % 2) ? 255 : 0;
     vox::Scene scene;
     scene.textures.emplace_back("checker", 64, 64, 1, pixels, vox::ColorSpace::SRGB);
     vox::Material material;
@@ -68,8 +77,8 @@ vox::Scene checkerQuad(int squareTexels) {
     return scene;
 }
 
-vox::SparseOctree voxelize(const vox::Scene& scene, std::uint32_t depth, bool contours = false, double contourError = 0,
-                           double colorError = 0) {
+vox::SparseOctree voxelize(const vox::Scene& scene, std::uint32_t depth, bool contours = false,
+                           double contourError = 0, double colorError = 0) {
     vox::SurfaceVoxelizeOptions options;
     options.depth = depth;
     options.attributes = true;
@@ -115,7 +124,8 @@ TEST(VoxelAttributes, TexturesAreFilteredOverTheVoxelsFootprint) {
     for (const auto& [key, value] : attributesByPosition(voxelize(scene, 3)))
         if (std::get<0>(key) == 3) {
             const float v = rgb(value).x;
-            EXPECT_TRUE(v <= 8.0f || v >= 247.0f) << "leaf " << std::get<1>(key) << "," << std::get<2>(key) << ": " << v;
+            EXPECT_TRUE(v <= 8.0f || v >= 247.0f)
+                << "leaf " << std::get<1>(key) << "," << std::get<2>(key) << ": " << v;
         }
     for (const auto& [key, value] : attributesByPosition(voxelize(scene, 1)))
         if (std::get<0>(key) == 1) {
@@ -237,12 +247,15 @@ TEST(VoxelAttributes, NormalBoundStopsWhereTheVoxelsNormalStandsForItsSurface) {
             const auto [level, x, y, z] = voxels[i];
             if (mask == 0) {
                 const double w = std::ldexp(1.0, -static_cast<int>(level));
-                EXPECT_LE(trueRmsDegrees(x * w, (x + 1) * w), 0.8 * 1.15) << "level " << level << " x " << x;
+                EXPECT_LE(trueRmsDegrees(x * w, (x + 1) * w), 0.8 * 1.15)
+                    << "level " << level << " x " << x;
                 levelAtX[x << (9 - level)] = level;
                 continue;
             }
             for (std::uint32_t slot = 0; slot < 8; ++slot)
-                if (mask & (1u << slot)) next.push_back({l + 1, 2 * x + (slot & 1u), 2 * y + ((slot >> 1) & 1u), 2 * z + (slot >> 2)});
+                if (mask & (1u << slot))
+                    next.push_back({l + 1, 2 * x + (slot & 1u), 2 * y + ((slot >> 1) & 1u),
+                                    2 * z + (slot >> 2)});
         }
         voxels = std::move(next);
     }

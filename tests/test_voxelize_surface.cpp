@@ -51,7 +51,8 @@ vox::Scene makeScene(const std::vector<Triangle>& triangles) {
     return scene;
 }
 
-vox::SparseOctree voxelize(const vox::Scene& scene, std::uint32_t depth, bool includeDynamic = false) {
+vox::SparseOctree voxelize(const vox::Scene& scene, std::uint32_t depth,
+                           bool includeDynamic = false) {
     vox::SurfaceVoxelizeOptions options;
     options.depth = depth;
     options.includeDynamic = includeDynamic;
@@ -61,7 +62,8 @@ vox::SparseOctree voxelize(const vox::Scene& scene, std::uint32_t depth, bool in
 using Key = std::uint64_t;  // x | y << 21 | z << 42
 Key key(std::uint64_t x, std::uint64_t y, std::uint64_t z) { return x | (y << 21) | (z << 42); }
 std::string keyText(Key k) {
-    return "(" + std::to_string(k & 0x1FFFFF) + "," + std::to_string((k >> 21) & 0x1FFFFF) + "," + std::to_string(k >> 42) + ")";
+    return "(" + std::to_string(k & 0x1FFFFF) + "," + std::to_string((k >> 21) & 0x1FFFFF) + "," +
+           std::to_string(k >> 42) + ")";
 }
 
 /// Structural checks, then the leaf coordinates decoded from the per-level masks: the children of
@@ -70,7 +72,9 @@ std::set<Key> decodeLeaves(const vox::SparseOctree& octree) {
     std::set<Key> leaves;
     EXPECT_EQ(octree.masks.size(), octree.leafDepth);
     EXPECT_EQ(octree.voxelsPerLevel.size(), octree.leafDepth + 1);
-    if (octree.masks.size() != octree.leafDepth || octree.voxelsPerLevel.size() != octree.leafDepth + 1) return leaves;
+    if (octree.masks.size() != octree.leafDepth ||
+        octree.voxelsPerLevel.size() != octree.leafDepth + 1)
+        return leaves;
     std::vector<std::array<std::uint32_t, 3>> level{{0, 0, 0}};
     for (std::uint32_t l = 0; l < octree.leafDepth; ++l) {
         const auto& masks = octree.masks[l];
@@ -79,11 +83,13 @@ std::set<Key> decodeLeaves(const vox::SparseOctree& octree) {
         if (masks.size() != level.size()) return leaves;
         std::vector<std::array<std::uint32_t, 3>> next;
         for (std::size_t i = 0; i < masks.size(); ++i) {
-            EXPECT_NE(masks[i], 0) << "empty interior voxel at level " << l << " index " << i << " at "
-                                   << keyText(key(level[i][0], level[i][1], level[i][2]));
+            EXPECT_NE(masks[i], 0) << "empty interior voxel at level " << l << " index " << i
+                                   << " at " << keyText(key(level[i][0], level[i][1], level[i][2]));
             for (std::uint32_t slot = 0; slot < 8; ++slot)
                 if (masks[i] & (1u << slot))
-                    next.push_back({2 * level[i][0] + (slot & 1u), 2 * level[i][1] + ((slot >> 1) & 1u), 2 * level[i][2] + (slot >> 2)});
+                    next.push_back({2 * level[i][0] + (slot & 1u),
+                                    2 * level[i][1] + ((slot >> 1) & 1u),
+                                    2 * level[i][2] + (slot >> 2)});
         }
         level = std::move(next);
     }
@@ -104,7 +110,9 @@ bool clipOverlaps(const std::array<Vec3d, 3>& tri, const Vec3d& lo, const Vec3d&
     for (int axis = 0; axis < 3 && !poly.empty(); ++axis)
         for (int side = 0; side < 2 && !poly.empty(); ++side) {
             const double plane = side == 0 ? lo[axis] : hi[axis];
-            const auto inside = [&](const Vec3d& p) { return side == 0 ? p[axis] >= plane : p[axis] <= plane; };
+            const auto inside = [&](const Vec3d& p) {
+                return side == 0 ? p[axis] >= plane : p[axis] <= plane;
+            };
             out.clear();
             for (std::size_t i = 0; i < poly.size(); ++i) {
                 const Vec3d& a = poly[i];
@@ -131,7 +139,8 @@ struct LeafFrame {
     std::uint32_t depth = 0;
     [[nodiscard]] Vec3d toLeaf(Vec3f p) const {
         const double scale = std::ldexp(1.0, static_cast<int>(depth)) / size;
-        return {(double(p.x) - origin.x) * scale, (double(p.y) - origin.y) * scale, (double(p.z) - origin.z) * scale};
+        return {(double(p.x) - origin.x) * scale, (double(p.y) - origin.y) * scale,
+                (double(p.z) - origin.z) * scale};
     }
 };
 
@@ -153,17 +162,20 @@ LeafFrame frameFor(const std::vector<Triangle>& triangles, std::uint32_t depth) 
 
 /// Brute force over every leaf cube of the root cube (or of [from, to) per axis): the cubes,
 /// grown by @p grow leaf units on every side, that some triangle overlaps.
-std::set<Key> bruteForce(const std::vector<Triangle>& triangles, const LeafFrame& frame, double grow,
-                         std::array<std::uint32_t, 3> from = {0, 0, 0}, std::array<std::uint32_t, 3> to = {0, 0, 0}) {
+std::set<Key> bruteForce(const std::vector<Triangle>& triangles, const LeafFrame& frame,
+                         double grow, std::array<std::uint32_t, 3> from = {0, 0, 0},
+                         std::array<std::uint32_t, 3> to = {0, 0, 0}) {
     const std::uint32_t n = 1u << frame.depth;
     if (to == std::array<std::uint32_t, 3>{0, 0, 0}) to = {n, n, n};
     std::vector<std::array<Vec3d, 3>> leafTris;
-    for (const Triangle& t : triangles) leafTris.push_back({frame.toLeaf(t[0]), frame.toLeaf(t[1]), frame.toLeaf(t[2])});
+    for (const Triangle& t : triangles)
+        leafTris.push_back({frame.toLeaf(t[0]), frame.toLeaf(t[1]), frame.toLeaf(t[2])});
     std::set<Key> result;
     for (std::uint32_t z = from[2]; z < to[2]; ++z)
         for (std::uint32_t y = from[1]; y < to[1]; ++y)
             for (std::uint32_t x = from[0]; x < to[0]; ++x) {
-                const Vec3d lo{x - grow, y - grow, z - grow}, hi{x + 1 + grow, y + 1 + grow, z + 1 + grow};
+                const Vec3d lo{x - grow, y - grow, z - grow},
+                    hi{x + 1 + grow, y + 1 + grow, z + 1 + grow};
                 for (const auto& t : leafTris)
                     if (clipOverlaps(t, lo, hi)) {
                         result.insert(key(x, y, z));
@@ -177,7 +189,8 @@ std::set<Key> bruteForce(const std::vector<Triangle>& triangles, const LeafFrame
 /// and no cube they miss even when grown by @p eps; and they must equal the brute force on the
 /// exact cubes (closed: touching counts). Returns how many cubes lie within @p eps of a triangle
 /// without overlapping the shrunk cube (touching cubes, e.g. on the root cube's far face).
-std::size_t expectExactLeaves(const std::vector<Triangle>& triangles, const vox::SparseOctree& octree, double eps) {
+std::size_t expectExactLeaves(const std::vector<Triangle>& triangles,
+                              const vox::SparseOctree& octree, double eps) {
     const LeafFrame frame = frameFor(triangles, octree.leafDepth);
     EXPECT_EQ(octree.cube.origin, frame.origin);
     EXPECT_EQ(octree.cube.size, frame.size);
@@ -188,12 +201,14 @@ std::size_t expectExactLeaves(const std::vector<Triangle>& triangles, const vox:
     for (Key k : must)
         if (!leaves.count(k) && ++missing <= 10) ADD_FAILURE() << "leaf missing at " << keyText(k);
     for (Key k : leaves)
-        if (!may.count(k) && ++extra <= 10) ADD_FAILURE() << "leaf where no triangle is, at " << keyText(k);
+        if (!may.count(k) && ++extra <= 10)
+            ADD_FAILURE() << "leaf where no triangle is, at " << keyText(k);
     EXPECT_EQ(missing, 0u);
     EXPECT_EQ(extra, 0u);
     EXPECT_FALSE(must.empty());
     const std::set<Key> exact = bruteForce(triangles, frame, 0.0);
-    EXPECT_TRUE(leaves == exact) << leaves.size() << " leaves, brute force on closed cubes " << exact.size();
+    EXPECT_TRUE(leaves == exact) << leaves.size() << " leaves, brute force on closed cubes "
+                                 << exact.size();
     return may.size() - must.size();
 }
 
@@ -216,32 +231,37 @@ std::vector<Triangle> randomTriangles(std::uint32_t seed, int count) {
         const float cx = unit(rng), cy = unit(rng), cz = unit(rng);
         const Vec3f c{cx, cy, cz};
         switch (i % 5) {
-        case 0:  // large
-            tris.push_back({randomPoint(rng, {0.5f, 0.5f, 0.5f}, 0.5f), randomPoint(rng, {0.5f, 0.5f, 0.5f}, 0.5f),
-                            randomPoint(rng, {0.5f, 0.5f, 0.5f}, 0.5f)});
-            break;
-        case 1:  // small, about a leaf voxel or less at depth 4-5
-            tris.push_back({randomPoint(rng, c, 0.03f), randomPoint(rng, c, 0.03f), randomPoint(rng, c, 0.03f)});
-            break;
-        case 2: {  // sliver
-            const Vec3f a = randomPoint(rng, c, 0.3f), b = randomPoint(rng, c, 0.3f);
-            tris.push_back({a, b, a + (b - a) * 0.5f + Vec3f{0.004f, -0.003f, 0.002f}});
-            break;
-        }
-        case 3: {  // axis-aligned: constant coordinate along a random axis
-            Triangle t{randomPoint(rng, c, 0.25f), randomPoint(rng, c, 0.25f), randomPoint(rng, c, 0.25f)};
-            const int axis = static_cast<int>(rng() % 3);
-            t[1][axis] = t[2][axis] = t[0][axis];
-            tris.push_back(t);
-            break;
-        }
-        default: {  // medium
-            tris.push_back({randomPoint(rng, c, 0.15f), randomPoint(rng, c, 0.15f), randomPoint(rng, c, 0.15f)});
-            break;
-        }
+            case 0:  // large
+                tris.push_back({randomPoint(rng, {0.5f, 0.5f, 0.5f}, 0.5f),
+                                randomPoint(rng, {0.5f, 0.5f, 0.5f}, 0.5f),
+                                randomPoint(rng, {0.5f, 0.5f, 0.5f}, 0.5f)});
+                break;
+            case 1:  // small, about a leaf voxel or less at depth 4-5
+                tris.push_back({randomPoint(rng, c, 0.03f), randomPoint(rng, c, 0.03f),
+                                randomPoint(rng, c, 0.03f)});
+                break;
+            case 2: {  // sliver
+                const Vec3f a = randomPoint(rng, c, 0.3f), b = randomPoint(rng, c, 0.3f);
+                tris.push_back({a, b, a + (b - a) * 0.5f + Vec3f{0.004f, -0.003f, 0.002f}});
+                break;
+            }
+            case 3: {  // axis-aligned: constant coordinate along a random axis
+                Triangle t{randomPoint(rng, c, 0.25f), randomPoint(rng, c, 0.25f),
+                           randomPoint(rng, c, 0.25f)};
+                const int axis = static_cast<int>(rng() % 3);
+                t[1][axis] = t[2][axis] = t[0][axis];
+                tris.push_back(t);
+                break;
+            }
+            default: {  // medium
+                tris.push_back({randomPoint(rng, c, 0.15f), randomPoint(rng, c, 0.15f),
+                                randomPoint(rng, c, 0.15f)});
+                break;
+            }
         }
     }
-    const Vec3f a = randomPoint(rng, {0.5f, 0.5f, 0.5f}, 0.4f), b = randomPoint(rng, {0.5f, 0.5f, 0.5f}, 0.4f);
+    const Vec3f a = randomPoint(rng, {0.5f, 0.5f, 0.5f}, 0.4f),
+                b = randomPoint(rng, {0.5f, 0.5f, 0.5f}, 0.4f);
     tris.push_back({a, b, a + (b - a) * 0.25f});  // degenerate: a segment
     return tris;
 }
@@ -249,7 +269,8 @@ std::vector<Triangle> randomTriangles(std::uint32_t seed, int count) {
 /// Tiny triangles at (0,0,0) and (1,1,1) that pin the root cube to the unit cube.
 std::vector<Triangle> unitCubeAnchors() {
     const float d = std::ldexp(1.0f, -22);  // below a leaf even at depth 20
-    return {Triangle{Vec3f{0, 0, 0}, Vec3f{d, 0, 0}, Vec3f{0, d, 0}}, Triangle{Vec3f{1, 1, 1}, Vec3f{1 - d, 1, 1}, Vec3f{1, 1 - d, 1}}};
+    return {Triangle{Vec3f{0, 0, 0}, Vec3f{d, 0, 0}, Vec3f{0, d, 0}},
+            Triangle{Vec3f{1, 1, 1}, Vec3f{1 - d, 1, 1}, Vec3f{1, 1 - d, 1}}};
 }
 
 }  // namespace
@@ -262,7 +283,8 @@ TEST(VoxelizeSurface, LeavesAreExactlyTheCubesTrianglesTouch) {
         std::uint32_t depth;
     };
     std::size_t ambiguous = 0, leafTotal = 0;
-    for (const Case c : {Case{1, 1, 4}, Case{2, 3, 5}, Case{3, 10, 4}, Case{4, 10, 5}, Case{5, 25, 5}, Case{6, 40, 4}}) {
+    for (const Case c : {Case{1, 1, 4}, Case{2, 3, 5}, Case{3, 10, 4}, Case{4, 10, 5},
+                         Case{5, 25, 5}, Case{6, 40, 4}}) {
         SCOPED_TRACE("seed " + std::to_string(c.seed) + ", depth " + std::to_string(c.depth));
         const std::vector<Triangle> tris = randomTriangles(c.seed, c.count);
         const vox::SparseOctree octree = voxelize(makeScene(tris), c.depth);
@@ -270,7 +292,8 @@ TEST(VoxelizeSurface, LeavesAreExactlyTheCubesTrianglesTouch) {
         ambiguous += expectExactLeaves(tris, octree, 1e-9);
         leafTotal += octree.voxelsPerLevel.back();
     }
-    std::printf("exactness: %zu leaves checked, %zu of them only touched by a triangle\n", leafTotal, ambiguous);
+    std::printf("exactness: %zu leaves checked, %zu of them only touched by a triangle\n",
+                leafTotal, ambiguous);
     EXPECT_GT(leafTotal, 1000u);
 }
 
@@ -347,7 +370,8 @@ TEST(VoxelizeSurface, TriangleTouchingCubesAtAVertexOrAFaceMarksThem) {
     std::vector<Triangle> tris = unitCubeAnchors();
     tris.push_back({Vec3f{0.5f, 0.5f, 0.5f}, Vec3f{0.3f, 0.45f, 0.4f}, Vec3f{0.45f, 0.3f, 0.35f}});
     // Vertex on the face x = 0.75 of voxel (6, 1, 1) from the −x side, inside the face.
-    tris.push_back({Vec3f{0.75f, 0.15f, 0.2f}, Vec3f{0.65f, 0.14f, 0.19f}, Vec3f{0.66f, 0.2f, 0.15f}});
+    tris.push_back(
+        {Vec3f{0.75f, 0.15f, 0.2f}, Vec3f{0.65f, 0.14f, 0.19f}, Vec3f{0.66f, 0.2f, 0.15f}});
     const vox::SparseOctree octree = voxelize(makeScene(tris), 3);
     const std::set<Key> leaves = decodeLeaves(octree);
     for (std::uint32_t slot = 0; slot < 8; ++slot) {
@@ -376,7 +400,8 @@ TEST(VoxelizeSurface, VoxelsPerLevelMatchesMaskPopcounts) {
         std::uint64_t total = 1;
         for (std::uint32_t l = 0; l < depth; ++l) {
             std::uint64_t children = 0;
-            for (std::uint8_t m : octree.masks[l]) children += static_cast<std::uint64_t>(std::popcount(m));
+            for (std::uint8_t m : octree.masks[l])
+                children += static_cast<std::uint64_t>(std::popcount(m));
             EXPECT_EQ(octree.voxelsPerLevel[l + 1], children) << "level " << l + 1;
             EXPECT_EQ(octree.masks[l].size(), octree.voxelsPerLevel[l]) << "level " << l;
             total += children;
@@ -424,20 +449,23 @@ TEST(VoxelizeSurface, Depth16SmallTriangleIsSparseAndExact) {
     const vox::SparseOctree octree = voxelize(makeScene(tris), depth);
     ASSERT_EQ(octree.leafDepth, depth);
     const std::uint64_t leaves = octree.voxelsPerLevel.back();
-    std::printf("depth 16: %llu leaves, %llu voxels in all\n", static_cast<unsigned long long>(leaves),
+    std::printf("depth 16: %llu leaves, %llu voxels in all\n",
+                static_cast<unsigned long long>(leaves),
                 static_cast<unsigned long long>(octree.voxelCount()));
     // 2 anchor leaves plus roughly k²/2 + k cells of a single z layer; a dense grid would be 2^48.
     EXPECT_GE(leaves, static_cast<std::uint64_t>(k * k / 2));
     EXPECT_LE(leaves, static_cast<std::uint64_t>(k * k / 2 + 4 * k));
-    for (std::uint32_t l = 0; l <= depth; ++l) EXPECT_LE(octree.voxelsPerLevel[l], leaves + 2) << "level " << l;
+    for (std::uint32_t l = 0; l <= depth; ++l)
+        EXPECT_LE(octree.voxelsPerLevel[l], leaves + 2) << "level " << l;
 
     // Exact, by brute force over the triangle's neighbourhood plus the two anchor cubes.
     const LeafFrame frame = frameFor(tris, depth);
     const Vec3d c = frame.toLeaf(corner);
-    const std::array<std::uint32_t, 3> from{static_cast<std::uint32_t>(c.x) - 2, static_cast<std::uint32_t>(c.y) - 2,
+    const std::array<std::uint32_t, 3> from{static_cast<std::uint32_t>(c.x) - 2,
+                                            static_cast<std::uint32_t>(c.y) - 2,
                                             static_cast<std::uint32_t>(c.z) - 2};
-    const std::array<std::uint32_t, 3> to{from[0] + static_cast<std::uint32_t>(k) + 5, from[1] + static_cast<std::uint32_t>(k) + 5,
-                                          from[2] + 5};
+    const std::array<std::uint32_t, 3> to{from[0] + static_cast<std::uint32_t>(k) + 5,
+                                          from[1] + static_cast<std::uint32_t>(k) + 5, from[2] + 5};
     const std::vector<Triangle> mainTri{tris.back()};
     std::set<Key> expected = bruteForce(mainTri, frame, 0.0, from, to);
     const std::set<Key> shrunk = bruteForce(mainTri, frame, -1e-9, from, to);
@@ -469,8 +497,10 @@ TEST(VoxelizeSurface, Depth20IsTheDeepestAllowed) {
 
 // (f) dynamic meshes, empty scenes, bad depths.
 TEST(VoxelizeSurface, DynamicMeshesAreExcludedUnlessIncluded) {
-    const std::vector<Triangle> staticTris{{Vec3f{0.1f, 0.2f, 0.05f}, Vec3f{1, 0, 0.3f}, Vec3f{0, 1, 0.55f}}};
-    const std::vector<Triangle> dynamicTris{{Vec3f{2, 2.1f, 2}, Vec3f{3, 2.2f, 2.05f}, Vec3f{2.1f, 3, 2.5f}}};
+    const std::vector<Triangle> staticTris{
+        {Vec3f{0.1f, 0.2f, 0.05f}, Vec3f{1, 0, 0.3f}, Vec3f{0, 1, 0.55f}}};
+    const std::vector<Triangle> dynamicTris{
+        {Vec3f{2, 2.1f, 2}, Vec3f{3, 2.2f, 2.05f}, Vec3f{2.1f, 3, 2.5f}}};
     vox::Scene scene = makeScene(staticTris);
     scene.meshes.push_back(makeMesh(dynamicTris, true));
 
@@ -537,11 +567,14 @@ TEST(VoxelizeSurface, InteriorVoxelsAlwaysHaveChildren) {
         float cubeEdge;
         std::uint32_t depth;
     };
-    for (const Case c : {Case{1.5f, 3}, Case{1.5f, 4}, Case{3.0f, 4}, Case{3.0f, 5}, Case{1.5f, 8}}) {
-        SCOPED_TRACE("cube edge " + std::to_string(c.cubeEdge) + ", depth " + std::to_string(c.depth));
+    for (const Case c :
+         {Case{1.5f, 3}, Case{1.5f, 4}, Case{3.0f, 4}, Case{3.0f, 5}, Case{1.5f, 8}}) {
+        SCOPED_TRACE("cube edge " + std::to_string(c.cubeEdge) + ", depth " +
+                     std::to_string(c.depth));
         const float S = c.cubeEdge;
-        const std::vector<Triangle> tris{{Vec3f{0, 0, 0}, Vec3f{1, 0, 0}, Vec3f{0, 1, 0.5f}},
-                                         {Vec3f{S, S, S}, Vec3f{S - 1e-4f, S, S}, Vec3f{S, S - 1e-4f, S}}};
+        const std::vector<Triangle> tris{
+            {Vec3f{0, 0, 0}, Vec3f{1, 0, 0}, Vec3f{0, 1, 0.5f}},
+            {Vec3f{S, S, S}, Vec3f{S - 1e-4f, S, S}, Vec3f{S, S - 1e-4f, S}}};
         const vox::SparseOctree octree = voxelize(makeScene(tris), c.depth);
         std::size_t empty = 0;
         for (std::uint32_t l = 0; l < c.depth; ++l)

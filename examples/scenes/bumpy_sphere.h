@@ -13,8 +13,10 @@ namespace vox::scenes {
     return 2 * static_cast<std::size_t>(rings - 1) * static_cast<std::size_t>(segments);
 }
 
-/// Writes "bumpy_sphere.glb" (radius about 1 around the origin) into @p directory; returns its path.
+/// Writes "bumpy_sphere.glb" (radius about 1 around the origin) into @p directory; returns its
+/// path.
 /// @p bumps false: a plain unit sphere ("sphere.glb"), the smooth surface normal measurements use.
-std::filesystem::path writeBumpySphere(const std::filesystem::path& directory, int rings, int segments, bool bumps = true);
+std::filesystem::path writeBumpySphere(const std::filesystem::path& directory, int rings,
+                                       int segments, bool bumps = true);
 
 }  // namespace vox::scenes

@@ -26,7 +26,9 @@ struct Building {
     float x0, z0, x1, z1;  ///< footprint
     int floors;
     int material;
-    [[nodiscard]] float height() const { return static_cast<float>(floors) * Facts::kFloorHeight + 0.5f; }
+    [[nodiscard]] float height() const {
+        return static_cast<float>(floors) * Facts::kFloorHeight + 0.5f;
+    }
 };
 
 /// A facade: the outward normal (±x or ±z), the plane's coordinate, and the extent along it.
@@ -37,7 +39,10 @@ struct Facade {
 };
 
 std::array<Facade, 4> facades(const Building& b) {
-    return {{{0, -1, b.x0, b.z0, b.z1}, {0, 1, b.x1, b.z0, b.z1}, {2, -1, b.z0, b.x0, b.x1}, {2, 1, b.z1, b.x0, b.x1}}};
+    return {{{0, -1, b.x0, b.z0, b.z1},
+             {0, 1, b.x1, b.z0, b.z1},
+             {2, -1, b.z0, b.x0, b.x1},
+             {2, 1, b.z1, b.x0, b.x1}}};
 }
 
 /// The point @p offset out from facade @p f, at @p along on it and height @p y.
@@ -45,12 +50,14 @@ std::array<double, 3> onFacade(const Facade& f, double along, double y, double o
     const double out = quantize(f.plane + f.sign * offset);
     along = quantize(along);
     y = quantize(y);
-    return f.axis == 0 ? std::array<double, 3>{out, y, along} : std::array<double, 3>{along, y, out};
+    return f.axis == 0 ? std::array<double, 3>{out, y, along}
+                       : std::array<double, 3>{along, y, out};
 }
 
 /// Range where I / d² falls to the city's cut-off illuminance, rounded up to 0.1 m.
 float cutoffRange(float intensity) {
-    return static_cast<float>(std::ceil(std::sqrt(double(intensity) / Facts::kCutoffIlluminance) * 10.0) / 10.0);
+    return static_cast<float>(
+        std::ceil(std::sqrt(double(intensity) / Facts::kCutoffIlluminance) * 10.0) / 10.0);
 }
 
 std::string label(const char* prefix, const char* variant, float intensity) {
@@ -61,17 +68,25 @@ std::string label(const char* prefix, const char* variant, float intensity) {
 std::vector<std::array<float, 4>> parcels(int layout, int variant) {
     constexpr float L = Facts::kLotSize, H = L / 2;
     switch (layout) {
-    case 0: return {{0, 0, H, H}, {H, 0, L, H}, {0, H, H, L}, {H, H, L, L}};  // four
-    case 1: return variant % 2 ? std::vector<std::array<float, 4>>{{0, 0, H, L}, {H, 0, L, L}}   // two halves
+        case 0:
+            return {{0, 0, H, H}, {H, 0, L, H}, {0, H, H, L}, {H, H, L, L}};  // four
+        case 1:
+            return variant % 2 ? std::vector<std::array<float, 4>>{{0, 0, H, L}, {H, 0, L, L}}
+                               // two halves
                                : std::vector<std::array<float, 4>>{{0, 0, L, H}, {0, H, L, L}};
-    case 2: return {{0, 0, L, L}};  // one large building
-    default:                         // a half and two quarters
-        switch (variant % 4) {
-        case 0: return {{0, 0, H, L}, {H, 0, L, H}, {H, H, L, L}};
-        case 1: return {{H, 0, L, L}, {0, 0, H, H}, {0, H, H, L}};
-        case 2: return {{0, 0, L, H}, {0, H, H, L}, {H, H, L, L}};
-        default: return {{0, H, L, L}, {0, 0, H, H}, {H, 0, L, H}};
-        }
+        case 2:
+            return {{0, 0, L, L}};  // one large building
+        default:                    // a half and two quarters
+            switch (variant % 4) {
+                case 0:
+                    return {{0, 0, H, L}, {H, 0, L, H}, {H, H, L, L}};
+                case 1:
+                    return {{H, 0, L, L}, {0, 0, H, H}, {0, H, H, L}};
+                case 2:
+                    return {{0, 0, L, H}, {0, H, H, L}, {H, H, L, L}};
+                default:
+                    return {{0, H, L, L}, {0, 0, H, H}, {H, 0, L, H}};
+            }
     }
 }
 
@@ -100,7 +115,8 @@ GltfBuilder::Primitive lampPost(int axis, float sign, int material) {
 
 }  // namespace
 
-std::filesystem::path writeCityBlock(const std::filesystem::path& directory, BufferStorage storage) {
+std::filesystem::path writeCityBlock(const std::filesystem::path& directory,
+                                     BufferStorage storage) {
     std::filesystem::create_directories(directory);
     SceneRng rng(kSeed);
     GltfBuilder gltf;
@@ -115,22 +131,26 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory, Buf
         std::array<float, 4> color;
     };
     static constexpr std::array<Facing, 6> facings{{{"Concrete", {0.55f, 0.55f, 0.53f, 1}},
-                                                   {"Brick", {0.50f, 0.25f, 0.18f, 1}},
-                                                   {"Sandstone", {0.72f, 0.62f, 0.45f, 1}},
-                                                   {"Glass", {0.30f, 0.40f, 0.50f, 1}},
-                                                   {"Render", {0.80f, 0.80f, 0.78f, 1}},
-                                                   {"Granite", {0.20f, 0.20f, 0.22f, 1}}}};
+                                                    {"Brick", {0.50f, 0.25f, 0.18f, 1}},
+                                                    {"Sandstone", {0.72f, 0.62f, 0.45f, 1}},
+                                                    {"Glass", {0.30f, 0.40f, 0.50f, 1}},
+                                                    {"Render", {0.80f, 0.80f, 0.78f, 1}},
+                                                    {"Granite", {0.20f, 0.20f, 0.22f, 1}}}};
 
     // Geometry: the ground, then unit boxes instanced (translated and scaled) per sidewalk slab
     // and per building, one mesh per material, which keeps the file small.
     GltfBuilder::Primitive ground;
     ground.material = groundMaterial;
-    appendBox(ground, {-Facts::kHalfExtent, -Facts::kGroundThickness, -Facts::kHalfExtent}, {Facts::kHalfExtent, 0, Facts::kHalfExtent});
+    appendBox(ground, {-Facts::kHalfExtent, -Facts::kGroundThickness, -Facts::kHalfExtent},
+              {Facts::kHalfExtent, 0, Facts::kHalfExtent});
     roots.push_back(gltf.addNode({"Ground", gltf.addMesh("Ground", {ground})}));
-    const int sidewalkMesh = gltf.addMesh("Sidewalk", {boxPrimitive({0, 0, 0}, {1, 1, 1}, sidewalkMaterial)});
+    const int sidewalkMesh =
+        gltf.addMesh("Sidewalk", {boxPrimitive({0, 0, 0}, {1, 1, 1}, sidewalkMaterial)});
     std::vector<int> buildingMeshes;
     for (const Facing& f : facings)
-        buildingMeshes.push_back(gltf.addMesh(std::string("Building") + f.name, {boxPrimitive({0, 0, 0}, {1, 1, 1}, gltf.addMaterial({f.name, f.color}))}));
+        buildingMeshes.push_back(gltf.addMesh(
+            std::string("Building") + f.name,
+            {boxPrimitive({0, 0, 0}, {1, 1, 1}, gltf.addMaterial({f.name, f.color}))}));
 
     // Blocks and their buildings; taller towards the centre (a rational fall-off, so that no
     // transcendental function can change a height between platforms).
@@ -138,13 +158,16 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory, Buf
     std::vector<std::array<int, 2>> blockBuildings;  // [first, end) per block
     for (int bi = 0; bi < Facts::kBlocksPerSide; ++bi)
         for (int bj = 0; bj < Facts::kBlocksPerSide; ++bj) {
-            const float lx = -Facts::kHalfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bi);
-            const float lz = -Facts::kHalfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bj);
+            const float lx =
+                -Facts::kHalfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bi);
+            const float lz =
+                -Facts::kHalfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bj);
             char name[32];
             std::snprintf(name, sizeof name, "Sidewalk_%02d_%02d", bi, bj);
             const float sw = Facts::kSidewalkWidth;
             GltfBuilder::NodeDesc slab{name, sidewalkMesh, -1, {lx - sw, 0, lz - sw}};
-            slab.scale = {Facts::kLotSize + 2 * sw, Facts::kSidewalkHeight, Facts::kLotSize + 2 * sw};
+            slab.scale = {Facts::kLotSize + 2 * sw, Facts::kSidewalkHeight,
+                          Facts::kLotSize + 2 * sw};
             roots.push_back(gltf.addNode(slab));
 
             const double cx = lx + Facts::kLotSize / 2, cz = lz + Facts::kLotSize / 2;
@@ -153,13 +176,24 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory, Buf
             const int layout = pick < 4 ? 0 : pick < 6 ? 1 : pick < 7 ? 2 : 3;
             const int first = static_cast<int>(buildings.size());
             for (const auto& parcel : parcels(layout, rng.below(4))) {
-                const float setback = static_cast<float>(layout == 2 ? rng.steps(2.0, 0.5, 5) : rng.steps(1.0, 0.5, 5));
+                const float setback = static_cast<float>(layout == 2 ? rng.steps(2.0, 0.5, 5)
+                                                                     : rng.steps(1.0, 0.5, 5));
                 const double scale = 0.4 + 0.1 * rng.below(7);
-                const int floors = std::min(Facts::kMaxFloors, 2 + static_cast<int>(downtown * 26.0 * scale) + rng.below(3));
-                Building b{lx + parcel[0] + setback, lz + parcel[1] + setback, lx + parcel[2] - setback, lz + parcel[3] - setback, floors,
+                const int floors =
+                    std::min(Facts::kMaxFloors,
+                             2 + static_cast<int>(downtown * 26.0 * scale) + rng.below(3));
+                Building b{lx + parcel[0] + setback,
+                           lz + parcel[1] + setback,
+                           lx + parcel[2] - setback,
+                           lz + parcel[3] - setback,
+                           floors,
                            rng.below(static_cast<int>(facings.size()))};
-                std::snprintf(name, sizeof name, "Building_%02d_%02d_%d", bi, bj, static_cast<int>(buildings.size()) - first);
-                GltfBuilder::NodeDesc node{name, buildingMeshes[static_cast<std::size_t>(b.material)], -1, {b.x0, 0, b.z0}};
+                std::snprintf(name, sizeof name, "Building_%02d_%02d_%d", bi, bj,
+                              static_cast<int>(buildings.size()) - first);
+                GltfBuilder::NodeDesc node{name,
+                                           buildingMeshes[static_cast<std::size_t>(b.material)],
+                                           -1,
+                                           {b.x0, 0, b.z0}};
                 node.scale = {b.x1 - b.x0, b.height(), b.z1 - b.z0};
                 roots.push_back(gltf.addNode(node));
                 buildings.push_back(b);
@@ -172,35 +206,51 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory, Buf
     // Street lamps: two on each side of every block, on its sidewalk, their heads over the road;
     // sodium or LED per street, intensities mixed per lamp.
     {
-        std::array<std::array<bool, Facts::kBlocksPerSide + 1>, 2> sodium{};  // [x-facing (vertical) streets, z-facing streets]
+        std::array<std::array<bool, Facts::kBlocksPerSide + 1>, 2>
+            sodium{};  // [x-facing (vertical) streets, z-facing streets]
         for (auto& streets : sodium)
             for (bool& s : streets) s = rng.below(2) == 0;
         int lampPosts[2][2];
         for (int axis : {0, 1})
             for (int side : {0, 1})
-                lampPosts[axis][side] = gltf.addMesh(std::string("LampPost") + (side ? "+" : "-") + (axis ? "z" : "x"),
-                                                     {lampPost(axis * 2, side ? 1.0f : -1.0f, metalMaterial)});
+                lampPosts[axis][side] =
+                    gltf.addMesh(std::string("LampPost") + (side ? "+" : "-") + (axis ? "z" : "x"),
+                                 {lampPost(axis * 2, side ? 1.0f : -1.0f, metalMaterial)});
         const float out = Facts::kSidewalkWidth + 1.1f;  // from the lot's edge to the lamp
         int count = 0;
         for (int bi = 0; bi < Facts::kBlocksPerSide; ++bi)
             for (int bj = 0; bj < Facts::kBlocksPerSide; ++bj) {
-                const float lx = -Facts::kHalfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bi);
-                const float lz = -Facts::kHalfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bj);
+                const float lx =
+                    -Facts::kHalfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bi);
+                const float lz =
+                    -Facts::kHalfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bj);
                 for (int axis : {0, 1})
                     for (int side : {0, 1}) {
                         const int street = (axis == 0 ? bi : bj) + side;
-                        const bool isSodium = sodium[static_cast<std::size_t>(axis)][static_cast<std::size_t>(street)];
+                        const bool isSodium = sodium[static_cast<std::size_t>(axis)]
+                                                    [static_cast<std::size_t>(street)];
                         for (float along : {10.0f, 30.0f}) {
                             const float intensity = static_cast<float>(rng.steps(1600, 400, 3));
-                            const int light = palette({label(Facts::kStreetLampPrefix, isSodium ? "sodium" : "led", intensity), "spot",
-                                                       isSodium ? std::array<float, 3>{1.0f, 0.72f, 0.38f} : std::array<float, 3>{0.92f, 0.96f, 1.0f},
-                                                       intensity, Facts::kStreetLampRange, Facts::kLampInnerCone, Facts::kLampOuterCone});
-                            const float edge = axis == 0 ? (side ? lx + Facts::kLotSize + out : lx - out) : (side ? lz + Facts::kLotSize + out : lz - out);
-                            const std::array<double, 3> at = axis == 0 ? std::array<double, 3>{quantize(edge), Facts::kLampHeight, lz + along}
-                                                                       : std::array<double, 3>{lx + along, Facts::kLampHeight, quantize(edge)};
+                            const int light =
+                                palette({label(Facts::kStreetLampPrefix,
+                                               isSodium ? "sodium" : "led", intensity),
+                                         "spot",
+                                         isSodium ? std::array<float, 3>{1.0f, 0.72f, 0.38f}
+                                                  : std::array<float, 3>{0.92f, 0.96f, 1.0f},
+                                         intensity, Facts::kStreetLampRange, Facts::kLampInnerCone,
+                                         Facts::kLampOuterCone});
+                            const float edge = axis == 0
+                                                   ? (side ? lx + Facts::kLotSize + out : lx - out)
+                                                   : (side ? lz + Facts::kLotSize + out : lz - out);
+                            const std::array<double, 3> at =
+                                axis == 0 ? std::array<double, 3>{quantize(edge),
+                                                                  Facts::kLampHeight, lz + along}
+                                          : std::array<double, 3>{lx + along, Facts::kLampHeight,
+                                                                  quantize(edge)};
                             char name[32];
                             std::snprintf(name, sizeof name, "StreetLamp_%04d", count++);
-                            roots.push_back(gltf.addNode({name, lampPosts[axis][side], light, at, pointingDown()}));
+                            roots.push_back(gltf.addNode(
+                                {name, lampPosts[axis][side], light, at, pointingDown()}));
                         }
                     }
             }
@@ -224,17 +274,22 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory, Buf
                 const int columns = std::max(1, static_cast<int>((width - 1.0f) / 3.5f));
                 for (int floor = 1; floor < b.floors; ++floor)
                     for (int c = 0; c < columns; ++c)
-                        slots.push_back(onFacade(f, f.a0 + width * (c + 0.5) / columns, floor * double(Facts::kFloorHeight) + 1.7, kWindowOffset));
+                        slots.push_back(onFacade(f, f.a0 + width * (c + 0.5) / columns,
+                                                 floor * double(Facts::kFloorHeight) + 1.7,
+                                                 kWindowOffset));
             }
-        if (slots.size() < static_cast<std::size_t>(Facts::kWindows)) throw std::logic_error("city: too few window slots");
+        if (slots.size() < static_cast<std::size_t>(Facts::kWindows))
+            throw std::logic_error("city: too few window slots");
         std::size_t needed = Facts::kWindows, count = 0;
         for (std::size_t i = 0; i < slots.size() && needed > 0; ++i) {
             if (rng.next() % (slots.size() - i) >= needed) continue;
             --needed;
-            const Tint& tint = tints[static_cast<std::size_t>(rng.below(static_cast<int>(tints.size())))];
+            const Tint& tint =
+                tints[static_cast<std::size_t>(rng.below(static_cast<int>(tints.size())))];
             static constexpr std::array<double, 3> intensities{20.0, 30.0, 45.0};
             const float intensity = static_cast<float>(rng.pick<double>(intensities));
-            const int light = palette({label(Facts::kWindowPrefix, tint.name, intensity), "point", tint.color, intensity, cutoffRange(intensity)});
+            const int light = palette({label(Facts::kWindowPrefix, tint.name, intensity), "point",
+                                       tint.color, intensity, cutoffRange(intensity)});
             char name[32];
             std::snprintf(name, sizeof name, "Window_%04zu", count++);
             roots.push_back(gltf.addNode({name, -1, light, slots[i]}));
@@ -258,12 +313,15 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory, Buf
             const Building& b = buildings[static_cast<std::size_t>(first + rng.below(end - first))];
             const Facade f = facades(b)[static_cast<std::size_t>(rng.below(4))];
             const double along = f.a0 + (f.a1 - f.a0) * (0.2 + 0.1 * rng.below(7));
-            const Tint& tint = tints[static_cast<std::size_t>(rng.below(static_cast<int>(tints.size())))];
+            const Tint& tint =
+                tints[static_cast<std::size_t>(rng.below(static_cast<int>(tints.size())))];
             const float intensity = rng.below(2) ? 180.0f : 120.0f;
-            const int light = palette({label(Facts::kNeonPrefix, tint.name, intensity), "point", tint.color, intensity, cutoffRange(intensity)});
+            const int light = palette({label(Facts::kNeonPrefix, tint.name, intensity), "point",
+                                       tint.color, intensity, cutoffRange(intensity)});
             char name[32];
             std::snprintf(name, sizeof name, "Neon_%03d", block);
-            roots.push_back(gltf.addNode({name, -1, light, onFacade(f, along, rng.steps(4.0, 0.5, 3), kNeonOffset)}));
+            roots.push_back(gltf.addNode(
+                {name, -1, light, onFacade(f, along, rng.steps(4.0, 0.5, 3), kNeonOffset)}));
         }
     }
 
@@ -271,18 +329,25 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory, Buf
     {
         std::vector<std::size_t> order(buildings.size());
         std::iota(order.begin(), order.end(), std::size_t{0});
-        std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return buildings[a].floors > buildings[b].floors; });
+        std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+            return buildings[a].floors > buildings[b].floors;
+        });
         struct Tint {
             const char* name;
             std::array<float, 3> color;
         };
-        static constexpr std::array<Tint, 3> tints{{{"white", {1.0f, 1.0f, 1.0f}}, {"cool", {0.80f, 0.90f, 1.0f}}, {"amber", {1.0f, 0.80f, 0.50f}}}};
+        static constexpr std::array<Tint, 3> tints{{{"white", {1.0f, 1.0f, 1.0f}},
+                                                    {"cool", {0.80f, 0.90f, 1.0f}},
+                                                    {"amber", {1.0f, 0.80f, 0.50f}}}};
         constexpr float intensity = 3000.0f;
         int count = 0;
         for (int k = 0; k < kFloodlitBuildings; ++k) {
             const Building& b = buildings[order[static_cast<std::size_t>(k)]];
-            const Tint& tint = tints[static_cast<std::size_t>(rng.below(static_cast<int>(tints.size())))];
-            const int light = palette({label(Facts::kFloodlightPrefix, tint.name, intensity), "spot", tint.color, intensity, cutoffRange(intensity), 0.15f, 0.3f});
+            const Tint& tint =
+                tints[static_cast<std::size_t>(rng.below(static_cast<int>(tints.size())))];
+            const int light =
+                palette({label(Facts::kFloodlightPrefix, tint.name, intensity), "spot", tint.color,
+                         intensity, cutoffRange(intensity), 0.15f, 0.3f});
             for (const Facade& f : facades(b)) {
                 std::array<double, 3> towards{0, 1, 0};
                 towards[static_cast<std::size_t>(f.axis)] = -0.15 * f.sign;
@@ -290,13 +355,16 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory, Buf
                 std::snprintf(name, sizeof name, "Floodlight_%03d", count++);
                 std::array<double, 4> rotation = rotationFromMinusZ(towards);
                 for (double& c : rotation) c += 0.0;  // no negative zeros in the file
-                roots.push_back(gltf.addNode({name, -1, light, onFacade(f, (f.a0 + f.a1) / 2.0, 0.6, kFloodlightOffset), rotation}));
+                roots.push_back(gltf.addNode(
+                    {name, -1, light, onFacade(f, (f.a0 + f.a1) / 2.0, 0.6, kFloodlightOffset),
+                     rotation}));
             }
         }
     }
 
     gltf.setSceneRoots(roots);
-    const std::filesystem::path file = directory / (storage == BufferStorage::Glb ? "city_block.glb" : "city_block.gltf");
+    const std::filesystem::path file =
+        directory / (storage == BufferStorage::Glb ? "city_block.glb" : "city_block.gltf");
     gltf.write(file, storage);
     return file;
 }

@@ -19,21 +19,25 @@ namespace vox::scenes {
 struct CityBlockFacts {
     static constexpr int kBlocksPerSide = 20;
     static constexpr int kBlocks = kBlocksPerSide * kBlocksPerSide;  ///< 400
-    static constexpr float kLotSize = 40.0f;     ///< a block's lot, square
-    static constexpr float kStreetWidth = 12.0f; ///< 2 m sidewalk + 8 m road + 2 m sidewalk
+    static constexpr float kLotSize = 40.0f;                         ///< a block's lot, square
+    static constexpr float kStreetWidth = 12.0f;  ///< 2 m sidewalk + 8 m road + 2 m sidewalk
     static constexpr float kSidewalkWidth = 2.0f, kSidewalkHeight = 0.15f;
     /// The city spans x, z ∈ [-526, 526]: 20 lots and 21 streets (the outer ones included).
-    static constexpr float kHalfExtent = (kBlocksPerSide * kLotSize + (kBlocksPerSide + 1) * kStreetWidth) / 2;
+    static constexpr float kHalfExtent =
+        (kBlocksPerSide * kLotSize + (kBlocksPerSide + 1) * kStreetWidth) / 2;
     static constexpr float kGroundThickness = 0.2f;
     static constexpr float kFloorHeight = 3.5f;
     static constexpr int kMaxFloors = 30;
     static constexpr float kMaxBuildingHeight = kMaxFloors * kFloorHeight + 0.5f;  ///< 105.5 m
 
     // The split of the 10 000 lights (light names start with these prefixes, then ".").
-    static constexpr int kStreetLamps = kBlocks * 4 * 2;  ///< 3 200 spots: 2 per side of every block, on its sidewalk
-    static constexpr int kNeonSigns = kBlocks;            ///< 400 points: one per block, ground floor
-    static constexpr int kFloodlights = 40 * 4;           ///< 160 spots: one per facade of the 40 tallest buildings
-    static constexpr int kWindows = 6240;                 ///< points: lit windows chosen among all buildings' upper floors
+    static constexpr int kStreetLamps =
+        kBlocks * 4 * 2;  ///< 3 200 spots: 2 per side of every block, on its sidewalk
+    static constexpr int kNeonSigns = kBlocks;  ///< 400 points: one per block, ground floor
+    static constexpr int kFloodlights =
+        40 * 4;  ///< 160 spots: one per facade of the 40 tallest buildings
+    static constexpr int kWindows =
+        6240;  ///< points: lit windows chosen among all buildings' upper floors
     static constexpr int kLights = kStreetLamps + kNeonSigns + kFloodlights + kWindows;
     static_assert(kLights == 10000);
     static constexpr const char* kStreetLampPrefix = "StreetLamp";
@@ -44,7 +48,7 @@ struct CityBlockFacts {
     /// Street lamps: heads 8 m above the road, 1.1 m out over it, cones pointing straight down.
     static constexpr float kLampHeight = 8.0f;
     static constexpr float kLampInnerCone = 0.6f, kLampOuterCone = 1.0f;  ///< radians
-    static constexpr float kLampMaxIntensity = 2400.0f;                   ///< candela (1 600, 2 000 or 2 400)
+    static constexpr float kLampMaxIntensity = 2400.0f;  ///< candela (1 600, 2 000 or 2 400)
     /// Everything a lamp's cone reaches above the ground lies within h / cos(outer) = 14.81 m;
     /// beyond that its contribution is zero (well under 1 % of its peak, which ∛100 · h = 37 m
     /// would already give).
@@ -53,7 +57,8 @@ struct CityBlockFacts {
     /// the road (2 400 cd / (8 m)²). Window, neon and floodlight ranges are where I / d² falls
     /// to it, √(I / 0.375), rounded up to 0.1 m: 7.4 – 11 m (windows), 17.9 – 22 m (neon),
     /// 89.5 m (floodlights).
-    static constexpr float kCutoffIlluminance = kLampMaxIntensity / (100 * kLampHeight * kLampHeight);  ///< 0.375 lx
+    static constexpr float kCutoffIlluminance =
+        kLampMaxIntensity / (100 * kLampHeight * kLampHeight);  ///< 0.375 lx
 
     /// Each street lamp is a node with a lamp-post mesh (pole and arm, 24 triangles); other
     /// geometry: a ground box, 400 sidewalk slabs and 1 – 4 buildings per block (boxes).
@@ -62,6 +67,7 @@ struct CityBlockFacts {
 };
 
 /// Writes "city_block.gltf" (+ .bin, or "city_block.glb") into @p directory; returns its path.
-std::filesystem::path writeCityBlock(const std::filesystem::path& directory, BufferStorage storage = BufferStorage::External);
+std::filesystem::path writeCityBlock(const std::filesystem::path& directory,
+                                     BufferStorage storage = BufferStorage::External);
 
 }  // namespace vox::scenes

@@ -7,7 +7,8 @@
 
 namespace vox::scenes {
 
-std::filesystem::path writeCornellBox(const std::filesystem::path& directory, BufferStorage storage) {
+std::filesystem::path writeCornellBox(const std::filesystem::path& directory,
+                                      BufferStorage storage) {
     std::filesystem::create_directories(directory);
     GltfBuilder gltf;
 
@@ -17,7 +18,8 @@ std::filesystem::path writeCornellBox(const std::filesystem::path& directory, Bu
     for (int y = 0; y < kSize; ++y)
         for (int x = 0; x < kSize; ++x) {
             const bool light = ((x / 8) + (y / 8)) % 2 == 0;
-            const std::uint8_t rgb[3] = {static_cast<std::uint8_t>(light ? 230 : 40), static_cast<std::uint8_t>(light ? 220 : 60),
+            const std::uint8_t rgb[3] = {static_cast<std::uint8_t>(light ? 230 : 40),
+                                         static_cast<std::uint8_t>(light ? 220 : 60),
                                          static_cast<std::uint8_t>(light ? 200 : 160)};
             std::copy(rgb, rgb + 3, checker.begin() + (y * kSize + x) * 3);
         }
@@ -34,12 +36,14 @@ std::filesystem::path writeCornellBox(const std::filesystem::path& directory, Bu
     const int white = gltf.addMaterial({"White", {0.73f, 0.73f, 0.73f, 1}});
     const int red = gltf.addMaterial({"Red", {0.63f, 0.065f, 0.05f, 1}});
     const int green = gltf.addMaterial({"Green", {0.14f, 0.45f, 0.091f, 1}});
-    const int panel = gltf.addMaterial({"LightPanel", {0.78f, 0.78f, 0.78f, 1}, -1, {1.0f, 0.85f, 0.6f}, 8.0f});
+    const int panel =
+        gltf.addMaterial({"LightPanel", {0.78f, 0.78f, 0.78f, 1}, -1, {1.0f, 0.85f, 0.6f}, 8.0f});
     const int checkered = gltf.addMaterial({"Checker", {1, 1, 1, 1}, checkerTexture});
     const int sphere = gltf.addMaterial({"Sphere", {0.8f, 0.75f, 0.3f, 1}});
 
     std::vector<int> roots;
-    auto boxNode = [&](const char* name, std::array<float, 3> lo, std::array<float, 3> hi, int material) {
+    auto boxNode = [&](const char* name, std::array<float, 3> lo, std::array<float, 3> hi,
+                       int material) {
         const int mesh = gltf.addMesh(name, {boxPrimitive(lo, hi, material)});
         roots.push_back(gltf.addNode({name, mesh}));
     };
@@ -54,25 +58,35 @@ std::filesystem::path writeCornellBox(const std::filesystem::path& directory, Bu
 
     // The textured block, turned 20 degrees about Y.
     const double angle = 20.0 * 3.14159265358979 / 180.0;
-    const int blockMesh = gltf.addMesh("CheckerBlock", {boxPrimitive({-0.3f, 0, -0.3f}, {0.3f, 1.2f, 0.3f}, checkered)});
-    roots.push_back(gltf.addNode({CornellBoxFacts::kTexturedNode, blockMesh, -1, {-0.4, 0, -0.35}, {0, std::sin(angle / 2), 0, std::cos(angle / 2)}}));
+    const int blockMesh = gltf.addMesh(
+        "CheckerBlock", {boxPrimitive({-0.3f, 0, -0.3f}, {0.3f, 1.2f, 0.3f}, checkered)});
+    roots.push_back(gltf.addNode({CornellBoxFacts::kTexturedNode,
+                                  blockMesh,
+                                  -1,
+                                  {-0.4, 0, -0.35},
+                                  {0, std::sin(angle / 2), 0, std::cos(angle / 2)}}));
 
     // The dynamic object: a runtime moves it, so static bakes leave it out.
     const int sphereMesh = gltf.addMesh("Sphere", {spherePrimitive(0.3f, 16, 24, sphere)});
-    GltfBuilder::NodeDesc dynamicNode{CornellBoxFacts::kDynamicNode, sphereMesh, -1, {0.45, 0.3, 0.45}};
+    GltfBuilder::NodeDesc dynamicNode{
+        CornellBoxFacts::kDynamicNode, sphereMesh, -1, {0.45, 0.3, 0.45}};
     dynamicNode.dynamic = true;
     roots.push_back(gltf.addNode(dynamicNode));
 
     // Three punctual lights.
     const int point = gltf.addLight({"CeilingPoint", "point", {1.0f, 0.9f, 0.75f}, 6.0f, 10.0f});
     roots.push_back(gltf.addNode({"CeilingPoint", -1, point, {0, 1.8, 0}}));
-    const int spot = gltf.addLight({"BlockSpot", "spot", {0.9f, 0.95f, 1.0f}, 15.0f, 0.0f, 0.25f, 0.45f});
-    roots.push_back(gltf.addNode({"BlockSpot", -1, spot, {0.8, 1.8, 0.9}, rotationFromMinusZ({-1.2, -1.2, -1.25})}));
+    const int spot =
+        gltf.addLight({"BlockSpot", "spot", {0.9f, 0.95f, 1.0f}, 15.0f, 0.0f, 0.25f, 0.45f});
+    roots.push_back(gltf.addNode(
+        {"BlockSpot", -1, spot, {0.8, 1.8, 0.9}, rotationFromMinusZ({-1.2, -1.2, -1.25})}));
     const int sun = gltf.addLight({"Sun", "directional", {1.0f, 0.98f, 0.95f}, 2.0f});
-    roots.push_back(gltf.addNode({"Sun", -1, sun, {0, 3, 3}, rotationFromMinusZ({0.2, -0.6, -1.0})}));
+    roots.push_back(
+        gltf.addNode({"Sun", -1, sun, {0, 3, 3}, rotationFromMinusZ({0.2, -0.6, -1.0})}));
 
     gltf.setSceneRoots(roots);
-    const std::filesystem::path file = directory / (storage == BufferStorage::Glb ? "cornell_box.glb" : "cornell_box.gltf");
+    const std::filesystem::path file =
+        directory / (storage == BufferStorage::Glb ? "cornell_box.glb" : "cornell_box.gltf");
     gltf.write(file, storage);
     return file;
 }

@@ -14,13 +14,14 @@ namespace {
 using Facts = CorridorFacts;
 
 constexpr std::uint64_t kSeed = 0x436F727269646F72ull;  // "Corridor"
-constexpr int kTurnLo = -28, kTurnHi = 28;             // where the moving lights turn back
+constexpr int kTurnLo = -28, kTurnHi = 28;              // where the moving lights turn back
 
 /// Position along [kTurnLo, kTurnHi] of something that starts at @p start and moves @p speed
 /// per frame, bouncing at the ends; @p direction receives +1 or -1, the way it moves.
 int pingPong(int start, int speed, int frame, int& direction) {
     const long long length = kTurnHi - kTurnLo;
-    const long long unfolded = static_cast<long long>(start - kTurnLo) + static_cast<long long>(speed) * frame;
+    const long long unfolded =
+        static_cast<long long>(start - kTurnLo) + static_cast<long long>(speed) * frame;
     long long m = unfolded % (2 * length);
     if (m < 0) m += 2 * length;
     const int sign = speed < 0 ? -1 : 1;
@@ -50,15 +51,20 @@ void addCorridor(GltfBuilder& gltf, std::vector<int>& roots) {
     const int housingMaterial = gltf.addMaterial({"LampHousing", {0.30f, 0.30f, 0.32f, 1}});
     const int crateMaterial = gltf.addMaterial({"Crate", {0.55f, 0.40f, 0.22f, 1}});
 
-    constexpr float hx = Facts::kLength / 2, hz = Facts::kWidth / 2, h = Facts::kHeight, t = Facts::kWall;
+    constexpr float hx = Facts::kLength / 2, hz = Facts::kWidth / 2, h = Facts::kHeight,
+                    t = Facts::kWall;
     auto part = [&](const char* name, int material, auto&& fill) {
         GltfBuilder::Primitive primitive;
         primitive.material = material;
         fill(primitive);
         roots.push_back(gltf.addNode({name, gltf.addMesh(name, {primitive})}));
     };
-    part("Floor", floorMaterial, [&](auto& p) { appendBox(p, {-hx - t, -t, -hz - t}, {hx + t, 0, hz + t}); });
-    part("Ceiling", ceilingMaterial, [&](auto& p) { appendBox(p, {-hx - t, h, -hz - t}, {hx + t, h + t, hz + t}); });
+    part("Floor", floorMaterial, [&](auto& p) {
+        appendBox(p, {-hx - t, -t, -hz - t}, {hx + t, 0, hz + t});
+    });
+    part("Ceiling", ceilingMaterial, [&](auto& p) {
+        appendBox(p, {-hx - t, h, -hz - t}, {hx + t, h + t, hz + t});
+    });
     part("Walls", wallMaterial, [&](auto& p) {
         appendBox(p, {-hx - t, 0, -hz - t}, {hx + t, h, -hz});
         appendBox(p, {-hx - t, 0, hz}, {hx + t, h, hz + t});
@@ -79,8 +85,10 @@ void addCorridor(GltfBuilder& gltf, std::vector<int>& roots) {
         for (std::size_t k = 0; k < Facts::kPartitions.size(); ++k) {
             const float x = Facts::kPartitions[k];
             const bool even = k % 2 == 0;
-            const float x0 = even ? x + half : x - half - 1.1f, x1 = even ? x + half + 1.1f : x - half;
-            const float z0 = even ? doorHalfWidth : -doorHalfWidth - 0.05f, z1 = even ? doorHalfWidth + 0.05f : -doorHalfWidth;
+            const float x0 = even ? x + half : x - half - 1.1f,
+                        x1 = even ? x + half + 1.1f : x - half;
+            const float z0 = even ? doorHalfWidth : -doorHalfWidth - 0.05f,
+                        z1 = even ? doorHalfWidth + 0.05f : -doorHalfWidth;
             appendBox(p, {x0, 0, z0}, {x1, doorHeight - 0.05f, z1});
         }
     });
@@ -105,10 +113,12 @@ void addCorridor(GltfBuilder& gltf, std::vector<int>& roots) {
     });
 
     // The lamps: a mix of colour temperatures and intensities, all with the same range.
-    static constexpr std::array<std::array<float, 3>, 3> colors{{{1.0f, 0.85f, 0.66f}, {1.0f, 0.95f, 0.88f}, {0.86f, 0.92f, 1.0f}}};
+    static constexpr std::array<std::array<float, 3>, 3> colors{
+        {{1.0f, 0.85f, 0.66f}, {1.0f, 0.95f, 0.88f}, {0.86f, 0.92f, 1.0f}}};
     for (int i = 0; i < Facts::kLamps; ++i) {
         const double x = -hx + Facts::kLampSpacing * (i + 0.5);
-        const std::string name = "CeilingLamp_" + std::string(i < 10 ? "0" : "") + std::to_string(i);
+        const std::string name =
+            "CeilingLamp_" + std::string(i < 10 ? "0" : "") + std::to_string(i);
         const auto& color = colors[static_cast<std::size_t>(rng.below(3))];
         const float intensity = static_cast<float>(rng.steps(Facts::kLampMinIntensity, 10, 4));
         const int light = gltf.addLight({name, "point", color, intensity, Facts::kLampRange});
@@ -116,14 +126,17 @@ void addCorridor(GltfBuilder& gltf, std::vector<int>& roots) {
     }
 }
 
-std::filesystem::path fileIn(const std::filesystem::path& directory, const std::string& stem, BufferStorage storage) {
+std::filesystem::path fileIn(const std::filesystem::path& directory, const std::string& stem,
+                             BufferStorage storage) {
     return directory / (stem + (storage == BufferStorage::Glb ? ".glb" : ".gltf"));
 }
 
 }  // namespace
 
 std::array<double, 3> corridorMovingLightPosition(int light, int frame) {
-    if (light < 0 || light > 1) throw std::invalid_argument("corridor: moving light " + std::to_string(light) + " does not exist");
+    if (light < 0 || light > 1)
+        throw std::invalid_argument("corridor: moving light " + std::to_string(light) +
+                                    " does not exist");
     if (frame < 0) throw std::invalid_argument("corridor: frame must not be negative");
     int direction = 0;
     const Mover& m = kMovers[light];
@@ -141,7 +154,8 @@ std::filesystem::path writeCorridor(const std::filesystem::path& directory, Buff
     return file;
 }
 
-std::filesystem::path writeCorridorMoving(const std::filesystem::path& directory, int frame, BufferStorage storage) {
+std::filesystem::path writeCorridorMoving(const std::filesystem::path& directory, int frame,
+                                          BufferStorage storage) {
     if (frame < 0) throw std::invalid_argument("corridor: frame must not be negative");
     std::filesystem::create_directories(directory);
     GltfBuilder gltf;
@@ -149,17 +163,25 @@ std::filesystem::path writeCorridorMoving(const std::filesystem::path& directory
     addCorridor(gltf, roots);
 
     // A lantern carried along the corridor.
-    const int lantern = gltf.addLight({Facts::kMovingNames[0], "point", {1.0f, 0.75f, 0.45f}, 40.0f, Facts::kLanternRange});
-    GltfBuilder::NodeDesc lanternNode{Facts::kMovingNames[0], -1, lantern, corridorMovingLightPosition(0, frame)};
+    const int lantern = gltf.addLight(
+        {Facts::kMovingNames[0], "point", {1.0f, 0.75f, 0.45f}, 40.0f, Facts::kLanternRange});
+    GltfBuilder::NodeDesc lanternNode{Facts::kMovingNames[0], -1, lantern,
+                                      corridorMovingLightPosition(0, frame)};
     lanternNode.dynamic = true;
     roots.push_back(gltf.addNode(lanternNode));
 
     // A searchlight on a cart, aimed 30 degrees down in the direction it travels.
     int direction = 0;
     pingPong(kMovers[1].start, kMovers[1].speed, frame, direction);
-    const int searchlight =
-        gltf.addLight({Facts::kMovingNames[1], "spot", {0.9f, 0.95f, 1.0f}, 150.0f, Facts::kSearchlightRange, 0.3f, 0.5f});
-    GltfBuilder::NodeDesc searchNode{Facts::kMovingNames[1], -1, searchlight, corridorMovingLightPosition(1, frame),
+    const int searchlight = gltf.addLight({Facts::kMovingNames[1],
+                                           "spot",
+                                           {0.9f, 0.95f, 1.0f},
+                                           150.0f,
+                                           Facts::kSearchlightRange,
+                                           0.3f,
+                                           0.5f});
+    GltfBuilder::NodeDesc searchNode{Facts::kMovingNames[1], -1, searchlight,
+                                     corridorMovingLightPosition(1, frame),
                                      rotationFromMinusZ({direction * std::sqrt(3.0), -1.0, 0.0})};
     searchNode.dynamic = true;
     roots.push_back(gltf.addNode(searchNode));

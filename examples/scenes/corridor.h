@@ -16,8 +16,10 @@ namespace vox::scenes {
 /// Interior x ∈ [-30, 30] (the corridor's axis), y ∈ [0, 3] (floor to ceiling), z ∈ [-1.5, 1.5];
 /// walls, floor and ceiling are 0.2 thick outside it.
 struct CorridorFacts {
-    static constexpr int kLamps = 30;        ///< static point lights, one every kLampSpacing along the ceiling
-    static constexpr int kMovingLights = 2;  ///< corridor-moving only: a lantern and a searchlight, flagged dynamic
+    static constexpr int kLamps =
+        30;  ///< static point lights, one every kLampSpacing along the ceiling
+    static constexpr int kMovingLights =
+        2;  ///< corridor-moving only: a lantern and a searchlight, flagged dynamic
     static constexpr float kLength = 60.0f, kWidth = 3.0f, kHeight = 3.0f, kWall = 0.2f;
     static constexpr float kLampSpacing = 2.0f;  ///< lamps at x = -29, -27, …, 29, z = 0
     static constexpr float kLampHeight = 2.8f;   ///< 0.2 below the ceiling, under a housing
@@ -28,7 +30,8 @@ struct CorridorFacts {
     /// Partition walls across the corridor, each with a centred 1.2 m × 2.2 m doorway and an
     /// open door leaf; the moving lights pass through the doorways.
     static constexpr std::array<float, 4> kPartitions{-18.0f, -6.0f, 6.0f, 18.0f};
-    static constexpr std::size_t kBoxes = 80;  ///< shell 6, partitions 12, doors 4, pillars 20, lamp housings 30, crates 8
+    static constexpr std::size_t kBoxes =
+        80;  ///< shell 6, partitions 12, doors 4, pillars 20, lamp housings 30, crates 8
     static constexpr std::size_t kTriangles = 12 * kBoxes;
     static constexpr std::array<float, 3> kBoundsMin{-30.2f, -0.2f, -1.7f};
     static constexpr std::array<float, 3> kBoundsMax{30.2f, 3.2f, 1.7f};
@@ -48,7 +51,8 @@ struct CorridorFacts {
 
 /// Writes "corridor.gltf" (+ .bin, or "corridor.glb") into @p directory: the corridor with its 30
 /// static lamps. Returns the scene file's path.
-std::filesystem::path writeCorridor(const std::filesystem::path& directory, BufferStorage storage = BufferStorage::External);
+std::filesystem::path writeCorridor(const std::filesystem::path& directory,
+                                    BufferStorage storage = BufferStorage::External);
 
 /// Writes "corridor_moving_f<frame>.gltf" (or .glb): the same corridor and lamps (same bytes for
 /// them in every frame) plus the two moving lights at their positions at @p frame (≥ 0).

@@ -1,6 +1,5 @@
 #include "gltf_builder.h"
 
-
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -14,7 +13,8 @@ std::string base64(std::span<const std::uint8_t> bytes) {
     std::string out;
     out.reserve((bytes.size() + 2) / 3 * 4);
     for (std::size_t i = 0; i < bytes.size(); i += 3) {
-        const std::uint32_t n = (std::uint32_t{bytes[i]} << 16) | (i + 1 < bytes.size() ? std::uint32_t{bytes[i + 1]} << 8 : 0u) |
+        const std::uint32_t n = (std::uint32_t{bytes[i]} << 16) |
+                                (i + 1 < bytes.size() ? std::uint32_t{bytes[i + 1]} << 8 : 0u) |
                                 (i + 2 < bytes.size() ? std::uint32_t{bytes[i + 2]} : 0u);
         out.push_back(table[(n >> 18) & 63]);
         out.push_back(table[(n >> 12) & 63]);
@@ -26,7 +26,8 @@ std::string base64(std::span<const std::uint8_t> bytes) {
 
 void writeBytes(const std::filesystem::path& file, std::span<const std::uint8_t> bytes) {
     std::ofstream out(file, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    out.write(reinterpret_cast<const char*>(bytes.data()),
+              static_cast<std::streamsize>(bytes.size()));
     if (!out) throw std::runtime_error("cannot write " + file.string());
 }
 
@@ -54,19 +55,24 @@ void GltfBuilder::useExtension(const std::string& name) {
 
 int GltfBuilder::addBufferView(std::span<const std::uint8_t> bytes, int byteStride) {
     while (buffer_.size() % 4) buffer_.push_back(0);
-    nlohmann::json view = {{"buffer", 0}, {"byteOffset", buffer_.size()}, {"byteLength", bytes.size()}};
+    nlohmann::json view = {
+        {"buffer", 0}, {"byteOffset", buffer_.size()}, {"byteLength", bytes.size()}};
     if (byteStride) view["byteStride"] = byteStride;
     buffer_.insert(buffer_.end(), bytes.begin(), bytes.end());
     return push("bufferViews", view);
 }
 
 int GltfBuilder::addFloatAccessor(std::span<const float> values, int components, bool withBounds) {
-    const int view = addBufferView({reinterpret_cast<const std::uint8_t*>(values.data()), values.size_bytes()});
+    const int view =
+        addBufferView({reinterpret_cast<const std::uint8_t*>(values.data()), values.size_bytes()});
     static const char* types[] = {"", "SCALAR", "VEC2", "VEC3", "VEC4"};
-    nlohmann::json accessor = {{"bufferView", view}, {"componentType", 5126},
-                               {"count", values.size() / static_cast<std::size_t>(components)}, {"type", types[components]}};
+    nlohmann::json accessor = {{"bufferView", view},
+                               {"componentType", 5126},
+                               {"count", values.size() / static_cast<std::size_t>(components)},
+                               {"type", types[components]}};
     if (withBounds) {
-        std::vector<float> lo(components, std::numeric_limits<float>::max()), hi(components, -std::numeric_limits<float>::max());
+        std::vector<float> lo(components, std::numeric_limits<float>::max()),
+            hi(components, -std::numeric_limits<float>::max());
         for (std::size_t i = 0; i < values.size(); ++i) {
             lo[i % components] = std::min(lo[i % components], values[i]);
             hi[i % components] = std::max(hi[i % components], values[i]);
@@ -78,21 +84,27 @@ int GltfBuilder::addFloatAccessor(std::span<const float> values, int components,
 }
 
 int GltfBuilder::addIndexAccessor(std::span<const std::uint32_t> indices) {
-    const int view = addBufferView({reinterpret_cast<const std::uint8_t*>(indices.data()), indices.size_bytes()});
-    return push("accessors", {{"bufferView", view}, {"componentType", 5125}, {"count", indices.size()}, {"type", "SCALAR"}});
+    const int view = addBufferView(
+        {reinterpret_cast<const std::uint8_t*>(indices.data()), indices.size_bytes()});
+    return push("accessors", {{"bufferView", view},
+                              {"componentType", 5125},
+                              {"count", indices.size()},
+                              {"type", "SCALAR"}});
 }
 
-int GltfBuilder::addRawAccessor(std::span<const std::uint8_t> bytes, int componentType, const std::string& type, int count,
-                                bool normalized) {
+int GltfBuilder::addRawAccessor(std::span<const std::uint8_t> bytes, int componentType,
+                                const std::string& type, int count, bool normalized) {
     const int view = addBufferView(bytes);
-    nlohmann::json accessor = {{"bufferView", view}, {"componentType", componentType}, {"count", count}, {"type", type}};
+    nlohmann::json accessor = {
+        {"bufferView", view}, {"componentType", componentType}, {"count", count}, {"type", type}};
     if (normalized) accessor["normalized"] = true;
     return push("accessors", accessor);
 }
 
 int GltfBuilder::addImage(const std::string& uri) { return push("images", {{"uri", uri}}); }
 
-int GltfBuilder::addBufferImage(std::span<const std::uint8_t> encoded, const std::string& mimeType) {
+int GltfBuilder::addBufferImage(std::span<const std::uint8_t> encoded,
+                                const std::string& mimeType) {
     return push("images", {{"bufferView", addBufferView(encoded)}, {"mimeType", mimeType}});
 }
 
@@ -102,12 +114,14 @@ int GltfBuilder::addTexture(int image, int wrapS, int wrapT) {
 }
 
 int GltfBuilder::addMaterial(const MaterialDesc& m) {
-    nlohmann::json pbr = {{"baseColorFactor", m.baseColor}, {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}};
+    nlohmann::json pbr = {
+        {"baseColorFactor", m.baseColor}, {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}};
     if (m.baseColorTexture >= 0) pbr["baseColorTexture"] = {{"index", m.baseColorTexture}};
     nlohmann::json material = {{"name", m.name}, {"pbrMetallicRoughness", pbr}};
     if (m.emissive != std::array<float, 3>{0, 0, 0}) material["emissiveFactor"] = m.emissive;
     if (m.emissiveStrength != 1.0f) {
-        material["extensions"]["KHR_materials_emissive_strength"] = {{"emissiveStrength", m.emissiveStrength}};
+        material["extensions"]["KHR_materials_emissive_strength"] = {
+            {"emissiveStrength", m.emissiveStrength}};
         useExtension("KHR_materials_emissive_strength");
     }
     return push("materials", material);
@@ -129,9 +143,12 @@ int GltfBuilder::addMesh(const std::string& name, const std::vector<Primitive>& 
 
 int GltfBuilder::addLight(const LightDesc& l) {
     useExtension("KHR_lights_punctual");
-    nlohmann::json light = {{"name", l.name}, {"type", l.type}, {"color", l.color}, {"intensity", l.intensity}};
+    nlohmann::json light = {
+        {"name", l.name}, {"type", l.type}, {"color", l.color}, {"intensity", l.intensity}};
     if (l.range > 0) light["range"] = l.range;
-    if (l.type == "spot") light["spot"] = {{"innerConeAngle", l.innerConeAngle}, {"outerConeAngle", l.outerConeAngle}};
+    if (l.type == "spot")
+        light["spot"] = {{"innerConeAngle", l.innerConeAngle},
+                         {"outerConeAngle", l.outerConeAngle}};
     auto& lights = root_["extensions"]["KHR_lights_punctual"]["lights"];
     if (lights.is_null()) lights = nlohmann::json::array();
     lights.push_back(light);
@@ -150,7 +167,9 @@ int GltfBuilder::addNode(const NodeDesc& n) {
     return push("nodes", node);
 }
 
-void GltfBuilder::setSceneRoots(const std::vector<int>& nodes) { root_["scenes"][0]["nodes"] = nodes; }
+void GltfBuilder::setSceneRoots(const std::vector<int>& nodes) {
+    root_["scenes"][0]["nodes"] = nodes;
+}
 
 void GltfBuilder::write(const std::filesystem::path& file, BufferStorage storage) const {
     nlohmann::json doc = root_;
@@ -179,7 +198,8 @@ void GltfBuilder::write(const std::filesystem::path& file, BufferStorage storage
         const auto* p = reinterpret_cast<const std::uint8_t*>(&v);
         out.insert(out.end(), p, p + 4);
     };
-    const std::uint32_t total = 12 + 8 + static_cast<std::uint32_t>(json.size()) + (bin.empty() ? 0 : 8 + static_cast<std::uint32_t>(bin.size()));
+    const std::uint32_t total = 12 + 8 + static_cast<std::uint32_t>(json.size()) +
+                                (bin.empty() ? 0 : 8 + static_cast<std::uint32_t>(bin.size()));
     out.insert(out.end(), {'g', 'l', 'T', 'F'});
     u32(2);
     u32(total);

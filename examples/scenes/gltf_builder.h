@@ -30,8 +30,8 @@ public:
     int addFloatAccessor(std::span<const float> values, int components, bool withBounds = false);
     int addIndexAccessor(std::span<const std::uint32_t> indices);
     /// Adds an accessor with a given component type over raw bytes (normalized integers, ...).
-    int addRawAccessor(std::span<const std::uint8_t> bytes, int componentType, const std::string& type, int count,
-                       bool normalized = false);
+    int addRawAccessor(std::span<const std::uint8_t> bytes, int componentType,
+                       const std::string& type, int count, bool normalized = false);
 
     int addImage(const std::string& uri);
     /// An image stored in the buffer (GLB / embedded style) with its MIME type.
@@ -48,9 +48,9 @@ public:
     int addMaterial(const MaterialDesc& material);
 
     struct Primitive {
-        std::vector<float> positions;  ///< xyz per vertex
-        std::vector<float> normals;    ///< optional
-        std::vector<float> uvs;        ///< optional, TEXCOORD_0
+        std::vector<float> positions;        ///< xyz per vertex
+        std::vector<float> normals;          ///< optional
+        std::vector<float> uvs;              ///< optional, TEXCOORD_0
         std::vector<std::uint32_t> indices;  ///< optional
         int material = -1;
         int mode = 4;

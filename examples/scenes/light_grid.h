@@ -24,16 +24,20 @@ struct LightGridFacts {
     static constexpr float kMinIntensity = 20.0f, kMaxIntensity = 30.0f;  ///< candela
     static constexpr int kCubesPerSide = 8;
     static constexpr int kCubes = kCubesPerSide * kCubesPerSide;  ///< 64
-    static constexpr float kCubePitch = 4.0f, kCubeSize = 2.0f;   ///< centres at x, z = -14, -10, …, 14
+    static constexpr float kCubePitch = 4.0f,
+                           kCubeSize = 2.0f;  ///< centres at x, z = -14, -10, …, 14
     static constexpr float kMinCubeHeight = 0.5f, kMaxCubeHeight = 3.0f;
     static constexpr float kFloorHalfSize = 17.0f, kFloorThickness = 0.2f;
     static constexpr std::size_t kTriangles = 12 * (1 + kCubes);
     /// Scene bounds (geometry only; the lights are above them, at kLightHeight).
-    static constexpr std::array<float, 3> kBoundsMin{-kFloorHalfSize, -kFloorThickness, -kFloorHalfSize};
-    static constexpr std::array<float, 3> kBoundsMax{kFloorHalfSize, kMaxCubeHeight, kFloorHalfSize};
+    static constexpr std::array<float, 3> kBoundsMin{-kFloorHalfSize, -kFloorThickness,
+                                                     -kFloorHalfSize};
+    static constexpr std::array<float, 3> kBoundsMax{kFloorHalfSize, kMaxCubeHeight,
+                                                     kFloorHalfSize};
 };
 
 /// Writes "light_grid.gltf" (+ .bin, or "light_grid.glb") into @p directory; returns its path.
-std::filesystem::path writeLightGrid(const std::filesystem::path& directory, BufferStorage storage = BufferStorage::External);
+std::filesystem::path writeLightGrid(const std::filesystem::path& directory,
+                                     BufferStorage storage = BufferStorage::External);
 
 }  // namespace vox::scenes

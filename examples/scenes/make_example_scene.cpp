@@ -1,6 +1,8 @@
 // Writes libvox's example scenes.
-// Usage: make_example_scene [cornell-box | bumpy-sphere | sphere [--rings R --segments S] | corridor |
-//                            corridor-moving [--frame N] | light-grid | city-block] [-o DIR] [--glb]
+// Usage: make_example_scene [cornell-box | bumpy-sphere | sphere [--rings R --segments S] |
+// corridor |
+//                            corridor-moving [--frame N] | light-grid | city-block] [-o DIR]
+//                            [--glb]
 #include "bumpy_sphere.h"
 #include "city_block.h"
 #include "cornell_box.h"
@@ -18,8 +20,10 @@
 namespace {
 
 constexpr const char* kUsage =
-    "usage: make_example_scene [cornell-box | bumpy-sphere | sphere [--rings R --segments S] | corridor |\n"
-    "                           corridor-moving [--frame N] | light-grid | city-block] [-o DIR] [--glb]\n";
+    "usage: make_example_scene [cornell-box | bumpy-sphere | sphere [--rings R --segments S] | "
+    "corridor |\n"
+    "                           corridor-moving [--frame N] | light-grid | city-block] [-o DIR] "
+    "[--glb]\n";
 
 int usageError(const std::string& message) {
     std::fprintf(stderr, "make_example_scene: error: %s\n%s", message.c_str(), kUsage);
@@ -49,8 +53,9 @@ int main(int argc, char** argv) {
             directory = argv[++i];
         } else if (arg == "--glb") {
             storage = vox::scenes::BufferStorage::Glb;
-        } else if (arg == "cornell-box" || arg == "bumpy-sphere" || arg == "sphere" || arg == "corridor" || arg == "corridor-moving" ||
-                   arg == "light-grid" || arg == "city-block") {
+        } else if (arg == "cornell-box" || arg == "bumpy-sphere" || arg == "sphere" ||
+                   arg == "corridor" || arg == "corridor-moving" || arg == "light-grid" ||
+                   arg == "city-block") {
             scene = arg;
         } else if (arg == "--rings" && i + 1 < argc) {
             rings = std::max(3, std::atoi(argv[++i]));
@@ -58,20 +63,30 @@ int main(int argc, char** argv) {
             segments = std::max(3, std::atoi(argv[++i]));
         } else if (arg == "--frame" && i + 1 < argc) {
             frame = parseCount(argv[++i]);
-            if (frame < 0) return usageError(std::string("--frame needs a non-negative integer, not '") + argv[i] + "'");
+            if (frame < 0)
+                return usageError(std::string("--frame needs a non-negative integer, not '") +
+                                  argv[i] + "'");
         } else {
             return usageError("unknown argument '" + arg + "'");
         }
     }
-    if (frame >= 0 && scene != "corridor-moving") return usageError("--frame applies to corridor-moving only");
+    if (frame >= 0 && scene != "corridor-moving")
+        return usageError("--frame applies to corridor-moving only");
     try {
         std::filesystem::path file;
-        if (scene == "cornell-box") file = vox::scenes::writeCornellBox(directory, storage);
-        else if (scene == "corridor") file = vox::scenes::writeCorridor(directory, storage);
-        else if (scene == "corridor-moving") file = vox::scenes::writeCorridorMoving(directory, std::max(frame, 0), storage);
-        else if (scene == "light-grid") file = vox::scenes::writeLightGrid(directory, storage);
-        else if (scene == "city-block") file = vox::scenes::writeCityBlock(directory, storage);
-        else file = vox::scenes::writeBumpySphere(directory, rings, segments, scene == "bumpy-sphere");
+        if (scene == "cornell-box")
+            file = vox::scenes::writeCornellBox(directory, storage);
+        else if (scene == "corridor")
+            file = vox::scenes::writeCorridor(directory, storage);
+        else if (scene == "corridor-moving")
+            file = vox::scenes::writeCorridorMoving(directory, std::max(frame, 0), storage);
+        else if (scene == "light-grid")
+            file = vox::scenes::writeLightGrid(directory, storage);
+        else if (scene == "city-block")
+            file = vox::scenes::writeCityBlock(directory, storage);
+        else
+            file =
+                vox::scenes::writeBumpySphere(directory, rings, segments, scene == "bumpy-sphere");
         std::printf("%s\n", file.string().c_str());
     } catch (const std::exception& e) {
         std::fprintf(stderr, "make_example_scene: error: %s\n", e.what());

@@ -30,18 +30,25 @@ public:
     /// lo + step · k for k uniform in [0, steps): values that print exactly.
     double steps(double lo, double step, int steps) { return lo + step * below(steps); }
     template <class T>
-    const T& pick(std::span<const T> values) { return values[static_cast<std::size_t>(below(static_cast<int>(values.size())))]; }
+    const T& pick(std::span<const T> values) {
+        return values[static_cast<std::size_t>(below(static_cast<int>(values.size())))];
+    }
 
 private:
     std::uint64_t state_;
 };
 
 /// @p value rounded to multiples of @p step (1 cm by default), without a negative zero.
-[[nodiscard]] inline double quantize(double value, double step = 0.01) { return std::round(value / step) * step + 0.0; }
-[[nodiscard]] inline float quantizef(double value, double step = 0.01) { return static_cast<float>(quantize(value, step)); }
+[[nodiscard]] inline double quantize(double value, double step = 0.01) {
+    return std::round(value / step) * step + 0.0;
+}
+[[nodiscard]] inline float quantizef(double value, double step = 0.01) {
+    return static_cast<float>(quantize(value, step));
+}
 
 /// Appends an axis-aligned box (boxPrimitive's 24 vertices, 12 triangles) to @p primitive.
-void appendBox(GltfBuilder::Primitive& primitive, std::array<float, 3> min, std::array<float, 3> max);
+void appendBox(GltfBuilder::Primitive& primitive, std::array<float, 3> min,
+               std::array<float, 3> max);
 
 /// Light definitions keyed by name: nodes that use the same definition share one entry of the
 /// KHR_lights_punctual light list (thousands of lights, a few dozen definitions).

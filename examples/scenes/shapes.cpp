@@ -5,13 +5,19 @@
 
 namespace vox::scenes {
 
-GltfBuilder::Primitive boxPrimitive(std::array<float, 3> lo, std::array<float, 3> hi, int material) {
+GltfBuilder::Primitive boxPrimitive(std::array<float, 3> lo, std::array<float, 3> hi,
+                                    int material) {
     GltfBuilder::Primitive p;
     p.material = material;
     // For each face: the axis it faces along, its sign, and the two in-plane axes (u, v) chosen
     // so that u × v points outwards (counter-clockwise front faces).
-    struct Face { int axis; float sign; int u, v; };
-    const Face faces[6] = {{0, 1, 1, 2}, {0, -1, 2, 1}, {1, 1, 2, 0}, {1, -1, 0, 2}, {2, 1, 0, 1}, {2, -1, 1, 0}};
+    struct Face {
+        int axis;
+        float sign;
+        int u, v;
+    };
+    const Face faces[6] = {{0, 1, 1, 2},  {0, -1, 2, 1}, {1, 1, 2, 0},
+                           {1, -1, 0, 2}, {2, 1, 0, 1},  {2, -1, 1, 0}};
     for (const Face& f : faces) {
         const std::uint32_t base = static_cast<std::uint32_t>(p.positions.size() / 3);
         for (int corner = 0; corner < 4; ++corner) {
@@ -39,7 +45,8 @@ GltfBuilder::Primitive spherePrimitive(float radius, int rings, int segments, in
         const double theta = std::numbers::pi * r / rings;
         for (int s = 0; s <= segments; ++s) {
             const double phi = 2 * std::numbers::pi * s / segments;
-            const float n[3] = {static_cast<float>(std::sin(theta) * std::cos(phi)), static_cast<float>(std::cos(theta)),
+            const float n[3] = {static_cast<float>(std::sin(theta) * std::cos(phi)),
+                                static_cast<float>(std::cos(theta)),
                                 static_cast<float>(-std::sin(theta) * std::sin(phi))};
             for (float c : n) {
                 p.normals.push_back(c);
@@ -49,11 +56,14 @@ GltfBuilder::Primitive spherePrimitive(float radius, int rings, int segments, in
             p.uvs.push_back(static_cast<float>(r) / rings);
         }
     }
-    const auto at = [&](int r, int s) { return static_cast<std::uint32_t>(r * (segments + 1) + s); };
+    const auto at = [&](int r, int s) {
+        return static_cast<std::uint32_t>(r * (segments + 1) + s);
+    };
     for (int r = 0; r < rings; ++r)
         for (int s = 0; s < segments; ++s) {
             if (r > 0) p.indices.insert(p.indices.end(), {at(r, s), at(r + 1, s), at(r, s + 1)});
-            if (r < rings - 1) p.indices.insert(p.indices.end(), {at(r, s + 1), at(r + 1, s), at(r + 1, s + 1)});
+            if (r < rings - 1)
+                p.indices.insert(p.indices.end(), {at(r, s + 1), at(r + 1, s), at(r + 1, s + 1)});
         }
     return p;
 }

@@ -46,8 +46,8 @@ namespace {
 vox::runtime::Vec3d parseVector(const std::string& text, const char* option) {
     vox::runtime::Vec3d v{};
     char tail = 0;
-    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &tail) != 3 || !std::isfinite(v[0]) ||
-        !std::isfinite(v[1]) || !std::isfinite(v[2]))
+    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &tail) != 3 ||
+        !std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
         throw vox::UsageError(std::string(option) + " expects x,y,z (got '" + text + "')");
     return v;
 }
@@ -66,20 +66,25 @@ struct Options {
     double exposure = 1, specAperture = 10, shadowAperture = 10;
     bool noShadowCones = false, channelGiven = false;
     std::string eglPlatform = "auto";
-    int benchmarkFrames = 0;  // --benchmark N: N timed frames after one warm-up, one JSON line on stdout
+    int benchmarkFrames =
+        0;  // --benchmark N: N timed frames after one warm-up, one JSON line on stdout
 };
 
 namespace rt = vox::runtime;
 
 /// The final gather's channels (voxinspect render FILE.rvol's): with --rvol, "normal" is the
 /// shading point's normal as there; the octree's other channels stay available.
-const std::array<std::string, 7> kGatherChannels{"final", "direct", "indirect", "specular", "ao", "albedo", "normal"};
+const std::array<std::string, 7> kGatherChannels{"final", "direct", "indirect", "specular",
+                                                 "ao",    "albedo", "normal"};
 bool isGatherChannel(const std::string& channel) {
-    return std::find(kGatherChannels.begin(), kGatherChannels.end(), channel) != kGatherChannels.end();
+    return std::find(kGatherChannels.begin(), kGatherChannels.end(), channel) !=
+           kGatherChannels.end();
 }
 
 /// voxinspect's 8-bit conversions (tools/voxinspect/rvol_commands.cpp), to the bit.
-std::uint8_t toByte(float v) { return static_cast<std::uint8_t>(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f))); }
+std::uint8_t toByte(float v) {
+    return static_cast<std::uint8_t>(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f)));
+}
 /// exposure × linear radiance, Reinhard x/(1 + x) per channel, sRGB-encoded to 8 bits.
 std::uint8_t toneMap(double linear, double exposure) {
     const double x = std::max(0.0, exposure * linear);
@@ -114,7 +119,9 @@ struct ShadingPoints {
 ShadingPoints shadingPoints(const rt::GpuFrame& frame, const rt::Camera& camera) {
     using V = rt::Vec3d;
     const auto dot = [](const V& a, const V& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
-    const auto f3 = [](const V& v) { return std::array<float, 3>{float(v[0]), float(v[1]), float(v[2])}; };
+    const auto f3 = [](const V& v) {
+        return std::array<float, 3>{float(v[0]), float(v[1]), float(v[2])};
+    };
     const rt::CameraBasis basis(camera);
     ShadingPoints out;
     out.pixels.reserve(frame.hits);
@@ -126,18 +133,24 @@ ShadingPoints shadingPoints(const rt::GpuFrame& frame, const rt::Camera& camera)
             const V d = basis.direction(x, y);
             const double t = double(frame.depth[i]);
             rt::GpuShadingPoint p;
-            p.position = f3({basis.eye[0] + d[0] * t, basis.eye[1] + d[1] * t, basis.eye[2] + d[2] * t});
-            V side{double(frame.normal[3 * i]), double(frame.normal[3 * i + 1]), double(frame.normal[3 * i + 2])};
+            p.position =
+                f3({basis.eye[0] + d[0] * t, basis.eye[1] + d[1] * t, basis.eye[2] + d[2] * t});
+            V side{double(frame.normal[3 * i]), double(frame.normal[3 * i + 1]),
+                   double(frame.normal[3 * i + 2])};
             if (dot(side, d) > 0) side = {-side[0], -side[1], -side[2]};
             const bool attributes = frame.hasAttributes(i);
-            V n = attributes ? V{double(frame.shadingNormal[3 * i]), double(frame.shadingNormal[3 * i + 1]), double(frame.shadingNormal[3 * i + 2])}
+            V n = attributes ? V{double(frame.shadingNormal[3 * i]),
+                                 double(frame.shadingNormal[3 * i + 1]),
+                                 double(frame.shadingNormal[3 * i + 2])}
                              : side;
             if (dot(n, side) < 0) n = {-n[0], -n[1], -n[2]};
             const double len = std::sqrt(dot(n, n));
-            p.normal = len > 0 ? f3({n[0] / len, n[1] / len, n[2] / len}) : std::array<float, 3>{0, 0, 0};
+            p.normal =
+                len > 0 ? f3({n[0] / len, n[1] / len, n[2] / len}) : std::array<float, 3>{0, 0, 0};
             if (attributes) {
                 for (unsigned k = 0; k < 3; ++k)
-                    p.albedo[k] = rt::srgbToLinear(float(vox::esvo::colorChannel(frame.color[i], k)) / 255.0f);
+                    p.albedo[k] = rt::srgbToLinear(
+                        float(vox::esvo::colorChannel(frame.color[i], k)) / 255.0f);
             } else {
                 p.albedo = {0.8f, 0.8f, 0.8f};
             }
@@ -150,7 +163,8 @@ ShadingPoints shadingPoints(const rt::GpuFrame& frame, const rt::Camera& camera)
 }
 
 /// voxinspect render's pixels for a final-gather channel: black where nothing is hit.
-std::vector<std::uint8_t> composeGather(const rt::GpuFrame& frame, const ShadingPoints& sp, const std::vector<rt::GpuGatherParts>& parts,
+std::vector<std::uint8_t> composeGather(const rt::GpuFrame& frame, const ShadingPoints& sp,
+                                        const std::vector<rt::GpuGatherParts>& parts,
                                         const std::string& channel, double exposure) {
     std::vector<std::uint8_t> rgb(3 * std::size_t(frame.width) * std::size_t(frame.height), 0);
     for (std::size_t k = 0; k < sp.pixels.size(); ++k) {
@@ -166,7 +180,8 @@ std::vector<std::uint8_t> composeGather(const rt::GpuFrame& frame, const Shading
         } else if (channel == "ao") {
             p[0] = p[1] = p[2] = toByte(g.ao);
         } else if (channel == "albedo") {
-            for (std::size_t c = 0; c < 3; ++c) p[c] = toByte(rt::linearToSrgb(std::clamp(sp.points[k].albedo[c], 0.0f, 1.0f)));
+            for (std::size_t c = 0; c < 3; ++c)
+                p[c] = toByte(rt::linearToSrgb(std::clamp(sp.points[k].albedo[c], 0.0f, 1.0f)));
         } else {  // normal
             for (std::size_t c = 0; c < 3; ++c) p[c] = toByte(0.5f * (sp.points[k].normal[c] + 1));
         }
@@ -180,14 +195,16 @@ constexpr double kPi = 3.14159265358979323846;
 /// height ("orbit"), or a file of lines "ex,ey,ez tx,ty,tz" (one per frame, repeated if short).
 std::vector<vox::runtime::Camera> cameraPath(const Options& o, const vox::runtime::Camera& camera) {
     std::vector<vox::runtime::Camera> path;
-    if (o.cameraPath.empty()) return std::vector<vox::runtime::Camera>(std::size_t(o.frames), camera);
+    if (o.cameraPath.empty())
+        return std::vector<vox::runtime::Camera>(std::size_t(o.frames), camera);
     if (o.cameraPath == "orbit") {
         const double dx = camera.eye[0] - camera.target[0], dz = camera.eye[2] - camera.target[2];
         const double radius = std::hypot(dx, dz), start = std::atan2(dx, dz);
         for (int f = 0; f < o.frames; ++f) {
             vox::runtime::Camera c = camera;
             const double a = start + 2 * kPi * f / o.frames;
-            c.eye = {camera.target[0] + radius * std::sin(a), camera.eye[1], camera.target[2] + radius * std::cos(a)};
+            c.eye = {camera.target[0] + radius * std::sin(a), camera.eye[1],
+                     camera.target[2] + radius * std::cos(a)};
             path.push_back(c);
         }
         return path;
@@ -203,7 +220,9 @@ std::vector<vox::runtime::Camera> cameraPath(const Options& o, const vox::runtim
         c.validate();
         keys.push_back(c);
     }
-    if (keys.empty()) throw vox::InvalidDataError(o.cameraPath, "no camera in the path (lines: ex,ey,ez tx,ty,tz)");
+    if (keys.empty())
+        throw vox::InvalidDataError(o.cameraPath,
+                                    "no camera in the path (lines: ex,ey,ez tx,ty,tz)");
     for (int f = 0; f < o.frames; ++f) path.push_back(keys[std::size_t(f) % keys.size()]);
     return path;
 }
@@ -226,8 +245,10 @@ double median(std::vector<double> v) {
 /// A pass's times over the timed frames (the warm-up left out): the GPU's GL_TIME_ELAPSED and the
 /// host's wall clock, and which of them "ms" is. llvmpipe's timer reads ~0 for compute work, so
 /// the wall clock stands in where the timer reads under a tenth of it.
-nlohmann::json passTimes(const std::vector<double>& gpuMs, const std::vector<double>& wallMs, std::size_t warmup) {
-    const std::vector<double> gpu(gpuMs.begin() + std::ptrdiff_t(warmup), gpuMs.end()), wall(wallMs.begin() + std::ptrdiff_t(warmup), wallMs.end());
+nlohmann::json passTimes(const std::vector<double>& gpuMs, const std::vector<double>& wallMs,
+                         std::size_t warmup) {
+    const std::vector<double> gpu(gpuMs.begin() + std::ptrdiff_t(warmup), gpuMs.end()),
+        wall(wallMs.begin() + std::ptrdiff_t(warmup), wallMs.end());
     const double gpuMedian = median(gpu), wallMedian = median(wall);
     const bool timerWorks = gpuMedian > 0.1 * wallMedian;
     return {{"ms", timerWorks ? gpuMedian : wallMedian},
@@ -241,34 +262,51 @@ nlohmann::json passTimes(const std::vector<double>& gpuMs, const std::vector<dou
 void run(Options o) {
     const std::optional<rt::EglPlatform> platform = eglPlatform(o.eglPlatform);
     if (o.benchmarkFrames > 0) {
-        // A fixed camera, its first frame (which streams the slices in and compiles lazily) untimed.
-        if (!o.cameraPath.empty()) throw vox::UsageError("--benchmark renders a fixed camera: no --camera-path");
+        // A fixed camera, its first frame (which streams the slices in and compiles lazily)
+        // untimed.
+        if (!o.cameraPath.empty())
+            throw vox::UsageError("--benchmark renders a fixed camera: no --camera-path");
         if (o.framesGiven) throw vox::UsageError("--benchmark N renders N + 1 frames: no --frames");
         o.headless = true;
         o.frames = o.benchmarkFrames + 1;
     }
-    if (!o.headless && platform) throw vox::UsageError("--egl-platform applies with --headless (a window brings its own context)");
+    if (!o.headless && platform)
+        throw vox::UsageError(
+            "--egl-platform applies with --headless (a window brings its own context)");
     if (!o.headless && !voxview::displayAvailable())
-        throw vox::UsageError("no display to open a window on (DISPLAY and WAYLAND_DISPLAY are unset): pass --headless -o FILE.png");
-    if (o.headless && o.output.empty() && o.benchmarkFrames == 0) throw vox::UsageError("--headless needs -o FILE.png");
+        throw vox::UsageError(
+            "no display to open a window on (DISPLAY and WAYLAND_DISPLAY are unset): pass "
+            "--headless -o FILE.png");
+    if (o.headless && o.output.empty() && o.benchmarkFrames == 0)
+        throw vox::UsageError("--headless needs -o FILE.png");
     const bool gatherMode = !o.rvol.empty();
     if (gatherMode && !o.channelGiven) o.channel = "final";
     if (gatherMode) {
         if (!isGatherChannel(o.channel) && !vox::runtime::isChannel(o.channel))
-            throw vox::UsageError("--channel with --rvol must be final, direct, indirect, specular, ao, albedo or normal (or an octree "
-                                  "channel: depth, face-normal, color, shaded, iterations, level)");
+            throw vox::UsageError(
+                "--channel with --rvol must be final, direct, indirect, specular, ao, albedo or "
+                "normal (or an octree "
+                "channel: depth, face-normal, color, shaded, iterations, level)");
     } else {
         if (isGatherChannel(o.channel) && !vox::runtime::isChannel(o.channel))
-            throw vox::UsageError("--channel " + o.channel + " needs --rvol FILE.rvol (the radiance volume's final gather)");
+            throw vox::UsageError("--channel " + o.channel +
+                                  " needs --rvol FILE.rvol (the radiance volume's final gather)");
         if (!vox::runtime::isChannel(o.channel))
-            throw vox::UsageError("--channel must be depth, normal, face-normal, color, shaded, iterations or level");
-        if (!o.scene.empty()) throw vox::UsageError("--scene (the lights) applies with --rvol FILE.rvol");
+            throw vox::UsageError(
+                "--channel must be depth, normal, face-normal, color, shaded, iterations or level");
+        if (!o.scene.empty())
+            throw vox::UsageError("--scene (the lights) applies with --rvol FILE.rvol");
     }
     const bool gatherChannel = gatherMode && isGatherChannel(o.channel);
-    if (!(o.exposure > 0) || !std::isfinite(o.exposure)) throw vox::UsageError("--exposure must be a finite number > 0");
+    if (!(o.exposure > 0) || !std::isfinite(o.exposure))
+        throw vox::UsageError("--exposure must be a finite number > 0");
     for (const double aperture : {o.specAperture, o.shadowAperture})
-        if (!(aperture > 0 && aperture < 90)) throw vox::UsageError("--spec-aperture and --shadow-aperture must be between 0 and 90 degrees (exclusive)");
-    if (o.gatherFilter != "hardware" && o.gatherFilter != "fetch") throw vox::UsageError("--gather-filter must be hardware or fetch");
+        if (!(aperture > 0 && aperture < 90))
+            throw vox::UsageError(
+                "--spec-aperture and --shadow-aperture must be between 0 and 90 degrees "
+                "(exclusive)");
+    if (o.gatherFilter != "hardware" && o.gatherFilter != "fetch")
+        throw vox::UsageError("--gather-filter must be hardware or fetch");
     if (!(o.lodScale >= 0)) throw vox::UsageError("--lod-scale must be 0 or more");
     vox::runtime::Camera camera;
     camera.eye = parseVector(o.eye, "--eye");
@@ -279,8 +317,10 @@ void run(Options o) {
     camera.height = o.height;
     camera.validate();
 
-    if (!(o.budgetMb > 0) || !(o.frameLoadMb >= 0)) throw vox::UsageError("--budget must be positive and --frame-load 0 or more");
-    if (o.upload != "ring" && o.upload != "subdata") throw vox::UsageError("--upload must be ring or subdata");
+    if (!(o.budgetMb > 0) || !(o.frameLoadMb >= 0))
+        throw vox::UsageError("--budget must be positive and --frame-load 0 or more");
+    if (o.upload != "ring" && o.upload != "subdata")
+        throw vox::UsageError("--upload must be ring or subdata");
     const std::vector<vox::runtime::Camera> path = cameraPath(o, camera);
 
     const auto start = std::chrono::steady_clock::now();
@@ -298,7 +338,8 @@ void run(Options o) {
     streamOptions.budgetBytes = std::uint64_t(o.budgetMb * 1048576.0);
     streamOptions.frameLoadBytes = std::uint64_t(o.frameLoadMb * 1048576.0);
     streamOptions.lodScale = o.lodScale > 0 ? o.lodScale : 1.0;
-    streamOptions.uploadPath = o.upload == "ring" ? vox::runtime::UploadPath::PersistentRing : vox::runtime::UploadPath::BufferSubData;
+    streamOptions.uploadPath = o.upload == "ring" ? vox::runtime::UploadPath::PersistentRing
+                                                  : vox::runtime::UploadPath::BufferSubData;
     vox::runtime::EsvoStream stream(context, o.file, streamOptions);
     const vox::esvo::EsvoReader& reader = stream.reader();
     if ((o.channel == "color") && !reader.header().hasAttributes())
@@ -324,10 +365,14 @@ void run(Options o) {
         }
         const std::uint32_t baked = rvolReader->header().bake.lights;
         if (!o.quiet && o.scene.empty() && baked > 0)
-            std::fprintf(stderr, "voxview: warning: no lights without --scene: the direct term is 0 (the bake had %u)\n", baked);
+            std::fprintf(stderr,
+                         "voxview: warning: no lights without --scene: the direct term is 0 (the "
+                         "bake had %u)\n",
+                         baked);
         else if (!o.quiet && !o.scene.empty() && staticLights != baked)
-            std::fprintf(stderr, "voxview: warning: %s: %zu static lights, but %s was baked with %u\n", o.scene.c_str(), staticLights,
-                         o.rvol.c_str(), baked);
+            std::fprintf(stderr,
+                         "voxview: warning: %s: %zu static lights, but %s was baked with %u\n",
+                         o.scene.c_str(), staticLights, o.rvol.c_str(), baked);
         // Every brick, or (--rvol-budget) a clipmap around the eye streamed frame by frame.
         rt::RvolGpuVolumeOptions volumeOptions;
         if (o.rvolBudgetMb > 0) {
@@ -335,7 +380,8 @@ void run(Options o) {
             volumeOptions.atlasBytes = std::uint64_t(o.rvolBudgetMb * 1048576.0);
         }
         volume = std::make_unique<rt::RvolGpuVolume>(context, *rvolReader, volumeOptions);
-        if (o.rvolBudgetMb > 0) bricks = std::make_unique<rt::RvolResidency>(*volume, volumeOptions.atlasBytes);
+        if (o.rvolBudgetMb > 0)
+            bricks = std::make_unique<rt::RvolResidency>(*volume, volumeOptions.atlasBytes);
         rt::FinalGatherGpuOptions gatherOptions;
         gatherOptions.specularApertureDegrees = o.specAperture;
         gatherOptions.shadowApertureDegrees = o.shadowAperture;
@@ -372,12 +418,17 @@ void run(Options o) {
         if (gatherChannel) {
             const auto pointsStart = std::chrono::steady_clock::now();
             points = shadingPoints(frame, path[at]);
-            pointsMs.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - pointsStart).count());
+            pointsMs.push_back(std::chrono::duration<double, std::milli>(
+                                   std::chrono::steady_clock::now() - pointsStart)
+                                   .count());
             if (bricks) {
                 const rt::RvolResidency::Update u = bricks->update(path[at]);
                 if (brickFrames.size() < 10000)
-                    brickFrames.push_back({{"uploaded", u.uploaded}, {"evicted", u.evicted}, {"selected", u.selected},
-                                           {"over_budget", u.neededNotFitting}, {"resident_bytes", u.residentBytes}});
+                    brickFrames.push_back({{"uploaded", u.uploaded},
+                                           {"evicted", u.evicted},
+                                           {"selected", u.selected},
+                                           {"over_budget", u.neededNotFitting},
+                                           {"resident_bytes", u.residentBytes}});
             }
             parts = gather->shade(*volume, points.points, lights);
             gatherMs.push_back(gather->lastSeconds() * 1e3);
@@ -390,23 +441,25 @@ void run(Options o) {
         slicesLoaded += update.loaded;
         slicesEvicted += update.evicted;
         if (fullDetailFrame < 0 && update.pending == 0) fullDetailFrame = f;
-        if (perFrame.size() < 10000) perFrame.push_back({{"resident_bytes", update.residentBytes},
-                            {"uploaded_bytes", update.uploadedBytes},
-                            {"slices_loaded", update.loaded},
-                            {"slices_evicted", update.evicted},
-                            {"slices_pending", update.pending},
-                            {"slices_over_budget", update.neededNotFitting},
-                            {"update_ms", update.seconds * 1e3},
-                            {"cast_wall_ms", frame.wallMilliseconds},
-                            {"cast_gpu_ms", frame.gpuMilliseconds},
-                            {"hits", frame.hits},
-                            {"gather_ms", gatherChannel ? gatherMs.back() : 0.0}});
+        if (perFrame.size() < 10000)
+            perFrame.push_back({{"resident_bytes", update.residentBytes},
+                                {"uploaded_bytes", update.uploadedBytes},
+                                {"slices_loaded", update.loaded},
+                                {"slices_evicted", update.evicted},
+                                {"slices_pending", update.pending},
+                                {"slices_over_budget", update.neededNotFitting},
+                                {"update_ms", update.seconds * 1e3},
+                                {"cast_wall_ms", frame.wallMilliseconds},
+                                {"cast_gpu_ms", frame.gpuMilliseconds},
+                                {"hits", frame.hits},
+                                {"gather_ms", gatherChannel ? gatherMs.back() : 0.0}});
         context.throwOnErrors("frame " + std::to_string(f));
         lastFrame = int(at);
         if (window) {
-            const bool open = window->present(gatherChannel ? composeGather(frame, points, parts, o.channel, o.exposure)
-                                                             : vox::runtime::composeChannel(frame, path[at], o.channel),
-                                              frame.width, frame.height);
+            const bool open = window->present(
+                gatherChannel ? composeGather(frame, points, parts, o.channel, o.exposure)
+                              : vox::runtime::composeChannel(frame, path[at], o.channel),
+                frame.width, frame.height);
             context.throwOnErrors("presenting frame " + std::to_string(f));
             if (!open) break;
         }
@@ -418,15 +471,19 @@ void run(Options o) {
     const rt::Camera& lastCamera = path[std::size_t(lastFrame)];
     if (!o.output.empty())
         voxview::writePngRgb8(o.output, frame.width, frame.height,
-                              gatherChannel ? composeGather(frame, points, parts, o.channel, o.exposure)
-                                            : vox::runtime::composeChannel(frame, lastCamera, o.channel));
+                              gatherChannel
+                                  ? composeGather(frame, points, parts, o.channel, o.exposure)
+                                  : vox::runtime::composeChannel(frame, lastCamera, o.channel));
     if (!o.quiet)
-        std::fprintf(stderr, "voxview: %s: %dx%d, %llu hits, %.3f ms GPU timer, %.3f ms wall (%s, %s context)\n", o.output.c_str(),
-                     frame.width, frame.height, static_cast<unsigned long long>(frame.hits), frame.gpuMilliseconds,
-                     frame.wallMilliseconds, context.renderer().c_str(), context.platformName());
+        std::fprintf(
+            stderr,
+            "voxview: %s: %dx%d, %llu hits, %.3f ms GPU timer, %.3f ms wall (%s, %s context)\n",
+            o.output.c_str(), frame.width, frame.height,
+            static_cast<unsigned long long>(frame.hits), frame.gpuMilliseconds,
+            frame.wallMilliseconds, context.renderer().c_str(), context.platformName());
     if (!o.quiet && gatherChannel)
-        std::fprintf(stderr, "voxview: final gather: %zu points, %zu lights, %.3f ms (%s filter)\n", points.points.size(), lights.size(),
-                     gatherMs.back(), o.gatherFilter.c_str());
+        std::fprintf(stderr, "voxview: final gather: %zu points, %zu lights, %.3f ms (%s filter)\n",
+                     points.points.size(), lights.size(), gatherMs.back(), o.gatherFilter.c_str());
     // What the benchmark line and the --stats report both say of the last frame and the GL.
     const auto frameReport = [&](const char* tool) {
         return nlohmann::json{{"tool", tool},
@@ -493,30 +550,33 @@ void run(Options o) {
             {"gl_errors", context.errorCount()},
             {"rvol", o.rvol},
             {"final_gather",
-             gatherChannel ? nlohmann::json{{"points", points.points.size()},
-                                            {"lights", lights.size()},
-                                            {"static_lights", staticLights},
-                                            {"filter", o.gatherFilter},
-                                            {"exposure", o.exposure},
-                                            {"ao_lambda", rvolReader->header().bake.aoLambda},
-                                            {"volume_resident_bytes", volume->residentBytes()},
-                                            {"volume_uploaded_bytes", volume->uploadedBytesTotal()},
-                                            {"rvol_budget_bytes", bricks ? bricks->budget() : 0},
-                                            // With --rvol-budget, per frame: bricks uploaded, evicted, kept, left out, resident bytes.
-                                            {"bricks_per_frame", brickFrames},
-                                            // FinalGatherGpu::shade: upload, dispatch, glFinish, read-back.
-                                            {"gather_ms_per_frame", gatherMs},
-                                            {"gather_ms_median", median(gatherMs)},
-                                            // The dispatch alone by GL_TIME_ELAPSED (llvmpipe: ~0).
-                                            {"gather_gpu_ms_per_frame", gatherGpuMs},
-                                            {"gather_gpu_ms_median", median(gatherGpuMs)},
-                                            // Shading points built on the host from the read-back frame.
-                                            {"points_ms_per_frame", pointsMs},
-                                            {"points_ms_median", median(pointsMs)}}
-                           : nlohmann::json(nullptr)},
+             gatherChannel
+                 ? nlohmann::json{{"points", points.points.size()},
+                                  {"lights", lights.size()},
+                                  {"static_lights", staticLights},
+                                  {"filter", o.gatherFilter},
+                                  {"exposure", o.exposure},
+                                  {"ao_lambda", rvolReader->header().bake.aoLambda},
+                                  {"volume_resident_bytes", volume->residentBytes()},
+                                  {"volume_uploaded_bytes", volume->uploadedBytesTotal()},
+                                  {"rvol_budget_bytes", bricks ? bricks->budget() : 0},
+                                  // With --rvol-budget, per frame: bricks uploaded, evicted, kept,
+                                  // left out, resident bytes.
+                                  {"bricks_per_frame", brickFrames},
+                                  // FinalGatherGpu::shade: upload, dispatch, glFinish, read-back.
+                                  {"gather_ms_per_frame", gatherMs},
+                                  {"gather_ms_median", median(gatherMs)},
+                                  // The dispatch alone by GL_TIME_ELAPSED (llvmpipe: ~0).
+                                  {"gather_gpu_ms_per_frame", gatherGpuMs},
+                                  {"gather_gpu_ms_median", median(gatherGpuMs)},
+                                  // Shading points built on the host from the read-back frame.
+                                  {"points_ms_per_frame", pointsMs},
+                                  {"points_ms_median", median(pointsMs)}}
+                 : nlohmann::json(nullptr)},
             {"timings_ms",
              {{"load", std::chrono::duration<double, std::milli>(loaded - start).count()},
-              {"gl_and_render", std::chrono::duration<double, std::milli>(rendered - loaded).count()}}}});
+              {"gl_and_render",
+               std::chrono::duration<double, std::milli>(rendered - loaded).count()}}}});
         vox::writeFileAtomically(o.stats, report.dump(2) + "\n");
     }
 }
@@ -525,10 +585,14 @@ void run(Options o) {
 
 int main(int argc, char** argv) {
     Options o;
-    CLI::App app{"voxview: render an .esvo octree with the OpenGL 4.5 runtime (headless, EGL) to a PNG"};
+    CLI::App app{
+        "voxview: render an .esvo octree with the OpenGL 4.5 runtime (headless, EGL) to a PNG"};
     app.add_option("file", o.file, ".esvo file")->required();
-    app.add_flag("--headless", o.headless, "Render without a window, through EGL (else a window through GLFW, which needs a display)");
-    app.add_option("-o,--output", o.output, "PNG to write (the last frame; required with --headless)");
+    app.add_flag(
+        "--headless", o.headless,
+        "Render without a window, through EGL (else a window through GLFW, which needs a display)");
+    app.add_option("-o,--output", o.output,
+                   "PNG to write (the last frame; required with --headless)");
     app.add_option("--eye", o.eye, "Camera position x,y,z (world units)")->required();
     app.add_option("--target", o.target, "Point looked at x,y,z")->required();
     app.add_option("--up", o.up, "Up vector x,y,z")->capture_default_str();
@@ -536,40 +600,63 @@ int main(int argc, char** argv) {
     app.add_option("--width", o.width, "Image width")->capture_default_str();
     app.add_option("--height", o.height, "Image height")->capture_default_str();
     app.add_option("--channel", o.channel,
-                   "shaded, color, normal, face-normal, depth, iterations or level (as voxinspect render); with --rvol final (the "
-                   "default), direct, indirect, specular, ao, albedo or normal (as voxinspect render FILE.rvol)")
+                   "shaded, color, normal, face-normal, depth, iterations or level (as voxinspect "
+                   "render); with --rvol final (the "
+                   "default), direct, indirect, specular, ao, albedo or normal (as voxinspect "
+                   "render FILE.rvol)")
         ->capture_default_str();
-    app.add_option("--lod-scale", o.lodScale, "Stop at voxels smaller than this many pixels; 0: always to the leaves")
+    app.add_option("--lod-scale", o.lodScale,
+                   "Stop at voxels smaller than this many pixels; 0: always to the leaves")
         ->capture_default_str();
     app.add_option("--max-level", o.maxLevel, "Treat voxels of this level as leaves");
-    app.add_option("--frames", o.frames, "Render this many frames (timing); the last is written")->check(CLI::Range(1, 10000));
-    app.add_option("--budget", o.budgetMb, "GPU memory budget for the octree's slices, MB")->capture_default_str();
+    app.add_option("--frames", o.frames, "Render this many frames (timing); the last is written")
+        ->check(CLI::Range(1, 10000));
+    app.add_option("--budget", o.budgetMb, "GPU memory budget for the octree's slices, MB")
+        ->capture_default_str();
     app.add_option("--rvol-budget", o.rvolBudgetMb,
-                   "With --rvol: stream the radiance bricks around the eye within this many MB (0: upload every brick)")
+                   "With --rvol: stream the radiance bricks around the eye within this many MB (0: "
+                   "upload every brick)")
         ->capture_default_str();
-    app.add_option("--frame-load", o.frameLoadMb, "Most MB of slices loaded per frame (0: all the view needs)")->capture_default_str();
+    app.add_option("--frame-load", o.frameLoadMb,
+                   "Most MB of slices loaded per frame (0: all the view needs)")
+        ->capture_default_str();
     app.add_option("--camera-path", o.cameraPath,
-                   "Camera per frame: 'orbit' (around --target at --eye's distance and height, over --frames) or a file of "
+                   "Camera per frame: 'orbit' (around --target at --eye's distance and height, "
+                   "over --frames) or a file of "
                    "lines 'ex,ey,ez tx,ty,tz'");
-    app.add_option("--upload", o.upload, "Upload path: ring (persistently mapped staging ring with fences) or subdata (glBufferSubData)")
+    app.add_option("--upload", o.upload,
+                   "Upload path: ring (persistently mapped staging ring with fences) or subdata "
+                   "(glBufferSubData)")
         ->capture_default_str();
-    app.add_option("--stats", o.stats, "Write a JSON report: renderer, frame times, hits, resident and uploaded bytes per frame");
-    app.add_option("--rvol", o.rvol, "Draw this radiance volume's final gather at the octree's hits (GPU cone tracing)");
-    app.add_option("--scene", o.scene, "--rvol: the lights of this scene (glTF, OBJ; all of them, static and dynamic)");
-    app.add_option("--exposure", o.exposure, "--rvol: radiance scale before tone mapping")->capture_default_str();
-    app.add_option("--spec-aperture", o.specAperture, "--rvol: specular cone aperture, degrees")->capture_default_str();
-    app.add_option("--shadow-aperture", o.shadowAperture, "--rvol: shadow cone aperture, degrees")->capture_default_str();
+    app.add_option(
+        "--stats", o.stats,
+        "Write a JSON report: renderer, frame times, hits, resident and uploaded bytes per frame");
+    app.add_option(
+        "--rvol", o.rvol,
+        "Draw this radiance volume's final gather at the octree's hits (GPU cone tracing)");
+    app.add_option("--scene", o.scene,
+                   "--rvol: the lights of this scene (glTF, OBJ; all of them, static and dynamic)");
+    app.add_option("--exposure", o.exposure, "--rvol: radiance scale before tone mapping")
+        ->capture_default_str();
+    app.add_option("--spec-aperture", o.specAperture, "--rvol: specular cone aperture, degrees")
+        ->capture_default_str();
+    app.add_option("--shadow-aperture", o.shadowAperture, "--rvol: shadow cone aperture, degrees")
+        ->capture_default_str();
     app.add_flag("--no-shadow-cones", o.noShadowCones, "--rvol: lights unshadowed");
     app.add_option("--gather-filter", o.gatherFilter,
-                   "--rvol: hardware (one trilinear texture() per plane) or fetch (eight texelFetch, the CPU's interpolation)")
+                   "--rvol: hardware (one trilinear texture() per plane) or fetch (eight "
+                   "texelFetch, the CPU's interpolation)")
         ->capture_default_str();
     app.add_option("--egl-platform", o.eglPlatform,
-                   "Headless: auto (a GPU through EGL_EXT_platform_device first, then Mesa's surfaceless platform, Mesa's "
+                   "Headless: auto (a GPU through EGL_EXT_platform_device first, then Mesa's "
+                   "surfaceless platform, Mesa's "
                    "software device, the default display), device, surfaceless or default")
         ->capture_default_str();
     app.add_option("--benchmark", o.benchmarkFrames,
-                   "Time N frames of the fixed camera after one warm-up frame (headless) and print one JSON line: GL renderer, "
-                   "ms per pass by GL_TIME_ELAPSED (the wall clock where the timer reads ~0, as on llvmpipe), Mrays/s")
+                   "Time N frames of the fixed camera after one warm-up frame (headless) and print "
+                   "one JSON line: GL renderer, "
+                   "ms per pass by GL_TIME_ELAPSED (the wall clock where the timer reads ~0, as on "
+                   "llvmpipe), Mrays/s")
         ->check(CLI::Range(1, 10000));
     app.add_flag("-q,--quiet", o.quiet, "Print errors only");
     try {

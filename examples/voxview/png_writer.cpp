@@ -27,7 +27,8 @@ void put32(std::vector<std::uint8_t>& out, std::uint32_t v) {
     for (int s = 24; s >= 0; s -= 8) out.push_back(static_cast<std::uint8_t>(v >> s));
 }
 
-void chunk(std::vector<std::uint8_t>& out, const char* type, const std::vector<std::uint8_t>& data) {
+void chunk(std::vector<std::uint8_t>& out, const char* type,
+           const std::vector<std::uint8_t>& data) {
     put32(out, static_cast<std::uint32_t>(data.size()));
     const std::size_t start = out.size();
     out.insert(out.end(), type, type + 4);
@@ -37,7 +38,8 @@ void chunk(std::vector<std::uint8_t>& out, const char* type, const std::vector<s
 
 }  // namespace
 
-void writePngRgb8(const std::filesystem::path& file, int width, int height, const std::vector<std::uint8_t>& rgb) {
+void writePngRgb8(const std::filesystem::path& file, int width, int height,
+                  const std::vector<std::uint8_t>& rgb) {
     // Scanlines, each with filter byte 0.
     std::vector<std::uint8_t> raw;
     const std::size_t row = std::size_t(width) * 3;
@@ -55,7 +57,8 @@ void writePngRgb8(const std::filesystem::path& file, int width, int height, cons
         z.push_back(last ? 1 : 0);
         z.push_back(static_cast<std::uint8_t>(n)), z.push_back(static_cast<std::uint8_t>(n >> 8));
         z.push_back(static_cast<std::uint8_t>(~n)), z.push_back(static_cast<std::uint8_t>(~n >> 8));
-        z.insert(z.end(), raw.begin() + static_cast<std::ptrdiff_t>(at), raw.begin() + static_cast<std::ptrdiff_t>(at + n));
+        z.insert(z.end(), raw.begin() + static_cast<std::ptrdiff_t>(at),
+                 raw.begin() + static_cast<std::ptrdiff_t>(at + n));
         at += n;
         if (last) break;
     }
@@ -67,7 +70,8 @@ void writePngRgb8(const std::filesystem::path& file, int width, int height, cons
     std::vector<std::uint8_t> header;
     put32(header, static_cast<std::uint32_t>(width));
     put32(header, static_cast<std::uint32_t>(height));
-    header.insert(header.end(), {8, 2, 0, 0, 0});  // 8 bits, RGB, deflate, no filter method, no interlace
+    header.insert(header.end(),
+                  {8, 2, 0, 0, 0});  // 8 bits, RGB, deflate, no filter method, no interlace
     chunk(png, "IHDR", header);
     chunk(png, "IDAT", z);
     chunk(png, "IEND", {});

@@ -11,6 +11,7 @@ namespace voxview {
 
 /// Writes @p rgb (width × height × 3 bytes, row 0 at the top) to @p file atomically.
 /// @throws vox::IoError.
-void writePngRgb8(const std::filesystem::path& file, int width, int height, const std::vector<std::uint8_t>& rgb);
+void writePngRgb8(const std::filesystem::path& file, int width, int height,
+                  const std::vector<std::uint8_t>& rgb);
 
 }  // namespace voxview

@@ -21,7 +21,8 @@ Window::Window(int width, int height, const std::string& title) {
     if (glfwInit() != GLFW_TRUE) {
         const char* why = nullptr;
         glfwGetError(&why);
-        throw vox::runtime::RuntimeError(std::string("GLFW: cannot initialise (") + (why ? why : "no reason given") + ")");
+        throw vox::runtime::RuntimeError(std::string("GLFW: cannot initialise (") +
+                                         (why ? why : "no reason given") + ")");
     }
     glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
     glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 5);
@@ -33,8 +34,9 @@ Window::Window(int width, int height, const std::string& title) {
         const char* why = nullptr;
         glfwGetError(&why);
         glfwTerminate();
-        throw vox::runtime::RuntimeError(std::string("GLFW: no window with an OpenGL 4.5 core context (") + (why ? why : "no reason given") +
-                                         ")");
+        throw vox::runtime::RuntimeError(
+            std::string("GLFW: no window with an OpenGL 4.5 core context (") +
+            (why ? why : "no reason given") + ")");
     }
     glfwMakeContextCurrent(window_);
     glfwSwapInterval(0);
@@ -66,10 +68,12 @@ bool Window::present(const std::vector<std::uint8_t>& rgb, int width, int height
     // Row 0 of the image is the top: flip while blitting to the window (GL's row 0 is the bottom).
     int fbWidth = 0, fbHeight = 0;
     glfwGetFramebufferSize(window_, &fbWidth, &fbHeight);
-    glBlitNamedFramebuffer(framebuffer_, 0, 0, height, width, 0, 0, 0, fbWidth, fbHeight, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    glBlitNamedFramebuffer(framebuffer_, 0, 0, height, width, 0, 0, 0, fbWidth, fbHeight,
+                           GL_COLOR_BUFFER_BIT, GL_NEAREST);
     glfwSwapBuffers(window_);
     glfwPollEvents();
-    if (glfwGetKey(window_, GLFW_KEY_ESCAPE) == GLFW_PRESS) glfwSetWindowShouldClose(window_, GLFW_TRUE);
+    if (glfwGetKey(window_, GLFW_KEY_ESCAPE) == GLFW_PRESS)
+        glfwSetWindowShouldClose(window_, GLFW_TRUE);
     return glfwWindowShouldClose(window_) == GLFW_FALSE;
 }
 

@@ -44,18 +44,20 @@ void removeIfAbandoned(int dirFd, const char* name) {
     const int fd = ::openat(dirFd, name, O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
     if (fd < 0) return;
     struct stat opened {};
-    if (::fstat(fd, &opened) == 0 && S_ISREG(opened.st_mode) && opened.st_uid == ::geteuid() && opened.st_nlink > 0 &&
-        ::flock(fd, LOCK_EX | LOCK_NB) == 0) {
+    if (::fstat(fd, &opened) == 0 && S_ISREG(opened.st_mode) && opened.st_uid == ::geteuid() &&
+        opened.st_nlink > 0 && ::flock(fd, LOCK_EX | LOCK_NB) == 0) {
         // Still the file we locked under that name (not one a writer created since)?
         struct stat named {};
-        if (::fstatat(dirFd, name, &named, AT_SYMLINK_NOFOLLOW) == 0 && named.st_dev == opened.st_dev && named.st_ino == opened.st_ino)
+        if (::fstatat(dirFd, name, &named, AT_SYMLINK_NOFOLLOW) == 0 &&
+            named.st_dev == opened.st_dev && named.st_ino == opened.st_ino)
             ::unlinkat(dirFd, name, 0);
     }
     ::close(fd);  // releases the lock
 }
 
 /// Removes the temporaries of @p target that killed or crashed writers left in @p dir.
-void removeAbandonedTemporaries(const std::filesystem::path& dir, const std::filesystem::path& target) {
+void removeAbandonedTemporaries(const std::filesystem::path& dir,
+                                const std::filesystem::path& target) {
     DIR* listing = ::opendir(dir.c_str());
     if (listing == nullptr) return;
     const std::string prefix = temporaryPrefix(target);
@@ -69,7 +71,8 @@ void removeAbandonedTemporaries(const std::filesystem::path& dir, const std::fil
 
 }  // namespace
 
-AtomicFile::AtomicFile(std::filesystem::path target) : target_(std::move(target)), buffer_(std::size_t{1} << 16) {
+AtomicFile::AtomicFile(std::filesystem::path target)
+    : target_(std::move(target)), buffer_(std::size_t{1} << 16) {
     std::filesystem::path dir = target_.parent_path();
     if (dir.empty()) dir = ".";
     removeAbandonedTemporaries(dir, target_);
@@ -77,7 +80,9 @@ AtomicFile::AtomicFile(std::filesystem::path target) : target_(std::move(target)
     for (;;) {
         std::string name = pattern;
         fd_ = ::mkstemp(name.data());
-        if (fd_ < 0) throw IoError(target_, "cannot create a temporary file beside it: " + errnoMessage(errno));
+        if (fd_ < 0)
+            throw IoError(target_,
+                          "cannot create a temporary file beside it: " + errnoMessage(errno));
         temporary_ = name;
         // Held until the temporary is renamed or removed: tells other writers' clean-up that it is
         // in use. A file system without flock gets no lock; its temporaries are then never removed
@@ -129,7 +134,8 @@ void AtomicFile::write(const void* data, std::size_t size) {
 void AtomicFile::writeAt(std::uint64_t offset, const void* data, std::size_t size) {
     if (committed_) throw IoError(target_, "write after commit");
     flushBuffer();
-    if (const int error = detail::writeAllAt(fd_, data, size, offset)) throw IoError(target_, "write failed: " + errnoMessage(error));
+    if (const int error = detail::writeAllAt(fd_, data, size, offset))
+        throw IoError(target_, "write failed: " + errnoMessage(error));
 }
 
 void AtomicFile::commit() {
@@ -138,7 +144,8 @@ void AtomicFile::commit() {
     if (::fsync(fd_) != 0) throw IoError(target_, "fsync failed: " + errnoMessage(errno));
     // Renamed before it is closed: until then the lock keeps other writers' clean-up away from it.
     if (::rename(temporary_.c_str(), target_.c_str()) != 0)
-        throw IoError(target_, "cannot rename the temporary file into place: " + errnoMessage(errno));
+        throw IoError(target_,
+                      "cannot rename the temporary file into place: " + errnoMessage(errno));
     committed_ = true;
     const int fd = std::exchange(fd_, -1);
     // The data is on disk (fsync); a failing close is still reported.
@@ -146,7 +153,8 @@ void AtomicFile::commit() {
 }
 
 bool AtomicFile::isTemporaryName(std::string_view name) noexcept {
-    if (name.size() < 1 + kTemporaryMarker.size() + kRandomSuffixLength || name.front() != '.') return false;
+    if (name.size() < 1 + kTemporaryMarker.size() + kRandomSuffixLength || name.front() != '.')
+        return false;
     const std::size_t marker = name.size() - kRandomSuffixLength - kTemporaryMarker.size();
     return name.substr(marker, kTemporaryMarker.size()) == kTemporaryMarker;
 }

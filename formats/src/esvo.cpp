@@ -29,7 +29,8 @@ std::array<std::uint8_t, kHeaderBytes> encodeHeader(const Header& h) {
 
 std::vector<std::uint8_t> encodeDirectory(const Directory& d) {
     const auto leafDepth = static_cast<std::uint32_t>(d.voxelsPerLevel.size() - 1);
-    std::vector<std::uint8_t> out(directoryBytes(leafDepth, static_cast<std::uint32_t>(d.slices.size())), 0);
+    std::vector<std::uint8_t> out(
+        directoryBytes(leafDepth, static_cast<std::uint32_t>(d.slices.size())), 0);
     std::uint8_t* p = out.data();
     for (std::uint64_t count : d.voxelsPerLevel) {
         store<std::uint64_t>(p, count);

@@ -19,15 +19,18 @@ std::uint32_t encodeNormal(const Vec3& n) noexcept {
     const float dominant = n[axis];
     const float scale = 1.0f / std::fabs(dominant);
     const double u = double(n[(axis + 1) % 3]) * scale, v = double(n[(axis + 2) % 3]) * scale;
-    const auto iu = static_cast<std::int32_t>(std::clamp(std::lround(u * 16384.0), -16384l, 16383l));
+    const auto iu =
+        static_cast<std::int32_t>(std::clamp(std::lround(u * 16384.0), -16384l, 16383l));
     const auto iv = static_cast<std::int32_t>(std::clamp(std::lround(v * 8192.0), -8192l, 8191l));
-    return (dominant < 0 ? 1u << 31 : 0u) | (axis << 29) | ((static_cast<std::uint32_t>(iu) & 0x7FFFu) << 14) |
+    return (dominant < 0 ? 1u << 31 : 0u) | (axis << 29) |
+           ((static_cast<std::uint32_t>(iu) & 0x7FFFu) << 14) |
            (static_cast<std::uint32_t>(iv) & 0x3FFFu);
 }
 
 Vec3 decodeNormal(std::uint32_t encoded) noexcept {
     std::uint32_t axis = (encoded >> 29) & 3u;
-    if (axis == 3) axis = 2;  // not produced by encodeNormal; decoded as z so every word means something
+    if (axis == 3)
+        axis = 2;  // not produced by encodeNormal; decoded as z so every word means something
     const auto iu = static_cast<std::int32_t>(encoded << 3) >> 17;   // bits 14-28, sign-extended
     const auto iv = static_cast<std::int32_t>(encoded << 18) >> 18;  // bits 0-13
     Vec3 n{};
@@ -72,9 +75,7 @@ std::uint32_t encodeAxis(const Vec3& axis) noexcept {
     std::uint32_t e = 0;
     // Smallest exponent whose range (−8 … 7 steps) holds every component after rounding (to
     // within half a step: 7.5 clamps to 7, −8.5 to −8).
-    while (e < 15 && (highest > 7.5f * axisStep(e) ||
-                      lowest < -8.5f * axisStep(e)))
-        ++e;
+    while (e < 15 && (highest > 7.5f * axisStep(e) || lowest < -8.5f * axisStep(e))) ++e;
     const float step = axisStep(e);
     std::uint32_t bits = e << 12;
     for (unsigned c = 0; c < 3; ++c) {
@@ -91,21 +92,29 @@ std::uint32_t decodeBlockColor(const std::uint32_t* block, unsigned slot) noexce
 Vec3 decodeBlockNormal(const std::uint32_t* block, unsigned slot) noexcept {
     const Vec3 base = decodeNormal(block[2]);
     const Vec3 u = decodeAxis(block[4] & 0xFFFFu), v = decodeAxis(block[4] >> 16);
-    const float cu = kAxisWeights[blockIndex(block[3], slot)], cv = kAxisWeights[blockIndex(block[5], slot)];
-    return normalise({base[0] + cu * u[0] + cv * v[0], base[1] + cu * u[1] + cv * v[1], base[2] + cu * u[2] + cv * v[2]});
+    const float cu = kAxisWeights[blockIndex(block[3], slot)],
+                cv = kAxisWeights[blockIndex(block[5], slot)];
+    return normalise({base[0] + cu * u[0] + cv * v[0], base[1] + cu * u[1] + cv * v[1],
+                      base[2] + cu * u[2] + cv * v[2]});
 }
 
-bool readAttribute(const std::uint32_t* words, std::uint32_t descriptorWord, std::uint32_t slot, AttributeValue& out) noexcept {
+bool readAttribute(const std::uint32_t* words, std::uint32_t descriptorWord, std::uint32_t slot,
+                   AttributeValue& out) noexcept {
     // The descriptor's block: page header → info section → attachment directory.
     const std::uint32_t pageWord = descriptorWord & ~(kPageBytes / 4 - 1);
-    const auto infoWord = static_cast<std::uint32_t>(static_cast<std::int64_t>(pageWord) + static_cast<std::int32_t>(words[pageWord]));
-    const std::uint32_t blockWord = infoWord + static_cast<std::uint32_t>(static_cast<std::int32_t>(words[infoWord + info::kFirstDescriptor])) - 2;
+    const auto infoWord = static_cast<std::uint32_t>(static_cast<std::int64_t>(pageWord) +
+                                                     static_cast<std::int32_t>(words[pageWord]));
+    const std::uint32_t blockWord = infoWord +
+                                    static_cast<std::uint32_t>(static_cast<std::int32_t>(
+                                        words[infoWord + info::kFirstDescriptor])) -
+                                    2;
     const std::uint32_t unit = (descriptorWord - blockWord) / 2;
     const std::uint32_t count = words[infoWord + info::kAttachmentCount];
     // The descriptor area ends where the first attachment begins (a DxtLookup's blocks follow
     // a lookup word per unit of it).
     const auto attachmentWord = [&](std::uint32_t a) {
-        return infoWord + static_cast<std::uint32_t>(static_cast<std::int32_t>(words[infoWord + info::kAttachments + 2 * a + 1]));
+        return infoWord + static_cast<std::uint32_t>(static_cast<std::int32_t>(
+                              words[infoWord + info::kAttachments + 2 * a + 1]));
     };
     for (std::uint32_t a = 0; a < count; ++a) {
         const std::uint32_t kind = words[infoWord + info::kAttachments + 2 * a];
@@ -113,15 +122,18 @@ bool readAttribute(const std::uint32_t* words, std::uint32_t descriptorWord, std
         if (kind == static_cast<std::uint32_t>(AttachmentKind::Palette)) {
             const PaletteLookup entry{words[attach + unit]};
             if (!((entry.mask() >> slot) & 1u)) return false;
-            const std::uint32_t value = attach + entry.valuePointer() + 2 * popc8(entry.mask() & ((1u << slot) - 1u));
+            const std::uint32_t value =
+                attach + entry.valuePointer() + 2 * popc8(entry.mask() & ((1u << slot) - 1u));
             out.color = words[value];
             out.normal = decodeUnitNormal(words[value + 1]);
         } else if (kind == static_cast<std::uint32_t>(AttachmentKind::DxtLookup)) {
             const PaletteLookup entry{words[attach + unit]};
             if (!((entry.mask() >> slot) & 1u)) return false;
-            const std::uint32_t value = entry.valuePointer() + popc8(entry.mask() & ((1u << slot) - 1u));
+            const std::uint32_t value =
+                entry.valuePointer() + popc8(entry.mask() & ((1u << slot) - 1u));
             const std::uint32_t descriptorUnits = (attachmentWord(0) - blockWord) / 2;
-            const std::uint32_t* block = words + attach + lookupArrayWords(descriptorUnits) + kCompressedBlockWords * (value / 16);
+            const std::uint32_t* block = words + attach + lookupArrayWords(descriptorUnits) +
+                                         kCompressedBlockWords * (value / 16);
             out.color = decodeBlockColor(block, value % 16);
             out.normal = decodeBlockNormal(block, value % 16);
         } else if (kind == static_cast<std::uint32_t>(AttachmentKind::Dxt)) {

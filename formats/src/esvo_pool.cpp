@@ -11,7 +11,8 @@ constexpr std::uint32_t kPageWords = kPageBytes / 4;
 
 EsvoPool::EsvoPool(const EsvoReader& reader) : reader_(reader), slices_(reader.sliceCount()) {
     load(0);
-    rootWord_ = slices_[0].baseWord + 2 * arena_[slices_[0].baseWord + slices_[0].tables.rootGroupTableWord];
+    rootWord_ = slices_[0].baseWord +
+                2 * arena_[slices_[0].baseWord + slices_[0].tables.rootGroupTableWord];
 }
 
 std::uint32_t EsvoPool::allocatePages(std::uint32_t pages) {
@@ -25,13 +26,15 @@ std::uint32_t EsvoPool::allocatePages(std::uint32_t pages) {
     }
     const auto first = static_cast<std::uint32_t>(arena_.size() / kPageWords);
     if (std::uint64_t{first + pages} * kPageWords > 0x7FFFFFFFull)
-        throw InvalidDataError(reader_.path(), "loaded slices exceed the pool's 8 GiB addressing range");
+        throw InvalidDataError(reader_.path(),
+                               "loaded slices exceed the pool's 8 GiB addressing range");
     arena_.resize(std::size_t{first + pages} * kPageWords, 0);
     return first;
 }
 
 void EsvoPool::freePages(std::uint32_t firstPage, std::uint32_t pages) {
-    std::fill_n(arena_.begin() + std::ptrdiff_t{firstPage} * kPageWords, std::size_t{pages} * kPageWords, 0u);
+    std::fill_n(arena_.begin() + std::ptrdiff_t{firstPage} * kPageWords,
+                std::size_t{pages} * kPageWords, 0u);
     freeRuns_.emplace_back(firstPage, pages);
     std::sort(freeRuns_.begin(), freeRuns_.end());
     // Merge neighbouring runs so large slices can reuse space.
@@ -46,7 +49,9 @@ void EsvoPool::freePages(std::uint32_t firstPage, std::uint32_t pages) {
 }
 
 void EsvoPool::load(std::uint32_t slice) {
-    if (slice >= slices_.size()) throw InvalidDataError(reader_.path(), "slice " + std::to_string(slice) + " does not exist");
+    if (slice >= slices_.size())
+        throw InvalidDataError(reader_.path(),
+                               "slice " + std::to_string(slice) + " does not exist");
     if (loaded(slice)) return;
     const SliceEntry& entry = reader_.slice(slice);
     if (slice != 0) load(entry.parent);
@@ -61,13 +66,17 @@ void EsvoPool::load(std::uint32_t slice) {
         if (slice != 0) {
             const auto& pf = slices_[entry.parent].frontier;
             if (std::uint64_t{entry.firstFrontier} + entry.rootGroupCount > pf.size())
-                throw InvalidDataError(reader_.path(), "slice " + std::to_string(slice) + ": frontier range exceeds its parent's");
-            parents = std::span<const FrontierDescriptor>(pf.data() + entry.firstFrontier, entry.rootGroupCount);
+                throw InvalidDataError(reader_.path(), "slice " + std::to_string(slice) +
+                                                           ": frontier range exceeds its parent's");
+            parents = std::span<const FrontierDescriptor>(pf.data() + entry.firstFrontier,
+                                                          entry.rootGroupCount);
         }
-        BlockSummary summary = validateBlock(reader_.path(), reader_.header(), slice, entry,
-                                             std::span<const std::uint8_t>(bytes, entry.byteSize), parents);
+        BlockSummary summary =
+            validateBlock(reader_.path(), reader_.header(), slice, entry,
+                          std::span<const std::uint8_t>(bytes, entry.byteSize), parents);
         Resident& r = slices_[slice];
-        r.tables = readBlockTables(std::span<const std::uint8_t>(bytes, entry.byteSize), reader_.path(), slice, entry.fileOffset);
+        r.tables = readBlockTables(std::span<const std::uint8_t>(bytes, entry.byteSize),
+                                   reader_.path(), slice, entry.fileOffset);
         r.frontier = std::move(summary.frontier);
         r.baseWord = base;
         r.pages = pages;
@@ -86,12 +95,17 @@ void EsvoPool::link(std::uint32_t slice, bool attach) {
     const Resident& child = slices_[slice];
     for (std::uint32_t k = 0; k < entry.rootGroupCount; ++k) {
         // Units are 64-bit; words are 32-bit. The validator has checked every index used here.
-        const std::uint64_t descriptorUnit = parent.baseWord / 2 + arena_[parent.baseWord + parent.tables.frontierTableWord + entry.firstFrontier + k];
+        const std::uint64_t descriptorUnit =
+            parent.baseWord / 2 +
+            arena_[parent.baseWord + parent.tables.frontierTableWord + entry.firstFrontier + k];
         const ChildDescriptor d{arena_[2 * descriptorUnit], arena_[2 * descriptorUnit + 1]};
         const std::uint64_t slotUnit = descriptorUnit + d.childPointer();
-        const std::uint64_t groupUnit = child.baseWord / 2 + arena_[child.baseWord + child.tables.rootGroupTableWord + k];
-        const auto offset = static_cast<std::int64_t>(groupUnit) - static_cast<std::int64_t>(descriptorUnit);
-        arena_[2 * slotUnit] = attach ? static_cast<std::uint32_t>(static_cast<std::int32_t>(offset)) : 0u;
+        const std::uint64_t groupUnit =
+            child.baseWord / 2 + arena_[child.baseWord + child.tables.rootGroupTableWord + k];
+        const auto offset =
+            static_cast<std::int64_t>(groupUnit) - static_cast<std::int64_t>(descriptorUnit);
+        arena_[2 * slotUnit] =
+            attach ? static_cast<std::uint32_t>(static_cast<std::int32_t>(offset)) : 0u;
     }
 }
 
@@ -112,7 +126,8 @@ void EsvoPool::loadAll(std::uint32_t level) {
         if (reader_.slice(i).firstLevel < level) load(i);
 }
 
-void EsvoPool::forEachVoxel(const std::function<void(const VoxelPosition&, const AttributeValue*)>& visit) const {
+void EsvoPool::forEachVoxel(
+    const std::function<void(const VoxelPosition&, const AttributeValue*)>& visit) const {
     struct Pending {
         std::uint32_t word;
         VoxelPosition position;
@@ -139,7 +154,8 @@ void EsvoPool::forEachVoxel(const std::function<void(const VoxelPosition&, const
                 offset = static_cast<std::int32_t>(words[p.word + 2 * d.childPointer()]);
                 if (offset == 0) continue;  // child slice not loaded
             }
-            child.word = static_cast<std::uint32_t>(p.word + 2 * (offset + popc8(d.nonLeafMask() & ((1u << slot) - 1u))));
+            child.word = static_cast<std::uint32_t>(
+                p.word + 2 * (offset + popc8(d.nonLeafMask() & ((1u << slot) - 1u))));
             children[count++] = child;
         }
         while (count > 0) stack.push_back(children[--count]);

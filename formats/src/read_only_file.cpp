@@ -32,7 +32,9 @@ ReadOnlyFile::~ReadOnlyFile() {
 }
 
 ReadOnlyFile::ReadOnlyFile(ReadOnlyFile&& other) noexcept
-    : path_(std::move(other.path_)), fd_(std::exchange(other.fd_, -1)), size_(std::exchange(other.size_, 0)) {}
+    : path_(std::move(other.path_)),
+      fd_(std::exchange(other.fd_, -1)),
+      size_(std::exchange(other.size_, 0)) {}
 
 ReadOnlyFile& ReadOnlyFile::operator=(ReadOnlyFile&& other) noexcept {
     if (this != &other) {
@@ -47,7 +49,9 @@ ReadOnlyFile& ReadOnlyFile::operator=(ReadOnlyFile&& other) noexcept {
 void ReadOnlyFile::read(std::uint64_t offset, std::uint8_t* out, std::uint64_t size) const {
     const detail::PositionalRead got = detail::readAllAt(fd_, out, size, offset);
     if (got.error) throw IoError(path_, "cannot read: " + errnoMessage(got.error));
-    if (got.bytes < size) throw InvalidDataError(path_, "file ends early at byte " + std::to_string(offset + got.bytes));
+    if (got.bytes < size)
+        throw InvalidDataError(path_,
+                               "file ends early at byte " + std::to_string(offset + got.bytes));
 }
 
 }  // namespace vox

@@ -48,18 +48,22 @@ std::int64_t Level::findBlock(std::uint32_t x, std::uint32_t y, std::uint32_t z)
     return it - blocks.begin();
 }
 
-Texel Level::at(std::uint32_t x, std::uint32_t y, std::uint32_t z, std::uint32_t channel) const noexcept {
+Texel Level::at(std::uint32_t x, std::uint32_t y, std::uint32_t z,
+                std::uint32_t channel) const noexcept {
     if (channel >= channels) return {};
     const std::int64_t block = findBlock(x, y, z);
     if (block < 0) return {};
-    const std::size_t index = texelIndex(static_cast<std::size_t>(block), channels, channel, x, y, z);
+    const std::size_t index =
+        texelIndex(static_cast<std::size_t>(block), channels, channel, x, y, z);
     // A level whose texel array is shorter than its block list is malformed; read it as empty
     // rather than past the end.
     return index < texels.size() ? texels[index] : Texel{};
 }
 
-Texel combineDirectional(const std::array<Texel, 3>& facing, const std::array<double, 3>& direction) noexcept {
-    const double length2 = direction[0] * direction[0] + direction[1] * direction[1] + direction[2] * direction[2];
+Texel combineDirectional(const std::array<Texel, 3>& facing,
+                         const std::array<double, 3>& direction) noexcept {
+    const double length2 =
+        direction[0] * direction[0] + direction[1] * direction[1] + direction[2] * direction[2];
     const double sumAbs = std::abs(direction[0]) + std::abs(direction[1]) + std::abs(direction[2]);
     if (!(length2 > 0) || !std::isfinite(length2)) return {};
     double rgb[3] = {0, 0, 0}, alphaBlend = 0, logTransmittance = 0;
@@ -71,12 +75,13 @@ Texel combineDirectional(const std::array<Texel, 3>& facing, const std::array<do
         rgb[1] += w * t.g;
         rgb[2] += w * t.b;
         alphaBlend += w * t.a;
-        logTransmittance += std::abs(direction[a]) / sumAbs * std::log(std::max(1.0 - std::clamp(double(t.a), 0.0, 1.0), 1e-12));
+        logTransmittance += std::abs(direction[a]) / sumAbs *
+                            std::log(std::max(1.0 - std::clamp(double(t.a), 0.0, 1.0), 1e-12));
     }
     const double alpha = 1 - std::exp(logTransmittance);
     const double scale = alphaBlend > 1e-12 ? alpha / alphaBlend : 0.0;
-    return {static_cast<float>(rgb[0] * scale), static_cast<float>(rgb[1] * scale), static_cast<float>(rgb[2] * scale),
-            static_cast<float>(alpha)};
+    return {static_cast<float>(rgb[0] * scale), static_cast<float>(rgb[1] * scale),
+            static_cast<float>(rgb[2] * scale), static_cast<float>(alpha)};
 }
 
 }  // namespace vox::rvol

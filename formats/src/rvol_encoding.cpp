@@ -16,15 +16,21 @@ constexpr int kMantissaBits = 9;
 constexpr int kMaxBiasedExponent = 31;
 
 // Clamps to [0, 65408]; NaN (every comparison false) becomes 0, as in OpenGL.
-double clampRgb9e5(float v) noexcept { return v > 0 ? std::min(static_cast<double>(v), double{kRgb9e5Max}) : 0.0; }
+double clampRgb9e5(float v) noexcept {
+    return v > 0 ? std::min(static_cast<double>(v), double{kRgb9e5Max}) : 0.0;
+}
 
 // floor(x · 2^shift + 0.5): the spec's round-to-nearest; exact in double for these magnitudes.
-std::uint32_t roundScaled(double x, int shift) noexcept { return static_cast<std::uint32_t>(std::floor(std::ldexp(x, shift) + 0.5)); }
+std::uint32_t roundScaled(double x, int shift) noexcept {
+    return static_cast<std::uint32_t>(std::floor(std::ldexp(x, shift) + 0.5));
+}
 
 std::uint32_t snorm12(double c) noexcept {
     return static_cast<std::uint32_t>(std::lround(std::clamp(c, -1.0, 1.0) * 2047.0) + 2048);
 }
-double unsnorm12(std::uint32_t q) noexcept { return std::max(-1.0, (static_cast<double>(q & 0xFFFu) - 2048.0) / 2047.0); }
+double unsnorm12(std::uint32_t q) noexcept {
+    return std::max(-1.0, (static_cast<double>(q & 0xFFFu) - 2048.0) / 2047.0);
+}
 double signNotZero(double v) noexcept { return v < 0 ? -1.0 : 1.0; }
 
 }  // namespace
@@ -42,8 +48,10 @@ std::uint32_t encodeRgb9e5(float r, float g, float b) noexcept {
     }
     int exponent = floorLog2 + 1 + kExponentBias;
     // A maximum that rounds up to 2^9 needs the next exponent.
-    if (roundScaled(maxc, kExponentBias + kMantissaBits - exponent) == (1u << kMantissaBits)) ++exponent;
-    exponent = std::min(exponent, kMaxBiasedExponent);  // unreachable after the clamp to 65408; kept for safety
+    if (roundScaled(maxc, kExponentBias + kMantissaBits - exponent) == (1u << kMantissaBits))
+        ++exponent;
+    exponent = std::min(
+        exponent, kMaxBiasedExponent);  // unreachable after the clamp to 65408; kept for safety
     const int shift = kExponentBias + kMantissaBits - exponent;
     return roundScaled(rc, shift) | roundScaled(gc, shift) << 9 | roundScaled(bc, shift) << 18 |
            static_cast<std::uint32_t>(exponent) << 27;
@@ -51,7 +59,8 @@ std::uint32_t encodeRgb9e5(float r, float g, float b) noexcept {
 
 std::array<float, 3> decodeRgb9e5(std::uint32_t packed) noexcept {
     const int shift = static_cast<int>(packed >> 27) - kExponentBias - kMantissaBits;
-    return {std::ldexp(static_cast<float>(packed & 0x1FFu), shift), std::ldexp(static_cast<float>((packed >> 9) & 0x1FFu), shift),
+    return {std::ldexp(static_cast<float>(packed & 0x1FFu), shift),
+            std::ldexp(static_cast<float>((packed >> 9) & 0x1FFu), shift),
             std::ldexp(static_cast<float>((packed >> 18) & 0x1FFu), shift)};
 }
 
@@ -78,7 +87,8 @@ std::uint32_t encodeOctahedral(const std::array<float, 3>& n) noexcept {
     x /= l1, y /= l1, z /= l1;
     if (z < 0) {
         // Fold the lower hemisphere over the diagonals of the octahedron's square.
-        const double fx = (1 - std::abs(y)) * signNotZero(x), fy = (1 - std::abs(x)) * signNotZero(y);
+        const double fx = (1 - std::abs(y)) * signNotZero(x),
+                     fy = (1 - std::abs(x)) * signNotZero(y);
         x = fx, y = fy;
     }
     return snorm12(x) | snorm12(y) << 12;
@@ -88,11 +98,13 @@ std::array<float, 3> decodeOctahedral(std::uint32_t packed) noexcept {
     double x = unsnorm12(packed), y = unsnorm12(packed >> 12);
     const double z = 1 - std::abs(x) - std::abs(y);
     if (z < 0) {
-        const double fx = (1 - std::abs(y)) * signNotZero(x), fy = (1 - std::abs(x)) * signNotZero(y);
+        const double fx = (1 - std::abs(y)) * signNotZero(x),
+                     fy = (1 - std::abs(x)) * signNotZero(y);
         x = fx, y = fy;
     }
     const double length = std::sqrt(x * x + y * y + z * z);  // ≥ 1/√3: |x| + |y| + |z| = 1
-    return {static_cast<float>(x / length), static_cast<float>(y / length), static_cast<float>(z / length)};
+    return {static_cast<float>(x / length), static_cast<float>(y / length),
+            static_cast<float>(z / length)};
 }
 
 AttributeRecord encodeAttributes(const VoxelAttributes& v) noexcept {
@@ -117,9 +129,12 @@ VoxelAttributes decodeAttributes(const AttributeRecord& r) noexcept {
     return v;
 }
 
-std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_t brickTexels, std::uint32_t channels, bool binaryOpacity) {
-    if (channels != 1 && channels != kDirections) throw std::invalid_argument("decodeBrick: a brick has 1 or 6 channels");
-    if (brickTexels < kMinBrickTexels || brickTexels > kMaxBrickTexels || bytes.size() != brickBytes(brickTexels, channels, binaryOpacity))
+std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_t brickTexels,
+                               std::uint32_t channels, bool binaryOpacity) {
+    if (channels != 1 && channels != kDirections)
+        throw std::invalid_argument("decodeBrick: a brick has 1 or 6 channels");
+    if (brickTexels < kMinBrickTexels || brickTexels > kMaxBrickTexels ||
+        bytes.size() != brickBytes(brickTexels, channels, binaryOpacity))
         throw std::invalid_argument("decodeBrick: byte count does not match the brick size");
     const std::size_t n3 = std::size_t{brickTexels} * brickTexels * brickTexels;
     std::vector<Texel> texels(channels * n3);
@@ -135,7 +150,8 @@ std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_
     for (std::uint32_t c = 0; c < channels; ++c) {
         const std::uint8_t* rgb = bytes.data() + rgbPlaneOffset(brickTexels, c);
         // The ± channels of an axis share its opacity plane.
-        const std::uint8_t* alpha = bytes.data() + alphaPlaneOffset(brickTexels, channels, alphaPlaneOf(c));
+        const std::uint8_t* alpha =
+            bytes.data() + alphaPlaneOffset(brickTexels, channels, alphaPlaneOf(c));
         for (std::size_t i = 0; i < n3; ++i) {
             const auto [r, g, b] = decodeRgb9e5(detail::load<std::uint32_t>(rgb + 4 * i));
             texels[c * n3 + i] = {r, g, b, decodeUnorm8(alpha[i])};

@@ -21,21 +21,28 @@ using detail::load;
 
 namespace {
 
-[[noreturn]] void invalid(const std::filesystem::path& file, const std::string& problem) { throw InvalidDataError(file, problem); }
+[[noreturn]] void invalid(const std::filesystem::path& file, const std::string& problem) {
+    throw InvalidDataError(file, problem);
+}
 
 std::string str(std::uint64_t v) { return std::to_string(v); }
 
-Header decodeHeader(const std::filesystem::path& file, const std::uint8_t* p, std::uint64_t fileSize) {
+Header decodeHeader(const std::filesystem::path& file, const std::uint8_t* p,
+                    std::uint64_t fileSize) {
     namespace o = detail::hdr;
-    if (!std::equal(kMagic.begin(), kMagic.end(), p)) invalid(file, "not an .rvol file (bad magic)");
+    if (!std::equal(kMagic.begin(), kMagic.end(), p))
+        invalid(file, "not an .rvol file (bad magic)");
     Header h;
     h.versionMajor = load<std::uint16_t>(p + o::kVersionMajor);
     h.versionMinor = load<std::uint16_t>(p + o::kVersionMinor);
     if (h.versionMajor != kVersionMajor)
-        invalid(file, "unsupported .rvol version " + str(h.versionMajor) + "." + str(h.versionMinor) + " (this reader reads " +
-                          str(kVersionMajor) + ".x)");
-    if (load<std::uint32_t>(p + o::kHeaderBytes) != kHeaderBytes) invalid(file, "header: size field is not 256");
-    if (load<std::uint32_t>(p + o::kChecksum) != crc32c(p, o::kChecksum)) invalid(file, "header: checksum mismatch");
+        invalid(file, "unsupported .rvol version " + str(h.versionMajor) + "." +
+                          str(h.versionMinor) + " (this reader reads " + str(kVersionMajor) +
+                          ".x)");
+    if (load<std::uint32_t>(p + o::kHeaderBytes) != kHeaderBytes)
+        invalid(file, "header: size field is not 256");
+    if (load<std::uint32_t>(p + o::kChecksum) != crc32c(p, o::kChecksum))
+        invalid(file, "header: checksum mismatch");
     h.depth = load<std::uint32_t>(p + o::kDepth);
     h.levelCount = load<std::uint32_t>(p + o::kLevelCount);
     h.brickTexels = load<std::uint32_t>(p + o::kBrickTexels);
@@ -68,40 +75,56 @@ Header decodeHeader(const std::filesystem::path& file, const std::uint8_t* p, st
     h.dynamicAttributesChecksum = load<std::uint32_t>(p + o::kDynamicChecksum);
     h.fileBytes = load<std::uint64_t>(p + o::kFileBytes);
 
-    if (h.depth > kMaxDepth) invalid(file, "header: depth " + str(h.depth) + " above " + str(kMaxDepth));
+    if (h.depth > kMaxDepth)
+        invalid(file, "header: depth " + str(h.depth) + " above " + str(kMaxDepth));
     if (h.levelCount != h.depth + 1) invalid(file, "header: level count is not depth + 1");
     if (h.brickTexels < kMinBrickTexels || h.brickTexels > kMaxBrickTexels)
-        invalid(file, "header: brick size " + str(h.brickTexels) + " outside " + str(kMinBrickTexels) + ".." + str(kMaxBrickTexels));
-    if (h.texelFormat != kTexelFormatRgb9e5AxisA8) invalid(file, "header: unknown texel format " + str(h.texelFormat));
-    if (!std::isfinite(h.origin[0]) || !std::isfinite(h.origin[1]) || !std::isfinite(h.origin[2]) || !std::isfinite(h.size) || !(h.size > 0))
+        invalid(file, "header: brick size " + str(h.brickTexels) + " outside " +
+                          str(kMinBrickTexels) + ".." + str(kMaxBrickTexels));
+    if (h.texelFormat != kTexelFormatRgb9e5AxisA8)
+        invalid(file, "header: unknown texel format " + str(h.texelFormat));
+    if (!std::isfinite(h.origin[0]) || !std::isfinite(h.origin[1]) || !std::isfinite(h.origin[2]) ||
+        !std::isfinite(h.size) || !(h.size > 0))
         invalid(file, "header: root cube origin or size not finite, or size not positive");
     if (h.fileBytes != fileSize)
-        invalid(file, "header says " + str(h.fileBytes) + " bytes but the file has " + str(fileSize) + " (truncated or appended to)");
+        invalid(file, "header says " + str(h.fileBytes) + " bytes but the file has " +
+                          str(fileSize) + " (truncated or appended to)");
     if ((h.flags & kFlagStaticAttributes) == 0 && h.staticVoxelCount != 0)
         invalid(file, "header: static voxels counted but the static layer is marked absent");
 
     // Every section at the first multiple of 64 after the previous one; each count bounded by the
     // file size before it is multiplied, so nothing below overflows or allocates past the file.
-    if (h.levelTableOffset != kHeaderBytes || h.levelTableBytes != std::uint64_t{kLevelEntryBytes} * h.levelCount)
-        invalid(file, "header: level table not right after the header or not " + str(h.levelCount) + " entries");
-    if (h.brickCount > fileSize / kBrickEntryBytes || h.directoryBytes != h.brickCount * kBrickEntryBytes ||
+    if (h.levelTableOffset != kHeaderBytes ||
+        h.levelTableBytes != std::uint64_t{kLevelEntryBytes} * h.levelCount)
+        invalid(file, "header: level table not right after the header or not " + str(h.levelCount) +
+                          " entries");
+    if (h.brickCount > fileSize / kBrickEntryBytes ||
+        h.directoryBytes != h.brickCount * kBrickEntryBytes ||
         h.directoryOffset != alignSection(h.levelTableOffset + h.levelTableBytes))
         invalid(file, "header: brick directory misplaced or not " + str(h.brickCount) + " entries");
-    if (h.brickDataBytes > fileSize || h.brickDataOffset != alignSection(h.directoryOffset + h.directoryBytes))
+    if (h.brickDataBytes > fileSize ||
+        h.brickDataOffset != alignSection(h.directoryOffset + h.directoryBytes))
         invalid(file, "header: brick data misplaced or larger than the file");
-    if (h.staticVoxelCount > fileSize / kAttributeRecordBytes || h.staticAttributesBytes != h.staticVoxelCount * kAttributeRecordBytes ||
+    if (h.staticVoxelCount > fileSize / kAttributeRecordBytes ||
+        h.staticAttributesBytes != h.staticVoxelCount * kAttributeRecordBytes ||
         h.staticAttributesOffset != alignSection(h.brickDataOffset + h.brickDataBytes))
-        invalid(file, "header: static attribute layer misplaced or not " + str(h.staticVoxelCount) + " records");
-    if (h.dynamicVoxelCount > fileSize / kAttributeRecordBytes || h.dynamicAttributesBytes != h.dynamicVoxelCount * kAttributeRecordBytes ||
-        h.dynamicAttributesOffset != alignSection(h.staticAttributesOffset + h.staticAttributesBytes))
-        invalid(file, "header: dynamic attribute layer misplaced or not " + str(h.dynamicVoxelCount) + " records");
+        invalid(file, "header: static attribute layer misplaced or not " + str(h.staticVoxelCount) +
+                          " records");
+    if (h.dynamicVoxelCount > fileSize / kAttributeRecordBytes ||
+        h.dynamicAttributesBytes != h.dynamicVoxelCount * kAttributeRecordBytes ||
+        h.dynamicAttributesOffset !=
+            alignSection(h.staticAttributesOffset + h.staticAttributesBytes))
+        invalid(file, "header: dynamic attribute layer misplaced or not " +
+                          str(h.dynamicVoxelCount) + " records");
     if (h.dynamicAttributesOffset + h.dynamicAttributesBytes != h.fileBytes)
         invalid(file, "header: sections do not end at the end of the file");
     return h;
 }
 
-std::vector<LevelEntry> decodeLevelTable(const std::filesystem::path& file, const Header& h, const std::uint8_t* p) {
-    if (h.levelTableChecksum != crc32c(p, h.levelTableBytes)) invalid(file, "level table: checksum mismatch");
+std::vector<LevelEntry> decodeLevelTable(const std::filesystem::path& file, const Header& h,
+                                         const std::uint8_t* p) {
+    if (h.levelTableChecksum != crc32c(p, h.levelTableBytes))
+        invalid(file, "level table: checksum mismatch");
     std::vector<LevelEntry> levels(h.levelCount);
     std::uint64_t nextBrick = 0, end = h.brickDataOffset;
     for (std::uint32_t l = 0; l < h.levelCount; ++l, p += kLevelEntryBytes) {
@@ -118,24 +141,33 @@ std::vector<LevelEntry> decodeLevelTable(const std::filesystem::path& file, cons
             invalid(file, where + "resolution or channel count wrong for depth " + str(h.depth));
         if (e.bricksPerAxis != bricksPerAxis(e.resolution, h.brickTexels) ||
             e.brickBytes != brickBytes(h.brickTexels, e.channels, h.binaryLevel0Opacity()))
-            invalid(file, where + "bricks per axis or brick size wrong for " + str(h.brickTexels) + "-texel bricks");
+            invalid(file, where + "bricks per axis or brick size wrong for " + str(h.brickTexels) +
+                              "-texel bricks");
         const std::uint64_t perAxis = e.bricksPerAxis;
-        if (e.brickCount > perAxis * perAxis * perAxis) invalid(file, where + "more bricks than the level has");
-        if (e.firstBrick != nextBrick) invalid(file, where + "first directory entry does not follow the previous level's");
+        if (e.brickCount > perAxis * perAxis * perAxis)
+            invalid(file, where + "more bricks than the level has");
+        if (e.firstBrick != nextBrick)
+            invalid(file, where + "first directory entry does not follow the previous level's");
         if (e.dataOffset != alignSection(end)) invalid(file, where + "brick data misplaced");
         nextBrick += e.brickCount;
         end = e.dataOffset + std::uint64_t{e.brickCount} * e.brickBytes;
         if (nextBrick > h.brickCount || end > h.brickDataOffset + h.brickDataBytes)
-            invalid(file, where + "more bricks than the header counts or than the brick data holds");
+            invalid(file,
+                    where + "more bricks than the header counts or than the brick data holds");
     }
-    if (nextBrick != h.brickCount) invalid(file, "level table: levels hold " + str(nextBrick) + " bricks, the header counts " + str(h.brickCount));
-    if (end != h.brickDataOffset + h.brickDataBytes) invalid(file, "level table: brick data size differs from the header's");
+    if (nextBrick != h.brickCount)
+        invalid(file, "level table: levels hold " + str(nextBrick) + " bricks, the header counts " +
+                          str(h.brickCount));
+    if (end != h.brickDataOffset + h.brickDataBytes)
+        invalid(file, "level table: brick data size differs from the header's");
     return levels;
 }
 
-std::vector<BrickEntry> decodeDirectory(const std::filesystem::path& file, const Header& h, const std::vector<LevelEntry>& levels,
+std::vector<BrickEntry> decodeDirectory(const std::filesystem::path& file, const Header& h,
+                                        const std::vector<LevelEntry>& levels,
                                         const std::uint8_t* p) {
-    if (h.directoryChecksum != crc32c(p, h.directoryBytes)) invalid(file, "brick directory: checksum mismatch");
+    if (h.directoryChecksum != crc32c(p, h.directoryBytes))
+        invalid(file, "brick directory: checksum mismatch");
     std::vector<BrickEntry> entries(h.brickCount);
     for (BrickEntry& e : entries) {
         e.x = load<std::uint16_t>(p + 0);
@@ -149,12 +181,16 @@ std::vector<BrickEntry> decodeDirectory(const std::filesystem::path& file, const
         const LevelEntry& level = levels[l];
         for (std::uint32_t i = 0; i < level.brickCount; ++i) {
             const BrickEntry& e = entries[level.firstBrick + i];
-            if (e.x >= level.bricksPerAxis || e.y >= level.bricksPerAxis || e.z >= level.bricksPerAxis)
-                invalid(file, "brick directory: level " + str(l) + ", entry " + str(i) + ": brick (" + str(e.x) + "," + str(e.y) + "," +
-                                  str(e.z) + ") outside the level's " + str(level.bricksPerAxis) + " bricks per axis");
+            if (e.x >= level.bricksPerAxis || e.y >= level.bricksPerAxis ||
+                e.z >= level.bricksPerAxis)
+                invalid(file, "brick directory: level " + str(l) + ", entry " + str(i) +
+                                  ": brick (" + str(e.x) + "," + str(e.y) + "," + str(e.z) +
+                                  ") outside the level's " + str(level.bricksPerAxis) +
+                                  " bricks per axis");
             // Binary search (findBrick) relies on this order.
             if (i > 0 && e.morton() <= entries[level.firstBrick + i - 1].morton())
-                invalid(file, "brick directory: level " + str(l) + ", entry " + str(i) + ": not in strictly ascending Morton order");
+                invalid(file, "brick directory: level " + str(l) + ", entry " + str(i) +
+                                  ": not in strictly ascending Morton order");
         }
     }
     return entries;
@@ -186,36 +222,44 @@ struct RvolReader::Cache {
 };
 
 RvolReader::RvolReader(std::filesystem::path file)
-    : path_(std::move(file)), file_(std::make_unique<vox::ReadOnlyFile>(path_)), cache_(std::make_unique<Cache>()) {
+    : path_(std::move(file)),
+      file_(std::make_unique<vox::ReadOnlyFile>(path_)),
+      cache_(std::make_unique<Cache>()) {
     const std::uint64_t fileSize = file_->size();
-    if (fileSize < kHeaderBytes) invalid(path_, "too short for an .rvol header (" + str(fileSize) + " bytes)");
+    if (fileSize < kHeaderBytes)
+        invalid(path_, "too short for an .rvol header (" + str(fileSize) + " bytes)");
     std::array<std::uint8_t, kHeaderBytes> headerBytes{};
     readBytes(0, headerBytes.data(), headerBytes.size());
     header_ = decodeHeader(path_, headerBytes.data(), fileSize);
     std::vector<std::uint8_t> table(header_.levelTableBytes);  // ≤ 11 entries
     readBytes(header_.levelTableOffset, table.data(), table.size());
     levels_ = decodeLevelTable(path_, header_, table.data());
-    std::vector<std::uint8_t> directoryBytes(header_.directoryBytes);  // inside the file, checked above
+    std::vector<std::uint8_t> directoryBytes(
+        header_.directoryBytes);  // inside the file, checked above
     readBytes(header_.directoryOffset, directoryBytes.data(), directoryBytes.size());
     directory_ = decodeDirectory(path_, header_, levels_, directoryBytes.data());
 }
 
 RvolReader::~RvolReader() = default;
 
-void RvolReader::readBytes(std::uint64_t offset, std::uint8_t* out, std::uint64_t size) const { file_->read(offset, out, size); }
+void RvolReader::readBytes(std::uint64_t offset, std::uint8_t* out, std::uint64_t size) const {
+    file_->read(offset, out, size);
+}
 
 std::span<const BrickEntry> RvolReader::bricks(std::uint32_t level) const {
     const LevelEntry& e = levels_.at(level);
     return std::span<const BrickEntry>(directory_).subspan(e.firstBrick, e.brickCount);
 }
 
-std::int64_t RvolReader::findBrick(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z) const {
+std::int64_t RvolReader::findBrick(std::uint32_t level, std::uint32_t x, std::uint32_t y,
+                                   std::uint32_t z) const {
     const LevelEntry& e = levels_.at(level);
     if (x >= e.bricksPerAxis || y >= e.bricksPerAxis || z >= e.bricksPerAxis) return -1;
     const std::span<const BrickEntry> entries = bricks(level);
     const std::uint64_t code = morton3(x, y, z);
-    const auto it = std::lower_bound(entries.begin(), entries.end(), code,
-                                     [](const BrickEntry& entry, std::uint64_t c) { return entry.morton() < c; });
+    const auto it = std::lower_bound(
+        entries.begin(), entries.end(), code,
+        [](const BrickEntry& entry, std::uint64_t c) { return entry.morton() < c; });
     if (it == entries.end() || it->morton() != code) return -1;
     return it - entries.begin();
 }
@@ -226,20 +270,23 @@ std::uint64_t RvolReader::brickOffset(std::uint32_t level, std::uint32_t index) 
     return e.dataOffset + std::uint64_t{index} * e.brickBytes;
 }
 
-std::vector<std::uint8_t> RvolReader::readBrickBytes(std::uint32_t level, std::uint32_t index) const {
+std::vector<std::uint8_t> RvolReader::readBrickBytes(std::uint32_t level,
+                                                     std::uint32_t index) const {
     const std::uint64_t offset = brickOffset(level, index);
     const LevelEntry& e = levels_[level];
     std::vector<std::uint8_t> bytes(e.brickBytes);
     readBytes(offset, bytes.data(), bytes.size());
     const BrickEntry& entry = directory_[e.firstBrick + index];
     if (crc32c(bytes.data(), bytes.size()) != entry.checksum)
-        invalid(path_, "level " + str(level) + ", brick " + str(index) + " (" + str(entry.x) + "," + str(entry.y) + "," + str(entry.z) +
-                           "), file offset " + str(offset) + ": checksum mismatch");
+        invalid(path_, "level " + str(level) + ", brick " + str(index) + " (" + str(entry.x) + "," +
+                           str(entry.y) + "," + str(entry.z) + "), file offset " + str(offset) +
+                           ": checksum mismatch");
     return bytes;
 }
 
 std::vector<Texel> RvolReader::readBrick(std::uint32_t level, std::uint32_t index) const {
-    return decodeBrick(readBrickBytes(level, index), header_.brickTexels, levels_.at(level).channels, header_.binaryLevel0Opacity());
+    return decodeBrick(readBrickBytes(level, index), header_.brickTexels,
+                       levels_.at(level).channels, header_.binaryLevel0Opacity());
 }
 
 void RvolReader::setCacheBytes(std::uint64_t bytes) const {
@@ -248,7 +295,8 @@ void RvolReader::setCacheBytes(std::uint64_t bytes) const {
     cache_->evict();
 }
 
-std::shared_ptr<const std::vector<Texel>> RvolReader::cachedBrick(std::uint32_t level, std::uint32_t index) const {
+std::shared_ptr<const std::vector<Texel>> RvolReader::cachedBrick(std::uint32_t level,
+                                                                  std::uint32_t index) const {
     const std::uint64_t key = std::uint64_t{level} << 32 | index;
     Cache& c = *cache_;
     {
@@ -269,7 +317,8 @@ std::shared_ptr<const std::vector<Texel>> RvolReader::cachedBrick(std::uint32_t 
     return texels;
 }
 
-Texel RvolReader::sample(std::uint32_t level, std::uint32_t channel, const std::array<double, 3>& position) const {
+Texel RvolReader::sample(std::uint32_t level, std::uint32_t channel,
+                         const std::array<double, 3>& position) const {
     const LevelEntry& e = levels_.at(level);
     if (channel >= e.channels) throw std::out_of_range("RvolReader::sample: channel out of range");
     const std::uint32_t n = header_.brickTexels, step = n - 1;
@@ -299,29 +348,37 @@ Texel RvolReader::sample(std::uint32_t level, std::uint32_t channel, const std::
         const Texel& t = base[(std::size_t{i0[2] + dz} * n + (i0[1] + dy)) * n + (i0[0] + dx)];
         sum[0] += w * t.r, sum[1] += w * t.g, sum[2] += w * t.b, sum[3] += w * t.a;
     }
-    return {static_cast<float>(sum[0]), static_cast<float>(sum[1]), static_cast<float>(sum[2]), static_cast<float>(sum[3])};
+    return {static_cast<float>(sum[0]), static_cast<float>(sum[1]), static_cast<float>(sum[2]),
+            static_cast<float>(sum[3])};
 }
 
 Texel RvolReader::sampleDirectional(std::uint32_t level, const std::array<double, 3>& position,
                                     const std::array<double, 3>& direction) const {
-    if (level >= levels_.size()) throw std::out_of_range("RvolReader::sampleDirectional: level out of range");
+    if (level >= levels_.size())
+        throw std::out_of_range("RvolReader::sampleDirectional: level out of range");
     if (level == 0) return sample(0, 0, position);
-    const double length2 = direction[0] * direction[0] + direction[1] * direction[1] + direction[2] * direction[2];
+    const double length2 =
+        direction[0] * direction[0] + direction[1] * direction[1] + direction[2] * direction[2];
     if (!(length2 > 0) || !std::isfinite(length2)) return {};
     std::array<Texel, 3> facing{};
     for (std::uint32_t a = 0; a < 3; ++a)
         // Channel 2a looks along +axis (PosX, PosY, PosZ), 2a + 1 along −axis.
-        if (direction[a] != 0) facing[a] = sample(level, 2 * a + (direction[a] < 0 ? 1u : 0u), position);
+        if (direction[a] != 0)
+            facing[a] = sample(level, 2 * a + (direction[a] < 0 ? 1u : 0u), position);
     return combineDirectional(facing, direction);
 }
 
 std::vector<AttributeRecord> RvolReader::readAttributeRecords(bool dynamic) const {
-    const std::uint64_t offset = dynamic ? header_.dynamicAttributesOffset : header_.staticAttributesOffset;
-    const std::uint64_t bytes = dynamic ? header_.dynamicAttributesBytes : header_.staticAttributesBytes;
+    const std::uint64_t offset =
+        dynamic ? header_.dynamicAttributesOffset : header_.staticAttributesOffset;
+    const std::uint64_t bytes =
+        dynamic ? header_.dynamicAttributesBytes : header_.staticAttributesBytes;
     std::vector<std::uint8_t> data(bytes);  // inside the file, checked by the constructor
     readBytes(offset, data.data(), data.size());
-    if (crc32c(data.data(), data.size()) != (dynamic ? header_.dynamicAttributesChecksum : header_.staticAttributesChecksum))
-        invalid(path_, std::string(dynamic ? "dynamic" : "static") + " attribute layer: checksum mismatch");
+    if (crc32c(data.data(), data.size()) !=
+        (dynamic ? header_.dynamicAttributesChecksum : header_.staticAttributesChecksum))
+        invalid(path_, std::string(dynamic ? "dynamic" : "static") +
+                           " attribute layer: checksum mismatch");
     std::vector<AttributeRecord> records(bytes / kAttributeRecordBytes);
     const std::uint8_t* p = data.data();
     for (AttributeRecord& r : records) {
@@ -365,27 +422,35 @@ Volume RvolReader::readVolume() const {
                 for (std::uint32_t k = 0; k < n; ++k)
                     for (std::uint32_t j = 0; j < n; ++j)
                         for (std::uint32_t ii = 0; ii < n; ++ii) {
-                            const std::uint32_t x = b.x * step + ii, y = b.y * step + j, z = b.z * step + k;
-                            if (x >= e.resolution || y >= e.resolution || z >= e.resolution) continue;
+                            const std::uint32_t x = b.x * step + ii, y = b.y * step + j,
+                                                z = b.z * step + k;
+                            if (x >= e.resolution || y >= e.resolution || z >= e.resolution)
+                                continue;
                             const std::size_t t = (std::size_t{k} * n + j) * n + ii;
                             bool nonZero = false;
-                            for (std::uint32_t c = 0; c < e.channels; ++c) nonZero = nonZero || texels[c * n3 + t] != Texel{};
+                            for (std::uint32_t c = 0; c < e.channels; ++c)
+                                nonZero = nonZero || texels[c * n3 + t] != Texel{};
                             if (nonZero) visit(x, y, z, texels, t);
                         }
             }
         };
         // Two passes (the blocks first, then their texels) so that only the level's own texels
         // are held in memory, not its decoded bricks as well.
-        forEachNonZero([&](std::uint32_t x, std::uint32_t y, std::uint32_t z, const std::vector<Texel>&, std::size_t) {
+        forEachNonZero([&](std::uint32_t x, std::uint32_t y, std::uint32_t z,
+                           const std::vector<Texel>&, std::size_t) {
             const std::uint64_t code = morton3(x / kBlockCells, y / kBlockCells, z / kBlockCells);
             if (level.blocks.empty() || level.blocks.back() != code) level.blocks.push_back(code);
         });
         std::sort(level.blocks.begin(), level.blocks.end());
-        level.blocks.erase(std::unique(level.blocks.begin(), level.blocks.end()), level.blocks.end());
+        level.blocks.erase(std::unique(level.blocks.begin(), level.blocks.end()),
+                           level.blocks.end());
         level.texels.assign(level.blocks.size() * level.channels * kBlockTexels, Texel{});
-        forEachNonZero([&](std::uint32_t x, std::uint32_t y, std::uint32_t z, const std::vector<Texel>& texels, std::size_t t) {
+        forEachNonZero([&](std::uint32_t x, std::uint32_t y, std::uint32_t z,
+                           const std::vector<Texel>& texels, std::size_t t) {
             const auto block = static_cast<std::size_t>(level.findBlock(x, y, z));
-            for (std::uint32_t c = 0; c < level.channels; ++c) level.texels[Level::texelIndex(block, level.channels, c, x, y, z)] = texels[c * n3 + t];
+            for (std::uint32_t c = 0; c < level.channels; ++c)
+                level.texels[Level::texelIndex(block, level.channels, c, x, y, z)] =
+                    texels[c * n3 + t];
         });
         v.levels.push_back(std::move(level));
     }

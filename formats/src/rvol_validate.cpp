@@ -16,8 +16,12 @@ std::string str(std::uint64_t v) { return std::to_string(v); }
 class LevelChecker {
 public:
     LevelChecker(const RvolReader& reader, std::uint32_t level)
-        : reader_(reader), level_(level), e_(reader.level(level)), n_(reader.header().brickTexels),
-          n3_(std::size_t{n_} * n_ * n_), planes_(alphaPlanes(e_.channels, reader.header().binaryLevel0Opacity())),
+        : reader_(reader),
+          level_(level),
+          e_(reader.level(level)),
+          n_(reader.header().brickTexels),
+          n3_(std::size_t{n_} * n_ * n_),
+          planes_(alphaPlanes(e_.channels, reader.header().binaryLevel0Opacity())),
           entries_(reader.bricks(level)) {}
 
     /// Returns the level's distinct non-zero cells.
@@ -26,13 +30,15 @@ public:
         for (std::uint32_t i = 0; i < e_.brickCount; ++i) {
             const BrickEntry& b = entries_[i];
             if (b.padding != 0) fail(i, "directory entry padding is not zero");
-            const std::vector<std::uint8_t> bytes = reader_.readBrickBytes(level_, i);  // checks the CRC
+            const std::vector<std::uint8_t> bytes =
+                reader_.readBrickBytes(level_, i);  // checks the CRC
             // In the binary-opacity layout a non-zero byte is a non-zero word: a solid cell.
             if (std::all_of(bytes.begin(), bytes.end(), [](std::uint8_t v) { return v == 0; }))
                 fail(i, "all texels zero (an empty brick must not be stored)");
             for (std::uint32_t p = 0; p < planes_; ++p)
                 for (std::uint64_t at = n3_; at < alphaPlaneBytes(n_); ++at)
-                    if (bytes[alphaOffset(p) + at] != 0) fail(i, planeName(p) + " padding is not zero");
+                    if (bytes[alphaOffset(p) + at] != 0)
+                        fail(i, planeName(p) + " padding is not zero");
             const std::array<std::uint32_t, 3> coords{b.x, b.y, b.z};
             const std::uint32_t step = n_ - 1;
             for (std::uint32_t k = 0; k < n_; ++k)
@@ -42,12 +48,14 @@ public:
                         bool outside = false, owned = true;
                         for (int a = 0; a < 3; ++a) {
                             outside = outside || coords[a] * step + local[a] >= e_.resolution;
-                            // A face texel belongs to the next brick along its axis when there is one.
+                            // A face texel belongs to the next brick along its axis when there is
+                            // one.
                             owned = owned && (local[a] < step || coords[a] + 1 == e_.bricksPerAxis);
                         }
                         const bool zero = texelZero(bytes, texelIndex(local));
                         if (outside && !zero)
-                            fail(i, "texel (" + str(ii) + "," + str(j) + "," + str(k) + ") lies outside the level but is not zero");
+                            fail(i, "texel (" + str(ii) + "," + str(j) + "," + str(k) +
+                                        ") lies outside the level but is not zero");
                         nonZero += !zero && owned && !outside;
                     }
             for (int a = 0; a < 3; ++a) {
@@ -55,19 +63,23 @@ public:
                 if (coords[a] + 1 < e_.bricksPerAxis) {
                     std::array<std::uint32_t, 3> next = coords;
                     ++next[a];
-                    const std::int64_t neighbour = reader_.findBrick(level_, next[0], next[1], next[2]);
+                    const std::int64_t neighbour =
+                        reader_.findBrick(level_, next[0], next[1], next[2]);
                     if (neighbour >= 0) {
-                        const std::vector<std::uint8_t> other = reader_.readBrickBytes(level_, static_cast<std::uint32_t>(neighbour));
+                        const std::vector<std::uint8_t> other =
+                            reader_.readBrickBytes(level_, static_cast<std::uint32_t>(neighbour));
                         compareFace(i, bytes, other, a, next);
                     } else {
                         requireZeroFace(i, bytes, a, n_ - 1, next);
                     }
                 }
-                // Towards −axis: only the missing neighbour's case; a stored one compared its face above.
+                // Towards −axis: only the missing neighbour's case; a stored one compared its face
+                // above.
                 if (coords[a] > 0) {
                     std::array<std::uint32_t, 3> previous = coords;
                     --previous[a];
-                    if (reader_.findBrick(level_, previous[0], previous[1], previous[2]) < 0) requireZeroFace(i, bytes, a, 0, previous);
+                    if (reader_.findBrick(level_, previous[0], previous[1], previous[2]) < 0)
+                        requireZeroFace(i, bytes, a, 0, previous);
                 }
             }
         }
@@ -77,14 +89,20 @@ public:
 private:
     [[noreturn]] void fail(std::uint32_t index, const std::string& what) const {
         const BrickEntry& b = entries_[index];
-        throw InvalidDataError(reader_.path(), "level " + str(level_) + ", brick " + str(index) + " (" + str(b.x) + "," + str(b.y) + "," +
-                                                   str(b.z) + "), file offset " + str(reader_.brickOffset(level_, index)) + ": " + what);
+        throw InvalidDataError(reader_.path(),
+                               "level " + str(level_) + ", brick " + str(index) + " (" + str(b.x) +
+                                   "," + str(b.y) + "," + str(b.z) + "), file offset " +
+                                   str(reader_.brickOffset(level_, index)) + ": " + what);
     }
     [[nodiscard]] std::size_t texelIndex(const std::array<std::uint32_t, 3>& t) const noexcept {
         return (std::size_t{t[2]} * n_ + t[1]) * n_ + t[0];
     }
-    [[nodiscard]] std::uint64_t rgbOffset(std::uint32_t channel) const noexcept { return rgbPlaneOffset(n_, channel); }
-    [[nodiscard]] std::uint64_t alphaOffset(std::uint32_t plane) const noexcept { return alphaPlaneOffset(n_, e_.channels, plane); }
+    [[nodiscard]] std::uint64_t rgbOffset(std::uint32_t channel) const noexcept {
+        return rgbPlaneOffset(n_, channel);
+    }
+    [[nodiscard]] std::uint64_t alphaOffset(std::uint32_t plane) const noexcept {
+        return alphaPlaneOffset(n_, e_.channels, plane);
+    }
     /// "A8 plane" at level 0, "x-axis A8 plane" (y, z) above.
     [[nodiscard]] std::string planeName(std::uint32_t plane) const {
         if (planes_ == 1) return "A8 plane";
@@ -92,7 +110,8 @@ private:
         name += "-axis A8 plane";
         return name;
     }
-    [[nodiscard]] bool texelZero(const std::vector<std::uint8_t>& bytes, std::size_t t) const noexcept {
+    [[nodiscard]] bool texelZero(const std::vector<std::uint8_t>& bytes,
+                                 std::size_t t) const noexcept {
         for (std::uint32_t c = 0; c < e_.channels; ++c)
             if (detail::load<std::uint32_t>(bytes.data() + rgbOffset(c) + 4 * t) != 0) return false;
         for (std::uint32_t p = 0; p < planes_; ++p)
@@ -121,7 +140,8 @@ private:
                 visit(t);
             }
     }
-    void compareFace(std::uint32_t index, const std::vector<std::uint8_t>& bytes, const std::vector<std::uint8_t>& other, int axis,
+    void compareFace(std::uint32_t index, const std::vector<std::uint8_t>& bytes,
+                     const std::vector<std::uint8_t>& other, int axis,
                      const std::array<std::uint32_t, 3>& neighbour) const {
         forFace(axis, n_ - 1, [&](std::array<std::uint32_t, 3> t) {
             const std::size_t here = texelIndex(t);
@@ -131,18 +151,21 @@ private:
                 const std::uint8_t* a = bytes.data() + rgbOffset(c);
                 const std::uint8_t* b = other.data() + rgbOffset(c);
                 if (!std::equal(a + 4 * here, a + 4 * here + 4, b + 4 * there))
-                    fail(index, "shared face with brick " + coordsText(neighbour) + " differs (channel " + str(c) + ")");
+                    fail(index, "shared face with brick " + coordsText(neighbour) +
+                                    " differs (channel " + str(c) + ")");
             }
             for (std::uint32_t p = 0; p < planes_; ++p)
                 if (bytes[alphaOffset(p) + here] != other[alphaOffset(p) + there])
-                    fail(index, "shared face with brick " + coordsText(neighbour) + " differs (" + planeName(p) + ")");
+                    fail(index, "shared face with brick " + coordsText(neighbour) + " differs (" +
+                                    planeName(p) + ")");
         });
     }
-    void requireZeroFace(std::uint32_t index, const std::vector<std::uint8_t>& bytes, int axis, std::uint32_t layer,
-                         const std::array<std::uint32_t, 3>& neighbour) const {
+    void requireZeroFace(std::uint32_t index, const std::vector<std::uint8_t>& bytes, int axis,
+                         std::uint32_t layer, const std::array<std::uint32_t, 3>& neighbour) const {
         forFace(axis, layer, [&](const std::array<std::uint32_t, 3>& t) {
             if (!texelZero(bytes, texelIndex(t)))
-                fail(index, "face shared with brick " + coordsText(neighbour) + ", which is not stored, is not zero");
+                fail(index, "face shared with brick " + coordsText(neighbour) +
+                                ", which is not stored, is not zero");
         });
     }
 
@@ -157,25 +180,33 @@ private:
 
 void checkLayer(const RvolReader& reader, bool dynamic) {
     const std::string name = dynamic ? "dynamic" : "static";
-    const std::vector<AttributeRecord> records = reader.readAttributeRecords(dynamic);  // checks the CRC
+    const std::vector<AttributeRecord> records =
+        reader.readAttributeRecords(dynamic);  // checks the CRC
     const std::uint64_t limit = std::uint64_t{1} << (3 * reader.header().depth);
-    const std::uint64_t offset = dynamic ? reader.header().dynamicAttributesOffset : reader.header().staticAttributesOffset;
+    const std::uint64_t offset =
+        dynamic ? reader.header().dynamicAttributesOffset : reader.header().staticAttributesOffset;
     for (std::size_t i = 0; i < records.size(); ++i) {
         const auto fail = [&](const std::string& what) {
-            throw InvalidDataError(reader.path(), name + " attribute layer, record " + str(i) + ", file offset " +
-                                                      str(offset + i * kAttributeRecordBytes) + ": " + what);
+            throw InvalidDataError(reader.path(),
+                                   name + " attribute layer, record " + str(i) + ", file offset " +
+                                       str(offset + i * kAttributeRecordBytes) + ": " + what);
         };
-        if (records[i].morton >= limit) fail("Morton code " + str(records[i].morton) + " outside level 0");
-        if (i > 0 && records[i].morton <= records[i - 1].morton) fail("Morton codes not strictly ascending");
+        if (records[i].morton >= limit)
+            fail("Morton code " + str(records[i].morton) + " outside level 0");
+        if (i > 0 && records[i].morton <= records[i - 1].morton)
+            fail("Morton codes not strictly ascending");
     }
 }
 
 /// The @p size bytes at @p offset must be zero (alignment gaps).
-void checkGap(const RvolReader& reader, std::uint64_t offset, std::uint64_t size, RvolReport& report) {
+void checkGap(const RvolReader& reader, std::uint64_t offset, std::uint64_t size,
+              RvolReport& report) {
     std::array<std::uint8_t, kSectionAlignment> bytes{};
     reader.readBytes(offset, bytes.data(), size);  // gaps are shorter than one alignment unit
     for (std::uint64_t i = 0; i < size; ++i)
-        if (bytes[i] != 0) throw InvalidDataError(reader.path(), "padding at file offset " + str(offset + i) + " is not zero");
+        if (bytes[i] != 0)
+            throw InvalidDataError(reader.path(),
+                                   "padding at file offset " + str(offset + i) + " is not zero");
     report.paddingBytes += size;
 }
 
@@ -196,8 +227,10 @@ RvolReport validateRvol(const RvolReader& reader) {
 
     // The reader's constructor fixed every offset to the first multiple of 64 after the previous
     // part; here the gaps between them are checked.
-    checkGap(reader, h.levelTableOffset + h.levelTableBytes, h.directoryOffset - (h.levelTableOffset + h.levelTableBytes), r);
-    checkGap(reader, h.directoryOffset + h.directoryBytes, h.brickDataOffset - (h.directoryOffset + h.directoryBytes), r);
+    checkGap(reader, h.levelTableOffset + h.levelTableBytes,
+             h.directoryOffset - (h.levelTableOffset + h.levelTableBytes), r);
+    checkGap(reader, h.directoryOffset + h.directoryBytes,
+             h.brickDataOffset - (h.directoryOffset + h.directoryBytes), r);
     std::uint64_t end = h.brickDataOffset;
     for (std::uint32_t l = 0; l < h.levelCount; ++l) {
         const LevelEntry& e = reader.level(l);

@@ -62,23 +62,32 @@ std::array<std::uint8_t, kHeaderBytes> encodeHeader(const Header& h) {
 
 namespace {
 
-[[noreturn]] void inconsistent(const std::string& what) { throw std::invalid_argument("writeRvol: " + what); }
+[[noreturn]] void inconsistent(const std::string& what) {
+    throw std::invalid_argument("writeRvol: " + what);
+}
 
 void checkVolume(const Volume& v) {
-    if (v.depth > kMaxDepth) inconsistent("depth " + std::to_string(v.depth) + " above " + std::to_string(kMaxDepth));
-    if (!std::isfinite(v.origin[0]) || !std::isfinite(v.origin[1]) || !std::isfinite(v.origin[2]) || !std::isfinite(v.size) || !(v.size > 0))
+    if (v.depth > kMaxDepth)
+        inconsistent("depth " + std::to_string(v.depth) + " above " + std::to_string(kMaxDepth));
+    if (!std::isfinite(v.origin[0]) || !std::isfinite(v.origin[1]) || !std::isfinite(v.origin[2]) ||
+        !std::isfinite(v.size) || !(v.size > 0))
         inconsistent("root cube origin or size not finite, or size not positive");
-    if (v.levels.size() != v.depth + 1) inconsistent("expected " + std::to_string(v.depth + 1) + " levels, got " + std::to_string(v.levels.size()));
+    if (v.levels.size() != v.depth + 1)
+        inconsistent("expected " + std::to_string(v.depth + 1) + " levels, got " +
+                     std::to_string(v.levels.size()));
     for (std::uint32_t l = 0; l <= v.depth; ++l) {
         const Level& level = v.levels[l];
         const std::string where = "level " + std::to_string(l) + ": ";
-        if (level.resolution != levelResolution(v.depth, l)) inconsistent(where + "resolution is not 2^(depth - level)");
+        if (level.resolution != levelResolution(v.depth, l))
+            inconsistent(where + "resolution is not 2^(depth - level)");
         if (level.channels != levelChannels(l)) inconsistent(where + "wrong channel count");
         const std::uint32_t blocksPerAxis = (level.resolution + kBlockCells - 1) / kBlockCells;
         for (std::size_t b = 0; b < level.blocks.size(); ++b) {
-            if (b > 0 && level.blocks[b] <= level.blocks[b - 1]) inconsistent(where + "blocks not in strictly ascending Morton order");
+            if (b > 0 && level.blocks[b] <= level.blocks[b - 1])
+                inconsistent(where + "blocks not in strictly ascending Morton order");
             const auto c = demorton3(level.blocks[b]);
-            if (c[0] >= blocksPerAxis || c[1] >= blocksPerAxis || c[2] >= blocksPerAxis || morton3(c[0], c[1], c[2]) != level.blocks[b])
+            if (c[0] >= blocksPerAxis || c[1] >= blocksPerAxis || c[2] >= blocksPerAxis ||
+                morton3(c[0], c[1], c[2]) != level.blocks[b])
                 inconsistent(where + "block outside the level");
         }
         if (level.texels.size() != level.blocks.size() * level.channels * kBlockTexels)
@@ -89,9 +98,11 @@ void checkVolume(const Volume& v) {
         std::uint64_t previous = 0;
         for (std::size_t i = 0; i < voxels->size(); ++i) {
             const VoxelAttributes& a = (*voxels)[i];
-            if (a.x >= resolution || a.y >= resolution || a.z >= resolution) inconsistent("voxel attributes outside level 0");
+            if (a.x >= resolution || a.y >= resolution || a.z >= resolution)
+                inconsistent("voxel attributes outside level 0");
             const std::uint64_t code = morton3(a.x, a.y, a.z);
-            if (i > 0 && code <= previous) inconsistent("voxel attributes not in strictly ascending Morton order");
+            if (i > 0 && code <= previous)
+                inconsistent("voxel attributes not in strictly ascending Morton order");
             previous = code;
         }
     }
@@ -109,7 +120,8 @@ bool binaryOpacityFits(const Level& level) noexcept {
     for (std::size_t b = 0; b < level.blocks.size(); ++b) {
         const auto block = demorton3(level.blocks[b]);
         for (std::uint32_t i = 0; i < kBlockTexels; ++i) {
-            const std::uint32_t x = block[0] * kBlockCells + i % kBlockCells, y = block[1] * kBlockCells + i / kBlockCells % kBlockCells,
+            const std::uint32_t x = block[0] * kBlockCells + i % kBlockCells,
+                                y = block[1] * kBlockCells + i / kBlockCells % kBlockCells,
                                 z = block[2] * kBlockCells + i / (kBlockCells * kBlockCells);
             if (x >= res || y >= res || z >= res) continue;  // not stored
             const Texel& t = level.texels[Level::texelIndex(b, level.channels, 0, x, y, z)];
@@ -137,7 +149,9 @@ EncodedLevel encodeLevel(const Level& level, std::uint32_t n, bool binaryOpacity
     const std::uint32_t perAxis = bricksPerAxis(res, n);
     // Only level 0 (one channel) has a binary-opacity layout.
     const bool binary = binaryOpacity && channels == 1;
-    out.entry = {res, channels, perAxis, static_cast<std::uint32_t>(brickBytes(n, channels, binary)), 0, 0, 0};
+    out.entry = {
+        res, channels, perAxis, static_cast<std::uint32_t>(brickBytes(n, channels, binary)),
+        0,   0,        0};
 
     // Candidate bricks: those overlapping a stored block. Brick b covers cells b·s … b·s + s
     // (s = N − 1), so it meets block cells 8B … 8B + 7 when ⌈8B/s⌉ − 1 ≤ b ≤ ⌊(8B + 7)/s⌋.
@@ -152,7 +166,8 @@ EncodedLevel encodeLevel(const Level& level, std::uint32_t n, bool binaryOpacity
         }
         for (std::uint32_t z = lo[2]; z <= hi[2]; ++z)
             for (std::uint32_t y = lo[1]; y <= hi[1]; ++y)
-                for (std::uint32_t x = lo[0]; x <= hi[0]; ++x) candidates.push_back(morton3(x, y, z));
+                for (std::uint32_t x = lo[0]; x <= hi[0]; ++x)
+                    candidates.push_back(morton3(x, y, z));
     }
     std::sort(candidates.begin(), candidates.end());
     candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
@@ -169,9 +184,11 @@ EncodedLevel encodeLevel(const Level& level, std::uint32_t n, bool binaryOpacity
         for (std::uint32_t k = 0; k < n; ++k)
             for (std::uint32_t j = 0; j < n; ++j)
                 for (std::uint32_t i = 0; i < n; ++i) {
-                    const std::uint32_t x = b[0] * step + i, y = b[1] * step + j, z = b[2] * step + k;
+                    const std::uint32_t x = b[0] * step + i, y = b[1] * step + j,
+                                        z = b[2] * step + k;
                     if (x >= res || y >= res || z >= res) continue;  // past the level: zero
-                    const std::uint64_t blockCode = morton3(x / kBlockCells, y / kBlockCells, z / kBlockCells);
+                    const std::uint64_t blockCode =
+                        morton3(x / kBlockCells, y / kBlockCells, z / kBlockCells);
                     if (blockCode != lastBlockCode) {
                         lastBlockCode = blockCode;
                         lastBlock = level.findBlock(x, y, z);
@@ -179,14 +196,15 @@ EncodedLevel encodeLevel(const Level& level, std::uint32_t n, bool binaryOpacity
                     if (lastBlock < 0) continue;
                     const std::size_t t = (std::size_t{k} * n + j) * n + i;
                     const auto texel = [&](std::uint32_t c) -> const Texel& {
-                        return level.texels[Level::texelIndex(static_cast<std::size_t>(lastBlock), channels, c, x, y, z)];
+                        return level.texels[Level::texelIndex(static_cast<std::size_t>(lastBlock),
+                                                              channels, c, x, y, z)];
                     };
                     for (std::uint32_t c = 0; c < channels; ++c) {
                         const Texel& v = texel(c);
                         std::uint32_t rgb = encodeRgb9e5(v.r, v.g, v.b);
-                        // Binary opacity: the word carries the opacity too, so a solid cell (A8 255;
-                        // binaryOpacityFits left only 255, or 0 with word 0) whose radiance encodes
-                        // to 0 takes the smallest non-zero word.
+                        // Binary opacity: the word carries the opacity too, so a solid cell (A8
+                        // 255; binaryOpacityFits left only 255, or 0 with word 0) whose radiance
+                        // encodes to 0 takes the smallest non-zero word.
                         if (binary && rgb == 0 && encodeUnorm8(v.a) != 0) rgb = kSolidBlackWord;
                         store<std::uint32_t>(brick.data() + rgbPlaneOffset(n, c) + 4 * t, rgb);
                         nonZero = nonZero || rgb != 0;
@@ -194,14 +212,18 @@ EncodedLevel encodeLevel(const Level& level, std::uint32_t n, bool binaryOpacity
                     for (std::uint32_t p = 0; p < planes; ++p) {
                         // Level 0: the channel's opacity; above: the mean of the axis' ± channels
                         // (equal in a baked volume: compositing's opacity is symmetric).
-                        const float a = channels == 1 ? texel(0).a : 0.5f * (clamp01(texel(2 * p).a) + clamp01(texel(2 * p + 1).a));
+                        const float a =
+                            channels == 1
+                                ? texel(0).a
+                                : 0.5f * (clamp01(texel(2 * p).a) + clamp01(texel(2 * p + 1).a));
                         const std::uint8_t alpha = encodeUnorm8(a);
                         brick[alphaPlaneOffset(n, channels, p) + t] = alpha;
                         nonZero = nonZero || alpha != 0;
                     }
                 }
         if (!nonZero) continue;  // empty space: absent bricks read as zero
-        out.directory.push_back({static_cast<std::uint16_t>(b[0]), static_cast<std::uint16_t>(b[1]), static_cast<std::uint16_t>(b[2]), 0,
+        out.directory.push_back({static_cast<std::uint16_t>(b[0]), static_cast<std::uint16_t>(b[1]),
+                                 static_cast<std::uint16_t>(b[2]), 0,
                                  crc32c(brick.data(), brick.size())});
         out.data.insert(out.data.end(), brick.begin(), brick.end());
     }
@@ -225,10 +247,12 @@ std::vector<std::uint8_t> encodeLayer(const std::vector<VoxelAttributes>& voxels
 
 }  // namespace
 
-RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volume, const RvolWriteOptions& options) {
+RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volume,
+                          const RvolWriteOptions& options) {
     if (options.brickTexels < kMinBrickTexels || options.brickTexels > kMaxBrickTexels)
-        throw UsageError("brick size " + std::to_string(options.brickTexels) + " outside " + std::to_string(kMinBrickTexels) + ".." +
-                         std::to_string(kMaxBrickTexels) + " texels");
+        throw UsageError("brick size " + std::to_string(options.brickTexels) + " outside " +
+                         std::to_string(kMinBrickTexels) + ".." + std::to_string(kMaxBrickTexels) +
+                         " texels");
     checkVolume(volume);
     const std::uint32_t n = options.brickTexels;
 
@@ -245,7 +269,8 @@ RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volum
     h.depth = volume.depth;
     h.levelCount = volume.depth + 1;
     h.brickTexels = n;
-    h.flags = (options.staticAttributes ? kFlagStaticAttributes : 0) | (binaryOpacity ? kFlagBinaryLevel0Opacity : 0);
+    h.flags = (options.staticAttributes ? kFlagStaticAttributes : 0) |
+              (binaryOpacity ? kFlagBinaryLevel0Opacity : 0);
     h.origin = volume.origin;
     h.size = volume.size;
     h.sceneBounds = volume.sceneBounds;
@@ -255,7 +280,8 @@ RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volum
     h.directoryOffset = alignSection(h.levelTableOffset + h.levelTableBytes);
     std::uint64_t bricks = 0;
     for (EncodedLevel& level : levels) {
-        if (bricks + level.entry.brickCount > 0xFFFFFFFFull) throw std::invalid_argument("writeRvol: more than 2^32 - 1 bricks");
+        if (bricks + level.entry.brickCount > 0xFFFFFFFFull)
+            throw std::invalid_argument("writeRvol: more than 2^32 - 1 bricks");
         level.entry.firstBrick = static_cast<std::uint32_t>(bricks);
         bricks += level.entry.brickCount;
     }
@@ -320,7 +346,8 @@ RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volum
     put(0, headerBytes.data(), headerBytes.size());
     put(h.levelTableOffset, levelTable.data(), levelTable.size());
     put(h.directoryOffset, directory.data(), directory.size());
-    for (const EncodedLevel& level : levels) put(level.entry.dataOffset, level.data.data(), level.data.size());
+    for (const EncodedLevel& level : levels)
+        put(level.entry.dataOffset, level.data.data(), level.data.size());
     put(h.staticAttributesOffset, staticLayer.data(), staticLayer.size());
     put(h.dynamicAttributesOffset, dynamicLayer.data(), dynamicLayer.size());
     out.commit();

@@ -11,7 +11,8 @@
 
 namespace vox {
 
-ScratchFile::ScratchFile(const std::filesystem::path& directory) : directory_(directory.empty() ? "." : directory) {
+ScratchFile::ScratchFile(const std::filesystem::path& directory)
+    : directory_(directory.empty() ? "." : directory) {
     std::string pattern = (directory_ / ".libvox-scratch-XXXXXX").string();
     fd_ = ::mkostemp(pattern.data(), O_CLOEXEC);
     if (fd_ < 0) throw IoError(directory_, "cannot create a scratch file: " + errnoMessage(errno));
@@ -33,7 +34,9 @@ std::uint64_t ScratchFile::append(const void* data, std::uint64_t size) {
 void ScratchFile::read(std::uint64_t offset, void* out, std::uint64_t size) const {
     const detail::PositionalRead got = detail::readAllAt(fd_, out, size, offset);
     if (got.bytes < size)
-        throw IoError(directory_, "cannot read the scratch file back: " + (got.error ? errnoMessage(got.error) : std::string("ends early")));
+        throw IoError(directory_,
+                      "cannot read the scratch file back: " +
+                          (got.error ? errnoMessage(got.error) : std::string("ends early")));
 }
 
 }  // namespace vox

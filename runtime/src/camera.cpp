@@ -23,18 +23,28 @@ Vec3d normalize(const Vec3d& a) {
 void Camera::validate() const {
     const Vec3d forward = sub(target, eye);
     if (length(forward) == 0) throw UsageError("camera: --eye and --target are the same point");
-    if (length(cross(forward, up)) <= 1e-12 * length(forward) * length(up)) throw UsageError("camera: --up is parallel to the view direction");
-    if (!(fovYDegrees > 0 && fovYDegrees < 180)) throw UsageError("camera: --fov must be between 0 and 180 degrees");
-    if (width < 1 || height < 1 || width > 16384 || height > 16384) throw UsageError("camera: image size must be 1..16384");
+    if (length(cross(forward, up)) <= 1e-12 * length(forward) * length(up))
+        throw UsageError("camera: --up is parallel to the view direction");
+    if (!(fovYDegrees > 0 && fovYDegrees < 180))
+        throw UsageError("camera: --fov must be between 0 and 180 degrees");
+    if (width < 1 || height < 1 || width > 16384 || height > 16384)
+        throw UsageError("camera: image size must be 1..16384");
 }
 
-double Camera::pixelAngle() const { return 2.0 * std::tan(fovYDegrees * 0.5 * kPi / 180.0) / height; }
+double Camera::pixelAngle() const {
+    return 2.0 * std::tan(fovYDegrees * 0.5 * kPi / 180.0) / height;
+}
 
 Vec3d Camera::rayDirection(int x, int y) const { return CameraBasis(*this).direction(x, y); }
 
 CameraBasis::CameraBasis(const Camera& c)
-    : eye(c.eye), forward(normalize(sub(c.target, c.eye))), right(normalize(cross(forward, c.up))), up(cross(right, forward)),
-      tanHalf(std::tan(c.fovYDegrees * 0.5 * kPi / 180.0)), aspect(double(c.width) / double(c.height)), width(c.width),
+    : eye(c.eye),
+      forward(normalize(sub(c.target, c.eye))),
+      right(normalize(cross(forward, c.up))),
+      up(cross(right, forward)),
+      tanHalf(std::tan(c.fovYDegrees * 0.5 * kPi / 180.0)),
+      aspect(double(c.width) / double(c.height)),
+      width(c.width),
       height(c.height) {}
 
 Vec3d CameraBasis::direction(int x, int y) const {

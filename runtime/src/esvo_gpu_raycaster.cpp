@@ -18,10 +18,12 @@ namespace {
 constexpr std::size_t kPixelWords = 12;
 constexpr std::uint32_t kHitBit = 0x80000000u;
 // The shader spells out these layout constants; they must stay formats' values.
-static_assert(static_cast<std::uint32_t>(esvo::AttachmentKind::Palette) == 1 && static_cast<std::uint32_t>(esvo::AttachmentKind::Dxt) == 2 &&
+static_assert(static_cast<std::uint32_t>(esvo::AttachmentKind::Palette) == 1 &&
+              static_cast<std::uint32_t>(esvo::AttachmentKind::Dxt) == 2 &&
               static_cast<std::uint32_t>(esvo::AttachmentKind::DxtLookup) == 6);
 static_assert(esvo::kPageBytes / 4 == 2048 && esvo::kCompressedBlockWords == 6);
-static_assert(esvo::info::kFirstDescriptor == 2 && esvo::info::kAttachmentCount == 3 && esvo::info::kAttachments == 4);
+static_assert(esvo::info::kFirstDescriptor == 2 && esvo::info::kAttachmentCount == 3 &&
+              esvo::info::kAttachments == 4);
 }  // namespace
 
 EsvoGpuRaycaster::EsvoGpuRaycaster(GlContext& context, const EsvoGpuPool& pool)
@@ -30,9 +32,11 @@ EsvoGpuRaycaster::EsvoGpuRaycaster(GlContext& context, const EsvoGpuPool& pool)
     // The CPU caster's constructor (EsvoRayCaster), in the same arithmetic.
     const auto& m = reader.header().worldToRoot;
     for (int i = 0; i < 12; ++i) a_[i] = m[i];
-    const double det = a_[0] * (a_[5] * a_[10] - a_[6] * a_[9]) - a_[1] * (a_[4] * a_[10] - a_[6] * a_[8]) +
+    const double det = a_[0] * (a_[5] * a_[10] - a_[6] * a_[9]) -
+                       a_[1] * (a_[4] * a_[10] - a_[6] * a_[8]) +
                        a_[2] * (a_[4] * a_[9] - a_[5] * a_[8]);
-    if (!(std::abs(det) > 0)) throw InvalidDataError(reader.path(), "header: world-to-root transform is singular");
+    if (!(std::abs(det) > 0))
+        throw InvalidDataError(reader.path(), "header: world-to-root transform is singular");
     unitScale_ = std::cbrt(std::abs(det));
     leafSize_ = std::ldexp(1.0, -static_cast<int>(reader.header().leafDepth)) / unitScale_;
     glCreateQueries(GL_TIME_ELAPSED, 1, &query_);
@@ -58,8 +62,10 @@ GpuFrame EsvoGpuRaycaster::render(const Camera& camera, const GpuCastOptions& op
     }
     const GLuint p = program_.id();
     glProgramUniform1dv(p, program_.uniform("uA"), 12, a_);
-    glProgramUniform3d(p, program_.uniform("uForward"), basis.forward[0], basis.forward[1], basis.forward[2]);
-    glProgramUniform3d(p, program_.uniform("uRight"), basis.right[0], basis.right[1], basis.right[2]);
+    glProgramUniform3d(p, program_.uniform("uForward"), basis.forward[0], basis.forward[1],
+                       basis.forward[2]);
+    glProgramUniform3d(p, program_.uniform("uRight"), basis.right[0], basis.right[1],
+                       basis.right[2]);
     glProgramUniform3d(p, program_.uniform("uUp"), basis.up[0], basis.up[1], basis.up[2]);
     glProgramUniform1d(p, program_.uniform("uTanHalf"), basis.tanHalf);
     glProgramUniform1d(p, program_.uniform("uAspect"), basis.aspect);
@@ -70,17 +76,20 @@ GpuFrame EsvoGpuRaycaster::render(const Camera& camera, const GpuCastOptions& op
     const auto py = static_cast<float>(a_[4] * o[0] + a_[5] * o[1] + a_[6] * o[2] + a_[7] + 1.0);
     const auto pz = static_cast<float>(a_[8] * o[0] + a_[9] * o[1] + a_[10] * o[2] + a_[11] + 1.0);
     glProgramUniform3f(p, program_.uniform("uOrigin"), px, py, pz);
-    glProgramUniform1f(p, program_.uniform("uLodCoef"), static_cast<float>(options.lodAngle * unitScale_));
+    glProgramUniform1f(p, program_.uniform("uLodCoef"),
+                       static_cast<float>(options.lodAngle * unitScale_));
     glProgramUniform1ui(p, program_.uniform("uMaxLevel"), options.maxLevel);
     glProgramUniform1ui(p, program_.uniform("uRootWord"), pool_.pool().rootDescriptorWord());
-    glProgramUniform1ui(p, program_.uniform("uFlags"), (options.contours ? 1u : 0u) | (options.attributes ? 2u : 0u));
+    glProgramUniform1ui(p, program_.uniform("uFlags"),
+                        (options.contours ? 1u : 0u) | (options.attributes ? 2u : 0u));
 
     glUseProgram(p);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, pool_.buffer());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, output_);
     const auto start = std::chrono::steady_clock::now();
     glBeginQuery(GL_TIME_ELAPSED, query_);
-    glDispatchCompute(static_cast<GLuint>((camera.width + 7) / 8), static_cast<GLuint>((camera.height + 7) / 8), 1);
+    glDispatchCompute(static_cast<GLuint>((camera.width + 7) / 8),
+                      static_cast<GLuint>((camera.height + 7) / 8), 1);
     glEndQuery(GL_TIME_ELAPSED);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     glFinish();

@@ -9,7 +9,8 @@
 
 namespace vox::runtime {
 
-EsvoStream::EsvoStream(GlContext& context, const std::filesystem::path& file, const EsvoStreamOptions& options)
+EsvoStream::EsvoStream(GlContext& context, const std::filesystem::path& file,
+                       const EsvoStreamOptions& options)
     : context_(context),
       options_(options),
       reader_(std::make_unique<esvo::EsvoReader>(file)),
@@ -67,6 +68,8 @@ GpuCastOptions EsvoStream::castOptions() const {
     return options;
 }
 
-GpuFrame EsvoStream::render(const GpuCastOptions& options) { return caster_->render(camera_, options); }
+GpuFrame EsvoStream::render(const GpuCastOptions& options) {
+    return caster_->render(camera_, options);
+}
 
 }  // namespace vox::runtime

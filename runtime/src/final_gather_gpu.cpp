@@ -25,13 +25,18 @@ std::string shaderSource(const FinalGatherGpuOptions& options, const char* mode)
 
 const FinalGatherGpuOptions& checked(const FinalGatherGpuOptions& o) {
     const auto aperture = [](double degrees, const char* what) {
-        if (!(degrees > 0 && degrees < 90)) throw RuntimeError(std::string("final gather: ") + what + " must be between 0 and 90 degrees (exclusive)");
+        if (!(degrees > 0 && degrees < 90))
+            throw RuntimeError(std::string("final gather: ") + what +
+                               " must be between 0 and 90 degrees (exclusive)");
     };
     aperture(o.specularApertureDegrees, "the specular aperture");
     aperture(o.shadowApertureDegrees, "the shadow aperture");
-    if (!(o.offsetCells >= 0) || !std::isfinite(o.offsetCells)) throw RuntimeError("final gather: the cone offset must be ≥ 0");
-    if (!(o.aoLambda >= 0) || !std::isfinite(o.aoLambda)) throw RuntimeError("final gather: λ must be a finite number ≥ 0");
-    if (!(o.specularF0 >= 0 && o.specularF0 <= 1)) throw RuntimeError("final gather: F0 must be between 0 and 1");
+    if (!(o.offsetCells >= 0) || !std::isfinite(o.offsetCells))
+        throw RuntimeError("final gather: the cone offset must be ≥ 0");
+    if (!(o.aoLambda >= 0) || !std::isfinite(o.aoLambda))
+        throw RuntimeError("final gather: λ must be a finite number ≥ 0");
+    if (!(o.specularF0 >= 0 && o.specularF0 <= 1))
+        throw RuntimeError("final gather: F0 must be between 0 and 1");
     return o;
 }
 
@@ -40,7 +45,8 @@ struct ScopedBuffer {
     GLuint id = 0;
     ScopedBuffer(std::size_t bytes, const void* data, GLbitfield flags) {
         glCreateBuffers(1, &id);
-        glNamedBufferStorage(id, static_cast<GLsizeiptr>(std::max<std::size_t>(bytes, 16)), data, flags);
+        glNamedBufferStorage(id, static_cast<GLsizeiptr>(std::max<std::size_t>(bytes, 16)), data,
+                             flags);
     }
     ~ScopedBuffer() { glDeleteBuffers(1, &id); }
     ScopedBuffer(const ScopedBuffer&) = delete;
@@ -63,16 +69,23 @@ FinalGatherGpu::FinalGatherGpu(GlContext& context, const FinalGatherGpuOptions& 
       sampleProgram_("rvol sample", shaderSource(options, "VOX_MODE_SAMPLE")) {
     // The constants of FinalGather and RadianceField::gatherDiffuse, in double, rounded once.
     const GLuint p = shadeProgram_.id();
-    glProgramUniform1f(p, shadeProgram_.uniform("uAoLambda"), static_cast<float>(options_.aoLambda));
-    glProgramUniform1f(p, shadeProgram_.uniform("uSpecularF0"), static_cast<float>(options_.specularF0));
-    glProgramUniform1f(p, shadeProgram_.uniform("uTanHalfSpecular"), static_cast<float>(std::tan(0.5 * options_.specularApertureDegrees * kPi / 180)));
-    glProgramUniform1f(p, shadeProgram_.uniform("uTanHalfShadow"), static_cast<float>(std::tan(0.5 * options_.shadowApertureDegrees * kPi / 180)));
+    glProgramUniform1f(p, shadeProgram_.uniform("uAoLambda"),
+                       static_cast<float>(options_.aoLambda));
+    glProgramUniform1f(p, shadeProgram_.uniform("uSpecularF0"),
+                       static_cast<float>(options_.specularF0));
+    glProgramUniform1f(
+        p, shadeProgram_.uniform("uTanHalfSpecular"),
+        static_cast<float>(std::tan(0.5 * options_.specularApertureDegrees * kPi / 180)));
+    glProgramUniform1f(
+        p, shadeProgram_.uniform("uTanHalfShadow"),
+        static_cast<float>(std::tan(0.5 * options_.shadowApertureDegrees * kPi / 180)));
     glProgramUniform1i(p, shadeProgram_.uniform("uShadowCones"), options_.shadowCones ? 1 : 0);
     const double centre = kPi * 0.25, side = 2 * kPi * (1 - std::cos(kPi / 6)) * 0.5;
     const double norm = kPi / (centre + 5 * side);
     const float weights[2] = {static_cast<float>(centre * norm), static_cast<float>(side * norm)};
     glProgramUniform1fv(p, shadeProgram_.uniform("uDiffuseWeights"), 2, weights);
-    glProgramUniform1f(p, shadeProgram_.uniform("uDiffuseTanHalf"), static_cast<float>(std::tan(kPi / 6)));
+    glProgramUniform1f(p, shadeProgram_.uniform("uDiffuseTanHalf"),
+                       static_cast<float>(std::tan(kPi / 6)));
     float cosines[5], sines[5];
     for (int i = 0; i < 5; ++i) {
         const double phi = 2 * kPi * i / 5;
@@ -89,7 +102,8 @@ FinalGatherGpu::~FinalGatherGpu() {
     if (query_ != 0) glDeleteQueries(1, &query_);
 }
 
-std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume, std::span<const GpuShadingPoint> points,
+std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume,
+                                                  std::span<const GpuShadingPoint> points,
                                                   std::span<const GpuPunctualLight> lights) {
     const auto start = std::chrono::steady_clock::now();
     std::vector<GpuGatherParts> out(points.size());
@@ -113,23 +127,28 @@ std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume, s
         put3(d, l.position, static_cast<float>(static_cast<std::uint32_t>(l.type)));
         put3(d + 4, l.direction, l.range);
         // vox::lightArrival's colour × intensity and spot constants, in double as there.
-        put3(d + 8, {static_cast<float>(l.color[0] * double(l.intensity)), static_cast<float>(l.color[1] * double(l.intensity)),
+        put3(d + 8, {static_cast<float>(l.color[0] * double(l.intensity)),
+                     static_cast<float>(l.color[1] * double(l.intensity)),
                      static_cast<float>(l.color[2] * double(l.intensity))});
-        const double cosOuter = std::cos(double(l.outerConeAngle)), cosInner = std::cos(double(l.innerConeAngle));
+        const double cosOuter = std::cos(double(l.outerConeAngle)),
+                     cosInner = std::cos(double(l.innerConeAngle));
         d[12] = static_cast<float>(cosOuter);
         d[13] = static_cast<float>(1.0 / std::max(1e-3, cosInner - cosOuter));
         d[14] = d[15] = 0;
     }
     const ScopedBuffer pointBuffer(pointData.size() * 4, pointData.data(), 0);
-    const ScopedBuffer lightBuffer(lightData.size() * 4, lightData.empty() ? nullptr : lightData.data(), 0);
+    const ScopedBuffer lightBuffer(lightData.size() * 4,
+                                   lightData.empty() ? nullptr : lightData.data(), 0);
     const ScopedBuffer partsBuffer(points.size() * 64, nullptr, GL_CLIENT_STORAGE_BIT);
 
     const GLuint p = shadeProgram_.id();
     const rvol::Header& header = volume.reader().header();
     const double finest = header.cellSize(0);
-    glProgramUniform1f(p, shadeProgram_.uniform("uOffset"), static_cast<float>(options_.offsetCells * finest));
+    glProgramUniform1f(p, shadeProgram_.uniform("uOffset"),
+                       static_cast<float>(options_.offsetCells * finest));
     glProgramUniform1ui(p, shadeProgram_.uniform("uCount"), static_cast<GLuint>(points.size()));
-    glProgramUniform1ui(p, shadeProgram_.uniform("uLightCount"), static_cast<GLuint>(lights.size()));
+    glProgramUniform1ui(p, shadeProgram_.uniform("uLightCount"),
+                        static_cast<GLuint>(lights.size()));
     volume.bind();
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, pointBuffer.id);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, partsBuffer.id);
@@ -159,7 +178,8 @@ std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume, s
     return out;
 }
 
-std::vector<std::array<float, 4>> FinalGatherGpu::sample(const RvolGpuVolume& volume, std::span<const SampleQuery> queries) {
+std::vector<std::array<float, 4>> FinalGatherGpu::sample(const RvolGpuVolume& volume,
+                                                         std::span<const SampleQuery> queries) {
     std::vector<std::array<float, 4>> out(queries.size());
     if (queries.empty()) return out;
     std::vector<float> data(queries.size() * 8);
@@ -178,7 +198,8 @@ std::vector<std::array<float, 4>> FinalGatherGpu::sample(const RvolGpuVolume& vo
     glDispatchCompute(static_cast<GLuint>((queries.size() + 63) / 64), 1, 1);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     glUseProgram(0);
-    glGetNamedBufferSubData(sampleBuffer.id, 0, static_cast<GLsizeiptr>(out.size() * 16), out.data());
+    glGetNamedBufferSubData(sampleBuffer.id, 0, static_cast<GLsizeiptr>(out.size() * 16),
+                            out.data());
     context_.throwOnErrors("rvol sample: " + std::to_string(queries.size()) + " queries");
     return out;
 }

@@ -27,8 +27,10 @@ struct InfoLevel {
 
 /// A grid of slots holding @p slots with each axis ≤ @p maxPerAxis, as cubic as it goes.
 std::array<std::uint32_t, 3> slotGrid(std::uint32_t slots, std::uint32_t maxPerAxis) {
-    const auto x = std::clamp<std::uint32_t>(static_cast<std::uint32_t>(std::ceil(std::cbrt(double(slots)))), 1, maxPerAxis);
-    const auto y = std::clamp<std::uint32_t>(static_cast<std::uint32_t>(std::ceil(std::sqrt(double(slots) / x))), 1, maxPerAxis);
+    const auto x = std::clamp<std::uint32_t>(
+        static_cast<std::uint32_t>(std::ceil(std::cbrt(double(slots)))), 1, maxPerAxis);
+    const auto y = std::clamp<std::uint32_t>(
+        static_cast<std::uint32_t>(std::ceil(std::sqrt(double(slots) / x))), 1, maxPerAxis);
     const std::uint32_t z = std::max<std::uint32_t>(1, (slots + x * y - 1) / (x * y));
     return {x, y, z};
 }
@@ -49,7 +51,8 @@ void AtlasSlotAllocator::release(std::uint32_t slot) {
     if (slot != 0 && slot < next_) free_.push_back(slot);
 }
 
-RvolGpuVolume::RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader, const RvolGpuVolumeOptions& options)
+RvolGpuVolume::RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader,
+                             const RvolGpuVolumeOptions& options)
     : context_(context), reader_(reader) {
     const rvol::Header& header = reader.header();
     n_ = header.brickTexels;
@@ -57,7 +60,8 @@ RvolGpuVolume::RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader,
     alpha16_ = options.alpha16;
     const auto& levels = reader.levels();
 
-    // Slots: one RGB (and, without binary opacity, one A8) per level-0 brick, six RGB and three A8 above.
+    // Slots: one RGB (and, without binary opacity, one A8) per level-0 brick, six RGB and three A8
+    // above.
     std::uint64_t rgbNeeded = 1, alphaNeeded = 1;  // + the zero slot
     levelBase_.resize(levels.size());
     residentFlags_.resize(levels.size());
@@ -81,25 +85,32 @@ RvolGpuVolume::RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader,
     }
     rgbNeeded += options.extraRgbSlots;
     alphaNeeded += options.extraAlphaSlots;
-    if (entries > (1ull << 30)) throw RuntimeError(reader.path().string() + ": the indirection table would hold " + std::to_string(entries) + " entries");
+    if (entries > (1ull << 30))
+        throw RuntimeError(reader.path().string() + ": the indirection table would hold " +
+                           std::to_string(entries) + " entries");
     indirection_.assign(entries, 0);
     if (!options.uploadAll)  // every brick the file has is missing until uploaded
         for (std::uint32_t l = 0; l < levels.size(); ++l)
             for (std::uint32_t i = 0; i < levels[l].brickCount; ++i) {
                 const std::uint64_t k = levels[l].bricksPerAxis;
                 const rvol::BrickEntry& e = reader.bricks(l)[i];
-                const std::uint64_t entry = levelBase_[l] + ((e.z * k + e.y) * k + e.x) * planesPerBrick(l);
-                std::fill_n(indirection_.begin() + static_cast<std::ptrdiff_t>(entry), planesPerBrick(l), kMissingBrick);
+                const std::uint64_t entry =
+                    levelBase_[l] + ((e.z * k + e.y) * k + e.x) * planesPerBrick(l);
+                std::fill_n(indirection_.begin() + static_cast<std::ptrdiff_t>(entry),
+                            planesPerBrick(l), kMissingBrick);
             }
 
     GLint max3d = 0;
     glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
-    const std::uint32_t perAxis = std::min<std::uint32_t>(kSlotAxisMax, static_cast<std::uint32_t>(max3d) / n_);
+    const std::uint32_t perAxis =
+        std::min<std::uint32_t>(kSlotAxisMax, static_cast<std::uint32_t>(max3d) / n_);
     const std::uint64_t maxSlots = std::uint64_t{perAxis} * perAxis * perAxis;
     if (rgbNeeded > maxSlots || alphaNeeded > maxSlots)
-        throw RuntimeError(reader.path().string() + ": the radiance atlas needs " + std::to_string(std::max(rgbNeeded, alphaNeeded)) +
-                           " slots of " + std::to_string(n_) + "³ texels, more than this GL's 3D textures hold (" +
-                           std::to_string(maxSlots) + ", GL_MAX_3D_TEXTURE_SIZE " + std::to_string(max3d) + ")");
+        throw RuntimeError(reader.path().string() + ": the radiance atlas needs " +
+                           std::to_string(std::max(rgbNeeded, alphaNeeded)) + " slots of " +
+                           std::to_string(n_) + "³ texels, more than this GL's 3D textures hold (" +
+                           std::to_string(maxSlots) + ", GL_MAX_3D_TEXTURE_SIZE " +
+                           std::to_string(max3d) + ")");
     rgbGrid_ = slotGrid(static_cast<std::uint32_t>(rgbNeeded), perAxis);
     alphaGrid_ = slotGrid(static_cast<std::uint32_t>(alphaNeeded), perAxis);
     rgbSlots_ = AtlasSlotAllocator(rgbGrid_[0] * rgbGrid_[1] * rgbGrid_[2]);
@@ -132,17 +143,20 @@ RvolGpuVolume::RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader,
     }
     std::memcpy(info.data(), &h, sizeof h);
     for (std::uint32_t l = 0; l < levels.size(); ++l) {
-        const InfoLevel entry{static_cast<std::uint32_t>(levelBase_[l]), levels[l].bricksPerAxis, levels[l].resolution, planesPerBrick(l)};
+        const InfoLevel entry{static_cast<std::uint32_t>(levelBase_[l]), levels[l].bricksPerAxis,
+                              levels[l].resolution, planesPerBrick(l)};
         std::memcpy(info.data() + sizeof h + l * sizeof entry, &entry, sizeof entry);
     }
     glCreateBuffers(1, &infoBuffer_);
     glNamedBufferStorage(infoBuffer_, static_cast<GLsizeiptr>(info.size()), info.data(), 0);
     infoBytes_ = info.size();
     glCreateBuffers(1, &indirectionBuffer_);
-    glNamedBufferStorage(indirectionBuffer_, static_cast<GLsizeiptr>(std::max<std::size_t>(4, indirection_.size() * 4)), nullptr,
-                         GL_DYNAMIC_STORAGE_BIT);
+    glNamedBufferStorage(indirectionBuffer_,
+                         static_cast<GLsizeiptr>(std::max<std::size_t>(4, indirection_.size() * 4)),
+                         nullptr, GL_DYNAMIC_STORAGE_BIT);
     if (!indirection_.empty())
-        glNamedBufferSubData(indirectionBuffer_, 0, static_cast<GLsizeiptr>(indirection_.size() * 4), indirection_.data());
+        glNamedBufferSubData(indirectionBuffer_, 0,
+                             static_cast<GLsizeiptr>(indirection_.size() * 4), indirection_.data());
     static constexpr char kInfoLabel[] = "rvol info";
     static constexpr char kIndirectionLabel[] = "rvol indirection";
     glObjectLabel(GL_BUFFER, infoBuffer_, sizeof kInfoLabel - 1, kInfoLabel);
@@ -152,7 +166,9 @@ RvolGpuVolume::RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader,
     if (options.uploadAll)
         for (std::uint32_t l = 0; l < levels.size(); ++l)
             for (std::uint32_t i = 0; i < levels[l].brickCount; ++i)
-                if (!uploadBrick(l, i)) throw RuntimeError(reader.path().string() + ": radiance atlas full");  // sized above: cannot happen
+                if (!uploadBrick(l, i))
+                    throw RuntimeError(reader.path().string() +
+                                       ": radiance atlas full");  // sized above: cannot happen
 }
 
 RvolGpuVolume::~RvolGpuVolume() {
@@ -162,9 +178,11 @@ RvolGpuVolume::~RvolGpuVolume() {
     glDeleteBuffers(2, buffers);
 }
 
-void RvolGpuVolume::createAtlas(unsigned& texture, const std::array<std::uint32_t, 3>& grid, bool rgb) {
+void RvolGpuVolume::createAtlas(unsigned& texture, const std::array<std::uint32_t, 3>& grid,
+                                bool rgb) {
     glCreateTextures(GL_TEXTURE_3D, 1, &texture);
-    const auto w = static_cast<GLsizei>(grid[0] * n_), h = static_cast<GLsizei>(grid[1] * n_), d = static_cast<GLsizei>(grid[2] * n_);
+    const auto w = static_cast<GLsizei>(grid[0] * n_), h = static_cast<GLsizei>(grid[1] * n_),
+               d = static_cast<GLsizei>(grid[2] * n_);
     glTextureStorage3D(texture, 1, rgb ? GL_RGB9_E5 : alpha16_ ? GL_R16 : GL_R8, w, h, d);
     glTextureParameteri(texture, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
     glTextureParameteri(texture, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
@@ -175,13 +193,17 @@ void RvolGpuVolume::createAtlas(unsigned& texture, const std::array<std::uint32_
     if (rgb) {
         glClearTexImage(texture, 0, GL_RGB, GL_UNSIGNED_INT_5_9_9_9_REV, nullptr);
     } else {
-        glClearTexImage(texture, 0, GL_RED, alpha16_ ? GL_UNSIGNED_SHORT : GL_UNSIGNED_BYTE, nullptr);
+        glClearTexImage(texture, 0, GL_RED, alpha16_ ? GL_UNSIGNED_SHORT : GL_UNSIGNED_BYTE,
+                        nullptr);
     }
-    const char* label = rgb ? "rvol RGB9_E5 atlas" : alpha16_ ? "rvol R16 opacity atlas" : "rvol R8 opacity atlas";
+    const char* label = rgb        ? "rvol RGB9_E5 atlas"
+                        : alpha16_ ? "rvol R16 opacity atlas"
+                                   : "rvol R8 opacity atlas";
     glObjectLabel(GL_TEXTURE, texture, static_cast<GLsizei>(std::strlen(label)), label);
 }
 
-std::array<std::uint32_t, 3> RvolGpuVolume::slotOrigin(const std::array<std::uint32_t, 3>& grid, std::uint32_t slot) const noexcept {
+std::array<std::uint32_t, 3> RvolGpuVolume::slotOrigin(const std::array<std::uint32_t, 3>& grid,
+                                                       std::uint32_t slot) const noexcept {
     return {slot % grid[0], (slot / grid[0]) % grid[1], slot / (grid[0] * grid[1])};
 }
 
@@ -191,7 +213,9 @@ std::uint64_t RvolGpuVolume::entryOffset(std::uint32_t level, std::uint32_t inde
     return levelBase_[level] + ((e.z * k + e.y) * k + e.x) * planesPerBrick(level);
 }
 
-bool RvolGpuVolume::resident(std::uint32_t level, std::uint32_t index) const { return residentFlags_.at(level).at(index) != 0; }
+bool RvolGpuVolume::resident(std::uint32_t level, std::uint32_t index) const {
+    return residentFlags_.at(level).at(index) != 0;
+}
 
 bool RvolGpuVolume::uploadBrick(std::uint32_t level, std::uint32_t index) {
     if (resident(level, index)) return true;
@@ -215,33 +239,42 @@ bool RvolGpuVolume::uploadBrick(std::uint32_t level, std::uint32_t index) {
     const std::vector<std::uint8_t> bytes = reader_.readBrickBytes(level, index);
     const auto n = static_cast<GLsizei>(n_);
     const std::uint64_t entry = entryOffset(level, index);
-    const auto pack = [](const std::array<std::uint32_t, 3>& o) { return o[0] | (o[1] << kSlotBits) | (o[2] << (2 * kSlotBits)); };
+    const auto pack = [](const std::array<std::uint32_t, 3>& o) {
+        return o[0] | (o[1] << kSlotBits) | (o[2] << (2 * kSlotBits));
+    };
     GLint alignment = 4;
     glGetIntegerv(GL_UNPACK_ALIGNMENT, &alignment);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);  // A8 rows of odd N are not 4-byte multiples
     for (std::uint32_t c = 0; c < channels; ++c) {
         const auto o = slotOrigin(rgbGrid_, rgb[c]);
-        glTextureSubImage3D(rgbAtlas_, 0, static_cast<GLint>(o[0] * n_), static_cast<GLint>(o[1] * n_), static_cast<GLint>(o[2] * n_), n,
-                            n, n, GL_RGB, GL_UNSIGNED_INT_5_9_9_9_REV, bytes.data() + rvol::rgbPlaneOffset(n_, c));
+        glTextureSubImage3D(rgbAtlas_, 0, static_cast<GLint>(o[0] * n_),
+                            static_cast<GLint>(o[1] * n_), static_cast<GLint>(o[2] * n_), n, n, n,
+                            GL_RGB, GL_UNSIGNED_INT_5_9_9_9_REV,
+                            bytes.data() + rvol::rgbPlaneOffset(n_, c));
         indirection_[entry + c] = pack(o);
     }
     std::vector<std::uint16_t> wide(alpha16_ ? std::size_t{n_} * n_ * n_ : 0);
     for (std::uint32_t p = 0; p < alphaPlanes; ++p) {
         const auto o = slotOrigin(alphaGrid_, alpha[p]);
         const std::uint8_t* plane = bytes.data() + rvol::alphaPlaneOffset(n_, channels, p);
-        for (std::size_t t = 0; t < wide.size(); ++t) wide[t] = static_cast<std::uint16_t>(plane[t] * 257u);  // k/255 = 257k/65535
-        glTextureSubImage3D(alphaAtlas_, 0, static_cast<GLint>(o[0] * n_), static_cast<GLint>(o[1] * n_), static_cast<GLint>(o[2] * n_),
-                            n, n, n, GL_RED, alpha16_ ? GL_UNSIGNED_SHORT : GL_UNSIGNED_BYTE,
-                            alpha16_ ? static_cast<const void*>(wide.data()) : static_cast<const void*>(plane));
+        for (std::size_t t = 0; t < wide.size(); ++t)
+            wide[t] = static_cast<std::uint16_t>(plane[t] * 257u);  // k/255 = 257k/65535
+        glTextureSubImage3D(
+            alphaAtlas_, 0, static_cast<GLint>(o[0] * n_), static_cast<GLint>(o[1] * n_),
+            static_cast<GLint>(o[2] * n_), n, n, n, GL_RED,
+            alpha16_ ? GL_UNSIGNED_SHORT : GL_UNSIGNED_BYTE,
+            alpha16_ ? static_cast<const void*>(wide.data()) : static_cast<const void*>(plane));
         indirection_[entry + channels + p] = pack(o);
     }
     glPixelStorei(GL_UNPACK_ALIGNMENT, alignment);
     const std::uint32_t planes = planesPerBrick(level);
-    glNamedBufferSubData(indirectionBuffer_, static_cast<GLintptr>(entry * 4), static_cast<GLsizeiptr>(planes * 4), indirection_.data() + entry);
+    glNamedBufferSubData(indirectionBuffer_, static_cast<GLintptr>(entry * 4),
+                         static_cast<GLsizeiptr>(planes * 4), indirection_.data() + entry);
     residentFlags_[level][index] = 1;
     ++residentBricks_;
     uploadedTotal_ += bytes.size();
-    context_.throwOnErrors(reader_.path().string() + ": uploading level " + std::to_string(level) + " brick " + std::to_string(index));
+    context_.throwOnErrors(reader_.path().string() + ": uploading level " + std::to_string(level) +
+                           " brick " + std::to_string(index));
     return true;
 }
 
@@ -252,16 +285,21 @@ void RvolGpuVolume::evictBrick(std::uint32_t level, std::uint32_t index) {
     const std::uint64_t entry = entryOffset(level, index);
     const auto unpack = [](std::uint32_t e, const std::array<std::uint32_t, 3>& grid) {
         const std::uint32_t m = kSlotAxisMax - 1;
-        return (e & m) + grid[0] * (((e >> kSlotBits) & m) + grid[1] * ((e >> (2 * kSlotBits)) & m));
+        return (e & m) +
+               grid[0] * (((e >> kSlotBits) & m) + grid[1] * ((e >> (2 * kSlotBits)) & m));
     };
-    for (std::uint32_t c = 0; c < channels; ++c) rgbSlots_.release(unpack(indirection_[entry + c], rgbGrid_));
-    for (std::uint32_t p = 0; p < alphaPlanes; ++p) alphaSlots_.release(unpack(indirection_[entry + channels + p], alphaGrid_));
+    for (std::uint32_t c = 0; c < channels; ++c)
+        rgbSlots_.release(unpack(indirection_[entry + c], rgbGrid_));
+    for (std::uint32_t p = 0; p < alphaPlanes; ++p)
+        alphaSlots_.release(unpack(indirection_[entry + channels + p], alphaGrid_));
     const std::uint32_t planes = planesPerBrick(level);
     std::fill_n(indirection_.begin() + static_cast<std::ptrdiff_t>(entry), planes, kMissingBrick);
-    glNamedBufferSubData(indirectionBuffer_, static_cast<GLintptr>(entry * 4), static_cast<GLsizeiptr>(planes * 4), indirection_.data() + entry);
+    glNamedBufferSubData(indirectionBuffer_, static_cast<GLintptr>(entry * 4),
+                         static_cast<GLsizeiptr>(planes * 4), indirection_.data() + entry);
     residentFlags_[level][index] = 0;
     --residentBricks_;
-    context_.throwOnErrors(reader_.path().string() + ": evicting level " + std::to_string(level) + " brick " + std::to_string(index));
+    context_.throwOnErrors(reader_.path().string() + ": evicting level " + std::to_string(level) +
+                           " brick " + std::to_string(index));
 }
 
 void RvolGpuVolume::bind(const RvolGpuBindings& bindings) const {
@@ -275,12 +313,14 @@ void RvolGpuVolume::bind(const RvolGpuBindings& bindings) const {
 std::uint64_t RvolGpuVolume::brickBytes(std::uint32_t level) const noexcept {
     const std::uint64_t slot = std::uint64_t{n_} * n_ * n_;
     const std::uint32_t channels = rvol::levelChannels(level);
-    return channels * 4 * slot + rvol::alphaPlanes(channels, level == 0 && binaryLevel0_) * alphaTexelBytes() * slot;
+    return channels * 4 * slot +
+           rvol::alphaPlanes(channels, level == 0 && binaryLevel0_) * alphaTexelBytes() * slot;
 }
 
 std::uint64_t RvolGpuVolume::residentBytes() const noexcept {
     const std::uint64_t slot = std::uint64_t{n_} * n_ * n_;
-    return 4 * slot * rgbSlots_.capacity() + alphaTexelBytes() * slot * alphaSlots_.capacity() + std::max<std::uint64_t>(4, indirection_.size() * 4) + infoBytes_;
+    return 4 * slot * rgbSlots_.capacity() + alphaTexelBytes() * slot * alphaSlots_.capacity() +
+           std::max<std::uint64_t>(4, indirection_.size() * 4) + infoBytes_;
 }
 
 std::uint64_t RvolGpuVolume::usedAtlasBytes() const noexcept {

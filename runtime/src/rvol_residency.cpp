@@ -43,13 +43,17 @@ RvolResidency::Update RvolResidency::update(const Camera& camera) {
             double d2 = 0;
             for (int a = 0; a < 3; ++a) {
                 // The brick's texels: cell centres b·(N − 1) … (b + 1)·(N − 1).
-                const double lo = header.origin[std::size_t(a)] + (b[a] * span + 0.5) * cell, hi = lo + edge;
-                const double g = std::max({0.0, lo - camera.eye[std::size_t(a)], camera.eye[std::size_t(a)] - hi});
+                const double lo = header.origin[std::size_t(a)] + (b[a] * span + 0.5) * cell,
+                             hi = lo + edge;
+                const double g = std::max(
+                    {0.0, lo - camera.eye[std::size_t(a)], camera.eye[std::size_t(a)] - hi});
                 d2 += g * g;
             }
             const double d = std::sqrt(d2);
-            if (l < top && !(cell > pixel * d)) continue;  // its cells look smaller than lodScale pixels
-            const double priority = l == top ? std::numeric_limits<double>::max() : edge / std::max(d, 1e-9 * header.size);
+            if (l < top && !(cell > pixel * d))
+                continue;  // its cells look smaller than lodScale pixels
+            const double priority = l == top ? std::numeric_limits<double>::max()
+                                             : edge / std::max(d, 1e-9 * header.size);
             candidates.push_back({priority, l, i});
         }
     }
@@ -77,11 +81,14 @@ RvolResidency::Update RvolResidency::update(const Camera& camera) {
     // least recently selected, until the selection's missing bricks fit.
     std::uint64_t missing = 0;
     for (std::size_t k = 0; k < kept; ++k)
-        if (!volume_.resident(candidates[k].level, candidates[k].index)) missing += volume_.brickBytes(candidates[k].level);
-    std::vector<std::tuple<std::uint32_t, std::uint64_t, std::uint32_t>> victims;  // level, last used, index
+        if (!volume_.resident(candidates[k].level, candidates[k].index))
+            missing += volume_.brickBytes(candidates[k].level);
+    std::vector<std::tuple<std::uint32_t, std::uint64_t, std::uint32_t>>
+        victims;  // level, last used, index
     for (std::uint32_t l = 0; l <= top; ++l)
         for (std::uint32_t i = 0; i < levels[l].brickCount; ++i)
-            if (volume_.resident(l, i) && !selected[l][i]) victims.emplace_back(l, lastUsed_[l][i], i);
+            if (volume_.resident(l, i) && !selected[l][i])
+                victims.emplace_back(l, lastUsed_[l][i], i);
     std::sort(victims.begin(), victims.end());
     for (const auto& [level, used, index] : victims) {
         if (residentBytes_ + missing <= budget_) break;

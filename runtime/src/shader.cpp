@@ -9,7 +9,8 @@ namespace vox::runtime {
 namespace {
 /// The info log on one line, so that the exception is one line of stderr.
 std::string oneLine(std::string log) {
-    while (!log.empty() && (log.back() == '\n' || log.back() == ' ' || log.back() == '\0')) log.pop_back();
+    while (!log.empty() && (log.back() == '\n' || log.back() == ' ' || log.back() == '\0'))
+        log.pop_back();
     for (char& c : log)
         if (c == '\n') c = ' ';
     return log;
@@ -50,7 +51,8 @@ ComputeProgram::~ComputeProgram() {
     if (program_ != 0) glDeleteProgram(program_);
 }
 
-ComputeProgram::ComputeProgram(ComputeProgram&& other) noexcept : program_(std::exchange(other.program_, 0)) {}
+ComputeProgram::ComputeProgram(ComputeProgram&& other) noexcept
+    : program_(std::exchange(other.program_, 0)) {}
 
 ComputeProgram& ComputeProgram::operator=(ComputeProgram&& other) noexcept {
     if (this != &other) {

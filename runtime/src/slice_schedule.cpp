@@ -21,7 +21,9 @@ using V3 = std::array<double, 3>;
 
 V3 sub(V3 a, V3 b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 double dot(V3 a, V3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-V3 cross(V3 a, V3 b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
+V3 cross(V3 a, V3 b) {
+    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
 V3 scale(V3 a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
 V3 add(V3 a, V3 b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
 V3 unit(V3 a) {
@@ -40,22 +42,27 @@ struct RootView {
     RootView(const esvo::Header& header, const StreamingView& view) {
         const auto& m = header.worldToRoot;
         const auto point = [&](V3 p) {
-            return V3{m[0] * p[0] + m[1] * p[1] + m[2] * p[2] + m[3], m[4] * p[0] + m[5] * p[1] + m[6] * p[2] + m[7],
+            return V3{m[0] * p[0] + m[1] * p[1] + m[2] * p[2] + m[3],
+                      m[4] * p[0] + m[5] * p[1] + m[6] * p[2] + m[7],
                       m[8] * p[0] + m[9] * p[1] + m[10] * p[2] + m[11]};
         };
         const auto direction = [&](V3 d) {
-            return V3{m[0] * d[0] + m[1] * d[1] + m[2] * d[2], m[4] * d[0] + m[5] * d[1] + m[6] * d[2], m[8] * d[0] + m[9] * d[1] + m[10] * d[2]};
+            return V3{m[0] * d[0] + m[1] * d[1] + m[2] * d[2],
+                      m[4] * d[0] + m[5] * d[1] + m[6] * d[2],
+                      m[8] * d[0] + m[9] * d[1] + m[10] * d[2]};
         };
         const Camera& camera = view.camera;
         camera.validate();
-        if (!(view.lodScale > 0)) throw UsageError("streaming view: the LOD scale must be positive");
+        if (!(view.lodScale > 0))
+            throw UsageError("streaming view: the LOD scale must be positive");
         eye = point(camera.eye);
         const V3 forward = unit(direction(sub(camera.target, camera.eye)));
         const V3 right = unit(cross(forward, unit(direction(camera.up))));
         const V3 up = cross(right, forward);
         const double ty = std::tan(0.5 * camera.fovYDegrees * kPi / 180);
         const double tx = ty * double(camera.width) / double(camera.height);
-        planes = {forward, sub(scale(forward, tx), right), add(scale(forward, tx), right), sub(scale(forward, ty), up), add(scale(forward, ty), up)};
+        planes = {forward, sub(scale(forward, tx), right), add(scale(forward, tx), right),
+                  sub(scale(forward, ty), up), add(scale(forward, ty), up)};
         pixelAngle = camera.pixelAngle();
         lodScale = view.lodScale;
     }
@@ -66,7 +73,8 @@ struct RootView {
         const V3 lo{double(r.x) * s, double(r.y) * s, double(r.z) * s};
         for (const V3& n : planes) {
             // The corner furthest along n.
-            const V3 corner{n[0] > 0 ? lo[0] + s : lo[0], n[1] > 0 ? lo[1] + s : lo[1], n[2] > 0 ? lo[2] + s : lo[2]};
+            const V3 corner{n[0] > 0 ? lo[0] + s : lo[0], n[1] > 0 ? lo[1] + s : lo[1],
+                            n[2] > 0 ? lo[2] + s : lo[2]};
             if (dot(n, sub(corner, eye)) < 0) return false;
         }
         return true;
@@ -87,7 +95,8 @@ struct RootView {
     /// a negative value where the slice is not needed.
     [[nodiscard]] double need(const esvo::SliceEntry& entry, const SliceRegion& region) const {
         if (!sees(region)) return -1;
-        const double voxel = 1.0 / double(std::uint64_t{1} << std::min<std::uint32_t>(entry.firstLevel, 62));
+        const double voxel =
+            1.0 / double(std::uint64_t{1} << std::min<std::uint32_t>(entry.firstLevel, 62));
         const double d = distance(region);
         const double angle = d > 0 ? voxel / d : std::numeric_limits<double>::infinity();
         return angle > lodScale * pixelAngle ? angle : -1;
@@ -101,12 +110,16 @@ std::vector<SliceRegion> sliceRegions(const esvo::Directory& directory) {
     for (std::size_t i = 1; i < directory.slices.size(); ++i) {
         const esvo::SliceEntry& e = directory.slices[i];
         // Parents come before their children in the directory (docs/esvo-format.md).
-        // Parents precede their children (the readers check it); a directory built otherwise is a bug.
-        if (e.parent >= i) throw std::logic_error("sliceRegions: slice " + std::to_string(i) + " comes before its parent");
+        // Parents precede their children (the readers check it); a directory built otherwise is a
+        // bug.
+        if (e.parent >= i)
+            throw std::logic_error("sliceRegions: slice " + std::to_string(i) +
+                                   " comes before its parent");
         SliceRegion r = regions[e.parent];
         for (std::uint32_t k = 0; k < e.pathLevels; ++k) {
             const auto octant = std::uint32_t((e.regionPath >> (3 * (e.pathLevels - 1 - k))) & 7u);
-            r = {r.level + 1, 2 * r.x + (octant & 1u), 2 * r.y + ((octant >> 1) & 1u), 2 * r.z + ((octant >> 2) & 1u)};
+            r = {r.level + 1, 2 * r.x + (octant & 1u), 2 * r.y + ((octant >> 1) & 1u),
+                 2 * r.z + ((octant >> 2) & 1u)};
         }
         regions[i] = r;
     }
@@ -114,14 +127,18 @@ std::vector<SliceRegion> sliceRegions(const esvo::Directory& directory) {
 }
 
 std::uint64_t residentBytesOf(const esvo::SliceEntry& entry) noexcept {
-    return (std::uint64_t{entry.byteSize} + esvo::kPageBytes - 1) / esvo::kPageBytes * esvo::kPageBytes;
+    return (std::uint64_t{entry.byteSize} + esvo::kPageBytes - 1) / esvo::kPageBytes *
+           esvo::kPageBytes;
 }
 
-SliceSelection selectSlices(const esvo::EsvoReader& reader, const std::vector<SliceRegion>& regions, const StreamingView& view,
-                            std::uint64_t budgetBytes, const std::vector<char>* excluded) {
+SliceSelection selectSlices(const esvo::EsvoReader& reader, const std::vector<SliceRegion>& regions,
+                            const StreamingView& view, std::uint64_t budgetBytes,
+                            const std::vector<char>* excluded) {
     const esvo::Directory& directory = reader.directory();
-    if (regions.size() != directory.slices.size()) throw UsageError("selectSlices: one region per slice");
-    if (excluded != nullptr && excluded->size() != directory.slices.size()) throw UsageError("selectSlices: one exclusion flag per slice");
+    if (regions.size() != directory.slices.size())
+        throw UsageError("selectSlices: one region per slice");
+    if (excluded != nullptr && excluded->size() != directory.slices.size())
+        throw UsageError("selectSlices: one exclusion flag per slice");
     const RootView root(reader.header(), view);
     SliceSelection out;
     if (directory.slices.empty()) return out;
@@ -129,12 +146,16 @@ SliceSelection selectSlices(const esvo::EsvoReader& reader, const std::vector<Sl
     out.bytes = residentBytesOf(directory.slices[0]);
     // Largest angular size first; ties to the lower index.
     using Candidate = std::pair<double, std::uint32_t>;
-    const auto later = [](const Candidate& a, const Candidate& b) { return std::tie(a.first, b.second) < std::tie(b.first, a.second); };
+    const auto later = [](const Candidate& a, const Candidate& b) {
+        return std::tie(a.first, b.second) < std::tie(b.first, a.second);
+    };
     std::priority_queue<Candidate, std::vector<Candidate>, decltype(later)> queue(later);
     const auto offerChildren = [&](std::uint32_t slice) {
         const esvo::SliceEntry& e = directory.slices[slice];
-        for (std::uint32_t c = e.firstChild; c < e.firstChild + e.childCount && c < directory.slices.size(); ++c) {
-            if (excluded != nullptr && (*excluded)[c]) continue;  // nor is anything below it offered
+        for (std::uint32_t c = e.firstChild;
+             c < e.firstChild + e.childCount && c < directory.slices.size(); ++c) {
+            if (excluded != nullptr && (*excluded)[c])
+                continue;  // nor is anything below it offered
             const double angle = root.need(directory.slices[c], regions[c]);
             if (angle > 0) queue.push({angle, c});
         }
@@ -158,7 +179,10 @@ SliceSelection selectSlices(const esvo::EsvoReader& reader, const std::vector<Sl
 }
 
 SliceResidency::SliceResidency(esvo::EsvoPool& pool, std::uint64_t budgetBytes)
-    : pool_(pool), regions_(sliceRegions(pool.reader().directory())), lastUsed_(regions_.size(), 0), bad_(regions_.size(), 0),
+    : pool_(pool),
+      regions_(sliceRegions(pool.reader().directory())),
+      lastUsed_(regions_.size(), 0),
+      bad_(regions_.size(), 0),
       budget_(budgetBytes) {}
 
 SliceResidency::Update SliceResidency::update(const StreamingView& view) {
@@ -177,8 +201,9 @@ SliceResidency::Update SliceResidency::update(const StreamingView& view) {
     while (pool_.residentBytes() + missing > budget_) {
         std::uint32_t victim = 0;
         for (std::uint32_t s = 1; s < count; ++s)
-            if (pool_.loaded(s) && !selected[s] && (victim == 0 || lastUsed_[s] < lastUsed_[victim] ||
-                                                    (lastUsed_[s] == lastUsed_[victim] && s > victim)))
+            if (pool_.loaded(s) && !selected[s] &&
+                (victim == 0 || lastUsed_[s] < lastUsed_[victim] ||
+                 (lastUsed_[s] == lastUsed_[victim] && s > victim)))
                 victim = s;
         if (victim == 0) break;  // only the selection is left: it fits by construction
         std::vector<std::uint32_t> before;
@@ -195,30 +220,37 @@ SliceResidency::Update SliceResidency::update(const StreamingView& view) {
         if (pool_.loaded(s)) continue;
         const std::uint32_t parent = s == 0 ? 0 : pool_.reader().slice(s).parent;
         if (s != 0 && bad_[parent]) {
-            bad_[s] = 2;  // below a slice that failed in this update: not bad itself, just unreachable
+            bad_[s] =
+                2;  // below a slice that failed in this update: not bad itself, just unreachable
             continue;
         }
         const std::uint64_t bytes = residentBytesOf(pool_.reader().slice(s));
         const bool parentReady = s == 0 || pool_.loaded(parent);
-        if (!parentReady || (frameLimit_ > 0 && !out.loaded.empty() && out.loadedBytes + bytes > frameLimit_)) {
+        if (!parentReady ||
+            (frameLimit_ > 0 && !out.loaded.empty() && out.loadedBytes + bytes > frameLimit_)) {
             ++out.pending;
             continue;
         }
         try {
             pool_.load(s);
         } catch (const Error& e) {
-            if (dynamic_cast<const InvalidDataError*>(&e) == nullptr && dynamic_cast<const IoError*>(&e) == nullptr) throw;
+            if (dynamic_cast<const InvalidDataError*>(&e) == nullptr &&
+                dynamic_cast<const IoError*>(&e) == nullptr)
+                throw;
             bad_[s] = 1;
             badList_.push_back(s);
             out.failed.push_back(s);
             const esvo::SliceEntry& entry = pool_.reader().slice(s);
             std::string problem = e.what();
             const std::string path = pool_.reader().path().string();
-            if (problem.rfind(path + ": ", 0) == 0) problem.erase(0, path.size() + 2);  // named once, in front
-            out.errors.push_back(path + ": slice " + std::to_string(s) + " (levels " +
-                                 std::to_string(entry.firstLevel) + "-" + std::to_string(entry.endLevel) + ", " +
-                                 std::to_string(entry.byteSize) + " bytes at file offset " + std::to_string(entry.fileOffset) +
-                                 ") rejected, not loaded again; rays stop at its parent there: " + problem);
+            if (problem.rfind(path + ": ", 0) == 0)
+                problem.erase(0, path.size() + 2);  // named once, in front
+            out.errors.push_back(
+                path + ": slice " + std::to_string(s) + " (levels " +
+                std::to_string(entry.firstLevel) + "-" + std::to_string(entry.endLevel) + ", " +
+                std::to_string(entry.byteSize) + " bytes at file offset " +
+                std::to_string(entry.fileOffset) +
+                ") rejected, not loaded again; rays stop at its parent there: " + problem);
             continue;
         }
         out.loaded.push_back(s);

@@ -9,7 +9,8 @@
 
 namespace vox::runtime {
 
-UploadRing::UploadRing(GlContext& context, std::uint64_t ringBytes, UploadPath path) : context_(context), path_(path) {
+UploadRing::UploadRing(GlContext& context, std::uint64_t ringBytes, UploadPath path)
+    : context_(context), path_(path) {
     if (path_ == UploadPath::BufferSubData) return;
     size_ = std::max<std::uint64_t>((ringBytes + 255) / 256 * 256, 4096);
     constexpr GLbitfield flags = GL_MAP_WRITE_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT;
@@ -18,7 +19,8 @@ UploadRing::UploadRing(GlContext& context, std::uint64_t ringBytes, UploadPath p
     glNamedBufferStorage(ring_, GLsizeiptr(size_), nullptr, flags);
     mapped_ = static_cast<std::byte*>(glMapNamedBufferRange(ring_, 0, GLsizeiptr(size_), flags));
     context_.throwOnErrors("upload ring");
-    if (mapped_ == nullptr) throw RuntimeError("upload ring: the staging buffer could not be mapped persistently");
+    if (mapped_ == nullptr)
+        throw RuntimeError("upload ring: the staging buffer could not be mapped persistently");
 }
 
 UploadRing::~UploadRing() {
@@ -37,8 +39,8 @@ void UploadRing::waitFor(std::uint64_t begin, std::uint64_t end) {
             const GLsync sync = static_cast<GLsync>(it->sync);
             if (glClientWaitSync(sync, 0, 0) == GL_TIMEOUT_EXPIRED) {
                 ++waits_;
-                while (glClientWaitSync(sync, GL_SYNC_FLUSH_COMMANDS_BIT, 1'000'000'000) == GL_TIMEOUT_EXPIRED) {
-                }
+                while (glClientWaitSync(sync, GL_SYNC_FLUSH_COMMANDS_BIT, 1'000'000'000) ==
+                       GL_TIMEOUT_EXPIRED) {}
             }
             glDeleteSync(sync);
         } else {
@@ -49,7 +51,8 @@ void UploadRing::waitFor(std::uint64_t begin, std::uint64_t end) {
 }
 
 void UploadRing::closeSegment() {
-    if (head_ > segmentStart_) fences_.push_back({segmentStart_, head_, glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0)});
+    if (head_ > segmentStart_)
+        fences_.push_back({segmentStart_, head_, glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0)});
     segmentStart_ = head_;
 }
 
@@ -69,7 +72,8 @@ void UploadRing::upload(unsigned target, std::uint64_t offset, std::span<const s
         }
         waitFor(head_, head_ + n);
         std::memcpy(mapped_ + head_, data.data() + done, n);
-        glCopyNamedBufferSubData(ring_, target, GLintptr(head_), GLintptr(offset + done), GLsizeiptr(n));
+        glCopyNamedBufferSubData(ring_, target, GLintptr(head_), GLintptr(offset + done),
+                                 GLsizeiptr(n));
         // Keep parts 256-byte aligned in the ring.
         head_ += (n + 255) / 256 * 256;
         done += n;

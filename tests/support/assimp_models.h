@@ -9,11 +9,11 @@
 namespace vox::test {
 
 struct ModelCase {
-    const char* path;              ///< under /usr/share/assimp/models
-    std::size_t triangles;         ///< kept triangles (valid files)
-    std::size_t degenerate = 0;    ///< degenerate triangles dropped
+    const char* path;            ///< under /usr/share/assimp/models
+    std::size_t triangles;       ///< kept triangles (valid files)
+    std::size_t degenerate = 0;  ///< degenerate triangles dropped
     vox::ExitCode error = vox::ExitCode::Ok;
-    const char* message = "";      ///< text the error must contain
+    const char* message = "";  ///< text the error must contain
 };
 
 inline const ModelCase kAssimpModels[] = {
@@ -40,25 +40,39 @@ inline const ModelCase kAssimpModels[] = {
     {"glTF2/glTF-Asset-Generator/Mesh_PrimitiveMode/Mesh_PrimitiveMode_13.gltf", 2},
     {"glTF2/glTF-Asset-Generator/Mesh_PrimitiveMode/Mesh_PrimitiveMode_14.gltf", 2},
     {"glTF2/glTF-Asset-Generator/Mesh_PrimitiveMode/Mesh_PrimitiveMode_15.gltf", 2},
-    {"glTF2/glTF-Asset-Generator/Mesh_PrimitiveMode/Mesh_PrimitiveMode_00.gltf", 0, 0, vox::ExitCode::InvalidData, "no triangles"},
-    {"glTF2/glTF-Asset-Generator/Mesh_PrimitiveMode/Mesh_PrimitiveMode_08.gltf", 0, 0, vox::ExitCode::InvalidData, "no triangles"},
+    {"glTF2/glTF-Asset-Generator/Mesh_PrimitiveMode/Mesh_PrimitiveMode_00.gltf", 0, 0,
+     vox::ExitCode::InvalidData, "no triangles"},
+    {"glTF2/glTF-Asset-Generator/Mesh_PrimitiveMode/Mesh_PrimitiveMode_08.gltf", 0, 0,
+     vox::ExitCode::InvalidData, "no triangles"},
     // glTF 2.0, deliberately broken
-    {"glTF2/wrongTypes/badArray.gltf", 0, 0, vox::ExitCode::InvalidData, "meshes[0].primitives: expected an array"},
-    {"glTF2/wrongTypes/badExtension.gltf", 0, 0, vox::ExitCode::InvalidData, "KHR_texture_transform: expected an object"},
-    {"glTF2/wrongTypes/badNumber.gltf", 0, 0, vox::ExitCode::InvalidData, "materials[0].normalTexture"},
-    {"glTF2/wrongTypes/badObject.gltf", 0, 0, vox::ExitCode::InvalidData, "pbrMetallicRoughness: expected an object"},
-    {"glTF2/wrongTypes/badString.gltf", 0, 0, vox::ExitCode::InvalidData, "scenes[0].name: expected a string"},
+    {"glTF2/wrongTypes/badArray.gltf", 0, 0, vox::ExitCode::InvalidData,
+     "meshes[0].primitives: expected an array"},
+    {"glTF2/wrongTypes/badExtension.gltf", 0, 0, vox::ExitCode::InvalidData,
+     "KHR_texture_transform: expected an object"},
+    {"glTF2/wrongTypes/badNumber.gltf", 0, 0, vox::ExitCode::InvalidData,
+     "materials[0].normalTexture"},
+    {"glTF2/wrongTypes/badObject.gltf", 0, 0, vox::ExitCode::InvalidData,
+     "pbrMetallicRoughness: expected an object"},
+    {"glTF2/wrongTypes/badString.gltf", 0, 0, vox::ExitCode::InvalidData,
+     "scenes[0].name: expected a string"},
     {"glTF2/wrongTypes/badUint.gltf", 0, 0, vox::ExitCode::InvalidData, "index -1 out of range"},
-    {"glTF2/IndexOutOfRange/IndexOutOfRange.gltf", 0, 0, vox::ExitCode::InvalidData, "vertex index 255 out of range"},
-    {"glTF2/IndexOutOfRange/AllIndicesOutOfRange.gltf", 0, 0, vox::ExitCode::InvalidData, "out of range"},
-    {"glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb", 0, 0, vox::ExitCode::InvalidData, "non-finite position"},
+    {"glTF2/IndexOutOfRange/IndexOutOfRange.gltf", 0, 0, vox::ExitCode::InvalidData,
+     "vertex index 255 out of range"},
+    {"glTF2/IndexOutOfRange/AllIndicesOutOfRange.gltf", 0, 0, vox::ExitCode::InvalidData,
+     "out of range"},
+    {"glTF2/BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb", 0, 0, vox::ExitCode::InvalidData,
+     "non-finite position"},
     {"glTF2/MissingBin/BoxTextured.gltf", 0, 0, vox::ExitCode::Io, "BoxTextured0.bin"},
     {"glTF2/RecursiveNodes/RecursiveNodes.gltf", 0, 0, vox::ExitCode::InvalidData, "cycle"},
-    {"glTF2/TestNoRootNode/NoScene.gltf", 0, 0, vox::ExitCode::InvalidData, "scene: index 0 out of range"},
-    {"glTF2/TestNoRootNode/SceneWithoutNodes.gltf", 0, 0, vox::ExitCode::InvalidData, "no triangles"},
+    {"glTF2/TestNoRootNode/NoScene.gltf", 0, 0, vox::ExitCode::InvalidData,
+     "scene: index 0 out of range"},
+    {"glTF2/TestNoRootNode/SceneWithoutNodes.gltf", 0, 0, vox::ExitCode::InvalidData,
+     "no triangles"},
     {"glTF2/IncorrectVertexArrays/Cube.gltf", 0, 0, vox::ExitCode::InvalidData, "exceed buffer 0"},
-    {"glTF2/SchemaFailures/sceneWrongType.gltf", 0, 0, vox::ExitCode::InvalidData, "scene: expected an integer"},
-    {"glTF2/BoxTextured-glTF-techniqueWebGL/BoxTextured.gltf", 0, 0, vox::ExitCode::InvalidData, "KHR_technique_webgl"},
+    {"glTF2/SchemaFailures/sceneWrongType.gltf", 0, 0, vox::ExitCode::InvalidData,
+     "scene: expected an integer"},
+    {"glTF2/BoxTextured-glTF-techniqueWebGL/BoxTextured.gltf", 0, 0, vox::ExitCode::InvalidData,
+     "KHR_technique_webgl"},
     // OBJ
     {"OBJ/WusonOBJ.obj", 3732},
     {"OBJ/spider.obj", 1312, 56},
@@ -77,7 +91,8 @@ inline const ModelCase kAssimpModels[] = {
     {"OBJ/space_in_material_name.obj", 64},
     {"OBJ/testmixed.obj", 12},
     {"OBJ/box_UTF16BE.obj", 0, 0, vox::ExitCode::InvalidData, "UTF-16"},
-    {"OBJ/number_formats.obj", 0, 0, vox::ExitCode::InvalidData, "line 11: malformed number '3.1+e2'"},
+    {"OBJ/number_formats.obj", 0, 0, vox::ExitCode::InvalidData,
+     "line 11: malformed number '3.1+e2'"},
     {"OBJ/point_cloud.obj", 0, 0, vox::ExitCode::InvalidData, "no triangles"},
     {"OBJ/testline.obj", 0, 0, vox::ExitCode::InvalidData, "no triangles"},
     {"OBJ/testpoints.obj", 0, 0, vox::ExitCode::InvalidData, "no triangles"},
@@ -109,7 +124,8 @@ inline const ModelCase kAssimpModels[] = {
     {"invalid/empty.obj", 0, 0, vox::ExitCode::InvalidData, "is empty"},
     {"invalid/empty.off", 0, 0, vox::ExitCode::InvalidData, "is empty"},
     {"invalid/empty.ply", 0, 0, vox::ExitCode::InvalidData, "is empty"},
-    {"invalid/malformed.obj", 0, 0, vox::ExitCode::InvalidData, "line 23: vertex index 12 out of range"},
+    {"invalid/malformed.obj", 0, 0, vox::ExitCode::InvalidData,
+     "line 23: vertex index 12 out of range"},
     {"invalid/malformed2.obj", 10},
     {"invalid/empty.3ds", 0, 0, vox::ExitCode::InvalidData, "unsupported file type '.3ds'"},
 };

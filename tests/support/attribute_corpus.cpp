@@ -43,7 +43,8 @@ Vec3 randomDirection(std::mt19937& rng) {
 }
 
 double angle(const Vec3& a, const Vec3& b) {
-    const double cx = double(a[1]) * b[2] - double(a[2]) * b[1], cy = double(a[2]) * b[0] - double(a[0]) * b[2],
+    const double cx = double(a[1]) * b[2] - double(a[2]) * b[1],
+                 cy = double(a[2]) * b[0] - double(a[0]) * b[2],
                  cz = double(a[0]) * b[1] - double(a[1]) * b[0];
     const double dot = double(a[0]) * b[0] + double(a[1]) * b[1] + double(a[2]) * b[2];
     return std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), dot);
@@ -53,22 +54,27 @@ std::array<Vec3, 16> randomCone(std::mt19937& rng, double halfAngle) {
     const Vec3 axis = randomDirection(rng);
     // An orthonormal basis around the axis.
     const Vec3 helper = std::fabs(axis[0]) < 0.9f ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-    const Vec3 t1 = normalised(axis[1] * helper[2] - axis[2] * helper[1], axis[2] * helper[0] - axis[0] * helper[2],
+    const Vec3 t1 = normalised(axis[1] * helper[2] - axis[2] * helper[1],
+                               axis[2] * helper[0] - axis[0] * helper[2],
                                axis[0] * helper[1] - axis[1] * helper[0]);
-    const Vec3 t2{axis[1] * t1[2] - axis[2] * t1[1], axis[2] * t1[0] - axis[0] * t1[2], axis[0] * t1[1] - axis[1] * t1[0]};
+    const Vec3 t2{axis[1] * t1[2] - axis[2] * t1[1], axis[2] * t1[0] - axis[0] * t1[2],
+                  axis[0] * t1[1] - axis[1] * t1[0]};
     std::uniform_real_distribution<double> unit(0, 1);
     std::array<Vec3, 16> normals{};
     for (auto& n : normals) {
-        const double cosTheta = 1 - unit(rng) * (1 - std::cos(halfAngle)), sinTheta = std::sqrt(1 - cosTheta * cosTheta);
+        const double cosTheta = 1 - unit(rng) * (1 - std::cos(halfAngle)),
+                     sinTheta = std::sqrt(1 - cosTheta * cosTheta);
         const double phi = 2 * std::numbers::pi * unit(rng);
         const double a = sinTheta * std::cos(phi), b = sinTheta * std::sin(phi);
-        n = normalised(cosTheta * axis[0] + a * t1[0] + b * t2[0], cosTheta * axis[1] + a * t1[1] + b * t2[1],
+        n = normalised(cosTheta * axis[0] + a * t1[0] + b * t2[0],
+                       cosTheta * axis[1] + a * t1[1] + b * t2[1],
                        cosTheta * axis[2] + a * t1[2] + b * t2[2]);
     }
     return normals;
 }
 
-std::vector<ColorBlock> textureTiles(std::span<const std::filesystem::path> files, std::size_t perTexture, std::vector<std::string>* used) {
+std::vector<ColorBlock> textureTiles(std::span<const std::filesystem::path> files,
+                                     std::size_t perTexture, std::vector<std::string>* used) {
     std::vector<ColorBlock> tiles;
     for (const std::filesystem::path& path : files) {
         if (!std::filesystem::exists(path)) continue;
@@ -78,12 +84,15 @@ std::vector<ColorBlock> textureTiles(std::span<const std::filesystem::path> file
         const std::size_t total = static_cast<std::size_t>(tx) * static_cast<std::size_t>(ty);
         const std::size_t stride = std::max<std::size_t>(1, total / perTexture) | 1;
         for (std::size_t t = 0; t < total; t += stride) {
-            const int x0 = static_cast<int>(t % static_cast<std::size_t>(tx)) * 4, y0 = static_cast<int>(t / static_cast<std::size_t>(tx)) * 4;
+            const int x0 = static_cast<int>(t % static_cast<std::size_t>(tx)) * 4,
+                      y0 = static_cast<int>(t / static_cast<std::size_t>(tx)) * 4;
             ColorBlock b;
             for (unsigned s = 0; s < 16; ++s) {
-                const Vec4f c = texture.texel(0, x0 + static_cast<int>(s % 4), y0 + static_cast<int>(s / 4));
+                const Vec4f c =
+                    texture.texel(0, x0 + static_cast<int>(s % 4), y0 + static_cast<int>(s / 4));
                 const auto byte = [](float linear) {
-                    return static_cast<std::uint32_t>(std::lround(std::clamp(linearToSrgb(linear), 0.0f, 1.0f) * 255.0f));
+                    return static_cast<std::uint32_t>(
+                        std::lround(std::clamp(linearToSrgb(linear), 0.0f, 1.0f) * 255.0f));
                 };
                 b.colors[s] = esvo::packColor(byte(c.x), byte(c.y), byte(c.z));
             }
@@ -99,13 +108,15 @@ std::array<std::uint32_t, 2> stbEncode(const ColorBlock& b, bool highQuality) {
     unsigned char rgba[64];
     for (unsigned s = 0; s < 16; ++s) {
         const std::uint32_t c = ((b.mask >> s) & 1u) ? b.colors[s] : b.colors[first];
-        for (unsigned ch = 0; ch < 3; ++ch) rgba[4 * s + ch] = static_cast<unsigned char>(esvo::colorChannel(c, ch));
+        for (unsigned ch = 0; ch < 3; ++ch)
+            rgba[4 * s + ch] = static_cast<unsigned char>(esvo::colorChannel(c, ch));
         rgba[4 * s + 3] = 255;
     }
     unsigned char out[8];
     stb_compress_dxt_block(out, rgba, 0, highQuality ? STB_DXT_HIGHQUAL : STB_DXT_NORMAL);
     const auto word = [&](unsigned o) {
-        return std::uint32_t{out[o]} | (std::uint32_t{out[o + 1]} << 8) | (std::uint32_t{out[o + 2]} << 16) | (std::uint32_t{out[o + 3]} << 24);
+        return std::uint32_t{out[o]} | (std::uint32_t{out[o + 1]} << 8) |
+               (std::uint32_t{out[o + 2]} << 16) | (std::uint32_t{out[o + 3]} << 24);
     };
     return {word(0), word(4)};
 }
@@ -114,9 +125,11 @@ std::vector<SceneBlock> sceneBlocks(const SparseOctree& octree) {
     std::vector<std::vector<std::uint64_t>> firstChild(octree.leafDepth);
     for (std::uint32_t l = 0; l < octree.leafDepth; ++l) {
         std::uint64_t sum = 0;
-        for (std::uint8_t m : octree.masks[l]) firstChild[l].push_back(sum), sum += static_cast<unsigned>(std::popcount(unsigned(m)));
+        for (std::uint8_t m : octree.masks[l])
+            firstChild[l].push_back(sum), sum += static_cast<unsigned>(std::popcount(unsigned(m)));
     }
-    const auto fill = [&](std::uint32_t level, std::uint64_t index, unsigned base, SceneBlock& block) {
+    const auto fill = [&](std::uint32_t level, std::uint64_t index, unsigned base,
+                          SceneBlock& block) {
         const std::uint32_t valid = octree.masks[level][index];
         std::uint64_t child = firstChild[level][index];
         for (unsigned slot = 0; slot < 8; ++slot)

@@ -35,7 +35,8 @@ struct ColorBlock {
 
 /// 4×4 tiles of the texture @p files (sRGB bytes as stored), at most about @p perTexture per
 /// texture, spread over it. Files that do not exist are skipped; @p used lists those read.
-[[nodiscard]] std::vector<ColorBlock> textureTiles(std::span<const std::filesystem::path> files, std::size_t perTexture,
+[[nodiscard]] std::vector<ColorBlock> textureTiles(std::span<const std::filesystem::path> files,
+                                                   std::size_t perTexture,
                                                    std::vector<std::string>* used = nullptr);
 
 /// A compressed attribute block's 16 slots as writeEsvo fills them from an octree: values as

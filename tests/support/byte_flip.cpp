@@ -29,7 +29,8 @@ void addUnit(FlipRegion& region, std::uint64_t begin, std::uint64_t end) {
 /// The bytes of the file no region covers.
 FlipRegion gapsOf(const std::vector<FlipRegion>& regions, std::uint64_t fileBytes) {
     ByteRanges covered;
-    for (const FlipRegion& r : regions) covered.insert(covered.end(), r.ranges.begin(), r.ranges.end());
+    for (const FlipRegion& r : regions)
+        covered.insert(covered.end(), r.ranges.begin(), r.ranges.end());
     std::sort(covered.begin(), covered.end());
     FlipRegion gaps{"gaps", {}, {}, false};
     std::uint64_t at = 0;
@@ -62,27 +63,38 @@ std::vector<FlipRegion> flipRegionsOf(const fs::path& file, const FlipRegionOpti
         const auto& h = reader.header();
         regions.push_back({"header", {{0, vox::rvol::kHeaderBytes}}, {}, true});
         regions.push_back({"directory",
-                           {{h.levelTableOffset, h.levelTableOffset + h.levelTableBytes}, {h.directoryOffset, h.directoryOffset + h.directoryBytes}},
-                           {}, true});
+                           {{h.levelTableOffset, h.levelTableOffset + h.levelTableBytes},
+                            {h.directoryOffset, h.directoryOffset + h.directoryBytes}},
+                           {},
+                           true});
         FlipRegion bricks{"bricks", {}, {}, false};
         for (std::uint32_t l = 0; l < reader.levels().size(); ++l) {
             const auto& level = reader.level(l);
             if (level.brickCount == 0) continue;
-            bricks.ranges.push_back({level.dataOffset, level.dataOffset + std::uint64_t{level.brickCount} * level.brickBytes});
-            for (std::uint32_t b = 0; b < level.brickCount; ++b) bricks.units.push_back({reader.brickOffset(l, b), reader.brickOffset(l, b) + level.brickBytes});
+            bricks.ranges.push_back(
+                {level.dataOffset,
+                 level.dataOffset + std::uint64_t{level.brickCount} * level.brickBytes});
+            for (std::uint32_t b = 0; b < level.brickCount; ++b)
+                bricks.units.push_back(
+                    {reader.brickOffset(l, b), reader.brickOffset(l, b) + level.brickBytes});
         }
         regions.push_back(bricks);
         FlipRegion attributes{"attributes", {}, {}, false};
-        for (const auto& [offset, bytes] : {std::pair{h.staticAttributesOffset, h.staticAttributesBytes}, std::pair{h.dynamicAttributesOffset, h.dynamicAttributesBytes}})
+        for (const auto& [offset, bytes] :
+             {std::pair{h.staticAttributesOffset, h.staticAttributesBytes},
+              std::pair{h.dynamicAttributesOffset, h.dynamicAttributesBytes}})
             if (bytes > 0) addUnit(attributes, offset, offset + bytes);
         regions.push_back(attributes);
     } else {
         const vox::esvo::EsvoReader reader(file);
         const auto& h = reader.header();
         regions.push_back({"header", {{0, vox::esvo::kHeaderBytes}}, {}, true});
-        regions.push_back({"directory", {{h.directoryOffset, h.directoryOffset + h.directoryBytes}}, {}, true});
+        regions.push_back(
+            {"directory", {{h.directoryOffset, h.directoryOffset + h.directoryBytes}}, {}, true});
         FlipRegion slices{"slices", {}, {}, false};
-        for (std::uint32_t s = 0; s < reader.sliceCount(); ++s) addUnit(slices, reader.slice(s).fileOffset, reader.slice(s).fileOffset + reader.slice(s).byteSize);
+        for (std::uint32_t s = 0; s < reader.sliceCount(); ++s)
+            addUnit(slices, reader.slice(s).fileOffset,
+                    reader.slice(s).fileOffset + reader.slice(s).byteSize);
         regions.push_back(slices);
     }
     if (options.oneDataRegion) {
@@ -109,7 +121,8 @@ std::uint64_t byteCount(const FlipRegion& region) {
 std::vector<std::uint64_t> flipOffsetsOf(const FlipRegion& region, std::uint64_t samples) {
     std::set<std::uint64_t> out;
     const std::uint64_t bytes = byteCount(region);
-    const std::uint64_t stride = region.everyByte || bytes <= samples ? 1 : (bytes + samples - 1) / samples;
+    const std::uint64_t stride =
+        region.everyByte || bytes <= samples ? 1 : (bytes + samples - 1) / samples;
     std::uint64_t seen = 0;
     for (const auto& [b, e] : region.ranges)
         for (std::uint64_t o = b; o < e; ++o, ++seen)
@@ -126,7 +139,8 @@ std::vector<ByteFlip> byteFlipsOf(const FlipRegion& region, std::uint64_t sample
     return flips;
 }
 
-std::vector<FlipOutcome> flipAndValidate(const fs::path& file, const std::vector<ByteFlip>& flips, unsigned timeoutSeconds) {
+std::vector<FlipOutcome> flipAndValidate(const fs::path& file, const std::vector<ByteFlip>& flips,
+                                         unsigned timeoutSeconds) {
     std::vector<FlipOutcome> out;
     while (out.size() < flips.size()) {
         int fds[2];
@@ -173,16 +187,20 @@ std::vector<FlipOutcome> flipAndValidate(const fs::path& file, const std::vector
         while (waitpid(pid, &status, 0) < 0)
             if (errno != EINTR) break;
         if (out.size() < flips.size()) {
-            if (WIFEXITED(status) && WEXITSTATUS(status) == 100) return out;  // the file itself failed: the caller sees a short result
+            if (WIFEXITED(status) && WEXITSTATUS(status) == 100)
+                return out;  // the file itself failed: the caller sees a short result
             // The flip in progress crashed or hung; the file still holds it: restore the byte.
             const auto [offset, mask] = flips[out.size()];
             const int fd = open(file.c_str(), O_RDWR);
             if (fd < 0) return out;
             std::uint8_t b = 0;
-            const bool restored = pread(fd, &b, 1, off_t(offset)) == 1 && (b = std::uint8_t(b ^ mask), pwrite(fd, &b, 1, off_t(offset)) == 1);
+            const bool restored =
+                pread(fd, &b, 1, off_t(offset)) == 1 &&
+                (b = std::uint8_t(b ^ mask), pwrite(fd, &b, 1, off_t(offset)) == 1);
             close(fd);
             if (!restored) return out;
-            out.push_back(WIFSIGNALED(status) && WTERMSIG(status) == SIGALRM ? kTimedOut : kCrashed);
+            out.push_back(WIFSIGNALED(status) && WTERMSIG(status) == SIGALRM ? kTimedOut
+                                                                             : kCrashed);
         }
         if (out.size() == first) return out;  // no progress
     }

@@ -15,13 +15,15 @@ using ByteRanges = std::vector<std::pair<std::uint64_t, std::uint64_t>>;  // [be
 /// A part of a file to flip bytes in.
 struct FlipRegion {
     std::string name;
-    ByteRanges ranges;        // the bytes of the region
-    ByteRanges units;         // slices / bricks / attribute layers: their first and last bytes are always flipped
-    bool everyByte = false;   // header and directory: every byte, not a sample
+    ByteRanges ranges;  // the bytes of the region
+    ByteRanges
+        units;  // slices / bricks / attribute layers: their first and last bytes are always flipped
+    bool everyByte = false;  // header and directory: every byte, not a sample
 };
 
 struct FlipRegionOptions {
-    /// One region "data" for all data units; otherwise .esvo "slices", .rvol "bricks" and "attributes".
+    /// One region "data" for all data units; otherwise .esvo "slices", .rvol "bricks" and
+    /// "attributes".
     bool oneDataRegion = false;
     /// A last region "gaps": the bytes no other region covers (alignment padding). Readers need not
     /// check them (docs/esvo-format.md), so flips there may go undetected.
@@ -37,14 +39,16 @@ void validateFlipTarget(const std::filesystem::path& file);
 
 /// The regions of @p file: header, directory (the .rvol level table included), the data units,
 /// and optionally the gaps between them.
-[[nodiscard]] std::vector<FlipRegion> flipRegionsOf(const std::filesystem::path& file, const FlipRegionOptions& options = {});
+[[nodiscard]] std::vector<FlipRegion> flipRegionsOf(const std::filesystem::path& file,
+                                                    const FlipRegionOptions& options = {});
 
 /// The number of bytes of @p region.
 [[nodiscard]] std::uint64_t byteCount(const FlipRegion& region);
 
 /// The offsets of @p region to flip, ascending: all of them (everyByte, or at most @p samples
 /// bytes), or every k-th (k chosen for about @p samples) plus each unit's first and last byte.
-[[nodiscard]] std::vector<std::uint64_t> flipOffsetsOf(const FlipRegion& region, std::uint64_t samples);
+[[nodiscard]] std::vector<std::uint64_t> flipOffsetsOf(const FlipRegion& region,
+                                                       std::uint64_t samples);
 
 struct ByteFlip {
     std::uint64_t offset = 0;
@@ -54,7 +58,13 @@ struct ByteFlip {
 /// flipOffsetsOf(@p region, @p samples), each offset flipped twice: XOR 0xFF, then XOR 0x01.
 [[nodiscard]] std::vector<ByteFlip> byteFlipsOf(const FlipRegion& region, std::uint64_t samples);
 
-enum FlipOutcome : int { kDetected = 0, kUndetected = 1, kOtherException = 2, kCrashed = 3, kTimedOut = 4 };
+enum FlipOutcome : int {
+    kDetected = 0,
+    kUndetected = 1,
+    kOtherException = 2,
+    kCrashed = 3,
+    kTimedOut = 4
+};
 inline constexpr int kFlipOutcomes = 5;
 
 /// Flips the bytes of @p file (which it changes, and restores after each flip) one at a time,
@@ -63,7 +73,8 @@ inline constexpr int kFlipOutcomes = 5;
 /// (a crash) or hangs (SIGALRM after @p timeoutSeconds), that flip is recorded as such and a new
 /// child goes on with the next one. A result shorter than @p flips means the file could not be
 /// read or written.
-[[nodiscard]] std::vector<FlipOutcome> flipAndValidate(const std::filesystem::path& file, const std::vector<ByteFlip>& flips,
+[[nodiscard]] std::vector<FlipOutcome> flipAndValidate(const std::filesystem::path& file,
+                                                       const std::vector<ByteFlip>& flips,
                                                        unsigned timeoutSeconds = 10);
 
 }  // namespace vox::test

@@ -29,9 +29,10 @@ inline runtime::HeadlessGlContext* glContext(std::string* whyNot = nullptr) {
 }  // namespace vox::test
 
 /// Declares `gl`, the program's context with its debug messages cleared, or skips the test with
-/// the reason where this machine has no OpenGL 4.5 (only there: everywhere else a GL failure fails).
-#define REQUIRE_GL()                                                          \
-    std::string whyNoGl;                                                      \
-    vox::runtime::HeadlessGlContext* gl = vox::test::glContext(&whyNoGl);     \
-    if (gl == nullptr) GTEST_SKIP() << "no OpenGL 4.5 context: " << whyNoGl;  \
+/// the reason where this machine has no OpenGL 4.5 (only there: everywhere else a GL failure
+/// fails).
+#define REQUIRE_GL()                                                         \
+    std::string whyNoGl;                                                     \
+    vox::runtime::HeadlessGlContext* gl = vox::test::glContext(&whyNoGl);    \
+    if (gl == nullptr) GTEST_SKIP() << "no OpenGL 4.5 context: " << whyNoGl; \
     gl->clearDebugMessages()

@@ -11,7 +11,8 @@
 namespace vox::test {
 
 /// Imports @p file, failing the test (and returning an empty scene) if it throws.
-inline vox::Scene importOk(const std::filesystem::path& file, const vox::ImportOptions& options = {}) {
+inline vox::Scene importOk(const std::filesystem::path& file,
+                           const vox::ImportOptions& options = {}) {
     try {
         return vox::importScene(file, options);
     } catch (const std::exception& e) {
@@ -28,8 +29,10 @@ std::string importError(const std::filesystem::path& file, const vox::ImportOpti
         (void)vox::importScene(file, options);
     } catch (const E& e) {
         const std::string message = e.what();
-        EXPECT_EQ(message.rfind(file.string(), 0), 0u) << "message should start with the file: " << message;
-        EXPECT_EQ(message.find('\n'), std::string::npos) << "message should be one line: " << message;
+        EXPECT_EQ(message.rfind(file.string(), 0), 0u)
+            << "message should start with the file: " << message;
+        EXPECT_EQ(message.find('\n'), std::string::npos)
+            << "message should be one line: " << message;
         return message;
     } catch (const std::exception& e) {
         ADD_FAILURE() << "wrong exception type: " << e.what();

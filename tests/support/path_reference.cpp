@@ -42,7 +42,8 @@ Vec3d cosineDirection(Vec3d n, double u1, double u2) {
     const Vec3d t{1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x};
     const Vec3d s{b, sign + n.y * n.y * a, -n.y};
     const double r = std::sqrt(u1), phi = 2 * kPi * u2;
-    return normalize(t * (r * std::cos(phi)) + s * (r * std::sin(phi)) + n * std::sqrt(std::max(0.0, 1.0 - u1)));
+    return normalize(t * (r * std::cos(phi)) + s * (r * std::sin(phi)) +
+                     n * std::sqrt(std::max(0.0, 1.0 - u1)));
 }
 
 /// Running mean and sum of squared deviations of (r, g, b, luminance) samples (Welford), merged
@@ -76,7 +77,9 @@ struct Moments {
         e.mean = {mean[0], mean[1], mean[2]};
         e.luminance = luminance(e.mean);
         if (n > 1) {
-            const auto se = [&](int c) { return std::sqrt(std::max(0.0, m2[c]) / double(n - 1) / double(n)); };
+            const auto se = [&](int c) {
+                return std::sqrt(std::max(0.0, m2[c]) / double(n - 1) / double(n));
+            };
             e.standardError = {se(0), se(1), se(2)};
             e.luminanceStandardError = se(3);
         }
@@ -98,8 +101,8 @@ double IrradianceEstimate::relativeStandardError() const {
 /// A shaded path vertex, turned towards the ray that found it.
 struct PathReference::Vertex {
     Vec3d position;
-    Vec3d side;      ///< unit geometric normal on the side the ray arrived from
-    Vec3d normal;    ///< unit shading normal, flipped onto that side
+    Vec3d side;    ///< unit geometric normal on the side the ray arrived from
+    Vec3d normal;  ///< unit shading normal, flipped onto that side
     Vec3d albedo;
     Vec3d emission;
 };
@@ -110,7 +113,9 @@ PathReference::PathReference(const Scene& scene) : scene_(scene), caster_(scene,
     double magnitude = 0;
     for (const Mesh& mesh : scene.meshes) {
         if (mesh.dynamic) continue;
-        for (const Vec3f& p : mesh.positions) magnitude = std::max({magnitude, double(std::abs(p.x)), double(std::abs(p.y)), double(std::abs(p.z))});
+        for (const Vec3f& p : mesh.positions)
+            magnitude = std::max(
+                {magnitude, double(std::abs(p.x)), double(std::abs(p.y)), double(std::abs(p.z))});
     }
     offset_ = 1e-5 * std::max(magnitude, std::numeric_limits<double>::min());
 }
@@ -120,14 +125,18 @@ bool PathReference::intersect(const Ray& ray, Vertex& out) const {
     if (!hit.hit) return false;
     const Mesh& mesh = scene_.meshes[hit.mesh];
     std::array<Vec3d, 3> corners;
-    for (int k = 0; k < 3; ++k) corners[k] = toDouble(mesh.positions[mesh.indices[3 * std::size_t{hit.triangle} + k]]);
+    for (int k = 0; k < 3; ++k)
+        corners[k] = toDouble(mesh.positions[mesh.indices[3 * std::size_t{hit.triangle} + k]]);
     // The point from the barycentric weights in double precision lies on the triangle's plane,
     // unlike origin + t·d with t rounded to float: offsets then measure from the surface itself.
-    out.position = corners[0] * hit.barycentric.x + corners[1] * hit.barycentric.y + corners[2] * hit.barycentric.z;
-    const detail::SurfaceSample s = detail::shadeTriangle(scene_, {hit.mesh, hit.triangle}, corners, hit.barycentric, 0);
+    out.position = corners[0] * hit.barycentric.x + corners[1] * hit.barycentric.y +
+                   corners[2] * hit.barycentric.z;
+    const detail::SurfaceSample s =
+        detail::shadeTriangle(scene_, {hit.mesh, hit.triangle}, corners, hit.barycentric, 0);
     // Two-sided: the geometric normal decides the side (robust where a bent shading normal is
     // nearly tangent), and the shading normal follows it.
-    out.side = dot(hit.geometricNormal, ray.direction) < 0 ? hit.geometricNormal : -hit.geometricNormal;
+    out.side =
+        dot(hit.geometricNormal, ray.direction) < 0 ? hit.geometricNormal : -hit.geometricNormal;
     out.normal = dot(s.normal, out.side) < 0 ? -s.normal : s.normal;
     out.albedo = {s.color.x, s.color.y, s.color.z};
     out.emission = toDouble(s.emission);
@@ -144,14 +153,18 @@ Vec3d PathReference::direct(Vec3d position, Vec3d normal, Vec3d side) const {
         if (cosine <= 0) continue;
         // Occluders strictly between the surface and the light; a point light lying on a surface
         // is not shadowed by that surface.
-        const double tMax = std::isfinite(arrival.distance) ? arrival.distance - offset_ : std::numeric_limits<double>::infinity();
+        const double tMax = std::isfinite(arrival.distance)
+                                ? arrival.distance - offset_
+                                : std::numeric_limits<double>::infinity();
         if (tMax <= 0 || caster_.castSurface({origin, arrival.toLight}, tMax).hit) continue;
         sum += arrival.irradiance * cosine;
     }
     return sum;
 }
 
-Vec3d PathReference::directIrradiance(const SurfacePoint& point) const { return direct(point.position, point.normal, point.normal); }
+Vec3d PathReference::directIrradiance(const SurfacePoint& point) const {
+    return direct(point.position, point.normal, point.normal);
+}
 
 Vec3d PathReference::onceScattered(const Vertex& vertex) const {
     Vec3d l = vertex.emission;
@@ -160,7 +173,8 @@ Vec3d PathReference::onceScattered(const Vertex& vertex) const {
     return l;
 }
 
-std::vector<PointIrradiance> PathReference::estimate(std::span<const SurfacePoint> points, const PathReferenceOptions& options) const {
+std::vector<PointIrradiance> PathReference::estimate(std::span<const SurfacePoint> points,
+                                                     const PathReferenceOptions& options) const {
     const std::uint32_t chunks = (options.samples + kChunkSamples - 1) / kChunkSamples;
     // One slot per (point, chunk) task: E1 and E2 moments, merged in chunk order afterwards so
     // the sums never depend on which thread ran what.
@@ -168,7 +182,8 @@ std::vector<PointIrradiance> PathReference::estimate(std::span<const SurfacePoin
     tbb::parallel_for(std::size_t{0}, partial.size(), [&](std::size_t task) {
         const std::size_t p = task / chunks;
         const std::uint32_t chunk = static_cast<std::uint32_t>(task % chunks);
-        const std::uint32_t count = std::min(kChunkSamples, options.samples - chunk * kChunkSamples);
+        const std::uint32_t count =
+            std::min(kChunkSamples, options.samples - chunk * kChunkSamples);
         std::mt19937_64 rng(mix(mix(mix(options.seed) ^ p) ^ chunk));
         const Vec3d n = normalize(points[p].normal);
         const Vec3d origin = points[p].position + n * offset_;
@@ -185,7 +200,8 @@ std::vector<PointIrradiance> PathReference::estimate(std::span<const SurfacePoin
                     Vertex z;
                     // A direction of the shading hemisphere below the geometric surface (bent
                     // normals only) would pass through it: no light from there.
-                    if (dot(w, y.side) > 0 && intersect({y.position + y.side * offset_, w}, z)) second = y.albedo * onceScattered(z) * kPi;
+                    if (dot(w, y.side) > 0 && intersect({y.position + y.side * offset_, w}, z))
+                        second = y.albedo * onceScattered(z) * kPi;
                 }
             }
             e1.add(first);

@@ -62,7 +62,7 @@ struct IrradianceEstimate {
 
 /// The reference at one point.
 struct PointIrradiance {
-    Vec3d direct{0, 0, 0};  ///< E_direct: exact, from the punctual lights with shadow rays
+    Vec3d direct{0, 0, 0};       ///< E_direct: exact, from the punctual lights with shadow rays
     IrradianceEstimate bounce1;  ///< E1
     IrradianceEstimate bounce2;  ///< E2
 };
@@ -89,7 +89,8 @@ public:
     [[nodiscard]] Vec3d directIrradiance(const SurfacePoint& point) const;
 
     /// E_direct, E1 and E2 at each of @p points, in parallel (TBB).
-    [[nodiscard]] std::vector<PointIrradiance> estimate(std::span<const SurfacePoint> points, const PathReferenceOptions& options) const;
+    [[nodiscard]] std::vector<PointIrradiance> estimate(std::span<const SurfacePoint> points,
+                                                        const PathReferenceOptions& options) const;
 
 private:
     struct Vertex;

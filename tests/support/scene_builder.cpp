@@ -19,7 +19,8 @@ std::uint32_t addMaterial(Scene& scene, Vec3f albedo, Vec3f emission) {
 void addQuad(Scene& scene, Vec3d corner, Vec3d u, Vec3d v, std::uint32_t material) {
     Mesh mesh;
     mesh.material = material;
-    mesh.positions = {toFloat(corner), toFloat(corner + u), toFloat(corner + u + v), toFloat(corner + v)};
+    mesh.positions = {toFloat(corner), toFloat(corner + u), toFloat(corner + u + v),
+                      toFloat(corner + v)};
     const Vec3f n = toFloat(normalize(cross(u, v)));
     mesh.normals = {n, n, n, n};
     mesh.indices = {0, 1, 2, 0, 2, 3};
@@ -30,10 +31,13 @@ void addBox(Scene& scene, Vec3d lo, Vec3d hi, std::uint32_t material, bool inwar
     const Vec3d e = hi - lo;
     const Vec3d x{e.x, 0, 0}, y{0, e.y, 0}, z{0, 0, e.z};
     // Outward fronts: −x, +x, −y, +y, −z, +z.
-    const std::array<std::array<Vec3d, 3>, 6> faces{{{lo, z, y}, {lo + x, y, z}, {lo, x, z}, {lo + y, z, x}, {lo, y, x}, {lo + z, x, y}}};
+    const std::array<std::array<Vec3d, 3>, 6> faces{
+        {{lo, z, y}, {lo + x, y, z}, {lo, x, z}, {lo + y, z, x}, {lo, y, x}, {lo + z, x, y}}};
     for (const auto& [corner, u, v] : faces) {
-        if (inward) addQuad(scene, corner, v, u, material);
-        else addQuad(scene, corner, u, v, material);
+        if (inward)
+            addQuad(scene, corner, v, u, material);
+        else
+            addQuad(scene, corner, u, v, material);
     }
 }
 

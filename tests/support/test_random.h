@@ -13,8 +13,12 @@ namespace vox::test {
 struct Rng {
     std::mt19937_64 engine;
     explicit Rng(std::uint64_t seed) : engine(seed) {}
-    double uniform(double lo = 0, double hi = 1) { return std::uniform_real_distribution<double>(lo, hi)(engine); }
-    std::uint32_t below(std::uint32_t n) { return std::uniform_int_distribution<std::uint32_t>(0, n - 1)(engine); }
+    double uniform(double lo = 0, double hi = 1) {
+        return std::uniform_real_distribution<double>(lo, hi)(engine);
+    }
+    std::uint32_t below(std::uint32_t n) {
+        return std::uniform_int_distribution<std::uint32_t>(0, n - 1)(engine);
+    }
     /// A unit vector, uniform over the sphere.
     Vec3d unit() {
         for (;;) {

@@ -26,12 +26,14 @@ ScratchDir::ScratchDir() {
 
 ScratchDir::~ScratchDir() {
     std::error_code ec;
-    if (!::testing::Test::HasFailure()) std::filesystem::remove_all(path_, ec);  // kept for inspection on failure
+    if (!::testing::Test::HasFailure())
+        std::filesystem::remove_all(path_, ec);  // kept for inspection on failure
 }
 
 std::vector<std::string> ScratchDir::files() const {
     std::vector<std::string> names;
-    for (const auto& entry : std::filesystem::directory_iterator(path_)) names.push_back(entry.path().filename().string());
+    for (const auto& entry : std::filesystem::directory_iterator(path_))
+        names.push_back(entry.path().filename().string());
     std::sort(names.begin(), names.end());
     return names;
 }
@@ -44,7 +46,8 @@ void writeText(const std::filesystem::path& file, const std::string& text) {
 
 void writeBinary(const std::filesystem::path& file, const std::vector<std::uint8_t>& bytes) {
     std::ofstream out(file, std::ios::binary);
-    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    out.write(reinterpret_cast<const char*>(bytes.data()),
+              static_cast<std::streamsize>(bytes.size()));
     ASSERT_TRUE(out.good()) << file;
 }
 
@@ -62,7 +65,8 @@ std::vector<std::string> ProcessResult::errLines() const {
     return lines;
 }
 
-ProcessResult runProcess(const std::filesystem::path& program, const std::vector<std::string>& args, int timeoutSeconds) {
+ProcessResult runProcess(const std::filesystem::path& program, const std::vector<std::string>& args,
+                         int timeoutSeconds) {
     int outPipe[2], errPipe[2];
     if (pipe(outPipe) != 0 || pipe(errPipe) != 0) throw std::runtime_error("pipe failed");
     posix_spawn_file_actions_t actions;
@@ -90,7 +94,9 @@ ProcessResult runProcess(const std::filesystem::path& program, const std::vector
     int open = 2;
     bool timedOut = false;
     while (open > 0) {
-        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+                              deadline - std::chrono::steady_clock::now())
+                              .count();
         if (left <= 0) {
             timedOut = true;
             kill(pid, SIGKILL);

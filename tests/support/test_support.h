@@ -18,7 +18,9 @@ public:
     ScratchDir(const ScratchDir&) = delete;
     ScratchDir& operator=(const ScratchDir&) = delete;
     [[nodiscard]] const std::filesystem::path& path() const { return path_; }
-    [[nodiscard]] std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+    [[nodiscard]] std::filesystem::path operator/(const std::string& name) const {
+        return path_ / name;
+    }
     /// Names of the files in the directory, sorted.
     [[nodiscard]] std::vector<std::string> files() const;
 
@@ -32,15 +34,16 @@ void writeBinary(const std::filesystem::path& file, const std::vector<std::uint8
 
 /// Result of running a program.
 struct ProcessResult {
-    int exitCode = -1;   ///< exit status, or 128 + signal number
-    std::string out;     ///< stdout
-    std::string err;     ///< stderr
+    int exitCode = -1;  ///< exit status, or 128 + signal number
+    std::string out;    ///< stdout
+    std::string err;    ///< stderr
     /// stderr split into lines (without the newline).
     [[nodiscard]] std::vector<std::string> errLines() const;
 };
 
 /// Runs @p program with @p args (no shell), waiting at most @p timeoutSeconds.
-ProcessResult runProcess(const std::filesystem::path& program, const std::vector<std::string>& args, int timeoutSeconds = 120);
+ProcessResult runProcess(const std::filesystem::path& program, const std::vector<std::string>& args,
+                         int timeoutSeconds = 120);
 
 /// Paths of the tools and data, set by CMake.
 [[nodiscard]] std::filesystem::path voxelizePath();

@@ -10,8 +10,8 @@ namespace vox::tools {
 Vec3d parseVector(const std::string& text, const char* option) {
     Vec3d v;
     char tail = 0;
-    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v.x, &v.y, &v.z, &tail) != 3 || !std::isfinite(v.x) ||
-        !std::isfinite(v.y) || !std::isfinite(v.z))
+    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v.x, &v.y, &v.z, &tail) != 3 ||
+        !std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
         throw UsageError(std::string(option) + " expects x,y,z (got '" + text + "')");
     return v;
 }

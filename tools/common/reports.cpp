@@ -25,9 +25,12 @@ std::string escapeDepfilePath(const std::string& path) {
 
 const char* lightTypeName(Light::Type type) {
     switch (type) {
-    case Light::Type::Directional: return "directional";
-    case Light::Type::Point: return "point";
-    case Light::Type::Spot: return "spot";
+        case Light::Type::Directional:
+            return "directional";
+        case Light::Type::Point:
+            return "point";
+        case Light::Type::Spot:
+            return "spot";
     }
     return "unknown";
 }
@@ -38,7 +41,8 @@ nlohmann::json importReport(const Scene& scene, double seconds, std::uint64_t pe
             {"seconds", seconds},
             {"triangles_per_second", seconds > 0 ? triangles / seconds : 0.0},
             {"peak_rss_bytes", peakRss},
-            {"peak_rss_bytes_per_triangle", triangles > 0 ? static_cast<double>(peakRss) / triangles : 0.0}};
+            {"peak_rss_bytes_per_triangle",
+             triangles > 0 ? static_cast<double>(peakRss) / triangles : 0.0}};
 }
 
 nlohmann::json sceneReport(const Scene& scene) {
@@ -61,9 +65,14 @@ nlohmann::json sceneReport(const Scene& scene) {
     report["texture_bytes"] = textureBytes;
     nlohmann::json lights = nlohmann::json::array();
     for (const Light& light : scene.lights)
-        lights.push_back({{"name", light.name}, {"type", lightTypeName(light.type)}, {"color", vec3(light.color)},
-                          {"intensity", light.intensity}, {"range", light.range}, {"position", vec3(light.position)},
-                          {"direction", vec3(light.direction)}, {"dynamic", light.dynamic}});
+        lights.push_back({{"name", light.name},
+                          {"type", lightTypeName(light.type)},
+                          {"color", vec3(light.color)},
+                          {"intensity", light.intensity},
+                          {"range", light.range},
+                          {"position", vec3(light.position)},
+                          {"direction", vec3(light.direction)},
+                          {"dynamic", light.dynamic}});
     report["lights"] = lights;
     const Bounds3f bounds = scene.bounds();
     report["bounds"] = {{"min", vec3(bounds.min)}, {"max", vec3(bounds.max)}};
@@ -80,7 +89,9 @@ nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakd
         farPointers += s.farPointerCount;
         descriptors += s.descriptorCount;
     }
-    const auto perVoxel = [&](std::uint64_t bytes) { return voxels ? double(bytes) / double(voxels) : 0.0; };
+    const auto perVoxel = [&](std::uint64_t bytes) {
+        return voxels ? double(bytes) / double(voxels) : 0.0;
+    };
     nlohmann::json report;
     report["file"] = reader.path().string();
     report["version"] = std::to_string(h.versionMajor) + "." + std::to_string(h.versionMinor);
@@ -95,11 +106,15 @@ nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakd
     report["slice_bytes_limit"] = h.sliceBytesLimit;
     report["far_pointers"] = farPointers;
     report["file_bytes"] = h.fileBytes;
-    report["root_cube"] = {{"origin", {-h.worldToRoot[3] / h.worldToRoot[0], -h.worldToRoot[7] / h.worldToRoot[5],
-                                       -h.worldToRoot[11] / h.worldToRoot[10]}},
-                           {"size", 1.0 / h.worldToRoot[0]}};
+    report["root_cube"] = {
+        {"origin",
+         {-h.worldToRoot[3] / h.worldToRoot[0], -h.worldToRoot[7] / h.worldToRoot[5],
+          -h.worldToRoot[11] / h.worldToRoot[10]}},
+        {"size", 1.0 / h.worldToRoot[0]}};
     const auto kinds = h.attachmentKinds;
-    const auto has = [&](esvo::AttachmentKind k) { return (kinds >> static_cast<unsigned>(k)) & 1u; };
+    const auto has = [&](esvo::AttachmentKind k) {
+        return (kinds >> static_cast<unsigned>(k)) & 1u;
+    };
     report["contours"] = has(esvo::AttachmentKind::Contour) != 0;
     // Leaves above the leaf depth are where refinement stopped early; contours per level, where
     // a voxel kept one of its own (the others inherit their ancestors').
@@ -115,16 +130,12 @@ nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakd
                            : has(esvo::AttachmentKind::DxtLookup) ? "dxt-lookup"
                            : has(esvo::AttachmentKind::Palette)   ? "raw"
                                                                   : "none";
-    const std::array<std::uint64_t, kEsvoByteParts.size()> parts{b.descriptorBytes,
-                                                                 b.farPointerBytes,
-                                                                 b.pageHeaderBytes,
-                                                                 b.paddingBytes + b.slicePaddingBytes,
-                                                                 b.infoBytes,
-                                                                 b.headerAndDirectoryBytes,
-                                                                 b.contourBytes,
-                                                                 b.attributeLookupBytes,
-                                                                 b.attributeValueBytes,
-                                                                 b.attributeBlockBytes};
+    const std::array<std::uint64_t, kEsvoByteParts.size()> parts{
+        b.descriptorBytes,     b.farPointerBytes,
+        b.pageHeaderBytes,     b.paddingBytes + b.slicePaddingBytes,
+        b.infoBytes,           b.headerAndDirectoryBytes,
+        b.contourBytes,        b.attributeLookupBytes,
+        b.attributeValueBytes, b.attributeBlockBytes};
     nlohmann::json bytes = nlohmann::json::object(), perVoxelBytes = nlohmann::json::object();
     perVoxelBytes["total"] = perVoxel(h.fileBytes);
     for (std::size_t i = 0; i < parts.size(); ++i) {
@@ -136,7 +147,8 @@ nlohmann::json esvoReport(const esvo::EsvoReader& reader, const esvo::FileBreakd
     return report;
 }
 
-void writeStats(const std::filesystem::path& file, nlohmann::json report, const std::string& tool, const Timings& timings) {
+void writeStats(const std::filesystem::path& file, nlohmann::json report, const std::string& tool,
+                const Timings& timings) {
     nlohmann::json ms = nlohmann::json::object();
     for (const auto& [stage, milliseconds] : timings.entries()) ms[stage] = milliseconds;
     report["timings_ms"] = ms;
@@ -147,7 +159,8 @@ void writeStats(const std::filesystem::path& file, nlohmann::json report, const 
     writeFileAtomically(file, report.dump(2) + "\n");
 }
 
-std::string depfileText(const std::filesystem::path& target, const std::vector<std::filesystem::path>& dependencies) {
+std::string depfileText(const std::filesystem::path& target,
+                        const std::vector<std::filesystem::path>& dependencies) {
     std::string text = escapeDepfilePath(target.string()) + ":";
     for (const auto& dep : dependencies) text += " \\\n  " + escapeDepfilePath(dep.string());
     return text + "\n";
@@ -201,12 +214,18 @@ nlohmann::json directLightReport(const ManyLightReport& report, const LightcutOp
     compare["classic"] = manyLightStats(report.classic);
     compare["classic"]["error"] = errorStats(report.classicError);
     compare["brute_force"] = manyLightStats(report.bruteForce);
-    const auto change = [](double ours, double theirs) { return theirs > 0 ? ours / theirs - 1 : 0.0; };
-    compare["search_steps_vs_classic"] = change(report.lightcuts.meanSearchSteps(), report.classic.meanSearchSteps());
-    compare["cut_size_vs_classic"] = change(report.lightcuts.meanCutSize(), report.classic.meanCutSize());
+    const auto change = [](double ours, double theirs) {
+        return theirs > 0 ? ours / theirs - 1 : 0.0;
+    };
+    compare["search_steps_vs_classic"] =
+        change(report.lightcuts.meanSearchSteps(), report.classic.meanSearchSteps());
+    compare["cut_size_vs_classic"] =
+        change(report.lightcuts.meanCutSize(), report.classic.meanCutSize());
     compare["time_vs_classic"] = change(report.lightcuts.seconds, report.classic.seconds);
-    compare["speedup_vs_brute_force"] = report.lightcuts.seconds > 0 ? report.bruteForce.seconds / report.lightcuts.seconds : 0.0;
-    compare["classic_speedup_vs_brute_force"] = report.classic.seconds > 0 ? report.bruteForce.seconds / report.classic.seconds : 0.0;
+    compare["speedup_vs_brute_force"] =
+        report.lightcuts.seconds > 0 ? report.bruteForce.seconds / report.lightcuts.seconds : 0.0;
+    compare["classic_speedup_vs_brute_force"] =
+        report.classic.seconds > 0 ? report.bruteForce.seconds / report.classic.seconds : 0.0;
     out["compare"] = std::move(compare);
     return out;
 }

@@ -12,11 +12,12 @@ namespace vox::tools {
 void addCommonOptions(CLI::App& app, CommonOptions& options) {
     app.add_flag("-q,--quiet", options.quiet, "Print errors only");
     app.add_flag("-v,--verbose", options.verbose, "Print progress notes (-vv: details)");
-    app.add_option("--threads", options.threads, "Worker threads (default: all cores)")->check(CLI::Range(1, 4096));
+    app.add_option("--threads", options.threads, "Worker threads (default: all cores)")
+        ->check(CLI::Range(1, 4096));
 }
 
-int runTool(const std::string& program, CLI::App& app, int argc, char** argv, const CommonOptions& options,
-            const std::function<void()>& body) {
+int runTool(const std::string& program, CLI::App& app, int argc, char** argv,
+            const CommonOptions& options, const std::function<void()>& body) {
     log::setProgramName(program);
     try {
         app.parse(argc, argv);
@@ -28,8 +29,10 @@ int runTool(const std::string& program, CLI::App& app, int argc, char** argv, co
         return static_cast<int>(ExitCode::Usage);
     }
     log::setVerbosity(options.quiet ? log::Verbosity::Quiet
-                                    : (options.verbose >= 2 ? log::Verbosity::Debug
-                                                            : (options.verbose == 1 ? log::Verbosity::Verbose : log::Verbosity::Normal)));
+                                    : (options.verbose >= 2
+                                           ? log::Verbosity::Debug
+                                           : (options.verbose == 1 ? log::Verbosity::Verbose
+                                                                   : log::Verbosity::Normal)));
     Progress::setEnabled(!options.quiet && ::isatty(STDERR_FILENO));
     try {
         ThreadLimit threads(options.threads);

@@ -23,7 +23,7 @@ void addCommonOptions(CLI::App& app, CommonOptions& options);
 /// progress bar when stderr is a terminal, thread limit). Returns the process exit code:
 /// 0 ok, 1 usage, 2 I/O, 3 invalid data, 4 internal error; every error is one line on stderr
 /// as "PROGRAM: error: ...".
-int runTool(const std::string& program, CLI::App& app, int argc, char** argv, const CommonOptions& options,
-            const std::function<void()>& body);
+int runTool(const std::string& program, CLI::App& app, int argc, char** argv,
+            const CommonOptions& options, const std::function<void()>& body);
 
 }  // namespace vox::tools

@@ -56,8 +56,8 @@ struct VoxelizeOptions {
     unsigned lightcutMaxCut = 1000;
     bool lightcutsCompare = false;
     // Partitioned and out-of-core builds
-    std::string memoryLimit;       // empty: vox::defaultMemoryLimit()
-    std::string partition;         // "K/N"
+    std::string memoryLimit;  // empty: vox::defaultMemoryLimit()
+    std::string partition;    // "K/N"
     int partitionLevel = -1;
     // voxelize merge
     std::vector<std::string> mergeParts;
@@ -76,13 +76,19 @@ std::uint64_t parseByteSize(const std::string& text, const std::string& option) 
     if (!unit.empty() && (unit.back() == 'B' || unit.back() == 'b')) unit.pop_back();
     if (unit.size() == 2 && unit[1] == 'i') unit.pop_back();
     double scale = 0;
-    if (unit.empty()) scale = 1;
-    else if (unit == "K" || unit == "k") scale = 1024.0;
-    else if (unit == "M" || unit == "m") scale = 1024.0 * 1024;
-    else if (unit == "G" || unit == "g") scale = 1024.0 * 1024 * 1024;
-    else if (unit == "T" || unit == "t") scale = 1024.0 * 1024 * 1024 * 1024;
+    if (unit.empty())
+        scale = 1;
+    else if (unit == "K" || unit == "k")
+        scale = 1024.0;
+    else if (unit == "M" || unit == "m")
+        scale = 1024.0 * 1024;
+    else if (unit == "G" || unit == "g")
+        scale = 1024.0 * 1024 * 1024;
+    else if (unit == "T" || unit == "t")
+        scale = 1024.0 * 1024 * 1024 * 1024;
     if (used == 0 || scale == 0 || !(value > 0) || value * scale > 1e18)
-        throw vox::UsageError(option + ": '" + text + "' is not a size (bytes, or a number with K, M, G or T)");
+        throw vox::UsageError(option + ": '" + text +
+                              "' is not a size (bytes, or a number with K, M, G or T)");
     return static_cast<std::uint64_t>(value * scale);
 }
 
@@ -96,8 +102,9 @@ vox::PartitionSelection parsePartition(const std::string& text) {
 }
 
 /// The octree part of --stats for a build or a merge.
-nlohmann::json octreeReport(const std::string& output, const vox::EsvoBuildResult& built, const std::string& attributes,
-                            double buildSeconds, double voxelizeSeconds) {
+nlohmann::json octreeReport(const std::string& output, const vox::EsvoBuildResult& built,
+                            const std::string& attributes, double buildSeconds,
+                            double voxelizeSeconds) {
     const double voxels = double(built.voxelCount());
     return {{"output", output},
             {"depth", built.leafDepth},
@@ -122,7 +129,8 @@ nlohmann::json octreeReport(const std::string& output, const vox::EsvoBuildResul
 }
 
 /// Bakes and writes the .rvol; returns its part of the report.
-nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& scene, vox::Timings& timings) {
+nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& scene,
+                            vox::Timings& timings) {
     vox::RadianceBakeOptions bakeOptions;
     bakeOptions.depth = options.radianceDepth;
     bakeOptions.attenuation = options.attenuation == "paper"     ? vox::Attenuation::Paper
@@ -143,7 +151,8 @@ nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& sc
         vox::Timings::Scope timer(&timings, "radiance_bake");
         bake = vox::bakeRadiance(scene, bakeOptions);
     }
-    const double bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double bakeSeconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     vox::rvol::RvolWriteOptions writeOptions;
     writeOptions.brickTexels = options.brickTexels;
     writeOptions.staticAttributes = !options.noStaticAttributes;
@@ -158,49 +167,63 @@ nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& sc
     }
     char summary[512];
     std::snprintf(summary, sizeof summary,
-                  "%s: %u³ cells, %llu static + %llu dynamic voxels, %u bounces, %llu bricks, %.2f MB (radiance %.2f MB) in %.2f s",
-                  options.radiance.c_str(), 1u << options.radianceDepth, static_cast<unsigned long long>(bake.staticVoxels),
-                  static_cast<unsigned long long>(bake.dynamicVoxels), options.bounces, static_cast<unsigned long long>(written.bricks),
-                  double(written.fileBytes) / 1e6, double(written.radianceBytes) / 1e6, bakeSeconds);
+                  "%s: %u³ cells, %llu static + %llu dynamic voxels, %u bounces, %llu bricks, %.2f "
+                  "MB (radiance %.2f MB) in %.2f s",
+                  options.radiance.c_str(), 1u << options.radianceDepth,
+                  static_cast<unsigned long long>(bake.staticVoxels),
+                  static_cast<unsigned long long>(bake.dynamicVoxels), options.bounces,
+                  static_cast<unsigned long long>(written.bricks), double(written.fileBytes) / 1e6,
+                  double(written.radianceBytes) / 1e6, bakeSeconds);
     vox::log::info(summary);
-    return {{"output", options.radiance},
-            {"depth", options.radianceDepth},
-            {"resolution", 1u << options.radianceDepth},
-            {"static_voxels", bake.staticVoxels},
-            {"dynamic_voxels", bake.dynamicVoxels},
-            {"lights", bake.volume.bake.lights},
-            {"bounces", options.bounces},
-            {"attenuation", options.attenuation},
-            {"shadow_aperture_degrees", options.shadowAperture},
-            {"brick_texels", options.brickTexels},
-            {"bricks", written.bricks},
-            {"bricks_per_level", written.bricksPerLevel},
-            {"file_bytes", written.fileBytes},
-            {"radiance_bytes", written.radianceBytes},
-            {"directory_bytes", written.directoryBytes},
-            {"attribute_bytes", written.attributeBytes},
-            {"bake_seconds", bakeSeconds},
-            {"direct_light", vox::tools::directLightReport(bake.directLight, bakeOptions.lightcut)}};
+    return {
+        {"output", options.radiance},
+        {"depth", options.radianceDepth},
+        {"resolution", 1u << options.radianceDepth},
+        {"static_voxels", bake.staticVoxels},
+        {"dynamic_voxels", bake.dynamicVoxels},
+        {"lights", bake.volume.bake.lights},
+        {"bounces", options.bounces},
+        {"attenuation", options.attenuation},
+        {"shadow_aperture_degrees", options.shadowAperture},
+        {"brick_texels", options.brickTexels},
+        {"bricks", written.bricks},
+        {"bricks_per_level", written.bricksPerLevel},
+        {"file_bytes", written.fileBytes},
+        {"radiance_bytes", written.radianceBytes},
+        {"directory_bytes", written.directoryBytes},
+        {"attribute_bytes", written.attributeBytes},
+        {"bake_seconds", bakeSeconds},
+        {"direct_light", vox::tools::directLightReport(bake.directLight, bakeOptions.lightcut)}};
 }
 
 void voxelize(const VoxelizeOptions& options) {
     vox::Timings timings;
     const auto start = std::chrono::steady_clock::now();
-    if (!options.depfile.empty() && options.stats.empty() && options.output.empty() && options.radiance.empty())
-        throw vox::UsageError("--depfile needs an output to name as its target (-o, --radiance or --stats)");
+    if (!options.depfile.empty() && options.stats.empty() && options.output.empty() &&
+        options.radiance.empty())
+        throw vox::UsageError(
+            "--depfile needs an output to name as its target (-o, --radiance or --stats)");
     const std::filesystem::path output(options.output);
-    const vox::PartitionSelection partitions = options.partition.empty() ? vox::PartitionSelection{} : parsePartition(options.partition);
+    const vox::PartitionSelection partitions =
+        options.partition.empty() ? vox::PartitionSelection{} : parsePartition(options.partition);
     const char* expected = partitions.count > 1 ? ".esvopart" : ".esvo";
     if (!options.output.empty() && output.extension() != expected)
-        throw vox::UsageError("-o: unknown output type '" + output.extension().string() + "' (expected " + expected + ")");
-    if (partitions.count > 1 && options.output.empty()) throw vox::UsageError("--partition needs -o FILE.esvopart");
-    if (partitions.count > 1 && !options.radiance.empty()) throw vox::UsageError("--partition builds octrees only: no --radiance");
-    const std::uint64_t memoryLimit = options.memoryLimit.empty() ? 0 : parseByteSize(options.memoryLimit, "--memory-limit");
+        throw vox::UsageError("-o: unknown output type '" + output.extension().string() +
+                              "' (expected " + expected + ")");
+    if (partitions.count > 1 && options.output.empty())
+        throw vox::UsageError("--partition needs -o FILE.esvopart");
+    if (partitions.count > 1 && !options.radiance.empty())
+        throw vox::UsageError("--partition builds octrees only: no --radiance");
+    const std::uint64_t memoryLimit =
+        options.memoryLimit.empty() ? 0 : parseByteSize(options.memoryLimit, "--memory-limit");
     if (!options.radiance.empty() && std::filesystem::path(options.radiance).extension() != ".rvol")
-        throw vox::UsageError("--radiance: unknown output type '" + std::filesystem::path(options.radiance).extension().string() +
+        throw vox::UsageError("--radiance: unknown output type '" +
+                              std::filesystem::path(options.radiance).extension().string() +
                               "' (expected .rvol)");
-    if (!options.exportVdb.empty() && options.radiance.empty()) throw vox::UsageError("--export-vdb needs --radiance");
-    if (!options.exportVdb.empty() && std::filesystem::path(options.exportVdb).extension() != ".vdb")
+    if (!options.exportVdb.empty() && options.radiance.empty())
+        throw vox::UsageError("--export-vdb needs --radiance");
+    if (!options.exportVdb.empty() &&
+        std::filesystem::path(options.exportVdb).extension() != ".vdb")
         throw vox::UsageError("--export-vdb: expected a .vdb file name");
 
     vox::ImportOptions importOptions;
@@ -215,21 +238,25 @@ void voxelize(const VoxelizeOptions& options) {
     }
     const std::uint64_t importPeakRss = vox::peakRssBytes();  // before anything else grows it
     // Before anything is built or written: a scene over the limit leaves no output behind.
-    if (options.maxTriangles > 0 && scene.triangleCount() > static_cast<std::uint64_t>(options.maxTriangles))
-        throw vox::InvalidDataError(options.input, std::to_string(scene.triangleCount()) + " triangles, more than --max-triangles " +
+    if (options.maxTriangles > 0 &&
+        scene.triangleCount() > static_cast<std::uint64_t>(options.maxTriangles))
+        throw vox::InvalidDataError(options.input, std::to_string(scene.triangleCount()) +
+                                                       " triangles, more than --max-triangles " +
                                                        std::to_string(options.maxTriangles));
     const vox::Bounds3f bounds = scene.bounds();
     char summary[512];
-    std::snprintf(summary, sizeof summary,
-                  "%s: %zu triangles (%zu dynamic) in %zu meshes, %zu materials, %zu textures, %zu lights; "
-                  "bounds [%g %g %g] - [%g %g %g]",
-                  options.input.c_str(), scene.triangleCount(), scene.dynamicTriangleCount(), scene.meshes.size(),
-                  scene.materials.size(), scene.textures.size(), scene.lights.size(), bounds.min.x, bounds.min.y,
-                  bounds.min.z, bounds.max.x, bounds.max.y, bounds.max.z);
+    std::snprintf(
+        summary, sizeof summary,
+        "%s: %zu triangles (%zu dynamic) in %zu meshes, %zu materials, %zu textures, %zu lights; "
+        "bounds [%g %g %g] - [%g %g %g]",
+        options.input.c_str(), scene.triangleCount(), scene.dynamicTriangleCount(),
+        scene.meshes.size(), scene.materials.size(), scene.textures.size(), scene.lights.size(),
+        bounds.min.x, bounds.min.y, bounds.min.z, bounds.max.x, bounds.max.y, bounds.max.z);
     vox::log::info(summary);
 
     nlohmann::json report = vox::tools::sceneReport(scene);
-    report["import"] = vox::tools::importReport(scene, timings.get("import") / 1000.0, importPeakRss);
+    report["import"] =
+        vox::tools::importReport(scene, timings.get("import") / 1000.0, importPeakRss);
     if (!options.output.empty()) {
         vox::EsvoBuildOptions build;
         build.voxelize.depth = options.depth;
@@ -242,13 +269,15 @@ void voxelize(const VoxelizeOptions& options) {
         build.voxelize.timings = &timings;
         build.write.sliceBytes = options.sliceBytes;
         build.write.nearPointerLimit = options.nearPointerLimit;
-        build.write.attributes = options.attributes == "raw"          ? vox::AttributeEncoding::Raw
-                               : options.attributes == "dxt"        ? vox::AttributeEncoding::Compressed
-                               : options.attributes == "dxt-lookup" ? vox::AttributeEncoding::CompressedLookup
-                                                                    : vox::AttributeEncoding::None;
-        build.write.attributeEffort = options.attributeEffort == "fast"   ? vox::AttributeEffort::Fast
-                                    : options.attributeEffort == "best" ? vox::AttributeEffort::Best
-                                                                        : vox::AttributeEffort::Default;
+        build.write.attributes = options.attributes == "raw"   ? vox::AttributeEncoding::Raw
+                                 : options.attributes == "dxt" ? vox::AttributeEncoding::Compressed
+                                 : options.attributes == "dxt-lookup"
+                                     ? vox::AttributeEncoding::CompressedLookup
+                                     : vox::AttributeEncoding::None;
+        build.write.attributeEffort = options.attributeEffort == "fast" ? vox::AttributeEffort::Fast
+                                      : options.attributeEffort == "best"
+                                          ? vox::AttributeEffort::Best
+                                          : vox::AttributeEffort::Default;
         build.write.partitionLevel = options.partitionLevel;
         build.write.sceneBounds = bounds;
         build.write.timings = &timings;
@@ -257,32 +286,47 @@ void voxelize(const VoxelizeOptions& options) {
         const auto buildStart = std::chrono::steady_clock::now();
         vox::EsvoBuildResult built;
         built = vox::buildEsvo(output, scene, build);
-        const double buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - buildStart).count();
+        const double buildSeconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - buildStart).count();
         std::snprintf(summary, sizeof summary,
-                      "%s: depth %u, %llu voxels (%llu leaves), %u slices, %llu far pointers, %llu bytes (%.3f bytes/voxel); "
+                      "%s: depth %u, %llu voxels (%llu leaves), %u slices, %llu far pointers, %llu "
+                      "bytes (%.3f bytes/voxel); "
                       "%llu of %llu partitions at level %u in %u rounds",
-                      options.output.c_str(), built.leafDepth, static_cast<unsigned long long>(built.voxelCount()),
-                      static_cast<unsigned long long>(built.voxelsPerLevel.back()), built.written.slices,
-                      static_cast<unsigned long long>(built.written.farPointers), static_cast<unsigned long long>(built.written.fileBytes),
-                      double(built.written.fileBytes) / double(built.voxelCount()), static_cast<unsigned long long>(built.partitionsBuilt),
-                      static_cast<unsigned long long>(built.partitionsTotal), built.partitionLevel, built.batches);
+                      options.output.c_str(), built.leafDepth,
+                      static_cast<unsigned long long>(built.voxelCount()),
+                      static_cast<unsigned long long>(built.voxelsPerLevel.back()),
+                      built.written.slices,
+                      static_cast<unsigned long long>(built.written.farPointers),
+                      static_cast<unsigned long long>(built.written.fileBytes),
+                      double(built.written.fileBytes) / double(built.voxelCount()),
+                      static_cast<unsigned long long>(built.partitionsBuilt),
+                      static_cast<unsigned long long>(built.partitionsTotal), built.partitionLevel,
+                      built.batches);
         vox::log::info(summary);
-        report["octree"] = octreeReport(options.output, built, options.attributes, buildSeconds, built.voxelizeSeconds);
+        report["octree"] = octreeReport(options.output, built, options.attributes, buildSeconds,
+                                        built.voxelizeSeconds);
         const bool full = build.voxelize.contourError == 0 || !build.voxelize.contours;
-        report["octree"]["refinement"] = {{"full", full},
-                                          {"contour_error", full ? 0.0 : build.voxelize.contourError},
-                                          {"color_error", full ? 0.0 : build.voxelize.colorError},
-                                          {"normal_error_degrees", full ? 0.0 : build.voxelize.normalErrorDegrees}};
-        if (partitions.count > 1) report["octree"]["partition"] = {{"run", partitions.index + 1}, {"runs", partitions.count}};
+        report["octree"]["refinement"] = {
+            {"full", full},
+            {"contour_error", full ? 0.0 : build.voxelize.contourError},
+            {"color_error", full ? 0.0 : build.voxelize.colorError},
+            {"normal_error_degrees", full ? 0.0 : build.voxelize.normalErrorDegrees}};
+        if (partitions.count > 1)
+            report["octree"]["partition"] = {{"run", partitions.index + 1},
+                                             {"runs", partitions.count}};
     }
 
     if (!options.radiance.empty()) report["radiance"] = bakeRadiance(options, scene, timings);
 
-    timings.add("total", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    timings.add("total",
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                    .count());
     if (!options.stats.empty()) vox::tools::writeStats(options.stats, report, "voxelize", timings);
     if (!options.depfile.empty())
         vox::tools::writeDepfile(options.depfile,
-                                 !options.output.empty() ? options.output : !options.radiance.empty() ? options.radiance : options.stats,
+                                 !options.output.empty()     ? options.output
+                                 : !options.radiance.empty() ? options.radiance
+                                                             : options.stats,
                                  scene.sourceFiles);
 }
 
@@ -292,25 +336,32 @@ void merge(const VoxelizeOptions& options) {
     const auto start = std::chrono::steady_clock::now();
     if (options.output.empty()) throw vox::UsageError("merge needs -o OUT.esvo");
     if (std::filesystem::path(options.output).extension() != ".esvo")
-        throw vox::UsageError("-o: unknown output type '" + std::filesystem::path(options.output).extension().string() + "' (expected .esvo)");
+        throw vox::UsageError("-o: unknown output type '" +
+                              std::filesystem::path(options.output).extension().string() +
+                              "' (expected .esvo)");
     std::vector<std::filesystem::path> parts(options.mergeParts.begin(), options.mergeParts.end());
-    const std::uint64_t memoryLimit = options.memoryLimit.empty() ? 0 : parseByteSize(options.memoryLimit, "--memory-limit");
+    const std::uint64_t memoryLimit =
+        options.memoryLimit.empty() ? 0 : parseByteSize(options.memoryLimit, "--memory-limit");
     vox::EsvoBuildResult merged;
     {
         vox::Timings::Scope timer(&timings, "merge");
         merged = vox::mergeEsvoParts(options.output, parts, memoryLimit, &timings);
     }
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     char summary[512];
-    std::snprintf(summary, sizeof summary, "%s: %zu parts, depth %u, %llu voxels, %u slices, %llu bytes in %.2f s", options.output.c_str(),
-                  parts.size(), merged.leafDepth, static_cast<unsigned long long>(merged.voxelCount()), merged.written.slices,
+    std::snprintf(summary, sizeof summary,
+                  "%s: %zu parts, depth %u, %llu voxels, %u slices, %llu bytes in %.2f s",
+                  options.output.c_str(), parts.size(), merged.leafDepth,
+                  static_cast<unsigned long long>(merged.voxelCount()), merged.written.slices,
                   static_cast<unsigned long long>(merged.written.fileBytes), seconds);
     vox::log::info(summary);
     timings.add("total", seconds * 1000);
     nlohmann::json report;
     report["inputs"] = options.mergeParts;
     report["octree"] = octreeReport(options.output, merged, "", seconds, 0);
-    if (!options.stats.empty()) vox::tools::writeStats(options.stats, report, "voxelize merge", timings);
+    if (!options.stats.empty())
+        vox::tools::writeStats(options.stats, report, "voxelize merge", timings);
     if (!options.depfile.empty()) vox::tools::writeDepfile(options.depfile, options.output, parts);
 }
 
@@ -318,105 +369,165 @@ void merge(const VoxelizeOptions& options) {
 
 int main(int argc, char** argv) {
     VoxelizeOptions options;
-    CLI::App app{"Turns a triangle scene (glTF/GLB, OBJ, PLY, STL, OFF, Draco) into voxel assets.", "voxelize"};
+    CLI::App app{"Turns a triangle scene (glTF/GLB, OBJ, PLY, STL, OFF, Draco) into voxel assets.",
+                 "voxelize"};
     app.set_version_flag("--version", std::string("voxelize (libvox) ") + LIBVOX_VERSION_STRING);
-    CLI::App* mergeApp = app.add_subcommand("merge", "Join the part files of every run of a --partition K/N build into one .esvo file");
-    mergeApp->add_option("parts", options.mergeParts, "Part files (.esvopart), one per run, any order")->required();
+    CLI::App* mergeApp = app.add_subcommand(
+        "merge", "Join the part files of every run of a --partition K/N build into one .esvo file");
+    mergeApp
+        ->add_option("parts", options.mergeParts, "Part files (.esvopart), one per run, any order")
+        ->required();
     mergeApp->add_option("-o,--output", options.output, "The .esvo file to write")->required();
-    mergeApp->add_option("--memory-limit", options.memoryLimit, "Bytes the merge may use (as for the build)");
+    mergeApp->add_option("--memory-limit", options.memoryLimit,
+                         "Bytes the merge may use (as for the build)");
     mergeApp->add_option("--stats", options.stats, "Write a JSON report");
-    mergeApp->add_option("--depfile", options.depfile, "Write a Make/Ninja depfile listing the parts");
+    mergeApp->add_option("--depfile", options.depfile,
+                         "Write a Make/Ninja depfile listing the parts");
     vox::tools::addCommonOptions(*mergeApp, options.common);
     app.add_option("input", options.input, "Scene file: .gltf .glb .obj .ply .stl .off .drc");
     app.add_option("-o,--output", options.output, "Write the sparse voxel octree here (.esvo)");
     app.add_option("--depth", options.depth,
-                   "Finest level allowed: at most 2^N voxels along the scene's longest side (voxels stop coarser where "
-                   "--contour-error, --normal-error and --color-error allow; --full-refinement: every voxel to this level)")
-        ->check(CLI::Range(1, 20))->capture_default_str();
+                   "Finest level allowed: at most 2^N voxels along the scene's longest side "
+                   "(voxels stop coarser where "
+                   "--contour-error, --normal-error and --color-error allow; --full-refinement: "
+                   "every voxel to this level)")
+        ->check(CLI::Range(1, 20))
+        ->capture_default_str();
     app.add_option("--slice-bytes", options.sliceBytes, "Largest .esvo slice in bytes")
-        ->check(CLI::Range(16384, 1 << 26))->capture_default_str();
-    app.add_flag("--include-dynamic", options.includeDynamic, "Voxelize dynamic meshes too (left out by default)");
-    app.add_flag("--no-contours", options.noContours, "Cubes only: no contours (slabs), every voxel refined to --depth");
-    app.add_flag("--full-refinement", options.fullRefinement,
-                 "Refine every voxel to --depth (as --contour-error 0): no error-bounded early stop");
+        ->check(CLI::Range(16384, 1 << 26))
+        ->capture_default_str();
+    app.add_flag("--include-dynamic", options.includeDynamic,
+                 "Voxelize dynamic meshes too (left out by default)");
+    app.add_flag("--no-contours", options.noContours,
+                 "Cubes only: no contours (slabs), every voxel refined to --depth");
+    app.add_flag(
+        "--full-refinement", options.fullRefinement,
+        "Refine every voxel to --depth (as --contour-error 0): no error-bounded early stop");
     app.add_option("--contour-error", options.contourError,
-                   "Stop refining where a voxel's cube and contour lie within E leaf voxels of the surface, and its colour "
+                   "Stop refining where a voxel's cube and contour lie within E leaf voxels of the "
+                   "surface, and its colour "
                    "and normal within --color-error and --normal-error (0: refine to --depth)")
-        ->check(CLI::Range(0.0, 1e6))->capture_default_str();
+        ->check(CLI::Range(0.0, 1e6))
+        ->capture_default_str();
     app.add_option("--attributes", options.attributes,
-                   "Colour and normal per voxel: dxt (compressed, 6 words per pair of sibling descriptors), dxt-lookup "
-                   "(compressed behind a lookup entry per descriptor, values equal to the parent's omitted), raw (64 bits "
+                   "Colour and normal per voxel: dxt (compressed, 6 words per pair of sibling "
+                   "descriptors), dxt-lookup "
+                   "(compressed behind a lookup entry per descriptor, values equal to the parent's "
+                   "omitted), raw (64 bits "
                    "per stored voxel) or none")
-        ->check(CLI::IsMember({"dxt", "dxt-lookup", "raw", "none"}))->capture_default_str();
+        ->check(CLI::IsMember({"dxt", "dxt-lookup", "raw", "none"}))
+        ->capture_default_str();
     app.add_option("--attribute-effort", options.attributeEffort,
-                   "How hard the dxt and dxt-lookup encoders search: fast, default (a wider search: about 1.6x slower for "
-                   "8-11 % less normal error against raw, about 1 % against the mesh) or best (the full search, about 1.8x "
+                   "How hard the dxt and dxt-lookup encoders search: fast, default (a wider "
+                   "search: about 1.6x slower for "
+                   "8-11 % less normal error against raw, about 1 % against the mesh) or best (the "
+                   "full search, about 1.8x "
                    "slower than default for 0.02 dB and 1-2 % normal error)")
-        ->check(CLI::IsMember({"fast", "default", "best"}))->capture_default_str();
+        ->check(CLI::IsMember({"fast", "default", "best"}))
+        ->capture_default_str();
     app.add_option("--color-error", options.colorError,
-                   "With --contour-error: keep refining where the colour's RMS deviation from the voxel's over its surface "
+                   "With --contour-error: keep refining where the colour's RMS deviation from the "
+                   "voxel's over its surface "
                    "is above this (8-bit sRGB steps; 0: off)")
-        ->check(CLI::Range(0.0, 255.0))->capture_default_str();
+        ->check(CLI::Range(0.0, 255.0))
+        ->capture_default_str();
     app.add_option("--normal-error", options.normalError,
-                   "With --contour-error: keep refining where the shading normal's RMS deviation from the voxel's over its "
+                   "With --contour-error: keep refining where the shading normal's RMS deviation "
+                   "from the voxel's over its "
                    "surface is above this many degrees (0: off)")
-        ->check(CLI::Range(0.0, 180.0))->capture_default_str();
-    app.add_option("--radiance", options.radiance, "Bake a mipmapped anisotropic radiance volume here (.rvol)");
-    app.add_option("--radiance-depth", options.radianceDepth, "Radiance volume: 2^N cells along the scene's longest side")
-        ->check(CLI::Range(1, 10))->capture_default_str();
-    app.add_option("--attenuation", options.attenuation,
-                   "Direct light's normal attenuation per voxel: weighted (per axis, by the voxel's own normals), paper "
-                   "(eq. 2 of Gui et al. on the mean normal) or average (cosine of the mean normal)")
-        ->check(CLI::IsMember({"weighted", "paper", "average"}))->capture_default_str();
+        ->check(CLI::Range(0.0, 180.0))
+        ->capture_default_str();
+    app.add_option("--radiance", options.radiance,
+                   "Bake a mipmapped anisotropic radiance volume here (.rvol)");
+    app.add_option("--radiance-depth", options.radianceDepth,
+                   "Radiance volume: 2^N cells along the scene's longest side")
+        ->check(CLI::Range(1, 10))
+        ->capture_default_str();
+    app.add_option(
+           "--attenuation", options.attenuation,
+           "Direct light's normal attenuation per voxel: weighted (per axis, by the voxel's own "
+           "normals), paper "
+           "(eq. 2 of Gui et al. on the mean normal) or average (cosine of the mean normal)")
+        ->check(CLI::IsMember({"weighted", "paper", "average"}))
+        ->capture_default_str();
     app.add_option("--shadow-aperture", options.shadowAperture,
-                   "Shadows by a cone of this aperture in degrees through the voxels' occlusion (0: shadow rays)")
-        ->check(CLI::Range(0.0, 89.0))->capture_default_str();
-    app.add_option("--bounces", options.bounces, "Indirect bounces gathered with cones")->check(CLI::Range(0, 16))->capture_default_str();
+                   "Shadows by a cone of this aperture in degrees through the voxels' occlusion "
+                   "(0: shadow rays)")
+        ->check(CLI::Range(0.0, 89.0))
+        ->capture_default_str();
+    app.add_option("--bounces", options.bounces, "Indirect bounces gathered with cones")
+        ->check(CLI::Range(0, 16))
+        ->capture_default_str();
     app.add_option("--ao-lambda", options.aoLambda,
                    "Ambient occlusion falloff λ (eq. 4), per scene-cube edge of cone radius")
-        ->check(CLI::Range(0.0, 1e6))->capture_default_str();
-    app.add_option("--brick-texels", options.brickTexels, "Radiance volume: texels per brick edge (bricks share their faces)")
-        ->check(CLI::Range(2, 32))->capture_default_str();
+        ->check(CLI::Range(0.0, 1e6))
+        ->capture_default_str();
+    app.add_option("--brick-texels", options.brickTexels,
+                   "Radiance volume: texels per brick edge (bricks share their faces)")
+        ->check(CLI::Range(2, 32))
+        ->capture_default_str();
     app.add_flag("--no-static-attributes", options.noStaticAttributes,
-                 "Radiance volume: leave out the static voxels' albedo/normal/emission layer (dynamic voxels' is always written)");
-    app.add_option("--export-vdb", options.exportVdb, "With --radiance: also write albedo, radiance per direction and occlusion as OpenVDB grids");
+                 "Radiance volume: leave out the static voxels' albedo/normal/emission layer "
+                 "(dynamic voxels' is always written)");
+    app.add_option("--export-vdb", options.exportVdb,
+                   "With --radiance: also write albedo, radiance per direction and occlusion as "
+                   "OpenVDB grids");
     app.add_option("--lightcuts", options.lightcuts,
-                   "Radiance volume's direct light through Lightcuts: on, off (every light at every voxel) or auto (on from " +
+                   "Radiance volume's direct light through Lightcuts: on, off (every light at "
+                   "every voxel) or auto (on from " +
                        std::to_string(vox::kLightcutsAutoLights) + " static lights)")
-        ->check(CLI::IsMember({"auto", "on", "off"}))->capture_default_str();
-    app.add_option("--lightcut-error", options.lightcutError, "Lightcuts: relative error of each voxel's direct light")
-        ->check(CLI::Range(0.0001, 1.0))->capture_default_str();
+        ->check(CLI::IsMember({"auto", "on", "off"}))
+        ->capture_default_str();
+    app.add_option("--lightcut-error", options.lightcutError,
+                   "Lightcuts: relative error of each voxel's direct light")
+        ->check(CLI::Range(0.0001, 1.0))
+        ->capture_default_str();
     app.add_option("--lightcut-criterion", options.lightcutCriterion,
-                   "Lightcuts: what must stay within the error: rss (root of the sum of the clusters' squared bounds), sum, or "
+                   "Lightcuts: what must stay within the error: rss (root of the sum of the "
+                   "clusters' squared bounds), sum, or "
                    "per-node (each cluster's bound, as published)")
-        ->check(CLI::IsMember({"rss", "sum", "per-node"}))->capture_default_str();
-    app.add_option("--lightcut-max-cut", options.lightcutMaxCut, "Lightcuts: most clusters in one cut")
-        ->check(CLI::Range(1, 1000000))->capture_default_str();
+        ->check(CLI::IsMember({"rss", "sum", "per-node"}))
+        ->capture_default_str();
+    app.add_option("--lightcut-max-cut", options.lightcutMaxCut,
+                   "Lightcuts: most clusters in one cut")
+        ->check(CLI::Range(1, 1000000))
+        ->capture_default_str();
     app.add_flag("--lightcuts-compare", options.lightcutsCompare,
-                 "Also light every voxel with classic Lightcuts (one tree, no clusters, no reuse) and brute force, and report "
+                 "Also light every voxel with classic Lightcuts (one tree, no clusters, no reuse) "
+                 "and brute force, and report "
                  "both in --stats (direct_light.compare)");
     app.add_option("--memory-limit", options.memoryLimit,
-                   "Bytes the octree build may use, e.g. 8G (default: half the memory): it builds as many partitions at a "
-                   "time as fit and keeps finished slices beyond a quarter of it in a scratch file beside the output");
-    app.add_option("--partition", options.partition,
-                   "Build only run K of N of the octree's partitions into a part file (-o FILE.esvopart); "
-                   "'voxelize merge' joins the N part files into the file the whole build makes");
+                   "Bytes the octree build may use, e.g. 8G (default: half the memory): it builds "
+                   "as many partitions at a "
+                   "time as fit and keeps finished slices beyond a quarter of it in a scratch file "
+                   "beside the output");
+    app.add_option(
+        "--partition", options.partition,
+        "Build only run K of N of the octree's partitions into a part file (-o FILE.esvopart); "
+        "'voxelize merge' joins the N part files into the file the whole build makes");
     app.add_option("--partition-level", options.partitionLevel,
-                   "Level of the partitions: no slice spans two of its voxels (default: depth − 9, none below depth 10; "
+                   "Level of the partitions: no slice spans two of its voxels (default: depth − 9, "
+                   "none below depth 10; "
                    "at most 4, or depth − 9 from depth 14)")
         ->check(CLI::Range(0, 10));
     app.add_option("--debug-near-pointer-limit", options.nearPointerLimit,
                    "Largest near child pointer (testing far pointers)")
-        ->check(CLI::Range(32, 0x7FFF))->group("");
-    app.add_option("--stats", options.stats, "Write a JSON report: inputs, counts, timings, peak memory");
-    app.add_option("--depfile", options.depfile, "Write a Make/Ninja depfile listing every file read");
-    app.add_option("--dynamic", options.dynamicNames,
-                   "Mark a node (glTF), object or group (OBJ) and everything below it dynamic; repeatable")
+        ->check(CLI::Range(32, 0x7FFF))
+        ->group("");
+    app.add_option("--stats", options.stats,
+                   "Write a JSON report: inputs, counts, timings, peak memory");
+    app.add_option("--depfile", options.depfile,
+                   "Write a Make/Ninja depfile listing every file read");
+    app.add_option(
+           "--dynamic", options.dynamicNames,
+           "Mark a node (glTF), object or group (OBJ) and everything below it dynamic; repeatable")
         ->allow_extra_args(false);
-    app.add_flag("--strict", options.strict, "Treat repaired input (degenerate triangles, bad normals, ...) as an error");
+    app.add_flag("--strict", options.strict,
+                 "Treat repaired input (degenerate triangles, bad normals, ...) as an error");
     app.add_flag("--no-textures", options.noTextures, "Do not read or decode textures");
-    app.add_option("--max-triangles", options.maxTriangles,
-                   "Reject a scene with more triangles than this after import (invalid input, exit 3)")
+    app.add_option(
+           "--max-triangles", options.maxTriangles,
+           "Reject a scene with more triangles than this after import (invalid input, exit 3)")
         ->check(CLI::Range(std::int64_t{1}, std::numeric_limits<std::int64_t>::max()));
     vox::tools::addCommonOptions(app, options.common);
     return vox::tools::runTool("voxelize", app, argc, argv, options.common, [&] {

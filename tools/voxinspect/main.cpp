@@ -24,9 +24,12 @@ struct SceneCommand {
 
 const char* alphaModeName(vox::AlphaMode mode) {
     switch (mode) {
-    case vox::AlphaMode::Opaque: return "opaque";
-    case vox::AlphaMode::Mask: return "mask";
-    case vox::AlphaMode::Blend: return "blend";
+        case vox::AlphaMode::Opaque:
+            return "opaque";
+        case vox::AlphaMode::Mask:
+            return "mask";
+        case vox::AlphaMode::Blend:
+            return "blend";
     }
     return "?";
 }
@@ -40,38 +43,47 @@ void inspectScene(const SceneCommand& command) {
         nlohmann::json report = vox::tools::sceneReport(scene);
         nlohmann::json meshes = nlohmann::json::array();
         for (const vox::Mesh& mesh : scene.meshes)
-            meshes.push_back({{"name", mesh.name}, {"triangles", mesh.triangleCount()}, {"vertices", mesh.positions.size()},
-                              {"material", mesh.material}, {"dynamic", mesh.dynamic}, {"uv_sets", mesh.uvs.size()},
+            meshes.push_back({{"name", mesh.name},
+                              {"triangles", mesh.triangleCount()},
+                              {"vertices", mesh.positions.size()},
+                              {"material", mesh.material},
+                              {"dynamic", mesh.dynamic},
+                              {"uv_sets", mesh.uvs.size()},
                               {"vertex_colors", !mesh.colors.empty()}});
         report["mesh_list"] = meshes;
         std::cout << report.dump(2) << "\n";
         return;
     }
     const vox::Bounds3f b = scene.bounds();
-    std::printf("%s\n  triangles  %zu (%zu dynamic, %zu degenerate dropped)\n  bounds     [%g, %g, %g] - [%g, %g, %g]\n",
-                command.file.c_str(), scene.triangleCount(), scene.dynamicTriangleCount(), scene.degenerateTrianglesDropped,
-                b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z);
+    std::printf(
+        "%s\n  triangles  %zu (%zu dynamic, %zu degenerate dropped)\n  bounds     [%g, %g, %g] - "
+        "[%g, %g, %g]\n",
+        command.file.c_str(), scene.triangleCount(), scene.dynamicTriangleCount(),
+        scene.degenerateTrianglesDropped, b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z);
     std::printf("  meshes     %zu\n", scene.meshes.size());
     for (const vox::Mesh& mesh : scene.meshes)
-        std::printf("    %-28s %8zu triangles  material %u%s%s\n", mesh.name.c_str(), mesh.triangleCount(), mesh.material,
-                    mesh.dynamic ? "  dynamic" : "", mesh.colors.empty() ? "" : "  vertex colours");
+        std::printf("    %-28s %8zu triangles  material %u%s%s\n", mesh.name.c_str(),
+                    mesh.triangleCount(), mesh.material, mesh.dynamic ? "  dynamic" : "",
+                    mesh.colors.empty() ? "" : "  vertex colours");
     std::printf("  materials  %zu\n", scene.materials.size());
     for (std::size_t i = 0; i < scene.materials.size(); ++i) {
         const vox::Material& m = scene.materials[i];
-        std::printf("    %2zu %-25s base (%.3g %.3g %.3g %.3g)%s emission (%.3g %.3g %.3g)x%.3g%s %s\n", i, m.name.c_str(),
-                    m.baseColorFactor.x, m.baseColorFactor.y, m.baseColorFactor.z, m.baseColorFactor.w,
-                    m.baseColorTexture.valid() ? " x texture" : "", m.emissiveFactor.x, m.emissiveFactor.y,
-                    m.emissiveFactor.z, m.emissiveStrength, m.emissiveTexture.valid() ? " x texture" : "",
-                    alphaModeName(m.alphaMode));
+        std::printf(
+            "    %2zu %-25s base (%.3g %.3g %.3g %.3g)%s emission (%.3g %.3g %.3g)x%.3g%s %s\n", i,
+            m.name.c_str(), m.baseColorFactor.x, m.baseColorFactor.y, m.baseColorFactor.z,
+            m.baseColorFactor.w, m.baseColorTexture.valid() ? " x texture" : "", m.emissiveFactor.x,
+            m.emissiveFactor.y, m.emissiveFactor.z, m.emissiveStrength,
+            m.emissiveTexture.valid() ? " x texture" : "", alphaModeName(m.alphaMode));
     }
     std::printf("  textures   %zu\n", scene.textures.size());
     for (const vox::Texture& t : scene.textures)
-        std::printf("    %-28s %dx%d, %d mip levels\n", t.name().c_str(), t.width(), t.height(), t.levelCount());
+        std::printf("    %-28s %dx%d, %d mip levels\n", t.name().c_str(), t.width(), t.height(),
+                    t.levelCount());
     std::printf("  lights     %zu\n", scene.lights.size());
     for (const vox::Light& l : scene.lights)
-        std::printf("    %-28s %s intensity %g colour (%.3g %.3g %.3g) at (%g %g %g)%s\n", l.name.c_str(),
-                    vox::tools::lightTypeName(l.type),
-                    l.intensity, l.color.x, l.color.y, l.color.z, l.position.x, l.position.y, l.position.z,
+        std::printf("    %-28s %s intensity %g colour (%.3g %.3g %.3g) at (%g %g %g)%s\n",
+                    l.name.c_str(), vox::tools::lightTypeName(l.type), l.intensity, l.color.x,
+                    l.color.y, l.color.z, l.position.x, l.position.y, l.position.z,
                     l.dynamic ? "  dynamic" : "");
 }
 
@@ -90,7 +102,8 @@ int main(int argc, char** argv) {
     sceneApp->add_option("file", scene.file, "Scene file")->required();
     sceneApp->add_flag("--json", scene.json, "Print JSON");
     sceneApp->add_flag("--strict", scene.strict, "Treat repaired input as an error");
-    sceneApp->add_option("--dynamic", scene.dynamicNames, "Mark a node, object or group dynamic; repeatable");
+    sceneApp->add_option("--dynamic", scene.dynamicNames,
+                         "Mark a node, object or group dynamic; repeatable");
 
     vox::tools::EsvoCommands esvo;
     esvo.add(app);
@@ -98,7 +111,9 @@ int main(int argc, char** argv) {
     rvol.add(app, esvo);
 
     return vox::tools::runTool("voxinspect", app, argc, argv, common, [&] {
-        if (sceneApp->parsed()) inspectScene(scene);
-        else if (!rvol.run()) esvo.run();
+        if (sceneApp->parsed())
+            inspectScene(scene);
+        else if (!rvol.run())
+            esvo.run();
     });
 }

@@ -31,14 +31,20 @@ constexpr std::array<const char*, 6> kChannelNames{"px", "nx", "py", "ny", "pz",
 
 const char* attenuationName(std::uint32_t attenuation) {
     switch (attenuation) {
-    case 0: return "weighted";
-    case 1: return "paper";
-    case 2: return "average";
-    default: return "unknown";
+        case 0:
+            return "weighted";
+        case 1:
+            return "paper";
+        case 2:
+            return "average";
+        default:
+            return "unknown";
     }
 }
 
-std::uint8_t toByte(float v) { return static_cast<std::uint8_t>(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f))); }
+std::uint8_t toByte(float v) {
+    return static_cast<std::uint8_t>(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f)));
+}
 
 /// exposure × linear radiance, Reinhard x/(1 + x) per channel, sRGB-encoded to 8 bits.
 std::uint8_t toneMap(double linear, double exposure) {
@@ -47,25 +53,29 @@ std::uint8_t toneMap(double linear, double exposure) {
 }
 
 void checkExposure(double exposure) {
-    if (!(exposure > 0) || !std::isfinite(exposure)) throw UsageError("--exposure must be a finite number > 0");
+    if (!(exposure > 0) || !std::isfinite(exposure))
+        throw UsageError("--exposure must be a finite number > 0");
 }
 
 // ---- info, validate ------------------------------------------------------------------------
 
-nlohmann::json rvolReport(const rvol::RvolReader& reader, const rvol::RvolReport& report, const std::string& file) {
+nlohmann::json rvolReport(const rvol::RvolReader& reader, const rvol::RvolReport& report,
+                          const std::string& file) {
     const rvol::Header& h = reader.header();
     nlohmann::json levels = nlohmann::json::array();
     for (std::uint32_t l = 0; l < reader.levels().size(); ++l) {
         const rvol::LevelEntry& e = reader.level(l);
-        levels.push_back({{"level", l},
-                          {"resolution", e.resolution},
-                          {"channels", e.channels},
-                          {"cell_size", h.cellSize(l)},
-                          {"bricks_per_axis", e.bricksPerAxis},
-                          {"bricks", e.brickCount},
-                          {"brick_bytes", e.brickBytes},
-                          {"bytes", std::uint64_t{e.brickCount} * e.brickBytes},
-                          {"cells", l < report.nonZeroTexelsPerLevel.size() ? report.nonZeroTexelsPerLevel[l] : 0}});
+        levels.push_back(
+            {{"level", l},
+             {"resolution", e.resolution},
+             {"channels", e.channels},
+             {"cell_size", h.cellSize(l)},
+             {"bricks_per_axis", e.bricksPerAxis},
+             {"bricks", e.brickCount},
+             {"brick_bytes", e.brickBytes},
+             {"bytes", std::uint64_t{e.brickCount} * e.brickBytes},
+             {"cells",
+              l < report.nonZeroTexelsPerLevel.size() ? report.nonZeroTexelsPerLevel[l] : 0}});
     }
     return {{"file", file},
             {"version", std::to_string(h.versionMajor) + "." + std::to_string(h.versionMinor)},
@@ -75,7 +85,8 @@ nlohmann::json rvolReport(const rvol::RvolReader& reader, const rvol::RvolReport
             {"root_cube", {{"origin", h.origin}, {"size", h.size}}},
             {"cell_size", h.cellSize(0)},
             {"scene_bounds",
-             {{"min", {h.sceneBounds[0], h.sceneBounds[1], h.sceneBounds[2]}}, {"max", {h.sceneBounds[3], h.sceneBounds[4], h.sceneBounds[5]}}}},
+             {{"min", {h.sceneBounds[0], h.sceneBounds[1], h.sceneBounds[2]}},
+              {"max", {h.sceneBounds[3], h.sceneBounds[4], h.sceneBounds[5]}}}},
             {"bake",
              {{"bounces", h.bake.bounces},
               {"attenuation", attenuationName(h.bake.attenuation)},
@@ -108,27 +119,38 @@ void printInfo(const std::string& file, bool json) {
     }
     const rvol::Header& h = reader.header();
     const auto u64 = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
-    std::printf("%s: .rvol %u.%u, depth %u (%u cells per axis), %u-texel bricks\n", file.c_str(), h.versionMajor, h.versionMinor, h.depth,
-                rvol::levelResolution(h.depth, 0), h.brickTexels);
-    std::printf("  root cube       origin (%g, %g, %g), size %g (level-0 cell %g)\n", h.origin[0], h.origin[1], h.origin[2], h.size,
-                h.cellSize(0));
-    std::printf("  scene bounds    [%g, %g, %g] - [%g, %g, %g]\n", h.sceneBounds[0], h.sceneBounds[1], h.sceneBounds[2], h.sceneBounds[3],
-                h.sceneBounds[4], h.sceneBounds[5]);
+    std::printf("%s: .rvol %u.%u, depth %u (%u cells per axis), %u-texel bricks\n", file.c_str(),
+                h.versionMajor, h.versionMinor, h.depth, rvol::levelResolution(h.depth, 0),
+                h.brickTexels);
+    std::printf("  root cube       origin (%g, %g, %g), size %g (level-0 cell %g)\n", h.origin[0],
+                h.origin[1], h.origin[2], h.size, h.cellSize(0));
+    std::printf("  scene bounds    [%g, %g, %g] - [%g, %g, %g]\n", h.sceneBounds[0],
+                h.sceneBounds[1], h.sceneBounds[2], h.sceneBounds[3], h.sceneBounds[4],
+                h.sceneBounds[5]);
     char shadows[64];
-    if (h.bake.shadowApertureDegrees > 0) std::snprintf(shadows, sizeof shadows, "shadow cones %g°", double(h.bake.shadowApertureDegrees));
-    else std::snprintf(shadows, sizeof shadows, "shadow rays");
-    std::printf("  bake            %u bounces, attenuation %s, %s, AO lambda %g, %u lights\n", h.bake.bounces,
-                attenuationName(h.bake.attenuation), shadows, double(h.bake.aoLambda), h.bake.lights);
-    std::printf("  voxels          %llu static, %llu dynamic%s\n", u64(h.staticVoxelCount), u64(h.dynamicVoxelCount),
-                (h.flags & rvol::kFlagStaticAttributes) ? "" : " (static attribute layer not written)");
-    std::printf("  %-6s %10s %8s %8s %12s %10s\n", "level", "resolution", "channels", "bricks", "bytes", "cells");
+    if (h.bake.shadowApertureDegrees > 0)
+        std::snprintf(shadows, sizeof shadows, "shadow cones %g°",
+                      double(h.bake.shadowApertureDegrees));
+    else
+        std::snprintf(shadows, sizeof shadows, "shadow rays");
+    std::printf("  bake            %u bounces, attenuation %s, %s, AO lambda %g, %u lights\n",
+                h.bake.bounces, attenuationName(h.bake.attenuation), shadows,
+                double(h.bake.aoLambda), h.bake.lights);
+    std::printf(
+        "  voxels          %llu static, %llu dynamic%s\n", u64(h.staticVoxelCount),
+        u64(h.dynamicVoxelCount),
+        (h.flags & rvol::kFlagStaticAttributes) ? "" : " (static attribute layer not written)");
+    std::printf("  %-6s %10s %8s %8s %12s %10s\n", "level", "resolution", "channels", "bricks",
+                "bytes", "cells");
     for (const auto& level : report["levels"])
-        std::printf("  %-6u %10u %8u %8u %12llu %10llu\n", level["level"].get<unsigned>(), level["resolution"].get<unsigned>(),
-                    level["channels"].get<unsigned>(), level["bricks"].get<unsigned>(), u64(level["bytes"].get<std::uint64_t>()),
+        std::printf("  %-6u %10u %8u %8u %12llu %10llu\n", level["level"].get<unsigned>(),
+                    level["resolution"].get<unsigned>(), level["channels"].get<unsigned>(),
+                    level["bricks"].get<unsigned>(), u64(level["bytes"].get<std::uint64_t>()),
                     u64(level["cells"].get<std::uint64_t>()));
     std::printf("  bricks          %llu\n", u64(h.brickCount));
     std::printf("  file bytes      %llu\n", u64(h.fileBytes));
-    for (const char* part : {"header", "level_table", "directory", "radiance", "static_attributes", "dynamic_attributes", "padding"})
+    for (const char* part : {"header", "level_table", "directory", "radiance", "static_attributes",
+                             "dynamic_attributes", "padding"})
         std::printf("    %-20s %12llu\n", part, u64(report["bytes"][part].get<std::uint64_t>()));
 }
 
@@ -136,9 +158,12 @@ void validate(const std::string& file) {
     const rvol::RvolReader reader(file);
     const rvol::RvolReport report = rvol::validateRvol(reader);
     if (log::verbosity() == log::Verbosity::Quiet) return;
-    std::printf("%s: valid .rvol (depth %u, %llu bricks, %llu static + %llu dynamic voxels, %llu bytes)\n", file.c_str(),
-                reader.header().depth, static_cast<unsigned long long>(report.bricks), static_cast<unsigned long long>(report.staticVoxels),
-                static_cast<unsigned long long>(report.dynamicVoxels), static_cast<unsigned long long>(report.fileBytes));
+    std::printf(
+        "%s: valid .rvol (depth %u, %llu bricks, %llu static + %llu dynamic voxels, %llu bytes)\n",
+        file.c_str(), reader.header().depth, static_cast<unsigned long long>(report.bricks),
+        static_cast<unsigned long long>(report.staticVoxels),
+        static_cast<unsigned long long>(report.dynamicVoxels),
+        static_cast<unsigned long long>(report.fileBytes));
 }
 
 // ---- sample --------------------------------------------------------------------------------
@@ -152,7 +177,8 @@ Vec3d parseDirection(const std::string& text) {
                                                                      {"-z", {0, 0, -1}}}};
     for (const auto& [name, v] : kAxes)
         if (text == name) return v;
-    if (text.find(',') == std::string::npos) throw UsageError("--dir expects +x, -x, +y, -y, +z, -z or dx,dy,dz (got '" + text + "')");
+    if (text.find(',') == std::string::npos)
+        throw UsageError("--dir expects +x, -x, +y, -y, +z, -z or dx,dy,dz (got '" + text + "')");
     const Vec3d d = parseVector(text, "--dir");
     if (!(length(d) > 0)) throw UsageError("--dir must not be the zero vector");
     return normalize(d);
@@ -165,7 +191,8 @@ void sample(const RvolCommands& c) {
     const rvol::RvolReader reader(c.file);
     const std::uint32_t depth = reader.header().depth;
     if (c.level < 0 || static_cast<std::uint32_t>(c.level) > depth)
-        throw UsageError("--level " + std::to_string(c.level) + ": " + c.file + " has levels 0 to " + std::to_string(depth));
+        throw UsageError("--level " + std::to_string(c.level) + ": " + c.file +
+                         " has levels 0 to " + std::to_string(depth));
     const auto level = static_cast<std::uint32_t>(c.level);
     const std::array<double, 3> p{at.x, at.y, at.z};
     rvol::Texel t;
@@ -186,36 +213,45 @@ void sample(const RvolCommands& c) {
     const std::array<double, 3> premultiplied{t.r, t.g, t.b};
     std::array<double, 3> radiance{0, 0, 0};
     if (t.a > 0)
-        for (int k = 0; k < 3; ++k) radiance[static_cast<std::size_t>(k)] = premultiplied[static_cast<std::size_t>(k)] / t.a;
+        for (int k = 0; k < 3; ++k)
+            radiance[static_cast<std::size_t>(k)] =
+                premultiplied[static_cast<std::size_t>(k)] / t.a;
     if (c.json) {
-        nlohmann::json out{{"radiance", radiance},
-                           {"occlusion", t.a},
-                           {"premultiplied", premultiplied},
-                           {"level", level},
-                           {"position", {at.x, at.y, at.z}},
-                           {"direction", hasDir ? nlohmann::json({dir.x, dir.y, dir.z}) : nlohmann::json(nullptr)},
-                           {"channel", what}};
+        nlohmann::json out{
+            {"radiance", radiance},
+            {"occlusion", t.a},
+            {"premultiplied", premultiplied},
+            {"level", level},
+            {"position", {at.x, at.y, at.z}},
+            {"direction", hasDir ? nlohmann::json({dir.x, dir.y, dir.z}) : nlohmann::json(nullptr)},
+            {"channel", what}};
         std::cout << out.dump(2) << "\n";
         return;
     }
-    std::printf("%s: level %u at (%g, %g, %g), %s", c.file.c_str(), level, at.x, at.y, at.z, what.c_str());
+    std::printf("%s: level %u at (%g, %g, %g), %s", c.file.c_str(), level, at.x, at.y, at.z,
+                what.c_str());
     if (hasDir) std::printf(" along (%g, %g, %g)", dir.x, dir.y, dir.z);
-    std::printf("\n  radiance       %g %g %g\n  occlusion      %g\n  premultiplied  %g %g %g\n", radiance[0], radiance[1], radiance[2],
-                double(t.a), premultiplied[0], premultiplied[1], premultiplied[2]);
+    std::printf("\n  radiance       %g %g %g\n  occlusion      %g\n  premultiplied  %g %g %g\n",
+                radiance[0], radiance[1], radiance[2], double(t.a), premultiplied[0],
+                premultiplied[1], premultiplied[2]);
 }
 
 // ---- slices --------------------------------------------------------------------------------
 
 void slices(const RvolCommands& c) {
     checkExposure(c.exposure);
-    if (c.axis != "x" && c.axis != "y" && c.axis != "z") throw UsageError("--axis must be x, y or z");
+    if (c.axis != "x" && c.axis != "y" && c.axis != "z")
+        throw UsageError("--axis must be x, y or z");
     const rvol::RvolReader reader(c.file);
     const std::uint32_t depth = reader.header().depth;
     const std::uint32_t resolution0 = rvol::levelResolution(depth, 0);
-    if (c.index < 0 && c.slices->get_option("--index")->count() > 0) throw UsageError("--index must be 0 or more");
+    if (c.index < 0 && c.slices->get_option("--index")->count() > 0)
+        throw UsageError("--index must be 0 or more");
     if (c.index >= static_cast<long long>(resolution0))
-        throw UsageError("--index " + std::to_string(c.index) + ": level 0 has cells 0 to " + std::to_string(resolution0 - 1));
-    const std::uint32_t index0 = c.index < 0 ? resolution0 / 2 : static_cast<std::uint32_t>(c.index);
+        throw UsageError("--index " + std::to_string(c.index) + ": level 0 has cells 0 to " +
+                         std::to_string(resolution0 - 1));
+    const std::uint32_t index0 =
+        c.index < 0 ? resolution0 / 2 : static_cast<std::uint32_t>(c.index);
     const rvol::Volume volume = reader.readVolume();
     const std::filesystem::path dir(c.outputDir);
     std::error_code ec;
@@ -231,12 +267,15 @@ void slices(const RvolCommands& c) {
             std::vector<std::uint8_t> rgb(3 * std::size_t{r} * r);
             for (std::uint32_t row = 0; row < r; ++row)
                 for (std::uint32_t col = 0; col < r; ++col) {
-                    // Seen from the positive end of the axis: z and x with +y up (x: +x right; z: −z
-                    // right), y with −z up and +x right.
+                    // Seen from the positive end of the axis: z and x with +y up (x: +x right; z:
+                    // −z right), y with −z up and +x right.
                     std::uint32_t x = 0, y = 0, z = 0;
-                    if (axis == 2) x = col, y = r - 1 - row, z = k;
-                    else if (axis == 0) x = k, y = r - 1 - row, z = r - 1 - col;
-                    else x = col, y = k, z = row;
+                    if (axis == 2)
+                        x = col, y = r - 1 - row, z = k;
+                    else if (axis == 0)
+                        x = k, y = r - 1 - row, z = r - 1 - col;
+                    else
+                        x = col, y = k, z = row;
                     const rvol::Texel t = level.at(x, y, z, channel);
                     std::uint8_t* px = &rgb[3 * (std::size_t{row} * r + col)];
                     px[0] = toneMap(t.r, c.exposure);
@@ -244,12 +283,14 @@ void slices(const RvolCommands& c) {
                     px[2] = toneMap(t.b, c.exposure);
                 }
             char name[32];
-            std::snprintf(name, sizeof name, "L%u_%s.png", l, l == 0 ? "iso" : kChannelNames[channel]);
+            std::snprintf(name, sizeof name, "L%u_%s.png", l,
+                          l == 0 ? "iso" : kChannelNames[channel]);
             writePng(dir / name, static_cast<int>(r), static_cast<int>(r), 3, rgb);
             ++written;
         }
     }
-    log::info(c.outputDir + ": " + std::to_string(written) + " slices along " + c.axis + " through level-0 cell " + std::to_string(index0));
+    log::info(c.outputDir + ": " + std::to_string(written) + " slices along " + c.axis +
+              " through level-0 cell " + std::to_string(index0));
 }
 
 // ---- render --------------------------------------------------------------------------------
@@ -258,11 +299,16 @@ void render(const RvolCommands& r, const EsvoCommands& c) {
     const PinholeCamera camera = c.camera.camera();
     const bool channelGiven = c.render->get_option("--channel")->count() > 0;
     const std::string channel = channelGiven ? c.channel : "final";
-    static const std::array<std::string, 7> kChannels{"final", "direct", "indirect", "specular", "ao", "albedo", "normal"};
+    static const std::array<std::string, 7> kChannels{"final", "direct", "indirect", "specular",
+                                                      "ao",    "albedo", "normal"};
     if (std::find(kChannels.begin(), kChannels.end(), channel) == kChannels.end())
-        throw UsageError("--channel for an .rvol file must be final, direct, indirect, specular, ao, albedo or normal");
+        throw UsageError(
+            "--channel for an .rvol file must be final, direct, indirect, specular, ao, albedo or "
+            "normal");
     checkExposure(r.exposure);
-    if (r.scene.empty() && r.esvo.empty()) throw UsageError("render " + c.file + " needs --scene SCENE or --esvo FILE.esvo for the primary hits");
+    if (r.scene.empty() && r.esvo.empty())
+        throw UsageError("render " + c.file +
+                         " needs --scene SCENE or --esvo FILE.esvo for the primary hits");
 
     const rvol::RvolReader reader(c.file);
     const rvol::Volume volume = reader.readVolume();
@@ -283,10 +329,12 @@ void render(const RvolCommands& r, const EsvoCommands& c) {
     const FinalGather gather(field, scene.lights, options);
     if (r.scene.empty()) {
         if (reader.header().bake.lights > 0)
-            log::warning(r.esvo + ": no lights without --scene: the direct term is 0 (the bake had " +
+            log::warning(r.esvo +
+                         ": no lights without --scene: the direct term is 0 (the bake had " +
                          std::to_string(reader.header().bake.lights) + ")");
     } else if (gather.staticLightCount() != reader.header().bake.lights) {
-        log::warning(r.scene + ": " + std::to_string(gather.staticLightCount()) + " static lights, but " + c.file + " was baked with " +
+        log::warning(r.scene + ": " + std::to_string(gather.staticLightCount()) +
+                     " static lights, but " + c.file + " was baked with " +
                      std::to_string(reader.header().bake.lights));
     }
 
@@ -299,12 +347,15 @@ void render(const RvolCommands& r, const EsvoCommands& c) {
         CastOptions cast;
         cast.lodAngle = camera.pixelAngle();
         cast.attributes = true;
-        image = renderFinalGather(gather, camera, [&](const Ray& ray, ShadingPoint& out) { return esvoShadingPoint(caster, ray, cast, out); });
+        image = renderFinalGather(gather, camera, [&](const Ray& ray, ShadingPoint& out) {
+            return esvoShadingPoint(caster, ray, cast, out);
+        });
     } else {
         const TriangleRayCaster caster(scene);  // static meshes: what the volume holds
         const double footprint = camera.pixelAngle();
-        image = renderFinalGather(gather, camera,
-                                  [&](const Ray& ray, ShadingPoint& out) { return sceneShadingPoint(scene, caster, ray, footprint, out); });
+        image = renderFinalGather(gather, camera, [&](const Ray& ray, ShadingPoint& out) {
+            return sceneShadingPoint(scene, caster, ray, footprint, out);
+        });
     }
 
     const std::size_t pixels = image.hit.size();
@@ -322,23 +373,26 @@ void render(const RvolCommands& r, const EsvoCommands& c) {
         } else if (channel == "ao") {
             p[0] = p[1] = p[2] = toByte(image.ao[i]);
         } else if (channel == "albedo") {
-            for (int k = 0; k < 3; ++k) p[k] = toByte(linearToSrgb(std::clamp(image.albedo[i][k], 0.0f, 1.0f)));
+            for (int k = 0; k < 3; ++k)
+                p[k] = toByte(linearToSrgb(std::clamp(image.albedo[i][k], 0.0f, 1.0f)));
         } else {
             for (int k = 0; k < 3; ++k) p[k] = toByte(0.5f * (image.normal[i][k] + 1));
         }
     }
     writePng(c.output, image.width, image.height, 3, rgb);
-    log::info(c.output + ": " + std::to_string(image.width) + "x" + std::to_string(image.height) + ", " + std::to_string(image.hits) +
-              " hits, " + std::to_string(gather.lightCount()) + " lights (" + image.directLight.used.method + "), " +
-              std::to_string(image.seconds) + " s");
+    log::info(c.output + ": " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+              ", " + std::to_string(image.hits) + " hits, " + std::to_string(gather.lightCount()) +
+              " lights (" + image.directLight.used.method + "), " + std::to_string(image.seconds) +
+              " s");
     if (!c.stats.empty()) {
-        const nlohmann::json report{{"file", c.file},
-                                    {"width", image.width},
-                                    {"height", image.height},
-                                    {"hits", image.hits},
-                                    {"seconds", image.seconds},
-                                    {"direct_seconds", image.directSeconds},
-                                    {"direct_light", directLightReport(image.directLight, options.lightcut)}};
+        const nlohmann::json report{
+            {"file", c.file},
+            {"width", image.width},
+            {"height", image.height},
+            {"hits", image.hits},
+            {"seconds", image.seconds},
+            {"direct_seconds", image.directSeconds},
+            {"direct_light", directLightReport(image.directLight, options.lightcut)}};
         Timings timings;
         timings.add("render", image.seconds * 1000.0);
         timings.add("direct", image.directSeconds * 1000.0);
@@ -355,41 +409,67 @@ const char* firstGiven(const CLI::App& command, std::initializer_list<const char
 
 }  // namespace
 
-bool isRvolFile(const std::string& file) { return std::filesystem::path(file).extension() == ".rvol"; }
+bool isRvolFile(const std::string& file) {
+    return std::filesystem::path(file).extension() == ".rvol";
+}
 
 void RvolCommands::add(CLI::App& app, EsvoCommands& esvoCommands) {
     shared = &esvoCommands;
     sample = app.add_subcommand("sample", "Sample an .rvol file's radiance and opacity at a point");
     sample->add_option("file", file, ".rvol file")->required();
     sample->add_option("--at", at, "World position x,y,z")->required();
-    sample->add_option("--level", level, "Level: 0 (isotropic) to the file's depth")->capture_default_str();
-    sample->add_option("--dir", dir, "Direction a cone looks along (levels >= 1): +x, -x, +y, -y, +z, -z or dx,dy,dz");
+    sample->add_option("--level", level, "Level: 0 (isotropic) to the file's depth")
+        ->capture_default_str();
+    sample->add_option(
+        "--dir", dir,
+        "Direction a cone looks along (levels >= 1): +x, -x, +y, -y, +z, -z or dx,dy,dz");
     sample->add_flag("--json", json, "Print JSON");
 
-    slices = app.add_subcommand("slices", "Write one PNG per level and channel of an .rvol file: a slice through the volume");
+    slices = app.add_subcommand(
+        "slices",
+        "Write one PNG per level and channel of an .rvol file: a slice through the volume");
     slices->add_option("file", file, ".rvol file")->required();
-    slices->add_option("-o,--output", outputDir, "Directory to write L<level>_<channel>.png into")->required();
-    slices->add_option("--axis", axis, "Axis the slices are perpendicular to: x, y or z")->capture_default_str();
+    slices->add_option("-o,--output", outputDir, "Directory to write L<level>_<channel>.png into")
+        ->required();
+    slices->add_option("--axis", axis, "Axis the slices are perpendicular to: x, y or z")
+        ->capture_default_str();
     slices->add_option("--index", index, "Level-0 cell index along the axis (default: the middle)");
-    slices->add_option("--exposure", exposure, "Radiance scale before tone mapping")->capture_default_str();
+    slices->add_option("--exposure", exposure, "Radiance scale before tone mapping")
+        ->capture_default_str();
 
     CLI::App& render = *esvoCommands.render;
-    render.add_option("--scene", scene, ".rvol: primary hits (and lights) from this scene's static triangles");
-    render.add_option("--esvo", esvo, ".rvol: primary hits from this .esvo octree (lights only with --scene)");
-    render.add_option("--exposure", exposure, ".rvol: radiance scale before tone mapping")->capture_default_str();
-    render.add_option("--spec-aperture", specAperture, ".rvol: specular cone aperture, degrees")->capture_default_str();
-    render.add_option("--shadow-aperture", shadowAperture, ".rvol: shadow cone aperture, degrees")->capture_default_str();
+    render.add_option("--scene", scene,
+                      ".rvol: primary hits (and lights) from this scene's static triangles");
+    render.add_option("--esvo", esvo,
+                      ".rvol: primary hits from this .esvo octree (lights only with --scene)");
+    render.add_option("--exposure", exposure, ".rvol: radiance scale before tone mapping")
+        ->capture_default_str();
+    render.add_option("--spec-aperture", specAperture, ".rvol: specular cone aperture, degrees")
+        ->capture_default_str();
+    render.add_option("--shadow-aperture", shadowAperture, ".rvol: shadow cone aperture, degrees")
+        ->capture_default_str();
     render.add_flag("--no-shadow-cones", noShadowCones, ".rvol: lights unshadowed");
-    render.add_option("--lightcuts", lightcuts, ".rvol: direct light through Lightcuts: on, off or auto (on from " +
-                                                    std::to_string(kLightcutsAutoLights) + " lights)")
-        ->check(CLI::IsMember({"auto", "on", "off"}))->capture_default_str();
-    render.add_option("--lightcut-error", lightcutError, ".rvol: Lightcuts' relative error per pixel")
-        ->check(CLI::Range(0.0001, 1.0))->capture_default_str();
-    render.add_option("--lightcut-criterion", lightcutCriterion, ".rvol: Lightcuts' error criterion: rss, sum or per-node")
-        ->check(CLI::IsMember({"rss", "sum", "per-node"}))->capture_default_str();
-    render.add_option("--lightcut-max-cut", lightcutMaxCut, ".rvol: most clusters in one cut")->check(CLI::Range(1, 1000000))->capture_default_str();
+    render
+        .add_option("--lightcuts", lightcuts,
+                    ".rvol: direct light through Lightcuts: on, off or auto (on from " +
+                        std::to_string(kLightcutsAutoLights) + " lights)")
+        ->check(CLI::IsMember({"auto", "on", "off"}))
+        ->capture_default_str();
+    render
+        .add_option("--lightcut-error", lightcutError, ".rvol: Lightcuts' relative error per pixel")
+        ->check(CLI::Range(0.0001, 1.0))
+        ->capture_default_str();
+    render
+        .add_option("--lightcut-criterion", lightcutCriterion,
+                    ".rvol: Lightcuts' error criterion: rss, sum or per-node")
+        ->check(CLI::IsMember({"rss", "sum", "per-node"}))
+        ->capture_default_str();
+    render.add_option("--lightcut-max-cut", lightcutMaxCut, ".rvol: most clusters in one cut")
+        ->check(CLI::Range(1, 1000000))
+        ->capture_default_str();
     render.add_flag("--lightcuts-compare", lightcutsCompare,
-                    ".rvol: also light every pixel with classic Lightcuts and brute force; compared in --stats");
+                    ".rvol: also light every pixel with classic Lightcuts and brute force; "
+                    "compared in --stats");
 }
 
 bool RvolCommands::run() {
@@ -407,20 +487,30 @@ bool RvolCommands::run() {
     const bool rvolFile = isRvolFile(c.file);
     if (c.render->parsed()) {
         if (rvolFile) {
-            if (const char* option = firstGiven(*c.render, {"--filter", "--depth-out", "--max-level", "--load-levels", "--lod-scale", "--beam"}))
+            if (const char* option =
+                    firstGiven(*c.render, {"--filter", "--depth-out", "--max-level",
+                                           "--load-levels", "--lod-scale", "--beam"}))
                 throw UsageError(std::string(option) + " applies to .esvo files");
-        } else if (const char* option = firstGiven(*c.render, {"--scene", "--esvo", "--exposure", "--spec-aperture", "--shadow-aperture",
-                                                                "--no-shadow-cones", "--lightcuts", "--lightcut-error",
-                                                                "--lightcut-criterion", "--lightcut-max-cut", "--lightcuts-compare"})) {
+        } else if (const char* option = firstGiven(
+                       *c.render,
+                       {"--scene", "--esvo", "--exposure", "--spec-aperture", "--shadow-aperture",
+                        "--no-shadow-cones", "--lightcuts", "--lightcut-error",
+                        "--lightcut-criterion", "--lightcut-max-cut", "--lightcuts-compare"})) {
             throw UsageError(std::string(option) + " applies to .rvol files");
         }
     }
     if (!rvolFile) return false;
-    if (c.info->parsed()) printInfo(c.file, c.json);
-    else if (c.validate->parsed()) validate(c.file);
-    else if (c.render->parsed()) render(*this, c);
-    else if (c.dump->parsed()) throw UsageError("dump works on .esvo files (info shows an .rvol file's header and levels)");
-    else return false;
+    if (c.info->parsed())
+        printInfo(c.file, c.json);
+    else if (c.validate->parsed())
+        validate(c.file);
+    else if (c.render->parsed())
+        render(*this, c);
+    else if (c.dump->parsed())
+        throw UsageError(
+            "dump works on .esvo files (info shows an .rvol file's header and levels)");
+    else
+        return false;
     return true;
 }
 

@@ -25,10 +25,10 @@ class TriangleRayCaster;
 /// A surface point to shade, in world units.
 struct ShadingPoint {
     Vec3d position{0, 0, 0};
-    Vec3d normal{0, 0, 1};      ///< unit shading normal, on the side the viewer is on
-    Vec3d albedo{0, 0, 0};      ///< linear diffuse albedo
-    Vec3d emission{0, 0, 0};    ///< linear emitted radiance
-    Vec3d view{0, 0, 1};        ///< unit, from the point towards the viewer
+    Vec3d normal{0, 0, 1};    ///< unit shading normal, on the side the viewer is on
+    Vec3d albedo{0, 0, 0};    ///< linear diffuse albedo
+    Vec3d emission{0, 0, 0};  ///< linear emitted radiance
+    Vec3d view{0, 0, 1};      ///< unit, from the point towards the viewer
 };
 
 struct FinalGatherOptions {
@@ -73,7 +73,8 @@ public:
     /// light, so a dynamic light (a moving lamp) is lit here, frame by frame, without its
     /// bounces. @throws UsageError for an aperture outside (0, 90) degrees or a negative or
     /// non-finite offset, λ or F0.
-    FinalGather(const RadianceField& field, std::span<const Light> lights, const FinalGatherOptions& options = {});
+    FinalGather(const RadianceField& field, std::span<const Light> lights,
+                const FinalGatherOptions& options = {});
 
     /// Every term of @p point, the direct one by summing every light.
     [[nodiscard]] FinalGatherParts shade(const ShadingPoint& point) const noexcept;
@@ -82,7 +83,8 @@ public:
     [[nodiscard]] FinalGatherParts shade(const ShadingPoint& point, Vec3d direct) const noexcept;
     /// Visibility of one light from @p point (1 − the opacity a shadow cone from the offset point
     /// towards the light accumulates up to the light's distance); 1 without shadow cones.
-    [[nodiscard]] double visibility(const ShadingPoint& point, const LightArrival& arrival) const noexcept;
+    [[nodiscard]] double visibility(const ShadingPoint& point,
+                                    const LightArrival& arrival) const noexcept;
 
     [[nodiscard]] const RadianceField& field() const noexcept { return field_; }
     [[nodiscard]] const FinalGatherOptions& options() const noexcept { return options_; }
@@ -94,7 +96,7 @@ private:
     const RadianceField& field_;
     std::vector<Light> lights_;
     FinalGatherOptions options_;
-    double offset_ = 0;             ///< world distance of the cones' start off the surface
+    double offset_ = 0;  ///< world distance of the cones' start off the surface
     double tanHalfSpecular_ = 0, tanHalfShadow_ = 0;
 };
 
@@ -103,26 +105,28 @@ private:
 /// colour, emission, shading normal; textures filtered over @p footprintAngle × t), two-sided:
 /// the geometric normal decides the side facing the ray and the shading normal follows it.
 /// Returns false where the ray misses.
-[[nodiscard]] bool sceneShadingPoint(const Scene& scene, const TriangleRayCaster& caster, const Ray& ray, double footprintAngle,
-                                     ShadingPoint& out);
+[[nodiscard]] bool sceneShadingPoint(const Scene& scene, const TriangleRayCaster& caster,
+                                     const Ray& ray, double footprintAngle, ShadingPoint& out);
 
 /// The point a ray hits in an octree (EsvoRayCaster with @p options; attributes are looked up
 /// whatever options.attributes says): where the ray enters the voxel hit, its filtered colour as
 /// linear albedo (0.8 grey where the voxel has none) and its shading normal (else the face
 /// normal) turned towards the ray, no emission. Returns false where the ray misses.
-[[nodiscard]] bool esvoShadingPoint(const EsvoRayCaster& caster, const Ray& ray, const CastOptions& options, ShadingPoint& out);
+[[nodiscard]] bool esvoShadingPoint(const EsvoRayCaster& caster, const Ray& ray,
+                                    const CastOptions& options, ShadingPoint& out);
 
 /// A final-gathered image: per pixel, row 0 at the top; zero where the primary ray missed.
 struct FinalGatherImage {
     int width = 0, height = 0;
-    std::vector<std::uint8_t> hit;   ///< 1 where the primary ray hit
+    std::vector<std::uint8_t> hit;  ///< 1 where the primary ray hit
     std::vector<Vec3f> final, direct, indirect, specular;
     std::vector<float> ao;
     std::vector<Vec3f> albedo, normal;  ///< the shading point's albedo and unit normal
     std::uint64_t hits = 0;
-    double seconds = 0;              ///< wall time of hits and shading
-    double directSeconds = 0;        ///< of which the direct light (FinalGatherImage::directLight)
-    ManyLightReport directLight;     ///< how the direct light was computed (FinalGatherOptions::lightcuts)
+    double seconds = 0;        ///< wall time of hits and shading
+    double directSeconds = 0;  ///< of which the direct light (FinalGatherImage::directLight)
+    ManyLightReport
+        directLight;  ///< how the direct light was computed (FinalGatherOptions::lightcuts)
 };
 
 /// Finds the surface a primary ray hits (false: a miss). Called concurrently.
@@ -133,6 +137,8 @@ using ShadingPointFunction = std::function<bool(const Ray& ray, ShadingPoint& ou
 /// clusters, or brute force, as FinalGatherOptions say); then @p gather's shade() for the other
 /// terms, in parallel (TBB). Deterministic: the same inputs give the same image whatever the
 /// thread count. @throws UsageError for a bad camera.
-[[nodiscard]] FinalGatherImage renderFinalGather(const FinalGather& gather, const PinholeCamera& camera, const ShadingPointFunction& surface);
+[[nodiscard]] FinalGatherImage renderFinalGather(const FinalGather& gather,
+                                                 const PinholeCamera& camera,
+                                                 const ShadingPointFunction& surface);
 
 }  // namespace vox

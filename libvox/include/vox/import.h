@@ -30,7 +30,8 @@ struct ImportOptions {
 
 /// Imports @p file. @throws IoError when the file, or a file it references, cannot be read;
 /// InvalidDataError when the data is malformed or holds no triangles.
-[[nodiscard]] Scene importScene(const std::filesystem::path& file, const ImportOptions& options = {});
+[[nodiscard]] Scene importScene(const std::filesystem::path& file,
+                                const ImportOptions& options = {});
 
 /// File extensions importScene accepts, lower case with the dot (".gltf", ".glb", ...).
 [[nodiscard]] const std::vector<std::string>& supportedSceneExtensions();

@@ -53,7 +53,9 @@ namespace vox {
 inline constexpr std::uint32_t kNoLightNode = 0xFFFFFFFFu;
 
 /// Rec. 709 luminance of a linear RGB colour.
-[[nodiscard]] constexpr double lightLuminance(Vec3d rgb) { return 0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z; }
+[[nodiscard]] constexpr double lightLuminance(Vec3d rgb) {
+    return 0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z;
+}
 
 /// How LightTree clusters the lights.
 struct LightTreeOptions {
@@ -93,18 +95,18 @@ struct LightTreeOptions {
 
 /// One node of a light tree, in LightTree::nodes(). Leaves hold one light each.
 struct LightTreeNode {
-    std::uint32_t left = kNoLightNode;   ///< first child (kNoLightNode for a leaf)
-    std::uint32_t right = kNoLightNode;  ///< second child (kNoLightNode for a leaf)
-    std::uint32_t parent = kNoLightNode; ///< kNoLightNode for a root
+    std::uint32_t left = kNoLightNode;    ///< first child (kNoLightNode for a leaf)
+    std::uint32_t right = kNoLightNode;   ///< second child (kNoLightNode for a leaf)
+    std::uint32_t parent = kNoLightNode;  ///< kNoLightNode for a root
     /// The representative light, an index into the span the tree was built from (and into
     /// LightTree::lights()); for a leaf, its own light. A merged cluster takes one child's
     /// representative, chosen with probability ∝ the children's luminance by a hash of the two
     /// children's representatives (deterministic, no global random state).
     std::uint32_t representative = kNoLightNode;
-    std::uint32_t lightCount = 0;        ///< lights in the subtree
-    bool directional = false;            ///< a directional-light tree's node
-    bool hasSpot = false;                ///< the subtree holds at least one spot light
-    bool hasOmni = false;                ///< the subtree holds at least one point light
+    std::uint32_t lightCount = 0;  ///< lights in the subtree
+    bool directional = false;      ///< a directional-light tree's node
+    bool hasSpot = false;          ///< the subtree holds at least one spot light
+    bool hasOmni = false;          ///< the subtree holds at least one point light
     /// Point and spot trees: bounding box of the lights' positions (world units). Directional
     /// trees: bounding box of the unit vectors towards the lights (−direction), slightly padded.
     Bounds3f bounds;
@@ -112,14 +114,14 @@ struct LightTreeNode {
     /// in radians (0 for one spot). Meaningless unless hasSpot; π where hasOmni (all directions).
     Vec3f coneAxis{0, 0, -1};
     float coneHalfAngle = 3.14159265f;
-    float maxOuterAngle = 0;             ///< largest spot outer cone angle in the subtree (radians)
+    float maxOuterAngle = 0;  ///< largest spot outer cone angle in the subtree (radians)
     /// Largest Light::range in the subtree; +∞ when any light has none (or for directional).
     float maxRange = std::numeric_limits<float>::infinity();
     /// Bounding box of the union of the lights' influence spheres (centre = position, radius =
     /// LightTree::influenceRadius); infinite for directional trees.
     Bounds3f influence;
-    Vec3d intensity{0, 0, 0};            ///< Σ colour × intensity (RGB; cd, or lux for directional)
-    double luminance = 0;                ///< lightLuminance(intensity)
+    Vec3d intensity{0, 0, 0};  ///< Σ colour × intensity (RGB; cd, or lux for directional)
+    double luminance = 0;      ///< lightLuminance(intensity)
 
     [[nodiscard]] bool leaf() const noexcept { return left == kNoLightNode; }
 };
@@ -187,7 +189,8 @@ public:
     /// A node of the hierarchy over the trees' influence boxes (internal).
     struct RootIndexNode {
         Bounds3f bounds;
-        std::uint32_t first = 0;  ///< leaf: first entry of the root order; inner: right child (left: this + 1)
+        std::uint32_t first =
+            0;  ///< leaf: first entry of the root order; inner: right child (left: this + 1)
         std::uint32_t count = 0;  ///< leaf: number of trees; inner: 0
     };
 
@@ -198,9 +201,9 @@ private:
     std::vector<std::uint32_t> leafOf_;
     std::vector<double> radius_;
     std::vector<std::uint32_t> treeOf_;
-    std::vector<RootIndexNode> rootIndex_;      // over the finite influence boxes
-    std::vector<std::uint32_t> rootOrder_;      // root indices, in the hierarchy's leaf order
-    std::vector<std::uint32_t> unboundedRoots_; // roots with an infinite influence box
+    std::vector<RootIndexNode> rootIndex_;       // over the finite influence boxes
+    std::vector<std::uint32_t> rootOrder_;       // root indices, in the hierarchy's leaf order
+    std::vector<std::uint32_t> unboundedRoots_;  // roots with an infinite influence box
     void buildRootIndex();
     double threshold_ = 0;
     double diagonal_ = 0;
@@ -211,9 +214,11 @@ private:
 /// response being max(0, n·l) (the default) or, for the radiance bake's voxels, the axis-weighted
 /// attenuation of vox::attenuate (Attenuation::Weighted and Paper are of that form).
 struct LightcutPoint {
-    Vec3d position{0, 0, 0};   ///< world units
-    Vec3d normal{0, 0, 1};     ///< unit; the cosine response's normal (and the side shadow rays leave from)
-    Vec3d albedo{1, 1, 1};     ///< linear, each channel in [0, 1] (π gives irradiance instead of radiance)
+    Vec3d position{0, 0, 0};  ///< world units
+    Vec3d normal{0, 0,
+                 1};  ///< unit; the cosine response's normal (and the side shadow rays leave from)
+    Vec3d albedo{1, 1,
+                 1};  ///< linear, each channel in [0, 1] (π gives irradiance instead of radiance)
     /// false: response max(0, n·l). true: Σ over the axis directions (+x, −x, +y, −y, +z, −z) of
     /// axisWeights[k] × max(0, ±l_axis), each weight ≥ 0.
     bool axisWeighted = false;
@@ -225,7 +230,8 @@ struct LightcutPoint {
     [[nodiscard]] static LightcutPoint lambertian(Vec3d position, Vec3d normal, Vec3d albedo);
     /// A voxel of the radiance bake: the response of vox::attenuate(@p mode, @p normals, l)
     /// (Attenuation::Average is the cosine of the mean normal).
-    [[nodiscard]] static LightcutPoint voxel(Vec3d position, const VoxelNormals& normals, Attenuation mode, Vec3d albedo);
+    [[nodiscard]] static LightcutPoint voxel(Vec3d position, const VoxelNormals& normals,
+                                             Attenuation mode, Vec3d albedo);
 };
 
 /// When a cut is fine enough: which measure of the cut's error bounds (luminance of
@@ -284,9 +290,9 @@ struct LightcutStats {
     std::uint32_t visibilityEvaluations = 0;  ///< calls of the visibility callback
     std::uint32_t lightEvaluations = 0;       ///< calls of lightArrival
     std::uint32_t treesSearched = 0;          ///< trees whose influence contains the point
-    std::uint32_t treesSkipped = 0;           ///< trees not searched: the point lies outside their influence
-    std::uint32_t mergedBack = 0;             ///< cut reuse: nodes that replaced their two children
-    bool truncated = false;                   ///< refinement stopped at maxCutSize
+    std::uint32_t treesSkipped = 0;  ///< trees not searched: the point lies outside their influence
+    std::uint32_t mergedBack = 0;    ///< cut reuse: nodes that replaced their two children
+    bool truncated = false;          ///< refinement stopped at maxCutSize
 };
 
 /// The lighting of one render point.
@@ -320,17 +326,20 @@ struct LightcutResult {
 /// For an axis-weighted point (LightcutPoint::axisWeighted) cosBound is Σ over the axes of
 /// max(w₊ × bound on l_axis, w₋ × bound on −l_axis) over the box, each bound Walter's with that
 /// axis as the normal.
-[[nodiscard]] Vec3d lightcutBound(const LightTree& tree, std::uint32_t node, const LightcutPoint& point);
+[[nodiscard]] Vec3d lightcutBound(const LightTree& tree, std::uint32_t node,
+                                  const LightcutPoint& point);
 /// lightcutBound at a Lambertian point with a cosine response.
-[[nodiscard]] inline Vec3d lightcutBound(const LightTree& tree, std::uint32_t node, Vec3d point, Vec3d normal, Vec3d albedo) {
+[[nodiscard]] inline Vec3d lightcutBound(const LightTree& tree, std::uint32_t node, Vec3d point,
+                                         Vec3d normal, Vec3d albedo) {
     return lightcutBound(tree, node, LightcutPoint::lambertian(point, normal, albedo));
 }
 
 /// The exact radiance of one light at a Lambertian point (lightArrival × max(0, n·l) ×
 /// visibility × albedo/π); zero where lightArrival says the light does not reach.
-[[nodiscard]] Vec3d lightContribution(const Light& light, const LightcutPoint& point, const LightVisibility& visibility = {});
-[[nodiscard]] inline Vec3d lightContribution(const Light& light, Vec3d point, Vec3d normal, Vec3d albedo,
-                                             const LightVisibility& visibility = {}) {
+[[nodiscard]] Vec3d lightContribution(const Light& light, const LightcutPoint& point,
+                                      const LightVisibility& visibility = {});
+[[nodiscard]] inline Vec3d lightContribution(const Light& light, Vec3d point, Vec3d normal,
+                                             Vec3d albedo, const LightVisibility& visibility = {}) {
     return lightContribution(light, LightcutPoint::lambertian(point, normal, albedo), visibility);
 }
 
@@ -340,27 +349,37 @@ struct LightcutResult {
 /// from the roots and always splitting the node with the largest error bound (lightcutBound;
 /// leaves are exact) until the bounds meet LightcutOptions' criterion, or maxCutSize.
 /// Thread-safe.
-[[nodiscard]] LightcutResult evaluateCut(const LightTree& tree, const LightcutPoint& point, const LightcutOptions& options = {},
+[[nodiscard]] LightcutResult evaluateCut(const LightTree& tree, const LightcutPoint& point,
+                                         const LightcutOptions& options = {},
                                          const LightVisibility& visibility = {});
-[[nodiscard]] inline LightcutResult evaluateCut(const LightTree& tree, Vec3d point, Vec3d normal, Vec3d albedo,
-                                                const LightcutOptions& options = {}, const LightVisibility& visibility = {}) {
+[[nodiscard]] inline LightcutResult evaluateCut(const LightTree& tree, Vec3d point, Vec3d normal,
+                                                Vec3d albedo, const LightcutOptions& options = {},
+                                                const LightVisibility& visibility = {}) {
     return evaluateCut(tree, LightcutPoint::lambertian(point, normal, albedo), options, visibility);
 }
 /// As above, searching only the trees @p roots (indices into tree.roots(), e.g. from
 /// LightTree::rootsOverlapping for a region around the point); the point-in-influence test still
 /// applies to each.
-[[nodiscard]] LightcutResult evaluateCut(const LightTree& tree, std::span<const std::uint32_t> roots, const LightcutPoint& point,
-                                         const LightcutOptions& options = {}, const LightVisibility& visibility = {});
-[[nodiscard]] inline LightcutResult evaluateCut(const LightTree& tree, std::span<const std::uint32_t> roots, Vec3d point,
-                                                Vec3d normal, Vec3d albedo, const LightcutOptions& options = {},
+[[nodiscard]] LightcutResult evaluateCut(const LightTree& tree,
+                                         std::span<const std::uint32_t> roots,
+                                         const LightcutPoint& point,
+                                         const LightcutOptions& options = {},
+                                         const LightVisibility& visibility = {});
+[[nodiscard]] inline LightcutResult evaluateCut(const LightTree& tree,
+                                                std::span<const std::uint32_t> roots, Vec3d point,
+                                                Vec3d normal, Vec3d albedo,
+                                                const LightcutOptions& options = {},
                                                 const LightVisibility& visibility = {}) {
-    return evaluateCut(tree, roots, LightcutPoint::lambertian(point, normal, albedo), options, visibility);
+    return evaluateCut(tree, roots, LightcutPoint::lambertian(point, normal, albedo), options,
+                       visibility);
 }
 
 /// Every light in a leaf of @p tree summed exactly (lightContribution, with visibility), for
 /// reference: no influence skipping. stats.cutSize and lightEvaluations are the light count.
-[[nodiscard]] LightcutResult bruteForce(const LightTree& tree, const LightcutPoint& point, const LightVisibility& visibility = {});
-[[nodiscard]] inline LightcutResult bruteForce(const LightTree& tree, Vec3d point, Vec3d normal, Vec3d albedo,
+[[nodiscard]] LightcutResult bruteForce(const LightTree& tree, const LightcutPoint& point,
+                                        const LightVisibility& visibility = {});
+[[nodiscard]] inline LightcutResult bruteForce(const LightTree& tree, Vec3d point, Vec3d normal,
+                                               Vec3d albedo,
                                                const LightVisibility& visibility = {}) {
     return bruteForce(tree, LightcutPoint::lambertian(point, normal, albedo), visibility);
 }
@@ -394,12 +413,16 @@ public:
     /// Forgets the previous cut: the next evaluate() is a fresh cut.
     void reset();
     /// The cut at the next point of the run; the same arguments and result as evaluateCut.
-    [[nodiscard]] LightcutResult evaluate(const LightcutPoint& point, const LightVisibility& visibility = {});
-    [[nodiscard]] LightcutResult evaluate(Vec3d point, Vec3d normal, Vec3d albedo, const LightVisibility& visibility = {}) {
+    [[nodiscard]] LightcutResult evaluate(const LightcutPoint& point,
+                                          const LightVisibility& visibility = {});
+    [[nodiscard]] LightcutResult evaluate(Vec3d point, Vec3d normal, Vec3d albedo,
+                                          const LightVisibility& visibility = {}) {
         return evaluate(LightcutPoint::lambertian(point, normal, albedo), visibility);
     }
     /// The previous point's cut (node indices), empty after reset().
-    [[nodiscard]] const std::vector<std::uint32_t>& previousCut() const noexcept { return previous_; }
+    [[nodiscard]] const std::vector<std::uint32_t>& previousCut() const noexcept {
+        return previous_;
+    }
 
 private:
     const LightTree* tree_;

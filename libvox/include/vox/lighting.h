@@ -16,7 +16,8 @@ namespace vox {
 /// Light arriving at a point from one punctual light.
 struct LightArrival {
     Vec3d toLight{0, 0, 1};  ///< unit, from the point towards the light (directional: −direction)
-    double distance = std::numeric_limits<double>::infinity();  ///< to the light; +inf for directional
+    double distance =
+        std::numeric_limits<double>::infinity();  ///< to the light; +inf for directional
     /// Irradiance on a surface facing the light (lux for glTF's units): colour × intensity ×
     /// inverse-square falloff × range window × spot cone falloff.
     Vec3d irradiance{0, 0, 0};
@@ -47,8 +48,9 @@ enum class Attenuation : std::uint8_t {
 
 /// What the attenuation of one voxel needs of its normals.
 struct VoxelNormals {
-    Vec3f mean{0, 0, 1};                 ///< unit area-weighted mean normal
-    std::array<float, 6> moments{};      ///< area shares of |n_s| per axis direction (Attenuation::Weighted)
+    Vec3f mean{0, 0, 1};  ///< unit area-weighted mean normal
+    std::array<float, 6>
+        moments{};  ///< area shares of |n_s| per axis direction (Attenuation::Weighted)
 };
 
 /// The attenuation V ∈ [0, √3] of light arriving from unit direction @p toLight.

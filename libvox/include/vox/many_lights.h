@@ -26,7 +26,7 @@ namespace vox {
 enum class LightcutsMode : std::uint8_t {
     Auto,  ///< Lightcuts from kLightcutsAutoLights static lights on, brute force below
     On,
-    Off,   ///< every light at every point (brute force)
+    Off,  ///< every light at every point (brute force)
 };
 
 /// The light count from which LightcutsMode::Auto uses Lightcuts. Measured (docs/lighting.md;
@@ -53,18 +53,23 @@ inline constexpr std::size_t kLightcutsAutoLights = 32;
 struct RenderPointClusters {
     std::vector<std::uint32_t> order;  ///< point indices, cluster after cluster, run after run
     std::vector<std::uint32_t> begin;  ///< clusters + 1 entries; begin.back() == order.size()
-    std::vector<std::uint32_t> runs;   ///< where each run starts in order, ascending; every begin[k] is one
-    [[nodiscard]] std::size_t count() const noexcept { return begin.empty() ? 0 : begin.size() - 1; }
+    std::vector<std::uint32_t>
+        runs;  ///< where each run starts in order, ascending; every begin[k] is one
+    [[nodiscard]] std::size_t count() const noexcept {
+        return begin.empty() ? 0 : begin.size() - 1;
+    }
 };
 
 /// When two render points count as similar (paper 1.4: the same material, and normals within 10°).
 struct SimilarityOptions {
-    double normalDegrees = 10;       ///< largest angle between the normals
-    double albedoTolerance = 1.0 / 64;  ///< largest difference of any albedo channel ("the same material")
+    double normalDegrees = 10;  ///< largest angle between the normals
+    double albedoTolerance =
+        1.0 / 64;  ///< largest difference of any albedo channel ("the same material")
 };
 
 /// Whether @p b is similar to @p a.
-[[nodiscard]] bool similarRenderPoints(const LightcutPoint& a, const LightcutPoint& b, const SimilarityOptions& options = {});
+[[nodiscard]] bool similarRenderPoints(const LightcutPoint& a, const LightcutPoint& b,
+                                       const SimilarityOptions& options = {});
 
 /// Octree subdivision of a voxel volume for voxel render points (the bake): point i lies in
 /// level-@p depth cell @p cells[i]. A node of the octree over the 2^depth grid becomes one
@@ -73,10 +78,10 @@ struct SimilarityOptions {
 /// stops at); otherwise it is split into its eight children. Inside a cluster the points are
 /// grouped into runs of similar points (each point joins the first run whose first point it is
 /// similar to), each run in Morton order. Deterministic.
-[[nodiscard]] RenderPointClusters clusterVoxelPoints(std::span<const LightcutPoint> points,
-                                                     std::span<const std::array<std::uint32_t, 3>> cells, std::uint32_t depth,
-                                                     std::uint32_t maxPoints = 512, std::uint32_t minCells = 4,
-                                                     const SimilarityOptions& similarity = {});
+[[nodiscard]] RenderPointClusters clusterVoxelPoints(
+    std::span<const LightcutPoint> points, std::span<const std::array<std::uint32_t, 3>> cells,
+    std::uint32_t depth, std::uint32_t maxPoints = 512, std::uint32_t minCells = 4,
+    const SimilarityOptions& similarity = {});
 
 /// The paper's view-frustum subdivision (1.3, eq. 4) for pixel render points: the screen is cut
 /// into square tiles of @p tilePixels pixels, the view depth into slabs whose thickness grows
@@ -87,43 +92,48 @@ struct SimilarityOptions {
 /// down to tiles of @p minTilePixels. Point i is pixel @p pixels[i] = {x, y} at view depth
 /// @p depths[i] (distance along the camera's forward axis); inside a cluster the points form runs
 /// of similar points as in clusterVoxelPoints, each run in scanline order.
-[[nodiscard]] RenderPointClusters clusterPixelPoints(std::span<const LightcutPoint> points,
-                                                     std::span<const std::array<std::uint32_t, 2>> pixels,
-                                                     std::span<const double> depths, const PinholeCamera& camera,
-                                                     std::uint32_t tilePixels = 16, std::uint32_t minTilePixels = 4,
-                                                     const SimilarityOptions& similarity = {});
+[[nodiscard]] RenderPointClusters clusterPixelPoints(
+    std::span<const LightcutPoint> points, std::span<const std::array<std::uint32_t, 2>> pixels,
+    std::span<const double> depths, const PinholeCamera& camera, std::uint32_t tilePixels = 16,
+    std::uint32_t minTilePixels = 4, const SimilarityOptions& similarity = {});
 
 /// Visibility of a light from render point @p point (an index into the points), in [0, 1].
 /// Called concurrently for different points.
-using PointVisibility = std::function<double(std::size_t point, const Light& light, const LightArrival& arrival)>;
+using PointVisibility =
+    std::function<double(std::size_t point, const Light& light, const LightArrival& arrival)>;
 
 /// What lighting a set of points cost and how good it was.
 struct ManyLightStats {
-    std::string method;                 ///< "lightcuts", "classic" or "brute-force"
+    std::string method;  ///< "lightcuts", "classic" or "brute-force"
     std::uint64_t points = 0;
-    std::uint64_t lights = 0;           ///< lights in leaves of the tree
-    std::uint64_t trees = 0;            ///< trees in the forest (1 or 2 for classic)
-    std::uint64_t clusters = 0;         ///< spatial clusters (0: none)
-    std::uint64_t runs = 0;             ///< runs of similar points the cuts were reused along
-    std::uint64_t cutNodes = 0;         ///< Σ cut size over the points
-    std::uint64_t searchSteps = 0;      ///< Σ LightcutStats::searchSteps
-    std::uint64_t lightEvaluations = 0; ///< Σ lightArrival calls
+    std::uint64_t lights = 0;            ///< lights in leaves of the tree
+    std::uint64_t trees = 0;             ///< trees in the forest (1 or 2 for classic)
+    std::uint64_t clusters = 0;          ///< spatial clusters (0: none)
+    std::uint64_t runs = 0;              ///< runs of similar points the cuts were reused along
+    std::uint64_t cutNodes = 0;          ///< Σ cut size over the points
+    std::uint64_t searchSteps = 0;       ///< Σ LightcutStats::searchSteps
+    std::uint64_t lightEvaluations = 0;  ///< Σ lightArrival calls
     std::uint64_t visibilityEvaluations = 0;
-    std::uint64_t treesSearched = 0;    ///< Σ trees searched per point
-    std::uint64_t truncated = 0;        ///< points whose cut stopped at maxCutSize
-    double seconds = 0;                 ///< wall time (building the tree not included)
-    double treeSeconds = 0;             ///< building the light tree
-    double clusterSeconds = 0;          ///< clustering the points and their cluster–light lists
+    std::uint64_t treesSearched = 0;  ///< Σ trees searched per point
+    std::uint64_t truncated = 0;      ///< points whose cut stopped at maxCutSize
+    double seconds = 0;               ///< wall time (building the tree not included)
+    double treeSeconds = 0;           ///< building the light tree
+    double clusterSeconds = 0;        ///< clustering the points and their cluster–light lists
 
-    [[nodiscard]] double meanCutSize() const noexcept { return points ? double(cutNodes) / double(points) : 0; }
-    [[nodiscard]] double meanSearchSteps() const noexcept { return points ? double(searchSteps) / double(points) : 0; }
+    [[nodiscard]] double meanCutSize() const noexcept {
+        return points ? double(cutNodes) / double(points) : 0;
+    }
+    [[nodiscard]] double meanSearchSteps() const noexcept {
+        return points ? double(searchSteps) / double(points) : 0;
+    }
 };
 
 /// How lightPoints lights.
 struct ManyLightOptions {
     LightcutOptions cut;
-    bool clusterLists = true;  ///< search only the trees whose influence overlaps the point's cluster
-    bool reuseCuts = true;     ///< start each point of a cluster from the previous point's cut
+    bool clusterLists =
+        true;               ///< search only the trees whose influence overlaps the point's cluster
+    bool reuseCuts = true;  ///< start each point of a cluster from the previous point's cut
 };
 
 /// Lights every point with Lightcuts: clusters in parallel (TBB), the points of a cluster in
@@ -131,27 +141,33 @@ struct ManyLightOptions {
 /// radiance (LightcutPoint::albedo / π × Σ irradiance × response × visibility). Without
 /// clusters (an empty @p clusters) every point is its own run. Deterministic: the same inputs
 /// give the same results whatever the thread count.
-ManyLightStats lightPoints(const LightTree& tree, std::span<const LightcutPoint> points, const RenderPointClusters& clusters,
-                           const ManyLightOptions& options, const PointVisibility& visibility, std::span<Vec3d> out);
+ManyLightStats lightPoints(const LightTree& tree, std::span<const LightcutPoint> points,
+                           const RenderPointClusters& clusters, const ManyLightOptions& options,
+                           const PointVisibility& visibility, std::span<Vec3d> out);
 
 /// Every static light of @p lights at every point (lightContribution), in parallel; the
 /// reference Lightcuts is measured against.
-ManyLightStats lightPointsBruteForce(std::span<const Light> lights, std::span<const LightcutPoint> points,
+ManyLightStats lightPointsBruteForce(std::span<const Light> lights,
+                                     std::span<const LightcutPoint> points,
                                      const PointVisibility& visibility, std::span<Vec3d> out);
 
 /// Lightcuts' error against brute force over a set of points, in luminance.
 struct LightcutErrorStats {
-    double threshold = 0.02;        ///< the relative error a point must stay within
-    std::uint64_t points = 0;       ///< points compared (those brute force gives light)
-    std::uint64_t within = 0;       ///< |lightcuts − brute| ≤ threshold × brute
-    double maxRelative = 0;         ///< the largest |lightcuts − brute| / brute
+    double threshold = 0.02;   ///< the relative error a point must stay within
+    std::uint64_t points = 0;  ///< points compared (those brute force gives light)
+    std::uint64_t within = 0;  ///< |lightcuts − brute| ≤ threshold × brute
+    double maxRelative = 0;    ///< the largest |lightcuts − brute| / brute
     double meanRelative = 0;
-    [[nodiscard]] double fractionWithin() const noexcept { return points ? double(within) / double(points) : 1; }
+    [[nodiscard]] double fractionWithin() const noexcept {
+        return points ? double(within) / double(points) : 1;
+    }
 };
 
 /// Compares @p estimate with @p exact point by point. Points where exact is 0 are skipped (an
 /// estimate is then 0 too: a node's estimate comes from a light that lights the point).
-[[nodiscard]] LightcutErrorStats compareWithBruteForce(std::span<const Vec3d> estimate, std::span<const Vec3d> exact, double threshold);
+[[nodiscard]] LightcutErrorStats compareWithBruteForce(std::span<const Vec3d> estimate,
+                                                       std::span<const Vec3d> exact,
+                                                       double threshold);
 
 /// The statistics of `--stats` for one run of the direct light: what lit the points, and with
 /// `--lightcuts-compare` all three methods on the same points: Lightcuts as used here (forest,
@@ -168,9 +184,10 @@ struct ManyLightReport {
 /// Builds the forest over @p lights (static ones), clusters with @p clusters (called only when
 /// Lightcuts runs), lights the points into @p out, and with @p compare also runs classic Lightcuts
 /// and brute force (their results discarded) and fills the report's comparison.
-[[nodiscard]] ManyLightReport directLight(std::span<const Light> lights, std::span<const LightcutPoint> points, LightcutsMode mode,
+[[nodiscard]] ManyLightReport directLight(std::span<const Light> lights,
+                                          std::span<const LightcutPoint> points, LightcutsMode mode,
                                           const LightcutOptions& cut, bool compare,
-                                          const std::function<RenderPointClusters()>& clusters, const PointVisibility& visibility,
-                                          std::span<Vec3d> out);
+                                          const std::function<RenderPointClusters()>& clusters,
+                                          const PointVisibility& visibility, std::span<Vec3d> out);
 
 }  // namespace vox

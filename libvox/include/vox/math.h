@@ -32,7 +32,12 @@ struct Vec3 {
     friend constexpr Vec3 operator*(T s, Vec3 a) { return {a.x * s, a.y * s, a.z * s}; }
     friend constexpr Vec3 operator*(Vec3 a, Vec3 b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
     friend constexpr Vec3 operator/(Vec3 a, T s) { return {a.x / s, a.y / s, a.z / s}; }
-    constexpr Vec3& operator+=(Vec3 b) { x += b.x; y += b.y; z += b.z; return *this; }
+    constexpr Vec3& operator+=(Vec3 b) {
+        x += b.x;
+        y += b.y;
+        z += b.z;
+        return *this;
+    }
     friend constexpr bool operator==(Vec3 a, Vec3 b) = default;
 };
 
@@ -40,10 +45,16 @@ template <typename T>
 struct Vec4 {
     T x{}, y{}, z{}, w{};
     constexpr T& operator[](int i) { return i == 0 ? x : (i == 1 ? y : (i == 2 ? z : w)); }
-    constexpr const T& operator[](int i) const { return i == 0 ? x : (i == 1 ? y : (i == 2 ? z : w)); }
-    friend constexpr Vec4 operator+(Vec4 a, Vec4 b) { return {a.x + b.x, a.y + b.y, a.z + b.z, a.w + b.w}; }
+    constexpr const T& operator[](int i) const {
+        return i == 0 ? x : (i == 1 ? y : (i == 2 ? z : w));
+    }
+    friend constexpr Vec4 operator+(Vec4 a, Vec4 b) {
+        return {a.x + b.x, a.y + b.y, a.z + b.z, a.w + b.w};
+    }
     friend constexpr Vec4 operator*(Vec4 a, T s) { return {a.x * s, a.y * s, a.z * s, a.w * s}; }
-    friend constexpr Vec4 operator*(Vec4 a, Vec4 b) { return {a.x * b.x, a.y * b.y, a.z * b.z, a.w * b.w}; }
+    friend constexpr Vec4 operator*(Vec4 a, Vec4 b) {
+        return {a.x * b.x, a.y * b.y, a.z * b.z, a.w * b.w};
+    }
     friend constexpr bool operator==(Vec4 a, Vec4 b) = default;
 };
 
@@ -52,23 +63,33 @@ using Vec3f = Vec3<float>;
 using Vec3d = Vec3<double>;
 using Vec4f = Vec4<float>;
 
-template <typename T> constexpr T dot(Vec3<T> a, Vec3<T> b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-template <typename T> constexpr Vec3<T> cross(Vec3<T> a, Vec3<T> b) {
+template <typename T>
+constexpr T dot(Vec3<T> a, Vec3<T> b) {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+template <typename T>
+constexpr Vec3<T> cross(Vec3<T> a, Vec3<T> b) {
     return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-template <typename T> inline T length(Vec3<T> a) { return std::sqrt(dot(a, a)); }
+template <typename T>
+inline T length(Vec3<T> a) {
+    return std::sqrt(dot(a, a));
+}
 /// Unit vector along @p a, or the zero vector when @p a has no length.
-template <typename T> inline Vec3<T> normalize(Vec3<T> a) {
+template <typename T>
+inline Vec3<T> normalize(Vec3<T> a) {
     const T len = length(a);
     return len > T(0) ? a / len : Vec3<T>{};
 }
-template <typename T> inline bool isFinite(Vec3<T> a) {
+template <typename T>
+inline bool isFinite(Vec3<T> a) {
     return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
 }
 
 /// 4×4 affine transform in double precision, column-major as glTF stores it: m[col][row].
 struct Mat4d {
-    std::array<std::array<double, 4>, 4> m{{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}};
+    std::array<std::array<double, 4>, 4> m{
+        {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}};
 
     static Mat4d identity() { return {}; }
     friend Mat4d operator*(const Mat4d& a, const Mat4d& b) {
@@ -93,7 +114,8 @@ struct Mat4d {
     }
     /// Determinant of the upper 3×3 (negative: the transform mirrors, flipping winding).
     [[nodiscard]] double determinant3() const {
-        return m[0][0] * (m[1][1] * m[2][2] - m[2][1] * m[1][2]) - m[1][0] * (m[0][1] * m[2][2] - m[2][1] * m[0][2]) +
+        return m[0][0] * (m[1][1] * m[2][2] - m[2][1] * m[1][2]) -
+               m[1][0] * (m[0][1] * m[2][2] - m[2][1] * m[0][2]) +
                m[2][0] * (m[0][1] * m[1][2] - m[1][1] * m[0][2]);
     }
     /// Transform for normals: the inverse transpose of the upper 3×3, up to a positive scale
@@ -106,7 +128,8 @@ struct Mat4d {
         auto at = [&](int row, int col) { return a[col][row]; };
         for (int row = 0; row < 3; ++row)
             for (int col = 0; col < 3; ++col) {
-                const int r0 = (row + 1) % 3, r1 = (row + 2) % 3, c0 = (col + 1) % 3, c1 = (col + 2) % 3;
+                const int r0 = (row + 1) % 3, r1 = (row + 2) % 3, c0 = (col + 1) % 3,
+                          c1 = (col + 2) % 3;
                 r.m[col][row] = s * (at(r0, c0) * at(r1, c1) - at(r0, c1) * at(r1, c0));
             }
         r.m[3] = {0, 0, 0, 1};

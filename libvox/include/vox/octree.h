@@ -41,9 +41,9 @@ struct LeafMaterial {
 /// is a leaf. The children of the voxels of level l are the voxels of level l+1, in order.
 struct SparseOctree {
     RootCube cube;
-    std::uint32_t leafDepth = 0;                    ///< finest level
-    std::vector<std::vector<std::uint8_t>> masks;   ///< masks[l][i] for levels 0 … leafDepth−1
-    std::vector<std::uint64_t> voxelsPerLevel;      ///< leafDepth + 1 entries
+    std::uint32_t leafDepth = 0;                   ///< finest level
+    std::vector<std::vector<std::uint8_t>> masks;  ///< masks[l][i] for levels 0 … leafDepth−1
+    std::vector<std::uint64_t> voxelsPerLevel;     ///< leafDepth + 1 entries
     /// contours[l][i]: the encoded esvo::Contour of voxel i of level l (0: none), for levels
     /// 0 … leafDepth (level 0's single entry is unused). Empty: the octree has no contours.
     std::vector<std::vector<std::uint32_t>> contours;
@@ -60,7 +60,6 @@ struct SparseOctree {
     [[nodiscard]] std::uint64_t voxelCount() const noexcept;
 };
 
-
 /// The error bounds voxelize refines to unless told otherwise (docs/cli.md): see
 /// SurfaceVoxelizeOptions::contourError, colorError and normalErrorDegrees.
 inline constexpr double kDefaultContourError = 0.35;
@@ -69,16 +68,16 @@ inline constexpr double kDefaultColorError = 6;
 
 /// Options for voxelizeSurface.
 struct SurfaceVoxelizeOptions {
-    std::uint32_t depth = 10;       ///< leaf level: 2^depth voxels along the cube's edge (1 … 20)
-    bool includeDynamic = false;    ///< voxelize meshes flagged dynamic too
-    bool onlyDynamic = false;       ///< voxelize only the meshes flagged dynamic
+    std::uint32_t depth = 10;     ///< leaf level: 2^depth voxels along the cube's edge (1 … 20)
+    bool includeDynamic = false;  ///< voxelize meshes flagged dynamic too
+    bool onlyDynamic = false;     ///< voxelize only the meshes flagged dynamic
     /// The cube to voxelize in; null: RootCube::enclosing the selected meshes' bounds. Triangles
     /// outside it are clipped away.
     const RootCube* cube = nullptr;
     /// Keep SparseOctree::leafMaterials (implies attributes; without contours every leaf is at
     /// the leaf depth).
     bool leafMaterials = false;
-    bool contours = false;          ///< fit a contour (slab) to every voxel where it helps
+    bool contours = false;  ///< fit a contour (slab) to every voxel where it helps
     /// With contours: a voxel stops refining where cube ∩ slab lies within this many leaf
     /// voxels of the surface; 0 refines everything to the leaf depth. With a bound, a voxel
     /// stores a contour of its own only where the slab its ancestors impose is not within it.
@@ -99,12 +98,13 @@ struct SurfaceVoxelizeOptions {
 /// Top-down and subtree by subtree in parallel; memory grows with the output, not with the
 /// resolution. The result does not depend on the thread count.
 /// @throws InvalidDataError if the scene has no (static) triangles; UsageError for a bad depth.
-[[nodiscard]] SparseOctree voxelizeSurface(const Scene& scene, const SurfaceVoxelizeOptions& options);
+[[nodiscard]] SparseOctree voxelizeSurface(const Scene& scene,
+                                           const SurfaceVoxelizeOptions& options);
 
 /// How writeEsvo stores SparseOctree::attributes (docs/esvo-format.md, "Attributes").
 enum class AttributeEncoding : std::uint8_t {
-    None,        ///< no colour or normal
-    Raw,         ///< uncompressed ("palette"): a lookup entry per descriptor, 64 bits per stored voxel
+    None,  ///< no colour or normal
+    Raw,   ///< uncompressed ("palette"): a lookup entry per descriptor, 64 bits per stored voxel
     Compressed,  ///< DXT-style: 6 words per pair of sibling descriptors (16 child slots)
     /// DXT-style behind a lookup entry per descriptor (Laine & Karras 5.7): 6 words per 16 stored
     /// values; a child equal to its parent is not stored (it inherits), and no pairing padding.
@@ -125,7 +125,7 @@ struct EsvoWriteOptions {
     /// Ignored (None) when the octree has no attributes.
     AttributeEncoding attributes = AttributeEncoding::Compressed;
     AttributeEffort attributeEffort = AttributeEffort::Default;
-    std::uint32_t sliceBytes = 1u << 20;   ///< largest slice, ≥ 16384
+    std::uint32_t sliceBytes = 1u << 20;  ///< largest slice, ≥ 16384
     /// Largest near child pointer (64-bit units). 32767 is the format's; tests lower it to force
     /// far pointers.
     std::uint32_t nearPointerLimit = 0x7FFF;
@@ -150,7 +150,8 @@ struct EsvoWriteResult {
 /// Lays @p octree out as ESVO blocks in slices and writes the .esvo file atomically. The same
 /// octree and options always give the same bytes, and the same as buildEsvo from the scene the
 /// octree was voxelized from.
-EsvoWriteResult writeEsvo(const std::filesystem::path& file, const SparseOctree& octree, const EsvoWriteOptions& options);
+EsvoWriteResult writeEsvo(const std::filesystem::path& file, const SparseOctree& octree,
+                          const EsvoWriteOptions& options);
 
 /// Which partitions a build makes: the partitions (voxels of the partition level holding
 /// triangles, in Morton order) are split into `count` runs of about equal work, and a build
@@ -178,14 +179,15 @@ struct EsvoBuildOptions {
 struct EsvoBuildResult {
     std::uint32_t leafDepth = 0;
     std::uint32_t partitionLevel = 0;
-    std::vector<std::uint64_t> voxelsPerLevel;  ///< of the whole octree (a part file: of its partitions and the levels above)
-    std::uint64_t partitionsBuilt = 0;          ///< partitions of this build (all of them unless selected)
-    std::uint64_t partitionsTotal = 0;          ///< partitions of the octree
-    std::uint32_t batches = 0;                  ///< rounds of partitions built together
-    std::uint64_t scratchBytes = 0;             ///< finished slices that waited on disk
+    std::vector<std::uint64_t> voxelsPerLevel;  ///< of the whole octree (a part file: of its
+                                                ///< partitions and the levels above)
+    std::uint64_t partitionsBuilt = 0;  ///< partitions of this build (all of them unless selected)
+    std::uint64_t partitionsTotal = 0;  ///< partitions of the octree
+    std::uint32_t batches = 0;          ///< rounds of partitions built together
+    std::uint64_t scratchBytes = 0;     ///< finished slices that waited on disk
     std::uint64_t memoryLimit = 0;
-    EsvoWriteResult written;                    ///< the .esvo or the part file
-    double voxelizeSeconds = 0;                 ///< wall time of binning and building the cells
+    EsvoWriteResult written;     ///< the .esvo or the part file
+    double voxelizeSeconds = 0;  ///< wall time of binning and building the cells
     [[nodiscard]] std::uint64_t voxelCount() const noexcept;
 };
 
@@ -203,13 +205,15 @@ struct EsvoBuildResult {
 /// part file of the selected partitions instead (docs/esvo-part-format.md), for mergeEsvoParts.
 /// @throws InvalidDataError (no triangles), UsageError (bad options, memory limit below what
 /// the scene itself takes), IoError.
-EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene, const EsvoBuildOptions& options);
+EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
+                          const EsvoBuildOptions& options);
 
 /// Joins the part files of every run of one partitioned build into the .esvo file the
 /// unpartitioned build writes, byte for byte.
 /// @throws InvalidDataError if a part is corrupt, from another build, or runs are missing or
 /// repeated; IoError.
-EsvoBuildResult mergeEsvoParts(const std::filesystem::path& file, const std::vector<std::filesystem::path>& parts,
+EsvoBuildResult mergeEsvoParts(const std::filesystem::path& file,
+                               const std::vector<std::filesystem::path>& parts,
                                std::uint64_t memoryLimit = 0, Timings* timings = nullptr);
 
 }  // namespace vox

@@ -20,9 +20,9 @@ namespace vox {
 
 /// Options for bakeRadiance.
 struct RadianceBakeOptions {
-    std::uint32_t depth = 8;                       ///< level 0 has 2^depth cells along the longest side (1 … 10)
+    std::uint32_t depth = 8;  ///< level 0 has 2^depth cells along the longest side (1 … 10)
     Attenuation attenuation = Attenuation::Weighted;
-    double shadowApertureDegrees = 0;              ///< 0: shadow rays through solid voxels; > 0: shadow cones
+    double shadowApertureDegrees = 0;  ///< 0: shadow rays through solid voxels; > 0: shadow cones
     std::uint32_t bounces = 2;
     /// λ of the ambient-occlusion falloff (eq. 4): δ += (1 − δ)·α / (1 + λ·r), r the cone radius
     /// in units of the root cube's edge.
@@ -34,20 +34,20 @@ struct RadianceBakeOptions {
     /// within lightcut.relativeError of its irradiance under the cut's criterion.
     LightcutsMode lightcuts = LightcutsMode::Auto;
     LightcutOptions lightcut;
-    /// Also light every voxel with classic Lightcuts and brute force, for RadianceBake::directLight's
-    /// comparison (the bake keeps the method lightcuts chose).
+    /// Also light every voxel with classic Lightcuts and brute force, for
+    /// RadianceBake::directLight's comparison (the bake keeps the method lightcuts chose).
     bool lightcutsCompare = false;
     Timings* timings = nullptr;
 };
 
 /// Lighting of one static voxel, kept with RadianceBakeOptions::keepVoxelLighting.
 struct VoxelLighting {
-    std::uint32_t x = 0, y = 0, z = 0;   ///< level-0 cell
-    Vec3d centre{0, 0, 0};               ///< world
-    Vec3f normal{0, 0, 1};               ///< unit mean normal
-    Vec3f albedo{0, 0, 0};               ///< linear
+    std::uint32_t x = 0, y = 0, z = 0;  ///< level-0 cell
+    Vec3d centre{0, 0, 0};              ///< world
+    Vec3f normal{0, 0, 1};              ///< unit mean normal
+    Vec3f albedo{0, 0, 0};              ///< linear
     Vec3f emission{0, 0, 0};
-    Vec3f direct{0, 0, 0};               ///< irradiance from the punctual lights, after attenuation and shadows
+    Vec3f direct{0, 0, 0};  ///< irradiance from the punctual lights, after attenuation and shadows
     /// indirect[b]: irradiance gathered by bounce b + 1 alone (cones over the volume lit by
     /// bounces 0 … b, minus what bounce b gathered): the light that arrives after exactly b + 1
     /// diffuse reflections or emissions.
@@ -57,7 +57,8 @@ struct VoxelLighting {
 /// The bake's result.
 struct RadianceBake {
     rvol::Volume volume;
-    std::vector<VoxelLighting> voxels;   ///< with keepVoxelLighting: every static voxel, Morton order
+    std::vector<VoxelLighting>
+        voxels;  ///< with keepVoxelLighting: every static voxel, Morton order
     std::uint64_t staticVoxels = 0, dynamicVoxels = 0;
     /// How the direct light was computed: method, lights, trees, clusters, cut sizes, search steps,
     /// time; with lightcutsCompare the same for classic Lightcuts and brute force, and the errors.

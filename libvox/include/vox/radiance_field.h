@@ -30,8 +30,8 @@ public:
     [[nodiscard]] rvol::Texel sampleLod(double level, Vec3d p, Vec3d dir) const noexcept;
 
     /// One cone: from @p origin along unit @p dir, half-angle tangent @p tanHalfAngle, samples from
-    /// @p start to @p maxDistance (world units) stepping half a footprint, compositing front to back
-    /// (eq. 3, opacity corrected for the step).
+    /// @p start to @p maxDistance (world units) stepping half a footprint, compositing front to
+    /// back (eq. 3, opacity corrected for the step).
     struct Cone {
         Vec3d origin, dir;
         double tanHalfAngle = 0.577;
@@ -52,7 +52,8 @@ public:
     };
     /// @p aoLambda: eq. 4's λ, per root-cube edge of cone radius. @p opacityOnly skips radiance
     /// (shadow cones).
-    [[nodiscard]] ConeResult traceCone(const Cone& cone, double aoLambda, bool opacityOnly = false) const noexcept;
+    [[nodiscard]] ConeResult traceCone(const Cone& cone, double aoLambda,
+                                       bool opacityOnly = false) const noexcept;
 
     /// Diffuse irradiance at a surface point: six 60° cones over the hemisphere of @p normal (one
     /// along it, five tilted 60° at azimuths 72° apart), weighted by their cosine-weighted solid
@@ -63,11 +64,13 @@ public:
         Vec3d irradiance{0, 0, 0};
         double occlusion = 0;  ///< cosine-weighted mean of the cones' eq. 4 occlusion
     };
-    [[nodiscard]] Gather gatherDiffuse(Vec3d point, Vec3d normal, double offset, double aoLambda) const noexcept;
+    [[nodiscard]] Gather gatherDiffuse(Vec3d point, Vec3d normal, double offset,
+                                       double aoLambda) const noexcept;
 
     /// The texels of cell (x, y, z) of @p level (channel c at offset c·rvol::kBlockTexels), or null
     /// where no block holds it. Coordinates must be inside the level.
-    [[nodiscard]] const rvol::Texel* cellTexels(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z) const noexcept;
+    [[nodiscard]] const rvol::Texel* cellTexels(std::uint32_t level, std::uint32_t x,
+                                                std::uint32_t y, std::uint32_t z) const noexcept;
 
     /// Cell edge of level 0, world units.
     [[nodiscard]] double finestCell() const noexcept { return finestCell_; }

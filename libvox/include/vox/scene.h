@@ -40,9 +40,9 @@ struct Material {
     Vec4f baseColorFactor{1, 1, 1, 1};
     TextureBinding baseColorTexture;  ///< sRGB
     Vec3f emissiveFactor{0, 0, 0};
-    float emissiveStrength = 1.0f;    ///< KHR_materials_emissive_strength
-    TextureBinding emissiveTexture;   ///< sRGB
-    TextureBinding normalTexture;     ///< linear, tangent space
+    float emissiveStrength = 1.0f;   ///< KHR_materials_emissive_strength
+    TextureBinding emissiveTexture;  ///< sRGB
+    TextureBinding normalTexture;    ///< linear, tangent space
     float normalScale = 1.0f;
     AlphaMode alphaMode = AlphaMode::Opaque;
     float alphaCutoff = 0.5f;
@@ -59,9 +59,9 @@ struct Material {
 /// One triangle mesh in world units. Per-vertex arrays are either empty or as long as
 /// `positions`; normals are always present and unit length after import.
 struct Mesh {
-    std::string name;             ///< node / object name it came from
-    std::uint32_t material = 0;   ///< index into Scene::materials (always valid)
-    bool dynamic = false;         ///< kept out of static bakes (glTF extras or --dynamic)
+    std::string name;            ///< node / object name it came from
+    std::uint32_t material = 0;  ///< index into Scene::materials (always valid)
+    bool dynamic = false;        ///< kept out of static bakes (glTF extras or --dynamic)
     std::vector<Vec3f> positions;
     std::vector<Vec3f> normals;
     std::vector<std::vector<Vec2f>> uvs;  ///< uvs[set][vertex]
@@ -76,13 +76,13 @@ struct Light {
     enum class Type : std::uint8_t { Directional, Point, Spot };
     std::string name;
     Type type = Type::Point;
-    Vec3f color{1, 1, 1};     ///< linear
-    float intensity = 1.0f;   ///< candela (point, spot) or lux (directional)
-    float range = 0.0f;       ///< cut-off distance; 0 = unlimited
-    float innerConeAngle = 0.0f;            ///< radians (spot)
-    float outerConeAngle = 0.78539816f;     ///< radians (spot)
-    Vec3f position{0, 0, 0};  ///< world (point, spot)
-    Vec3f direction{0, 0, -1};///< world, unit, the way light travels (directional, spot)
+    Vec3f color{1, 1, 1};                ///< linear
+    float intensity = 1.0f;              ///< candela (point, spot) or lux (directional)
+    float range = 0.0f;                  ///< cut-off distance; 0 = unlimited
+    float innerConeAngle = 0.0f;         ///< radians (spot)
+    float outerConeAngle = 0.78539816f;  ///< radians (spot)
+    Vec3f position{0, 0, 0};             ///< world (point, spot)
+    Vec3f direction{0, 0, -1};           ///< world, unit, the way light travels (directional, spot)
     bool dynamic = false;
 };
 

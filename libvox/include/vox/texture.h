@@ -33,8 +33,8 @@ public:
 
     /// Builds a texture from tightly packed 8-bit pixels with 1–4 channels (grey, grey+alpha,
     /// RGB, RGBA). @p name is kept for messages.
-    Texture(std::string name, int width, int height, int channels, std::span<const std::uint8_t> pixels,
-            ColorSpace colorSpace);
+    Texture(std::string name, int width, int height, int channels,
+            std::span<const std::uint8_t> pixels, ColorSpace colorSpace);
 
     [[nodiscard]] const std::string& name() const noexcept { return name_; }
     [[nodiscard]] int width() const noexcept { return levels_.empty() ? 0 : levels_[0].width; }
@@ -66,15 +66,17 @@ public:
     /// @p meanSquare: null, or receives the mean of the texel values squared (per channel) over
     /// the same texels and weights, so that meanSquare − mean² is the texture's variance over the
     /// polygon at that level (0 for a single texel or a point sample).
-    [[nodiscard]] Vec4f integrate(std::span<const Vec2f> polygon, WrapMode wrapS = WrapMode::Repeat, WrapMode wrapT = WrapMode::Repeat,
-                                  int maxTexels = 8, Vec4f* meanSquare = nullptr) const;
+    [[nodiscard]] Vec4f integrate(std::span<const Vec2f> polygon, WrapMode wrapS = WrapMode::Repeat,
+                                  WrapMode wrapT = WrapMode::Repeat, int maxTexels = 8,
+                                  Vec4f* meanSquare = nullptr) const;
 
 private:
     struct Level {
         int width = 0, height = 0;
         std::vector<std::uint8_t> rgba;
     };
-    [[nodiscard]] Vec4f bilinear(const Level& level, Vec2f uv, WrapMode wrapS, WrapMode wrapT) const;
+    [[nodiscard]] Vec4f bilinear(const Level& level, Vec2f uv, WrapMode wrapS,
+                                 WrapMode wrapT) const;
     [[nodiscard]] Vec4f decode(const std::uint8_t* p) const;
 
     std::string name_;
@@ -92,8 +94,9 @@ private:
 /// names it there (e.g. "image 2 'logo'" inside a GLB), or is empty when @p container is the
 /// image file itself; both appear in messages and the texture's name. @p mimeType helps pick
 /// the decoder and may be empty. @throws InvalidDataError.
-[[nodiscard]] Texture decodeTexture(std::span<const std::uint8_t> encoded, const std::filesystem::path& container,
-                                    const std::string& what, const std::string& mimeType, ColorSpace colorSpace);
+[[nodiscard]] Texture decodeTexture(std::span<const std::uint8_t> encoded,
+                                    const std::filesystem::path& container, const std::string& what,
+                                    const std::string& mimeType, ColorSpace colorSpace);
 
 /// sRGB-encoded value in [0, 1] to linear, and back (IEC 61966-2-1).
 [[nodiscard]] float srgbToLinear(float value);

@@ -19,10 +19,12 @@ namespace vox {
 /// accordingly.
 struct SurfaceHit {
     bool hit = false;
-    double t = std::numeric_limits<double>::infinity();  ///< distance along the (unit) ray direction
-    std::uint32_t mesh = 0;       ///< index into Scene::meshes
-    std::uint32_t triangle = 0;   ///< triangle within the mesh (indices 3·triangle … 3·triangle + 2)
-    Vec3d barycentric{0, 0, 0};   ///< weights of the triangle's three corners at the hit, summing to 1
+    double t =
+        std::numeric_limits<double>::infinity();  ///< distance along the (unit) ray direction
+    std::uint32_t mesh = 0;                       ///< index into Scene::meshes
+    std::uint32_t triangle = 0;  ///< triangle within the mesh (indices 3·triangle … 3·triangle + 2)
+    Vec3d barycentric{0, 0,
+                      0};  ///< weights of the triangle's three corners at the hit, summing to 1
     /// Unit normal of the triangle's winding (counter-clockwise = front), not turned towards the
     /// ray: callers that treat surfaces as two-sided decide the side from dot(geometricNormal, d).
     Vec3d geometricNormal{0, 0, 0};
@@ -38,9 +40,12 @@ public:
     /// Nearest hit; CastHit::level is 0, iterations counts BVH nodes visited. The hit's colour and
     /// shading normal come from the material (as the voxel filter evaluates it), textures
     /// filtered over @p footprintAngle × t (a pixel's footprint; 0: finest mip level).
-    [[nodiscard]] CastHit cast(const Ray& ray, double tMax = std::numeric_limits<double>::infinity(), double footprintAngle = 0) const;
+    [[nodiscard]] CastHit cast(const Ray& ray,
+                               double tMax = std::numeric_limits<double>::infinity(),
+                               double footprintAngle = 0) const;
     /// Nearest hit with t < @p tMax, without shading (the same traversal as cast()). Thread-safe.
-    [[nodiscard]] SurfaceHit castSurface(const Ray& ray, double tMax = std::numeric_limits<double>::infinity()) const;
+    [[nodiscard]] SurfaceHit castSurface(
+        const Ray& ray, double tMax = std::numeric_limits<double>::infinity()) const;
     [[nodiscard]] std::size_t triangleCount() const noexcept { return triangles_.size(); }
 
 private:
@@ -68,7 +73,9 @@ private:
     std::vector<Node> nodes_;
 };
 
-/// One primary ray per pixel against the triangles, in parallel, into the same buffers as renderEsvo.
-[[nodiscard]] RenderBuffers renderTriangles(const TriangleRayCaster& caster, const PinholeCamera& camera);
+/// One primary ray per pixel against the triangles, in parallel, into the same buffers as
+/// renderEsvo.
+[[nodiscard]] RenderBuffers renderTriangles(const TriangleRayCaster& caster,
+                                            const PinholeCamera& camera);
 
 }  // namespace vox

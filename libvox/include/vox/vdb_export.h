@@ -10,13 +10,13 @@
 /// | grid | type | level | what |
 /// |---|---|---|---|
 /// | `albedo` | vec3s | 0 | linear base colour of each static voxel |
-/// | `emission` | vec3s | 0 | emitted radiance of each static voxel; only written if any is non-zero |
-/// | `normal` | vec3s | 0 | unit normal of each static voxel (covariant, normalised) |
+/// | `emission` | vec3s | 0 | emitted radiance of each static voxel; only written if any is
+/// non-zero | | `normal` | vec3s | 0 | unit normal of each static voxel (covariant, normalised) |
 /// | `occlusion` | float | 0 | ambient occlusion of each static voxel, 0 = open |
-/// | `radiance` | vec3s | 0 | radiance, un-premultiplied (rgb / a where a > 0; cells with a = 0 are inactive) |
-/// | `density` | float | 0 | opacity (fog volume) |
-/// | `radiance_px` … `radiance_nz` | vec3s | 1 | each direction's radiance, un-premultiplied |
-/// | `opacity_px` … `opacity_nz` | float | 1 | each direction's opacity (fog volume) |
+/// | `radiance` | vec3s | 0 | radiance, un-premultiplied (rgb / a where a > 0; cells with a = 0 are
+/// inactive) | | `density` | float | 0 | opacity (fog volume) | | `radiance_px` … `radiance_nz` |
+/// vec3s | 1 | each direction's radiance, un-premultiplied | | `opacity_px` … `opacity_nz` | float
+/// | 1 | each direction's opacity (fog volume) |
 ///
 /// Directions are named as rvol::Direction names them (px = PosX: the cone travelling along +x).
 /// With VdbExportOptions::allLevels the directional grids of every coarser level n ≥ 2 follow,
@@ -39,6 +39,7 @@ struct VdbExportOptions {
 /// Writes @p volume to @p file as OpenVDB grids (see above), atomically (AtomicFile).
 /// @throws IoError naming @p file if it cannot be written; InvalidDataError if @p volume's levels
 /// do not match its depth.
-void exportVdb(const std::filesystem::path& file, const rvol::Volume& volume, const VdbExportOptions& options = {});
+void exportVdb(const std::filesystem::path& file, const rvol::Volume& volume,
+               const VdbExportOptions& options = {});
 
 }  // namespace vox

@@ -22,7 +22,8 @@ class DracoMesh {
 public:
     /// Decodes @p bytes; @p what names the data in messages ("" for a whole .drc file).
     /// @throws InvalidDataError if the data is not a Draco triangle mesh.
-    DracoMesh(std::span<const std::uint8_t> bytes, const std::filesystem::path& file, const std::string& what);
+    DracoMesh(std::span<const std::uint8_t> bytes, const std::filesystem::path& file,
+              const std::string& what);
     ~DracoMesh();
     DracoMesh(DracoMesh&&) noexcept;
 
@@ -35,7 +36,8 @@ public:
     [[nodiscard]] const draco::PointAttribute* attributeByType(int type) const;
     /// Per-point values of @p attribute as floats, @p components per point (missing components
     /// are 0, or 1 for a fourth colour component). Normalized integer data become [0,1]/[-1,1].
-    [[nodiscard]] std::vector<float> floats(const draco::PointAttribute& attribute, int components) const;
+    [[nodiscard]] std::vector<float> floats(const draco::PointAttribute& attribute,
+                                            int components) const;
 
 private:
     std::unique_ptr<draco::Mesh> mesh_;

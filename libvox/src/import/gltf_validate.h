@@ -16,12 +16,15 @@ namespace vox::detail {
 /// Returns the JSON tinygltf should load: empty if @p jsonText is fine as it is, or a rewrite
 /// in which Draco-compressed primitives have no "indices" (tinygltf, built without Draco,
 /// rejects index accessors without a buffer view; libvox takes the indices from Draco).
-[[nodiscard]] std::string validateGltfJson(std::string_view jsonText, const std::filesystem::path& file);
+[[nodiscard]] std::string validateGltfJson(std::string_view jsonText,
+                                           const std::filesystem::path& file);
 
 /// A GLB container like @p glb with its JSON chunk replaced by @p json.
-[[nodiscard]] std::vector<std::uint8_t> replaceGlbJson(std::span<const std::uint8_t> glb, std::string_view json);
+[[nodiscard]] std::vector<std::uint8_t> replaceGlbJson(std::span<const std::uint8_t> glb,
+                                                       std::string_view json);
 
 /// The JSON chunk of a GLB container. @throws InvalidDataError if the container is malformed.
-[[nodiscard]] std::string_view glbJsonChunk(std::span<const std::uint8_t> glb, const std::filesystem::path& file);
+[[nodiscard]] std::string_view glbJsonChunk(std::span<const std::uint8_t> glb,
+                                            const std::filesystem::path& file);
 
 }  // namespace vox::detail

@@ -14,7 +14,8 @@ namespace {
 using detail::ImportContext;
 
 bool startsWith(const std::vector<std::uint8_t>& bytes, std::string_view prefix) {
-    return bytes.size() >= prefix.size() && std::memcmp(bytes.data(), prefix.data(), prefix.size()) == 0;
+    return bytes.size() >= prefix.size() &&
+           std::memcmp(bytes.data(), prefix.data(), prefix.size()) == 0;
 }
 
 /// Position of the first byte that is not whitespace, after a UTF-8 byte-order mark.
@@ -25,11 +26,13 @@ std::size_t firstContent(const std::vector<std::uint8_t>& bytes) {
 }
 
 /// Text files: UTF-16 gets its own message (a common export mistake); NUL bytes mean binary.
-void requireText(const ImportContext& context, const std::vector<std::uint8_t>& bytes, const char* format) {
+void requireText(const ImportContext& context, const std::vector<std::uint8_t>& bytes,
+                 const char* format) {
     if (startsWith(bytes, "\xFE\xFF") || startsWith(bytes, "\xFF\xFE"))
         context.fail(std::string("is UTF-16 text; ") + format + " files must be ASCII or UTF-8");
     const std::size_t probe = std::min<std::size_t>(bytes.size(), 4096);
-    if (std::find(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(probe), 0) != bytes.begin() + static_cast<std::ptrdiff_t>(probe))
+    if (std::find(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(probe), 0) !=
+        bytes.begin() + static_cast<std::ptrdiff_t>(probe))
         context.fail(std::string("is not a text ") + format + " file (it holds binary data)");
 }
 
@@ -43,7 +46,8 @@ bool isBinaryStl(const std::vector<std::uint8_t>& bytes) {
 }  // namespace
 
 const std::vector<std::string>& supportedSceneExtensions() {
-    static const std::vector<std::string> extensions = {".gltf", ".glb", ".obj", ".ply", ".stl", ".off", ".drc"};
+    static const std::vector<std::string> extensions = {".gltf", ".glb", ".obj", ".ply",
+                                                        ".stl",  ".off", ".drc"};
     return extensions;
 }
 
@@ -65,7 +69,9 @@ Scene importScene(const std::filesystem::path& file, const ImportOptions& option
     }
     if (bytes.empty()) context.fail("is empty");
 
-    auto mismatch = [&](const char* expected) { context.fail(std::string("is not ") + expected + " despite its extension"); };
+    auto mismatch = [&](const char* expected) {
+        context.fail(std::string("is not ") + expected + " despite its extension");
+    };
     detail::MissingNormals missingNormals = detail::MissingNormals::Smooth;
     if (ext == ".glb") {
         if (!startsWith(bytes, "glTF")) mismatch("a GLB file (no 'glTF' magic)");
@@ -73,7 +79,8 @@ Scene importScene(const std::filesystem::path& file, const ImportOptions& option
         missingNormals = detail::MissingNormals::Flat;  // glTF 2.0 §3.7.2.1 requires flat normals
     } else if (ext == ".gltf") {
         const std::size_t start = firstContent(bytes);
-        if (startsWith(bytes, "glTF")) mismatch("a JSON glTF file (it is a binary GLB; rename it .glb)");
+        if (startsWith(bytes, "glTF"))
+            mismatch("a JSON glTF file (it is a binary GLB; rename it .glb)");
         if (start >= bytes.size() || bytes[start] != '{') mismatch("a JSON glTF file");
         detail::importGltf(context, bytes, false);
         missingNormals = detail::MissingNormals::Flat;
@@ -81,7 +88,8 @@ Scene importScene(const std::filesystem::path& file, const ImportOptions& option
         requireText(context, bytes, "OBJ");
         detail::importObj(context, bytes);
     } else if (ext == ".ply") {
-        if (!startsWith(bytes, "ply\n") && !startsWith(bytes, "ply\r\n")) mismatch("a PLY file (no 'ply' header)");
+        if (!startsWith(bytes, "ply\n") && !startsWith(bytes, "ply\r\n"))
+            mismatch("a PLY file (no 'ply' header)");
         detail::importPly(context, bytes);
     } else if (ext == ".stl") {
         if (!isBinaryStl(bytes)) {
@@ -91,7 +99,8 @@ Scene importScene(const std::filesystem::path& file, const ImportOptions& option
             requireText(context, bytes, "ASCII STL");
         }
         detail::importStl(context, bytes);
-        missingNormals = detail::MissingNormals::Flat;  // STL is faceted; its stored normals are often wrong
+        missingNormals =
+            detail::MissingNormals::Flat;  // STL is faceted; its stored normals are often wrong
     } else if (ext == ".off") {
         detail::importOff(context, bytes);
     } else if (ext == ".drc") {

@@ -12,7 +12,8 @@
 
 namespace vox::detail {
 
-ImportContext::ImportContext(std::filesystem::path input, const ImportOptions& options, Scene& scene)
+ImportContext::ImportContext(std::filesystem::path input, const ImportOptions& options,
+                             Scene& scene)
     : input_(std::move(input)), options_(options), scene_(scene) {}
 
 void ImportContext::warn(const std::string& problem) {
@@ -21,11 +22,14 @@ void ImportContext::warn(const std::string& problem) {
     scene_.warnings.push_back(problem);
 }
 
-void ImportContext::fail(const std::string& problem) const { throw InvalidDataError(input_, problem); }
+void ImportContext::fail(const std::string& problem) const {
+    throw InvalidDataError(input_, problem);
+}
 
 void ImportContext::recordRead(const std::filesystem::path& file) {
     const std::filesystem::path normal = file.lexically_normal();
-    if (std::find(scene_.sourceFiles.begin(), scene_.sourceFiles.end(), normal) == scene_.sourceFiles.end())
+    if (std::find(scene_.sourceFiles.begin(), scene_.sourceFiles.end(), normal) ==
+        scene_.sourceFiles.end())
         scene_.sourceFiles.push_back(normal);
 }
 
@@ -39,14 +43,16 @@ std::vector<std::uint8_t> ImportContext::readFile(const std::filesystem::path& f
     if (std::filesystem::is_directory(status)) throw ioError("is a directory");
     // A FIFO, socket or device named by a file (a glTF buffer "uri": "/dev/stdin", say) would
     // block the import or never end.
-    if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) throw ioError("is not a regular file");
+    if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+        throw ioError("is not a regular file");
     std::ifstream in(file, std::ios::binary | std::ios::ate);
     if (!in) throw ioError(errnoMessage(errno));
     const std::streamoff size = in.tellg();
     if (size < 0) throw ioError("cannot determine its size");
     std::vector<std::uint8_t> bytes(static_cast<std::size_t>(size));
     in.seekg(0);
-    if (size > 0 && !in.read(reinterpret_cast<char*>(bytes.data()), size)) throw ioError("read failed");
+    if (size > 0 && !in.read(reinterpret_cast<char*>(bytes.data()), size))
+        throw ioError("read failed");
     recordRead(file);
     bytesRead_ += bytes.size();
     return bytes;
@@ -76,7 +82,8 @@ std::int32_t ImportContext::texture(const std::string& key, ColorSpace colorSpac
     const auto mapKey = std::make_pair(key, colorSpace);
     if (auto it = textures_.find(mapKey); it != textures_.end()) return it->second;
     pendingTextures_.emplace_back(read(), colorSpace);
-    const auto index = static_cast<std::int32_t>(scene_.textures.size() + pendingTextures_.size() - 1);
+    const auto index =
+        static_cast<std::int32_t>(scene_.textures.size() + pendingTextures_.size() - 1);
     textures_.emplace(mapKey, index);
     return index;
 }
@@ -91,7 +98,8 @@ void ImportContext::decodeTextures() {
     tbb::parallel_for(std::size_t{0}, count, [&](std::size_t i) {
         const auto& [image, colorSpace] = pendingTextures_[i];
         try {
-            scene_.textures[first + i] = decodeTexture(image.bytes, image.file, image.what, image.mimeType, colorSpace);
+            scene_.textures[first + i] =
+                decodeTexture(image.bytes, image.file, image.what, image.mimeType, colorSpace);
         } catch (...) {
             errors[i] = std::current_exception();
         }
@@ -104,13 +112,15 @@ void ImportContext::decodeTextures() {
 
 void ImportContext::finish(MissingNormals missingNormals) {
     for (const std::string& name : options_.dynamicNames)
-        if (!usedDynamicNames_.count(name)) warn("--dynamic '" + name + "' matches nothing in the file");
+        if (!usedDynamicNames_.count(name))
+            warn("--dynamic '" + name + "' matches nothing in the file");
     finalizeScene(*this, missingNormals);
 }
 
 std::string lowerExtension(const std::filesystem::path& file) {
     std::string ext = file.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     return ext;
 }
 

@@ -68,7 +68,8 @@ struct Corner {
 };
 struct CornerHash {
     std::size_t operator()(const Corner& c) const noexcept {
-        return (static_cast<std::size_t>(c.position) * 0x9E3779B97F4A7C15ull) ^ (static_cast<std::size_t>(c.uv) * 0xC2B2AE3D27D4EB4Full) ^
+        return (static_cast<std::size_t>(c.position) * 0x9E3779B97F4A7C15ull) ^
+               (static_cast<std::size_t>(c.uv) * 0xC2B2AE3D27D4EB4Full) ^
                static_cast<std::size_t>(c.normal);
     }
 };
@@ -82,7 +83,7 @@ public:
     std::uint32_t findOrInsert(const Corner& corner, std::uint32_t vertex, bool& inserted) {
         if (2 * (count_ + 1) > slots_.size()) grow();
         const std::size_t mask = slots_.size() - 1;
-        for (std::size_t i = CornerHash{}(corner) & mask;; i = (i + 1) & mask) {
+        for (std::size_t i = CornerHash{}(corner)&mask;; i = (i + 1) & mask) {
             Slot& slot = slots_[i];
             if (slot.corner.position == 0) {  // empty: every stored corner has a position
                 slot = {corner, vertex};
@@ -126,7 +127,8 @@ constexpr std::size_t kMaxEarClippedCorners = 256;
 
 /// Ear clipping in the plane of the polygon's Newell normal; a fan if clipping gets stuck
 /// (self-intersecting input) or the polygon is huge. Appends triangles as indices into @p points.
-void triangulatePolygon(const std::vector<Vec3f>& points, std::vector<std::array<std::size_t, 3>>& out) {
+void triangulatePolygon(const std::vector<Vec3f>& points,
+                        std::vector<std::array<std::size_t, 3>>& out) {
     const std::size_t n = points.size();
     if (n > kMaxEarClippedCorners) {
         for (std::size_t i = 1; i + 1 < n; ++i) out.push_back({0, i, i + 1});
@@ -135,17 +137,22 @@ void triangulatePolygon(const std::vector<Vec3f>& points, std::vector<std::array
     Vec3d normal{};
     for (std::size_t i = 0; i < n; ++i) {
         const Vec3f a = points[i], b = points[(i + 1) % n];
-        normal += Vec3d{(a.y - b.y) * (static_cast<double>(a.z) + b.z), (a.z - b.z) * (static_cast<double>(a.x) + b.x),
+        normal += Vec3d{(a.y - b.y) * (static_cast<double>(a.z) + b.z),
+                        (a.z - b.z) * (static_cast<double>(a.x) + b.x),
                         (a.x - b.x) * (static_cast<double>(a.y) + b.y)};
     }
-    const int axis = std::fabs(normal.x) > std::fabs(normal.y) ? (std::fabs(normal.x) > std::fabs(normal.z) ? 0 : 2)
-                                                              : (std::fabs(normal.y) > std::fabs(normal.z) ? 1 : 2);
+    const int axis = std::fabs(normal.x) > std::fabs(normal.y)
+                         ? (std::fabs(normal.x) > std::fabs(normal.z) ? 0 : 2)
+                         : (std::fabs(normal.y) > std::fabs(normal.z) ? 1 : 2);
     const int u = (axis + 1) % 3, v = (axis + 2) % 3;
     const double orientation = normal[axis] >= 0 ? 1.0 : -1.0;
     auto area2 = [&](std::size_t a, std::size_t b, std::size_t c) {
-        const Vec3f& pa = points[a]; const Vec3f& pb = points[b]; const Vec3f& pc = points[c];
-        return orientation * ((static_cast<double>(pb[u]) - pa[u]) * (static_cast<double>(pc[v]) - pa[v]) -
-                              (static_cast<double>(pb[v]) - pa[v]) * (static_cast<double>(pc[u]) - pa[u]));
+        const Vec3f& pa = points[a];
+        const Vec3f& pb = points[b];
+        const Vec3f& pc = points[c];
+        return orientation *
+               ((static_cast<double>(pb[u]) - pa[u]) * (static_cast<double>(pc[v]) - pa[v]) -
+                (static_cast<double>(pb[v]) - pa[v]) * (static_cast<double>(pc[u]) - pa[u]));
     };
     std::vector<std::size_t> ring(n);
     for (std::size_t i = 0; i < n; ++i) ring[i] = i;
@@ -153,7 +160,8 @@ void triangulatePolygon(const std::vector<Vec3f>& points, std::vector<std::array
     while (ring.size() > 3 && guard < 2 * n * n) {
         bool clipped = false;
         for (std::size_t i = 0; i < ring.size() && !clipped; ++i) {
-            const std::size_t a = ring[(i + ring.size() - 1) % ring.size()], b = ring[i], c = ring[(i + 1) % ring.size()];
+            const std::size_t a = ring[(i + ring.size() - 1) % ring.size()], b = ring[i],
+                              c = ring[(i + 1) % ring.size()];
             ++guard;
             if (area2(a, b, c) <= 0) continue;  // reflex corner
             bool containsOther = false;
@@ -171,7 +179,8 @@ void triangulatePolygon(const std::vector<Vec3f>& points, std::vector<std::array
         }
         if (!clipped) break;
     }
-    for (std::size_t i = 1; i + 1 < ring.size(); ++i) out.push_back({ring[0], ring[i], ring[i + 1]});
+    for (std::size_t i = 1; i + 1 < ring.size(); ++i)
+        out.push_back({ring[0], ring[i], ring[i + 1]});
 }
 
 class ObjImporter {
@@ -184,7 +193,8 @@ private:
         context_.fail("line " + std::to_string(line) + ": " + problem);
     }
     void readMtl(const std::filesystem::path& file);
-    TextureBinding readMap(std::string_view args, ColorSpace colorSpace, const std::filesystem::path& mtl, std::size_t line);
+    TextureBinding readMap(std::string_view args, ColorSpace colorSpace,
+                           const std::filesystem::path& mtl, std::size_t line);
     void addFace(std::string_view args, std::size_t line);
     MeshBuilder& currentBuilder();
     Corner parseCorner(std::string_view token, std::size_t line) const;
@@ -207,7 +217,8 @@ private:
     std::vector<std::array<std::size_t, 3>> faceTriangles_;
 };
 
-TextureBinding ObjImporter::readMap(std::string_view args, ColorSpace colorSpace, const std::filesystem::path& mtl, std::size_t line) {
+TextureBinding ObjImporter::readMap(std::string_view args, ColorSpace colorSpace,
+                                    const std::filesystem::path& mtl, std::size_t line) {
     TextureBinding binding;
     // Options come before the file name: -o/-s/-t take up to 3 numbers, the others one value.
     float offset[2] = {0, 0}, scale[2] = {1, 1};
@@ -236,15 +247,18 @@ TextureBinding ObjImporter::readMap(std::string_view args, ColorSpace colorSpace
         }
     }
     std::string name(trim(rest));
-    if (name.empty()) context_.fail(mtl.filename().string() + " line " + std::to_string(line) + ": texture map without a file name");
+    if (name.empty())
+        context_.fail(mtl.filename().string() + " line " + std::to_string(line) +
+                      ": texture map without a file name");
     std::replace(name.begin(), name.end(), '\\', '/');
     const std::filesystem::path image = (mtl.parent_path() / name).lexically_normal();
     // -s/-o act on OBJ's v (up the image); the mesh's v is already libvox's 1 - v_obj, so in
     // libvox terms v' = 1 - (s·(1 - v) + o) = s·v + (1 - s - o).
     binding.uvTransform = {scale[0], 0, offset[0], 0, scale[1], 1 - scale[1] - offset[1]};
-    binding.texture = context_.texture("file:" + image.string(), colorSpace, [&]() -> ImportContext::EncodedImage {
-        return {context_.readFile(image), image, "", ""};
-    });
+    binding.texture = context_.texture("file:" + image.string(), colorSpace,
+                                       [&]() -> ImportContext::EncodedImage {
+                                           return {context_.readFile(image), image, "", ""};
+                                       });
     return binding;
 }
 
@@ -254,13 +268,20 @@ void ObjImporter::readMtl(const std::filesystem::path& file) {
     std::string_view line;
     std::size_t number = 0;
     std::int64_t currentIndex = -1;  // index, not pointer: the materials vector grows
-    auto mtlFail = [&](const std::string& problem) { context_.fail(file.filename().string() + " line " + std::to_string(number) + ": " + problem); };
+    auto mtlFail = [&](const std::string& problem) {
+        context_.fail(file.filename().string() + " line " + std::to_string(number) + ": " +
+                      problem);
+    };
     auto readColor = [&](std::string_view args) {
         Vec3f c{};
         for (int i = 0; i < 3; ++i) {
             std::string_view token = nextToken(args);
-            if (token.empty() && i > 0) { c[i] = c[0]; continue; }  // "Kd 0.5" is grey
-            if (!parseFloat(token, c[i]) || !std::isfinite(c[i]) || c[i] < 0) mtlFail("malformed colour");
+            if (token.empty() && i > 0) {
+                c[i] = c[0];
+                continue;
+            }  // "Kd 0.5" is grey
+            if (!parseFloat(token, c[i]) || !std::isfinite(c[i]) || c[i] < 0)
+                mtlFail("malformed colour");
         }
         return c;
     };
@@ -277,11 +298,13 @@ void ObjImporter::readMtl(const std::filesystem::path& file) {
             materials_[name] = static_cast<std::uint32_t>(currentIndex);
             continue;
         }
-        if (currentIndex < 0) continue;  // statements before the first newmtl have nothing to apply to
+        if (currentIndex < 0)
+            continue;  // statements before the first newmtl have nothing to apply to
         Material* current = &context_.scene().materials[static_cast<std::size_t>(currentIndex)];
         if (keyword == "Kd") {
             const Vec3f c = readColor(args);
-            current->baseColorFactor = {std::min(c.x, 1.0f), std::min(c.y, 1.0f), std::min(c.z, 1.0f), current->baseColorFactor.w};
+            current->baseColorFactor = {std::min(c.x, 1.0f), std::min(c.y, 1.0f),
+                                        std::min(c.z, 1.0f), current->baseColorFactor.w};
         } else if (keyword == "Ke") {
             const Vec3f c = readColor(args);
             const float peak = std::max({c.x, c.y, c.z});
@@ -291,12 +314,14 @@ void ObjImporter::readMtl(const std::filesystem::path& file) {
             float value = 1;
             std::string_view token = nextToken(args);
             if (token == "-halo") token = nextToken(args);
-            if (!parseFloat(token, value) || value < 0 || value > 1) mtlFail("malformed dissolve value");
+            if (!parseFloat(token, value) || value < 0 || value > 1)
+                mtlFail("malformed dissolve value");
             current->baseColorFactor.w = keyword == "d" ? value : 1 - value;
             if (current->baseColorFactor.w < 1) current->alphaMode = AlphaMode::Blend;
         } else if (keyword == "map_Kd") {
             const TextureBinding binding = readMap(args, ColorSpace::SRGB, file, number);
-            context_.scene().materials[static_cast<std::size_t>(currentIndex)].baseColorTexture = binding;
+            context_.scene().materials[static_cast<std::size_t>(currentIndex)].baseColorTexture =
+                binding;
         } else if (keyword == "map_Ke") {
             const TextureBinding binding = readMap(args, ColorSpace::SRGB, file, number);
             current = &context_.scene().materials[static_cast<std::size_t>(currentIndex)];
@@ -308,14 +333,17 @@ void ObjImporter::readMtl(const std::filesystem::path& file) {
 }
 
 MeshBuilder& ObjImporter::currentBuilder() {
-    const std::string name = objectName_.empty() ? groupName_ : (groupName_.empty() ? objectName_ : objectName_ + "/" + groupName_);
+    const std::string name =
+        objectName_.empty() ? groupName_
+                            : (groupName_.empty() ? objectName_ : objectName_ + "/" + groupName_);
     const auto key = std::make_pair(name, currentMaterial_);
     auto it = builderIndex_.find(key);
     if (it != builderIndex_.end()) return builders_[it->second];
     MeshBuilder builder;
     builder.mesh.name = name.empty() ? context_.input().stem().string() : name;
     builder.mesh.dynamic = currentDynamic_;
-    builder.mesh.material = currentMaterial_ >= 0 ? static_cast<std::uint32_t>(currentMaterial_) : context_.defaultMaterial();
+    builder.mesh.material = currentMaterial_ >= 0 ? static_cast<std::uint32_t>(currentMaterial_)
+                                                  : context_.defaultMaterial();
     builders_.push_back(std::move(builder));
     builderIndex_.emplace(key, builders_.size() - 1);
     return builders_.back();
@@ -330,12 +358,17 @@ Corner ObjImporter::parseCorner(std::string_view token, std::size_t line) const 
         const std::string_view text = token.substr(0, slash);
         if (!text.empty()) {
             long long index = 0;
-            if (!parseInt(text, index) || index == 0) fail(line, "malformed face corner '" + std::string(token) + "'");
+            if (!parseInt(text, index) || index == 0)
+                fail(line, "malformed face corner '" + std::string(token) + "'");
             // Negative indices count back from the latest element.
-            const long long resolved = index < 0 ? static_cast<long long>(sizes[part]) + index + 1 : index;
+            const long long resolved =
+                index < 0 ? static_cast<long long>(sizes[part]) + index + 1 : index;
             if (resolved < 1 || resolved > static_cast<long long>(sizes[part]))
-                fail(line, std::string(part == 0 ? "vertex" : part == 1 ? "texture coordinate" : "normal") + " index " +
-                               std::to_string(index) + " out of range (" + std::to_string(sizes[part]) + " defined)");
+                fail(line, std::string(part == 0   ? "vertex"
+                                       : part == 1 ? "texture coordinate"
+                                                   : "normal") +
+                               " index " + std::to_string(index) + " out of range (" +
+                               std::to_string(sizes[part]) + " defined)");
             *fields[part] = static_cast<std::uint32_t>(resolved);
         } else if (part == 0) {
             fail(line, "face corner '" + std::string(token) + "' has no vertex index");
@@ -348,7 +381,8 @@ Corner ObjImporter::parseCorner(std::string_view token, std::size_t line) const 
 
 void ObjImporter::addFace(std::string_view args, std::size_t line) {
     faceCorners_.clear();
-    for (std::string_view token = nextToken(args); !token.empty(); token = nextToken(args)) faceCorners_.push_back(parseCorner(token, line));
+    for (std::string_view token = nextToken(args); !token.empty(); token = nextToken(args))
+        faceCorners_.push_back(parseCorner(token, line));
     if (faceCorners_.size() < 3) {
         ++skippedElements_;  // a face with fewer than 3 corners has no surface; skip it like a line
         return;
@@ -357,7 +391,8 @@ void ObjImporter::addFace(std::string_view args, std::size_t line) {
     Mesh& mesh = builder.mesh;
     auto vertexOf = [&](const Corner& corner) -> std::uint32_t {
         bool inserted = false;
-        const std::uint32_t vertex = builder.corners.findOrInsert(corner, static_cast<std::uint32_t>(mesh.positions.size()), inserted);
+        const std::uint32_t vertex = builder.corners.findOrInsert(
+            corner, static_cast<std::uint32_t>(mesh.positions.size()), inserted);
         if (inserted) {
             mesh.positions.push_back(positions_[corner.position - 1]);
             mesh.normals.push_back(corner.normal ? normals_[corner.normal - 1] : Vec3f{});
@@ -365,7 +400,9 @@ void ObjImporter::addFace(std::string_view args, std::size_t line) {
             const Vec2f uv = corner.uv ? uvs_[corner.uv - 1] : Vec2f{0, 0};
             mesh.uvs[0].push_back(uv);
             if (anyVertexColor_) {
-                const Vec3f c = corner.position - 1 < vertexColors_.size() ? vertexColors_[corner.position - 1] : Vec3f{1, 1, 1};
+                const Vec3f c = corner.position - 1 < vertexColors_.size()
+                                    ? vertexColors_[corner.position - 1]
+                                    : Vec3f{1, 1, 1};
                 mesh.colors.resize(mesh.positions.size() - 1, Vec4f{1, 1, 1, 1});
                 mesh.colors.push_back({c.x, c.y, c.z, 1});
             }
@@ -404,9 +441,11 @@ void ObjImporter::run(std::string_view text) {
         if (keyword == "v") {
             float values[6];
             int count = 0;
-            for (std::string_view token = nextToken(args); !token.empty() && count < 7; token = nextToken(args)) {
+            for (std::string_view token = nextToken(args); !token.empty() && count < 7;
+                 token = nextToken(args)) {
                 if (count == 6) fail(number, "a vertex has more than 6 numbers");
-                if (!parseFloat(token, values[count])) fail(number, "malformed number '" + std::string(token) + "' in a vertex");
+                if (!parseFloat(token, values[count]))
+                    fail(number, "malformed number '" + std::string(token) + "' in a vertex");
                 ++count;
             }
             if (count < 3) fail(number, "a vertex needs 3 coordinates");
@@ -419,15 +458,20 @@ void ObjImporter::run(std::string_view text) {
         } else if (keyword == "vt") {
             Vec2f uv{};
             std::string_view token = nextToken(args);
-            if (!parseFloat(token, uv.x)) fail(number, "malformed number '" + std::string(token) + "' in a texture coordinate");
+            if (!parseFloat(token, uv.x))
+                fail(number,
+                     "malformed number '" + std::string(token) + "' in a texture coordinate");
             token = nextToken(args);
-            if (!token.empty() && !parseFloat(token, uv.y)) fail(number, "malformed number '" + std::string(token) + "' in a texture coordinate");
+            if (!token.empty() && !parseFloat(token, uv.y))
+                fail(number,
+                     "malformed number '" + std::string(token) + "' in a texture coordinate");
             uvs_.push_back({uv.x, 1.0f - uv.y});  // OBJ's v points up the image, libvox's down
         } else if (keyword == "vn") {
             Vec3f n{};
             for (int i = 0; i < 3; ++i) {
                 const std::string_view token = nextToken(args);
-                if (!parseFloat(token, n[i])) fail(number, "malformed number '" + std::string(token) + "' in a normal");
+                if (!parseFloat(token, n[i]))
+                    fail(number, "malformed number '" + std::string(token) + "' in a normal");
             }
             normals_.push_back(n);
         } else if (keyword == "f") {
@@ -438,7 +482,8 @@ void ObjImporter::run(std::string_view text) {
             if (keyword == "o") groupName_.clear();
             currentDynamic_ = context_.isDynamicName(objectName_);
             // A group line may list several names; any of them marks the faces dynamic.
-            for (std::string_view names = groupName_, g = nextToken(names); !g.empty(); g = nextToken(names))
+            for (std::string_view names = groupName_, g = nextToken(names); !g.empty();
+                 g = nextToken(names))
                 currentDynamic_ = context_.isDynamicName(std::string(g)) || currentDynamic_;
         } else if (keyword == "usemtl") {
             const std::string name(trim(args));
@@ -457,7 +502,9 @@ void ObjImporter::run(std::string_view text) {
             if (std::filesystem::is_regular_file(dir / whole, ec)) {
                 readMtl(dir / whole);
             } else {
-                for (std::string_view token = nextToken(args); !token.empty(); token = nextToken(args)) readMtl(dir / std::string(token));
+                for (std::string_view token = nextToken(args); !token.empty();
+                     token = nextToken(args))
+                    readMtl(dir / std::string(token));
             }
         } else if (keyword == "l" || keyword == "p" || keyword == "curv" || keyword == "surf") {
             ++skippedElements_;
@@ -466,8 +513,11 @@ void ObjImporter::run(std::string_view text) {
     }
     progress.advance(text.size() - reported);
     for (const auto& [name, unused] : unknownMaterials_)
-        context_.warn("usemtl '" + name + "' names no material in the .mtl files; the default material is used");
-    if (skippedElements_) context_.warn("skipped " + std::to_string(skippedElements_) + " point, line, curve or surface element(s)");
+        context_.warn("usemtl '" + name +
+                      "' names no material in the .mtl files; the default material is used");
+    if (skippedElements_)
+        context_.warn("skipped " + std::to_string(skippedElements_) +
+                      " point, line, curve or surface element(s)");
     for (MeshBuilder& builder : builders_) {
         Mesh& mesh = builder.mesh;
         if (!builder.anyUv) mesh.uvs.clear();
@@ -475,7 +525,8 @@ void ObjImporter::run(std::string_view text) {
         if (!builder.anyNormal) mesh.normals.clear();
         if (anyVertexColor_) {
             mesh.colors.resize(mesh.positions.size(), Vec4f{1, 1, 1, 1});
-            for (Vec4f& c : mesh.colors) c = {srgbToLinear(c.x), srgbToLinear(c.y), srgbToLinear(c.z), c.w};
+            for (Vec4f& c : mesh.colors)
+                c = {srgbToLinear(c.x), srgbToLinear(c.y), srgbToLinear(c.z), c.w};
         }
         context_.scene().meshes.push_back(std::move(mesh));
     }

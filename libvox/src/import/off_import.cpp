@@ -57,29 +57,39 @@ void importOff(ImportContext& context, const std::vector<std::uint8_t>& bytes) {
     OffLines lines(text);
     std::string_view line;
     std::size_t number = 0;
-    const auto fail = [&](const std::string& problem) { context.fail("line " + std::to_string(number) + ": " + problem); };
+    const auto fail = [&](const std::string& problem) {
+        context.fail("line " + std::to_string(number) + ": " + problem);
+    };
 
     if (!lines.next(line, number)) context.fail("is empty");
     std::string_view rest = line;
     const std::string_view keyword = nextToken(rest);
     const std::size_t offAt = keyword.rfind("OFF");
-    const std::string_view prefix = offAt == std::string_view::npos ? keyword : keyword.substr(0, offAt);
-    if (offAt == std::string_view::npos || offAt + 3 != keyword.size() || prefix.find_first_not_of("STCN4n") != std::string_view::npos)
+    const std::string_view prefix =
+        offAt == std::string_view::npos ? keyword : keyword.substr(0, offAt);
+    if (offAt == std::string_view::npos || offAt + 3 != keyword.size() ||
+        prefix.find_first_not_of("STCN4n") != std::string_view::npos)
         context.fail("is not an OFF file (no OFF keyword) despite its extension");
-    if (prefix.find_first_of("4n") != std::string_view::npos) context.fail("OFF with 4D or n-dimensional vertices is not supported");
-    const bool hasNormals = prefix.find('N') != std::string_view::npos, hasColors = prefix.find('C') != std::string_view::npos,
+    if (prefix.find_first_of("4n") != std::string_view::npos)
+        context.fail("OFF with 4D or n-dimensional vertices is not supported");
+    const bool hasNormals = prefix.find('N') != std::string_view::npos,
+               hasColors = prefix.find('C') != std::string_view::npos,
                hasUvs = prefix.find("ST") != std::string_view::npos;
-    if (trim(rest) == "BINARY") context.fail("binary OFF is not supported (libvox reads ASCII OFF)");
-    if (trim(rest).empty() && !lines.next(rest, number)) context.fail("OFF header: no vertex/face counts");
+    if (trim(rest) == "BINARY")
+        context.fail("binary OFF is not supported (libvox reads ASCII OFF)");
+    if (trim(rest).empty() && !lines.next(rest, number))
+        context.fail("OFF header: no vertex/face counts");
     std::uint64_t vertices = 0, faces = 0, edges = 0;
     const std::string_view v = nextToken(rest), f = nextToken(rest), e = nextToken(rest);
-    if (!parseCount(v, vertices) || !parseCount(f, faces) || (!e.empty() && !parseCount(e, edges)) || !trim(rest).empty())
+    if (!parseCount(v, vertices) || !parseCount(f, faces) ||
+        (!e.empty() && !parseCount(e, edges)) || !trim(rest).empty())
         fail("OFF header: malformed vertex/face counts");
     // Every vertex and face takes a line of at least 6 and 8 bytes: bound the counts by the file.
     const std::uint64_t available = text.size() - lines.position();
     if (vertices > available / 6 || faces > available / 8 || 6 * vertices + 8 * faces > available)
-        context.fail("OFF header claims " + std::to_string(vertices) + " vertices and " + std::to_string(faces) + " faces, more than the " +
-                     std::to_string(available) + " bytes that follow can hold");
+        context.fail("OFF header claims " + std::to_string(vertices) + " vertices and " +
+                     std::to_string(faces) + " faces, more than the " + std::to_string(available) +
+                     " bytes that follow can hold");
 
     Mesh mesh;
     mesh.name = context.input().stem().string();
@@ -87,42 +97,52 @@ void importOff(ImportContext& context, const std::vector<std::uint8_t>& bytes) {
     mesh.material = context.defaultMaterial();
     for (std::uint64_t i = 0; i < vertices; ++i) {
         if (!lines.next(line, number))
-            context.fail("is truncated: " + std::to_string(i) + " of " + std::to_string(vertices) + " vertices read");
+            context.fail("is truncated: " + std::to_string(i) + " of " + std::to_string(vertices) +
+                         " vertices read");
         float values[12] = {};
         std::size_t count = 0;
         bool fractional = false;  // colours: "0.5" means [0, 1], "128" means [0, 255]
         for (std::string_view token = nextToken(line); !token.empty(); token = nextToken(line)) {
-            if (count == std::size(values) || !parseFloat(token, values[count])) fail("malformed vertex '" + std::string(token.substr(0, 32)) + "'");
-            if (count >= 3 + (hasNormals ? 3 : 0)) fractional |= token.find_first_of(".eE") != std::string_view::npos;
+            if (count == std::size(values) || !parseFloat(token, values[count]))
+                fail("malformed vertex '" + std::string(token.substr(0, 32)) + "'");
+            if (count >= 3 + (hasNormals ? 3 : 0))
+                fractional |= token.find_first_of(".eE") != std::string_view::npos;
             ++count;
         }
         const std::size_t colorAt = 3 + (hasNormals ? 3 : 0);
         const std::size_t colors = hasColors ? count - colorAt - (hasUvs ? 2 : 0) : 0;
         if (count < colorAt + (hasUvs ? 2 : 0) || (hasColors && colors != 3 && colors != 4))
-            fail("vertex has " + std::to_string(count) + " numbers, not what '" + std::string(keyword) + "' needs");
+            fail("vertex has " + std::to_string(count) + " numbers, not what '" +
+                 std::string(keyword) + "' needs");
         mesh.positions.push_back({values[0], values[1], values[2]});
         if (hasNormals) mesh.normals.push_back({values[3], values[4], values[5]});
         if (hasColors) {
             const float scale = fractional ? 1.0f : 1.0f / 255.0f;
             const float* c = values + colorAt;
             // OFF colours are display-referred (sRGB-encoded), libvox's are linear.
-            mesh.colors.push_back({srgbToLinear(c[0] * scale), srgbToLinear(c[1] * scale), srgbToLinear(c[2] * scale),
-                                   colors == 4 ? c[3] * scale : 1.0f});
+            mesh.colors.push_back({srgbToLinear(c[0] * scale), srgbToLinear(c[1] * scale),
+                                   srgbToLinear(c[2] * scale), colors == 4 ? c[3] * scale : 1.0f});
         }
     }
     std::size_t pointsAndLines = 0;
     std::vector<std::uint32_t> corners;
     for (std::uint64_t i = 0; i < faces; ++i) {
-        if (!lines.next(line, number)) context.fail("is truncated: " + std::to_string(i) + " of " + std::to_string(faces) + " faces read");
+        if (!lines.next(line, number))
+            context.fail("is truncated: " + std::to_string(i) + " of " + std::to_string(faces) +
+                         " faces read");
         std::uint64_t n = 0;
         if (!parseCount(nextToken(line), n)) fail("malformed face: no corner count");
         corners.clear();
-        for (std::uint64_t k = 0; k < n; ++k) {  // each corner a token of this line: n is bounded by its length
+        for (std::uint64_t k = 0; k < n;
+             ++k) {  // each corner a token of this line: n is bounded by its length
             const std::string_view token = nextToken(line);
             std::uint64_t index = 0;
             if (token.empty()) fail("face has fewer than its " + std::to_string(n) + " corners");
-            if (!parseCount(token, index)) fail("malformed vertex index '" + std::string(token.substr(0, 32)) + "'");
-            if (index >= vertices) fail("vertex index " + std::to_string(index) + " out of range (" + std::to_string(vertices) + " vertices)");
+            if (!parseCount(token, index))
+                fail("malformed vertex index '" + std::string(token.substr(0, 32)) + "'");
+            if (index >= vertices)
+                fail("vertex index " + std::to_string(index) + " out of range (" +
+                     std::to_string(vertices) + " vertices)");
             corners.push_back(static_cast<std::uint32_t>(index));
         }
         // The rest of the line is the face's colour, which libvox does not use.
@@ -130,9 +150,12 @@ void importOff(ImportContext& context, const std::vector<std::uint8_t>& bytes) {
             ++pointsAndLines;
             continue;
         }
-        for (std::size_t k = 1; k + 1 < n; ++k) mesh.indices.insert(mesh.indices.end(), {corners[0], corners[k], corners[k + 1]});
+        for (std::size_t k = 1; k + 1 < n; ++k)
+            mesh.indices.insert(mesh.indices.end(), {corners[0], corners[k], corners[k + 1]});
     }
-    if (pointsAndLines) context.warn("skipped " + std::to_string(pointsAndLines) + " face(s) with fewer than 3 corners (points and lines)");
+    if (pointsAndLines)
+        context.warn("skipped " + std::to_string(pointsAndLines) +
+                     " face(s) with fewer than 3 corners (points and lines)");
     if (mesh.indices.empty()) context.fail("has no faces (a point cloud?)");
     context.scene().meshes.push_back(std::move(mesh));
 }

@@ -20,7 +20,8 @@ void readBinary(Mesh& mesh, const std::vector<std::uint8_t>& bytes, std::uint32_
     mesh.positions.resize(3 * std::size_t{triangles});  // the file's size is 84 + 50 × triangles
     for (std::size_t t = 0; t < triangles; ++t) {
         const std::uint8_t* facet = bytes.data() + 84 + 50 * t + 12;  // past the facet normal
-        for (std::size_t k = 0; k < 3; ++k) std::memcpy(&mesh.positions[3 * t + k], facet + 12 * k, 12);
+        for (std::size_t k = 0; k < 3; ++k)
+            std::memcpy(&mesh.positions[3 * t + k], facet + 12 * k, 12);
     }
 }
 
@@ -45,10 +46,13 @@ void readAscii(const ImportContext& context, Mesh& mesh, const std::vector<std::
     };
     for (std::string_view token = nextToken(rest); !token.empty(); token = nextToken(rest)) {
         if (token == "solid" || token == "endsolid") {
-            if (inFacet) context.fail("line " + std::to_string(lineAt(token)) + ": '" + std::string(token) + "' inside a facet");
+            if (inFacet)
+                context.fail("line " + std::to_string(lineAt(token)) + ": '" + std::string(token) +
+                             "' inside a facet");
             skipLine();  // the solid's name, if any
         } else if (token == "facet") {
-            if (inFacet) context.fail("line " + std::to_string(lineAt(token)) + ": facet inside a facet");
+            if (inFacet)
+                context.fail("line " + std::to_string(lineAt(token)) + ": facet inside a facet");
             inFacet = true;
             facetVertices = 0;
             facetLine = lineAt(token);
@@ -58,19 +62,26 @@ void readAscii(const ImportContext& context, Mesh& mesh, const std::vector<std::
             if (!inFacet) context.fail("line " + std::to_string(at) + ": vertex outside a facet");
             Vec3f p;
             for (float* c : {&p.x, &p.y, &p.z})
-                if (!parseFloat(nextToken(rest), *c)) context.fail("line " + std::to_string(at) + ": vertex needs three numbers");
-            if (++facetVertices > 3) context.fail("line " + std::to_string(at) + ": facet with more than three vertices");
+                if (!parseFloat(nextToken(rest), *c))
+                    context.fail("line " + std::to_string(at) + ": vertex needs three numbers");
+            if (++facetVertices > 3)
+                context.fail("line " + std::to_string(at) +
+                             ": facet with more than three vertices");
             mesh.positions.push_back(p);
         } else if (token == "endfacet") {
-            if (!inFacet) context.fail("line " + std::to_string(lineAt(token)) + ": endfacet without facet");
+            if (!inFacet)
+                context.fail("line " + std::to_string(lineAt(token)) + ": endfacet without facet");
             if (facetVertices != 3)
-                context.fail("line " + std::to_string(facetLine) + ": facet with " + std::to_string(facetVertices) + " vertices, not 3");
+                context.fail("line " + std::to_string(facetLine) + ": facet with " +
+                             std::to_string(facetVertices) + " vertices, not 3");
             inFacet = false;
         } else if (token != "outer" && token != "loop" && token != "endloop") {
-            context.fail("line " + std::to_string(lineAt(token)) + ": unexpected '" + std::string(token.substr(0, 32)) + "'");
+            context.fail("line " + std::to_string(lineAt(token)) + ": unexpected '" +
+                         std::string(token.substr(0, 32)) + "'");
         }
     }
-    if (inFacet) context.fail("line " + std::to_string(facetLine) + ": facet without endfacet (truncated?)");
+    if (inFacet)
+        context.fail("line " + std::to_string(facetLine) + ": facet without endfacet (truncated?)");
 }
 
 }  // namespace

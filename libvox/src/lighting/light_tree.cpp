@@ -42,8 +42,8 @@ Bounds3f unionOf(const Bounds3f& a, const Bounds3f& b) {
 }
 
 bool overlaps(const Bounds3f& a, const Bounds3f& b) {
-    return a.min.x <= b.max.x && b.min.x <= a.max.x && a.min.y <= b.max.y && b.min.y <= a.max.y && a.min.z <= b.max.z &&
-           b.min.z <= a.max.z;
+    return a.min.x <= b.max.x && b.min.x <= a.max.x && a.min.y <= b.max.y && b.min.y <= a.max.y &&
+           a.min.z <= b.max.z && b.min.z <= a.max.z;
 }
 
 std::uint64_t splitmix64(std::uint64_t x) {
@@ -79,7 +79,8 @@ Cone coneOf(const LightTreeNode& n) { return {toDouble(n.coneAxis), double(n.con
 double diagonal2(const Bounds3f& a, const Bounds3f& b) {
     double s = 0;
     for (int k = 0; k < 3; ++k) {
-        const double e = double(std::max(a.max[k], b.max[k])) - double(std::min(a.min[k], b.min[k]));
+        const double e =
+            double(std::max(a.max[k], b.max[k])) - double(std::min(a.min[k], b.min[k]));
         s += e * e;
     }
     return s;
@@ -96,13 +97,13 @@ double unionHalfAngle(Vec3f axisA, double ta, Vec3f axisB, double tb) {
 
 /// Walter 2005's merge cost is (I_A + I_B) × (diagonal² + c²·(1 − cos θ)²); this is (1 − cos θ)² of
 /// the merged spot cone, 4 (θ = π) where a point light meets a spot, 0 without spots.
-double orientationTerm(bool spotA, bool omniA, Vec3f axisA, double ta, bool spotB, bool omniB, Vec3f axisB, double tb) {
+double orientationTerm(bool spotA, bool omniA, Vec3f axisA, double ta, bool spotB, bool omniB,
+                       Vec3f axisB, double tb) {
     if (!spotA && !spotB) return 0;
     if (omniA || omniB) return 4;
     const double t = 1 - std::cos(unionHalfAngle(axisA, ta, axisB, tb));
     return t * t;
 }
-
 
 /// The least orientation term (without c²) of @p a with any cluster: its own cone's (1 − cos θ)².
 double orientationFloor(const LightTreeNode& a) {
@@ -115,7 +116,8 @@ double orientationFloor(const LightTreeNode& a) {
 /// least chord √chord2 apart: θ ≥ δ/2, so 1 − cos θ ≥ 2·sin²(δ/4) ≥ sin²(δ/2)/2 = chord²/8.
 double chordBound(double chord2) { return (chord2 / 8) * (chord2 / 8); }
 
-/// What the partner search reads of a cluster, stored by slot so that k-d leaves scan memory in order.
+/// What the partner search reads of a cluster, stored by slot so that k-d leaves scan memory in
+/// order.
 struct SlotData {
     Bounds3f bounds;
     Vec3f axis;
@@ -126,7 +128,8 @@ struct SlotData {
     bool hasSpot = false, hasOmni = false;
 
     static SlotData of(const LightTreeNode& n, std::uint32_t id, double radius) {
-        return {n.bounds, n.coneAxis, n.coneHalfAngle, n.luminance, radius, id, n.hasSpot, n.hasOmni};
+        return {n.bounds, n.coneAxis, n.coneHalfAngle, n.luminance,
+                radius,   id,         n.hasSpot,       n.hasOmni};
     }
 };
 
@@ -140,13 +143,14 @@ bool forestAllows(double diagonal2, double ra, double rb) {
 
 /// A k-d tree over the live clusters (by box centre) answering "cheapest partner of A": each k-d
 /// node keeps a box holding its clusters' position boxes, their kinds of light, a box holding their
-/// spot axes and a lower bound on their luminance, so whole subtrees are skipped by a lower bound on the cost.
-/// Merges update it in place (the merged cluster takes one child's slot, boxes only grow, the
-/// other slot dies); it is rebuilt when half its slots have died.
+/// spot axes and a lower bound on their luminance, so whole subtrees are skipped by a lower bound
+/// on the cost. Merges update it in place (the merged cluster takes one child's slot, boxes only
+/// grow, the other slot dies); it is rebuilt when half its slots have died.
 class ClusterIndex {
 public:
     /// @p radius: influence radius per light for the forest's rule, null for a classic tree.
-    ClusterIndex(const std::vector<LightTreeNode>& nodes, double c2, const std::vector<double>* radius)
+    ClusterIndex(const std::vector<LightTreeNode>& nodes, double c2,
+                 const std::vector<double>* radius)
         : nodes_(nodes), c2_(c2), radius_(radius), slotOf_(nodes.capacity(), kDead) {}
 
     void build(std::vector<std::uint32_t> ids) {
@@ -158,7 +162,8 @@ public:
         built_ = slots_.size();
         alive_ = slots_.size();
         if (!slots_.empty()) buildNode(0, std::uint32_t(slots_.size()), kDead);
-        for (std::size_t s = 0; s < slots_.size(); ++s) data_[s] = SlotData::of(nodes_[slots_[s]], slots_[s], radiusOf(slots_[s]));
+        for (std::size_t s = 0; s < slots_.size(); ++s)
+            data_[s] = SlotData::of(nodes_[slots_[s]], slots_[s], radiusOf(slots_[s]));
     }
 
     [[nodiscard]] std::size_t alive() const noexcept { return alive_; }
@@ -199,8 +204,10 @@ public:
                         orientation = std::max(floor, chordBound(dot(chord, chord)));
                     }
                     if (weight * (d2 + c2_ * orientation) > best) continue;
-                    const double c = weight * (d2 + c2_ * orientationTerm(A.hasSpot, A.hasOmni, A.coneAxis, A.coneHalfAngle,
-                                                                         B.hasSpot, B.hasOmni, B.axis, B.halfAngle));
+                    const double c =
+                        weight * (d2 + c2_ * orientationTerm(A.hasSpot, A.hasOmni, A.coneAxis,
+                                                             A.coneHalfAngle, B.hasSpot, B.hasOmni,
+                                                             B.axis, B.halfAngle));
                     if (c < best || (c == best && id < bestId)) {
                         best = c;
                         bestId = id;
@@ -220,7 +227,8 @@ public:
                 children[count++] = {clb, child};
             }
             // Nearer child last: popped first.
-            if (count == 2 && children[0].first < children[1].first) std::swap(children[0], children[1]);
+            if (count == 2 && children[0].first < children[1].first)
+                std::swap(children[0], children[1]);
             for (int i = 0; i < count; ++i) stack.push_back(children[i]);
         }
         return {best, bestId};
@@ -257,10 +265,10 @@ public:
 
 private:
     struct Kd {
-        Bounds3f bounds;     // holds every live cluster's position box below
-        Bounds3f axes;             // holds the spot-axis cone axes of the clusters below without point lights
-        bool allSpot = true;       // every cluster below holds a spot light
-        bool allOmni = true;       // every cluster below holds a point light
+        Bounds3f bounds;  // holds every live cluster's position box below
+        Bounds3f axes;  // holds the spot-axis cone axes of the clusters below without point lights
+        bool allSpot = true;  // every cluster below holds a spot light
+        bool allOmni = true;  // every cluster below holds a point light
         double minLuminance = 0;
         double maxRadius = 0;  // of the representatives below (forest)
         std::uint32_t alive = 0;
@@ -284,7 +292,9 @@ private:
         return std::max(floor, chordBound(chord2));
     }
 
-    [[nodiscard]] double radiusOf(std::uint32_t id) const { return radius_ ? (*radius_)[nodes_[id].representative] : kInf; }
+    [[nodiscard]] double radiusOf(std::uint32_t id) const {
+        return radius_ ? (*radius_)[nodes_[id].representative] : kInf;
+    }
 
     /// A lower bound on the cost of A with any cluster below K; @p d2 gets the lower bound on
     /// the merged box's squared diagonal.
@@ -294,7 +304,8 @@ private:
         d2 = 0;
         for (int k = 0; k < 3; ++k) {
             const double lo = A.bounds.min[k], hi = A.bounds.max[k];
-            const double gap = std::max({0.0, double(K.bounds.min[k]) - hi, lo - double(K.bounds.max[k])});
+            const double gap =
+                std::max({0.0, double(K.bounds.min[k]) - hi, lo - double(K.bounds.max[k])});
             const double e = hi - lo + gap;
             d2 += e * e;
         }
@@ -332,12 +343,16 @@ private:
         }
         std::uint32_t mid = first + (last - first) / 2;
         std::uint32_t spotOnly = 0;
-        for (std::uint32_t s = first; s < last; ++s) spotOnly += nodes_[slots_[s]].hasSpot && !nodes_[slots_[s]].hasOmni;
+        for (std::uint32_t s = first; s < last; ++s)
+            spotOnly += nodes_[slots_[s]].hasSpot && !nodes_[slots_[s]].hasOmni;
         if (spotOnly > 0 && spotOnly < last - first) {
             // Spot-only clusters apart from the others: a spot meeting a point light costs 4c², so
             // the two halves rarely need searching together.
             mid = std::uint32_t(std::stable_partition(slots_.begin() + first, slots_.begin() + last,
-                                                      [&](std::uint32_t id) { return !(nodes_[id].hasSpot && !nodes_[id].hasOmni); }) -
+                                                      [&](std::uint32_t id) {
+                                                          return !(nodes_[id].hasSpot &&
+                                                                   !nodes_[id].hasOmni);
+                                                      }) -
                                 slots_.begin());
         } else {
             // Split the longest side of the centres' box; spot-only clusters also by their axes,
@@ -359,7 +374,8 @@ private:
             }
             auto key = [&](std::uint32_t id) {
                 const LightTreeNode& n = nodes_[id];
-                return std::pair{axis < 3 ? n.bounds.min[axis] + n.bounds.max[axis] : n.coneAxis[axis - 3], id};
+                return std::pair{
+                    axis < 3 ? n.bounds.min[axis] + n.bounds.max[axis] : n.coneAxis[axis - 3], id};
             };
             std::nth_element(slots_.begin() + first, slots_.begin() + mid, slots_.begin() + last,
                              [&](std::uint32_t x, std::uint32_t y) { return key(x) < key(y); });
@@ -400,7 +416,8 @@ struct Pair {
 /// Clusters @p ids (parentless nodes, capacity for the new ones reserved) greedily until no
 /// allowed pair is left (one tree without @p radius); returns the roots, ascending. A cluster is
 /// live while it has no parent.
-static std::vector<std::uint32_t> agglomerate(std::vector<LightTreeNode>& nodes, const std::vector<std::uint32_t>& ids, double c2,
+static std::vector<std::uint32_t> agglomerate(std::vector<LightTreeNode>& nodes,
+                                              const std::vector<std::uint32_t>& ids, double c2,
                                               const std::vector<double>* radius) {
     if (ids.size() <= 1) return ids;
     ClusterIndex index(nodes, c2, radius);
@@ -408,9 +425,11 @@ static std::vector<std::uint32_t> agglomerate(std::vector<LightTreeNode>& nodes,
     auto alive = [&](std::uint32_t id) { return nodes[id].parent == kNoLightNode; };
 
     std::vector<std::pair<double, std::uint32_t>> first(ids.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ids.size(), 64), [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) first[i] = index.nearest(ids[i]);
-    });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ids.size(), 64),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t i = r.begin(); i != r.end(); ++i)
+                              first[i] = index.nearest(ids[i]);
+                      });
     std::priority_queue<Pair, std::vector<Pair>, std::greater<>> heap;
     for (std::size_t i = 0; i < ids.size(); ++i)
         if (first[i].second != kDead) heap.push({first[i].first, ids[i], first[i].second});
@@ -446,8 +465,12 @@ static std::vector<std::uint32_t> agglomerate(std::vector<LightTreeNode>& nodes,
         n.intensity = A.intensity + B.intensity;
         n.luminance = A.luminance + B.luminance;
         // Representative ∝ the children's luminance, drawn by a hash of the two candidates.
-        const double u = double(splitmix64((std::uint64_t(A.representative) << 32) | B.representative) >> 11) * 0x1p-53;
-        n.representative = (n.luminance > 0 ? u * n.luminance < A.luminance : true) ? A.representative : B.representative;
+        const double u =
+            double(splitmix64((std::uint64_t(A.representative) << 32) | B.representative) >> 11) *
+            0x1p-53;
+        n.representative = (n.luminance > 0 ? u * n.luminance < A.luminance : true)
+                               ? A.representative
+                               : B.representative;
         nodes[p.a].parent = c;
         nodes[p.b].parent = c;
         nodes.push_back(n);  // capacity reserved: no reallocation
@@ -462,8 +485,11 @@ static std::vector<std::uint32_t> agglomerate(std::vector<LightTreeNode>& nodes,
 }
 
 LightTree::LightTree(std::span<const Light> lights, const LightTreeOptions& options)
-    : lights_(lights.begin(), lights.end()), leafOf_(lights.size(), kNoLightNode), radius_(lights.size(), 0.0) {
-    if (lights.size() >= std::size_t(kNoLightNode) / 2) throw std::invalid_argument("LightTree: too many lights");
+    : lights_(lights.begin(), lights.end()),
+      leafOf_(lights.size(), kNoLightNode),
+      radius_(lights.size(), 0.0) {
+    if (lights.size() >= std::size_t(kNoLightNode) / 2)
+        throw std::invalid_argument("LightTree: too many lights");
     const std::size_t n = lights.size();
     auto rgbOf = [](const Light& l) { return toDouble(l.color) * double(l.intensity); };
     std::vector<char> usable(n, 0);
@@ -473,17 +499,22 @@ LightTree::LightTree(std::span<const Light> lights, const LightTreeOptions& opti
         const Light& l = lights[i];
         const Vec3d rgb = rgbOf(l);
         bool ok = !l.dynamic && isFinite(rgb) && rgb.x >= 0 && rgb.y >= 0 && rgb.z >= 0;
-        if (l.type == Light::Type::Directional) ok = ok && isFinite(l.direction) && length(toDouble(l.direction)) > 0;
-        else ok = ok && isFinite(l.position) && std::isfinite(l.range);
-        if (l.type == Light::Type::Spot) ok = ok && isFinite(l.direction) && length(toDouble(l.direction)) > 0;
+        if (l.type == Light::Type::Directional)
+            ok = ok && isFinite(l.direction) && length(toDouble(l.direction)) > 0;
+        else
+            ok = ok && isFinite(l.position) && std::isfinite(l.range);
+        if (l.type == Light::Type::Spot)
+            ok = ok && isFinite(l.direction) && length(toDouble(l.direction)) > 0;
         usable[i] = ok;
         if (!ok || l.type == Light::Type::Directional) continue;
         positions.add(l.position);
         brightest = std::max(brightest, lightLuminance(rgb));
     }
     if (!positions.empty()) diagonal_ = length(toDouble(positions.extent()));
-    threshold_ = options.influenceThreshold > 0 ? options.influenceThreshold
-                                                : (options.relativeInfluence > 0 ? options.relativeInfluence * brightest : 0.0);
+    threshold_ =
+        options.influenceThreshold > 0
+            ? options.influenceThreshold
+            : (options.relativeInfluence > 0 ? options.relativeInfluence * brightest : 0.0);
     if (!(threshold_ > 0) || !std::isfinite(threshold_) || !options.forest) threshold_ = 0;
 
     nodes_.reserve(2 * n + 1);
@@ -502,8 +533,10 @@ LightTree::LightTree(std::span<const Light> lights, const LightTreeOptions& opti
             leaf.directional = true;
             const Vec3d to = -normalize(toDouble(l.direction));
             constexpr double pad = 1e-6;
-            leaf.bounds.add(Vec3f{floatBelow(to.x - pad), floatBelow(to.y - pad), floatBelow(to.z - pad)});
-            leaf.bounds.add(Vec3f{floatAbove(to.x + pad), floatAbove(to.y + pad), floatAbove(to.z + pad)});
+            leaf.bounds.add(
+                Vec3f{floatBelow(to.x - pad), floatBelow(to.y - pad), floatBelow(to.z - pad)});
+            leaf.bounds.add(
+                Vec3f{floatAbove(to.x + pad), floatAbove(to.y + pad), floatAbove(to.z + pad)});
             leaf.influence = {{-inf, -inf, -inf}, {inf, inf, inf}};
             leaf.maxRange = inf;
             radius_[i] = kInf;
@@ -511,14 +544,18 @@ LightTree::LightTree(std::span<const Light> lights, const LightTreeOptions& opti
         } else {
             leaf.bounds.add(l.position);
             leaf.maxRange = l.range > 0 ? l.range : inf;
-            double r = l.range > 0 ? double(l.range) : (threshold_ > 0 ? std::sqrt(leaf.luminance / threshold_) : kInf);
+            double r = l.range > 0
+                           ? double(l.range)
+                           : (threshold_ > 0 ? std::sqrt(leaf.luminance / threshold_) : kInf);
             radius_[i] = r;
             if (std::isinf(r)) {
                 leaf.influence = {{-inf, -inf, -inf}, {inf, inf, inf}};
             } else {
                 const Vec3d p = toDouble(l.position);
-                leaf.influence.add(Vec3f{floatBelow(p.x - r), floatBelow(p.y - r), floatBelow(p.z - r)});
-                leaf.influence.add(Vec3f{floatAbove(p.x + r), floatAbove(p.y + r), floatAbove(p.z + r)});
+                leaf.influence.add(
+                    Vec3f{floatBelow(p.x - r), floatBelow(p.y - r), floatBelow(p.z - r)});
+                leaf.influence.add(
+                    Vec3f{floatAbove(p.x + r), floatAbove(p.y + r), floatAbove(p.z + r)});
             }
             if (l.type == Light::Type::Spot) {
                 leaf.hasSpot = true;
@@ -534,9 +571,11 @@ LightTree::LightTree(std::span<const Light> lights, const LightTreeOptions& opti
         nodes_.push_back(leaf);
     }
 
-    for (std::uint32_t r : agglomerate(nodes_, local, diagonal_ * diagonal_, options.forest ? &radius_ : nullptr))
+    for (std::uint32_t r :
+         agglomerate(nodes_, local, diagonal_ * diagonal_, options.forest ? &radius_ : nullptr))
         roots_.push_back({r, false});
-    for (std::uint32_t r : agglomerate(nodes_, directional, 0.0, nullptr)) roots_.push_back({r, true});
+    for (std::uint32_t r : agglomerate(nodes_, directional, 0.0, nullptr))
+        roots_.push_back({r, true});
 
     treeOf_.assign(nodes_.size(), kNoLightNode);
     std::vector<std::uint32_t> stack;
@@ -562,7 +601,8 @@ void LightTree::buildRootIndex() {
     unboundedRoots_.clear();
     for (std::uint32_t t = 0; t < roots_.size(); ++t) {
         const Bounds3f& b = nodes_[roots_[t].node].influence;
-        const bool finite = std::isfinite(b.min.x) && std::isfinite(b.min.y) && std::isfinite(b.min.z) && std::isfinite(b.max.x) &&
+        const bool finite = std::isfinite(b.min.x) && std::isfinite(b.min.y) &&
+                            std::isfinite(b.min.z) && std::isfinite(b.max.x) &&
                             std::isfinite(b.max.y) && std::isfinite(b.max.z);
         (finite ? rootOrder_ : unboundedRoots_).push_back(t);
     }
@@ -585,13 +625,14 @@ void LightTree::buildRootIndex() {
         const Vec3f e = centres.extent();
         const int axis = e.x >= e.y && e.x >= e.z ? 0 : (e.y >= e.z ? 1 : 2);
         const std::uint32_t mid = first + (last - first) / 2;
-        std::nth_element(rootOrder_.begin() + first, rootOrder_.begin() + mid, rootOrder_.begin() + last,
-                         [&](std::uint32_t x, std::uint32_t y) {
+        std::nth_element(rootOrder_.begin() + first, rootOrder_.begin() + mid,
+                         rootOrder_.begin() + last, [&](std::uint32_t x, std::uint32_t y) {
                              const Bounds3f& a = nodes_[roots_[x].node].influence;
                              const Bounds3f& b = nodes_[roots_[y].node].influence;
-                             return std::pair{a.min[axis] + a.max[axis], x} < std::pair{b.min[axis] + b.max[axis], y};
+                             return std::pair{a.min[axis] + a.max[axis], x} <
+                                    std::pair{b.min[axis] + b.max[axis], y};
                          });
-        self(self, first, mid);  // left child: index + 1
+        self(self, first, mid);                                      // left child: index + 1
         rootIndex_[index].first = std::uint32_t(rootIndex_.size());  // right child
         rootIndex_[index].count = 0;
         self(self, mid, last);
@@ -600,9 +641,12 @@ void LightTree::buildRootIndex() {
 }
 
 template <typename Test>
-static void visitRoots(const std::vector<LightTree::Root>& roots, const std::vector<LightTreeNode>& nodes,
-                       const std::vector<LightTree::RootIndexNode>& index, const std::vector<std::uint32_t>& order,
-                       const std::vector<std::uint32_t>& unbounded, Test test, std::vector<std::uint32_t>& out) {
+static void visitRoots(const std::vector<LightTree::Root>& roots,
+                       const std::vector<LightTreeNode>& nodes,
+                       const std::vector<LightTree::RootIndexNode>& index,
+                       const std::vector<std::uint32_t>& order,
+                       const std::vector<std::uint32_t>& unbounded, Test test,
+                       std::vector<std::uint32_t>& out) {
     out.clear();
     for (std::uint32_t t : unbounded)
         if (roots[t].directional || test(nodes[roots[t].node].influence)) out.push_back(t);
@@ -627,22 +671,26 @@ static void visitRoots(const std::vector<LightTree::Root>& roots, const std::vec
 }
 
 void LightTree::rootsContaining(Vec3d point, std::vector<std::uint32_t>& out) const {
-    visitRoots(roots_, nodes_, rootIndex_, rootOrder_, unboundedRoots_,
-               [&](const Bounds3f& b) {
-                   return point.x >= b.min.x && point.x <= b.max.x && point.y >= b.min.y && point.y <= b.max.y && point.z >= b.min.z &&
-                          point.z <= b.max.z;
-               },
-               out);
+    visitRoots(
+        roots_, nodes_, rootIndex_, rootOrder_, unboundedRoots_,
+        [&](const Bounds3f& b) {
+            return point.x >= b.min.x && point.x <= b.max.x && point.y >= b.min.y &&
+                   point.y <= b.max.y && point.z >= b.min.z && point.z <= b.max.z;
+        },
+        out);
 }
 
 std::size_t LightTree::leafCount() const noexcept {
-    return std::size_t(std::count_if(leafOf_.begin(), leafOf_.end(), [](std::uint32_t k) { return k != kNoLightNode; }));
+    return std::size_t(std::count_if(leafOf_.begin(), leafOf_.end(),
+                                     [](std::uint32_t k) { return k != kNoLightNode; }));
 }
 
 std::vector<std::uint32_t> LightTree::rootsOverlapping(const Bounds3f& region) const {
     std::vector<std::uint32_t> out;
     if (region.empty()) return out;
-    visitRoots(roots_, nodes_, rootIndex_, rootOrder_, unboundedRoots_, [&](const Bounds3f& b) { return overlaps(b, region); }, out);
+    visitRoots(
+        roots_, nodes_, rootIndex_, rootOrder_, unboundedRoots_,
+        [&](const Bounds3f& b) { return overlaps(b, region); }, out);
     return out;
 }
 

@@ -18,13 +18,15 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 Vec3d toDouble(Vec3f v) { return {v.x, v.y, v.z}; }
 
 /// The callback's visibility, clamped to [0, 1] (NaN: 0).
-double visibilityOf(const LightVisibility& visibility, const Light& light, const LightArrival& arrival) {
+double visibilityOf(const LightVisibility& visibility, const Light& light,
+                    const LightArrival& arrival) {
     const double v = visibility(light, arrival);
     return v > 0 ? std::min(v, 1.0) : 0.0;
 }
 
 bool contains(const Bounds3f& b, Vec3d p) {
-    return p.x >= b.min.x && p.x <= b.max.x && p.y >= b.min.y && p.y <= b.max.y && p.z >= b.min.z && p.z <= b.max.z;
+    return p.x >= b.min.x && p.x <= b.max.x && p.y >= b.min.y && p.y <= b.max.y && p.z >= b.min.z &&
+           p.z <= b.max.z;
 }
 
 /// An orthonormal frame with @p n as its third axis (Duff et al. 2017).
@@ -56,8 +58,14 @@ double maxCosine(const Frame& f, Vec3d lo, Vec3d hi) {
         range[k][1] = centre + half + slack;
     }
     const double zmax = range[2][1];
-    auto minSquare = [&](int k) { return range[k][0] <= 0 && range[k][1] >= 0 ? 0.0 : std::min(range[k][0] * range[k][0], range[k][1] * range[k][1]); };
-    auto maxSquare = [&](int k) { return std::max(range[k][0] * range[k][0], range[k][1] * range[k][1]); };
+    auto minSquare = [&](int k) {
+        return range[k][0] <= 0 && range[k][1] >= 0
+                   ? 0.0
+                   : std::min(range[k][0] * range[k][0], range[k][1] * range[k][1]);
+    };
+    auto maxSquare = [&](int k) {
+        return std::max(range[k][0] * range[k][0], range[k][1] * range[k][1]);
+    };
     if (zmax > 0) {
         const double r2 = minSquare(0) + minSquare(1);
         return std::min(1.0, zmax / std::sqrt(r2 + zmax * zmax));
@@ -87,13 +95,15 @@ struct Response {
     bool axisWeighted;
     std::array<double, 6> weights;
 
-    explicit Response(const LightcutPoint& p) : frame(p.normal), axisWeighted(p.axisWeighted), weights(p.axisWeights) {}
+    explicit Response(const LightcutPoint& p)
+        : frame(p.normal), axisWeighted(p.axisWeighted), weights(p.axisWeights) {}
     /// An upper bound of the response over the directions v / |v|, v in [lo, hi]; ≥ 0.
     [[nodiscard]] double bound(Vec3d lo, Vec3d hi) const {
         if (!axisWeighted) return std::max(0.0, maxCosine(frame, lo, hi));
         double sum = 0;
         for (int axis = 0; axis < 3; ++axis)
-            sum += std::max(weights[2 * axis] * axisCosine(lo, hi, axis, 1), weights[2 * axis + 1] * axisCosine(lo, hi, axis, -1));
+            sum += std::max(weights[2 * axis] * axisCosine(lo, hi, axis, 1),
+                            weights[2 * axis + 1] * axisCosine(lo, hi, axis, -1));
         return sum;
     }
 };
@@ -128,7 +138,8 @@ double geometricBound(const LightTreeNode& node, const Response& response, Vec3d
     return cosBound * window / d2;
 }
 
-Vec3d boundOf(const LightTreeNode& node, const Response& response, Vec3d point, Vec3d albedoOverPi) {
+Vec3d boundOf(const LightTreeNode& node, const Response& response, Vec3d point,
+              Vec3d albedoOverPi) {
     const double g = geometricBound(node, response, point);
     if (!(g > 0)) return {0, 0, 0};
     Vec3d out;
@@ -149,8 +160,16 @@ struct Context {
     const LightVisibility& visibility;
     LightcutStats& stats;
 
-    Context(const LightTree& t, const LightcutPoint& p, const LightcutOptions& o, const LightVisibility& v, LightcutStats& s)
-        : tree(t), at(p), response(p), point(p.position), albedoOverPi(p.albedo * kInvPi), options(o), visibility(v), stats(s) {}
+    Context(const LightTree& t, const LightcutPoint& p, const LightcutOptions& o,
+            const LightVisibility& v, LightcutStats& s)
+        : tree(t),
+          at(p),
+          response(p),
+          point(p.position),
+          albedoOverPi(p.albedo * kInvPi),
+          options(o),
+          visibility(v),
+          stats(s) {}
 
     /// falloff × response × visibility of light @p index: the representative's factor.
     double factor(std::uint32_t index) const {
@@ -165,7 +184,8 @@ struct Context {
         if (!(peak > 0)) return 0;
         // irradiance = colour × intensity × falloff channel by channel: the brightest channel's
         // ratio is the falloff.
-        const double irr = std::max({arrival.irradiance.x, arrival.irradiance.y, arrival.irradiance.z});
+        const double irr =
+            std::max({arrival.irradiance.x, arrival.irradiance.y, arrival.irradiance.z});
         double v = 1;
         if (visibility) {
             ++stats.visibilityEvaluations;
@@ -177,11 +197,11 @@ struct Context {
 
 /// One node of a cut at the current point.
 struct Entry {
-    double key;         // luminance of the error bound; −1 for leaves (exact, never split)
-    double boundLum;    // luminance of lightcutBound, leaves included
+    double key;       // luminance of the error bound; −1 for leaves (exact, never split)
+    double boundLum;  // luminance of lightcutBound, leaves included
     std::uint32_t node;
-    double g;           // the representative's factor
-    Vec3d estimate;     // albedo/π × intensity × g
+    double g;        // the representative's factor
+    Vec3d estimate;  // albedo/π × intensity × g
 };
 
 bool heapLess(const Entry& a, const Entry& b) {
@@ -243,9 +263,12 @@ struct Budget {
     [[nodiscard]] double measure(double top) const {
         if (infinite > 0) return kInf;
         switch (criterion) {
-        case LightcutCriterion::PerNode: return top;
-        case LightcutCriterion::Sum: return sum;
-        case LightcutCriterion::RootSumSquare: return std::sqrt(std::max(0.0, sum2));
+            case LightcutCriterion::PerNode:
+                return top;
+            case LightcutCriterion::Sum:
+                return sum;
+            case LightcutCriterion::RootSumSquare:
+                return std::sqrt(std::max(0.0, sum2));
         }
         return top;
     }
@@ -255,9 +278,12 @@ struct Budget {
         if (infinite > 0 && criterion != LightcutCriterion::PerNode) return false;
         const double p = std::max(parent, 0.0), x = std::max(a, 0.0), y = std::max(b, 0.0);
         switch (criterion) {
-        case LightcutCriterion::PerNode: return parent <= threshold;
-        case LightcutCriterion::Sum: return sum - x - y + p <= threshold;
-        case LightcutCriterion::RootSumSquare: return std::sqrt(std::max(0.0, sum2 - x * x - y * y + p * p)) <= threshold;
+            case LightcutCriterion::PerNode:
+                return parent <= threshold;
+            case LightcutCriterion::Sum:
+                return sum - x - y + p <= threshold;
+            case LightcutCriterion::RootSumSquare:
+                return std::sqrt(std::max(0.0, sum2 - x * x - y * y + p * p)) <= threshold;
         }
         return false;
     }
@@ -285,8 +311,10 @@ void refine(const Context& ctx, std::vector<Entry>& heap, LightcutResult& result
         const Entry parent = heap.back();
         heap.pop_back();
         total = total - parent.estimate;
-        if (parent.key > 0.5 * budget.sum) budget.reset(heap);  // (parent no longer in heap)
-        else budget.remove(parent.key);
+        if (parent.key > 0.5 * budget.sum)
+            budget.reset(heap);  // (parent no longer in heap)
+        else
+            budget.remove(parent.key);
         const LightTreeNode& p = nodes[parent.node];
         for (std::uint32_t child : {p.left, p.right}) {
             const std::uint32_t rep = nodes[child].representative;
@@ -314,7 +342,8 @@ void refine(const Context& ctx, std::vector<Entry>& heap, LightcutResult& result
 /// The trees to search at the point, ascending (indices into LightTree::roots()): with @p all,
 /// those whose influence contains it (through the tree's root index), else those of @p roots
 /// that do; counts searched and skipped trees.
-std::vector<std::uint32_t> treesAt(const Context& ctx, std::span<const std::uint32_t> roots, bool all) {
+std::vector<std::uint32_t> treesAt(const Context& ctx, std::span<const std::uint32_t> roots,
+                                   bool all) {
     std::vector<std::uint32_t> out;
     const auto& treeRoots = ctx.tree.roots();
     if (all) {
@@ -323,8 +352,10 @@ std::vector<std::uint32_t> treesAt(const Context& ctx, std::span<const std::uint
     } else {
         for (std::uint32_t t : roots) {
             if (t >= treeRoots.size()) continue;
-            if (contains(ctx.tree.nodes()[treeRoots[t].node].influence, ctx.point)) out.push_back(t);
-            else ++ctx.stats.treesSkipped;
+            if (contains(ctx.tree.nodes()[treeRoots[t].node].influence, ctx.point))
+                out.push_back(t);
+            else
+                ++ctx.stats.treesSkipped;
         }
         std::sort(out.begin(), out.end());
         out.erase(std::unique(out.begin(), out.end()), out.end());
@@ -338,8 +369,9 @@ void startTree(const Context& ctx, std::uint32_t t, std::vector<Entry>& heap) {
     heap.push_back(makeEntry(ctx, node, ctx.factor(ctx.tree.nodes()[node].representative)));
 }
 
-LightcutResult freshCut(const LightTree& tree, std::span<const std::uint32_t> roots, bool all, const LightcutPoint& point,
-                        const LightcutOptions& options, const LightVisibility& visibility) {
+LightcutResult freshCut(const LightTree& tree, std::span<const std::uint32_t> roots, bool all,
+                        const LightcutPoint& point, const LightcutOptions& options,
+                        const LightVisibility& visibility) {
     LightcutResult result;
     const Context ctx(tree, point, options, visibility, result.stats);
     std::vector<Entry> heap;
@@ -355,7 +387,8 @@ double LightcutPoint::response(Vec3d toLight) const noexcept {
     double v = 0;
     for (int axis = 0; axis < 3; ++axis) {
         const double l = toLight[axis];
-        v += l > 0 ? axisWeights[std::size_t(2 * axis)] * l : axisWeights[std::size_t(2 * axis + 1)] * -l;
+        v += l > 0 ? axisWeights[std::size_t(2 * axis)] * l
+                   : axisWeights[std::size_t(2 * axis + 1)] * -l;
     }
     return v;
 }
@@ -368,22 +401,25 @@ LightcutPoint LightcutPoint::lambertian(Vec3d position, Vec3d normal, Vec3d albe
     return p;
 }
 
-LightcutPoint LightcutPoint::voxel(Vec3d position, const VoxelNormals& normals, Attenuation mode, Vec3d albedo) {
+LightcutPoint LightcutPoint::voxel(Vec3d position, const VoxelNormals& normals, Attenuation mode,
+                                   Vec3d albedo) {
     LightcutPoint p = lambertian(position, toDouble(normals.mean), albedo);
     switch (mode) {
-    case Attenuation::Weighted:
-        p.axisWeighted = true;
-        for (std::size_t k = 0; k < 6; ++k) p.axisWeights[k] = std::max(0.0f, normals.moments[k]);
-        break;
-    case Attenuation::Paper:
-        // V = Σ n_s² max(sign(n_s) L_s, 0): the weight n_s² on the side n_s points to.
-        p.axisWeighted = true;
-        for (int axis = 0; axis < 3; ++axis) {
-            const double n = p.normal[axis];
-            p.axisWeights[std::size_t(2 * axis + (n < 0 ? 1 : 0))] = n * n;
-        }
-        break;
-    case Attenuation::Average: break;
+        case Attenuation::Weighted:
+            p.axisWeighted = true;
+            for (std::size_t k = 0; k < 6; ++k)
+                p.axisWeights[k] = std::max(0.0f, normals.moments[k]);
+            break;
+        case Attenuation::Paper:
+            // V = Σ n_s² max(sign(n_s) L_s, 0): the weight n_s² on the side n_s points to.
+            p.axisWeighted = true;
+            for (int axis = 0; axis < 3; ++axis) {
+                const double n = p.normal[axis];
+                p.axisWeights[std::size_t(2 * axis + (n < 0 ? 1 : 0))] = n * n;
+            }
+            break;
+        case Attenuation::Average:
+            break;
     }
     return p;
 }
@@ -392,7 +428,8 @@ Vec3d lightcutBound(const LightTree& tree, std::uint32_t node, const LightcutPoi
     return boundOf(tree.nodes().at(node), Response(point), point.position, point.albedo * kInvPi);
 }
 
-Vec3d lightContribution(const Light& light, const LightcutPoint& point, const LightVisibility& visibility) {
+Vec3d lightContribution(const Light& light, const LightcutPoint& point,
+                        const LightVisibility& visibility) {
     LightArrival arrival;
     if (!lightArrival(light, point.position, arrival)) return {0, 0, 0};
     const double response = point.response(arrival.toLight);
@@ -401,17 +438,19 @@ Vec3d lightContribution(const Light& light, const LightcutPoint& point, const Li
     return point.albedo * kInvPi * arrival.irradiance * (response * v);
 }
 
-LightcutResult evaluateCut(const LightTree& tree, const LightcutPoint& point, const LightcutOptions& options,
-                           const LightVisibility& visibility) {
+LightcutResult evaluateCut(const LightTree& tree, const LightcutPoint& point,
+                           const LightcutOptions& options, const LightVisibility& visibility) {
     return freshCut(tree, {}, true, point, options, visibility);
 }
 
-LightcutResult evaluateCut(const LightTree& tree, std::span<const std::uint32_t> roots, const LightcutPoint& point,
-                           const LightcutOptions& options, const LightVisibility& visibility) {
+LightcutResult evaluateCut(const LightTree& tree, std::span<const std::uint32_t> roots,
+                           const LightcutPoint& point, const LightcutOptions& options,
+                           const LightVisibility& visibility) {
     return freshCut(tree, roots, false, point, options, visibility);
 }
 
-LightcutResult bruteForce(const LightTree& tree, const LightcutPoint& point, const LightVisibility& visibility) {
+LightcutResult bruteForce(const LightTree& tree, const LightcutPoint& point,
+                          const LightVisibility& visibility) {
     LightcutResult result;
     const auto& lights = tree.lights();
     for (std::uint32_t i = 0; i < lights.size(); ++i) {
@@ -432,7 +471,8 @@ LightcutResult bruteForce(const LightTree& tree, const LightcutPoint& point, con
     return result;
 }
 
-LightcutCursor::LightcutCursor(const LightTree& tree, const LightcutOptions& options) : tree_(&tree), options_(options) {}
+LightcutCursor::LightcutCursor(const LightTree& tree, const LightcutOptions& options)
+    : tree_(&tree), options_(options) {}
 
 void LightcutCursor::setRoots(std::vector<std::uint32_t> roots) {
     roots_ = std::move(roots);
@@ -451,7 +491,8 @@ void LightcutCursor::reset() {
     havePrevious_ = false;
 }
 
-LightcutResult LightcutCursor::evaluate(const LightcutPoint& point, const LightVisibility& visibility) {
+LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
+                                        const LightVisibility& visibility) {
     const LightTree& tree = *tree_;
     if (!havePrevious_) {
         LightcutResult result = freshCut(tree, roots_, allRoots_, point, options_, visibility);
@@ -510,10 +551,12 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point, const LightV
         if (entries[j].key > threshold) continue;
         // A parent's bound is at least the sum of its children's: where even that fails the
         // criterion, the parent need not be evaluated.
-        if (!budget.acceptsReplacing(entries[i].key, entries[j].key, entries[i].boundLum + entries[j].boundLum, threshold))
+        if (!budget.acceptsReplacing(entries[i].key, entries[j].key,
+                                     entries[i].boundLum + entries[j].boundLum, threshold))
             continue;
         const LightTreeNode& parent = nodes[p];
-        const double g = parent.representative == nodes[u].representative ? entries[i].g : entries[j].g;
+        const double g =
+            parent.representative == nodes[u].representative ? entries[i].g : entries[j].g;
         const Entry e = makeEntry(ctx, p, g);
         if (!budget.acceptsReplacing(entries[i].key, entries[j].key, e.key, threshold)) continue;
         budget.remove(entries[i].key);

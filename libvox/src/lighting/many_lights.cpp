@@ -22,7 +22,9 @@ constexpr double kPi = 3.14159265358979323846;
 
 using Clock = std::chrono::steady_clock;
 
-double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+double secondsSince(Clock::time_point start) {
+    return std::chrono::duration<double>(Clock::now() - start).count();
+}
 
 /// Interleaves the low 10 bits of x, y and z (x lowest), the Morton code of a cell.
 std::uint32_t mortonOf(const std::array<std::uint32_t, 3>& cell) {
@@ -37,24 +39,27 @@ std::uint32_t mortonOf(const std::array<std::uint32_t, 3>& cell) {
     return spread(cell[0]) | (spread(cell[1]) << 1) | (spread(cell[2]) << 2);
 }
 
-bool allSimilar(std::span<const LightcutPoint> points, const std::uint32_t* first, const std::uint32_t* last,
-                const SimilarityOptions& options) {
+bool allSimilar(std::span<const LightcutPoint> points, const std::uint32_t* first,
+                const std::uint32_t* last, const SimilarityOptions& options) {
     for (const std::uint32_t* p = first + 1; p < last; ++p)
         if (!similarRenderPoints(points[*first], points[*p], options)) return false;
     return true;
 }
 
 /// Appends the points [first, last) to @p out as one cluster, grouped into runs of similar points.
-void appendCluster(std::span<const LightcutPoint> points, const std::uint32_t* first, const std::uint32_t* last,
-                   const SimilarityOptions& options, RenderPointClusters& out) {
+void appendCluster(std::span<const LightcutPoint> points, const std::uint32_t* first,
+                   const std::uint32_t* last, const SimilarityOptions& options,
+                   RenderPointClusters& out) {
     out.begin.push_back(std::uint32_t(out.order.size()));
     std::vector<std::vector<std::uint32_t>> runs;
     for (const std::uint32_t* p = first; p < last; ++p) {
         auto run = std::find_if(runs.begin(), runs.end(), [&](const std::vector<std::uint32_t>& r) {
             return similarRenderPoints(points[r.front()], points[*p], options);
         });
-        if (run != runs.end()) run->push_back(*p);
-        else runs.push_back({*p});
+        if (run != runs.end())
+            run->push_back(*p);
+        else
+            runs.push_back({*p});
     }
     for (const auto& run : runs) {
         out.runs.push_back(std::uint32_t(out.order.size()));
@@ -82,11 +87,14 @@ void addStats(ManyLightStats& total, const ManyLightStats& s) {
 
 LightVisibility visibilityAt(const PointVisibility& visibility, std::size_t point) {
     if (!visibility) return {};
-    return [&visibility, point](const Light& light, const LightArrival& arrival) { return visibility(point, light, arrival); };
+    return [&visibility, point](const Light& light, const LightArrival& arrival) {
+        return visibility(point, light, arrival);
+    };
 }
 
 std::size_t staticLightCount(std::span<const Light> lights) {
-    return static_cast<std::size_t>(std::count_if(lights.begin(), lights.end(), [](const Light& l) { return !l.dynamic; }));
+    return static_cast<std::size_t>(
+        std::count_if(lights.begin(), lights.end(), [](const Light& l) { return !l.dynamic; }));
 }
 
 }  // namespace
@@ -107,22 +115,28 @@ LightcutCriterion parseLightcutCriterion(const std::string& text) {
 
 const char* lightcutCriterionName(LightcutCriterion criterion) {
     switch (criterion) {
-    case LightcutCriterion::PerNode: return "per-node";
-    case LightcutCriterion::Sum: return "sum";
-    case LightcutCriterion::RootSumSquare: return "rss";
+        case LightcutCriterion::PerNode:
+            return "per-node";
+        case LightcutCriterion::Sum:
+            return "sum";
+        case LightcutCriterion::RootSumSquare:
+            return "rss";
     }
     return "?";
 }
 
-bool similarRenderPoints(const LightcutPoint& a, const LightcutPoint& b, const SimilarityOptions& options) {
+bool similarRenderPoints(const LightcutPoint& a, const LightcutPoint& b,
+                         const SimilarityOptions& options) {
     for (int k = 0; k < 3; ++k)
         if (std::abs(a.albedo[k] - b.albedo[k]) > options.albedoTolerance) return false;
     if (a.axisWeighted != b.axisWeighted) return false;
     return dot(a.normal, b.normal) >= std::cos(options.normalDegrees * kPi / 180);
 }
 
-RenderPointClusters clusterVoxelPoints(std::span<const LightcutPoint> points, std::span<const std::array<std::uint32_t, 3>> cells,
-                                       std::uint32_t depth, std::uint32_t maxPoints, std::uint32_t minCells,
+RenderPointClusters clusterVoxelPoints(std::span<const LightcutPoint> points,
+                                       std::span<const std::array<std::uint32_t, 3>> cells,
+                                       std::uint32_t depth, std::uint32_t maxPoints,
+                                       std::uint32_t minCells,
                                        const SimilarityOptions& similarity) {
     if (cells.size() != points.size()) throw UsageError("clusterVoxelPoints: one cell per point");
     if (depth > 10) throw UsageError("clusterVoxelPoints: depth at most 10");
@@ -133,7 +147,9 @@ RenderPointClusters clusterVoxelPoints(std::span<const LightcutPoint> points, st
         codes[i] = mortonOf(cells[i]);
         sorted[i] = i;
     }
-    std::sort(sorted.begin(), sorted.end(), [&](std::uint32_t a, std::uint32_t b) { return std::tie(codes[a], a) < std::tie(codes[b], b); });
+    std::sort(sorted.begin(), sorted.end(), [&](std::uint32_t a, std::uint32_t b) {
+        return std::tie(codes[a], a) < std::tie(codes[b], b);
+    });
     // The level whose nodes are minCells cells wide: the subdivision stops there.
     std::uint32_t finest = depth;
     for (std::uint32_t edge = 1; edge < minCells && finest > 0; edge *= 2) --finest;
@@ -150,7 +166,8 @@ RenderPointClusters clusterVoxelPoints(std::span<const LightcutPoint> points, st
         stack.pop_back();
         const std::uint32_t* first = sorted.data() + node.first;
         const std::uint32_t* last = sorted.data() + node.last;
-        if (node.level >= finest || (node.last - node.first <= maxPoints && allSimilar(points, first, last, similarity))) {
+        if (node.level >= finest ||
+            (node.last - node.first <= maxPoints && allSimilar(points, first, last, similarity))) {
             appendCluster(points, first, last, similarity, out);
             continue;
         }
@@ -170,10 +187,13 @@ RenderPointClusters clusterVoxelPoints(std::span<const LightcutPoint> points, st
     return out;
 }
 
-RenderPointClusters clusterPixelPoints(std::span<const LightcutPoint> points, std::span<const std::array<std::uint32_t, 2>> pixels,
-                                       std::span<const double> depths, const PinholeCamera& camera, std::uint32_t tilePixels,
-                                       std::uint32_t minTilePixels, const SimilarityOptions& similarity) {
-    if (pixels.size() != points.size() || depths.size() != points.size()) throw UsageError("clusterPixelPoints: one pixel and depth per point");
+RenderPointClusters clusterPixelPoints(std::span<const LightcutPoint> points,
+                                       std::span<const std::array<std::uint32_t, 2>> pixels,
+                                       std::span<const double> depths, const PinholeCamera& camera,
+                                       std::uint32_t tilePixels, std::uint32_t minTilePixels,
+                                       const SimilarityOptions& similarity) {
+    if (pixels.size() != points.size() || depths.size() != points.size())
+        throw UsageError("clusterPixelPoints: one pixel and depth per point");
     camera.validate();
     tilePixels = std::max<std::uint32_t>(tilePixels, 1);
     RenderPointClusters out;
@@ -189,16 +209,21 @@ RenderPointClusters clusterPixelPoints(std::span<const LightcutPoint> points, st
     if (!std::isfinite(nearest)) nearest = 1;
     const double tanHalf = std::tan(0.5 * camera.fovYDegrees * kPi / 180);
     const double logRatio = std::log1p(2 * tanHalf * double(tilePixels) / double(camera.height));
-    const auto slabOf = [&](double z) { return z > nearest ? std::uint32_t(std::floor(std::log(z / nearest) / logRatio)) : 0u; };
+    const auto slabOf = [&](double z) {
+        return z > nearest ? std::uint32_t(std::floor(std::log(z / nearest) / logRatio)) : 0u;
+    };
 
     // (tile y, tile x, slab) → points, in scanline order.
-    std::map<std::tuple<std::uint32_t, std::uint32_t, std::uint32_t>, std::vector<std::uint32_t>> cells;
+    std::map<std::tuple<std::uint32_t, std::uint32_t, std::uint32_t>, std::vector<std::uint32_t>>
+        cells;
     std::vector<std::uint32_t> byPixel(points.size());
     for (std::uint32_t i = 0; i < points.size(); ++i) byPixel[i] = i;
     std::sort(byPixel.begin(), byPixel.end(), [&](std::uint32_t a, std::uint32_t b) {
         return std::tie(pixels[a][1], pixels[a][0], a) < std::tie(pixels[b][1], pixels[b][0], b);
     });
-    for (std::uint32_t i : byPixel) cells[{pixels[i][1] / tilePixels, pixels[i][0] / tilePixels, slabOf(depths[i])}].push_back(i);
+    for (std::uint32_t i : byPixel)
+        cells[{pixels[i][1] / tilePixels, pixels[i][0] / tilePixels, slabOf(depths[i])}].push_back(
+            i);
 
     // Adaptive subdivision of a cell's tile into quarters while its points differ.
     struct Tile {
@@ -207,7 +232,8 @@ RenderPointClusters clusterPixelPoints(std::span<const LightcutPoint> points, st
     };
     for (auto& [key, members] : cells) {
         std::vector<Tile> stack;
-        stack.push_back({std::move(members), std::get<1>(key) * tilePixels, std::get<0>(key) * tilePixels, tilePixels});
+        stack.push_back({std::move(members), std::get<1>(key) * tilePixels,
+                         std::get<0>(key) * tilePixels, tilePixels});
         while (!stack.empty()) {
             Tile tile = std::move(stack.back());
             stack.pop_back();
@@ -219,21 +245,26 @@ RenderPointClusters clusterPixelPoints(std::span<const LightcutPoint> points, st
             }
             const std::uint32_t half = (tile.size + 1) / 2;
             std::array<Tile, 4> quarters;
-            for (int q = 0; q < 4; ++q) quarters[std::size_t(q)] = {{}, tile.x0 + (q & 1 ? half : 0), tile.y0 + (q & 2 ? half : 0), half};
+            for (int q = 0; q < 4; ++q)
+                quarters[std::size_t(q)] = {
+                    {}, tile.x0 + (q & 1 ? half : 0), tile.y0 + (q & 2 ? half : 0), half};
             for (std::uint32_t i : tile.members) {
-                const int q = (pixels[i][0] >= tile.x0 + half ? 1 : 0) | (pixels[i][1] >= tile.y0 + half ? 2 : 0);
+                const int q = (pixels[i][0] >= tile.x0 + half ? 1 : 0) |
+                              (pixels[i][1] >= tile.y0 + half ? 2 : 0);
                 quarters[std::size_t(q)].members.push_back(i);
             }
             for (int q = 3; q >= 0; --q)
-                if (!quarters[std::size_t(q)].members.empty()) stack.push_back(std::move(quarters[std::size_t(q)]));
+                if (!quarters[std::size_t(q)].members.empty())
+                    stack.push_back(std::move(quarters[std::size_t(q)]));
         }
     }
     out.begin.push_back(std::uint32_t(out.order.size()));
     return out;
 }
 
-ManyLightStats lightPoints(const LightTree& tree, std::span<const LightcutPoint> points, const RenderPointClusters& clusters,
-                           const ManyLightOptions& options, const PointVisibility& visibility, std::span<Vec3d> out) {
+ManyLightStats lightPoints(const LightTree& tree, std::span<const LightcutPoint> points,
+                           const RenderPointClusters& clusters, const ManyLightOptions& options,
+                           const PointVisibility& visibility, std::span<Vec3d> out) {
     if (out.size() != points.size()) throw UsageError("lightPoints: one output per point");
     const auto start = Clock::now();
     ManyLightStats total;
@@ -247,61 +278,71 @@ ManyLightStats lightPoints(const LightTree& tree, std::span<const LightcutPoint>
         // Every point on its own: a fresh cut over every tree whose influence holds it.
         std::vector<LightcutStats> stats(points.size());
         Progress progress("direct light (" + total.method + ")", points.size());
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256), [&](const tbb::blocked_range<std::size_t>& r) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                LightcutResult result = evaluateCut(tree, points[i], options.cut, visibilityAt(visibility, i));
-                out[i] = result.radiance;
-                stats[i] = result.stats;
-            }
-            progress.advance(r.size());
-        });
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256),
+                          [&](const tbb::blocked_range<std::size_t>& r) {
+                              for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                                  LightcutResult result = evaluateCut(tree, points[i], options.cut,
+                                                                      visibilityAt(visibility, i));
+                                  out[i] = result.radiance;
+                                  stats[i] = result.stats;
+                              }
+                              progress.advance(r.size());
+                          });
         for (const LightcutStats& s : stats) addStats(total, s);
     } else {
         std::vector<ManyLightStats> perCluster(clusters.count());
         Progress progress("direct light (" + total.method + ")", points.size());
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, clusters.count(), 1), [&](const tbb::blocked_range<std::size_t>& r) {
-            LightcutCursor cursor(tree, options.cut);
-            for (std::size_t c = r.begin(); c != r.end(); ++c) {
-                const std::uint32_t first = clusters.begin[c], last = clusters.begin[c + 1];
-                if (options.clusterLists) {
-                    Bounds3f region;
-                    for (std::uint32_t k = first; k < last; ++k) {
-                        const Vec3d p = points[clusters.order[k]].position;
-                        region.add(Vec3f{float(p.x), float(p.y), float(p.z)});
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, clusters.count(), 1),
+            [&](const tbb::blocked_range<std::size_t>& r) {
+                LightcutCursor cursor(tree, options.cut);
+                for (std::size_t c = r.begin(); c != r.end(); ++c) {
+                    const std::uint32_t first = clusters.begin[c], last = clusters.begin[c + 1];
+                    if (options.clusterLists) {
+                        Bounds3f region;
+                        for (std::uint32_t k = first; k < last; ++k) {
+                            const Vec3d p = points[clusters.order[k]].position;
+                            region.add(Vec3f{float(p.x), float(p.y), float(p.z)});
+                        }
+                        // Pad by float rounding: the per-point test decides exactly.
+                        const Vec3f pad =
+                            (region.max - region.min) * 1e-6f +
+                            Vec3f{1e-6f, 1e-6f, 1e-6f} *
+                                std::max({std::abs(region.min.x), std::abs(region.min.y),
+                                          std::abs(region.min.z), std::abs(region.max.x),
+                                          std::abs(region.max.y), std::abs(region.max.z), 1.0f});
+                        region.min = region.min - pad;
+                        region.max = region.max + pad;
+                        cursor.setRoots(tree.rootsOverlapping(region));
+                    } else {
+                        cursor.clearRoots();
                     }
-                    // Pad by float rounding: the per-point test decides exactly.
-                    const Vec3f pad = (region.max - region.min) * 1e-6f + Vec3f{1e-6f, 1e-6f, 1e-6f} *
-                        std::max({std::abs(region.min.x), std::abs(region.min.y), std::abs(region.min.z), std::abs(region.max.x),
-                                  std::abs(region.max.y), std::abs(region.max.z), 1.0f});
-                    region.min = region.min - pad;
-                    region.max = region.max + pad;
-                    cursor.setRoots(tree.rootsOverlapping(region));
-                } else {
-                    cursor.clearRoots();
+                    ManyLightStats& s = perCluster[c];
+                    auto run = std::lower_bound(clusters.runs.begin(), clusters.runs.end(), first);
+                    for (std::uint32_t k = first; k < last; ++k) {
+                        const std::uint32_t i = clusters.order[k];
+                        const bool runStarts = run != clusters.runs.end() && *run == k;
+                        if (runStarts) ++run;
+                        if (!options.reuseCuts || runStarts) cursor.reset();
+                        const LightcutResult result =
+                            cursor.evaluate(points[i], visibilityAt(visibility, i));
+                        out[i] = result.radiance;
+                        addStats(s, result.stats);
+                    }
+                    progress.advance(last - first);
                 }
-                ManyLightStats& s = perCluster[c];
-                auto run = std::lower_bound(clusters.runs.begin(), clusters.runs.end(), first);
-                for (std::uint32_t k = first; k < last; ++k) {
-                    const std::uint32_t i = clusters.order[k];
-                    const bool runStarts = run != clusters.runs.end() && *run == k;
-                    if (runStarts) ++run;
-                    if (!options.reuseCuts || runStarts) cursor.reset();
-                    const LightcutResult result = cursor.evaluate(points[i], visibilityAt(visibility, i));
-                    out[i] = result.radiance;
-                    addStats(s, result.stats);
-                }
-                progress.advance(last - first);
-            }
-        });
+            });
         for (const ManyLightStats& s : perCluster) addStats(total, s);
     }
     total.seconds = secondsSince(start);
     return total;
 }
 
-ManyLightStats lightPointsBruteForce(std::span<const Light> lights, std::span<const LightcutPoint> points,
+ManyLightStats lightPointsBruteForce(std::span<const Light> lights,
+                                     std::span<const LightcutPoint> points,
                                      const PointVisibility& visibility, std::span<Vec3d> out) {
-    if (out.size() != points.size()) throw UsageError("lightPointsBruteForce: one output per point");
+    if (out.size() != points.size())
+        throw UsageError("lightPointsBruteForce: one output per point");
     const auto start = Clock::now();
     std::vector<const Light*> used;
     for (const Light& light : lights)
@@ -312,35 +353,37 @@ ManyLightStats lightPointsBruteForce(std::span<const Light> lights, std::span<co
     total.lights = used.size();
     std::vector<std::uint64_t> visibilityCalls(points.size(), 0);
     Progress progress("direct light (every light)", points.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256), [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            const LightcutPoint& p = points[i];
-            Vec3d sum{0, 0, 0};
-            for (const Light* light : used) {
-                LightArrival arrival;
-                if (!lightArrival(*light, p.position, arrival)) continue;
-                const double response = p.response(arrival.toLight);
-                if (!(response > 0)) continue;
-                double v = 1;
-                if (visibility) {
-                    ++visibilityCalls[i];
-                    v = visibility(i, *light, arrival);
-                    v = v > 0 ? std::min(v, 1.0) : 0.0;
-                    if (v == 0) continue;
-                }
-                sum += arrival.irradiance * (response * v);
-            }
-            out[i] = p.albedo * (1 / kPi) * sum;
-        }
-        progress.advance(r.size());
-    });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 256),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                              const LightcutPoint& p = points[i];
+                              Vec3d sum{0, 0, 0};
+                              for (const Light* light : used) {
+                                  LightArrival arrival;
+                                  if (!lightArrival(*light, p.position, arrival)) continue;
+                                  const double response = p.response(arrival.toLight);
+                                  if (!(response > 0)) continue;
+                                  double v = 1;
+                                  if (visibility) {
+                                      ++visibilityCalls[i];
+                                      v = visibility(i, *light, arrival);
+                                      v = v > 0 ? std::min(v, 1.0) : 0.0;
+                                      if (v == 0) continue;
+                                  }
+                                  sum += arrival.irradiance * (response * v);
+                              }
+                              out[i] = p.albedo * (1 / kPi) * sum;
+                          }
+                          progress.advance(r.size());
+                      });
     total.cutNodes = total.lightEvaluations = std::uint64_t(points.size()) * used.size();
     for (std::uint64_t v : visibilityCalls) total.visibilityEvaluations += v;
     total.seconds = secondsSince(start);
     return total;
 }
 
-LightcutErrorStats compareWithBruteForce(std::span<const Vec3d> estimate, std::span<const Vec3d> exact, double threshold) {
+LightcutErrorStats compareWithBruteForce(std::span<const Vec3d> estimate,
+                                         std::span<const Vec3d> exact, double threshold) {
     if (estimate.size() != exact.size()) throw UsageError("compareWithBruteForce: sizes differ");
     LightcutErrorStats s;
     s.threshold = threshold;
@@ -358,11 +401,14 @@ LightcutErrorStats compareWithBruteForce(std::span<const Vec3d> estimate, std::s
     return s;
 }
 
-ManyLightReport directLight(std::span<const Light> lights, std::span<const LightcutPoint> points, LightcutsMode mode,
-                            const LightcutOptions& cut, bool compare, const std::function<RenderPointClusters()>& clusters,
+ManyLightReport directLight(std::span<const Light> lights, std::span<const LightcutPoint> points,
+                            LightcutsMode mode, const LightcutOptions& cut, bool compare,
+                            const std::function<RenderPointClusters()>& clusters,
                             const PointVisibility& visibility, std::span<Vec3d> out) {
     ManyLightReport report;
-    const bool useLightcuts = mode == LightcutsMode::On || (mode == LightcutsMode::Auto && staticLightCount(lights) >= kLightcutsAutoLights);
+    const bool useLightcuts =
+        mode == LightcutsMode::On ||
+        (mode == LightcutsMode::Auto && staticLightCount(lights) >= kLightcutsAutoLights);
     const auto runLightcuts = [&](std::span<Vec3d> into) {
         auto start = Clock::now();
         const LightTree tree(lights);
@@ -389,7 +435,8 @@ ManyLightReport directLight(std::span<const Light> lights, std::span<const Light
         const LightTree classicTree(lights, classicOptions);
         const double treeSeconds = secondsSince(start);
         std::vector<Vec3d> classic(points.size());
-        report.classic = lightPoints(classicTree, points, {}, {cut, false, false}, visibility, classic);
+        report.classic =
+            lightPoints(classicTree, points, {}, {cut, false, false}, visibility, classic);
         report.classic.method = "classic";
         report.classic.treeSeconds = treeSeconds;
         report.classicError = compareWithBruteForce(classic, brute, cut.relativeError);
@@ -402,7 +449,8 @@ ManyLightReport directLight(std::span<const Light> lights, std::span<const Light
         }
         return report;
     }
-    report.used = useLightcuts ? runLightcuts(out) : lightPointsBruteForce(lights, points, visibility, out);
+    report.used =
+        useLightcuts ? runLightcuts(out) : lightPointsBruteForce(lights, points, visibility, out);
     return report;
 }
 

@@ -6,7 +6,9 @@
 namespace vox {
 
 bool lightArrival(const Light& light, Vec3d point, LightArrival& out) {
-    const Vec3d color{light.color.x * double(light.intensity), light.color.y * double(light.intensity), light.color.z * double(light.intensity)};
+    const Vec3d color{light.color.x * double(light.intensity),
+                      light.color.y * double(light.intensity),
+                      light.color.z * double(light.intensity)};
     if (light.type == Light::Type::Directional) {
         out.toLight = -normalize(Vec3d{light.direction.x, light.direction.y, light.direction.z});
         out.distance = std::numeric_limits<double>::infinity();
@@ -27,7 +29,8 @@ bool lightArrival(const Light& light, Vec3d point, LightArrival& out) {
         falloff *= window * window;
     }
     if (light.type == Light::Type::Spot) {
-        const Vec3d axis = normalize(Vec3d{light.direction.x, light.direction.y, light.direction.z});
+        const Vec3d axis =
+            normalize(Vec3d{light.direction.x, light.direction.y, light.direction.z});
         const double cosAngle = -dot(axis, out.toLight);
         const double cosOuter = std::cos(double(light.outerConeAngle));
         const double cosInner = std::cos(double(light.innerConeAngle));
@@ -47,20 +50,20 @@ double attenuate(Attenuation mode, const VoxelNormals& normals, Vec3d toLight) {
     const Vec3d n = normalize(Vec3d{normals.mean.x, normals.mean.y, normals.mean.z});
     double v = 0;
     switch (mode) {
-    case Attenuation::Weighted:
-        for (int axis = 0; axis < 3; ++axis) {
-            const double l = toLight[axis];
-            v += l > 0 ? normals.moments[2 * axis] * l : normals.moments[2 * axis + 1] * -l;
-        }
-        return v;
-    case Attenuation::Paper:
-        for (int axis = 0; axis < 3; ++axis) {
-            const double l = toLight[axis];
-            if (n[axis] * l > 0) v += n[axis] * n[axis] * std::abs(l);
-        }
-        return v;
-    case Attenuation::Average:
-        return std::max(0.0, dot(n, toLight));
+        case Attenuation::Weighted:
+            for (int axis = 0; axis < 3; ++axis) {
+                const double l = toLight[axis];
+                v += l > 0 ? normals.moments[2 * axis] * l : normals.moments[2 * axis + 1] * -l;
+            }
+            return v;
+        case Attenuation::Paper:
+            for (int axis = 0; axis < 3; ++axis) {
+                const double l = toLight[axis];
+                if (n[axis] * l > 0) v += n[axis] * n[axis] * std::abs(l);
+            }
+            return v;
+        case Attenuation::Average:
+            return std::max(0.0, dot(n, toLight));
     }
     return 0;
 }

@@ -10,7 +10,8 @@
 #include <numbers>
 #include <span>
 
-#if defined(__SSE2__) && !defined(VOX_ENCODE_NO_SIMD)  // the scalar fallback computes the same values
+#if defined(__SSE2__) && \
+    !defined(VOX_ENCODE_NO_SIMD)  // the scalar fallback computes the same values
 #include <emmintrin.h>
 #define VOX_ENCODE_SSE2 1
 #else
@@ -19,16 +20,19 @@
 // AVX-512 kernels, chosen at run time where the CPU has AVX-512F: the same operations lane by
 // lane as the SSE2 ones (the file is compiled without contraction into FMAs), sixteen lanes at
 // once, so that both give the same bits.
-#if VOX_ENCODE_SSE2 && defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__)) && !defined(VOX_ENCODE_NO_AVX512)
+#if VOX_ENCODE_SSE2 && defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__)) && \
+    !defined(VOX_ENCODE_NO_AVX512)
 #include <immintrin.h>
 #define VOX_ENCODE_AVX512 1
 #define VOX_TARGET_AVX512 [[gnu::target("avx512f")]]
 #if defined(__clang__)
 #define VOX_AVX512_WARNINGS_OFF
 #define VOX_AVX512_WARNINGS_ON
-#else  // GCC 12 warns of the undefined source vectors inside its own AVX-512 intrinsics' definitions
-#define VOX_AVX512_WARNINGS_OFF \
-    _Pragma("GCC diagnostic push") _Pragma("GCC diagnostic ignored \"-Wmaybe-uninitialized\"") _Pragma("GCC diagnostic ignored \"-Wuninitialized\"")
+#else  // GCC 12 warns of the undefined source vectors inside its own AVX-512 intrinsics'
+       // definitions
+#define VOX_AVX512_WARNINGS_OFF                                                                \
+    _Pragma("GCC diagnostic push") _Pragma("GCC diagnostic ignored \"-Wmaybe-uninitialized\"") \
+        _Pragma("GCC diagnostic ignored \"-Wuninitialized\"")
 #define VOX_AVX512_WARNINGS_ON _Pragma("GCC diagnostic pop")
 #endif
 #else
@@ -65,7 +69,8 @@ struct ColorTables {
 };
 
 template <int Bits>
-void fillTables(std::array<std::uint8_t, 256>& nearest, std::array<std::array<std::uint8_t, 2>, 256>& single) {
+void fillTables(std::array<std::uint8_t, 256>& nearest,
+                std::array<std::array<std::uint8_t, 2>, 256>& single) {
     constexpr int kCodes = 1 << Bits;
     const auto expand = [](int c) { return Bits == 5 ? expand5(c) : expand6(c); };
     for (int value = 0; value < 256; ++value) {
@@ -107,7 +112,8 @@ inline std::size_t roundByte(float x) {
 /// Nearest RGB565 code of a float RGB endpoint.
 std::uint32_t quantise565(const std::array<float, 3>& c, const ColorTables& t) {
     const auto channel = [](float x) { return roundByte(x); };
-    return (std::uint32_t{t.nearest5[channel(c[0])]} << 11) | (std::uint32_t{t.nearest6[channel(c[1])]} << 5) | t.nearest5[channel(c[2])];
+    return (std::uint32_t{t.nearest5[channel(c[0])]} << 11) |
+           (std::uint32_t{t.nearest6[channel(c[1])]} << 5) | t.nearest5[channel(c[2])];
 }
 
 /// Endpoints, their error over the used colours, and each used colour's palette index.
@@ -119,11 +125,14 @@ struct ColorState {
 
 /// Summed squared error of the used colours against the palette of (c0, c1), each taking its
 /// nearest entry (the lowest index on ties). Stops early once the sum exceeds @p bound.
-std::uint32_t evalColors(const ColorPoints& p, std::uint32_t c0, std::uint32_t c1, std::array<std::uint8_t, 16>& index,
-                         std::uint32_t bound) {
-    // esvo::colorPalette's arithmetic, here where it inlines: c0, c1, (2a + b + 1)/3, (a + 2b + 1)/3.
+std::uint32_t evalColors(const ColorPoints& p, std::uint32_t c0, std::uint32_t c1,
+                         std::array<std::uint8_t, 16>& index, std::uint32_t bound) {
+    // esvo::colorPalette's arithmetic, here where it inlines: c0, c1, (2a + b + 1)/3, (a + 2b +
+    // 1)/3.
     std::array<int, 4> pr{}, pg{}, pb{};
-    const auto entries = [](int a, int b, std::array<int, 4>& e) { e = {a, b, (2 * a + b + 1) / 3, (a + 2 * b + 1) / 3}; };
+    const auto entries = [](int a, int b, std::array<int, 4>& e) {
+        e = {a, b, (2 * a + b + 1) / 3, (a + 2 * b + 1) / 3};
+    };
     entries(expand5(static_cast<int>(c0 >> 11) & 31), expand5(static_cast<int>(c1 >> 11) & 31), pr);
     entries(expand6(static_cast<int>(c0 >> 5) & 63), expand6(static_cast<int>(c1 >> 5) & 63), pg);
     entries(expand5(static_cast<int>(c0) & 31), expand5(static_cast<int>(c1) & 31), pb);
@@ -135,14 +144,18 @@ std::uint32_t evalColors(const ColorPoints& p, std::uint32_t c0, std::uint32_t c
     const unsigned vectors = (p.count + 3) / 4;
     alignas(16) std::array<std::int32_t, 16> packed{};
     for (unsigned j = 0; j < vectors; ++j) {
-        const __m128 r = _mm_load_ps(p.channel[0].data() + 4 * j), g = _mm_load_ps(p.channel[1].data() + 4 * j),
+        const __m128 r = _mm_load_ps(p.channel[0].data() + 4 * j),
+                     g = _mm_load_ps(p.channel[1].data() + 4 * j),
                      b = _mm_load_ps(p.channel[2].data() + 4 * j);
         __m128 best = _mm_setzero_ps();
         for (unsigned k = 0; k < 4; ++k) {
-            const __m128 dr = _mm_sub_ps(r, _mm_set1_ps(static_cast<float>(pr[k]))), dg = _mm_sub_ps(g, _mm_set1_ps(static_cast<float>(pg[k]))),
+            const __m128 dr = _mm_sub_ps(r, _mm_set1_ps(static_cast<float>(pr[k]))),
+                         dg = _mm_sub_ps(g, _mm_set1_ps(static_cast<float>(pg[k]))),
                          db = _mm_sub_ps(b, _mm_set1_ps(static_cast<float>(pb[k])));
-            const __m128 d = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dr, dr), _mm_mul_ps(dg, dg)), _mm_mul_ps(db, db));
-            const __m128 tagged = _mm_add_ps(_mm_mul_ps(d, _mm_set1_ps(4.0f)), _mm_set1_ps(static_cast<float>(k)));
+            const __m128 d =
+                _mm_add_ps(_mm_add_ps(_mm_mul_ps(dr, dr), _mm_mul_ps(dg, dg)), _mm_mul_ps(db, db));
+            const __m128 tagged =
+                _mm_add_ps(_mm_mul_ps(d, _mm_set1_ps(4.0f)), _mm_set1_ps(static_cast<float>(k)));
             best = k == 0 ? tagged : _mm_min_ps(best, tagged);
         }
         _mm_store_si128(reinterpret_cast<__m128i*>(packed.data() + 4 * j), _mm_cvttps_epi32(best));
@@ -176,7 +189,8 @@ std::uint32_t evalColors(const ColorPoints& p, std::uint32_t c0, std::uint32_t c
 
 /// Replaces @p s by endpoints (c0, c1) if they decode with a smaller error.
 bool tryColors(const ColorPoints& p, std::uint32_t c0, std::uint32_t c1, ColorState& s) {
-    if (s.error != std::numeric_limits<std::uint32_t>::max() && ((c0 == s.c0 && c1 == s.c1) || (c0 == s.c1 && c1 == s.c0)))
+    if (s.error != std::numeric_limits<std::uint32_t>::max() &&
+        ((c0 == s.c0 && c1 == s.c1) || (c0 == s.c1 && c1 == s.c0)))
         return false;
     std::array<std::uint8_t, 16> index{};
     const std::uint32_t error = evalColors(p, c0, c1, index, s.error);
@@ -190,7 +204,8 @@ bool tryColors(const ColorPoints& p, std::uint32_t c0, std::uint32_t c1, ColorSt
 
 /// Least-squares endpoints for fixed indices (the cluster-fit step); false when the indices do
 /// not determine both endpoints (every colour on one palette entry).
-bool refitColors(const ColorPoints& p, const std::array<std::uint8_t, 16>& index, std::array<float, 3>& a, std::array<float, 3>& b) {
+bool refitColors(const ColorPoints& p, const std::array<std::uint8_t, 16>& index,
+                 std::array<float, 3>& a, std::array<float, 3>& b) {
     static constexpr std::array<float, 4> kWeight{1.0f, 0.0f, 2.0f / 3.0f, 1.0f / 3.0f};
     float aa = 0, ab = 0, bb = 0;
     std::array<float, 3> xa{}, xb{};
@@ -239,22 +254,31 @@ void stepColors(const ColorPoints& p, ColorState& s, int passes = 16, bool guide
                     const std::uint32_t value = (c >> kShift[ch]) & kMax[ch];
                     if ((step < 0 && value == 0) || (step > 0 && value == kMax[ch])) continue;
                     if (towards) {
-                        const int expanded = ch == 1 ? expand6(static_cast<int>(value)) : expand5(static_cast<int>(value));
-                        if ((target[endpoint][ch] - static_cast<float>(expanded)) * static_cast<float>(step) <= 0) continue;
+                        const int expanded = ch == 1 ? expand6(static_cast<int>(value))
+                                                     : expand5(static_cast<int>(value));
+                        if ((target[endpoint][ch] - static_cast<float>(expanded)) *
+                                static_cast<float>(step) <=
+                            0)
+                            continue;
                     }
                     const std::uint32_t moved =
-                        (c & ~(kMax[ch] << kShift[ch])) | ((static_cast<std::uint32_t>(static_cast<int>(value) + step)) << kShift[ch]);
-                    if (endpoint ? tryColors(p, s.c0, moved, s) : tryColors(p, moved, s.c1, s)) improved = true;
+                        (c & ~(kMax[ch] << kShift[ch])) |
+                        ((static_cast<std::uint32_t>(static_cast<int>(value) + step))
+                         << kShift[ch]);
+                    if (endpoint ? tryColors(p, s.c0, moved, s) : tryColors(p, moved, s.c1, s))
+                        improved = true;
                 }
         if (!improved) break;
     }
 }
 
 /// Principal axis of the colours' covariance (power iteration from the bounding-box diagonal).
-std::array<float, 3> principalAxis(const ColorPoints& p, const std::array<float, 3>& mean, const std::array<float, 3>& diagonal) {
+std::array<float, 3> principalAxis(const ColorPoints& p, const std::array<float, 3>& mean,
+                                   const std::array<float, 3>& diagonal) {
     std::array<float, 6> cov{};  // xx xy xz yy yz zz
     for (unsigned i = 0; i < p.count; ++i) {
-        const float x = static_cast<float>(p.rgb[i][0]) - mean[0], y = static_cast<float>(p.rgb[i][1]) - mean[1],
+        const float x = static_cast<float>(p.rgb[i][0]) - mean[0],
+                    y = static_cast<float>(p.rgb[i][1]) - mean[1],
                     z = static_cast<float>(p.rgb[i][2]) - mean[2];
         cov[0] += x * x;
         cov[1] += x * y;
@@ -265,7 +289,8 @@ std::array<float, 3> principalAxis(const ColorPoints& p, const std::array<float,
     }
     std::array<float, 3> v = diagonal;
     for (int iteration = 0; iteration < 8; ++iteration) {
-        const std::array<float, 3> w{cov[0] * v[0] + cov[1] * v[1] + cov[2] * v[2], cov[1] * v[0] + cov[3] * v[1] + cov[4] * v[2],
+        const std::array<float, 3> w{cov[0] * v[0] + cov[1] * v[1] + cov[2] * v[2],
+                                     cov[1] * v[0] + cov[3] * v[1] + cov[4] * v[2],
                                      cov[2] * v[0] + cov[4] * v[1] + cov[5] * v[2]};
         const float len = std::max({std::fabs(w[0]), std::fabs(w[1]), std::fabs(w[2])});
         if (!(len > 0)) break;
@@ -280,22 +305,27 @@ std::array<float, 3> principalAxis(const ColorPoints& p, const std::array<float,
 /// by their projection, every split of that order into the four palette entries in line
 /// (c0, ⅔c0+⅓c1, ⅓c0+⅔c1, c1) and its least-squares endpoints; returns the endpoints of the
 /// split with the smallest unquantised error. False when no split determines both endpoints.
-bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean, const std::array<float, 3>& axis, std::array<float, 3>& a,
+bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean,
+                       const std::array<float, 3>& axis, std::array<float, 3>& a,
                        std::array<float, 3>& b) {
     const unsigned n = p.count;
     std::array<float, 16> proj{};
     std::array<unsigned, 16> order{};
     for (unsigned i = 0; i < n; ++i) {
         order[i] = i;
-        for (unsigned ch = 0; ch < 3; ++ch) proj[i] += (static_cast<float>(p.rgb[i][ch]) - mean[ch]) * axis[ch];
+        for (unsigned ch = 0; ch < 3; ++ch)
+            proj[i] += (static_cast<float>(p.rgb[i][ch]) - mean[ch]) * axis[ch];
     }
-    std::sort(order.begin(), order.begin() + n, [&](unsigned x, unsigned y) { return proj[x] < proj[y] || (proj[x] == proj[y] && x < y); });
+    std::sort(order.begin(), order.begin() + n, [&](unsigned x, unsigned y) {
+        return proj[x] < proj[y] || (proj[x] == proj[y] && x < y);
+    });
     // Prefix sums of the sorted colours per channel, laid out so that the compiler can vectorise
     // the inner loop (over the start of the last cluster).
     // (Padded past n with the total, so that four lanes can always be loaded.)
     alignas(16) std::array<std::array<float, 20>, 3> prefix{};
     for (unsigned ch = 0; ch < 3; ++ch) {
-        for (unsigned i = 0; i < n; ++i) prefix[ch][i + 1] = prefix[ch][i] + static_cast<float>(p.rgb[order[i]][ch]);
+        for (unsigned i = 0; i < n; ++i)
+            prefix[ch][i + 1] = prefix[ch][i] + static_cast<float>(p.rgb[order[i]][ch]);
         for (unsigned i = n + 1; i < 20; ++i) prefix[ch][i] = prefix[ch][n];
     }
     // Maximise Σ_ch (C X² − 2B XY + A Y²) / det, which is Σ|x|² minus the least-squares error.
@@ -312,26 +342,36 @@ bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean, c
 #if VOX_ENCODE_SSE2
             // Four i2 at a time, the same arithmetic as below lane by lane (lanes past n unused).
             {
-                const __m128 vn0 = _mm_set1_ps(n0), vn2 = _mm_set1_ps(n2), vi1 = _mm_set1_ps(static_cast<float>(i1)), vnf = _mm_set1_ps(nf);
-                const __m128 ninth = _mm_set1_ps(1.0f / 9.0f), twoNinths = _mm_set1_ps(2.0f / 9.0f), third = _mm_set1_ps(1.0f / 3.0f);
-                const __m128 two = _mm_set1_ps(2.0f), four = _mm_set1_ps(4.0f), guard = _mm_set1_ps(0.1f);
+                const __m128 vn0 = _mm_set1_ps(n0), vn2 = _mm_set1_ps(n2),
+                             vi1 = _mm_set1_ps(static_cast<float>(i1)), vnf = _mm_set1_ps(nf);
+                const __m128 ninth = _mm_set1_ps(1.0f / 9.0f), twoNinths = _mm_set1_ps(2.0f / 9.0f),
+                             third = _mm_set1_ps(1.0f / 3.0f);
+                const __m128 two = _mm_set1_ps(2.0f), four = _mm_set1_ps(4.0f),
+                             guard = _mm_set1_ps(0.1f);
                 for (unsigned i2 = i1; i2 <= n; i2 += 4) {
                     const __m128 idx = _mm_loadu_ps(index2.data() + i2);
                     const __m128 n3 = _mm_sub_ps(idx, vi1), n1 = _mm_sub_ps(vnf, idx);
-                    const __m128 aa = _mm_add_ps(vn0, _mm_mul_ps(_mm_add_ps(_mm_mul_ps(four, vn2), n3), ninth));
+                    const __m128 aa =
+                        _mm_add_ps(vn0, _mm_mul_ps(_mm_add_ps(_mm_mul_ps(four, vn2), n3), ninth));
                     const __m128 ab = _mm_mul_ps(_mm_add_ps(vn2, n3), twoNinths);
-                    const __m128 bb = _mm_add_ps(n1, _mm_mul_ps(_mm_add_ps(vn2, _mm_mul_ps(four, n3)), ninth));
+                    const __m128 bb =
+                        _mm_add_ps(n1, _mm_mul_ps(_mm_add_ps(vn2, _mm_mul_ps(four, n3)), ninth));
                     const __m128 det = _mm_sub_ps(_mm_mul_ps(aa, bb), _mm_mul_ps(ab, ab));
                     __m128 q = _mm_setzero_ps();
                     for (unsigned ch = 0; ch < 3; ++ch) {
                         const float p0 = prefix[ch][i0], p1 = prefix[ch][i1], pn = prefix[ch][n];
                         const __m128 pi2 = _mm_loadu_ps(prefix[ch].data() + i2);
-                        const __m128 s0 = _mm_set1_ps(p0), s2 = _mm_set1_ps(p1 - p0), s3 = _mm_sub_ps(pi2, _mm_set1_ps(p1)),
+                        const __m128 s0 = _mm_set1_ps(p0), s2 = _mm_set1_ps(p1 - p0),
+                                     s3 = _mm_sub_ps(pi2, _mm_set1_ps(p1)),
                                      s1 = _mm_sub_ps(_mm_set1_ps(pn), pi2);
-                        const __m128 x = _mm_add_ps(s0, _mm_mul_ps(_mm_add_ps(_mm_mul_ps(two, s2), s3), third));
-                        const __m128 y = _mm_add_ps(s1, _mm_mul_ps(_mm_add_ps(s2, _mm_mul_ps(two, s3)), third));
-                        const __m128 t = _mm_add_ps(_mm_sub_ps(_mm_mul_ps(_mm_mul_ps(bb, x), x), _mm_mul_ps(_mm_mul_ps(_mm_mul_ps(two, ab), x), y)),
-                                                    _mm_mul_ps(_mm_mul_ps(aa, y), y));
+                        const __m128 x =
+                            _mm_add_ps(s0, _mm_mul_ps(_mm_add_ps(_mm_mul_ps(two, s2), s3), third));
+                        const __m128 y =
+                            _mm_add_ps(s1, _mm_mul_ps(_mm_add_ps(s2, _mm_mul_ps(two, s3)), third));
+                        const __m128 t = _mm_add_ps(
+                            _mm_sub_ps(_mm_mul_ps(_mm_mul_ps(bb, x), x),
+                                       _mm_mul_ps(_mm_mul_ps(_mm_mul_ps(two, ab), x), y)),
+                            _mm_mul_ps(_mm_mul_ps(aa, y), y));
                         q = _mm_add_ps(q, t);
                     }
                     _mm_storeu_ps(ratio.data() + i2, _mm_div_ps(q, _mm_max_ps(det, guard)));
@@ -340,16 +380,22 @@ bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean, c
 #else
             for (unsigned i2 = i1; i2 <= n; ++i2) {
                 const float n3 = index2[i2] - static_cast<float>(i1), n1 = nf - index2[i2];
-                const float aa = n0 + (4.0f * n2 + n3) * (1.0f / 9.0f), ab = (n2 + n3) * (2.0f / 9.0f), bb = n1 + (n2 + 4.0f * n3) * (1.0f / 9.0f);
+                const float aa = n0 + (4.0f * n2 + n3) * (1.0f / 9.0f),
+                            ab = (n2 + n3) * (2.0f / 9.0f),
+                            bb = n1 + (n2 + 4.0f * n3) * (1.0f / 9.0f);
                 const float det = aa * bb - ab * ab;
                 float q = 0;
                 for (unsigned ch = 0; ch < 3; ++ch) {
-                    const float s0 = prefix[ch][i0], s2 = prefix[ch][i1] - s0, s3 = prefix[ch][i2] - prefix[ch][i1], s1 = prefix[ch][n] - prefix[ch][i2];
-                    const float x = s0 + (2.0f * s2 + s3) * (1.0f / 3.0f), y = s1 + (s2 + 2.0f * s3) * (1.0f / 3.0f);
+                    const float s0 = prefix[ch][i0], s2 = prefix[ch][i1] - s0,
+                                s3 = prefix[ch][i2] - prefix[ch][i1],
+                                s1 = prefix[ch][n] - prefix[ch][i2];
+                    const float x = s0 + (2.0f * s2 + s3) * (1.0f / 3.0f),
+                                y = s1 + (s2 + 2.0f * s3) * (1.0f / 3.0f);
                     q += bb * x * x - 2.0f * ab * x * y + aa * y * y;
                 }
-                // det = Σ over pairs of (αi − αj)² (Lagrange's identity) is ≥ 1/9 unless every colour
-                // is on one entry, where det and q vanish: a branch-free guard the compiler can vectorise.
+                // det = Σ over pairs of (αi − αj)² (Lagrange's identity) is ≥ 1/9 unless every
+                // colour is on one entry, where det and q vanish: a branch-free guard the compiler
+                // can vectorise.
                 ratio[i2] = q / std::max(det, 0.1f);
             }
 #endif
@@ -364,7 +410,8 @@ bool orderedClusterFit(const ColorPoints& p, const std::array<float, 3>& mean, c
         }
     if (!found) return false;
     std::array<std::uint8_t, 16> index{};
-    for (unsigned i = 0; i < n; ++i) index[order[i]] = i < best0 ? 0 : (i < best1 ? 2 : (i < best2 ? 3 : 1));
+    for (unsigned i = 0; i < n; ++i)
+        index[order[i]] = i < best0 ? 0 : (i < best1 ? 2 : (i < best2 ? 3 : 1));
     return refitColors(p, index, a, b);
 }
 
@@ -391,7 +438,8 @@ ColorSearch colorSearch(AttributeEffort effort) {
     s.stepPasses = 1;
     s.guidedStep = true;
     // (The ordered fit costs about as much as the rest of the search where it runs.)
-    s.orderedThreshold = effort == AttributeEffort::Fast ? 2 * kOrderedFitThreshold : kOrderedFitThreshold + 5;
+    s.orderedThreshold =
+        effort == AttributeEffort::Fast ? 2 * kOrderedFitThreshold : kOrderedFitThreshold + 5;
     return s;
 }
 
@@ -422,24 +470,29 @@ ColorState encodeColors(const ColorPoints& p, AttributeEffort effort) {
                   (std::uint32_t{r[1]} << 11) | (std::uint32_t{g[1]} << 5) | b[1], best);
     };
     singleFit(single ? p.rgb[0]
-                     : std::array<int, 3>{static_cast<int>(std::lround(mean[0])), static_cast<int>(std::lround(mean[1])),
+                     : std::array<int, 3>{static_cast<int>(std::lround(mean[0])),
+                                          static_cast<int>(std::lround(mean[1])),
                                           static_cast<int>(std::lround(mean[2]))});
     if (single || best.error == 0) return best;
 
     // Start points: the principal axis' extent through the mean, the two colours at its ends,
     // and the bounding-box diagonal along it; each improved by cluster fitting.
     const std::array<float, 3> axis =
-        principalAxis(p, mean, {static_cast<float>(hi[0] - lo[0]), static_cast<float>(hi[1] - lo[1]), static_cast<float>(hi[2] - lo[2])});
+        principalAxis(p, mean,
+                      {static_cast<float>(hi[0] - lo[0]), static_cast<float>(hi[1] - lo[1]),
+                       static_cast<float>(hi[2] - lo[2])});
     float tMin = std::numeric_limits<float>::max(), tMax = -tMin;
     unsigned iMin = 0, iMax = 0;
     for (unsigned i = 0; i < p.count; ++i) {
         float proj = 0;
-        for (unsigned ch = 0; ch < 3; ++ch) proj += (static_cast<float>(p.rgb[i][ch]) - mean[ch]) * axis[ch];
+        for (unsigned ch = 0; ch < 3; ++ch)
+            proj += (static_cast<float>(p.rgb[i][ch]) - mean[ch]) * axis[ch];
         if (proj < tMin) tMin = proj, iMin = i;
         if (proj > tMax) tMax = proj, iMax = i;
     }
     const auto toFloat = [](const std::array<int, 3>& c) {
-        return std::array<float, 3>{static_cast<float>(c[0]), static_cast<float>(c[1]), static_cast<float>(c[2])};
+        return std::array<float, 3>{static_cast<float>(c[0]), static_cast<float>(c[1]),
+                                    static_cast<float>(c[2])};
     };
     std::array<std::array<float, 3>, 6> starts{};
     for (unsigned ch = 0; ch < 3; ++ch) {
@@ -486,10 +539,12 @@ struct NormalPoints {
     unsigned total = 0;  ///< used slots: the sum of the multiplicities
     std::array<Vec3, 16> n{};
     std::array<float, 16> multiplicity{};
-    unsigned axis = 2;   ///< the face's axis
-    float sign = 1;      ///< and its direction
-    std::array<float, 16> px{}, py{}, weight{};  ///< in-plane coordinates (axis+1, axis+2) and LS weights
-    bool singleEquations = false;  ///< the 3-D fit's normal equations in single precision (normalEquationsSingle)
+    unsigned axis = 2;  ///< the face's axis
+    float sign = 1;     ///< and its direction
+    std::array<float, 16> px{}, py{},
+        weight{};  ///< in-plane coordinates (axis+1, axis+2) and LS weights
+    bool singleEquations =
+        false;  ///< the 3-D fit's normal equations in single precision (normalEquationsSingle)
 };
 
 #if defined(__GNUC__)
@@ -515,9 +570,11 @@ alignas(16) constexpr std::array<float, 16> kComboV = [] {
 /// in the low 4 mantissa bits, which keeps the order of non-negative floats, so that a plain
 /// min reduction (vectorisable, unlike an argmin loop) finds both. Inlined into its callers'
 /// loops (a call, with @p d stored and reloaded, cost as much as the distances).
-[[maybe_unused]] VOX_ENCODE_INLINE unsigned argmin16(const std::array<float, 16>& d) {  // the SSE2 build uses the vector form
+[[maybe_unused]] VOX_ENCODE_INLINE unsigned argmin16(
+    const std::array<float, 16>& d) {  // the SSE2 build uses the vector form
     std::array<float, 16> t{};
-    for (unsigned k = 0; k < 16; ++k) t[k] = std::bit_cast<float>((std::bit_cast<std::uint32_t>(d[k]) & ~15u) | k);
+    for (unsigned k = 0; k < 16; ++k)
+        t[k] = std::bit_cast<float>((std::bit_cast<std::uint32_t>(d[k]) & ~15u) | k);
     for (unsigned k = 0; k < 8; ++k) t[k] = std::min(t[k], t[k + 8]);
     for (unsigned k = 0; k < 4; ++k) t[k] = std::min(t[k], t[k + 4]);
     for (unsigned k = 0; k < 2; ++k) t[k] = std::min(t[k], t[k + 2]);
@@ -536,7 +593,8 @@ struct alignas(16) Points16 {
 VOX_ENCODE_INLINE unsigned argmin16(__m128 d0, __m128 d1, __m128 d2, __m128 d3) {
     const __m128i keep = _mm_set1_epi32(~15);
     const auto tag = [&](__m128 d, int k) {
-        return _mm_castsi128_ps(_mm_or_si128(_mm_and_si128(_mm_castps_si128(d), keep), _mm_setr_epi32(k, k + 1, k + 2, k + 3)));
+        return _mm_castsi128_ps(_mm_or_si128(_mm_and_si128(_mm_castps_si128(d), keep),
+                                             _mm_setr_epi32(k, k + 1, k + 2, k + 3)));
     };
     __m128 m = _mm_min_ps(_mm_min_ps(tag(d0, 0), tag(d1, 4)), _mm_min_ps(tag(d2, 8), tag(d3, 12)));
     m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
@@ -553,7 +611,8 @@ VOX_ENCODE_INLINE unsigned nearest2(const Points16& l, float x, float y, float& 
     const __m128 px = _mm_set1_ps(x), py = _mm_set1_ps(y);
     __m128 d[4];
     for (unsigned j = 0; j < 4; ++j) {
-        const __m128 dx = _mm_sub_ps(px, _mm_load_ps(l.x.data() + 4 * j)), dy = _mm_sub_ps(py, _mm_load_ps(l.y.data() + 4 * j));
+        const __m128 dx = _mm_sub_ps(px, _mm_load_ps(l.x.data() + 4 * j)),
+                     dy = _mm_sub_ps(py, _mm_load_ps(l.y.data() + 4 * j));
         d[j] = _mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy));
     }
     k = argmin16(d[0], d[1], d[2], d[3]);
@@ -578,7 +637,8 @@ VOX_ENCODE_INLINE unsigned nearest3(const Points16& l, float x, float y, float z
     const __m128 px = _mm_set1_ps(x), py = _mm_set1_ps(y), pz = _mm_set1_ps(z);
     __m128 d[4];
     for (unsigned j = 0; j < 4; ++j) {
-        const __m128 dx = _mm_sub_ps(px, _mm_load_ps(l.x.data() + 4 * j)), dy = _mm_sub_ps(py, _mm_load_ps(l.y.data() + 4 * j)),
+        const __m128 dx = _mm_sub_ps(px, _mm_load_ps(l.x.data() + 4 * j)),
+                     dy = _mm_sub_ps(py, _mm_load_ps(l.y.data() + 4 * j)),
                      dz = _mm_sub_ps(pz, _mm_load_ps(l.z.data() + 4 * j));
         d[j] = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
     }
@@ -601,11 +661,12 @@ VOX_AVX512_WARNINGS_OFF
 /// argmin16 of the 16 lanes of @p d, reduced in the SSE2 form's order (its four quarters are
 /// its four vectors), so that the two agree whatever the values.
 VOX_TARGET_AVX512 VOX_ENCODE_INLINE unsigned argmin16(__m512 d) {
-    const __m512i tagged = _mm512_or_si512(_mm512_and_si512(_mm512_castps_si512(d), _mm512_set1_epi32(~15)),
-                                           _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
+    const __m512i tagged =
+        _mm512_or_si512(_mm512_and_si512(_mm512_castps_si512(d), _mm512_set1_epi32(~15)),
+                        _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
     const __m512 t = _mm512_castsi512_ps(tagged);
-    const __m128 t0 = _mm512_castps512_ps128(t), t1 = _mm512_extractf32x4_ps(t, 1), t2 = _mm512_extractf32x4_ps(t, 2),
-                 t3 = _mm512_extractf32x4_ps(t, 3);
+    const __m128 t0 = _mm512_castps512_ps128(t), t1 = _mm512_extractf32x4_ps(t, 1),
+                 t2 = _mm512_extractf32x4_ps(t, 2), t3 = _mm512_extractf32x4_ps(t, 3);
     __m128 m = _mm_min_ps(_mm_min_ps(t0, t1), _mm_min_ps(t2, t3));
     m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
     m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
@@ -620,17 +681,22 @@ VOX_ENCODE_INLINE void decodedLattice(const Vec3& b, const Vec3& u, const Vec3& 
 #if VOX_ENCODE_SSE2
     const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
     for (unsigned j = 0; j < 4; ++j) {
-        const __m128 cu = _mm_load_ps(kComboU.data() + 4 * j), cv = _mm_load_ps(kComboV.data() + 4 * j);
+        const __m128 cu = _mm_load_ps(kComboU.data() + 4 * j),
+                     cv = _mm_load_ps(kComboV.data() + 4 * j);
         const auto part = [&](unsigned c) {
-            return _mm_add_ps(_mm_add_ps(_mm_set1_ps(b[c]), _mm_mul_ps(cu, _mm_set1_ps(u[c]))), _mm_mul_ps(cv, _mm_set1_ps(v[c])));
+            return _mm_add_ps(_mm_add_ps(_mm_set1_ps(b[c]), _mm_mul_ps(cu, _mm_set1_ps(u[c]))),
+                              _mm_mul_ps(cv, _mm_set1_ps(v[c])));
         };
         const __m128 x = part(0), y = part(1), z = part(2);
-        const __m128 len2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z));
+        const __m128 len2 =
+            _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z));
         const __m128 nonzero = _mm_cmpgt_ps(len2, zero);  // false for 0 and NaN
-        const __m128 inv = _mm_div_ps(one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(nonzero, len2), _mm_andnot_ps(nonzero, one))));
+        const __m128 inv = _mm_div_ps(
+            one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(nonzero, len2), _mm_andnot_ps(nonzero, one))));
         _mm_store_ps(l.x.data() + 4 * j, _mm_and_ps(nonzero, _mm_mul_ps(x, inv)));
         _mm_store_ps(l.y.data() + 4 * j, _mm_and_ps(nonzero, _mm_mul_ps(y, inv)));
-        _mm_store_ps(l.z.data() + 4 * j, _mm_or_ps(_mm_and_ps(nonzero, _mm_mul_ps(z, inv)), _mm_andnot_ps(nonzero, one)));
+        _mm_store_ps(l.z.data() + 4 * j, _mm_or_ps(_mm_and_ps(nonzero, _mm_mul_ps(z, inv)),
+                                                   _mm_andnot_ps(nonzero, one)));
     }
 #else
     for (unsigned k = 0; k < 16; ++k) {
@@ -665,10 +731,12 @@ bool avx512Available() { return __builtin_cpu_supports("avx512f") != 0; }
 std::atomic<bool> g_avx512{avx512Available()};
 
 VOX_AVX512_WARNINGS_OFF
-/// The combos' (b + cu·u) + cv·v in one coordinate, for all sixteen combos (the SSE2 kernels' order).
+/// The combos' (b + cu·u) + cv·v in one coordinate, for all sixteen combos (the SSE2 kernels'
+/// order).
 VOX_TARGET_AVX512 VOX_ENCODE_INLINE __m512 comboCoordinate(float b, float u, float v) {
     const __m512 cu = _mm512_loadu_ps(kComboU.data()), cv = _mm512_loadu_ps(kComboV.data());
-    return _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(b), _mm512_mul_ps(cu, _mm512_set1_ps(u))), _mm512_mul_ps(cv, _mm512_set1_ps(v)));
+    return _mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(b), _mm512_mul_ps(cu, _mm512_set1_ps(u))),
+                         _mm512_mul_ps(cv, _mm512_set1_ps(v)));
 }
 
 /// assignPlane with the sixteen lattice points in one vector.
@@ -678,7 +746,8 @@ VOX_TARGET_AVX512 bool assignPlaneAvx512(const NormalPoints& p, PlaneFit& f) {
     bool changed = false;
     double error = 0;
     for (unsigned i = 0; i < p.count; ++i) {
-        const __m512 dx = _mm512_sub_ps(_mm512_set1_ps(p.px[i]), lx), dy = _mm512_sub_ps(_mm512_set1_ps(p.py[i]), ly);
+        const __m512 dx = _mm512_sub_ps(_mm512_set1_ps(p.px[i]), lx),
+                     dy = _mm512_sub_ps(_mm512_set1_ps(p.py[i]), ly);
         const __m512 d2 = _mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy));
         const unsigned bestK = argmin16(d2);
         _mm512_store_ps(d.data(), d2);
@@ -720,7 +789,8 @@ bool assignPlane(const NormalPoints& p, PlaneFit& f) {
 void solvePlane(const NormalPoints& p, PlaneFit& f) {
     double m[3][3]{}, rx[3]{}, ry[3]{}, wsum = 0;
     for (unsigned i = 0; i < p.count; ++i) {
-        const double row[3]{1.0, esvo::kAxisWeights[f.combo[i] & 3], esvo::kAxisWeights[f.combo[i] >> 2]};
+        const double row[3]{1.0, esvo::kAxisWeights[f.combo[i] & 3],
+                            esvo::kAxisWeights[f.combo[i] >> 2]};
         const double w = p.weight[i];
         wsum += w;
         for (unsigned r = 0; r < 3; ++r) {
@@ -732,14 +802,16 @@ void solvePlane(const NormalPoints& p, PlaneFit& f) {
     const double ridge = 1e-7 * wsum;
     m[1][1] += ridge;
     m[2][2] += ridge;
-    const double c00 = m[1][1] * m[2][2] - m[1][2] * m[2][1], c01 = m[1][2] * m[2][0] - m[1][0] * m[2][2],
+    const double c00 = m[1][1] * m[2][2] - m[1][2] * m[2][1],
+                 c01 = m[1][2] * m[2][0] - m[1][0] * m[2][2],
                  c02 = m[1][0] * m[2][1] - m[1][1] * m[2][0];
     const double det = m[0][0] * c00 + m[0][1] * c01 + m[0][2] * c02;
     if (!(std::fabs(det) > 1e-30)) return;
     // Inverse by cofactors (m is symmetric).
-    const double inv[3][3]{{c00, c01, c02},
-                           {c01, m[0][0] * m[2][2] - m[0][2] * m[2][0], m[0][1] * m[2][0] - m[0][0] * m[2][1]},
-                           {c02, m[0][1] * m[2][0] - m[0][0] * m[2][1], m[0][0] * m[1][1] - m[0][1] * m[1][0]}};
+    const double inv[3][3]{
+        {c00, c01, c02},
+        {c01, m[0][0] * m[2][2] - m[0][2] * m[2][0], m[0][1] * m[2][0] - m[0][0] * m[2][1]},
+        {c02, m[0][1] * m[2][0] - m[0][0] * m[2][1], m[0][0] * m[1][1] - m[0][1] * m[1][0]}};
     double sx[3], sy[3];
     for (unsigned r = 0; r < 3; ++r) {
         sx[r] = (inv[r][0] * rx[0] + inv[r][1] * rx[1] + inv[r][2] * rx[2]) / det;
@@ -773,21 +845,28 @@ struct NormalState {
 #if VOX_ENCODE_AVX512
 VOX_AVX512_WARNINGS_OFF
 /// evalLattice with the sixteen decoded directions in one vector each coordinate.
-VOX_TARGET_AVX512 double evalLatticeAvx512(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v,
-                                           std::array<std::uint8_t, 16>& combo, double bound) {
-    const __m512 x = comboCoordinate(b[0], u[0], v[0]), y = comboCoordinate(b[1], u[1], v[1]), z = comboCoordinate(b[2], u[2], v[2]);
+VOX_TARGET_AVX512 double evalLatticeAvx512(const NormalPoints& p, const Vec3& b, const Vec3& u,
+                                           const Vec3& v, std::array<std::uint8_t, 16>& combo,
+                                           double bound) {
+    const __m512 x = comboCoordinate(b[0], u[0], v[0]), y = comboCoordinate(b[1], u[1], v[1]),
+                 z = comboCoordinate(b[2], u[2], v[2]);
     const __m512 one = _mm512_set1_ps(1.0f);
-    const __m512 len2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(x, x), _mm512_mul_ps(y, y)), _mm512_mul_ps(z, z));
-    const __mmask16 nonzero = _mm512_cmp_ps_mask(len2, _mm512_setzero_ps(), _CMP_GT_OQ);  // false for 0 and NaN
+    const __m512 len2 =
+        _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(x, x), _mm512_mul_ps(y, y)), _mm512_mul_ps(z, z));
+    const __mmask16 nonzero =
+        _mm512_cmp_ps_mask(len2, _mm512_setzero_ps(), _CMP_GT_OQ);  // false for 0 and NaN
     const __m512 inv = _mm512_div_ps(one, _mm512_sqrt_ps(_mm512_mask_blend_ps(nonzero, one, len2)));
-    const __m512 lx = _mm512_maskz_mov_ps(nonzero, _mm512_mul_ps(x, inv)), ly = _mm512_maskz_mov_ps(nonzero, _mm512_mul_ps(y, inv));
+    const __m512 lx = _mm512_maskz_mov_ps(nonzero, _mm512_mul_ps(x, inv)),
+                 ly = _mm512_maskz_mov_ps(nonzero, _mm512_mul_ps(y, inv));
     const __m512 lz = _mm512_mask_blend_ps(nonzero, one, _mm512_mul_ps(z, inv));
     alignas(64) std::array<float, 16> d{};
     double total = 0;
     for (unsigned i = 0; i < p.count; ++i) {
-        const __m512 dx = _mm512_sub_ps(_mm512_set1_ps(p.n[i][0]), lx), dy = _mm512_sub_ps(_mm512_set1_ps(p.n[i][1]), ly),
+        const __m512 dx = _mm512_sub_ps(_mm512_set1_ps(p.n[i][0]), lx),
+                     dy = _mm512_sub_ps(_mm512_set1_ps(p.n[i][1]), ly),
                      dz = _mm512_sub_ps(_mm512_set1_ps(p.n[i][2]), lz);
-        const __m512 d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
+        const __m512 d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)),
+                                        _mm512_mul_ps(dz, dz));
         const unsigned bestK = argmin16(d2);
         _mm512_store_ps(d.data(), d2);
         combo[i] = static_cast<std::uint8_t>(bestK);
@@ -802,9 +881,11 @@ VOX_AVX512_WARNINGS_ON
 /// Summed squared chord |n − d|² = 2 (1 − cos) between each used normal n and the nearest d of
 /// the 16 directions normalise(b + cu·u + cv·v), computed as esvo::decodeBlockNormal computes
 /// them; the nearest one's combo goes to @p combo. Stops early beyond @p bound.
-double evalLattice(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v, std::array<std::uint8_t, 16>& combo, double bound) {
+double evalLattice(const NormalPoints& p, const Vec3& b, const Vec3& u, const Vec3& v,
+                   std::array<std::uint8_t, 16>& combo, double bound) {
 #if VOX_ENCODE_AVX512
-    if (g_avx512.load(std::memory_order_relaxed)) return evalLatticeAvx512(p, b, u, v, combo, bound);
+    if (g_avx512.load(std::memory_order_relaxed))
+        return evalLatticeAvx512(p, b, u, v, combo, bound);
 #endif
     // The 16 decoded directions, in arrays the compiler can vectorise over.
     Points16 l;
@@ -823,12 +904,15 @@ double evalLattice(const NormalPoints& p, const Vec3& b, const Vec3& u, const Ve
 }
 
 /// evalLattice of the decoded (base, axes) words.
-double evalNormals(const NormalPoints& p, std::uint32_t base, std::uint32_t axes, std::array<std::uint8_t, 16>& combo, double bound) {
-    return evalLattice(p, esvo::decodeNormal(base), esvo::decodeAxis(axes & 0xFFFFu), esvo::decodeAxis(axes >> 16), combo, bound);
+double evalNormals(const NormalPoints& p, std::uint32_t base, std::uint32_t axes,
+                   std::array<std::uint8_t, 16>& combo, double bound) {
+    return evalLattice(p, esvo::decodeNormal(base), esvo::decodeAxis(axes & 0xFFFFu),
+                       esvo::decodeAxis(axes >> 16), combo, bound);
 }
 
 bool tryNormals(const NormalPoints& p, std::uint32_t base, std::uint32_t axes, NormalState& s) {
-    if (s.error != std::numeric_limits<double>::max() && base == s.base && axes == s.axes) return false;
+    if (s.error != std::numeric_limits<double>::max() && base == s.base && axes == s.axes)
+        return false;
     std::array<std::uint8_t, 16> combo{};
     const double error = evalNormals(p, base, axes, combo, s.error);
     if (!(error < s.error)) return false;
@@ -859,24 +943,31 @@ bool stepAxisCodes(const NormalPoints& p, NormalState& s, std::span<const unsign
         for (const unsigned c : components)
             for (const int step : {-1, 1}) {
                 const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
-                const int value = static_cast<int>(static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28) + step;
+                const int value =
+                    static_cast<int>(static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28) + step;
                 if (value < -8 || value > 7) continue;
-                const std::uint32_t moved = (bits & ~(15u << (4 * c))) | ((static_cast<std::uint32_t>(value) & 15u) << (4 * c));
-                if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (moved << shift), s)) improved = true;
+                const std::uint32_t moved = (bits & ~(15u << (4 * c))) |
+                                            ((static_cast<std::uint32_t>(value) & 15u) << (4 * c));
+                if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (moved << shift), s))
+                    improved = true;
             }
         const std::uint32_t bits = (s.axes >> shift) & 0xFFFFu;
         const int e = static_cast<int>(bits >> 12);
         const Vec3 decoded = esvo::decodeAxis(bits);
         for (const int ne : {e - 1, e + 1}) {
             if (ne < 0 || ne > 15) continue;
-            if (tryNormals(p, s.base, (s.axes & ~(0xFFFFu << shift)) | (roundAxis(decoded, ne) << shift), s)) improved = true;
+            if (tryNormals(p, s.base,
+                           (s.axes & ~(0xFFFFu << shift)) | (roundAxis(decoded, ne) << shift), s))
+                improved = true;
         }
     }
     return improved;
 }
 
 /// 2^(e − 13), the step of axis exponent e (as esvo::decodeAxis).
-inline float axisStep(int e) { return std::bit_cast<float>(static_cast<std::uint32_t>(e + 127 - 13) << 23); }
+inline float axisStep(int e) {
+    return std::bit_cast<float>(static_cast<std::uint32_t>(e + 127 - 13) << 23);
+}
 
 /// The exponent esvo::encodeAxis chooses for components within [@p lo, @p hi] (lo ≤ 0 ≤ hi).
 inline int axisExponent(float lo, float hi) {
@@ -886,7 +977,9 @@ inline int axisExponent(float lo, float hi) {
 }
 
 /// Component @p c (0…2) of axis code @p bits, in steps (esvo::decodeAxis without the scale).
-inline int axisDigit(std::uint32_t bits, unsigned c) { return static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28; }
+inline int axisDigit(std::uint32_t bits, unsigned c) {
+    return static_cast<std::int32_t>(bits << (28 - 4 * c)) >> 28;
+}
 
 /// What esvo::encodeAxis rounds the axis (0, @p x, @p y) (in the face plane's two components) to,
 /// decoded: the same exponent and the same rounding (half away from zero, clamped to −8 … 7),
@@ -947,14 +1040,16 @@ void fitPlaneOnCodes(const NormalPoints& p, PlaneFit& f) {
         solvePlane(p, f);
         // (planeBase's scale and planeAxes' codes, decoded.)
         const float scale = 1.0f / std::max({1.0f, std::fabs(f.bx), std::fabs(f.by)});
-        const auto u = roundedPlaneAxis(f.ux * scale, f.uy * scale), v = roundedPlaneAxis(f.vx * scale, f.vy * scale);
+        const auto u = roundedPlaneAxis(f.ux * scale, f.uy * scale),
+                   v = roundedPlaneAxis(f.vx * scale, f.vy * scale);
         f.ux = u[0] / scale;
         f.uy = u[1] / scale;
         f.vx = v[0] / scale;
         f.vy = v[1] / scale;
         double sx = 0, sy = 0, sw = 0;
         for (unsigned i = 0; i < p.count; ++i) {
-            const float cu = esvo::kAxisWeights[f.combo[i] & 3], cv = esvo::kAxisWeights[f.combo[i] >> 2];
+            const float cu = esvo::kAxisWeights[f.combo[i] & 3],
+                        cv = esvo::kAxisWeights[f.combo[i] >> 2];
             const double w = p.weight[i];
             sx += w * (p.px[i] - cu * f.ux - cv * f.vx);
             sy += w * (p.py[i] - cu * f.uy - cv * f.vy);
@@ -971,7 +1066,9 @@ void fitPlaneOnCodes(const NormalPoints& p, PlaneFit& f) {
 /// searches neighbouring axis codes, all measured against the decoded normals.
 NormalState quantiseFit(const NormalPoints& p, const PlaneFit& f) {
     const unsigned a = p.axis, ua = (a + 1) % 3, va = (a + 2) % 3;
-    const auto toBase = [&](float bx, float by, float& scale) { return planeBase(p, bx, by, scale); };
+    const auto toBase = [&](float bx, float by, float& scale) {
+        return planeBase(p, bx, by, scale);
+    };
     float scale = 1;
     const std::uint32_t base = toBase(f.bx, f.by, scale);
     NormalState s;
@@ -979,21 +1076,24 @@ NormalState quantiseFit(const NormalPoints& p, const PlaneFit& f) {
     if (s.error <= 0) return s;
 
     // Base refit: with the axes fixed at their quantised values, the best base for the combos is
-    // the weighted mean of p − cu·u − cv·v (in the face plane, where the rescaled axes live × 1/scale).
+    // the weighted mean of p − cu·u − cv·v (in the face plane, where the rescaled axes live ×
+    // 1/scale).
     for (int round = 0; round < 2; ++round) {
         const Vec3 qu = esvo::decodeAxis(s.axes & 0xFFFFu), qv = esvo::decodeAxis(s.axes >> 16);
         const Vec3 qb = esvo::decodeNormal(s.base);
         const float k = 1.0f / std::fabs(qb[a]);  // back to the face plane of the fit
         double sx = 0, sy = 0, sw = 0;
         for (unsigned i = 0; i < p.count; ++i) {
-            const float cu = esvo::kAxisWeights[s.combo[i] & 3], cv = esvo::kAxisWeights[s.combo[i] >> 2];
+            const float cu = esvo::kAxisWeights[s.combo[i] & 3],
+                        cv = esvo::kAxisWeights[s.combo[i] >> 2];
             const double w = p.weight[i];
             sx += w * (p.px[i] - k * (cu * qu[ua] + cv * qv[ua]));
             sy += w * (p.py[i] - k * (cu * qu[va] + cv * qv[va]));
             sw += w;
         }
         float refitScale = 1;
-        const std::uint32_t refit = toBase(static_cast<float>(sx / sw), static_cast<float>(sy / sw), refitScale);
+        const std::uint32_t refit =
+            toBase(static_cast<float>(sx / sw), static_cast<float>(sy / sw), refitScale);
         if (!tryNormals(p, refit, s.axes, s)) break;
     }
 
@@ -1050,7 +1150,9 @@ PlaneFrame projectNormals(NormalPoints& p) {
     Vec3 mean{};
     for (unsigned i = 0; i < p.count; ++i)
         for (unsigned c = 0; c < 3; ++c) mean[c] += p.multiplicity[i] * p.n[i][c];
-    if (!(mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2] > 1e-6f * static_cast<float>(p.total * p.total))) mean = p.n[0];
+    if (!(mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2] >
+          1e-6f * static_cast<float>(p.total * p.total)))
+        mean = p.n[0];
     const float ax = std::fabs(mean[0]), ay = std::fabs(mean[1]), az = std::fabs(mean[2]);
     p.axis = ax >= ay && ax >= az ? 0u : (ay >= az ? 1u : 2u);
     p.sign = mean[p.axis] < 0 ? -1.0f : 1.0f;
@@ -1134,12 +1236,13 @@ PlaneFit planeStart(const PlaneFrame& fr, unsigned i) {
     struct Start {
         double u1, u2, v1, v2;  // u and v in the principal frame (e1, e2)
     };
-    const Start starts[] = {{0.75 * h1, 0, 0, 0.75 * h2},
-                            {0.4 * h1, 0, 0, 0.4 * h2},
-                            {h1, 0, 0, h2},
-                            {0.4 * diagonal * h1, 0.4 * diagonal * h2, -0.4 * diagonal * h1, 0.4 * diagonal * h2},
-                            {diagonal * h1, diagonal * h2, -diagonal * h1, diagonal * h2},
-                            {0.75 * h1, 0, 0.1875 * h1, 0}};
+    const Start starts[] = {
+        {0.75 * h1, 0, 0, 0.75 * h2},
+        {0.4 * h1, 0, 0, 0.4 * h2},
+        {h1, 0, 0, h2},
+        {0.4 * diagonal * h1, 0.4 * diagonal * h2, -0.4 * diagonal * h1, 0.4 * diagonal * h2},
+        {diagonal * h1, diagonal * h2, -diagonal * h1, diagonal * h2},
+        {0.75 * h1, 0, 0.1875 * h1, 0}};
     const Start& st = starts[i];
     const double e2x = -fr.e1y, e2y = fr.e1x;
     PlaneFit fit;
@@ -1164,8 +1267,10 @@ PlaneFit fitNormals(NormalPoints& p, unsigned startMask, bool onCodes, AfterFirs
     for (unsigned i = 0; i < fr.startCount; ++i) {
         if (i > 0 && !((startMask >> i) & 1u)) continue;
         PlaneFit fit = planeStart(fr, i);
-        if (onCodes) fitPlaneOnCodes(p, fit);
-        else fitPlane(p, fit);
+        if (onCodes)
+            fitPlaneOnCodes(p, fit);
+        else
+            fitPlane(p, fit);
         if (fit.error < best.error) best = fit;
         if (i == 0 && afterFirst(fit)) break;
     }
@@ -1298,11 +1403,13 @@ using Model = std::array<double, 9>;
 using Dir = std::array<double, 3>;
 
 Vec3 modelPart(const Model& x, unsigned part) {
-    return {static_cast<float>(x[3 * part]), static_cast<float>(x[3 * part + 1]), static_cast<float>(x[3 * part + 2])};
+    return {static_cast<float>(x[3 * part]), static_cast<float>(x[3 * part + 1]),
+            static_cast<float>(x[3 * part + 2])};
 }
 
 double modelError(const NormalPoints& p, const Model& x, std::array<std::uint8_t, 16>& combo) {
-    return evalLattice(p, modelPart(x, 0), modelPart(x, 1), modelPart(x, 2), combo, std::numeric_limits<double>::max());
+    return evalLattice(p, modelPart(x, 0), modelPart(x, 1), modelPart(x, 2), combo,
+                       std::numeric_limits<double>::max());
 }
 
 /// Scales @p x (which leaves its directions alone) so that the base's largest component is ±1,
@@ -1366,10 +1473,14 @@ bool solveSpd(std::array<std::array<double, 9>, 9>& m, std::array<double, 9>& r)
 /// or both axes), each unrolled by the compiler.
 bool solveSpd(std::array<std::array<double, 9>, 9>& m, std::array<double, 9>& r, unsigned n) {
     switch (n) {
-        case 2: return solveSpd<2>(m, r);
-        case 5: return solveSpd<5>(m, r);
-        case 8: return solveSpd<8>(m, r);
-        default: return false;
+        case 2:
+            return solveSpd<2>(m, r);
+        case 5:
+            return solveSpd<5>(m, r);
+        case 8:
+            return solveSpd<8>(m, r);
+        default:
+            return false;
     }
 }
 
@@ -1389,7 +1500,8 @@ struct NormalEquations {
 
 private:
     /// Where entry (row, col) is stored: the block of parts (row / 3, col / 3), larger first, and
-    /// in it (each block is symmetric, a multiple of M) the entry of (row % 3, col % 3), larger first.
+    /// in it (each block is symmetric, a multiple of M) the entry of (row % 3, col % 3), larger
+    /// first.
     struct Entry {
         std::uint8_t block, entry;
     };
@@ -1398,16 +1510,19 @@ private:
         for (unsigned row = 0; row < 9; ++row)
             for (unsigned col = 0; col < 9; ++col) {
                 const unsigned si = std::max(row / 3, col / 3), ti = std::min(row / 3, col / 3);
-                const unsigned c = row / 3 >= col / 3 ? row % 3 : col % 3, d = row / 3 >= col / 3 ? col % 3 : row % 3;
+                const unsigned c = row / 3 >= col / 3 ? row % 3 : col % 3,
+                               d = row / 3 >= col / 3 ? col % 3 : row % 3;
                 const unsigned lo = std::min(c, d), hi = std::max(c, d);
-                t[row][col] = {static_cast<std::uint8_t>(si * (si + 1) / 2 + ti), static_cast<std::uint8_t>(hi * (hi + 1) / 2 + lo)};
+                t[row][col] = {static_cast<std::uint8_t>(si * (si + 1) / 2 + ti),
+                               static_cast<std::uint8_t>(hi * (hi + 1) / 2 + lo)};
             }
         return t;
     }();
 };
 
 template <unsigned FreeAxes>
-NormalEquations normalEquations(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo) {
+NormalEquations normalEquations(const NormalPoints& p, const Model& x,
+                                const std::array<std::uint8_t, 16>& combo) {
     NormalEquations ne;
     auto& block = ne.block;
     auto& g = ne.g;
@@ -1443,7 +1558,8 @@ NormalEquations normalEquations(const NormalPoints& p, const Model& x, const std
 /// taken is decided by the exact decoded error) and the quantisers' quadratics only rank codes
 /// that are then measured, and this costs a quarter of the double-precision sums.
 template <unsigned FreeAxes>
-NormalEquations normalEquationsSingle(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo) {
+NormalEquations normalEquationsSingle(const NormalPoints& p, const Model& x,
+                                      const std::array<std::uint8_t, 16>& combo) {
     constexpr bool used[3]{true, (FreeAxes & 1u) != 0, (FreeAxes & 2u) != 0};
     std::array<float, 9> xf{};
     for (unsigned j = 0; j < 9; ++j) xf[j] = static_cast<float>(x[j]);
@@ -1464,40 +1580,57 @@ NormalEquations normalEquationsSingle(const NormalPoints& p, const Model& x, con
         __m128 kv[3], nv[3], q[3];
         for (unsigned c = 0; c < 3; ++c) kv[c] = _mm_load_ps(k[c]), nv[c] = _mm_load_ps(n[c]);
         for (unsigned c = 0; c < 3; ++c)
-            q[c] = _mm_add_ps(_mm_add_ps(_mm_set1_ps(xf[c]), _mm_mul_ps(kv[1], _mm_set1_ps(xf[3 + c]))), _mm_mul_ps(kv[2], _mm_set1_ps(xf[6 + c])));
-        const __m128 len2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(q[0], q[0]), _mm_mul_ps(q[1], q[1])), _mm_mul_ps(q[2], q[2]));
+            q[c] = _mm_add_ps(
+                _mm_add_ps(_mm_set1_ps(xf[c]), _mm_mul_ps(kv[1], _mm_set1_ps(xf[3 + c]))),
+                _mm_mul_ps(kv[2], _mm_set1_ps(xf[6 + c])));
+        const __m128 len2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(q[0], q[0]), _mm_mul_ps(q[1], q[1])),
+                                       _mm_mul_ps(q[2], q[2]));
         const __m128 valid = _mm_cmpgt_ps(len2, _mm_set1_ps(1e-24f)), one = _mm_set1_ps(1.0f);
-        const __m128 inv = _mm_div_ps(one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(valid, len2), _mm_andnot_ps(valid, one))));
-        const __m128 weight = _mm_and_ps(valid, _mm_load_ps(multiplicity)), inv2 = _mm_mul_ps(_mm_mul_ps(inv, inv), weight);
+        const __m128 inv = _mm_div_ps(
+            one, _mm_sqrt_ps(_mm_or_ps(_mm_and_ps(valid, len2), _mm_andnot_ps(valid, one))));
+        const __m128 weight = _mm_and_ps(valid, _mm_load_ps(multiplicity)),
+                     inv2 = _mm_mul_ps(_mm_mul_ps(inv, inv), weight);
         for (unsigned c = 0; c < 3; ++c) q[c] = _mm_mul_ps(q[c], inv);
-        const __m128 nd = _mm_add_ps(_mm_add_ps(_mm_mul_ps(nv[0], q[0]), _mm_mul_ps(nv[1], q[1])), _mm_mul_ps(nv[2], q[2]));
+        const __m128 nd = _mm_add_ps(_mm_add_ps(_mm_mul_ps(nv[0], q[0]), _mm_mul_ps(nv[1], q[1])),
+                                     _mm_mul_ps(nv[2], q[2]));
         const __m128 zero = _mm_setzero_ps();
-        const __m128 m[6]{_mm_mul_ps(_mm_sub_ps(one, _mm_mul_ps(q[0], q[0])), inv2), _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(zero, q[1]), q[0]), inv2),
-                          _mm_mul_ps(_mm_sub_ps(one, _mm_mul_ps(q[1], q[1])), inv2), _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(zero, q[2]), q[0]), inv2),
-                          _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(zero, q[2]), q[1]), inv2), _mm_mul_ps(_mm_sub_ps(one, _mm_mul_ps(q[2], q[2])), inv2)};
+        const __m128 m[6]{_mm_mul_ps(_mm_sub_ps(one, _mm_mul_ps(q[0], q[0])), inv2),
+                          _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(zero, q[1]), q[0]), inv2),
+                          _mm_mul_ps(_mm_sub_ps(one, _mm_mul_ps(q[1], q[1])), inv2),
+                          _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(zero, q[2]), q[0]), inv2),
+                          _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(zero, q[2]), q[1]), inv2),
+                          _mm_mul_ps(_mm_sub_ps(one, _mm_mul_ps(q[2], q[2])), inv2)};
         __m128 r[3];
         for (unsigned c = 0; c < 3; ++c)
-            r[c] = _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(zero, _mm_sub_ps(nv[c], _mm_mul_ps(nd, q[c]))), inv), weight);
+            r[c] = _mm_mul_ps(
+                _mm_mul_ps(_mm_sub_ps(zero, _mm_sub_ps(nv[c], _mm_mul_ps(nd, q[c]))), inv), weight);
         for (unsigned st = 0, si = 0; si < 3; ++si)
             for (unsigned ti = 0; ti <= si; ++ti, ++st) {
                 if (!used[si] || !used[ti]) continue;
                 const __m128 kk = _mm_mul_ps(kv[si], kv[ti]);
-                for (unsigned e = 0; e < 6; ++e) _mm_store_ps(block[st][e], _mm_add_ps(_mm_load_ps(block[st][e]), _mm_mul_ps(kk, m[e])));
+                for (unsigned e = 0; e < 6; ++e)
+                    _mm_store_ps(block[st][e],
+                                 _mm_add_ps(_mm_load_ps(block[st][e]), _mm_mul_ps(kk, m[e])));
             }
         for (unsigned c = 0; c < 3; ++c)
-            for (unsigned si = 0; si < 3; ++si) _mm_store_ps(g[3 * si + c], _mm_add_ps(_mm_load_ps(g[3 * si + c]), _mm_mul_ps(kv[si], r[c])));
+            for (unsigned si = 0; si < 3; ++si)
+                _mm_store_ps(g[3 * si + c],
+                             _mm_add_ps(_mm_load_ps(g[3 * si + c]), _mm_mul_ps(kv[si], r[c])));
 #else
-        for (unsigned l = 0; l < 4; ++l) {  // the same operations as the vectors above, lane by lane
+        for (unsigned l = 0; l < 4;
+             ++l) {  // the same operations as the vectors above, lane by lane
             float q[3];
-            for (unsigned c = 0; c < 3; ++c) q[c] = (xf[c] + k[1][l] * xf[3 + c]) + k[2][l] * xf[6 + c];
+            for (unsigned c = 0; c < 3; ++c)
+                q[c] = (xf[c] + k[1][l] * xf[3 + c]) + k[2][l] * xf[6 + c];
             const float len2 = (q[0] * q[0] + q[1] * q[1]) + q[2] * q[2];
             const bool valid = len2 > 1e-24f;
             const float inv = 1.0f / std::sqrt(valid ? len2 : 1.0f);
             const float weight = valid ? multiplicity[l] : 0.0f, inv2 = (inv * inv) * weight;
             for (float& c : q) c *= inv;
             const float nd = (n[0][l] * q[0] + n[1][l] * q[1]) + n[2][l] * q[2];
-            const float m[6]{(1.0f - q[0] * q[0]) * inv2, ((0.0f - q[1]) * q[0]) * inv2, (1.0f - q[1] * q[1]) * inv2,
-                             ((0.0f - q[2]) * q[0]) * inv2, ((0.0f - q[2]) * q[1]) * inv2, (1.0f - q[2] * q[2]) * inv2};
+            const float m[6]{(1.0f - q[0] * q[0]) * inv2,   ((0.0f - q[1]) * q[0]) * inv2,
+                             (1.0f - q[1] * q[1]) * inv2,   ((0.0f - q[2]) * q[0]) * inv2,
+                             ((0.0f - q[2]) * q[1]) * inv2, (1.0f - q[2] * q[2]) * inv2};
             for (unsigned st = 0, si = 0; si < 3; ++si)
                 for (unsigned ti = 0; ti <= si; ++ti, ++st) {
                     if (!used[si] || !used[ti]) continue;
@@ -1512,7 +1645,9 @@ NormalEquations normalEquationsSingle(const NormalPoints& p, const Model& x, con
 #endif
     }
     NormalEquations ne;
-    const auto sum = [](const float (&lanes)[4]) { return (double(lanes[0]) + double(lanes[1])) + (double(lanes[2]) + double(lanes[3])); };
+    const auto sum = [](const float(&lanes)[4]) {
+        return (double(lanes[0]) + double(lanes[1])) + (double(lanes[2]) + double(lanes[3]));
+    };
     for (unsigned st = 0; st < 6; ++st)
         for (unsigned e = 0; e < 6; ++e) ne.block[st][e] = sum(block[st][e]);
     for (unsigned j = 0; j < 9; ++j) ne.g[j] = sum(g[j]);
@@ -1520,20 +1655,29 @@ NormalEquations normalEquationsSingle(const NormalPoints& p, const Model& x, con
 }
 
 /// normalEquations with the free axes' loops specialised.
-NormalEquations normalEquations(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, unsigned freeAxes) {
+NormalEquations normalEquations(const NormalPoints& p, const Model& x,
+                                const std::array<std::uint8_t, 16>& combo, unsigned freeAxes) {
     if (p.singleEquations) {
         switch (freeAxes) {
-            case 0: return normalEquationsSingle<0>(p, x, combo);
-            case 1: return normalEquationsSingle<1>(p, x, combo);
-            case 2: return normalEquationsSingle<2>(p, x, combo);
-            default: return normalEquationsSingle<3>(p, x, combo);
+            case 0:
+                return normalEquationsSingle<0>(p, x, combo);
+            case 1:
+                return normalEquationsSingle<1>(p, x, combo);
+            case 2:
+                return normalEquationsSingle<2>(p, x, combo);
+            default:
+                return normalEquationsSingle<3>(p, x, combo);
         }
     }
     switch (freeAxes) {
-        case 0: return normalEquations<0>(p, x, combo);
-        case 1: return normalEquations<1>(p, x, combo);
-        case 2: return normalEquations<2>(p, x, combo);
-        default: return normalEquations<3>(p, x, combo);
+        case 0:
+            return normalEquations<0>(p, x, combo);
+        case 1:
+            return normalEquations<1>(p, x, combo);
+        case 2:
+            return normalEquations<2>(p, x, combo);
+        default:
+            return normalEquations<3>(p, x, combo);
     }
 }
 
@@ -1544,7 +1688,8 @@ NormalEquations normalEquations(const NormalPoints& p, const Model& x, const std
 /// starting from @p error (the model's). With both axes free the model is renormalised to the
 /// cube-face form after each step; otherwise the base's minor components are clamped to it.
 /// Returns the error.
-double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>& combo, unsigned freeAxes, int iterations, double error) {
+double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>& combo,
+                   unsigned freeAxes, int iterations, double error) {
     double lambda = 1e-3;
     for (int iteration = 0; iteration < iterations && error > 0; ++iteration) {
         const unsigned a = dominantAxis(x);
@@ -1617,7 +1762,8 @@ double refineModel(const NormalPoints& p, Model& x, std::array<std::uint8_t, 16>
 
 /// The model of a quantised block.
 Model decodedModel(const NormalState& s) {
-    const Vec3 b = esvo::decodeNormal(s.base), u = esvo::decodeAxis(s.axes & 0xFFFFu), v = esvo::decodeAxis(s.axes >> 16);
+    const Vec3 b = esvo::decodeNormal(s.base), u = esvo::decodeAxis(s.axes & 0xFFFFu),
+               v = esvo::decodeAxis(s.axes >> 16);
     return {b[0], b[1], b[2], u[0], u[1], u[2], v[0], v[1], v[2]};
 }
 
@@ -1636,17 +1782,21 @@ void searchCodes(const NormalPoints& p, NormalState& s, int passes) {
     }
 }
 
-void searchCodesGuided(const NormalPoints& p, NormalState& s, int passes, unsigned measured, double enough);
+void searchCodesGuided(const NormalPoints& p, NormalState& s, int passes, unsigned measured,
+                       double enough);
 
 void polishCodes(const NormalPoints& p, NormalState& s, const CodeSearch& codes) {
     if (codes.passes <= 0 || s.error <= codes.enough) return;
-    if (codes.measured == 0) searchCodes(p, s, codes.passes);
-    else searchCodesGuided(p, s, codes.passes, codes.measured, codes.enough);
+    if (codes.measured == 0)
+        searchCodes(p, s, codes.passes);
+    else
+        searchCodesGuided(p, s, codes.passes, codes.measured, codes.enough);
 }
 
 /// tryNormals of the codes a model rounds to.
 void tryModel(const NormalPoints& p, const Model& y, NormalState& s) {
-    const std::uint32_t axes = esvo::encodeAxis(modelPart(y, 1)) | (esvo::encodeAxis(modelPart(y, 2)) << 16);
+    const std::uint32_t axes =
+        esvo::encodeAxis(modelPart(y, 1)) | (esvo::encodeAxis(modelPart(y, 2)) << 16);
     tryNormals(p, esvo::encodeNormal(modelPart(y, 0)), axes, s);
 }
 
@@ -1660,7 +1810,8 @@ void roundModelPart(Model& y, unsigned part) {
 /// three in a plane) can spend both axes' codes on the other: with that axis' part moved into
 /// the base, the lattice's diagonal b + c·(u + v) has u + v = Q(a) + Q(a − Q(a)), about
 /// twice the mantissa bits. Tries those codes for each axis that qualifies.
-void tryLatticeLines(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, NormalState& s) {
+void tryLatticeLines(const NormalPoints& p, const Model& x,
+                     const std::array<std::uint8_t, 16>& combo, NormalState& s) {
     std::array<std::uint8_t, 16> c0 = combo;
     modelError(p, x, c0);
     for (unsigned line = 1; line <= 2; ++line) {
@@ -1670,7 +1821,8 @@ void tryLatticeLines(const NormalPoints& p, const Model& x, const std::array<std
         for (unsigned i = 1; i < p.count; ++i) single = single && weight(c0[i]) == weight(c0[0]);
         if (!single) continue;
         Model y = x;
-        for (unsigned k = 0; k < 3; ++k) y[k] += esvo::kAxisWeights[weight(c0[0])] * y[3 * other + k];
+        for (unsigned k = 0; k < 3; ++k)
+            y[k] += esvo::kAxisWeights[weight(c0[0])] * y[3 * other + k];
         roundModelPart(y, line);
         for (unsigned k = 0; k < 3; ++k) y[3 * other + k] = x[3 * line + k] - y[3 * line + k];
         roundModelPart(y, other);
@@ -1682,7 +1834,8 @@ void tryLatticeLines(const NormalPoints& p, const Model& x, const std::array<std
 
 /// Quantises a model: all parts rounded at once, and each axis rounded in turn with the rest
 /// refit to it (when not @p thorough, u only); then the search of the codes around the best.
-NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, bool thorough,
+NormalState quantiseModel(const NormalPoints& p, const Model& x,
+                          const std::array<std::uint8_t, 16>& combo, bool thorough,
                           const CodeSearch& codes) {
     NormalState s;
     tryModel(p, x, s);
@@ -1704,21 +1857,28 @@ NormalState quantiseModel(const NormalPoints& p, const Model& x, const std::arra
 /// Up to sixteen codes of a 3-D axis @p a: at the smallest exponent that holds it and the next,
 /// each component rounded down and up.
 unsigned axisCandidates3(const Vec3& a, std::array<std::uint32_t, 16>& codes) {
-    const int e0 = axisExponent(std::min({a[0], a[1], a[2], 0.0f}), std::max({a[0], a[1], a[2], 0.0f}));  // encodeAxis's
+    const int e0 = axisExponent(std::min({a[0], a[1], a[2], 0.0f}),
+                                std::max({a[0], a[1], a[2], 0.0f}));  // encodeAxis's
     unsigned n = 0;
     for (int e = e0; e <= std::min(e0 + 1, 15); ++e) {
         const float step = axisStep(e);
         std::array<std::array<std::uint32_t, 2>, 3> m{};
-        unsigned equal = 0;  // components whose value is a whole number of steps: rounded down and up alike
+        unsigned equal =
+            0;  // components whose value is a whole number of steps: rounded down and up alike
         for (unsigned c = 0; c < 3; ++c) {
             const float q = a[c] / step;
-            const int lo = std::clamp(static_cast<int>(std::floor(q)), -8, 7), hi = std::clamp(static_cast<int>(std::ceil(q)), -8, 7);
-            m[c] = {(static_cast<std::uint32_t>(lo) & 15u) << (4 * c), (static_cast<std::uint32_t>(hi) & 15u) << (4 * c)};
+            const int lo = std::clamp(static_cast<int>(std::floor(q)), -8, 7),
+                      hi = std::clamp(static_cast<int>(std::ceil(q)), -8, 7);
+            m[c] = {(static_cast<std::uint32_t>(lo) & 15u) << (4 * c),
+                    (static_cast<std::uint32_t>(hi) & 15u) << (4 * c)};
             if (lo == hi) equal |= 1u << c;
         }
-        // Every combination once, in the order of the bits (the duplicates a whole component makes skipped).
+        // Every combination once, in the order of the bits (the duplicates a whole component makes
+        // skipped).
         for (unsigned bits = 0; bits < 8; ++bits)
-            if (!(bits & equal)) codes[n++] = (static_cast<std::uint32_t>(e) << 12) | m[0][bits & 1u] | m[1][(bits >> 1) & 1u] | m[2][(bits >> 2) & 1u];
+            if (!(bits & equal))
+                codes[n++] = (static_cast<std::uint32_t>(e) << 12) | m[0][bits & 1u] |
+                             m[1][(bits >> 1) & 1u] | m[2][(bits >> 2) & 1u];
     }
     return n;
 }
@@ -1729,21 +1889,23 @@ unsigned axisCandidates3(const Vec3& a, std::array<std::uint32_t, 16>& codes) {
 /// constant time, 2ĝᵀδa + δaᵀĤδa, and the base that goes with it found by one product.
 struct AxisQuadratic {
     Model x{};
-    std::array<unsigned, 2> baseVar{};                   ///< the base's minor components
-    std::array<std::array<double, 6>, 2> hba{};          ///< Hba: base rows, axis columns
-    std::array<double, 2> gb{};                          ///< the base's gradient
-    double ib00 = 0, ib01 = 0, ib11 = 0;                 ///< Hbb⁻¹
-    std::array<std::array<double, 6>, 6> hh{};           ///< Ĥ = Haa − Hab Hbb⁻¹ Hba
-    std::array<double, 6> gh{};                          ///< ĝ = ga − Hab Hbb⁻¹ gb
+    std::array<unsigned, 2> baseVar{};           ///< the base's minor components
+    std::array<std::array<double, 6>, 2> hba{};  ///< Hba: base rows, axis columns
+    std::array<double, 2> gb{};                  ///< the base's gradient
+    double ib00 = 0, ib01 = 0, ib11 = 0;         ///< Hbb⁻¹
+    std::array<std::array<double, 6>, 6> hh{};   ///< Ĥ = Haa − Hab Hbb⁻¹ Hba
+    std::array<double, 6> gh{};                  ///< ĝ = ga − Hab Hbb⁻¹ gb
 
     /// False where the base's block is singular (no quadratic).
-    bool init(const NormalPoints& p, const Model& model, const std::array<std::uint8_t, 16>& combo) {
+    bool init(const NormalPoints& p, const Model& model,
+              const std::array<std::uint8_t, 16>& combo) {
         x = model;
         const unsigned a = dominantAxis(x);
         const NormalEquations ne = normalEquations(p, x, combo, 3);
         for (unsigned c = 0, n = 0; c < 3; ++c)
             if (c != a) baseVar[n++] = c;
-        const double hb00 = ne.h(baseVar[0], baseVar[0]), hb01 = ne.h(baseVar[0], baseVar[1]), hb11 = ne.h(baseVar[1], baseVar[1]);
+        const double hb00 = ne.h(baseVar[0], baseVar[0]), hb01 = ne.h(baseVar[0], baseVar[1]),
+                     hb11 = ne.h(baseVar[1], baseVar[1]);
         const double det = hb00 * hb11 - hb01 * hb01;
         if (!(det > 1e-300)) return false;
         ib00 = hb11 / det, ib01 = -hb01 / det, ib11 = hb00 / det;
@@ -1753,10 +1915,12 @@ struct AxisQuadratic {
         }
         // (Hbb⁻¹ Hba) column by column, then the Schur complement.
         std::array<std::array<double, 2>, 6> hbiT{};
-        for (unsigned j = 0; j < 6; ++j) hbiT[j] = {ib00 * hba[0][j] + ib01 * hba[1][j], ib01 * hba[0][j] + ib11 * hba[1][j]};
+        for (unsigned j = 0; j < 6; ++j)
+            hbiT[j] = {ib00 * hba[0][j] + ib01 * hba[1][j], ib01 * hba[0][j] + ib11 * hba[1][j]};
         const double ig0 = ib00 * gb[0] + ib01 * gb[1], ig1 = ib01 * gb[0] + ib11 * gb[1];
         for (unsigned i = 0; i < 6; ++i) {
-            for (unsigned j = 0; j < 6; ++j) hh[i][j] = ne.h(3 + i, 3 + j) - (hba[0][i] * hbiT[j][0] + hba[1][i] * hbiT[j][1]);
+            for (unsigned j = 0; j < 6; ++j)
+                hh[i][j] = ne.h(3 + i, 3 + j) - (hba[0][i] * hbiT[j][0] + hba[1][i] * hbiT[j][1]);
             gh[i] = ne.g[3 + i] - (hba[0][i] * ig0 + hba[1][i] * ig1);
         }
         return true;
@@ -1768,7 +1932,8 @@ struct AxisQuadratic {
         double q = 0;
         for (unsigned r = 0; r < 3; ++r) {
             const unsigned i = 3 * which + r;
-            q += d[r] * (2 * gh[i] + hh[i][3 * which] * d[0] + hh[i][3 * which + 1] * d[1] + hh[i][3 * which + 2] * d[2]);
+            q += d[r] * (2 * gh[i] + hh[i][3 * which] * d[0] + hh[i][3 * which + 1] * d[1] +
+                         hh[i][3 * which + 2] * d[2]);
         }
         return q;
     }
@@ -1789,7 +1954,8 @@ struct AxisQuadratic {
 /// exponent finer or coarser, re-rounded) and the base refit alone, each with the base at its
 /// best, in constant time, and measures only the best @p measured (at most 4); stops when none
 /// gains or the error is at most @p enough.
-void searchCodesGuided(const NormalPoints& p, NormalState& s, int passes, unsigned measured, double enough) {
+void searchCodesGuided(const NormalPoints& p, NormalState& s, int passes, unsigned measured,
+                       double enough) {
     struct Move {
         std::uint32_t axes;
         unsigned which;
@@ -1801,7 +1967,8 @@ void searchCodesGuided(const NormalPoints& p, NormalState& s, int passes, unsign
         std::array<Move, 17> moves{};
         TopK top(measured);
         unsigned n = 0;
-        const auto offer = [&](std::uint32_t axes, unsigned which, const std::array<double, 3>& d, double score) {
+        const auto offer = [&](std::uint32_t axes, unsigned which, const std::array<double, 3>& d,
+                               double score) {
             moves[n] = {axes, which, d};
             top.offer(score, n++);
         };
@@ -1815,19 +1982,24 @@ void searchCodesGuided(const NormalPoints& p, NormalState& s, int passes, unsign
                 for (const int dir : {-1, 1}) {
                     const int value = axisDigit(bits, c) + dir;
                     if (value < -8 || value > 7) continue;
-                    const std::uint32_t moved = (bits & ~(15u << (4 * c))) | ((static_cast<std::uint32_t>(value) & 15u) << (4 * c));
+                    const std::uint32_t moved =
+                        (bits & ~(15u << (4 * c))) |
+                        ((static_cast<std::uint32_t>(value) & 15u) << (4 * c));
                     std::array<double, 3> d{};
                     d[c] = dir * step;
                     const unsigned i = 3 * which + c;
-                    offer((s.axes & ~(0xFFFFu << shift)) | (moved << shift), which, d, d[c] * (2 * q.gh[i] + q.hh[i][i] * d[c]));
+                    offer((s.axes & ~(0xFFFFu << shift)) | (moved << shift), which, d,
+                          d[c] * (2 * q.gh[i] + q.hh[i][i] * d[c]));
                 }
             const Vec3 decoded = esvo::decodeAxis(bits);
             for (const int ne : {e - 1, e + 1}) {
                 if (ne < 0 || ne > 15) continue;
                 const std::uint32_t rounded = roundAxis(decoded, ne);
                 const Vec3 r = esvo::decodeAxis(rounded);
-                const std::array<double, 3> d{double(r[0]) - decoded[0], double(r[1]) - decoded[1], double(r[2]) - decoded[2]};
-                offer((s.axes & ~(0xFFFFu << shift)) | (rounded << shift), which, d, q.score(which, d));
+                const std::array<double, 3> d{double(r[0]) - decoded[0], double(r[1]) - decoded[1],
+                                              double(r[2]) - decoded[2]};
+                offer((s.axes & ~(0xFFFFu << shift)) | (rounded << shift), which, d,
+                      q.score(which, d));
             }
         }
         bool improved = false;
@@ -1845,16 +2017,19 @@ void searchCodesGuided(const NormalPoints& p, NormalState& s, int passes, unsign
 /// codes (axisCandidates3) is scored in constant time, and the best @p measured are measured
 /// with their base; then the lattice-line codes as quantiseModel tries them, and the search of
 /// the codes around the best.
-NormalState quantiseModelFast(const NormalPoints& p, const Model& x, const std::array<std::uint8_t, 16>& combo, unsigned measured,
+NormalState quantiseModelFast(const NormalPoints& p, const Model& x,
+                              const std::array<std::uint8_t, 16>& combo, unsigned measured,
                               const CodeSearch& codes) {
     NormalState s;
-    tryNormals(p, esvo::encodeNormal(modelPart(x, 0)), esvo::encodeAxis(modelPart(x, 1)) | (esvo::encodeAxis(modelPart(x, 2)) << 16), s);
+    tryNormals(p, esvo::encodeNormal(modelPart(x, 0)),
+               esvo::encodeAxis(modelPart(x, 1)) | (esvo::encodeAxis(modelPart(x, 2)) << 16), s);
     AxisQuadratic q;
     if (q.init(p, x, combo) && s.error > 0) {
         const auto& hh = q.hh;
         const auto& gh = q.gh;
         std::array<std::uint32_t, 16> uc{}, vc{};
-        const unsigned nu = axisCandidates3(modelPart(x, 1), uc), nv = axisCandidates3(modelPart(x, 2), vc);
+        const unsigned nu = axisCandidates3(modelPart(x, 1), uc),
+                       nv = axisCandidates3(modelPart(x, 2), vc);
         std::array<std::array<double, 3>, 16> du{}, dv{}, cv{};
         std::array<double, 16> au{}, bv{};
         // The score split into its u part, v part and cross term, so that the pairs cost little.
@@ -1862,20 +2037,28 @@ NormalState quantiseModelFast(const NormalPoints& p, const Model& x, const std::
             const Vec3 d = esvo::decodeAxis(uc[i]);
             for (unsigned c = 0; c < 3; ++c) du[i][c] = d[c] - x[3 + c];
             double sc = 0;
-            for (unsigned r = 0; r < 3; ++r) sc += du[i][r] * (2 * gh[r] + hh[r][0] * du[i][0] + hh[r][1] * du[i][1] + hh[r][2] * du[i][2]);
+            for (unsigned r = 0; r < 3; ++r)
+                sc += du[i][r] *
+                      (2 * gh[r] + hh[r][0] * du[i][0] + hh[r][1] * du[i][1] + hh[r][2] * du[i][2]);
             au[i] = sc;
         }
         for (unsigned j = 0; j < nv; ++j) {
             const Vec3 d = esvo::decodeAxis(vc[j]);
             for (unsigned c = 0; c < 3; ++c) dv[j][c] = d[c] - x[6 + c];
             double sc = 0;
-            for (unsigned r = 0; r < 3; ++r) sc += dv[j][r] * (2 * gh[3 + r] + hh[3 + r][3] * dv[j][0] + hh[3 + r][4] * dv[j][1] + hh[3 + r][5] * dv[j][2]);
+            for (unsigned r = 0; r < 3; ++r)
+                sc += dv[j][r] * (2 * gh[3 + r] + hh[3 + r][3] * dv[j][0] +
+                                  hh[3 + r][4] * dv[j][1] + hh[3 + r][5] * dv[j][2]);
             bv[j] = sc;
-            for (unsigned r = 0; r < 3; ++r) cv[j][r] = hh[r][3] * dv[j][0] + hh[r][4] * dv[j][1] + hh[r][5] * dv[j][2];
+            for (unsigned r = 0; r < 3; ++r)
+                cv[j][r] = hh[r][3] * dv[j][0] + hh[r][4] * dv[j][1] + hh[r][5] * dv[j][2];
         }
         TopK top(measured);  // (the earlier pair of equals first)
         for (unsigned i = 0; i < nu; ++i)
-            for (unsigned j = 0; j < nv; ++j) top.offer(au[i] + bv[j] + 2 * (du[i][0] * cv[j][0] + du[i][1] * cv[j][1] + du[i][2] * cv[j][2]), 16 * i + j);
+            for (unsigned j = 0; j < nv; ++j)
+                top.offer(au[i] + bv[j] +
+                              2 * (du[i][0] * cv[j][0] + du[i][1] * cv[j][1] + du[i][2] * cv[j][2]),
+                          16 * i + j);
         for (unsigned m = 0; m < top.n; ++m) {
             const unsigned i = top.id[m] / 16, j = top.id[m] % 16;
             std::array<double, 6> da{};
@@ -1896,11 +2079,13 @@ Dir unit(const Dir& a) {
     return len > 0 ? Dir{a[0] / len, a[1] / len, a[2] / len} : a;
 }
 double det3(const Dir& a, const Dir& b, const Dir& c) {
-    return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+    return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+           a[2] * (b[0] * c[1] - b[1] * c[0]);
 }
 
 /// The model whose lattice points at @p pos (cu, cv; not collinear) are @p points.
-Model modelThrough(const std::array<Dir, 3>& points, const std::array<std::array<double, 2>, 3>& pos) {
+Model modelThrough(const std::array<Dir, 3>& points,
+                   const std::array<std::array<double, 2>, 3>& pos) {
     // Rows (1, cu, cv) of the three points; (b, u, v) = L⁻¹ · points, per coordinate.
     const Dir r0{1, pos[0][0], pos[0][1]}, r1{1, pos[1][0], pos[1][1]}, r2{1, pos[2][0], pos[2][1]};
     const double det = det3(r0, r1, r2);
@@ -1912,7 +2097,9 @@ Model modelThrough(const std::array<Dir, 3>& points, const std::array<std::array
     Model x{};
     for (unsigned part = 0; part < 3; ++part)
         for (unsigned c = 0; c < 3; ++c)
-            x[3 * part + c] = (col[0][part] * points[0][c] + col[1][part] * points[1][c] + col[2][part] * points[2][c]) / det;
+            x[3 * part + c] = (col[0][part] * points[0][c] + col[1][part] * points[1][c] +
+                               col[2][part] * points[2][c]) /
+                              det;
     return x;
 }
 
@@ -1955,23 +2142,27 @@ unsigned modelsThrough(const std::array<Dir, 4>& r, unsigned k, std::array<Model
     } else if (k == 3) {
         const unsigned j = rightAngle(r, {0, 1, 2});
         out[count++] = modelThrough({r[j], r[(j + 1) % 3], r[(j + 2) % 3]}, kTriangle);
-        // Collinear on the u axis when one lies between the other two: r_m = α·r_a + β·r_b, α, β > 0,
-        // at cu = ±1/3 between λa·r_a at −1 and λb·r_b at 1.
+        // Collinear on the u axis when one lies between the other two: r_m = α·r_a + β·r_b, α, β >
+        // 0, at cu = ±1/3 between λa·r_a at −1 and λb·r_b at 1.
         for (unsigned m = 0; m < 3; ++m) {
             const Dir& ra = r[(m + 1) % 3];
             const Dir& rb = r[(m + 2) % 3];
-            const double aa = dot(ra, ra), ab = dot(ra, rb), bb = dot(rb, rb), am = dot(ra, r[m]), bm = dot(rb, r[m]);
+            const double aa = dot(ra, ra), ab = dot(ra, rb), bb = dot(rb, rb), am = dot(ra, r[m]),
+                         bm = dot(rb, r[m]);
             const double det = aa * bb - ab * ab;
             if (!(det > 1e-6)) continue;
             const double alpha = (bb * am - ab * bm) / det, beta = (aa * bm - ab * am) / det;
             if (!(alpha > 0.05 && beta > 0.05)) continue;
             // At +1/3: λa = α, λb = β/2; at −1/3: λa = α/2, λb = β. The more even pair.
-            if (2 * alpha / beta < 2 * beta / alpha) out[count++] = modelOnLine(ra, alpha, rb, 0.5 * beta);
-            else out[count++] = modelOnLine(ra, 0.5 * alpha, rb, beta);
+            if (2 * alpha / beta < 2 * beta / alpha)
+                out[count++] = modelOnLine(ra, alpha, rb, 0.5 * beta);
+            else
+                out[count++] = modelOnLine(ra, 0.5 * alpha, rb, beta);
         }
     } else if (k == 4) {
         // The linear dependency Σ α_m r_m = 0.
-        std::array<double, 4> alpha{det3(r[1], r[2], r[3]), -det3(r[0], r[2], r[3]), det3(r[0], r[1], r[3]), -det3(r[0], r[1], r[2])};
+        std::array<double, 4> alpha{det3(r[1], r[2], r[3]), -det3(r[0], r[2], r[3]),
+                                    det3(r[0], r[1], r[3]), -det3(r[0], r[1], r[2])};
         double largest = 0;
         unsigned positive = 0;
         for (const double a : alpha) largest = std::max(largest, std::fabs(a)), positive += a > 0;
@@ -1993,19 +2184,23 @@ unsigned modelsThrough(const std::array<Dir, 4>& r, unsigned k, std::array<Model
                 std::array<Dir, 3> points{};
                 for (unsigned n = 0; n < 3; ++n) {
                     const unsigned m = corners[(j + n) % 3];
-                    for (unsigned c = 0; c < 3; ++c) points[n][c] = 3 * alpha[m] / largest * r[m][c];
+                    for (unsigned c = 0; c < 3; ++c)
+                        points[n][c] = 3 * alpha[m] / largest * r[m][c];
                 }
                 out[count++] = modelThrough(points, kTriangle);
             } else if (positive == 2) {
                 // Two pairs whose segments cross: the diagonals of the outer square.
                 std::array<unsigned, 2> plus{}, minus{};
                 for (unsigned m = 0, np = 0, nm = 0; m < 4; ++m)
-                    if (alpha[m] > 0) plus[np++] = m;
-                    else minus[nm++] = m;
+                    if (alpha[m] > 0)
+                        plus[np++] = m;
+                    else
+                        minus[nm++] = m;
                 std::array<Dir, 3> points{};
                 const std::array<unsigned, 3> at{plus[0], minus[0], minus[1]};
                 for (unsigned n = 0; n < 3; ++n)
-                    for (unsigned c = 0; c < 3; ++c) points[n][c] = std::fabs(alpha[at[n]]) / largest * r[at[n]][c];
+                    for (unsigned c = 0; c < 3; ++c)
+                        points[n][c] = std::fabs(alpha[at[n]]) / largest * r[at[n]][c];
                 out[count++] = modelThrough(points, kTriangle);
             }
         }
@@ -2039,7 +2234,8 @@ void forClusters(const NormalPoints& p, Use use) {
             if (nearest[i] < nearest[far]) far = i;
         if (!(nearest[far] < kDistinctCos)) return;  // no further cluster
         seed[k] = toDir(p.n[far]);
-        for (unsigned i = 0; i < p.count; ++i) nearest[i] = std::max(nearest[i], dot(toDir(p.n[i]), seed[k]));
+        for (unsigned i = 0; i < p.count; ++i)
+            nearest[i] = std::max(nearest[i], dot(toDir(p.n[i]), seed[k]));
         std::array<Dir, 4> centre = seed;
         for (int iteration = 0; iteration < 3; ++iteration) {
             std::array<Dir, 4> sum{};
@@ -2089,13 +2285,15 @@ constexpr double kSecondRatio = 1.5, kQuantisationLoss = 4;
 
 /// Sorts @p c[0…count) by error (stable, so deterministic on ties).
 void sortCandidates(std::array<Candidate, 10>& c, unsigned count) {
-    std::stable_sort(c.begin(), c.begin() + count, [](const Candidate& a, const Candidate& b) { return a.error < b.error; });
+    std::stable_sort(c.begin(), c.begin() + count,
+                     [](const Candidate& a, const Candidate& b) { return a.error < b.error; });
 }
 
 /// The 3-D search: candidate models from the face-plane fit @p f and (for wide blocks, see
-/// kWideCos) from clusters of the normals, the best refined; the best one or two quantised. Replaces @p s
-/// where one decodes better.
-void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, const NormalSearch& search, NormalState& s) {
+/// kWideCos) from clusters of the normals, the best refined; the best one or two quantised.
+/// Replaces @p s where one decodes better.
+void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, const NormalSearch& search,
+           NormalState& s) {
     std::array<Candidate, 10> all{};
     unsigned count = 0;
     const auto consider = [&](Model x) {
@@ -2113,20 +2311,28 @@ void fit3d(const NormalPoints& p, const PlaneFit& f, bool wide, const NormalSear
         });
     sortCandidates(all, count);
     count = std::min(count, search.refined);
-    for (unsigned i = 0; i < count; ++i) all[i].error = refineModel(p, all[i].x, all[i].combo, 3, kFirstIterations, all[i].error);
+    for (unsigned i = 0; i < count; ++i)
+        all[i].error = refineModel(p, all[i].x, all[i].combo, 3, kFirstIterations, all[i].error);
     sortCandidates(all, count);
     count = std::min(count, 2u);
     for (unsigned i = 0; i < count; ++i)
-        all[i].error = refineModel(p, all[i].x, all[i].combo, 3, wide ? search.moreIterations : kNarrowMoreIterations, all[i].error);
+        all[i].error =
+            refineModel(p, all[i].x, all[i].combo, 3,
+                        wide ? search.moreIterations : kNarrowMoreIterations, all[i].error);
     sortCandidates(all, count);
     const double enough = search.enoughPerNormal * p.total;
     for (unsigned i = 0; i < count && s.error > enough; ++i) {
-        if (i > 0 && (!search.second || (all[i].error > kSecondRatio * all[0].error && !(s.error > kQuantisationLoss * all[i].error)))) break;
+        if (i > 0 && (!search.second || (all[i].error > kSecondRatio * all[0].error &&
+                                         !(s.error > kQuantisationLoss * all[i].error))))
+            break;
         if (i > 0 && !(s.error > search.secondAbove * all[0].error)) break;
-        CodeSearch codes = wide ? search.modelCodes : (search.enumerateModel ? CodeSearch{} : search.narrowModelCodes);
+        CodeSearch codes = wide ? search.modelCodes
+                                : (search.enumerateModel ? CodeSearch{} : search.narrowModelCodes);
         codes.enough = enough;
-        const NormalState q = search.enumerateModel ? quantiseModelFast(p, all[i].x, all[i].combo, 3, codes)
-                                                    : quantiseModel(p, all[i].x, all[i].combo, wide && search.roundBothAxes, codes);
+        const NormalState q =
+            search.enumerateModel
+                ? quantiseModelFast(p, all[i].x, all[i].combo, 3, codes)
+                : quantiseModel(p, all[i].x, all[i].combo, wide && search.roundBothAxes, codes);
         if (q.error < s.error) s = q;
     }
 }
@@ -2145,7 +2351,8 @@ NormalState searchNormals(NormalPoints& p, AttributeEffort effort) {
         for (unsigned i = 0; i < p.count && count <= 4; ++i) {
             const Dir n = toDir(p.n[i]);
             bool known = false;
-            for (unsigned j = 0; j < count && !known; ++j) known = dot(n, distinct[j]) >= kDistinctCos;
+            for (unsigned j = 0; j < count && !known; ++j)
+                known = dot(n, distinct[j]) >= kDistinctCos;
             if (!known) distinct[count++] = n;
         }
         few = count <= 4;
@@ -2156,8 +2363,9 @@ NormalState searchNormals(NormalPoints& p, AttributeEffort effort) {
     p.singleEquations = search.singleEquations && !few;
     // Early exit (Fast): where the first start already fits within the threshold, the others are
     // not tried.
-    const PlaneFit f = fitNormals(p, search.startMask, search.planeOnCodes,
-                                  [&](const PlaneFit& firstFit) { return firstFit.error <= search.earlyBelow * p.total; });
+    const PlaneFit f = fitNormals(
+        p, search.startMask, search.planeOnCodes,
+        [&](const PlaneFit& firstFit) { return firstFit.error <= search.earlyBelow * p.total; });
     NormalState s;
     if (search.planeOnCodes) {
         const NormalState codes = planeCodes(p, f);
@@ -2171,7 +2379,8 @@ NormalState searchNormals(NormalPoints& p, AttributeEffort effort) {
         const NormalSearch fs = fewSearch(effort);
         if (s.error > fs.wideThreshold * p.total) fit3d(p, f, true, fs, s);
     } else if (s.error > (wide ? search.wideThreshold : search.narrowThreshold) * p.total) {
-        fit3d(p, f, wide, s.error < search.lightBelow * p.total ? normalSearch(effort, true) : search, s);
+        fit3d(p, f, wide,
+              s.error < search.lightBelow * p.total ? normalSearch(effort, true) : search, s);
     }
     return s;
 }
@@ -2185,9 +2394,11 @@ class NormalSearchCache {
 public:
     /// searchNormals(p, effort), from the cache where it holds the block.
     NormalState find(NormalPoints& p, AttributeEffort effort) {
-        std::uint64_t hash = 0x9E3779B97F4A7C15ull ^ (std::uint64_t{p.count} << 8) ^ static_cast<std::uint64_t>(effort);
+        std::uint64_t hash = 0x9E3779B97F4A7C15ull ^ (std::uint64_t{p.count} << 8) ^
+                             static_cast<std::uint64_t>(effort);
         for (unsigned i = 0; i < p.count; ++i) {
-            for (unsigned c = 0; c < 3; ++c) hash = (hash ^ std::bit_cast<std::uint32_t>(p.n[i][c])) * 0x100000001B3ull;
+            for (unsigned c = 0; c < 3; ++c)
+                hash = (hash ^ std::bit_cast<std::uint32_t>(p.n[i][c])) * 0x100000001B3ull;
             hash = (hash ^ std::bit_cast<std::uint32_t>(p.multiplicity[i])) * 0x100000001B3ull;
         }
         Entry& e = entries_[(hash ^ (hash >> 29)) % entries_.size()];
@@ -2226,7 +2437,8 @@ NormalState encodeNormals(NormalPoints& p, AttributeEffort effort) {
         s.error = 0;
         return s;
     }
-    thread_local const std::unique_ptr<NormalSearchCache> cache = std::make_unique<NormalSearchCache>();
+    thread_local const std::unique_ptr<NormalSearchCache> cache =
+        std::make_unique<NormalSearchCache>();
     return cache->find(p, effort);
 }
 
@@ -2238,31 +2450,36 @@ esvo::Vec3 unitOrZ(const esvo::Vec3& n) {
 
 }  // namespace
 
-std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask, AttributeEffort effort) {
+std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16>& colors,
+                                              std::uint32_t usedMask, AttributeEffort effort) {
     ColorPoints p;
     for (unsigned slot = 0; slot < 16; ++slot) {
         if (!((usedMask >> slot) & 1u)) continue;
         p.slot[p.count] = slot;
-        for (unsigned ch = 0; ch < 3; ++ch) p.rgb[p.count][ch] = static_cast<int>(esvo::colorChannel(colors[slot], ch));
+        for (unsigned ch = 0; ch < 3; ++ch)
+            p.rgb[p.count][ch] = static_cast<int>(esvo::colorChannel(colors[slot], ch));
         ++p.count;
     }
     if (p.count == 0) return {0, 0};
     for (unsigned i = 0; i < 16; ++i)
-        for (unsigned ch = 0; ch < 3; ++ch) p.channel[ch][i] = static_cast<float>(p.rgb[i < p.count ? i : 0][ch]);
+        for (unsigned ch = 0; ch < 3; ++ch)
+            p.channel[ch][i] = static_cast<float>(p.rgb[i < p.count ? i : 0][ch]);
     const ColorState s = encodeColors(p, effort);
     std::uint32_t indices = 0;
     for (unsigned i = 0; i < p.count; ++i) indices |= std::uint32_t{s.index[i]} << (2 * p.slot[i]);
     return {s.c0 | (s.c1 << 16), indices};
 }
 
-std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask, AttributeEffort effort) {
+std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals,
+                                               std::uint32_t usedMask, AttributeEffort effort) {
     NormalPoints p;
     std::array<std::uint8_t, 16> pointOf{};  // per used slot: its distinct normal
     for (unsigned slot = 0; slot < 16; ++slot) {
         if (!((usedMask >> slot) & 1u)) continue;
         const Vec3 n = unitOrZ(normals[slot]);
         unsigned i = 0;
-        while (i < p.count && !(p.n[i] == n)) ++i;  // bit-identical normals share a point (unitOrZ gives no NaN)
+        while (i < p.count && !(p.n[i] == n))
+            ++i;  // bit-identical normals share a point (unitOrZ gives no NaN)
         if (i == p.count) p.n[p.count++] = n;
         pointOf[slot] = static_cast<std::uint8_t>(i);
         p.multiplicity[i] += 1;
@@ -2280,7 +2497,8 @@ std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>&
     return {s.base, uIndices, s.axes, vIndices};
 }
 
-esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>& values, std::uint32_t usedMask, AttributeEffort effort) {
+esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>& values,
+                                            std::uint32_t usedMask, AttributeEffort effort) {
     std::array<std::uint32_t, 16> colors{};
     std::array<esvo::Vec3, 16> normals{};
     for (unsigned slot = 0; slot < 16; ++slot) {
@@ -2312,15 +2530,16 @@ bool encoderAvx512() noexcept {
 #endif
 }
 
-std::uint64_t colorBlockError(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask, std::uint32_t word0,
-                              std::uint32_t word1) noexcept {
+std::uint64_t colorBlockError(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask,
+                              std::uint32_t word0, std::uint32_t word1) noexcept {
     const auto palette = esvo::colorPalette(word0 & 0xFFFFu, word0 >> 16);
     std::uint64_t total = 0;
     for (unsigned slot = 0; slot < 16; ++slot) {
         if (!((usedMask >> slot) & 1u)) continue;
         const std::uint32_t decoded = palette[esvo::blockIndex(word1, slot)];
         for (unsigned ch = 0; ch < 3; ++ch) {
-            const int d = static_cast<int>(esvo::colorChannel(colors[slot], ch)) - static_cast<int>(esvo::colorChannel(decoded, ch));
+            const int d = static_cast<int>(esvo::colorChannel(colors[slot], ch)) -
+                          static_cast<int>(esvo::colorChannel(decoded, ch));
             total += static_cast<std::uint64_t>(d * d);
         }
     }

@@ -3,9 +3,9 @@
 // 6-word esvo::CompressedBlock whose layout and decoders are in vox/formats/esvo_attributes.h.
 // The encoders search for the block that decodes closest to the input, measured with the
 // decoders' own arithmetic: squared 8-bit sRGB error for colour, angle for normals. They are
-// deterministic (no randomness, no dependence on threads; the AVX-512 and SSE2 kernels and the scalar
-// fallbacks compute the same values). How hard they search is an AttributeEffort: on the real
-// blocks of depth-10 scenes, Default takes 12–32 thousand instructions a normal block (about
+// deterministic (no randomness, no dependence on threads; the AVX-512 and SSE2 kernels and the
+// scalar fallbacks compute the same values). How hard they search is an AttributeEffort: on the
+// real blocks of depth-10 scenes, Default takes 12–32 thousand instructions a normal block (about
 // 1.8–3.4 µs; Best 2–3 times that) for 0–1 % more mean normal error than the Default before it,
 // and 2.5–12 thousand a colour block for at most 0.03 dB less colour PSNR; see
 // docs/esvo-format.md §14.
@@ -38,8 +38,9 @@ using vox::AttributeEffort;  // vox/octree.h
 /// @p usedMask (bits 0-15) matter; unused slots get index 0, and a mask of 0 gives {0, 0}.
 /// Minimises the summed squared RGB error over the used slots as esvo::colorPalette decodes
 /// them; one colour, or two that are RGB565 values, come out exact.
-[[nodiscard]] std::array<std::uint32_t, 2> encodeColorBlock(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask,
-                                                           AttributeEffort effort = AttributeEffort::Default);
+[[nodiscard]] std::array<std::uint32_t, 2> encodeColorBlock(
+    const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask,
+    AttributeEffort effort = AttributeEffort::Default);
 
 /// Encodes 16 normals (any non-zero vectors; normalised first, a zero or non-finite one counts
 /// as +z) into words 2-5: base normal, U indices, axes, V indices. Only used slots matter;
@@ -49,13 +50,15 @@ using vox::AttributeEffort;  // vox/octree.h
 /// edge or corner, both sides of a thin sheet) are fit as a lattice in 3-D: axis-aligned
 /// edges, corners and sheets come out within hundredths of a degree, any two directions
 /// within about a degree.
-[[nodiscard]] std::array<std::uint32_t, 4> encodeNormalBlock(const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask,
-                                                            AttributeEffort effort = AttributeEffort::Default);
+[[nodiscard]] std::array<std::uint32_t, 4> encodeNormalBlock(
+    const std::array<esvo::Vec3, 16>& normals, std::uint32_t usedMask,
+    AttributeEffort effort = AttributeEffort::Default);
 
 /// Both: @p values hold colour word | (cube-face normal word << 32) per slot (the layout of the
 /// uncompressed attachment's values).
-[[nodiscard]] esvo::CompressedBlock encodeCompressedBlock(const std::array<std::uint64_t, 16>& values, std::uint32_t usedMask,
-                                                         AttributeEffort effort = AttributeEffort::Default);
+[[nodiscard]] esvo::CompressedBlock encodeCompressedBlock(
+    const std::array<std::uint64_t, 16>& values, std::uint32_t usedMask,
+    AttributeEffort effort = AttributeEffort::Default);
 
 /// Whether encodeNormalBlock's nearest-lattice-point kernels (the face-plane assignment and the
 /// decoded lattice's error, most of its time) run on AVX-512 (16 lattice points a vector) or
@@ -70,7 +73,8 @@ bool setEncoderAvx512(bool enabled) noexcept;
 
 /// Summed squared RGB error (8-bit units, alpha ignored) of the used slots of @p colors against
 /// colour words @p word0 (endpoints) and @p word1 (indices), decoded with esvo::colorPalette.
-[[nodiscard]] std::uint64_t colorBlockError(const std::array<std::uint32_t, 16>& colors, std::uint32_t usedMask, std::uint32_t word0,
+[[nodiscard]] std::uint64_t colorBlockError(const std::array<std::uint32_t, 16>& colors,
+                                            std::uint32_t usedMask, std::uint32_t word0,
                                             std::uint32_t word1) noexcept;
 
 }  // namespace vox::detail

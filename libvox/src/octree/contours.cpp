@@ -22,7 +22,8 @@ long roundHalfAway(double x) {
 std::array<int, 3> quantiseNormal(Vec3d m) {
     const double largest = std::max({std::abs(m.x), std::abs(m.y), std::abs(m.z)});
     if (!(largest > 0)) return {0, 0, 0};
-    return {static_cast<int>(roundHalfAway(31 * m.x / largest)), static_cast<int>(roundHalfAway(31 * m.y / largest)),
+    return {static_cast<int>(roundHalfAway(31 * m.x / largest)),
+            static_cast<int>(roundHalfAway(31 * m.y / largest)),
             static_cast<int>(roundHalfAway(31 * m.z / largest))};
 }
 
@@ -32,7 +33,8 @@ constexpr double kNormalArea = 1e-100;
 
 /// Encodes the slab along @p n covering every point; 0 if it cannot be represented.
 /// @p norm: std::sqrt(double(|n|²)).
-std::uint32_t encodeSlab(const std::array<int, 3>& n, double norm, std::span<const Vec3d> points, double& thickness) {
+std::uint32_t encodeSlab(const std::array<int, 3>& n, double norm, std::span<const Vec3d> points,
+                         double& thickness) {
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     for (const Vec3d& p : points) {
         const double v = n[0] * p.x + n[1] * p.y + n[2] * p.z;
@@ -40,7 +42,8 @@ std::uint32_t encodeSlab(const std::array<int, 3>& n, double norm, std::span<con
         hi = std::max(hi, v);
     }
     constexpr double step = esvo::Contour::kStep;
-    const auto position = static_cast<int>(std::clamp<long>(roundHalfAway(0.5 * (lo + hi) / step), -64, 63));
+    const auto position =
+        static_cast<int>(std::clamp<long>(roundHalfAway(0.5 * (lo + hi) / step), -64, 63));
     // Conservative: the half thickness reaches both ends from the quantised position, with a
     // little room for the ray caster's float arithmetic.
     const double reach = std::max(hi - position * step, position * step - lo) + 1e-4;
@@ -67,7 +70,8 @@ double pointTriangleDistance(Vec3d p, Vec3d a, Vec3d b, Vec3d c) {
     const double vb = d5 * d2 - d1 * d6;
     if (vb <= 0 && d2 >= 0 && d6 <= 0) return length(p - (a + ac * (d2 / (d2 - d6))));
     const double va = d3 * d6 - d5 * d4;
-    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return length(p - (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))));
+    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+        return length(p - (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))));
     const double denom = 1.0 / (va + vb + vc);
     return length(p - (a + ab * (vb * denom) + ac * (vc * denom)));
 }
@@ -79,7 +83,8 @@ QuantisedNormal quantiseDirection(Vec3d direction, bool checkScaleInvariance) {
     q.n = quantiseNormal(direction);
     q.norm = std::sqrt(double(q.n[0] * q.n[0] + q.n[1] * q.n[1] + q.n[2] * q.n[2]));
     if (!checkScaleInvariance) return q;
-    const double largest = std::max({std::abs(direction.x), std::abs(direction.y), std::abs(direction.z)});
+    const double largest =
+        std::max({std::abs(direction.x), std::abs(direction.y), std::abs(direction.z)});
     q.scaleInvariant = largest > 0;
     for (const double v : {direction.x, direction.y, direction.z}) {
         const double scaled = std::abs(31 * v / largest);
@@ -88,14 +93,15 @@ QuantisedNormal quantiseDirection(Vec3d direction, bool checkScaleInvariance) {
     return q;
 }
 
-ContourFit fitContour(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c, double h,
+ContourFit fitContour(std::span<const std::uint32_t> list,
+                      const std::vector<BoxTestTriangle>& triangles, Vec3d c, double h,
                       ContourScratch& scratch) {
     scratch.fragments.clip(list, triangles, c, fitContourScale(h));
     return fitContour(scratch.fragments, list, triangles);
 }
 
-ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles,
-                      TriangleNormals normals) {
+ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint32_t> list,
+                      const std::vector<BoxTestTriangle>& triangles, TriangleNormals normals) {
     Vec3d mean{0, 0, 0};
     struct Candidate {
         double area;
@@ -144,12 +150,15 @@ ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint3
             best = {encoded, thickness};
         }
     };
-    const auto quantiseFragment = [&](const Candidate& cand) {  // what quantiseDirection(cand.normal) gives
-        return normals.quantised ? normals.quantised[cand.triangle] : quantiseDirection(cand.normal);
-    };
+    const auto quantiseFragment =
+        [&](const Candidate& cand) {  // what quantiseDirection(cand.normal) gives
+            return normals.quantised ? normals.quantised[cand.triangle]
+                                     : quantiseDirection(cand.normal);
+        };
     // One fragment's mean is its normal times its area, which quantises as the normal does where
     // that is scale-invariant.
-    const bool oneFragment = weighed == 1 && normals.quantised && normals.quantised[largest[0].triangle].scaleInvariant &&
+    const bool oneFragment = weighed == 1 && normals.quantised &&
+                             normals.quantised[largest[0].triangle].scaleInvariant &&
                              largest[0].area > kNormalArea;
     consider(oneFragment ? quantiseFragment(largest[0]) : quantiseDirection(mean));
     // The mean normal is enough for smooth patches; edges and corners need the others.
@@ -158,7 +167,9 @@ ContourFit fitContour(const CubeFragments& fragments, std::span<const std::uint3
     return best;
 }
 
-std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& thickness) { return ContourCarrier(encoded)(slot, thickness); }
+std::uint32_t carryContour(std::uint32_t encoded, std::uint32_t slot, double& thickness) {
+    return ContourCarrier(encoded)(slot, thickness);
+}
 
 namespace {
 
@@ -174,7 +185,8 @@ void shapeVertices(std::uint32_t encoded, ShapeVertices& out) {
     out.count = 0;
     const esvo::Contour contour = esvo::Contour::decode(encoded);
     const double n[3] = {double(contour.nx), double(contour.ny), double(contour.nz)};
-    const double centre = contour.position * esvo::Contour::kStep, half = 0.5 * contour.thickness * esvo::Contour::kStep;
+    const double centre = contour.position * esvo::Contour::kStep,
+                 half = 0.5 * contour.thickness * esvo::Contour::kStep;
     for (int k = 0; k < 8; ++k) {
         const double x = k & 1 ? 0.5 : -0.5, y = k & 2 ? 0.5 : -0.5, z = k & 4 ? 0.5 : -0.5;
         if (encoded == 0 || std::abs(n[0] * x + n[1] * y + n[2] * z - centre) <= half + 1e-9) {
@@ -206,29 +218,35 @@ void shapeVertices(std::uint32_t encoded, ShapeVertices& out) {
 
 }  // namespace
 
-double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
-                  double h) {
+double shapeError(std::uint32_t encoded, std::span<const std::uint32_t> list,
+                  const std::vector<BoxTestTriangle>& triangles, Vec3d c, double h) {
     ShapeVertices vertices;
     shapeVertices(encoded, vertices);
     double error = 0;
     const double toLeaf = 2 * h;
     for (std::size_t i = 0; i < vertices.count; ++i) {
-        const Vec3d p{c.x + vertices.p[i][0] * toLeaf, c.y + vertices.p[i][1] * toLeaf, c.z + vertices.p[i][2] * toLeaf};
+        const Vec3d p{c.x + vertices.p[i][0] * toLeaf, c.y + vertices.p[i][1] * toLeaf,
+                      c.z + vertices.p[i][2] * toLeaf};
         double nearest = std::numeric_limits<double>::infinity();
-        for (std::uint32_t t : list) nearest = std::min(nearest, pointTriangleDistance(p, triangles[t].v0, triangles[t].v1, triangles[t].v2));
+        for (std::uint32_t t : list)
+            nearest = std::min(nearest, pointTriangleDistance(p, triangles[t].v0, triangles[t].v1,
+                                                              triangles[t].v2));
         error = std::max(error, nearest);
     }
     return error;
 }
 
-bool shapeWithinError(std::uint32_t encoded, std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c,
-                      double h, double bound) {
+bool shapeWithinError(std::uint32_t encoded, std::span<const std::uint32_t> list,
+                      const std::vector<BoxTestTriangle>& triangles, Vec3d c, double h,
+                      double bound) {
     ShapeVertices vertices;
     shapeVertices(encoded, vertices);
     const double toLeaf = 2 * h;
-    std::size_t hint = 0;  // the entry of the triangle that was near the last vertex: often near the next
+    std::size_t hint =
+        0;  // the entry of the triangle that was near the last vertex: often near the next
     for (std::size_t i = 0; i < vertices.count; ++i) {
-        const Vec3d p{c.x + vertices.p[i][0] * toLeaf, c.y + vertices.p[i][1] * toLeaf, c.z + vertices.p[i][2] * toLeaf};
+        const Vec3d p{c.x + vertices.p[i][0] * toLeaf, c.y + vertices.p[i][1] * toLeaf,
+                      c.z + vertices.p[i][2] * toLeaf};
         const auto near = [&](std::size_t entry) {
             const BoxTestTriangle& t = triangles[list[entry]];
             // Outside the triangle's bounds grown by the bound, no point of it is within the bound.

@@ -28,7 +28,8 @@ SliceStore::Location SliceStore::add(std::vector<std::uint64_t>&& units) {
     return {kScratch, offset, bytes};
 }
 
-SliceStore::Location SliceStore::external(const std::shared_ptr<const ReadOnlyFile>& file, std::uint64_t offset, std::uint64_t bytes,
+SliceStore::Location SliceStore::external(const std::shared_ptr<const ReadOnlyFile>& file,
+                                          std::uint64_t offset, std::uint64_t bytes,
                                           std::uint32_t checksum) {
     std::lock_guard lock(mutex_);
     if (files_.empty() || files_.back() != file) files_.push_back(file);
@@ -46,11 +47,14 @@ void SliceStore::read(const Location& where, std::vector<std::uint64_t>& out) co
         const ReadOnlyFile& file = *files_[static_cast<std::size_t>(where.file)];
         file.read(where.offset, reinterpret_cast<std::uint8_t*>(out.data()), where.bytes);
         if (crc32c(out.data(), where.bytes) != where.checksum)
-            throw InvalidDataError(file.path(), "the slice at byte " + std::to_string(where.offset) + " does not match its checksum");
+            throw InvalidDataError(file.path(), "the slice at byte " +
+                                                    std::to_string(where.offset) +
+                                                    " does not match its checksum");
     }
 }
 
-PartitionSlices storeSlices(std::vector<LaidOutSlice>&& slices, std::uint32_t level, std::uint64_t path, SliceStore& store) {
+PartitionSlices storeSlices(std::vector<LaidOutSlice>&& slices, std::uint32_t level,
+                            std::uint64_t path, SliceStore& store) {
     PartitionSlices out;
     out.level = level;
     out.path = path;
@@ -79,8 +83,9 @@ PartitionSlices storeSlices(std::vector<LaidOutSlice>&& slices, std::uint32_t le
     return out;
 }
 
-EsvoWriteResult assembleEsvo(const std::filesystem::path& file, const EsvoFileInfo& info, const PartitionSlices* top,
-                             std::vector<PartitionSlices>&& partitions, const SliceStore& store, Timings* timings) {
+EsvoWriteResult assembleEsvo(const std::filesystem::path& file, const EsvoFileInfo& info,
+                             const PartitionSlices* top, std::vector<PartitionSlices>&& partitions,
+                             const SliceStore& store, Timings* timings) {
     // One record list: the top's (or the single partition's) first, then each partition's, the
     // top's places for partitions replaced by the partitions' root slices.
     std::vector<SliceRecord> records;
@@ -98,7 +103,8 @@ EsvoWriteResult assembleEsvo(const std::filesystem::path& file, const EsvoFileIn
         append(topCopy);
         std::map<std::pair<std::uint32_t, std::uint64_t>, std::size_t> byVoxel;
         for (std::size_t p = 0; p < partitions.size(); ++p)
-            if (!partitions[p].slices.empty()) byVoxel[{partitions[p].level, partitions[p].path}] = p;
+            if (!partitions[p].slices.empty())
+                byVoxel[{partitions[p].level, partitions[p].path}] = p;
         std::vector<char> linked(partitions.size(), 0);
         const std::size_t topCount = records.size();
         for (std::size_t i = 0; i < topCount; ++i) {
@@ -114,9 +120,11 @@ EsvoWriteResult assembleEsvo(const std::filesystem::path& file, const EsvoFileIn
                 if (c == i) c = root;
         }
         for (std::size_t p = 0; p < partitions.size(); ++p)
-            if (!linked[p] && !partitions[p].slices.empty()) throw std::logic_error("esvo assembly: a partition has no place in the top");
+            if (!linked[p] && !partitions[p].slices.empty())
+                throw std::logic_error("esvo assembly: a partition has no place in the top");
     } else {
-        if (partitions.size() != 1) throw std::logic_error("esvo assembly: a file without a top is one partition");
+        if (partitions.size() != 1)
+            throw std::logic_error("esvo assembly: a file without a top is one partition");
         append(partitions.front());
     }
     partitions.clear();
@@ -125,7 +133,9 @@ EsvoWriteResult assembleEsvo(const std::filesystem::path& file, const EsvoFileIn
     std::vector<std::uint32_t> order{0};  // directory position → record
     for (std::size_t i = 0; i < order.size(); ++i)
         for (std::uint32_t c : records[order[i]].children) order.push_back(c);
-    if (order.size() != static_cast<std::size_t>(std::count_if(records.begin(), records.end(), [](const SliceRecord& r) { return !r.partition; })))
+    if (order.size() !=
+        static_cast<std::size_t>(std::count_if(records.begin(), records.end(),
+                                               [](const SliceRecord& r) { return !r.partition; })))
         throw std::logic_error("esvo assembly: slice tree does not reach every slice");
     std::vector<std::uint32_t> position(records.size(), esvo::kNoSlice);
     for (std::uint32_t i = 0; i < order.size(); ++i) position[order[i]] = i;
@@ -134,8 +144,12 @@ EsvoWriteResult assembleEsvo(const std::filesystem::path& file, const EsvoFileIn
     directory.voxelsPerLevel = info.voxelsPerLevel;
     directory.slices.resize(order.size());
     EsvoWriteResult result;
-    const auto align = [](std::uint64_t v) { return (v + esvo::kSliceAlignment - 1) / esvo::kSliceAlignment * esvo::kSliceAlignment; };
-    std::uint64_t offset = esvo::kHeaderBytes + esvo::directoryBytes(info.header.leafDepth, static_cast<std::uint32_t>(order.size()));
+    const auto align = [](std::uint64_t v) {
+        return (v + esvo::kSliceAlignment - 1) / esvo::kSliceAlignment * esvo::kSliceAlignment;
+    };
+    std::uint64_t offset =
+        esvo::kHeaderBytes +
+        esvo::directoryBytes(info.header.leafDepth, static_cast<std::uint32_t>(order.size()));
     for (std::uint32_t i = 0; i < order.size(); ++i) {
         const SliceRecord& s = records[order[i]];
         esvo::SliceEntry& e = directory.slices[i];
@@ -152,7 +166,8 @@ EsvoWriteResult assembleEsvo(const std::filesystem::path& file, const EsvoFileIn
         if (s.parent != esvo::kNoSlice) {
             const std::uint32_t pathLevels = s.regionLevel - records[s.parent].regionLevel;
             e.pathLevels = static_cast<std::uint8_t>(pathLevels);
-            e.regionPath = pathLevels ? s.regionPath & ((std::uint64_t{1} << (3 * pathLevels)) - 1) : 0;
+            e.regionPath =
+                pathLevels ? s.regionPath & ((std::uint64_t{1} << (3 * pathLevels)) - 1) : 0;
         }
         e.rootGroupCount = s.rootGroups;
         e.descriptorCount = s.descriptors;
@@ -166,7 +181,8 @@ EsvoWriteResult assembleEsvo(const std::filesystem::path& file, const EsvoFileIn
             directory.slices[position[c]].firstFrontier = next;
             next += records[c].rootGroups;
         }
-        if (next != s.frontier) throw std::logic_error("esvo assembly: child slices do not cover the frontier");
+        if (next != s.frontier)
+            throw std::logic_error("esvo assembly: child slices do not cover the frontier");
     }
 
     esvo::Header header = info.header;
@@ -177,7 +193,8 @@ EsvoWriteResult assembleEsvo(const std::filesystem::path& file, const EsvoFileIn
         Timings::Scope timer(timings, "esvo_write");
         AtomicFile out(file);
         // Header and directory last: the slices' checksums are known once they are written.
-        const std::uint64_t directoryBytesCount = esvo::directoryBytes(header.leafDepth, header.sliceCount);
+        const std::uint64_t directoryBytesCount =
+            esvo::directoryBytes(header.leafDepth, header.sliceCount);
         const std::vector<std::uint8_t> placeholder(esvo::kHeaderBytes + directoryBytesCount, 0);
         out.write(placeholder.data(), placeholder.size());
         std::uint64_t written = placeholder.size();
@@ -188,7 +205,8 @@ EsvoWriteResult assembleEsvo(const std::filesystem::path& file, const EsvoFileIn
             esvo::SliceEntry& e = directory.slices[i];
             store.read(s.block, units);
             auto& idUnit = units[s.infoWord / 2];
-            idUnit = (idUnit & 0xFFFFFFFF00000000ull) | i;  // the slice id, in the info section's first word
+            idUnit = (idUnit & 0xFFFFFFFF00000000ull) |
+                     i;  // the slice id, in the info section's first word
             e.checksum = esvo::crc32c(units.data(), e.byteSize);
             out.write(zeros.data(), e.fileOffset - written);
             out.write(units.data(), e.byteSize);

@@ -40,11 +40,15 @@ public:
     }
 
     [[nodiscard]] std::uint32_t depth() const { return view_.leafDepth; }
-    [[nodiscard]] std::uint64_t levelSize(std::uint32_t level) const { return view_.levelSize(level); }
+    [[nodiscard]] std::uint64_t levelSize(std::uint32_t level) const {
+        return view_.levelSize(level);
+    }
     [[nodiscard]] std::uint32_t validMask(std::uint32_t level, std::uint64_t i) const {
         return level < depth() ? view_.masks[level][i] : 0u;
     }
-    [[nodiscard]] bool hasDescriptor(std::uint32_t level, std::uint64_t i) const { return validMask(level, i) != 0; }
+    [[nodiscard]] bool hasDescriptor(std::uint32_t level, std::uint64_t i) const {
+        return validMask(level, i) != 0;
+    }
     [[nodiscard]] bool hasContours() const { return !view_.contours.empty(); }
     /// Encoded contour of voxel i of level (0: none).
     [[nodiscard]] std::uint32_t contour(std::uint32_t level, std::uint64_t i) const {
@@ -52,13 +56,17 @@ public:
     }
     [[nodiscard]] bool hasAttributes() const { return !view_.attributes.empty(); }
     /// Attribute word pair of voxel i of level (SparseOctree::attributes).
-    [[nodiscard]] std::uint64_t attribute(std::uint32_t level, std::uint64_t i) const { return view_.attributes[level][i]; }
+    [[nodiscard]] std::uint64_t attribute(std::uint32_t level, std::uint64_t i) const {
+        return view_.attributes[level][i];
+    }
     /// The level whose non-leaf descriptors are all frontier (the partition level of a top
     /// view), or none.
     [[nodiscard]] std::uint32_t partitionLevel() const {
         return view_.partitionNonLeaf.empty() ? 0xFFFFFFFFu : depth() - 1;
     }
-    [[nodiscard]] std::uint64_t firstChild(std::uint32_t level, std::uint64_t i) const { return firstChild_[level][i]; }
+    [[nodiscard]] std::uint64_t firstChild(std::uint32_t level, std::uint64_t i) const {
+        return firstChild_[level][i];
+    }
     /// Slots whose children have descriptors of their own.
     [[nodiscard]] std::uint32_t nonLeafMask(std::uint32_t level, std::uint64_t i) const {
         const std::uint32_t valid = validMask(level, i);
@@ -74,6 +82,7 @@ public:
             }
         return mask;
     }
+
 private:
     const OctreeView& view_;
     std::vector<std::vector<std::uint64_t>> firstChild_;
@@ -82,17 +91,16 @@ private:
 /// A DxtLookup slot no lookup entry references (never a value: its normal's axis field is 3).
 constexpr std::uint64_t kPaddingValue = ~std::uint64_t{0};
 
-
 using Node = LayoutNode;
 
 /// One slice's block, laid out.
 struct SliceBlock {
-    std::vector<std::uint64_t> units;     // the block, 64-bit units
+    std::vector<std::uint64_t> units;  // the block, 64-bit units
     std::uint32_t descriptors = 0, farSlots = 0;
     std::uint64_t voxels = 0;
     std::uint32_t rootGroups = 0;
     std::uint32_t firstLevel = 0, endLevel = 0;
-    std::vector<Node> frontier;           // in frontier-table order
+    std::vector<Node> frontier;  // in frontier-table order
     std::uint32_t infoWord = 0;
     std::uint64_t contourWords = 0;
     /// Compressed attributes are encoded once the plan is final: the descriptors by unit, and
@@ -102,14 +110,16 @@ struct SliceBlock {
         std::uint32_t level;
         std::uint64_t index;
     };
-    std::vector<DescriptorRef> pendingCompressed;   // Compressed: by unit
-    std::vector<std::uint64_t> pendingValues;       // CompressedLookup: the stored values in order
+    std::vector<DescriptorRef> pendingCompressed;  // Compressed: by unit
+    std::vector<std::uint64_t> pendingValues;      // CompressedLookup: the stored values in order
     std::uint64_t compressedUnit = 0;
     bool overflow = false;  // a near pointer estimate failed: the block is over a slice anyway
     /// A 24-bit contour or colour/normal pointer cannot reach: the block must not be used even
     /// if it fits the slice (a dxt-lookup slice past about 48 MiB); the planner cuts deeper.
     bool pointerOutOfReach = false;
-    [[nodiscard]] std::uint64_t byteSize() const { return overflow || pointerOutOfReach ? ~std::uint64_t{0} : 8 * units.size(); }
+    [[nodiscard]] std::uint64_t byteSize() const {
+        return overflow || pointerOutOfReach ? ~std::uint64_t{0} : 8 * units.size();
+    }
 };
 
 /// Bytes of the descriptors strictly below each voxel (saturating), bottom-up: what a child
@@ -123,10 +133,14 @@ public:
         const std::uint32_t depth = tree.depth();
         const auto descriptorBytes = [&](std::uint32_t valid) -> std::uint64_t {
             switch (attributes) {
-            case AttributeEncoding::Raw: return 8 + 4 + 8 * esvo::popc8(valid);
-            case AttributeEncoding::Compressed: return 8 + 12;
-            case AttributeEncoding::CompressedLookup: return 8 + 4 + 2 * esvo::popc8(valid);
-            case AttributeEncoding::None: break;
+                case AttributeEncoding::Raw:
+                    return 8 + 4 + 8 * esvo::popc8(valid);
+                case AttributeEncoding::Compressed:
+                    return 8 + 12;
+                case AttributeEncoding::CompressedLookup:
+                    return 8 + 4 + 2 * esvo::popc8(valid);
+                case AttributeEncoding::None:
+                    break;
             }
             return 8;
         };
@@ -141,7 +155,8 @@ public:
                 const bool top = l == tree.partitionLevel();
                 for (std::uint64_t i = 0; i < out.size(); ++i) {
                     const std::uint32_t valid = tree.validMask(l, i);
-                    std::uint64_t child = tree.firstChild(l, i), sum = top && tree.nonLeafMask(l, i) ? 8 : 0;
+                    std::uint64_t child = tree.firstChild(l, i),
+                                  sum = top && tree.nonLeafMask(l, i) ? 8 : 0;
                     for (std::uint32_t slot = 0; slot < 8; ++slot)
                         if (valid & (1u << slot)) sum += tree.contour(l + 1, child++) ? 4 : 0;
                     out[i] = static_cast<std::uint32_t>(sum);
@@ -149,27 +164,33 @@ public:
                 continue;
             }
             const auto& next = bytes_[l + 1];
-            tbb::parallel_for(tbb::blocked_range<std::uint64_t>(0, out.size(), 1 << 14), [&](const tbb::blocked_range<std::uint64_t>& r) {
-                for (std::uint64_t i = r.begin(); i != r.end(); ++i) {
-                    const std::uint32_t valid = tree.validMask(l, i);
-                    std::uint64_t child = tree.firstChild(l, i), sum = 0;
-                    bool group = false;
-                    for (std::uint32_t slot = 0; slot < 8; ++slot)
-                        if (valid & (1u << slot)) {
-                            if (tree.hasDescriptor(l + 1, child)) {
-                                sum += descriptorBytes(tree.validMask(l + 1, child)) + next[child];
-                                group = true;
+            tbb::parallel_for(
+                tbb::blocked_range<std::uint64_t>(0, out.size(), 1 << 14),
+                [&](const tbb::blocked_range<std::uint64_t>& r) {
+                    for (std::uint64_t i = r.begin(); i != r.end(); ++i) {
+                        const std::uint32_t valid = tree.validMask(l, i);
+                        std::uint64_t child = tree.firstChild(l, i), sum = 0;
+                        bool group = false;
+                        for (std::uint32_t slot = 0; slot < 8; ++slot)
+                            if (valid & (1u << slot)) {
+                                if (tree.hasDescriptor(l + 1, child)) {
+                                    sum +=
+                                        descriptorBytes(tree.validMask(l + 1, child)) + next[child];
+                                    group = true;
+                                }
+                                if (tree.contour(l + 1, child)) sum += 4;
+                                ++child;
                             }
-                            if (tree.contour(l + 1, child)) sum += 4;
-                            ++child;
-                        }
-                    if (group) sum += groupBytes;
-                    out[i] = static_cast<std::uint32_t>(std::min<std::uint64_t>(sum, 0xFFFFFFFFu));
-                }
-            });
+                        if (group) sum += groupBytes;
+                        out[i] =
+                            static_cast<std::uint32_t>(std::min<std::uint64_t>(sum, 0xFFFFFFFFu));
+                    }
+                });
         }
     }
-    [[nodiscard]] std::uint64_t operator()(std::uint32_t level, std::uint64_t index) const { return bytes_[level][index]; }
+    [[nodiscard]] std::uint64_t operator()(std::uint32_t level, std::uint64_t index) const {
+        return bytes_[level][index];
+    }
 
 private:
     std::vector<std::vector<std::uint32_t>> bytes_;
@@ -177,8 +198,8 @@ private:
 
 /// Which descriptors of a slice hand their children to child slices (become frontier).
 struct CutRule {
-    bool whole = true;                 // nothing is cut: the slice holds complete subtrees
-    std::uint64_t leafBytes = 0;       // cut a voxel whose subtree (SubtreeSizes) is at most this
+    bool whole = true;            // nothing is cut: the slice holds complete subtrees
+    std::uint64_t leafBytes = 0;  // cut a voxel whose subtree (SubtreeSizes) is at most this
     std::uint32_t endLevel = 0xFFFFFFFFu;  // cut every voxel at level endLevel − 1 or deeper
 };
 
@@ -188,9 +209,13 @@ class BlockLayout {
 public:
     /// Blocks larger than @p sliceBytes are only measured, never written: their near/far
     /// estimates may assume every subtree fits the slice.
-    BlockLayout(const OctreeIndex& tree, const SubtreeSizes& sizes, std::uint32_t nearLimit, CutRule cut, std::uint64_t sliceBytes,
-                AttributeEncoding attributes)
-        : tree_(tree), sizes_(sizes), nearLimit_(nearLimit), cut_(cut), maxUnits_(sliceBytes / 8),
+    BlockLayout(const OctreeIndex& tree, const SubtreeSizes& sizes, std::uint32_t nearLimit,
+                CutRule cut, std::uint64_t sliceBytes, AttributeEncoding attributes)
+        : tree_(tree),
+          sizes_(sizes),
+          nearLimit_(nearLimit),
+          cut_(cut),
+          maxUnits_(sliceBytes / 8),
           attributes_(tree.hasAttributes() ? attributes : AttributeEncoding::None) {}
 
     /// @p parents empty: the root slice.
@@ -218,26 +243,33 @@ public:
         std::vector<std::uint32_t> contourWords;
         for (const PendingContours& p : contours_) {
             block_.units[p.unit] |= std::uint64_t{((nextWord - 2 * p.unit) << 8) | p.mask} << 32;
-            contourWords.insert(contourWords.end(), p.values.begin(), p.values.begin() + esvo::popc8(p.mask));
+            contourWords.insert(contourWords.end(), p.values.begin(),
+                                p.values.begin() + esvo::popc8(p.mask));
             nextWord += esvo::popc8(p.mask);
         }
         if (contourWords.size() % 2) contourWords.push_back(0);
         for (std::size_t i = 0; i < contourWords.size(); i += 2)
             block_.units.push_back(contourWords[i] | (std::uint64_t{contourWords[i + 1]} << 32));
         block_.contourWords = nextWord - contourWord;
-        if (contourWord >= (std::uint64_t{1} << 24) && !contours_.empty()) block_.pointerOutOfReach = true;  // 24-bit contour pointers
+        if (contourWord >= (std::uint64_t{1} << 24) && !contours_.empty())
+            block_.pointerOutOfReach = true;  // 24-bit contour pointers
         const std::uint64_t attributeWord = 2 * block_.units.size();
         if (attributes_ == AttributeEncoding::Raw) appendPalette(contourWord / 2);
         if (attributes_ == AttributeEncoding::Compressed) reserveCompressed(contourWord / 2);
-        if (attributes_ == AttributeEncoding::CompressedLookup) appendLookupAndReserveBlocks(contourWord / 2);
-        const std::uint32_t attachments = (contours_.empty() ? 0 : 1) + (attributes_ == AttributeEncoding::None ? 0 : 1);
+        if (attributes_ == AttributeEncoding::CompressedLookup)
+            appendLookupAndReserveBlocks(contourWord / 2);
+        const std::uint32_t attachments =
+            (contours_.empty() ? 0 : 1) + (attributes_ == AttributeEncoding::None ? 0 : 1);
 
         // Info section and tables.
         const std::uint64_t infoUnit = block_.units.size();
         block_.infoWord = static_cast<std::uint32_t>(2 * infoUnit);
         std::vector<std::uint32_t> words;
-        const auto rel = [&](std::uint64_t wordIndex) { return static_cast<std::uint32_t>(static_cast<std::int32_t>(wordIndex - 2 * infoUnit)); };
-        const std::uint64_t tablesStart = 2 * infoUnit + esvo::info::tablesWord(attachments) + esvo::info::kTablesWords;
+        const auto rel = [&](std::uint64_t wordIndex) {
+            return static_cast<std::uint32_t>(static_cast<std::int32_t>(wordIndex - 2 * infoUnit));
+        };
+        const std::uint64_t tablesStart =
+            2 * infoUnit + esvo::info::tablesWord(attachments) + esvo::info::kTablesWords;
         words.push_back(0);  // slice id, set when the slice's place in the directory is known
         words.push_back(0);  // block index in slice
         words.push_back(rel(2));
@@ -257,11 +289,14 @@ public:
         for (std::uint64_t u : rootGroupUnits) words.push_back(static_cast<std::uint32_t>(u));
         for (std::uint64_t u : frontierUnits_) words.push_back(static_cast<std::uint32_t>(u));
         if (words.size() % 2) words.push_back(0);
-        for (std::size_t i = 0; i < words.size(); i += 2) block_.units.push_back(words[i] | (std::uint64_t{words[i + 1]} << 32));
+        for (std::size_t i = 0; i < words.size(); i += 2)
+            block_.units.push_back(words[i] | (std::uint64_t{words[i + 1]} << 32));
         for (std::uint64_t header : pageHeaders_)
-            block_.units[header] = static_cast<std::uint32_t>(static_cast<std::int32_t>(2 * infoUnit - 2 * header));
+            block_.units[header] =
+                static_cast<std::uint32_t>(static_cast<std::int32_t>(2 * infoUnit - 2 * header));
         block_.rootGroups = static_cast<std::uint32_t>(rootGroupUnits.size());
-        if (block_.overflow && block_.units.size() <= maxUnits_) throw std::logic_error("esvo layout: near pointer estimate exceeded");
+        if (block_.overflow && block_.units.size() <= maxUnits_)
+            throw std::logic_error("esvo layout: near pointer estimate exceeded");
         return std::move(block_);
     }
 
@@ -282,7 +317,8 @@ private:
             if (attributes_ == AttributeEncoding::Compressed && u.size() % 2) u.push_back(0);
         };
         alignForPairs();
-        if (u.size() % kPageUnits + count > kPageUnits) u.resize((u.size() / kPageUnits + 1) * kPageUnits, 0);
+        if (u.size() % kPageUnits + count > kPageUnits)
+            u.resize((u.size() / kPageUnits + 1) * kPageUnits, 0);
         if (u.size() % kPageUnits == 0) {
             pageHeaders_.push_back(u.size());
             u.push_back(0);
@@ -315,9 +351,11 @@ private:
                 ++slot;
                 ++block_.farSlots;
             }
-            block_.units[unit] = esvo::ChildDescriptor::make(valid, nonLeaf, pointer, far[j]).topology;
+            block_.units[unit] =
+                esvo::ChildDescriptor::make(valid, nonLeaf, pointer, far[j]).topology;
             collectContours(members[j], unit);
-            if (attributes_ != AttributeEncoding::None) descriptors_.push_back({unit, members[j].level, members[j].index});
+            if (attributes_ != AttributeEncoding::None)
+                descriptors_.push_back({unit, members[j].level, members[j].index});
             ++block_.descriptors;
             block_.voxels += esvo::popc8(valid);
             block_.endLevel = std::max(block_.endLevel, members[j].level + 1);
@@ -355,7 +393,8 @@ private:
     void appendPalette(std::uint64_t descriptorUnits) {
         std::vector<std::uint64_t> values;
         // Pointers in words from the attachment's start: past the lookup array, two per value.
-        appendLookup(descriptorUnits, values, esvo::lookupArrayWords(static_cast<std::uint32_t>(descriptorUnits)), 2);
+        appendLookup(descriptorUnits, values,
+                     esvo::lookupArrayWords(static_cast<std::uint32_t>(descriptorUnits)), 2);
         block_.units.insert(block_.units.end(), values.begin(), values.end());
     }
 
@@ -363,11 +402,13 @@ private:
     /// masks the children that differ from their parent (the others inherit) and points at the
     /// first of them, collected into @p values in descriptor order: pointer = @p base + @p scale ×
     /// index. (The root voxel's own value is stored nowhere, so the root stores all its children.)
-    void appendLookup(std::uint64_t descriptorUnits, std::vector<std::uint64_t>& values, std::uint64_t base, std::uint64_t scale,
-                      bool blockAligned = false) {
-        std::vector<std::uint32_t> lookup(esvo::lookupArrayWords(static_cast<std::uint32_t>(descriptorUnits)), 0);
+    void appendLookup(std::uint64_t descriptorUnits, std::vector<std::uint64_t>& values,
+                      std::uint64_t base, std::uint64_t scale, bool blockAligned = false) {
+        std::vector<std::uint32_t> lookup(
+            esvo::lookupArrayWords(static_cast<std::uint32_t>(descriptorUnits)), 0);
         for (const SliceBlock::DescriptorRef& d : descriptors_) {
-            const std::uint64_t own = d.level == 0 ? ~std::uint64_t{0} : tree_.attribute(d.level, d.index);
+            const std::uint64_t own =
+                d.level == 0 ? ~std::uint64_t{0} : tree_.attribute(d.level, d.index);
             std::uint32_t mask = 0;
             std::array<std::uint64_t, 8> stored{};
             std::uint32_t count = 0;
@@ -376,20 +417,25 @@ private:
                 mask |= 1u << slot;
                 stored[count++] = value;
             });
-            if (blockAligned && count > 0) padBeforeIncompatible(values, std::span<const std::uint64_t>(stored.data(), count));
+            if (blockAligned && count > 0)
+                padBeforeIncompatible(values, std::span<const std::uint64_t>(stored.data(), count));
             const std::uint64_t pointer = base + scale * values.size();
             values.insert(values.end(), stored.begin(), stored.begin() + count);
             if (pointer > esvo::PaletteLookup::kMaxPointer) block_.pointerOutOfReach = true;
-            lookup[d.unit] = mask ? esvo::PaletteLookup::make(mask, static_cast<std::uint32_t>(pointer)).word : 0u;
+            lookup[d.unit] =
+                mask ? esvo::PaletteLookup::make(mask, static_cast<std::uint32_t>(pointer)).word
+                     : 0u;
         }
-        for (std::size_t i = 0; i < lookup.size(); i += 2) block_.units.push_back(lookup[i] | (std::uint64_t{lookup[i + 1]} << 32));
+        for (std::size_t i = 0; i < lookup.size(); i += 2)
+            block_.units.push_back(lookup[i] | (std::uint64_t{lookup[i + 1]} << 32));
     }
 
     /// DxtLookup packing: a descriptor's values never straddle two blocks, and start a new block
     /// where they would not share one well with the values already in it (a colour channel
     /// spread past kPackColourSpread, or a normal's cosine to the block's first below
     /// kPackNormalCosine). The skipped slots are padding (kPaddingValue), never referenced.
-    static void padBeforeIncompatible(std::vector<std::uint64_t>& values, std::span<const std::uint64_t> next) {
+    static void padBeforeIncompatible(std::vector<std::uint64_t>& values,
+                                      std::span<const std::uint64_t> next) {
         const std::size_t inBlock = values.size() % 16;
         bool pad = inBlock + next.size() > 16;
         if (!pad && inBlock > 0) {
@@ -405,7 +451,8 @@ private:
             for (std::size_t i = first; i < values.size(); ++i) widen(values[i]);
             for (std::uint64_t v : next) widen(v);
             for (unsigned ch = 0; ch < 3; ++ch) pad = pad || hi[ch] - lo[ch] > kPackColourSpread;
-            const esvo::Vec3 a = esvo::decodeUnitNormal(static_cast<std::uint32_t>(values[first] >> 32));
+            const esvo::Vec3 a =
+                esvo::decodeUnitNormal(static_cast<std::uint32_t>(values[first] >> 32));
             for (std::uint64_t v : next) {
                 const esvo::Vec3 b = esvo::decodeUnitNormal(static_cast<std::uint32_t>(v >> 32));
                 pad = pad || a[0] * b[0] + a[1] * b[1] + a[2] * b[2] < kPackNormalCosine;
@@ -457,7 +504,8 @@ private:
         std::uint64_t child = tree_.firstChild(parent.level, parent.index);
         for (std::uint32_t slot = 0; slot < 8; ++slot)
             if (valid & (1u << slot)) {
-                if (tree_.hasDescriptor(parent.level + 1, child)) members[n++] = Node{parent.level + 1, child, (parent.path << 3) | slot};
+                if (tree_.hasDescriptor(parent.level + 1, child))
+                    members[n++] = Node{parent.level + 1, child, (parent.path << 3) | slot};
                 ++child;
             }
         bool far[8];
@@ -466,7 +514,8 @@ private:
             // Conservative: the rest of this group and its slots, the subtrees of earlier
             // members, and a page break before the child group.
             far[j] = isFrontier(members[j]) ||
-                     (tree_.nonLeafMask(members[j].level, members[j].index) != 0 && (2 * n - j) + earlier + 17 > nearLimit_);
+                     (tree_.nonLeafMask(members[j].level, members[j].index) != 0 &&
+                      (2 * n - j) + earlier + 17 > nearLimit_);
             farCount += far[j];
             earlier += subtreeBound(members[j]);
         }
@@ -476,20 +525,24 @@ private:
         return start;
     }
 
-    /// Points the descriptor at @p unit to the group at @p group, through its far slot if it has one.
+    /// Points the descriptor at @p unit to the group at @p group, through its far slot if it has
+    /// one.
     void link(std::uint64_t unit, std::uint64_t group) {
         auto& word = block_.units[unit];
         const esvo::ChildDescriptor d{static_cast<std::uint32_t>(word), 0};
         const std::uint64_t offset = group - unit;
         if (d.far()) {
-            block_.units[unit + d.childPointer()] = static_cast<std::uint32_t>(static_cast<std::int32_t>(offset));
+            block_.units[unit + d.childPointer()] =
+                static_cast<std::uint32_t>(static_cast<std::int32_t>(offset));
             return;
         }
         if (offset > nearLimit_) {
             // Only possible in a block larger than a slice (see the constructor): mark it unusable.
             block_.overflow = true;
         }
-        word = esvo::ChildDescriptor::make(d.validMask(), d.nonLeafMask(), static_cast<std::uint32_t>(offset), false).topology;
+        word = esvo::ChildDescriptor::make(d.validMask(), d.nonLeafMask(),
+                                           static_cast<std::uint32_t>(offset), false)
+                   .topology;
     }
 
     const OctreeIndex& tree_;
@@ -507,12 +560,14 @@ private:
     };
     std::vector<PendingContours> contours_;
     AttributeEncoding attributes_;
-    std::vector<SliceBlock::DescriptorRef> descriptors_;  // with attributes: every descriptor placed, by unit
+    std::vector<SliceBlock::DescriptorRef>
+        descriptors_;  // with attributes: every descriptor placed, by unit
 };
 
 /// Encodes the compressed attribute blocks of a laid-out slice: block p holds the children of
 /// the descriptors in units 2p (slots 0-7) and 2p + 1 (slots 8-15).
-void encodeCompressedAttributes(SliceBlock& block, const OctreeIndex& tree, AttributeEffort effort) {
+void encodeCompressedAttributes(SliceBlock& block, const OctreeIndex& tree,
+                                AttributeEffort effort) {
     auto& refs = block.pendingCompressed;
     auto* words = reinterpret_cast<std::uint32_t*>(block.units.data() + block.compressedUnit);
     // CompressedLookup: runs of 16 stored values.
@@ -520,7 +575,8 @@ void encodeCompressedAttributes(SliceBlock& block, const OctreeIndex& tree, Attr
     for (std::size_t first = 0; first < pending.size(); first += 16) {
         std::array<std::uint64_t, 16> values{};
         const std::size_t n = std::min<std::size_t>(16, pending.size() - first);
-        std::copy(pending.begin() + std::ptrdiff_t(first), pending.begin() + std::ptrdiff_t(first + n), values.begin());
+        std::copy(pending.begin() + std::ptrdiff_t(first),
+                  pending.begin() + std::ptrdiff_t(first + n), values.begin());
         std::uint32_t used = 0;
         for (std::size_t i = 0; i < n; ++i)
             if (values[i] != kPaddingValue) used |= 1u << i;
@@ -556,7 +612,8 @@ void encodeCompressedAttributes(SliceBlock& block, const OctreeIndex& tree, Attr
 /// the top of a partitioned file, each partition root's child group goes to its partition.
 class SlicePlanner {
 public:
-    SlicePlanner(const OctreeIndex& tree, const SubtreeSizes& sizes, const SliceLayoutOptions& options)
+    SlicePlanner(const OctreeIndex& tree, const SubtreeSizes& sizes,
+                 const SliceLayoutOptions& options)
         : tree_(tree), sizes_(sizes), options_(options) {}
 
     /// Slices in depth-first order (each slice, then its children's subtrees in order), with
@@ -564,7 +621,8 @@ public:
     /// thread count.
     std::vector<std::pair<LaidOutSlice, SliceBlock>> plan() {
         const Node root{0, 0, 0};
-        std::unique_ptr<PlanNode> top = options_.fileRoot ? makeSlice(root, {}) : makeSlice(root, {root});
+        std::unique_ptr<PlanNode> top =
+            options_.fileRoot ? makeSlice(root, {}) : makeSlice(root, {root});
         std::vector<std::pair<LaidOutSlice, SliceBlock>> slices;
         flatten(*top, 0xFFFFFFFFu, slices);
         return slices;
@@ -584,13 +642,18 @@ private:
         std::vector<Node> parents;
     };
 
-    [[nodiscard]] std::uint64_t budget() const { return options_.sliceBytes - options_.sliceBytes / 16; }
-
-    SliceBlock layout(const std::vector<Node>& parents, CutRule cut) const {
-        return BlockLayout(tree_, sizes_, options_.nearPointerLimit, cut, options_.sliceBytes, options_.attributes).run(parents);
+    [[nodiscard]] std::uint64_t budget() const {
+        return options_.sliceBytes - options_.sliceBytes / 16;
     }
 
-    std::unique_ptr<PlanNode> makeSlice(const Node& region, const std::vector<Node>& parents) const {
+    SliceBlock layout(const std::vector<Node>& parents, CutRule cut) const {
+        return BlockLayout(tree_, sizes_, options_.nearPointerLimit, cut, options_.sliceBytes,
+                           options_.attributes)
+            .run(parents);
+    }
+
+    std::unique_ptr<PlanNode> makeSlice(const Node& region,
+                                        const std::vector<Node>& parents) const {
         if (region.level == tree_.partitionLevel()) {
             auto node = std::make_unique<PlanNode>();
             node->region = region;
@@ -618,7 +681,8 @@ private:
                 }
             }
             if (!block) {
-                if (parents.size() < 2) throw std::logic_error("esvo layout: the root groups of a slice do not fit it");
+                if (parents.size() < 2)
+                    throw std::logic_error("esvo layout: the root groups of a slice do not fit it");
                 return nullptr;  // the caller splits the run
             }
         }
@@ -630,7 +694,9 @@ private:
         const auto& frontier = node->block.frontier;
         if (!frontier.empty()) partition(region, frontier, 0, frontier.size(), jobs);
         std::vector<std::vector<std::unique_ptr<PlanNode>>> children(jobs.size());
-        tbb::parallel_for(std::size_t{0}, jobs.size(), [&](std::size_t i) { children[i] = makeSlices(jobs[i].region, jobs[i].parents); });
+        tbb::parallel_for(std::size_t{0}, jobs.size(), [&](std::size_t i) {
+            children[i] = makeSlices(jobs[i].region, jobs[i].parents);
+        });
         for (auto& run : children)
             for (auto& child : run) node->children.push_back(std::move(child));
         return node;
@@ -638,19 +704,22 @@ private:
 
     /// One slice for the run @p parents, or, where its root groups together do not fit a slice
     /// (the estimate let too many of them into one run), slices for its halves.
-    std::vector<std::unique_ptr<PlanNode>> makeSlices(const Node& region, const std::vector<Node>& parents) const {
+    std::vector<std::unique_ptr<PlanNode>> makeSlices(const Node& region,
+                                                      const std::vector<Node>& parents) const {
         std::vector<std::unique_ptr<PlanNode>> out;
         if (std::unique_ptr<PlanNode> node = makeSlice(region, parents)) {
             out.push_back(std::move(node));
             return out;
         }
         const auto middle = parents.begin() + std::ptrdiff_t(parents.size() / 2);
-        for (auto half : {std::vector<Node>(parents.begin(), middle), std::vector<Node>(middle, parents.end())})
+        for (auto half :
+             {std::vector<Node>(parents.begin(), middle), std::vector<Node>(middle, parents.end())})
             for (auto& node : makeSlices(region, half)) out.push_back(std::move(node));
         return out;
     }
 
-    static void flatten(PlanNode& node, std::uint32_t parent, std::vector<std::pair<LaidOutSlice, SliceBlock>>& out) {
+    static void flatten(PlanNode& node, std::uint32_t parent,
+                        std::vector<std::pair<LaidOutSlice, SliceBlock>>& out) {
         const auto index = static_cast<std::uint32_t>(out.size());
         LaidOutSlice slice;
         slice.region = node.region;
@@ -668,8 +737,8 @@ private:
 
     /// Child slices for frontier[first, last), all inside @p region. A run holding a partition
     /// root is split down to the partition level: no slice of the top spans two partitions.
-    void partition(const Node& region, const std::vector<Node>& frontier, std::size_t first, std::size_t last,
-                   std::vector<ChildJob>& jobs) const {
+    void partition(const Node& region, const std::vector<Node>& frontier, std::size_t first,
+                   std::size_t last, std::vector<ChildJob>& jobs) const {
         if (first == last) return;
         std::uint64_t content = 0;
         bool holdsPartition = false;
@@ -678,8 +747,10 @@ private:
             holdsPartition = holdsPartition || frontier[i].level == tree_.partitionLevel();
         }
         if (region.level == tree_.partitionLevel() ||
-            (!holdsPartition && (last - first == 1 || content <= budget() || frontier[first].level == region.level))) {
-            jobs.push_back({region, std::vector<Node>(frontier.begin() + std::ptrdiff_t(first), frontier.begin() + std::ptrdiff_t(last))});
+            (!holdsPartition &&
+             (last - first == 1 || content <= budget() || frontier[first].level == region.level))) {
+            jobs.push_back({region, std::vector<Node>(frontier.begin() + std::ptrdiff_t(first),
+                                                      frontier.begin() + std::ptrdiff_t(last))});
             return;
         }
         const std::uint32_t valid = tree_.validMask(region.level, region.index);
@@ -705,17 +776,23 @@ private:
 
 esvo::AttachmentKind attachmentKind(AttributeEncoding encoding) {
     switch (encoding) {
-    case AttributeEncoding::Raw: return esvo::AttachmentKind::Palette;
-    case AttributeEncoding::Compressed: return esvo::AttachmentKind::Dxt;
-    case AttributeEncoding::CompressedLookup: return esvo::AttachmentKind::DxtLookup;
-    case AttributeEncoding::None: break;
+        case AttributeEncoding::Raw:
+            return esvo::AttachmentKind::Palette;
+        case AttributeEncoding::Compressed:
+            return esvo::AttachmentKind::Dxt;
+        case AttributeEncoding::CompressedLookup:
+            return esvo::AttachmentKind::DxtLookup;
+        case AttributeEncoding::None:
+            break;
     }
     throw std::logic_error("attachmentKind: no attributes");
 }
 
 AttributeEncoding attributeEncoding(std::uint32_t attachmentKinds) {
-    for (const auto encoding : {AttributeEncoding::Raw, AttributeEncoding::Compressed, AttributeEncoding::CompressedLookup})
-        if (attachmentKinds & (1u << static_cast<unsigned>(attachmentKind(encoding)))) return encoding;
+    for (const auto encoding : {AttributeEncoding::Raw, AttributeEncoding::Compressed,
+                                AttributeEncoding::CompressedLookup})
+        if (attachmentKinds & (1u << static_cast<unsigned>(attachmentKind(encoding))))
+            return encoding;
     return AttributeEncoding::None;
 }
 
@@ -728,20 +805,24 @@ OctreeView viewOf(const SparseOctree& octree) {
     return view;
 }
 
-std::vector<LaidOutSlice> layoutSlices(const OctreeView& view, const SliceLayoutOptions& options, Progress* progress) {
+std::vector<LaidOutSlice> layoutSlices(const OctreeView& view, const SliceLayoutOptions& options,
+                                       Progress* progress) {
     const OctreeIndex index(view);
     std::vector<std::pair<LaidOutSlice, SliceBlock>> planned;
     {
         Timings::Scope timer(options.timings, "esvo_layout");
-        const SubtreeSizes sizes(index, view.attributes.empty() ? AttributeEncoding::None : options.attributes);
+        const SubtreeSizes sizes(
+            index, view.attributes.empty() ? AttributeEncoding::None : options.attributes);
         SlicePlanner planner(index, sizes, options);
         planner.progress = progress;
         planned = planner.plan();
     }
-    if (!view.attributes.empty() &&
-        (options.attributes == AttributeEncoding::Compressed || options.attributes == AttributeEncoding::CompressedLookup)) {
+    if (!view.attributes.empty() && (options.attributes == AttributeEncoding::Compressed ||
+                                     options.attributes == AttributeEncoding::CompressedLookup)) {
         Timings::Scope timer(options.timings, "esvo_compress_attributes");
-        tbb::parallel_for(std::size_t{0}, planned.size(), [&](std::size_t i) { encodeCompressedAttributes(planned[i].second, index, options.attributeEffort); });
+        tbb::parallel_for(std::size_t{0}, planned.size(), [&](std::size_t i) {
+            encodeCompressedAttributes(planned[i].second, index, options.attributeEffort);
+        });
     }
 
     std::vector<LaidOutSlice> slices;

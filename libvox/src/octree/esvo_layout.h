@@ -52,13 +52,14 @@ struct LaidOutSlice {
     LayoutNode region;                    ///< the slice's region cube
     std::uint32_t parent = 0xFFFFFFFFu;   ///< index in the list; none for the first
     std::vector<std::uint32_t> children;  ///< indices in the list, in frontier order
-    std::vector<std::uint64_t> units;     ///< the block (64-bit units); slice id 0 in its info section
-    std::uint32_t infoWord = 0;           ///< word index of the info section (its first word is the slice id)
+    std::vector<std::uint64_t> units;  ///< the block (64-bit units); slice id 0 in its info section
+    std::uint32_t infoWord =
+        0;  ///< word index of the info section (its first word is the slice id)
     std::uint32_t firstLevel = 0, endLevel = 0;
     std::uint32_t rootGroups = 0;
     std::uint32_t descriptors = 0, farSlots = 0;
     std::uint64_t voxels = 0;
-    std::uint32_t frontier = 0;           ///< frontier descriptors (= the children's root groups)
+    std::uint32_t frontier = 0;  ///< frontier descriptors (= the children's root groups)
     /// The top of a partitioned file: this is no slice of the top but the place of the slices of
     /// the partition below the partition-level voxel `region` (it has no block).
     bool partition = false;
@@ -82,7 +83,8 @@ struct SliceLayoutOptions {
 /// With OctreeView::partitionNonLeaf, every partition root with a non-leaf child is a frontier
 /// descriptor whose child slice is the partition's (a LaidOutSlice with `partition` set), and no
 /// slice of the top spans two partitions. The result does not depend on the thread count.
-[[nodiscard]] std::vector<LaidOutSlice> layoutSlices(const OctreeView& view, const SliceLayoutOptions& options,
+[[nodiscard]] std::vector<LaidOutSlice> layoutSlices(const OctreeView& view,
+                                                     const SliceLayoutOptions& options,
                                                      Progress* progress = nullptr);
 
 }  // namespace vox::detail

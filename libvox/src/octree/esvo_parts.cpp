@@ -38,10 +38,12 @@ private:
 /// Reads little-endian values, failing with the file's name where the data ends.
 class ByteReader {
 public:
-    ByteReader(const std::filesystem::path& file, const std::vector<std::uint8_t>& bytes) : file_(file), bytes_(bytes) {}
+    ByteReader(const std::filesystem::path& file, const std::vector<std::uint8_t>& bytes)
+        : file_(file), bytes_(bytes) {}
     template <typename T>
     T get() {
-        if (bytes_.size() - at_ < sizeof(T)) throw InvalidDataError(file_, "part file records end early");
+        if (bytes_.size() - at_ < sizeof(T))
+            throw InvalidDataError(file_, "part file records end early");
         const T value = esvo::load<T>(bytes_.data() + at_);
         at_ += sizeof(T);
         return value;
@@ -58,7 +60,9 @@ private:
     std::size_t at_ = 0;
 };
 
-constexpr bool hasContours(const esvo::Header& h) { return h.attachmentKinds & (1u << static_cast<unsigned>(esvo::AttachmentKind::Contour)); }
+constexpr bool hasContours(const esvo::Header& h) {
+    return h.attachmentKinds & (1u << static_cast<unsigned>(esvo::AttachmentKind::Contour));
+}
 
 }  // namespace
 
@@ -68,7 +72,8 @@ std::uint64_t fnv1a64(const void* data, std::size_t size, std::uint64_t hash) no
     return hash;
 }
 
-std::uint64_t writeEsvoPart(const std::filesystem::path& file, const EsvoPart& part, const SliceStore& store) {
+std::uint64_t writeEsvoPart(const std::filesystem::path& file, const EsvoPart& part,
+                            const SliceStore& store) {
     const esvo::Header& h = part.header;
     const bool contours = hasContours(h), attributes = h.hasAttributes();
     AtomicFile out(file);
@@ -106,7 +111,8 @@ std::uint64_t writeEsvoPart(const std::filesystem::path& file, const EsvoPart& p
         }
         for (const SliceRecord& s : slices.slices) {
             store.read(s.block, units);
-            const std::uint64_t offset = (written + esvo::kSliceAlignment - 1) / esvo::kSliceAlignment * esvo::kSliceAlignment;
+            const std::uint64_t offset = (written + esvo::kSliceAlignment - 1) /
+                                         esvo::kSliceAlignment * esvo::kSliceAlignment;
             out.write(zeros.data(), offset - written);
             out.write(units.data(), s.block.bytes);
             written = offset + s.block.bytes;
@@ -171,18 +177,24 @@ std::uint64_t writeEsvoPart(const std::filesystem::path& file, const EsvoPart& p
 
 EsvoPart readEsvoPart(const std::filesystem::path& path, SliceStore& store) {
     const auto file = std::make_shared<const ReadOnlyFile>(path);
-    const auto invalid = [&](const std::string& problem) { return InvalidDataError(path, problem); };
+    const auto invalid = [&](const std::string& problem) {
+        return InvalidDataError(path, problem);
+    };
     if (file->size() < kPartHeaderBytes) throw invalid("not a part file (too short)");
     std::vector<std::uint8_t> headerBytes(kPartHeaderBytes);
     file->read(0, headerBytes.data(), kPartHeaderBytes);
-    if (!std::equal(kPartMagic.begin(), kPartMagic.end(), headerBytes.begin())) throw invalid("not a part file (bad magic)");
-    if (crc32c(headerBytes.data(), kPartHeaderBytes - 4) != esvo::load<std::uint32_t>(headerBytes.data() + kPartHeaderBytes - 4))
+    if (!std::equal(kPartMagic.begin(), kPartMagic.end(), headerBytes.begin()))
+        throw invalid("not a part file (bad magic)");
+    if (crc32c(headerBytes.data(), kPartHeaderBytes - 4) !=
+        esvo::load<std::uint32_t>(headerBytes.data() + kPartHeaderBytes - 4))
         throw invalid("part file header: checksum mismatch");
     ByteReader in(path, headerBytes);
     for (std::size_t i = 0; i < kPartMagic.size(); ++i) (void)in.get<std::uint8_t>();
-    if (in.get<std::uint16_t>() != kPartVersionMajor) throw invalid("part file of an unsupported major version");
+    if (in.get<std::uint16_t>() != kPartVersionMajor)
+        throw invalid("part file of an unsupported major version");
     (void)in.get<std::uint16_t>();
-    if (in.get<std::uint32_t>() != kPartHeaderBytes) throw invalid("part file header: unexpected size");
+    if (in.get<std::uint32_t>() != kPartHeaderBytes)
+        throw invalid("part file header: unexpected size");
     EsvoPart part;
     part.path = path;
     part.runIndex = in.get<std::uint32_t>();
@@ -207,18 +219,22 @@ EsvoPart readEsvoPart(const std::filesystem::path& path, SliceStore& store) {
     const auto sliceCount = in.get<std::uint32_t>();
     const auto recordsChecksum = in.get<std::uint32_t>();
     const auto effort = in.get<std::uint32_t>();
-    if (effort > static_cast<std::uint32_t>(AttributeEffort::Best)) throw invalid("part file header: unknown attribute effort");
+    if (effort > static_cast<std::uint32_t>(AttributeEffort::Best))
+        throw invalid("part file header: unknown attribute effort");
     part.attributeEffort = static_cast<AttributeEffort>(effort);
-    if (h.leafDepth < 1 || h.leafDepth > esvo::kMaxLeafDepth || part.partitionLevel < 1 || part.partitionLevel >= h.leafDepth ||
-        part.runCount < 2 || part.runIndex >= part.runCount || part.firstPartition > part.partitionsTotal ||
-        part.partitionsInRun > part.partitionsTotal - part.firstPartition || rootCount > part.partitionsInRun ||
-        h.sliceBytesLimit < esvo::kMinSliceBytes || recordsOffset < kPartHeaderBytes || recordsOffset > file->size() ||
+    if (h.leafDepth < 1 || h.leafDepth > esvo::kMaxLeafDepth || part.partitionLevel < 1 ||
+        part.partitionLevel >= h.leafDepth || part.runCount < 2 || part.runIndex >= part.runCount ||
+        part.firstPartition > part.partitionsTotal ||
+        part.partitionsInRun > part.partitionsTotal - part.firstPartition ||
+        rootCount > part.partitionsInRun || h.sliceBytesLimit < esvo::kMinSliceBytes ||
+        recordsOffset < kPartHeaderBytes || recordsOffset > file->size() ||
         recordsBytes != file->size() - recordsOffset)
         throw invalid("part file header: inconsistent fields");
 
     std::vector<std::uint8_t> recordBytes(recordsBytes);
     file->read(recordsOffset, recordBytes.data(), recordsBytes);
-    if (crc32c(recordBytes.data(), recordBytes.size()) != recordsChecksum) throw invalid("part file records: checksum mismatch");
+    if (crc32c(recordBytes.data(), recordBytes.size()) != recordsChecksum)
+        throw invalid("part file records: checksum mismatch");
     const bool contours = hasContours(h), attributes = h.hasAttributes();
     const std::uint32_t levels = h.leafDepth - part.partitionLevel;
     ByteReader records(path, recordBytes);
@@ -231,19 +247,25 @@ EsvoPart readEsvoPart(const std::filesystem::path& path, SliceStore& store) {
         root.nonLeaf = records.get<std::uint8_t>();
         (void)records.get<std::uint16_t>();
         const auto slices = records.get<std::uint32_t>();
-        if ((r > 0 && root.code <= previousCode) || (std::uint64_t{root.code} >> (3 * part.partitionLevel)) != 0 || root.mask == 0 ||
-            (root.nonLeaf & ~root.mask) != 0 || (root.nonLeaf == 0) != (slices == 0) || slices > sliceCount - slicesRead)
-            throw invalid("part file records: partition root " + std::to_string(r) + " inconsistent");
+        if ((r > 0 && root.code <= previousCode) ||
+            (std::uint64_t{root.code} >> (3 * part.partitionLevel)) != 0 || root.mask == 0 ||
+            (root.nonLeaf & ~root.mask) != 0 || (root.nonLeaf == 0) != (slices == 0) ||
+            slices > sliceCount - slicesRead)
+            throw invalid("part file records: partition root " + std::to_string(r) +
+                          " inconsistent");
         previousCode = root.code;
         root.voxelsPerLevel.resize(levels + 1);
         for (std::uint64_t& v : root.voxelsPerLevel) v = records.get<std::uint64_t>();
         const std::uint32_t children = esvo::popc8(root.mask);
         if (root.voxelsPerLevel[0] != 1 || root.voxelsPerLevel[1] != children)
-            throw invalid("part file records: partition root " + std::to_string(r) + " voxel counts inconsistent");
+            throw invalid("part file records: partition root " + std::to_string(r) +
+                          " voxel counts inconsistent");
         if (contours)
-            for (std::uint32_t c = 0; c < children; ++c) root.childContours.push_back(records.get<std::uint32_t>());
+            for (std::uint32_t c = 0; c < children; ++c)
+                root.childContours.push_back(records.get<std::uint32_t>());
         if (attributes) {
-            for (std::uint32_t c = 0; c < children; ++c) root.childAttributes.push_back(records.get<std::uint64_t>());
+            for (std::uint32_t c = 0; c < children; ++c)
+                root.childAttributes.push_back(records.get<std::uint64_t>());
             AttributeSums& s = root.sums;
             s.weight = records.get<double>();
             s.color = records.getVec3();
@@ -260,13 +282,16 @@ EsvoPart readEsvoPart(const std::filesystem::path& path, SliceStore& store) {
         partition.path = root.code;
         for (std::uint32_t i = 0; i < slices; ++i) {
             SliceRecord s;
-            const std::string where = "part file records: slice " + std::to_string(slicesRead + i) + " ";
+            const std::string where =
+                "part file records: slice " + std::to_string(slicesRead + i) + " ";
             s.parent = records.get<std::uint32_t>();
             const auto childCount = records.get<std::uint32_t>();
-            if (childCount > slices) throw invalid(where + "has more children than its partition has slices");
+            if (childCount > slices)
+                throw invalid(where + "has more children than its partition has slices");
             for (std::uint32_t c = 0; c < childCount; ++c) {
                 const auto child = records.get<std::uint32_t>();
-                if (child <= i || child >= slices) throw invalid(where + "child index out of range");
+                if (child <= i || child >= slices)
+                    throw invalid(where + "child index out of range");
                 s.children.push_back(child);
             }
             s.regionLevel = records.get<std::uint8_t>();
@@ -283,12 +308,15 @@ EsvoPart readEsvoPart(const std::filesystem::path& path, SliceStore& store) {
             const auto blockOffset = records.get<std::uint64_t>();
             const auto blockBytes = records.get<std::uint32_t>();
             const auto blockChecksum = records.get<std::uint32_t>();
-            if ((i == 0) != (s.parent == esvo::kNoSlice) || (i > 0 && s.parent >= i) || s.regionLevel < part.partitionLevel ||
-                s.firstLevel <= s.regionLevel || s.endLevel <= s.firstLevel || s.endLevel > h.leafDepth ||
+            if ((i == 0) != (s.parent == esvo::kNoSlice) || (i > 0 && s.parent >= i) ||
+                s.regionLevel < part.partitionLevel || s.firstLevel <= s.regionLevel ||
+                s.endLevel <= s.firstLevel || s.endLevel > h.leafDepth ||
                 (i == 0 && (s.regionLevel != part.partitionLevel || s.regionPath != root.code)) ||
-                (s.regionPath >> (3 * s.regionLevel)) != 0 || blockBytes % 8 != 0 || blockBytes == 0 ||
-                blockBytes > h.sliceBytesLimit || blockOffset % esvo::kSliceAlignment != 0 || blockOffset < kPartHeaderBytes ||
-                blockOffset > recordsOffset || blockBytes > recordsOffset - blockOffset || s.infoWord >= blockBytes / 4)
+                (s.regionPath >> (3 * s.regionLevel)) != 0 || blockBytes % 8 != 0 ||
+                blockBytes == 0 || blockBytes > h.sliceBytesLimit ||
+                blockOffset % esvo::kSliceAlignment != 0 || blockOffset < kPartHeaderBytes ||
+                blockOffset > recordsOffset || blockBytes > recordsOffset - blockOffset ||
+                s.infoWord >= blockBytes / 4)
                 throw invalid(where + "inconsistent");
             s.block = store.external(file, blockOffset, blockBytes, blockChecksum);
             partition.slices.push_back(std::move(s));
@@ -297,7 +325,8 @@ EsvoPart readEsvoPart(const std::filesystem::path& path, SliceStore& store) {
         part.roots.push_back(std::move(root));
         part.slices.push_back(std::move(partition));
     }
-    if (slicesRead != sliceCount || !records.atEnd()) throw invalid("part file records: counts inconsistent");
+    if (slicesRead != sliceCount || !records.atEnd())
+        throw invalid("part file records: counts inconsistent");
     return part;
 }
 

@@ -31,26 +31,30 @@ namespace vox::detail {
 /// cell and level: the cells' outputs are most of a build's fresh memory), which the last of those
 /// cells frees.
 struct CellSubtree {
-    std::uint32_t code = 0;      ///< Morton code of the cell at the cell level
-    bool occupied = false;       ///< false: rounding left no voxel in it
-    std::shared_ptr<const HugePageArena> storage;       ///< where the arrays below are
-    std::vector<std::span<const std::uint8_t>> masks;       ///< levels cell … depth − 1
-    std::vector<std::span<const std::uint32_t>> contours;   ///< levels cell … depth (the cell's own entry empty)
-    std::vector<std::span<const std::uint64_t>> attributes; ///< levels cell … depth (the cell's own entry empty)
+    std::uint32_t code = 0;                        ///< Morton code of the cell at the cell level
+    bool occupied = false;                         ///< false: rounding left no voxel in it
+    std::shared_ptr<const HugePageArena> storage;  ///< where the arrays below are
+    std::vector<std::span<const std::uint8_t>> masks;  ///< levels cell … depth − 1
+    std::vector<std::span<const std::uint32_t>>
+        contours;  ///< levels cell … depth (the cell's own entry empty)
+    std::vector<std::span<const std::uint64_t>>
+        attributes;  ///< levels cell … depth (the cell's own entry empty)
     std::vector<LeafMaterial> leafMaterials;
-    AttributeSums sums;          ///< with attributes: the cell's
+    AttributeSums sums;  ///< with attributes: the cell's
 };
 
 /// Voxels of one level given by their Morton codes (ascending) and attribute sums, and the
 /// levels above them up to a root level: masks and sums per level, as SparseOctree orders them.
 struct UpperLevels {
-    std::vector<std::vector<std::uint8_t>> masks;         ///< [l − root] for levels root … level − 1
-    std::vector<std::vector<AttributeSums>> sums;         ///< [l − root] for levels root … level (with sums)
-    std::vector<std::vector<std::uint32_t>> codes;        ///< [l − root] for levels root … level
+    std::vector<std::vector<std::uint8_t>> masks;  ///< [l − root] for levels root … level − 1
+    std::vector<std::vector<AttributeSums>>
+        sums;  ///< [l − root] for levels root … level (with sums)
+    std::vector<std::vector<std::uint32_t>> codes;  ///< [l − root] for levels root … level
 };
 /// Groups @p codes of voxels at @p level by their ancestors up to @p rootLevel (all of them must
 /// share the ancestor there). @p sums: empty, or one per code.
-[[nodiscard]] UpperLevels buildUpperLevels(std::vector<std::uint32_t> codes, std::vector<AttributeSums> sums, std::uint32_t level,
+[[nodiscard]] UpperLevels buildUpperLevels(std::vector<std::uint32_t> codes,
+                                           std::vector<AttributeSums> sums, std::uint32_t level,
                                            std::uint32_t rootLevel);
 
 class SurfaceVoxelizer {
@@ -66,19 +70,23 @@ public:
     [[nodiscard]] std::size_t cellCount() const noexcept { return cells_.size(); }
     [[nodiscard]] std::uint32_t cellCode(std::size_t cell) const { return cells_[cell].code; }
     /// Triangles binned into the cell.
-    [[nodiscard]] std::size_t cellTriangles(std::size_t cell) const { return cells_[cell].end - cells_[cell].begin; }
+    [[nodiscard]] std::size_t cellTriangles(std::size_t cell) const {
+        return cells_[cell].end - cells_[cell].begin;
+    }
     /// The summed area of the cell's triangles in leaf voxels², each shared equally by the cells
     /// it was binned into: about its leaf count, for estimating a build's memory.
     [[nodiscard]] double cellArea(std::size_t cell) const { return cells_[cell].area; }
 
     /// Builds the subtrees of cells [first, last) in parallel.
-    [[nodiscard]] std::vector<CellSubtree> buildCells(std::size_t first, std::size_t last, Progress* progress) const;
+    [[nodiscard]] std::vector<CellSubtree> buildCells(std::size_t first, std::size_t last,
+                                                      Progress* progress) const;
 
     /// Joins the subtrees of consecutive cells that share their ancestor at @p rootLevel (≤ the
     /// cell level) into an octree whose level 0 is that ancestor (the whole octree for level 0;
     /// its cube is only set then). An empty octree (leafDepth 0) if no cell is occupied.
     /// @p rootSums: with attributes, receives the root's sums.
-    [[nodiscard]] SparseOctree join(std::vector<CellSubtree>&& cells, std::uint32_t rootLevel, AttributeSums* rootSums = nullptr) const;
+    [[nodiscard]] SparseOctree join(std::vector<CellSubtree>&& cells, std::uint32_t rootLevel,
+                                    AttributeSums* rootSums = nullptr) const;
 
 private:
     struct Cell {

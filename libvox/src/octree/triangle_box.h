@@ -54,19 +54,28 @@ struct BoxTestTriangle {
     for (const Vec3d& e : edges) {
         // e × x = (0, e.z, −e.y), e × y = (−e.z, 0, e.x), e × z = (e.y, −e.x, 0)
         {
-            const double pa = e.z * a.y - e.y * a.z, pb = e.z * b.y - e.y * b.z, pd = e.z * d.y - e.y * d.z;
+            const double pa = e.z * a.y - e.y * a.z, pb = e.z * b.y - e.y * b.z,
+                         pd = e.z * d.y - e.y * d.z;
             const double rad = h * (std::abs(e.z) + std::abs(e.y));
-            if (separated(std::min({pa, pb, pd}), std::max({pa, pb, pd}), rad, std::abs(pa) + std::abs(pb) + std::abs(pd))) return false;
+            if (separated(std::min({pa, pb, pd}), std::max({pa, pb, pd}), rad,
+                          std::abs(pa) + std::abs(pb) + std::abs(pd)))
+                return false;
         }
         {
-            const double pa = -e.z * a.x + e.x * a.z, pb = -e.z * b.x + e.x * b.z, pd = -e.z * d.x + e.x * d.z;
+            const double pa = -e.z * a.x + e.x * a.z, pb = -e.z * b.x + e.x * b.z,
+                         pd = -e.z * d.x + e.x * d.z;
             const double rad = h * (std::abs(e.z) + std::abs(e.x));
-            if (separated(std::min({pa, pb, pd}), std::max({pa, pb, pd}), rad, std::abs(pa) + std::abs(pb) + std::abs(pd))) return false;
+            if (separated(std::min({pa, pb, pd}), std::max({pa, pb, pd}), rad,
+                          std::abs(pa) + std::abs(pb) + std::abs(pd)))
+                return false;
         }
         {
-            const double pa = e.y * a.x - e.x * a.y, pb = e.y * b.x - e.x * b.y, pd = e.y * d.x - e.x * d.y;
+            const double pa = e.y * a.x - e.x * a.y, pb = e.y * b.x - e.x * b.y,
+                         pd = e.y * d.x - e.x * d.y;
             const double rad = h * (std::abs(e.y) + std::abs(e.x));
-            if (separated(std::min({pa, pb, pd}), std::max({pa, pb, pd}), rad, std::abs(pa) + std::abs(pb) + std::abs(pd))) return false;
+            if (separated(std::min({pa, pb, pd}), std::max({pa, pb, pd}), rad,
+                          std::abs(pa) + std::abs(pb) + std::abs(pd)))
+                return false;
         }
     }
     return true;
@@ -119,7 +128,8 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
     bool splitSpans = true;  // on those, lo ≤ 0 ≤ hi
     // The axis helpers always inline: called out of line (as GCC decides for some callers), they
     // cost a tenth more.
-    const auto boxAxis = [&](double pa, double pb, double pd, std::uint32_t lowHalf) __attribute__((always_inline)) {
+    const auto boxAxis = [&](double pa, double pb, double pd, std::uint32_t lowHalf)
+        __attribute__((always_inline)) {
         const double lo = std::min(std::min(pa, pb), pd);
         const double hi = std::max(std::max(pa, pb), pd);
         const double magnitude = std::max(std::abs(lo), std::abs(hi));
@@ -149,8 +159,9 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
         const double t1 = ax + ay, t2 = ay - ax;  // partial sums of slots x+y+ and x−y+
         const double v7 = t1 + az, v3 = t1 - az, v6 = t2 + az, v5 = az - t2;
         const double w7 = up ? v7 : -v7, w3 = up ? v3 : -v3, w6 = up ? v6 : -v6, w5 = up ? v5 : -v5;
-        mask &= bit(w7 >= bound) << 7 | bit(-w7 >= bound) | bit(w3 >= bound) << 3 | bit(-w3 >= bound) << 4 | bit(w6 >= bound) << 6 |
-                bit(-w6 >= bound) << 1 | bit(w5 >= bound) << 5 | bit(-w5 >= bound) << 2;
+        mask &= bit(w7 >= bound) << 7 | bit(-w7 >= bound) | bit(w3 >= bound) << 3 |
+                bit(-w3 >= bound) << 4 | bit(w6 >= bound) << 6 | bit(-w6 >= bound) << 1 |
+                bit(w5 >= bound) << 5 | bit(-w5 >= bound) << 2;
     }
     // A triangle inside the cube that the box axes leave in one child, or in two across one
     // mid-plane it reaches on both sides, has a vertex in each: the edge axes cannot separate
@@ -166,15 +177,21 @@ inline constexpr SlotPair kXY{0x88, 0x11, 0x22, 0x44};  // bits 0 and 1
         const double r = std::abs(u1) + std::abs(u2);
         const double grow = r + 1e-9 * (r + (std::abs(pa) + std::abs(pb) + std::abs(pd)));
         const bool up = pmin > 0;
-        const double bound = up ? pmin - grow : (pmax < 0 ? -(pmax + grow) : -std::numeric_limits<double>::infinity());
+        const double bound =
+            up ? pmin - grow
+               : (pmax < 0 ? -(pmax + grow) : -std::numeric_limits<double>::infinity());
         const double w0 = u1 + u2, v0 = u1 - u2;
         const double w = up ? w0 : -w0, v = up ? v0 : -v0;
-        mask &= (w >= bound ? pair.pp : 0u) | (-w >= bound ? pair.mm : 0u) | (v >= bound ? pair.pm : 0u) | (-v >= bound ? pair.mp : 0u);
+        mask &= (w >= bound ? pair.pp : 0u) | (-w >= bound ? pair.mm : 0u) |
+                (v >= bound ? pair.pm : 0u) | (-v >= bound ? pair.mp : 0u);
     };
     for (const Vec3d e : {b - a, d - b, a - d}) {
-        edgeAxis(e.z * a.y - e.y * a.z, e.z * b.y - e.y * b.z, e.z * d.y - e.y * d.z, q * e.z, q * -e.y, child_mask::kYZ);
-        edgeAxis(e.x * a.z - e.z * a.x, e.x * b.z - e.z * b.x, e.x * d.z - e.z * d.x, q * -e.z, q * e.x, child_mask::kXZ);
-        edgeAxis(e.y * a.x - e.x * a.y, e.y * b.x - e.x * b.y, e.y * d.x - e.x * d.y, q * e.y, q * -e.x, child_mask::kXY);
+        edgeAxis(e.z * a.y - e.y * a.z, e.z * b.y - e.y * b.z, e.z * d.y - e.y * d.z, q * e.z,
+                 q * -e.y, child_mask::kYZ);
+        edgeAxis(e.x * a.z - e.z * a.x, e.x * b.z - e.z * b.x, e.x * d.z - e.z * d.x, q * -e.z,
+                 q * e.x, child_mask::kXZ);
+        edgeAxis(e.y * a.x - e.x * a.y, e.y * b.x - e.x * b.y, e.y * d.x - e.x * d.y, q * e.y,
+                 q * -e.x, child_mask::kXY);
     }
     return mask;
 }
@@ -183,9 +200,12 @@ namespace clip_detail {
 
 template <int Axis>
 [[nodiscard]] inline double coordinate(const Vec3d& p) {
-    if constexpr (Axis == 0) return p.x;
-    else if constexpr (Axis == 1) return p.y;
-    else return p.z;
+    if constexpr (Axis == 0)
+        return p.x;
+    else if constexpr (Axis == 1)
+        return p.y;
+    else
+        return p.z;
 }
 
 /// Sutherland–Hodgman of the polygon @p in (@p n vertices) against the face of [−½, ½]³ on
@@ -193,7 +213,8 @@ template <int Axis>
 /// or n with nothing written where no vertex lies beyond the face (the pass would copy the
 /// polygon unchanged), @p clipped telling which.
 template <int Axis, int Side>
-inline std::size_t clipFace(const Vec3d* in, std::size_t n, Vec3d* out, std::size_t capacity, bool& clipped) {
+inline std::size_t clipFace(const Vec3d* in, std::size_t n, Vec3d* out, std::size_t capacity,
+                            bool& clipped) {
     std::array<double, 12> distance;
     bool beyond = false;
     for (std::size_t i = 0; i < n; ++i) {
@@ -207,7 +228,8 @@ inline std::size_t clipFace(const Vec3d* in, std::size_t n, Vec3d* out, std::siz
         const std::size_t j = i + 1 == n ? 0 : i + 1;
         const double dp = distance[i], dq = distance[j];
         if (dp <= 0) out[m++] = in[i];
-        if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) out[m++] = in[i] + (in[j] - in[i]) * (dp / (dp - dq));
+        if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0))
+            out[m++] = in[i] + (in[j] - in[i]) * (dp / (dp - dq));
     }
     return m;
 }
@@ -215,16 +237,20 @@ inline std::size_t clipFace(const Vec3d* in, std::size_t n, Vec3d* out, std::siz
 }  // namespace clip_detail
 
 /// True if @p p lies in the closed cube [−½, ½]³.
-[[nodiscard]] inline bool insideUnitCube(const Vec3d& p) { return std::abs(p.x) <= 0.5 && std::abs(p.y) <= 0.5 && std::abs(p.z) <= 0.5; }
+[[nodiscard]] inline bool insideUnitCube(const Vec3d& p) {
+    return std::abs(p.x) <= 0.5 && std::abs(p.y) <= 0.5 && std::abs(p.z) <= 0.5;
+}
 
 /// Clips the triangle @p p0 @p p1 @p p2 to the cube [−½, ½]³ (Sutherland–Hodgman: faces −x, +x,
 /// −y, +y, −z, +z in turn), writing the polygon to @p out (12 vertices of room, which 9 never
 /// exceed; @p scratch likewise); returns its vertex count.
-inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, const Vec3d& p2, Vec3d* out, Vec3d* scratch) {
+inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, const Vec3d& p2,
+                                          Vec3d* out, Vec3d* scratch) {
     out[0] = p0;
     out[1] = p1;
     out[2] = p2;
-    if (insideUnitCube(p0) && insideUnitCube(p1) && insideUnitCube(p2)) return 3;  // common for fine triangles in coarse voxels
+    if (insideUnitCube(p0) && insideUnitCube(p1) && insideUnitCube(p2))
+        return 3;  // common for fine triangles in coarse voxels
     constexpr std::size_t kRoom = 12;
     Vec3d* a = out;
     Vec3d* b = scratch;
@@ -240,8 +266,9 @@ inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, cons
         }
         return n > 0;
     };
-    if (!pass(clip_detail::clipFace<0, -1>) || !pass(clip_detail::clipFace<0, 1>) || !pass(clip_detail::clipFace<1, -1>) ||
-        !pass(clip_detail::clipFace<1, 1>) || !pass(clip_detail::clipFace<2, -1>) || !pass(clip_detail::clipFace<2, 1>))
+    if (!pass(clip_detail::clipFace<0, -1>) || !pass(clip_detail::clipFace<0, 1>) ||
+        !pass(clip_detail::clipFace<1, -1>) || !pass(clip_detail::clipFace<1, 1>) ||
+        !pass(clip_detail::clipFace<2, -1>) || !pass(clip_detail::clipFace<2, 1>))
         return 0;
     if (a != out)
         for (std::size_t i = 0; i < n; ++i) {
@@ -253,9 +280,10 @@ inline std::size_t clipTriangleToUnitCube(const Vec3d& p0, const Vec3d& p1, cons
 }
 
 /// Clips a triangle to the cube [−½, ½]³ (Sutherland–Hodgman), appending the polygon to @p out.
-inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out, std::array<Vec3d, 12>& bufferA,
-                           std::array<Vec3d, 12>& bufferB) {
-    const std::size_t n = clipTriangleToUnitCube(triangle[0], triangle[1], triangle[2], bufferA.data(), bufferB.data());
+inline void clipToUnitCube(const std::array<Vec3d, 3>& triangle, std::vector<Vec3d>& out,
+                           std::array<Vec3d, 12>& bufferA, std::array<Vec3d, 12>& bufferB) {
+    const std::size_t n = clipTriangleToUnitCube(triangle[0], triangle[1], triangle[2],
+                                                 bufferA.data(), bufferB.data());
     out.insert(out.end(), bufferA.begin(), bufferA.begin() + static_cast<std::ptrdiff_t>(n));
 }
 
@@ -282,7 +310,8 @@ inline constexpr std::size_t kSplitRoom = 2 * kPolygonRoom;
 /// pass would leave unchanged (no vertex strictly beyond the plane) is @p in itself, not a copy.
 /// The buffers have kSplitRoom vertices of room.
 template <int Axis>
-inline void splitAtMidPlane(const Part& in, Vec3d* lowBuffer, Vec3d* highBuffer, Part& low, Part& high) {
+inline void splitAtMidPlane(const Part& in, Vec3d* lowBuffer, Vec3d* highBuffer, Part& low,
+                            Part& high) {
     std::array<double, kPolygonRoom> d;
     double lowest = std::numeric_limits<double>::infinity(), highest = -lowest;
     for (std::size_t i = 0; i < in.n; ++i) {
@@ -316,9 +345,12 @@ inline void splitAtMidPlane(const Part& in, Vec3d* lowBuffer, Vec3d* highBuffer,
         nh += dp >= 0;
         if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) {
             Vec3d cut = in.v[i] + (in.v[j] - in.v[i]) * (dp / (dp - dq));
-            if constexpr (Axis == 0) cut.x = 0;
-            else if constexpr (Axis == 1) cut.y = 0;
-            else cut.z = 0;
+            if constexpr (Axis == 0)
+                cut.x = 0;
+            else if constexpr (Axis == 1)
+                cut.y = 0;
+            else
+                cut.z = 0;
             lowBuffer[nl++] = cut;
             highBuffer[nh++] = cut;
         }
@@ -352,14 +384,18 @@ inline double fanAreas(const Vec3d* p, std::size_t n, double* fan) {
 class CubeFragments {
 public:
     /// Every polygon's vertices, one polygon after another.
-    [[nodiscard]] std::span<const Vec3d> points() const { return {points_.data(), begin_[entries_]}; }
+    [[nodiscard]] std::span<const Vec3d> points() const {
+        return {points_.data(), begin_[entries_]};
+    }
     /// Entry @p entry's polygon (its list entry's).
     [[nodiscard]] std::span<const Vec3d> polygon(std::size_t entry) const {
         return {points_.data() + begin_[entry], points_.data() + begin_[entry + 1]};
     }
-    /// Per point j from a polygon's third vertex on: 0.5·|(p[j−1] − p[0]) × (p[j] − p[0])|, the area
-    /// of its fan triangle (p[0], p[j−1], p[j]); 0 for the first two. Indexed like points().
-    [[nodiscard]] const double* fanArea(std::size_t entry) const { return fanArea_.data() + begin_[entry]; }
+    /// Per point j from a polygon's third vertex on: 0.5·|(p[j−1] − p[0]) × (p[j] − p[0])|, the
+    /// area of its fan triangle (p[0], p[j−1], p[j]); 0 for the first two. Indexed like points().
+    [[nodiscard]] const double* fanArea(std::size_t entry) const {
+        return fanArea_.data() + begin_[entry];
+    }
     /// Entry @p entry's polygon area: the sum of its fan areas in order.
     [[nodiscard]] double area(std::size_t entry) const { return area_[entry]; }
     /// Entries so far.
@@ -382,32 +418,36 @@ public:
     /// exact (Sterbenz: v within [c/2, 2c]) for every triangle inside a cube of half-extent h
     /// whose centre has every coordinate ≥ 3h: its rounded offsets are within h, so the exact ones
     /// within h + ulp(h), and c − 1.01·h ≥ c/2, c + 1.01·h ≤ 2c.
-    void clip(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles, Vec3d c, double scale,
-              const double* normalLength = nullptr) {
+    void clip(std::span<const std::uint32_t> list, const std::vector<BoxTestTriangle>& triangles,
+              Vec3d c, double scale, const double* normalLength = nullptr) {
         clip(list, triangles.data(), c, scale, normalLength);
     }
-    void clip(std::span<const std::uint32_t> list, const BoxTestTriangle* triangles, Vec3d c, double scale,
-              const double* normalLength = nullptr) {
+    void clip(std::span<const std::uint32_t> list, const BoxTestTriangle* triangles, Vec3d c,
+              double scale, const double* normalLength = nullptr) {
         start(list.size());
         const double h3 = 1.5 / scale;  // 3h
         const bool shortcut = normalLength != nullptr && c.x >= h3 && c.y >= h3 && c.z >= h3;
         const double halfScale2 = 0.5 * scale * scale;
         for (const std::uint32_t t : list) {
             const BoxTestTriangle& tri = triangles[t];
-            const Vec3d p0 = (tri.v0 - c) * scale, p1 = (tri.v1 - c) * scale, p2 = (tri.v2 - c) * scale;
+            const Vec3d p0 = (tri.v0 - c) * scale, p1 = (tri.v1 - c) * scale,
+                        p2 = (tri.v2 - c) * scale;
             Vec3d* out = points_.data() + begin_[entries_];
-            if (insideUnitCube(p0) && insideUnitCube(p1) && insideUnitCube(p2)) {  // as clipTriangleToUnitCube: unclipped
+            if (insideUnitCube(p0) && insideUnitCube(p1) &&
+                insideUnitCube(p2)) {  // as clipTriangleToUnitCube: unclipped
                 out[0] = p0;
                 out[1] = p1;
                 out[2] = p2;
                 double* fan = fanArea_.data() + begin_[entries_];
                 fan[0] = 0;
                 fan[1] = 0;
-                fan[2] = shortcut ? normalLength[t] * halfScale2 : 0.5 * length(cross(p1 - p0, p2 - p0));
+                fan[2] =
+                    shortcut ? normalLength[t] * halfScale2 : 0.5 * length(cross(p1 - p0, p2 - p0));
                 append(3, fan[2]);
                 continue;
             }
-            const std::size_t n = clipTriangleToUnitCube(p0, p1, p2, out, clipB_.data());  // room is 12 per triangle
+            const std::size_t n =
+                clipTriangleToUnitCube(p0, p1, p2, out, clipB_.data());  // room is 12 per triangle
             append(n, clip_detail::fanAreas(out, n, fanArea_.data() + begin_[entries_]));
         }
     }
@@ -429,13 +469,16 @@ public:
         const double* fan = fanArea_.data() + begin_[entry];
         const double area = area_[entry];
         Part halves[2], quarters[2], eighths[2];
-        clip_detail::splitAtMidPlane<0>(whole, split_[0].data(), split_[1].data(), halves[0], halves[1]);
+        clip_detail::splitAtMidPlane<0>(whole, split_[0].data(), split_[1].data(), halves[0],
+                                        halves[1]);
         for (std::uint32_t x = 0; x < 2; ++x) {
             if (!(mask & (x ? 0xAAu : 0x55u))) continue;
-            clip_detail::splitAtMidPlane<1>(halves[x], split_[2].data(), split_[3].data(), quarters[0], quarters[1]);
+            clip_detail::splitAtMidPlane<1>(halves[x], split_[2].data(), split_[3].data(),
+                                            quarters[0], quarters[1]);
             for (std::uint32_t y = 0; y < 2; ++y) {
                 if (!(mask & ((x ? 0xAAu : 0x55u) & (y ? 0xCCu : 0x33u)))) continue;
-                clip_detail::splitAtMidPlane<2>(quarters[y], split_[4].data(), split_[5].data(), eighths[0], eighths[1]);
+                clip_detail::splitAtMidPlane<2>(quarters[y], split_[4].data(), split_[5].data(),
+                                                eighths[0], eighths[1]);
                 for (std::uint32_t z = 0; z < 2; ++z) {
                     const std::uint32_t slot = x | y << 1 | z << 2;
                     if (mask & (1u << slot)) children[slot].appendPart(eighths[z], slot, fan, area);
@@ -445,7 +488,8 @@ public:
     }
 
 private:
-    /// Room for the largest polygons of @p entries entries without a check per vertex; never shrunk.
+    /// Room for the largest polygons of @p entries entries without a check per vertex; never
+    /// shrunk.
     void grow(std::size_t entries) {
         const std::size_t room = clip_detail::kPolygonRoom * (entries + 1);
         points_.resize(room);
@@ -454,17 +498,26 @@ private:
         area_.resize(entries + 1);
         entryRoom_ = entries + 1;
     }
-    /// Closes the entry whose @p n points (and fan areas) were written at the end: its area @p area.
+    /// Closes the entry whose @p n points (and fan areas) were written at the end: its area @p
+    /// area.
     void append(std::size_t n, double area) {
         area_[entries_] = area;
         begin_[entries_ + 1] = begin_[entries_] + static_cast<std::uint32_t>(n);
         ++entries_;
     }
     /// Appends @p part of a parent's polygon (parent frame) in child @p slot, mapped to this
-    /// frame; a whole part takes the parent's fan areas @p parentFan × 4 and area @p parentArea × 4.
-    void appendPart(const clip_detail::Part& part, std::uint32_t slot, const double* parentFan, double parentArea) {
-        static constexpr std::array<Vec3d, 8> kOffsets{{{-0.5, -0.5, -0.5}, {0.5, -0.5, -0.5}, {-0.5, 0.5, -0.5}, {0.5, 0.5, -0.5},
-                                                       {-0.5, -0.5, 0.5}, {0.5, -0.5, 0.5}, {-0.5, 0.5, 0.5}, {0.5, 0.5, 0.5}}};
+    /// frame; a whole part takes the parent's fan areas @p parentFan × 4 and area @p parentArea
+    /// × 4.
+    void appendPart(const clip_detail::Part& part, std::uint32_t slot, const double* parentFan,
+                    double parentArea) {
+        static constexpr std::array<Vec3d, 8> kOffsets{{{-0.5, -0.5, -0.5},
+                                                        {0.5, -0.5, -0.5},
+                                                        {-0.5, 0.5, -0.5},
+                                                        {0.5, 0.5, -0.5},
+                                                        {-0.5, -0.5, 0.5},
+                                                        {0.5, -0.5, 0.5},
+                                                        {-0.5, 0.5, 0.5},
+                                                        {0.5, 0.5, 0.5}}};
         const Vec3d offset = kOffsets[slot];
         Vec3d* out = points_.data() + begin_[entries_];
         double* fan = fanArea_.data() + begin_[entries_];
@@ -479,12 +532,14 @@ private:
 
     std::vector<Vec3d> points_;
     std::vector<double> fanArea_;
-    std::vector<std::uint32_t> begin_;  // per entry: its polygon's first point; one more entry: the end
+    std::vector<std::uint32_t>
+        begin_;  // per entry: its polygon's first point; one more entry: the end
     std::vector<double> area_;
     std::size_t entries_ = 0;
-    std::size_t entryRoom_ = 0;  // entries there is room for, and one more (begin_'s size)
+    std::size_t entryRoom_ = 0;      // entries there is room for, and one more (begin_'s size)
     std::array<Vec3d, 12> clipB_{};  // clipping ping-pong buffer (zeroed once, not per triangle)
-    std::array<std::array<Vec3d, clip_detail::kSplitRoom>, 6> split_{};  // splitInto's parts: x, y and z halves (zeroed once)
+    std::array<std::array<Vec3d, clip_detail::kSplitRoom>, 6>
+        split_{};  // splitInto's parts: x, y and z halves (zeroed once)
 };
 
 }  // namespace vox::detail

@@ -9,13 +9,17 @@
 namespace vox::detail {
 
 std::uint64_t AttributeSums::pack() const {
-    if (!(weight > 0)) return esvo::packColor(128, 128, 128) | (std::uint64_t{esvo::encodeNormal({0, 0, 1})} << 32);
+    if (!(weight > 0))
+        return esvo::packColor(128, 128, 128) |
+               (std::uint64_t{esvo::encodeNormal({0, 0, 1})} << 32);
     const auto mean = [&](double v) { return static_cast<float>(v / weight); };
-    const std::uint32_t colorWord = packLinearColor({mean(color.x), mean(color.y), mean(color.z), mean(alpha)});
+    const std::uint32_t colorWord =
+        packLinearColor({mean(color.x), mean(color.y), mean(color.z), mean(alpha)});
     // Where opposite sides of a thin sheet share the voxel their normals cancel; the mean is then
     // noise, and the heaviest fragment's side is the better guess.
     const Vec3d n = length(normal) > 0.05 * weight ? normal : dominantNormal;
-    const std::uint32_t normalWord = esvo::encodeNormal({static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)});
+    const std::uint32_t normalWord = esvo::encodeNormal(
+        {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)});
     return colorWord | (std::uint64_t{normalWord} << 32);
 }
 
@@ -26,8 +30,9 @@ namespace {
 /// areas @p fan, area @p area, centroid @p centroid at barycentric coordinates @p at. The
 /// normalised interpolant's gradient at the centroid, (I − m̂m̂ᵀ) G / |m| for the interpolant m and
 /// its gradient G, against the polygon's covariance C: trace(G C Gᵀ) for that G.
-double normalVariance(const Scene& scene, TriangleSource source, const BoxTestTriangle& tri, Vec3d at, std::span<const Vec3d> poly,
-                      const double* fan, Vec3d centroid, double area, double edge) {
+double normalVariance(const Scene& scene, TriangleSource source, const BoxTestTriangle& tri,
+                      Vec3d at, std::span<const Vec3d> poly, const double* fan, Vec3d centroid,
+                      double area, double edge) {
     const Mesh& mesh = scene.meshes[source.mesh];
     if (mesh.normals.empty()) return 0;
     const std::uint32_t* index = &mesh.indices[3 * std::size_t{source.triangle}];
@@ -46,7 +51,8 @@ double normalVariance(const Scene& scene, TriangleSource source, const BoxTestTr
     const Vec3d mh = m * (1 / ml);
     const auto project = [&](Vec3d d) { return (d - mh * dot(mh, d)) * (1 / ml); };
     const Vec3d p1 = project(n1 - n0), p2 = project(n2 - n0);
-    const Vec3d g1 = cross(tri.v2 - tri.v0, tri.normal) * (1 / nn), g2 = cross(tri.normal, tri.v1 - tri.v0) * (1 / nn);
+    const Vec3d g1 = cross(tri.v2 - tri.v0, tri.normal) * (1 / nn),
+                g2 = cross(tri.normal, tri.v1 - tri.v0) * (1 / nn);
     // The polygon's covariance in leaf units: its fan triangles' second moments about poly[0] (a
     // triangle 0, p, q has ∫xxᵀ = A/12 (ppᵀ + qqᵀ + (p + q)(p + q)ᵀ)), less the centroid's.
     double c[3][3] = {};
@@ -66,7 +72,8 @@ double normalVariance(const Scene& scene, TriangleSource source, const BoxTestTr
             for (int b = 0; b < 3; ++b) sum += u[a] * c[a][b] * v[b];
         return sum;
     };
-    return std::max(0.0, dot(p1, p1) * form(g1, g1) + 2 * dot(p1, p2) * form(g1, g2) + dot(p2, p2) * form(g2, g2));
+    return std::max(0.0, dot(p1, p1) * form(g1, g1) + 2 * dot(p1, p2) * form(g1, g2) +
+                             dot(p2, p2) * form(g2, g2));
 }
 
 }  // namespace
@@ -83,7 +90,8 @@ AttributeSums::Error AttributeSums::error() const {
         // |n − m|² = 2 (1 − cos θ) ≈ θ² between unit normals n and the unit mean m; its mean over
         // the fragments' own values is 2 (1 − |Σ weight n| / Σ weight), to which the spread
         // inside them adds.
-        const double normalVariance = 2 * (1 - std::min(1.0, length(normal) * w)) + normalSpread * w;
+        const double normalVariance =
+            2 * (1 - std::min(1.0, length(normal) * w)) + normalSpread * w;
         out.normalDegrees = std::sqrt(std::max(0.0, normalVariance)) * 57.29577951308232;
     }
     double squared = 0;
@@ -98,24 +106,30 @@ AttributeSums::Error AttributeSums::error() const {
     return out;
 }
 
-AttributeSampler::AttributeSampler(const Scene& scene, const std::vector<BoxTestTriangle>& triangles, std::vector<TriangleSource> sources,
-                                   bool errorMoments)
-    : scene_(scene), triangles_(triangles), sources_(std::move(sources)), textured_(scene.meshes.size(), 0), errorMoments_(errorMoments) {
+AttributeSampler::AttributeSampler(const Scene& scene,
+                                   const std::vector<BoxTestTriangle>& triangles,
+                                   std::vector<TriangleSource> sources, bool errorMoments)
+    : scene_(scene),
+      triangles_(triangles),
+      sources_(std::move(sources)),
+      textured_(scene.meshes.size(), 0),
+      errorMoments_(errorMoments) {
     for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
         const Material& material = scene.materials[scene.meshes[m].material];
         textured_[m] = material.baseColorTexture.valid() || material.normalTexture.valid() ||
-                      (material.isEmissive() && material.emissiveTexture.valid());
+                       (material.isEmissive() && material.emissiveTexture.valid());
     }
 }
 
-AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch,
-                                       TriangleView view) const {
+AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3d c, double h,
+                                       AttributeScratch& scratch, TriangleView view) const {
     view = resolve(view);
     scratch.fragments.clip(list, view.triangles, c, filterScale(h));
     return filter(scratch.fragments, list, c, h, scratch, view);
 }
 
-AttributeSums AttributeSampler::filter(const CubeFragments& fragments, std::span<const std::uint32_t> list, Vec3d c, double h,
+AttributeSums AttributeSampler::filter(const CubeFragments& fragments,
+                                       std::span<const std::uint32_t> list, Vec3d c, double h,
                                        AttributeScratch& scratch, TriangleView view) const {
     view = resolve(view);
     AttributeSums sums;
@@ -124,12 +138,14 @@ AttributeSums AttributeSampler::filter(const CubeFragments& fragments, std::span
     const double tiny = 1e-9 * edge * edge;
     for (std::size_t entry = 0; entry < list.size(); ++entry) {
         const BoxTestTriangle& tri = view.triangles[list[entry]];
-        const std::uint32_t t = view.global ? view.global[list[entry]] : list[entry];  // the sampler's index
+        const std::uint32_t t =
+            view.global ? view.global[list[entry]] : list[entry];  // the sampler's index
         const std::span<const Vec3d> poly = fragments.polygon(entry);
         const double* fan = fragments.fanArea(entry);
         Vec3d centroid{0, 0, 0};
         const double area = fragments.area(entry);
-        for (std::size_t i = 1; i + 1 < poly.size(); ++i) centroid += (poly[0] + poly[i] + poly[i + 1]) * (fan[i + 1] / 3.0);
+        for (std::size_t i = 1; i + 1 < poly.size(); ++i)
+            centroid += (poly[0] + poly[i] + poly[i + 1]) * (fan[i + 1] / 3.0);
         if (area > 0) {
             centroid = centroid / area;
         } else if (!poly.empty()) {
@@ -159,16 +175,22 @@ AttributeSums AttributeSampler::filter(const CubeFragments& fragments, std::span
         Vec3f colorVariance{0, 0, 0};
         const Vec3d at = barycentric(c + centroid * edge);
         const SurfaceSample sample =
-            shadeTriangle(scene_, sources_[t], corners, at, edge, scratch.barycentrics, errorMoments_ ? &colorVariance : nullptr);
+            shadeTriangle(scene_, sources_[t], corners, at, edge, scratch.barycentrics,
+                          errorMoments_ ? &colorVariance : nullptr);
         const Vec4f& color = sample.color;
         const Vec3d& normal = sample.normal;
         if (errorMoments_) {
-            for (int ch = 0; ch < 3; ++ch) sums.colorSquares[ch] += (double(color[ch]) * color[ch] + colorVariance[ch]) * weight;
+            for (int ch = 0; ch < 3; ++ch)
+                sums.colorSquares[ch] +=
+                    (double(color[ch]) * color[ch] + colorVariance[ch]) * weight;
             if (area > 0) {
-                const double spread = normalVariance(scene_, sources_[t], tri, at, poly, fan, centroid, area, edge);
+                const double spread =
+                    normalVariance(scene_, sources_[t], tri, at, poly, fan, centroid, area, edge);
                 sums.normalSpread += spread * weight;
-                // A flat-shaded triangle (no spread) at least as large as the voxel's face: a facet.
-                if (spread == 0 && 0.5 * length(tri.normal) >= edge * edge) sums.facetWeight += weight;
+                // A flat-shaded triangle (no spread) at least as large as the voxel's face: a
+                // facet.
+                if (spread == 0 && 0.5 * length(tri.normal) >= edge * edge)
+                    sums.facetWeight += weight;
             }
         }
         sums.weight += weight;
@@ -177,7 +199,8 @@ AttributeSums AttributeSampler::filter(const CubeFragments& fragments, std::span
         sums.normal += normal * weight;
         sums.emission += Vec3d{sample.emission.x, sample.emission.y, sample.emission.z} * weight;
         for (int axis = 0; axis < 3; ++axis)
-            sums.normalMoments[2 * axis + (normal[axis] < 0 ? 1 : 0)] += std::abs(normal[axis]) * weight;
+            sums.normalMoments[2 * axis + (normal[axis] < 0 ? 1 : 0)] +=
+                std::abs(normal[axis]) * weight;
         if (weight > sums.dominantWeight) {
             sums.dominantWeight = weight;
             sums.dominantNormal = normal;

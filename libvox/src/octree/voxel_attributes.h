@@ -25,13 +25,13 @@ namespace vox::detail {
 /// still gets their attributes.
 struct AttributeSums {
     double weight = 0;
-    Vec3d color{0, 0, 0};   ///< linear RGB × weight
-    double alpha = 0;       ///< × weight
-    Vec3d normal{0, 0, 0};  ///< unit shading normal × weight
+    Vec3d color{0, 0, 0};     ///< linear RGB × weight
+    double alpha = 0;         ///< × weight
+    Vec3d normal{0, 0, 0};    ///< unit shading normal × weight
     Vec3d emission{0, 0, 0};  ///< linear emitted radiance × weight
-    /// What the normal-weighted attenuation (vox::Attenuation::Weighted, lighting.h) needs of the normals:
-    /// per axis direction (+x, −x, +y, −y, +z, −z), the sum of weight × |n_s| over fragments whose
-    /// normal points that way.
+    /// What the normal-weighted attenuation (vox::Attenuation::Weighted, lighting.h) needs of the
+    /// normals: per axis direction (+x, −x, +y, −y, +z, −z), the sum of weight × |n_s| over
+    /// fragments whose normal points that way.
     std::array<double, 6> normalMoments{};
     /// The heaviest fragment's normal: the fallback where opposite normals cancel in the mean.
     Vec3d dominantNormal{0, 0, 1};
@@ -51,7 +51,8 @@ struct AttributeSums {
         alpha += other.alpha;
         normal += other.normal;
         emission += other.emission;
-        for (std::size_t i = 0; i < normalMoments.size(); ++i) normalMoments[i] += other.normalMoments[i];
+        for (std::size_t i = 0; i < normalMoments.size(); ++i)
+            normalMoments[i] += other.normalMoments[i];
         if (other.dominantWeight > dominantWeight) {
             dominantWeight = other.dominantWeight;
             dominantNormal = other.dominantNormal;
@@ -96,24 +97,27 @@ struct TriangleView {
     const std::uint32_t* global = nullptr;
 };
 
-/// Evaluates materials over fragments: linear attributes at their centroids, textures over their area.
+/// Evaluates materials over fragments: linear attributes at their centroids, textures over their
+/// area.
 class AttributeSampler {
 public:
     /// @p triangles are in leaf units and @p sources says where each came from. With
     /// @p errorMoments, filter also sums what AttributeSums::error() reads.
-    AttributeSampler(const Scene& scene, const std::vector<BoxTestTriangle>& triangles, std::vector<TriangleSource> sources,
-                     bool errorMoments = false);
+    AttributeSampler(const Scene& scene, const std::vector<BoxTestTriangle>& triangles,
+                     std::vector<TriangleSource> sources, bool errorMoments = false);
 
     /// Sums over the fragments of the triangles @p list inside the cube with centre @p c and
     /// half-extent @p h (leaf units).
     /// @p view: where the indices of @p list point (default: this sampler's triangles).
-    [[nodiscard]] AttributeSums filter(std::span<const std::uint32_t> list, Vec3d c, double h, AttributeScratch& scratch,
-                                       TriangleView view = {}) const;
+    [[nodiscard]] AttributeSums filter(std::span<const std::uint32_t> list, Vec3d c, double h,
+                                       AttributeScratch& scratch, TriangleView view = {}) const;
     /// filter on the fragments of @p list in that cube, in its local frame (CubeFragments::clip at
     /// scale filterScale(h) gives the same sums, or a parent's CubeFragments::splitInto).
-    [[nodiscard]] AttributeSums filter(const CubeFragments& fragments, std::span<const std::uint32_t> list, Vec3d c, double h,
+    [[nodiscard]] AttributeSums filter(const CubeFragments& fragments,
+                                       std::span<const std::uint32_t> list, Vec3d c, double h,
                                        AttributeScratch& scratch, TriangleView view = {}) const;
-    /// The scale from leaf units to the local frame of a cube of half-extent @p h that filter clips in.
+    /// The scale from leaf units to the local frame of a cube of half-extent @p h that filter clips
+    /// in.
     [[nodiscard]] static double filterScale(double h) { return 1.0 / (2 * h); }
 
 private:

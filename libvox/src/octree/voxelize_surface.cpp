@@ -29,8 +29,9 @@ namespace vox {
 RootCube RootCube::enclosing(const Bounds3f& bounds) {
     RootCube cube;
     cube.origin = {bounds.min.x, bounds.min.y, bounds.min.z};
-    const double extent = std::max({double(bounds.max.x) - bounds.min.x, double(bounds.max.y) - bounds.min.y,
-                                    double(bounds.max.z) - bounds.min.z});
+    const double extent =
+        std::max({double(bounds.max.x) - bounds.min.x, double(bounds.max.y) - bounds.min.y,
+                  double(bounds.max.z) - bounds.min.z});
     cube.size = extent > 0 ? extent : 1.0;
     return cube;
 }
@@ -53,7 +54,8 @@ using detail::BoxTestTriangle;
 std::uint32_t mortonCell(std::uint32_t x, std::uint32_t y, std::uint32_t z, std::uint32_t levels) {
     std::uint32_t code = 0;
     for (std::uint32_t bit = 0; bit < levels; ++bit)
-        code |= (((x >> bit) & 1u) << (3 * bit)) | (((y >> bit) & 1u) << (3 * bit + 1)) | (((z >> bit) & 1u) << (3 * bit + 2));
+        code |= (((x >> bit) & 1u) << (3 * bit)) | (((y >> bit) & 1u) << (3 * bit + 1)) |
+                (((z >> bit) & 1u) << (3 * bit + 2));
     return code;
 }
 
@@ -65,21 +67,27 @@ constexpr double kOwnContourGain = 0.25;
 /// at most 31·√3.
 constexpr double kThinnestSlab = 0.75 / (31 * 1.7320508075688772);
 
-LeafMaterial leafMaterial(const detail::AttributeSums& sums, std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+LeafMaterial leafMaterial(const detail::AttributeSums& sums, std::uint32_t x, std::uint32_t y,
+                          std::uint32_t z) {
     LeafMaterial out;
     out.x = x;
     out.y = y;
     out.z = z;
     if (!(sums.weight > 0)) return out;
     const double w = 1.0 / sums.weight;
-    out.albedo = {static_cast<float>(sums.color.x * w), static_cast<float>(sums.color.y * w), static_cast<float>(sums.color.z * w)};
+    out.albedo = {static_cast<float>(sums.color.x * w), static_cast<float>(sums.color.y * w),
+                  static_cast<float>(sums.color.z * w)};
     out.coverage = static_cast<float>(sums.alpha * w);
-    out.emission = {static_cast<float>(sums.emission.x * w), static_cast<float>(sums.emission.y * w), static_cast<float>(sums.emission.z * w)};
+    out.emission = {static_cast<float>(sums.emission.x * w),
+                    static_cast<float>(sums.emission.y * w),
+                    static_cast<float>(sums.emission.z * w)};
     // Where opposite sides of a thin sheet cancel, the heaviest fragment's side stands in (as for
     // the packed normal).
-    const Vec3d n = length(sums.normal) > 0.05 * sums.weight ? normalize(sums.normal) : sums.dominantNormal;
+    const Vec3d n =
+        length(sums.normal) > 0.05 * sums.weight ? normalize(sums.normal) : sums.dominantNormal;
     out.normals.mean = {static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z)};
-    for (std::size_t i = 0; i < 6; ++i) out.normals.moments[i] = static_cast<float>(sums.normalMoments[i] * w);
+    for (std::size_t i = 0; i < 6; ++i)
+        out.normals.moments[i] = static_cast<float>(sums.normalMoments[i] * w);
     return out;
 }
 
@@ -91,12 +99,24 @@ public:
     /// stops refining (0: always refine to the leaf depth).
     /// @p attributes: null, or the sampler that filters every voxel's colour and normal.
     /// @p normals: the triangles' (all three arrays), or empty without contours.
-    SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, detail::TriangleNormals normals, std::uint32_t depth, std::uint32_t rootLevel,
-                   const SurfaceVoxelizeOptions& options, const detail::AttributeSampler* attributes)
-        : triangles_(triangles), normals_(normals), depth_(depth), rootLevel_(rootLevel), contours_(options.contours),
-          contourError_(options.contourError), colorError_(options.colorError), normalError_(options.normalErrorDegrees),
-          attributes_(attributes), childLists_(depth + 1), childFragments_(depth + 1), childSums_(depth + 1),
-          packAttributes_(options.attributes), keepLeafMaterials_(options.leafMaterials) {}
+    SubtreeBuilder(const std::vector<BoxTestTriangle>& triangles, detail::TriangleNormals normals,
+                   std::uint32_t depth, std::uint32_t rootLevel,
+                   const SurfaceVoxelizeOptions& options,
+                   const detail::AttributeSampler* attributes)
+        : triangles_(triangles),
+          normals_(normals),
+          depth_(depth),
+          rootLevel_(rootLevel),
+          contours_(options.contours),
+          contourError_(options.contourError),
+          colorError_(options.colorError),
+          normalError_(options.normalErrorDegrees),
+          attributes_(attributes),
+          childLists_(depth + 1),
+          childFragments_(depth + 1),
+          childSums_(depth + 1),
+          packAttributes_(options.attributes),
+          keepLeafMaterials_(options.leafMaterials) {}
 
     /// Builds the subtree of a node into the builder's outputs (emptied first; copyOutputs hands
     /// them over) and returns the node's mask; a node none of whose children a triangle touches
@@ -105,8 +125,9 @@ public:
     /// scratch buffers grown once, not for every subtree.
     /// @p slab: the node's effective contour (its own, or its parent's carried down; 0: none).
     /// @p sums: with attributes, receives the node's attribute sums.
-    std::uint32_t build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list,
-                        std::uint32_t slab = 0, detail::AttributeSums* sums = nullptr) {
+    std::uint32_t build(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z,
+                        std::span<const std::uint32_t> list, std::uint32_t slab = 0,
+                        detail::AttributeSums* sums = nullptr) {
         const auto empty = [](auto& levels, std::size_t count) {
             levels.resize(count);
             for (auto& perLevel : levels) perLevel.clear();
@@ -139,8 +160,9 @@ public:
         detail::CubeFragments* fragments = nullptr;
         if (contours_ || attributes_) {
             const double half = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));
-            rootFragments_.clip(rootList_, local_, {(2 * x + 1) * half, (2 * y + 1) * half, (2 * z + 1) * half}, detail::fitContourScale(half),
-                                normals_.length ? normalLength_.data() : nullptr);
+            rootFragments_.clip(
+                rootList_, local_, {(2 * x + 1) * half, (2 * y + 1) * half, (2 * z + 1) * half},
+                detail::fitContourScale(half), normals_.length ? normalLength_.data() : nullptr);
             fragments = &rootFragments_;
         }
         return buildNode(level, x, y, z, rootList_, fragments, slab, sums);
@@ -151,21 +173,25 @@ public:
     void copyOutputs(detail::CellSubtree& subtree, detail::HugePageArena& storage) const {
         const auto copy = [&](const auto& from, auto& to) {
             to.resize(from.size());
-            for (std::size_t level = 0; level < from.size(); ++level) to[level] = storage.copy(std::span(from[level]));
+            for (std::size_t level = 0; level < from.size(); ++level)
+                to[level] = storage.copy(std::span(from[level]));
         };
         copy(masks_, subtree.masks);
         copy(contourOut_, subtree.contours);
         copy(attributeOut_, subtree.attributes);
-        if (keepLeafMaterials_) subtree.leafMaterials.assign(leafMaterials_.begin(), leafMaterials_.end());
+        if (keepLeafMaterials_)
+            subtree.leafMaterials.assign(leafMaterials_.begin(), leafMaterials_.end());
     }
 
 private:
     /// build() on the subtree's own triangles: @p list indexes local_.
     /// @p fragments: the node's (entry i: list[i]'s), or null where neither contours nor
     /// attributes are wanted.
-    std::uint32_t buildNode(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z, std::span<const std::uint32_t> list,
-                            detail::CubeFragments* fragments, std::uint32_t slab, detail::AttributeSums* sums) {
-        const double half = std::ldexp(1.0, static_cast<int>(depth_ - level - 1));  // this node's half-extent
+    std::uint32_t buildNode(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z,
+                            std::span<const std::uint32_t> list, detail::CubeFragments* fragments,
+                            std::uint32_t slab, detail::AttributeSums* sums) {
+        const double half =
+            std::ldexp(1.0, static_cast<int>(depth_ - level - 1));  // this node's half-extent
         const Vec3d centre{(2 * x + 1) * half, (2 * y + 1) * half, (2 * z + 1) * half};
         std::uint32_t mask = 0;
         if (level + 1 == depth_ && !contours_ && !attributes_) {
@@ -199,19 +225,24 @@ private:
                     childFragments[slot].start(counts[slot]);
                 }
                 for (std::size_t entry = 0; entry < n; ++entry)
-                    if (entryMasks_[entry]) fragments->splitInto(entry, entryMasks_[entry], childFragments);
+                    if (entryMasks_[entry])
+                        fragments->splitInto(entry, entryMasks_[entry], childFragments);
             }
             std::array<std::span<const std::uint32_t>, 8> children;
-            for (unsigned slot = 0; slot < 8; ++slot) children[slot] = {buffer.data() + slot * n, counts[slot]};
+            for (unsigned slot = 0; slot < 8; ++slot)
+                children[slot] = {buffer.data() + slot * n, counts[slot]};
             const detail::ContourCarrier carrier(slab);
             const double childHalf = 0.5 * half;
             for (std::uint32_t slot = 0; slot < 8; ++slot) {
                 if (!(touched & (1u << slot))) continue;
-                const std::uint32_t cx = 2 * x + (slot & 1u), cy = 2 * y + ((slot >> 1) & 1u), cz = 2 * z + (slot >> 2);
-                const Vec3d childCentre{(2 * cx + 1) * childHalf, (2 * cy + 1) * childHalf, (2 * cz + 1) * childHalf};
+                const std::uint32_t cx = 2 * x + (slot & 1u), cy = 2 * y + ((slot >> 1) & 1u),
+                                    cz = 2 * z + (slot >> 2);
+                const Vec3d childCentre{(2 * cx + 1) * childHalf, (2 * cy + 1) * childHalf,
+                                        (2 * cz + 1) * childHalf};
                 bool leaf = level + 1 == depth_;
                 std::uint32_t childSlab = 0;
-                bool filtered = false;  // criterionSums_ are the child's, computed by the attribute criterion
+                bool filtered =
+                    false;  // criterionSums_ are the child's, computed by the attribute criterion
                 detail::CubeFragments* ownFragments = fragments ? &childFragments[slot] : nullptr;
                 std::uint32_t ownContour = 0;
                 detail::AttributeSums& childSums = childSums_[level + 1];
@@ -223,13 +254,17 @@ private:
                     // theirs) already bounds the surface within the error, the child stores no
                     // contour of its own, and stops refining there if its attributes allow.
                     const auto withinError = [&](std::uint32_t candidate, double thickness) {
-                        // A slab thicker than twice the error cannot be (one of its planes is too far).
+                        // A slab thicker than twice the error cannot be (one of its planes is too
+                        // far).
                         return thickness * childHalf <= contourError_ &&
-                               detail::shapeWithinError(candidate, children[slot], local_, childCentre, childHalf, contourError_);
+                               detail::shapeWithinError(candidate, children[slot], local_,
+                                                        childCentre, childHalf, contourError_);
                     };
                     if (contourError_ > 0 && carried && withinError(carried, carriedThickness)) {
                         childSlab = carried;
-                        if (!leaf) leaf = attributesWithinBounds(children[slot], *ownFragments, childCentre, childHalf, filtered);
+                        if (!leaf)
+                            leaf = attributesWithinBounds(children[slot], *ownFragments,
+                                                          childCentre, childHalf, filtered);
                     } else {
                         // Otherwise the child keeps a contour of its own only where it is much
                         // thinner than the carried slab; below a gain's worth of the thinnest
@@ -237,34 +272,45 @@ private:
                         detail::ContourFit fit;
                         if (!(carried && kOwnContourGain * carriedThickness <= kThinnestSlab))
                             fit = detail::fitContour(*ownFragments, children[slot], local_,
-                                                     {normalLength_.data(), unitNormal_.data(), quantisedNormal_.data()});
+                                                     {normalLength_.data(), unitNormal_.data(),
+                                                      quantisedNormal_.data()});
                         double thickness = carriedThickness;
                         childSlab = carried;
-                        if (fit.encoded && (carried == 0 || fit.thickness < kOwnContourGain * carriedThickness)) {
+                        if (fit.encoded &&
+                            (carried == 0 || fit.thickness < kOwnContourGain * carriedThickness)) {
                             ownContour = fit.encoded;
                             childSlab = fit.encoded;
                             thickness = fit.thickness;
                         }
                         // Refinement stops where cube ∩ slab is within the error of the surface.
-                        if (!leaf && contourError_ > 0 && childSlab && withinError(childSlab, thickness))
-                            leaf = attributesWithinBounds(children[slot], *ownFragments, childCentre, childHalf, filtered);
+                        if (!leaf && contourError_ > 0 && childSlab &&
+                            withinError(childSlab, thickness))
+                            leaf = attributesWithinBounds(children[slot], *ownFragments,
+                                                          childCentre, childHalf, filtered);
                     }
                 }
                 if (leaf) {
-                    if (level + 1 < depth_) masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
+                    if (level + 1 < depth_)
+                        masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
                     if (attributes_)
                         childSums = filtered ? criterionSums_
-                                             : attributes_->filter(*ownFragments, children[slot], childCentre, childHalf, attributeScratch_, view());
-                } else if (buildNode(level + 1, cx, cy, cz, children[slot], ownFragments, childSlab, &childSums) == 0) {
+                                             : attributes_->filter(*ownFragments, children[slot],
+                                                                   childCentre, childHalf,
+                                                                   attributeScratch_, view());
+                } else if (buildNode(level + 1, cx, cy, cz, children[slot], ownFragments, childSlab,
+                                     &childSums) == 0) {
                     continue;
                 }
                 // The child's entries at level + 1, in slot order: nothing below appends to them.
                 mask |= 1u << slot;
                 if (contours_) contourOut_[level + 1 - rootLevel_].push_back(ownContour);
                 if (attributes_) {
-                    // Packed words only for SparseOctree::attributes; the radiance bake wants the leaves' sums alone.
-                    if (!attributeOut_.empty()) attributeOut_[level + 1 - rootLevel_].push_back(childSums.pack());
-                    if (keepLeafMaterials_ && level + 1 == depth_) leafMaterials_.push_back(leafMaterial(childSums, cx, cy, cz));
+                    // Packed words only for SparseOctree::attributes; the radiance bake wants the
+                    // leaves' sums alone.
+                    if (!attributeOut_.empty())
+                        attributeOut_[level + 1 - rootLevel_].push_back(childSums.pack());
+                    if (keepLeafMaterials_ && level + 1 == depth_)
+                        leafMaterials_.push_back(leafMaterial(childSums, cx, cy, cz));
                     if (sums) *sums += childSums;
                 }
             }
@@ -277,13 +323,16 @@ private:
     /// the surface inside it within the bounds (AttributeSums::error), or where there are none.
     /// criterionSums_ receive the voxel's sums where they were computed (@p computed set), from
     /// @p fragments, the voxel's.
-    bool attributesWithinBounds(std::span<const std::uint32_t> list, const detail::CubeFragments& fragments, Vec3d centre, double half,
+    bool attributesWithinBounds(std::span<const std::uint32_t> list,
+                                const detail::CubeFragments& fragments, Vec3d centre, double half,
                                 bool& computed) {
         if (!attributes_ || (colorError_ <= 0 && normalError_ <= 0)) return true;
-        criterionSums_ = attributes_->filter(fragments, list, centre, half, attributeScratch_, view());
+        criterionSums_ =
+            attributes_->filter(fragments, list, centre, half, attributeScratch_, view());
         computed = true;
         const detail::AttributeSums::Error e = criterionSums_.error();
-        return (colorError_ <= 0 || e.color <= colorError_) && (normalError_ <= 0 || e.normalDegrees <= normalError_);
+        return (colorError_ <= 0 || e.color <= colorError_) &&
+               (normalError_ <= 0 || e.normalDegrees <= normalError_);
     }
     [[nodiscard]] detail::TriangleView view() const { return {local_.data(), global_.data()}; }
 
@@ -295,25 +344,30 @@ private:
     double contourError_;
     double colorError_, normalError_;
     const detail::AttributeSampler* attributes_;
-    std::vector<std::vector<std::uint32_t>> childLists_;  // per level: the lists of one node's children
-    std::vector<std::array<detail::CubeFragments, 8>> childFragments_;  // per level: the fragments of one node's children
-    detail::CubeFragments rootFragments_;                 // the subtree root's, clipped
-    std::vector<std::uint8_t> entryMasks_;                // per entry of a node's list: its children's mask
-    std::vector<detail::AttributeSums> childSums_;        // per level: the sums of the child being built
-    detail::AttributeSums criterionSums_;                 // a child's, where the attribute criterion filtered it
-    std::vector<std::vector<std::uint8_t>> masks_;       // [l − rootLevel] for levels rootLevel … depth − 1
-    std::vector<std::vector<std::uint32_t>> contourOut_;  // [l − rootLevel] for levels rootLevel … depth (rootLevel's empty)
+    std::vector<std::vector<std::uint32_t>>
+        childLists_;  // per level: the lists of one node's children
+    std::vector<std::array<detail::CubeFragments, 8>>
+        childFragments_;                    // per level: the fragments of one node's children
+    detail::CubeFragments rootFragments_;   // the subtree root's, clipped
+    std::vector<std::uint8_t> entryMasks_;  // per entry of a node's list: its children's mask
+    std::vector<detail::AttributeSums> childSums_;  // per level: the sums of the child being built
+    detail::AttributeSums criterionSums_;  // a child's, where the attribute criterion filtered it
+    std::vector<std::vector<std::uint8_t>>
+        masks_;  // [l − rootLevel] for levels rootLevel … depth − 1
+    std::vector<std::vector<std::uint32_t>>
+        contourOut_;  // [l − rootLevel] for levels rootLevel … depth (rootLevel's empty)
     std::vector<std::vector<std::uint64_t>> attributeOut_;  // as contourOut_
     bool packAttributes_;  // attributeOut_ wanted (SparseOctree::attributes)
     detail::AttributeScratch attributeScratch_;
     bool keepLeafMaterials_;
     std::vector<LeafMaterial> leafMaterials_;
-    std::vector<BoxTestTriangle> local_;      // the subtree's triangles, in its root list's order
-    std::vector<std::uint32_t> global_;       // local_[i] is triangles_[global_[i]]
-    std::vector<double> normalLength_;        // per local_ triangle: length(normal)
-    std::vector<Vec3d> unitNormal_;           // per local_ triangle: normal / length (0 where degenerate)
-    std::vector<detail::QuantisedNormal> quantisedNormal_;  // per local_ triangle: its unit normal quantised
-    std::vector<std::uint32_t> rootList_;     // 0 … local_.size() − 1
+    std::vector<BoxTestTriangle> local_;  // the subtree's triangles, in its root list's order
+    std::vector<std::uint32_t> global_;   // local_[i] is triangles_[global_[i]]
+    std::vector<double> normalLength_;    // per local_ triangle: length(normal)
+    std::vector<Vec3d> unitNormal_;  // per local_ triangle: normal / length (0 where degenerate)
+    std::vector<detail::QuantisedNormal>
+        quantisedNormal_;                  // per local_ triangle: its unit normal quantised
+    std::vector<std::uint32_t> rootList_;  // 0 … local_.size() − 1
 };
 
 }  // namespace
@@ -323,11 +377,13 @@ std::uint32_t detail::cellLevel(std::uint32_t depth) {
 }
 
 std::uint32_t defaultPartitionLevel(std::uint32_t leafDepth) {
-    // Partitions of at most 9 levels (512³ leaf cells); never deeper than 10, the cell level's bound.
+    // Partitions of at most 9 levels (512³ leaf cells); never deeper than 10, the cell level's
+    // bound.
     return leafDepth > 9 ? std::min<std::uint32_t>(leafDepth - 9, 10) : 0;
 }
 
-detail::UpperLevels detail::buildUpperLevels(std::vector<std::uint32_t> codes, std::vector<AttributeSums> sums, std::uint32_t level,
+detail::UpperLevels detail::buildUpperLevels(std::vector<std::uint32_t> codes,
+                                             std::vector<AttributeSums> sums, std::uint32_t level,
                                              std::uint32_t rootLevel) {
     UpperLevels out;
     const bool withSums = !sums.empty();
@@ -358,11 +414,15 @@ detail::UpperLevels detail::buildUpperLevels(std::vector<std::uint32_t> codes, s
     return out;
 }
 
-detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene, const SurfaceVoxelizeOptions& options) : scene_(scene), options_(options) {
+detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene,
+                                           const SurfaceVoxelizeOptions& options)
+    : scene_(scene), options_(options) {
     if (options.depth < 1 || options.depth > esvo::kMaxLeafDepth)
         throw UsageError("--depth must be between 1 and " + std::to_string(esvo::kMaxLeafDepth));
     depth_ = options.depth;
-    const auto selected = [&](const Mesh& mesh) { return options.onlyDynamic ? mesh.dynamic : (!mesh.dynamic || options.includeDynamic); };
+    const auto selected = [&](const Mesh& mesh) {
+        return options.onlyDynamic ? mesh.dynamic : (!mesh.dynamic || options.includeDynamic);
+    };
     const bool attributes = options.attributes || options.leafMaterials;
 
     Bounds3f bounds;
@@ -372,8 +432,11 @@ detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene, const SurfaceVoxe
         for (std::uint32_t index : mesh.indices) bounds.add(mesh.positions[index]);
         triangleCount += mesh.triangleCount();
     }
-    const std::filesystem::path source = scene.sourceFiles.empty() ? std::filesystem::path("scene") : scene.sourceFiles.front();
-    if (triangleCount == 0) throw InvalidDataError(source, options.onlyDynamic ? "no dynamic triangles to voxelize" : "no static triangles to voxelize");
+    const std::filesystem::path source =
+        scene.sourceFiles.empty() ? std::filesystem::path("scene") : scene.sourceFiles.front();
+    if (triangleCount == 0)
+        throw InvalidDataError(source, options.onlyDynamic ? "no dynamic triangles to voxelize"
+                                                           : "no static triangles to voxelize");
     if (triangleCount >= 0xFFFFFFFFull) throw InvalidDataError(source, "more than 2^32 triangles");
     cube_ = options.cube ? *options.cube : RootCube::enclosing(bounds);
 
@@ -388,39 +451,46 @@ detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene, const SurfaceVoxe
         if (attributes) sources.resize(triangleCount);
         const double scale = std::ldexp(1.0, static_cast<int>(depth_)) / cube_.size;
         const auto toLeaf = [&](Vec3f p) {
-            return Vec3d{(p.x - cube_.origin.x) * scale, (p.y - cube_.origin.y) * scale, (p.z - cube_.origin.z) * scale};
+            return Vec3d{(p.x - cube_.origin.x) * scale, (p.y - cube_.origin.y) * scale,
+                         (p.z - cube_.origin.z) * scale};
         };
         std::size_t first = 0;
         for (std::uint32_t m = 0; m < scene.meshes.size(); ++m) {
             const Mesh& mesh = scene.meshes[m];
             if (!selected(mesh)) continue;
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.triangleCount(), 1 << 14), [&](const tbb::blocked_range<std::size_t>& r) {
-                for (std::size_t t = r.begin(); t != r.end(); ++t) {
-                    if (attributes) sources[first + t] = {m, static_cast<std::uint32_t>(t)};
-                    triangles_[first + t] = detail::prepareBoxTest(toLeaf(mesh.positions[mesh.indices[3 * t]]),
-                                                                   toLeaf(mesh.positions[mesh.indices[3 * t + 1]]),
-                                                                   toLeaf(mesh.positions[mesh.indices[3 * t + 2]]));
-                }
-            });
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.triangleCount(), 1 << 14),
+                              [&](const tbb::blocked_range<std::size_t>& r) {
+                                  for (std::size_t t = r.begin(); t != r.end(); ++t) {
+                                      if (attributes)
+                                          sources[first + t] = {m, static_cast<std::uint32_t>(t)};
+                                      triangles_[first + t] = detail::prepareBoxTest(
+                                          toLeaf(mesh.positions[mesh.indices[3 * t]]),
+                                          toLeaf(mesh.positions[mesh.indices[3 * t + 1]]),
+                                          toLeaf(mesh.positions[mesh.indices[3 * t + 2]]));
+                                  }
+                              });
             first += mesh.triangleCount();
         }
     }
     if (attributes)
         sampler_.emplace(scene, triangles_, std::move(sources),
-                         options.contours && options.contourError > 0 && (options.colorError > 0 || options.normalErrorDegrees > 0));
+                         options.contours && options.contourError > 0 &&
+                             (options.colorError > 0 || options.normalErrorDegrees > 0));
     if (options.contours) {
         // What the contour fit would otherwise compute per cell (or voxel) a triangle is in.
         normalLengths_.resize(triangles_.size());
         unitNormals_.resize(triangles_.size());
         quantisedNormals_.resize(triangles_.size());
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles_.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-            for (std::size_t t = r.begin(); t != r.end(); ++t) {
-                const double nl = length(triangles_[t].normal);
-                normalLengths_[t] = nl;
-                unitNormals_[t] = nl > 0 ? triangles_[t].normal * (1.0 / nl) : Vec3d{0, 0, 0};
-                quantisedNormals_[t] = detail::quantiseDirection(unitNormals_[t], true);
-            }
-        });
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, triangles_.size(), 4096),
+            [&](const tbb::blocked_range<std::size_t>& r) {
+                for (std::size_t t = r.begin(); t != r.end(); ++t) {
+                    const double nl = length(triangles_[t].normal);
+                    normalLengths_[t] = nl;
+                    unitNormals_[t] = nl > 0 ? triangles_[t].normal * (1.0 / nl) : Vec3d{0, 0, 0};
+                    quantisedNormals_[t] = detail::quantiseDirection(unitNormals_[t], true);
+                }
+            });
     }
 
     // Bin triangles into the cells of the cell level k: (Morton code << 32 | triangle), sorted.
@@ -431,31 +501,42 @@ detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene, const SurfaceVoxe
     {
         Timings::Scope timer(options.timings, "voxelize_bin");
         tbb::enumerable_thread_specific<std::vector<std::uint64_t>> local;
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles_.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-            auto& out = local.local();
-            for (std::size_t t = r.begin(); t != r.end(); ++t) {
-                const BoxTestTriangle& tri = triangles_[t];
-                std::uint32_t first[3], last[3];
-                for (int axis = 0; axis < 3; ++axis) {
-                    const double lo = std::min({tri.v0[axis], tri.v1[axis], tri.v2[axis]}) / cellSize;
-                    const double hi = std::max({tri.v0[axis], tri.v1[axis], tri.v2[axis]}) / cellSize;
-                    // Closed cells: a vertex on a cell boundary touches the cells on both sides.
-                    first[axis] = static_cast<std::uint32_t>(std::clamp(std::ceil(lo) - 1.0, 0.0, double(cellsPerAxis - 1)));
-                    last[axis] = static_cast<std::uint32_t>(std::clamp(std::floor(hi), 0.0, double(cellsPerAxis - 1)));
-                }
-                std::size_t binned = 0;
-                for (std::uint32_t z = first[2]; z <= last[2]; ++z)
-                    for (std::uint32_t y = first[1]; y <= last[1]; ++y)
-                        for (std::uint32_t x = first[0]; x <= last[0]; ++x) {
-                            const Vec3d centre{(x + 0.5) * cellSize, (y + 0.5) * cellSize, (z + 0.5) * cellSize};
-                            if (detail::triangleOverlapsCube(tri, centre, 0.5 * cellSize)) {
-                                out.push_back((std::uint64_t{mortonCell(x, y, z, k)} << 32) | t);
-                                ++binned;
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, triangles_.size(), 4096),
+            [&](const tbb::blocked_range<std::size_t>& r) {
+                auto& out = local.local();
+                for (std::size_t t = r.begin(); t != r.end(); ++t) {
+                    const BoxTestTriangle& tri = triangles_[t];
+                    std::uint32_t first[3], last[3];
+                    for (int axis = 0; axis < 3; ++axis) {
+                        const double lo =
+                            std::min({tri.v0[axis], tri.v1[axis], tri.v2[axis]}) / cellSize;
+                        const double hi =
+                            std::max({tri.v0[axis], tri.v1[axis], tri.v2[axis]}) / cellSize;
+                        // Closed cells: a vertex on a cell boundary touches the cells on both
+                        // sides.
+                        first[axis] = static_cast<std::uint32_t>(
+                            std::clamp(std::ceil(lo) - 1.0, 0.0, double(cellsPerAxis - 1)));
+                        last[axis] = static_cast<std::uint32_t>(
+                            std::clamp(std::floor(hi), 0.0, double(cellsPerAxis - 1)));
+                    }
+                    std::size_t binned = 0;
+                    for (std::uint32_t z = first[2]; z <= last[2]; ++z)
+                        for (std::uint32_t y = first[1]; y <= last[1]; ++y)
+                            for (std::uint32_t x = first[0]; x <= last[0]; ++x) {
+                                const Vec3d centre{(x + 0.5) * cellSize, (y + 0.5) * cellSize,
+                                                   (z + 0.5) * cellSize};
+                                if (detail::triangleOverlapsCube(tri, centre, 0.5 * cellSize)) {
+                                    out.push_back((std::uint64_t{mortonCell(x, y, z, k)} << 32) |
+                                                  t);
+                                    ++binned;
+                                }
                             }
-                        }
-                if (binned) cellShare[t] = static_cast<float>(0.5 * length(tri.normal) / double(binned));
-            }
-        });
+                    if (binned)
+                        cellShare[t] =
+                            static_cast<float>(0.5 * length(tri.normal) / double(binned));
+                }
+            });
         for (auto& part : local) pairs_.insert(pairs_.end(), part.begin(), part.end());
         tbb::parallel_sort(pairs_.begin(), pairs_.end());
     }
@@ -463,13 +544,16 @@ detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene, const SurfaceVoxe
         const auto code = static_cast<std::uint32_t>(pairs_[i] >> 32);
         std::size_t j = i;
         double area = 0;
-        for (; j < pairs_.size() && static_cast<std::uint32_t>(pairs_[j] >> 32) == code; ++j) area += cellShare[static_cast<std::uint32_t>(pairs_[j])];
+        for (; j < pairs_.size() && static_cast<std::uint32_t>(pairs_[j] >> 32) == code; ++j)
+            area += cellShare[static_cast<std::uint32_t>(pairs_[j])];
         cells_.push_back({code, i, j, area});
         i = j;
     }
 }
 
-std::vector<detail::CellSubtree> detail::SurfaceVoxelizer::buildCells(std::size_t first, std::size_t last, Progress* progress) const {
+std::vector<detail::CellSubtree> detail::SurfaceVoxelizer::buildCells(std::size_t first,
+                                                                      std::size_t last,
+                                                                      Progress* progress) const {
     const std::uint32_t k = cellLevel_;
     std::vector<CellSubtree> out(last - first);
     // One builder per thread, its buffers grown once instead of fresh memory for every cell, and
@@ -479,35 +563,42 @@ std::vector<detail::CellSubtree> detail::SurfaceVoxelizer::buildCells(std::size_
         std::shared_ptr<HugePageArena> storage;
     };
     tbb::enumerable_thread_specific<Worker> workers([&] {
-        return Worker{SubtreeBuilder(triangles_, {normalLengths_.data(), unitNormals_.data(), quantisedNormals_.data()}, depth_, k, options_,
-                                     sampler_ ? &*sampler_ : nullptr),
-                      std::make_shared<HugePageArena>()};
+        return Worker{
+            SubtreeBuilder(triangles_,
+                           {normalLengths_.data(), unitNormals_.data(), quantisedNormals_.data()},
+                           depth_, k, options_, sampler_ ? &*sampler_ : nullptr),
+            std::make_shared<HugePageArena>()};
     });
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(first, last, 1), [&](const tbb::blocked_range<std::size_t>& r) {
-        Worker& worker = workers.local();
-        std::vector<std::uint32_t> list;
-        for (std::size_t c = r.begin(); c != r.end(); ++c) {
-            const Cell& cell = cells_[c];
-            list.clear();
-            for (std::size_t i = cell.begin; i < cell.end; ++i) list.push_back(static_cast<std::uint32_t>(pairs_[i]));
-            std::uint32_t x = 0, y = 0, z = 0;
-            for (std::uint32_t bit = 0; bit < k; ++bit) {
-                x |= ((cell.code >> (3 * bit)) & 1u) << bit;
-                y |= ((cell.code >> (3 * bit + 1)) & 1u) << bit;
-                z |= ((cell.code >> (3 * bit + 2)) & 1u) << bit;
-            }
-            CellSubtree& subtree = out[c - first];
-            subtree.code = cell.code;
-            subtree.occupied = worker.builder.build(k, x, y, z, list, 0, &subtree.sums) != 0;
-            worker.builder.copyOutputs(subtree, *worker.storage);
-            subtree.storage = worker.storage;
-            if (progress) progress->advance();
-        }
-    });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(first, last, 1),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          Worker& worker = workers.local();
+                          std::vector<std::uint32_t> list;
+                          for (std::size_t c = r.begin(); c != r.end(); ++c) {
+                              const Cell& cell = cells_[c];
+                              list.clear();
+                              for (std::size_t i = cell.begin; i < cell.end; ++i)
+                                  list.push_back(static_cast<std::uint32_t>(pairs_[i]));
+                              std::uint32_t x = 0, y = 0, z = 0;
+                              for (std::uint32_t bit = 0; bit < k; ++bit) {
+                                  x |= ((cell.code >> (3 * bit)) & 1u) << bit;
+                                  y |= ((cell.code >> (3 * bit + 1)) & 1u) << bit;
+                                  z |= ((cell.code >> (3 * bit + 2)) & 1u) << bit;
+                              }
+                              CellSubtree& subtree = out[c - first];
+                              subtree.code = cell.code;
+                              subtree.occupied =
+                                  worker.builder.build(k, x, y, z, list, 0, &subtree.sums) != 0;
+                              worker.builder.copyOutputs(subtree, *worker.storage);
+                              subtree.storage = worker.storage;
+                              if (progress) progress->advance();
+                          }
+                      });
     return out;
 }
 
-SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells, std::uint32_t rootLevel, AttributeSums* rootSums) const {
+SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells,
+                                            std::uint32_t rootLevel,
+                                            AttributeSums* rootSums) const {
     const std::uint32_t depth = depth_, k = cellLevel_;
     std::erase_if(cells, [](const CellSubtree& c) { return !c.occupied; });
     SparseOctree octree;
@@ -525,13 +616,16 @@ SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells, st
         if (options_.attributes) sums.push_back(c.sums);
     }
     UpperLevels upper = buildUpperLevels(std::move(codes), std::move(sums), k, rootLevel);
-    if (upper.codes[0].size() != 1) throw std::logic_error("SurfaceVoxelizer::join: cells under more than one root");
+    if (upper.codes[0].size() != 1)
+        throw std::logic_error("SurfaceVoxelizer::join: cells under more than one root");
     octree.masks.resize(levels);
-    for (std::uint32_t level = rootLevel; level < k; ++level) octree.masks[level - rootLevel] = std::move(upper.masks[level - rootLevel]);
+    for (std::uint32_t level = rootLevel; level < k; ++level)
+        octree.masks[level - rootLevel] = std::move(upper.masks[level - rootLevel]);
     if (options_.attributes) {
         octree.attributes.resize(levels + 1);
         for (std::uint32_t level = rootLevel; level <= k; ++level)
-            for (const auto& s : upper.sums[level - rootLevel]) octree.attributes[level - rootLevel].push_back(s.pack());
+            for (const auto& s : upper.sums[level - rootLevel])
+                octree.attributes[level - rootLevel].push_back(s.pack());
         if (rootSums) *rootSums = upper.sums[0].front();
     }
     for (std::uint32_t level = k; level < depth; ++level) {
@@ -540,7 +634,8 @@ SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells, st
         auto& masks = octree.masks[level - rootLevel];
         masks.reserve(total);
         adviseHugePages(masks);
-        for (const auto& c : cells) masks.insert(masks.end(), c.masks[level - k].begin(), c.masks[level - k].end());
+        for (const auto& c : cells)
+            masks.insert(masks.end(), c.masks[level - k].begin(), c.masks[level - k].end());
     }
     octree.voxelsPerLevel.assign(levels + 1, 0);
     octree.voxelsPerLevel[0] = 1;
@@ -560,15 +655,18 @@ SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells, st
             auto& out = octree.contours[level - rootLevel];
             out.reserve(octree.voxelsPerLevel[level - rootLevel]);
             adviseHugePages(out);
-            for (const auto& c : cells) out.insert(out.end(), c.contours[level - k].begin(), c.contours[level - k].end());
-            if (out.size() != octree.voxelsPerLevel[level - rootLevel]) throw std::logic_error("voxelizeSurface: contour count inconsistent");
+            for (const auto& c : cells)
+                out.insert(out.end(), c.contours[level - k].begin(), c.contours[level - k].end());
+            if (out.size() != octree.voxelsPerLevel[level - rootLevel])
+                throw std::logic_error("voxelizeSurface: contour count inconsistent");
         }
     }
     if (options_.leafMaterials) {
         octree.leafMaterials.reserve(octree.voxelsPerLevel[levels]);
         adviseHugePages(octree.leafMaterials);
         for (auto& c : cells) {
-            octree.leafMaterials.insert(octree.leafMaterials.end(), c.leafMaterials.begin(), c.leafMaterials.end());
+            octree.leafMaterials.insert(octree.leafMaterials.end(), c.leafMaterials.begin(),
+                                        c.leafMaterials.end());
             c.leafMaterials = {};
         }
         if (!options_.contours && octree.leafMaterials.size() != octree.voxelsPerLevel[levels])
@@ -579,7 +677,9 @@ SparseOctree detail::SurfaceVoxelizer::join(std::vector<CellSubtree>&& cells, st
             auto& out = octree.attributes[level - rootLevel];
             out.reserve(octree.voxelsPerLevel[level - rootLevel]);
             adviseHugePages(out);
-            for (const auto& c : cells) out.insert(out.end(), c.attributes[level - k].begin(), c.attributes[level - k].end());
+            for (const auto& c : cells)
+                out.insert(out.end(), c.attributes[level - k].begin(),
+                           c.attributes[level - k].end());
         }
         for (std::uint32_t level = 0; level <= levels; ++level)
             if (octree.attributes[level].size() != octree.voxelsPerLevel[level])

@@ -10,7 +10,8 @@ AirRegions::AirRegions(const SolidGrid& solid, std::uint32_t depth) : resolution
     for (std::size_t z = 0; z < r; ++z)
         for (std::size_t y = 0; y < r; ++y)
             for (std::size_t x = 0; x < r; ++x)
-                if (solid.solid(static_cast<std::int64_t>(x), static_cast<std::int64_t>(y), static_cast<std::int64_t>(z)))
+                if (solid.solid(static_cast<std::int64_t>(x), static_cast<std::int64_t>(y),
+                                static_cast<std::int64_t>(z)))
                     labels_[(z * r + y) * r + x] = kSolid;
     std::vector<std::uint32_t> stack;
     for (std::size_t seed = 0; seed < labels_.size(); ++seed) {
@@ -42,10 +43,13 @@ AirRegions::AirRegions(const SolidGrid& solid, std::uint32_t depth) : resolution
 std::uint16_t AirRegions::label(std::int64_t x, std::int64_t y, std::int64_t z) const noexcept {
     const std::int64_t r = resolution_;
     if (x < 0 || y < 0 || z < 0 || x >= r || y >= r || z >= r) return kNone;
-    return labels_[(static_cast<std::size_t>(z) * resolution_ + static_cast<std::size_t>(y)) * resolution_ + static_cast<std::size_t>(x)];
+    return labels_[(static_cast<std::size_t>(z) * resolution_ + static_cast<std::size_t>(y)) *
+                       resolution_ +
+                   static_cast<std::size_t>(x)];
 }
 
-std::uint16_t AirRegions::facing(std::uint32_t x, std::uint32_t y, std::uint32_t z, Vec3f normal) const noexcept {
+std::uint16_t AirRegions::facing(std::uint32_t x, std::uint32_t y, std::uint32_t z,
+                                 Vec3f normal) const noexcept {
     // Walk out along the normal: a surface on a cell boundary makes both cells beside it solid.
     for (double k = 1; k <= 3; k += 1) {
         const std::int64_t c[3] = {static_cast<std::int64_t>(std::floor(x + 0.5 + k * normal.x)),
@@ -57,7 +61,8 @@ std::uint16_t AirRegions::facing(std::uint32_t x, std::uint32_t y, std::uint32_t
     return kNone;
 }
 
-bool AirRegions::touches(std::uint32_t x, std::uint32_t y, std::uint32_t z, std::uint16_t region) const noexcept {
+bool AirRegions::touches(std::uint32_t x, std::uint32_t y, std::uint32_t z,
+                         std::uint16_t region) const noexcept {
     for (int axis = 0; axis < 3; ++axis)
         for (int sign : {-1, 1}) {
             std::int64_t c[3] = {x, y, z};

@@ -16,18 +16,22 @@ namespace vox::detail {
 class AirRegions {
 public:
     static constexpr std::uint16_t kSolid = 0xFFFF;
-    static constexpr std::uint16_t kNone = 0xFFFE;  ///< no region (also: regions beyond the label range)
+    static constexpr std::uint16_t kNone =
+        0xFFFE;  ///< no region (also: regions beyond the label range)
 
     /// Labels the 6-connected components of the cells @p solid leaves empty, in scan order.
     AirRegions(const SolidGrid& solid, std::uint32_t depth);
 
     [[nodiscard]] std::uint32_t count() const noexcept { return count_; }
-    [[nodiscard]] std::uint16_t label(std::int64_t x, std::int64_t y, std::int64_t z) const noexcept;
+    [[nodiscard]] std::uint16_t label(std::int64_t x, std::int64_t y,
+                                      std::int64_t z) const noexcept;
     /// The region a surface voxel faces: that of the first empty cell up to three cells out along
     /// its unit @p normal (kNone if there is none).
-    [[nodiscard]] std::uint16_t facing(std::uint32_t x, std::uint32_t y, std::uint32_t z, Vec3f normal) const noexcept;
+    [[nodiscard]] std::uint16_t facing(std::uint32_t x, std::uint32_t y, std::uint32_t z,
+                                       Vec3f normal) const noexcept;
     /// Whether a face neighbour of cell (x, y, z) belongs to @p region.
-    [[nodiscard]] bool touches(std::uint32_t x, std::uint32_t y, std::uint32_t z, std::uint16_t region) const noexcept;
+    [[nodiscard]] bool touches(std::uint32_t x, std::uint32_t y, std::uint32_t z,
+                               std::uint16_t region) const noexcept;
 
 private:
     std::uint32_t resolution_;

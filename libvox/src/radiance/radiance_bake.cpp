@@ -45,7 +45,8 @@ std::uint8_t hiddenChannels(const VoxelNormals& normals) {
         // A cone looking along +axis sees the faces whose normals point along −axis.
         const float front = normals.moments[2 * axis + (looksNegative ? 0 : 1)];
         const float back = normals.moments[2 * axis + (looksNegative ? 1 : 0)];
-        if (front + back > 0.05f && front < kHiddenShare * (front + back)) bits = static_cast<std::uint8_t>(bits | (1u << k));
+        if (front + back > 0.05f && front < kHiddenShare * (front + back))
+            bits = static_cast<std::uint8_t>(bits | (1u << k));
     }
     return bits;
 }
@@ -56,17 +57,19 @@ Vec3d toVec3d(Vec3f v) { return {v.x, v.y, v.z}; }
 /// filtered from them.
 struct GatherVolume {
     rvol::Volume* volume = nullptr;
-    rvol::Volume own;                   ///< storage, for the volumes of air regions
-    std::vector<std::size_t> members;   ///< leaf indices, ascending (Morton order)
-    std::vector<std::size_t> cellTexel; ///< per member: its texel in level 0
-    std::vector<std::uint8_t> hidden;   ///< per level-0 texel (filterMips)
+    rvol::Volume own;                    ///< storage, for the volumes of air regions
+    std::vector<std::size_t> members;    ///< leaf indices, ascending (Morton order)
+    std::vector<std::size_t> cellTexel;  ///< per member: its texel in level 0
+    std::vector<std::uint8_t> hidden;    ///< per level-0 texel (filterMips)
     std::unique_ptr<RadianceField> field;
 
-    void build(rvol::Volume& target, const std::vector<LeafMaterial>& leaves, std::vector<std::size_t> memberIndices) {
+    void build(rvol::Volume& target, const std::vector<LeafMaterial>& leaves,
+               std::vector<std::size_t> memberIndices) {
         volume = &target;
         members = std::move(memberIndices);
         std::vector<std::array<std::uint32_t, 3>> cells(members.size());
-        for (std::size_t k = 0; k < members.size(); ++k) cells[k] = {leaves[members[k]].x, leaves[members[k]].y, leaves[members[k]].z};
+        for (std::size_t k = 0; k < members.size(); ++k)
+            cells[k] = {leaves[members[k]].x, leaves[members[k]].y, leaves[members[k]].z};
         detail::allocateVolume(target, cells, cellTexel);
         hidden.assign(target.levels[0].texels.size(), 0);
         for (std::size_t k = 0; k < members.size(); ++k) {
@@ -92,11 +95,13 @@ struct GatherVolume {
 }  // namespace
 
 RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options) {
-    if (options.depth < 1 || options.depth > 10) throw UsageError("--radiance-depth must be between 1 and 10");
+    if (options.depth < 1 || options.depth > 10)
+        throw UsageError("--radiance-depth must be between 1 and 10");
     if (options.bounces > 16) throw UsageError("--bounces must be at most 16");
     if (!(options.shadowApertureDegrees >= 0 && options.shadowApertureDegrees < 90))
         throw UsageError("--shadow-aperture must be at least 0 and below 90 degrees");
-    if (!(options.aoLambda >= 0) || !std::isfinite(options.aoLambda)) throw UsageError("--ao-lambda must be a finite number ≥ 0");
+    if (!(options.aoLambda >= 0) || !std::isfinite(options.aoLambda))
+        throw UsageError("--ao-lambda must be a finite number ≥ 0");
 
     RadianceBake bake;
     rvol::Volume& volume = bake.volume;
@@ -105,7 +110,8 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     volume.origin = {cube.origin.x, cube.origin.y, cube.origin.z};
     volume.size = cube.size;
     volume.depth = options.depth;
-    volume.sceneBounds = {bounds.min.x, bounds.min.y, bounds.min.z, bounds.max.x, bounds.max.y, bounds.max.z};
+    volume.sceneBounds = {bounds.min.x, bounds.min.y, bounds.min.z,
+                          bounds.max.x, bounds.max.y, bounds.max.z};
 
     // Conservative voxelization with the octree's voxelizer: a cell is solid where a triangle
     // touches its closed cube; its material is the area-weighted mean over its fragments.
@@ -124,11 +130,13 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     bake.dynamicVoxels = dynamicLeaves.size();
 
     std::vector<std::array<std::uint32_t, 3>> cells(leaves.size());
-    for (std::size_t i = 0; i < leaves.size(); ++i) cells[i] = {leaves[i].x, leaves[i].y, leaves[i].z};
+    for (std::size_t i = 0; i < leaves.size(); ++i)
+        cells[i] = {leaves[i].x, leaves[i].y, leaves[i].z};
     const detail::SolidGrid solid(options.depth, cells);
     const double cell = volume.cellSize(0);
     const auto centreOf = [&](const LeafMaterial& v) {
-        return Vec3d{volume.origin[0] + (v.x + 0.5) * cell, volume.origin[1] + (v.y + 0.5) * cell, volume.origin[2] + (v.z + 0.5) * cell};
+        return Vec3d{volume.origin[0] + (v.x + 0.5) * cell, volume.origin[1] + (v.y + 0.5) * cell,
+                     volume.origin[2] + (v.z + 0.5) * cell};
     };
 
     // Empty space, split into its connected regions. Where it splits into large regions (closed
@@ -143,7 +151,8 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         std::vector<std::uint16_t> faced(leaves.size());
         std::vector<std::uint64_t> facedCount(regions.count(), 0);
         for (std::size_t i = 0; i < leaves.size(); ++i) {
-            faced[i] = regions.facing(leaves[i].x, leaves[i].y, leaves[i].z, leaves[i].normals.mean);
+            faced[i] =
+                regions.facing(leaves[i].x, leaves[i].y, leaves[i].z, leaves[i].normals.mean);
             if (faced[i] < regions.count()) ++facedCount[faced[i]];
         }
         {
@@ -155,14 +164,18 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         // region is faced by nearly every voxel (then the whole volume is its volume).
         std::vector<std::uint16_t> chosen;
         for (std::uint32_t r = 0; r < regions.count(); ++r)
-            if (facedCount[r] * 100 >= leaves.size()) chosen.push_back(static_cast<std::uint16_t>(r));
-        std::stable_sort(chosen.begin(), chosen.end(), [&](std::uint16_t a, std::uint16_t b) { return facedCount[a] > facedCount[b]; });
+            if (facedCount[r] * 100 >= leaves.size())
+                chosen.push_back(static_cast<std::uint16_t>(r));
+        std::stable_sort(chosen.begin(), chosen.end(), [&](std::uint16_t a, std::uint16_t b) {
+            return facedCount[a] > facedCount[b];
+        });
         if (chosen.size() > 8) chosen.resize(8);
         if (!chosen.empty() && facedCount[chosen.front()] * 100 < 99 * leaves.size())
             for (std::uint16_t region : chosen) {
                 std::vector<std::size_t> members;
                 for (std::size_t i = 0; i < leaves.size(); ++i)
-                    if (regions.touches(leaves[i].x, leaves[i].y, leaves[i].z, region)) members.push_back(i);
+                    if (regions.touches(leaves[i].x, leaves[i].y, leaves[i].z, region))
+                        members.push_back(i);
                 auto gv = std::make_unique<GatherVolume>();
                 gv->own.origin = volume.origin;
                 gv->own.size = volume.size;
@@ -176,9 +189,12 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     }
     const RadianceField& field = *all.field;
 
-    const auto staticLights = std::count_if(scene.lights.begin(), scene.lights.end(), [](const Light& l) { return !l.dynamic; });
-    volume.bake = {options.bounces, static_cast<float>(options.shadowApertureDegrees), static_cast<float>(options.aoLambda),
-                   static_cast<std::uint32_t>(options.attenuation), static_cast<std::uint32_t>(staticLights)};
+    const auto staticLights = std::count_if(scene.lights.begin(), scene.lights.end(),
+                                            [](const Light& l) { return !l.dynamic; });
+    volume.bake = {options.bounces, static_cast<float>(options.shadowApertureDegrees),
+                   static_cast<float>(options.aoLambda),
+                   static_cast<std::uint32_t>(options.attenuation),
+                   static_cast<std::uint32_t>(staticLights)};
 
     // Shadow cones need the occlusion of the mips before any light is in them.
     const bool shadowCones = options.shadowApertureDegrees > 0;
@@ -196,18 +212,24 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         const double tanHalf = std::tan(0.5 * options.shadowApertureDegrees * kPi / 180);
         std::vector<LightcutPoint> points(leaves.size());
         tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t i) {
-            points[i] = LightcutPoint::voxel(centreOf(leaves[i]), leaves[i].normals, options.attenuation, {kPi, kPi, kPi});
+            points[i] = LightcutPoint::voxel(centreOf(leaves[i]), leaves[i].normals,
+                                             options.attenuation, {kPi, kPi, kPi});
         });
-        const PointVisibility visibility = [&](std::size_t i, const Light&, const LightArrival& arrival) -> double {
+        const PointVisibility visibility = [&](std::size_t i, const Light&,
+                                               const LightArrival& arrival) -> double {
             const LeafMaterial& v = leaves[i];
             const Vec3d n = toVec3d(v.normals.mean);
             // Leave the voxel on the side of its surface that faces the light.
             const double side = dot(n, arrival.toLight) >= 0 ? 1.0 : -1.0;
             if (shadowCones) {
                 const Vec3d origin = points[i].position + n * (side * kGatherOffsetCells * cell);
-                return 1 - field.traceCone({origin, arrival.toLight, tanHalf, 0, arrival.distance}, 0, true).opacity;
+                return 1 - field
+                               .traceCone({origin, arrival.toLight, tanHalf, 0, arrival.distance},
+                                          0, true)
+                               .opacity;
             }
-            const Vec3d local{v.x + 0.5 + side * n.x, v.y + 0.5 + side * n.y, v.z + 0.5 + side * n.z};
+            const Vec3d local{v.x + 0.5 + side * n.x, v.y + 0.5 + side * n.y,
+                              v.z + 0.5 + side * n.z};
             const double maxT = std::isfinite(arrival.distance) ? arrival.distance / cell : 1e30;
             return solid.occluded(local, arrival.toLight, maxT) ? 0.0 : 1.0;
         };
@@ -215,14 +237,16 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         // same material, normals within 10°), at most kClusterVoxels each.
         const auto clusters = [&] {
             std::vector<LightcutPoint> materials(points);
-            for (std::size_t i = 0; i < leaves.size(); ++i) materials[i].albedo = toVec3d(leaves[i].albedo);
+            for (std::size_t i = 0; i < leaves.size(); ++i)
+                materials[i].albedo = toVec3d(leaves[i].albedo);
             return clusterVoxelPoints(materials, cells, options.depth, kClusterVoxels);
         };
         std::vector<Vec3d> irradiance(leaves.size());
-        bake.directLight = directLight(scene.lights, points, options.lightcuts, options.lightcut, options.lightcutsCompare, clusters,
-                                       visibility, irradiance);
+        bake.directLight = directLight(scene.lights, points, options.lightcuts, options.lightcut,
+                                       options.lightcutsCompare, clusters, visibility, irradiance);
         for (std::size_t i = 0; i < leaves.size(); ++i)
-            direct[i] = {static_cast<float>(irradiance[i].x), static_cast<float>(irradiance[i].y), static_cast<float>(irradiance[i].z)};
+            direct[i] = {static_cast<float>(irradiance[i].x), static_cast<float>(irradiance[i].y),
+                         static_cast<float>(irradiance[i].z)};
     }
 
     // Level 0's radiance from the irradiance a voxel receives: emission + albedo/π · E.
@@ -233,7 +257,8 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
             Vec3f e = direct[i];
             if (gathered) e = e + (*gathered)[i];
             const float k = static_cast<float>(1 / kPi);
-            radiance[i] = {v.emission.x + v.albedo.x * k * e.x, v.emission.y + v.albedo.y * k * e.y, v.emission.z + v.albedo.z * k * e.z};
+            radiance[i] = {v.emission.x + v.albedo.x * k * e.x, v.emission.y + v.albedo.y * k * e.y,
+                           v.emission.z + v.albedo.z * k * e.z};
         });
         all.update(radiance);
         for (auto& gv : regionVolumes) gv->update(radiance);
@@ -247,22 +272,32 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     std::vector<Vec3f> gathered(leaves.size()), previous(leaves.size());
     std::vector<float> occlusion(leaves.size(), 0);
     if (options.keepVoxelLighting) bake.voxels.resize(leaves.size());
-    const std::uint32_t passes = std::max<std::uint32_t>(options.bounces, 1);  // one pass for AO without bounces
+    const std::uint32_t passes =
+        std::max<std::uint32_t>(options.bounces, 1);  // one pass for AO without bounces
     for (std::uint32_t b = 0; b < passes; ++b) {
         Timings::Scope timer(options.timings, "radiance_bounce_" + std::to_string(b + 1));
         Progress progress("bounce " + std::to_string(b + 1), leaves.size());
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 512), [&](const tbb::blocked_range<std::size_t>& r) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                const LeafMaterial& v = leaves[i];
-                const RadianceField& from = gatherFrom[i] < 0 ? field : *regionVolumes[static_cast<std::size_t>(gatherFrom[i])]->field;
-                const auto g = from.gatherDiffuse(centreOf(v), toVec3d(v.normals.mean), kGatherOffsetCells * cell, options.aoLambda);
-                gathered[i] = {static_cast<float>(g.irradiance.x), static_cast<float>(g.irradiance.y), static_cast<float>(g.irradiance.z)};
-                if (b == 0) occlusion[i] = static_cast<float>(g.occlusion);
-            }
-            progress.advance(r.size());
-        });
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, leaves.size(), 512),
+            [&](const tbb::blocked_range<std::size_t>& r) {
+                for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                    const LeafMaterial& v = leaves[i];
+                    const RadianceField& from =
+                        gatherFrom[i] < 0
+                            ? field
+                            : *regionVolumes[static_cast<std::size_t>(gatherFrom[i])]->field;
+                    const auto g = from.gatherDiffuse(centreOf(v), toVec3d(v.normals.mean),
+                                                      kGatherOffsetCells * cell, options.aoLambda);
+                    gathered[i] = {static_cast<float>(g.irradiance.x),
+                                   static_cast<float>(g.irradiance.y),
+                                   static_cast<float>(g.irradiance.z)};
+                    if (b == 0) occlusion[i] = static_cast<float>(g.occlusion);
+                }
+                progress.advance(r.size());
+            });
         if (options.keepVoxelLighting && b < options.bounces)
-            for (std::size_t i = 0; i < leaves.size(); ++i) bake.voxels[i].indirect.push_back(gathered[i] - previous[i]);
+            for (std::size_t i = 0; i < leaves.size(); ++i)
+                bake.voxels[i].indirect.push_back(gathered[i] - previous[i]);
         previous = gathered;
         if (b < options.bounces) light(&gathered);
     }
@@ -294,7 +329,8 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         return a;
     };
     volume.staticVoxels.reserve(leaves.size());
-    for (std::size_t i = 0; i < leaves.size(); ++i) volume.staticVoxels.push_back(attributes(leaves[i], occlusion[i]));
+    for (std::size_t i = 0; i < leaves.size(); ++i)
+        volume.staticVoxels.push_back(attributes(leaves[i], occlusion[i]));
     volume.dynamicVoxels.reserve(dynamicLeaves.size());
     for (const LeafMaterial& v : dynamicLeaves) volume.dynamicVoxels.push_back(attributes(v, 0));
     return bake;

@@ -10,28 +10,36 @@ using rvol::kBlockCells;
 using rvol::kBlockTexels;
 using rvol::Texel;
 
-RadianceField::RadianceField(const rvol::Volume& volume) : volume_(volume), index_(volume.levels.size()) {
+RadianceField::RadianceField(const rvol::Volume& volume)
+    : volume_(volume), index_(volume.levels.size()) {
     finestCell_ = volume.cellSize(0);
     for (std::size_t l = 0; l < volume.levels.size(); ++l) {
         const rvol::Level& level = volume.levels[l];
         LevelIndex& index = index_[l];
-        index.blocksPerAxis = std::max<std::uint32_t>(1, (level.resolution + kBlockCells - 1) / kBlockCells);
-        const std::size_t n = std::size_t{index.blocksPerAxis} * index.blocksPerAxis * index.blocksPerAxis;
+        index.blocksPerAxis =
+            std::max<std::uint32_t>(1, (level.resolution + kBlockCells - 1) / kBlockCells);
+        const std::size_t n =
+            std::size_t{index.blocksPerAxis} * index.blocksPerAxis * index.blocksPerAxis;
         index.blocks.assign(n, -1);
         for (std::size_t b = 0; b < level.blocks.size(); ++b) {
             const auto c = rvol::demorton3(level.blocks[b]);
-            index.blocks[(std::size_t{c[2]} * index.blocksPerAxis + c[1]) * index.blocksPerAxis + c[0]] = static_cast<std::int32_t>(b);
+            index.blocks[(std::size_t{c[2]} * index.blocksPerAxis + c[1]) * index.blocksPerAxis +
+                         c[0]] = static_cast<std::int32_t>(b);
         }
     }
 }
 
-const Texel* RadianceField::cellTexels(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z) const noexcept {
+const Texel* RadianceField::cellTexels(std::uint32_t level, std::uint32_t x, std::uint32_t y,
+                                       std::uint32_t z) const noexcept {
     const LevelIndex& index = index_[level];
     const std::int32_t block =
-        index.blocks[(std::size_t{z / kBlockCells} * index.blocksPerAxis + y / kBlockCells) * index.blocksPerAxis + x / kBlockCells];
+        index.blocks[(std::size_t{z / kBlockCells} * index.blocksPerAxis + y / kBlockCells) *
+                         index.blocksPerAxis +
+                     x / kBlockCells];
     if (block < 0) return nullptr;
     const rvol::Level& l = volume_.levels[level];
-    return l.texels.data() + rvol::Level::texelIndex(static_cast<std::size_t>(block), l.channels, 0, x, y, z);
+    return l.texels.data() +
+           rvol::Level::texelIndex(static_cast<std::size_t>(block), l.channels, 0, x, y, z);
 }
 
 Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexcept {
@@ -39,7 +47,8 @@ Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexc
     const double cellSize = volume_.cellSize(level);
     const double last = l.resolution - 1.0;
     double u[3];
-    for (int axis = 0; axis < 3; ++axis) u[axis] = std::clamp((p[axis] - volume_.origin[axis]) / cellSize - 0.5, 0.0, last);
+    for (int axis = 0; axis < 3; ++axis)
+        u[axis] = std::clamp((p[axis] - volume_.origin[axis]) / cellSize - 0.5, 0.0, last);
     std::uint32_t c0[3], c1[3];
     double f[3];
     for (int axis = 0; axis < 3; ++axis) {
@@ -53,13 +62,17 @@ Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexc
     std::uint32_t channelCount = 1;
     if (l.channels == rvol::kDirections) {
         channelCount = 3;
-        for (int axis = 0; axis < 3; ++axis) offsets[axis] = static_cast<std::size_t>(2 * axis + (dir[axis] < 0 ? 1 : 0)) * kBlockTexels;
+        for (int axis = 0; axis < 3; ++axis)
+            offsets[axis] =
+                static_cast<std::size_t>(2 * axis + (dir[axis] < 0 ? 1 : 0)) * kBlockTexels;
     }
     double sums[3][4] = {};
     for (int corner = 0; corner < 8; ++corner) {
-        const double w = (corner & 1 ? f[0] : 1 - f[0]) * (corner & 2 ? f[1] : 1 - f[1]) * (corner & 4 ? f[2] : 1 - f[2]);
+        const double w = (corner & 1 ? f[0] : 1 - f[0]) * (corner & 2 ? f[1] : 1 - f[1]) *
+                         (corner & 4 ? f[2] : 1 - f[2]);
         if (w <= 0) continue;
-        const Texel* t = cellTexels(level, corner & 1 ? c1[0] : c0[0], corner & 2 ? c1[1] : c0[1], corner & 4 ? c1[2] : c0[2]);
+        const Texel* t = cellTexels(level, corner & 1 ? c1[0] : c0[0], corner & 2 ? c1[1] : c0[1],
+                                    corner & 4 ? c1[2] : c0[2]);
         if (!t) continue;
         for (std::uint32_t c = 0; c < channelCount; ++c) {
             const Texel& v = t[offsets[c]];
@@ -69,12 +82,13 @@ Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexc
             sums[c][3] += w * v.a;
         }
     }
-    if (channelCount == 1) return {static_cast<float>(sums[0][0]), static_cast<float>(sums[0][1]), static_cast<float>(sums[0][2]),
-                                   static_cast<float>(sums[0][3])};
+    if (channelCount == 1)
+        return {static_cast<float>(sums[0][0]), static_cast<float>(sums[0][1]),
+                static_cast<float>(sums[0][2]), static_cast<float>(sums[0][3])};
     std::array<Texel, 3> facing{};
     for (int axis = 0; axis < 3; ++axis)
-        facing[axis] = {static_cast<float>(sums[axis][0]), static_cast<float>(sums[axis][1]), static_cast<float>(sums[axis][2]),
-                        static_cast<float>(sums[axis][3])};
+        facing[axis] = {static_cast<float>(sums[axis][0]), static_cast<float>(sums[axis][1]),
+                        static_cast<float>(sums[axis][2]), static_cast<float>(sums[axis][3])};
     return rvol::combineDirectional(facing, {dir.x, dir.y, dir.z});
 }
 
@@ -90,7 +104,8 @@ Texel RadianceField::sampleLod(double level, Vec3d p, Vec3d dir) const noexcept 
     return {mix(a.r, b.r), mix(a.g, b.g), mix(a.b, b.b), mix(a.a, b.a)};
 }
 
-RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLambda, bool opacityOnly) const noexcept {
+RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLambda,
+                                                   bool opacityOnly) const noexcept {
     ConeResult out;
     const double size = volume_.size;
     const Vec3d lo{volume_.origin[0], volume_.origin[1], volume_.origin[2]};
@@ -99,18 +114,21 @@ RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLa
     double t = std::max(cone.start, 0.5 * finestCell_);
     double opacity = 0, occlusion = 0;
     Vec3d radiance{0, 0, 0};
-    const bool clampToPlane = cone.planeNormal.x != 0 || cone.planeNormal.y != 0 || cone.planeNormal.z != 0;
+    const bool clampToPlane =
+        cone.planeNormal.x != 0 || cone.planeNormal.y != 0 || cone.planeNormal.z != 0;
     while (t < cone.maxDistance && opacity < 0.995) {
         const Vec3d p = cone.origin + cone.dir * t;
         const double diameter = std::max(2 * t * cone.tanHalfAngle, finestCell_);
         // Geometry reaches the cube's faces (the cube encloses the scene's bounds): march until the
         // footprint has left it, so surfaces on the faces get their full opacity.
         const double margin = 0.5 * diameter;
-        if (p.x < lo.x - margin || p.y < lo.y - margin || p.z < lo.z - margin || p.x > hi.x + margin || p.y > hi.y + margin ||
-            p.z > hi.z + margin)
+        if (p.x < lo.x - margin || p.y < lo.y - margin || p.z < lo.z - margin ||
+            p.x > hi.x + margin || p.y > hi.y + margin || p.z > hi.z + margin)
             break;
         double footprint = diameter;
-        if (clampToPlane) footprint = std::max(finestCell_, std::min(footprint, dot(p - cone.planePoint, cone.planeNormal) / 1.5));
+        if (clampToPlane)
+            footprint = std::max(
+                finestCell_, std::min(footprint, dot(p - cone.planePoint, cone.planeNormal) / 1.5));
         const double level = std::log2(footprint / finestCell_);
         if (level > top) break;
         const double step = 0.5 * diameter;
@@ -131,7 +149,8 @@ RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLa
     return out;
 }
 
-RadianceField::Gather RadianceField::gatherDiffuse(Vec3d point, Vec3d normal, double offset, double aoLambda) const noexcept {
+RadianceField::Gather RadianceField::gatherDiffuse(Vec3d point, Vec3d normal, double offset,
+                                                   double aoLambda) const noexcept {
     // Cosine-weighted solid angles of a 30° half-angle cone: π·sin²30° along the normal, and
     // 2π(1 − cos 30°)·cos 60° tilted by 60°; normalised so that the six sum to π.
     constexpr double kPi = 3.14159265358979323846;
@@ -152,10 +171,12 @@ RadianceField::Gather RadianceField::gatherDiffuse(Vec3d point, Vec3d normal, do
         double weight = centre * norm;
         if (i > 0) {
             const double phi = 2 * kPi * (i - 1) / 5;
-            dir = normalize(normal * 0.5 + (tangent * std::cos(phi) + bitangent * std::sin(phi)) * (std::sqrt(3.0) / 2));
+            dir = normalize(normal * 0.5 + (tangent * std::cos(phi) + bitangent * std::sin(phi)) *
+                                               (std::sqrt(3.0) / 2));
             weight = side * norm;
         }
-        const ConeResult r = traceCone({origin, dir, tanHalf, 0, 1e30, point + normal * finestCell_, normal}, aoLambda);
+        const ConeResult r = traceCone(
+            {origin, dir, tanHalf, 0, 1e30, point + normal * finestCell_, normal}, aoLambda);
         out.irradiance += r.radiance * weight;
         out.occlusion += r.occlusion * weight;
         weightSum += weight;

@@ -11,7 +11,8 @@ using rvol::kBlockTexels;
 using rvol::kDirections;
 using rvol::Texel;
 
-void allocateVolume(rvol::Volume& volume, std::span<const std::array<std::uint32_t, 3>> cells, std::vector<std::size_t>& cellTexel) {
+void allocateVolume(rvol::Volume& volume, std::span<const std::array<std::uint32_t, 3>> cells,
+                    std::vector<std::size_t>& cellTexel) {
     volume.levels.assign(volume.depth + 1, {});
     rvol::Level& base = volume.levels[0];
     base.resolution = 1u << volume.depth;
@@ -19,9 +20,11 @@ void allocateVolume(rvol::Volume& volume, std::span<const std::array<std::uint32
     cellTexel.resize(cells.size());
     for (std::size_t i = 0; i < cells.size(); ++i) {
         const auto& c = cells[i];
-        const std::uint64_t block = rvol::morton3(c[0] / kBlockCells, c[1] / kBlockCells, c[2] / kBlockCells);
+        const std::uint64_t block =
+            rvol::morton3(c[0] / kBlockCells, c[1] / kBlockCells, c[2] / kBlockCells);
         if (base.blocks.empty() || base.blocks.back() != block) {
-            if (!base.blocks.empty() && block < base.blocks.back()) throw std::logic_error("allocateVolume: cells out of Morton order");
+            if (!base.blocks.empty() && block < base.blocks.back())
+                throw std::logic_error("allocateVolume: cells out of Morton order");
             base.blocks.push_back(block);
         }
         cellTexel[i] = rvol::Level::texelIndex(base.blocks.size() - 1, 1, 0, c[0], c[1], c[2]);
@@ -35,7 +38,8 @@ void allocateVolume(rvol::Volume& volume, std::span<const std::array<std::uint32
         for (std::uint64_t code : child.blocks) {
             // Blocks at coarse levels (under 8 cells per axis) stay block 0.
             const std::uint64_t parent = code >> 3;
-            if (level.blocks.empty() || level.blocks.back() != parent) level.blocks.push_back(parent);
+            if (level.blocks.empty() || level.blocks.back() != parent)
+                level.blocks.push_back(parent);
         }
         level.texels.assign(level.blocks.size() * kDirections * kBlockTexels, Texel{});
     }
@@ -51,7 +55,8 @@ inline Texel over(const Texel& front, const Texel& back) {
 
 }  // namespace
 
-void filterMips(rvol::Volume& volume, const RadianceField& field, const std::vector<std::uint8_t>& hidden) {
+void filterMips(rvol::Volume& volume, const RadianceField& field,
+                const std::vector<std::uint8_t>& hidden) {
     const rvol::Level& base = volume.levels[0];
     for (std::uint32_t l = 1; l <= volume.depth; ++l) {
         rvol::Level& level = volume.levels[l];
@@ -62,15 +67,20 @@ void filterMips(rvol::Volume& volume, const RadianceField& field, const std::vec
             for (std::uint32_t lz = 0; lz < extent; ++lz)
                 for (std::uint32_t ly = 0; ly < extent; ++ly)
                     for (std::uint32_t lx = 0; lx < extent; ++lx) {
-                        const std::uint32_t x = bc[0] * kBlockCells + lx, y = bc[1] * kBlockCells + ly, z = bc[2] * kBlockCells + lz;
+                        const std::uint32_t x = bc[0] * kBlockCells + lx,
+                                            y = bc[1] * kBlockCells + ly,
+                                            z = bc[2] * kBlockCells + lz;
                         // The eight children's texels per channel (null: empty).
                         const Texel* child[8];
                         std::uint8_t childHidden[8] = {};
                         bool any = false;
                         for (std::uint32_t s = 0; s < 8; ++s) {
-                            const std::uint32_t cx = 2 * x + (s & 1u), cy = 2 * y + ((s >> 1) & 1u), cz = 2 * z + (s >> 2);
+                            const std::uint32_t cx = 2 * x + (s & 1u), cy = 2 * y + ((s >> 1) & 1u),
+                                                cz = 2 * z + (s >> 2);
                             child[s] = field.cellTexels(l - 1, cx, cy, cz);
-                            if (child[s] && fromBase) childHidden[s] = hidden[static_cast<std::size_t>(child[s] - base.texels.data())];
+                            if (child[s] && fromBase)
+                                childHidden[s] =
+                                    hidden[static_cast<std::size_t>(child[s] - base.texels.data())];
                             any = any || child[s];
                         }
                         if (!any) continue;
@@ -97,14 +107,16 @@ void filterMips(rvol::Volume& volume, const RadianceField& field, const std::vec
                                     ++bit;
                                 }
                                 const std::uint32_t lowSlot = s0, highSlot = s0 | (1u << axis);
-                                const Texel v = negative ? over(childValue(highSlot), childValue(lowSlot))
-                                                         : over(childValue(lowSlot), childValue(highSlot));
+                                const Texel v =
+                                    negative ? over(childValue(highSlot), childValue(lowSlot))
+                                             : over(childValue(lowSlot), childValue(highSlot));
                                 sum.r += v.r;
                                 sum.g += v.g;
                                 sum.b += v.b;
                                 sum.a += v.a;
                             }
-                            Texel& out = level.texels[rvol::Level::texelIndex(b, kDirections, k, x, y, z)];
+                            Texel& out =
+                                level.texels[rvol::Level::texelIndex(b, kDirections, k, x, y, z)];
                             out = {0.25f * sum.r, 0.25f * sum.g, 0.25f * sum.b, 0.25f * sum.a};
                         }
                     }

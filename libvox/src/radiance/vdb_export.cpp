@@ -24,11 +24,12 @@ namespace {
 
 using openvdb::Coord;
 using openvdb::FloatGrid;
-using openvdb::Vec3SGrid;
 using openvdb::Vec3s;
+using openvdb::Vec3SGrid;
 using rvol::kBlockCells;
 
-constexpr std::array<const char*, rvol::kDirections> kDirectionSuffix{"px", "nx", "py", "ny", "pz", "nz"};
+constexpr std::array<const char*, rvol::kDirections> kDirectionSuffix{"px", "nx", "py",
+                                                                      "ny", "pz", "nz"};
 
 void initializeOpenVdb() {
     static std::once_flag once;
@@ -40,13 +41,15 @@ void initializeOpenVdb() {
 openvdb::math::Transform::Ptr levelTransform(const rvol::Volume& volume, std::uint32_t level) {
     const double cell = volume.cellSize(level);
     openvdb::math::Transform::Ptr transform = openvdb::math::Transform::createLinearTransform(cell);
-    transform->postTranslate(openvdb::Vec3d(volume.origin[0] + 0.5 * cell, volume.origin[1] + 0.5 * cell,
+    transform->postTranslate(openvdb::Vec3d(volume.origin[0] + 0.5 * cell,
+                                            volume.origin[1] + 0.5 * cell,
                                             volume.origin[2] + 0.5 * cell));
     return transform;
 }
 
 template <class GridT>
-typename GridT::Ptr makeGrid(const std::string& name, const rvol::Volume& volume, std::uint32_t level) {
+typename GridT::Ptr makeGrid(const std::string& name, const rvol::Volume& volume,
+                             std::uint32_t level) {
     typename GridT::Ptr grid = GridT::create(typename GridT::ValueType(0));
     grid->setName(name);
     grid->setCreator("libvox");
@@ -64,22 +67,30 @@ template <class Fn>
 void forEachCell(const rvol::Level& level, std::uint32_t channel, Fn&& fn) {
     for (std::size_t b = 0; b < level.blocks.size(); ++b) {
         const auto block = rvol::demorton3(level.blocks[b]);
-        const rvol::Texel* texel = level.texels.data() + rvol::Level::texelIndex(b, level.channels, channel, 0, 0, 0);
+        const rvol::Texel* texel =
+            level.texels.data() + rvol::Level::texelIndex(b, level.channels, channel, 0, 0, 0);
         for (std::uint32_t z = 0; z < kBlockCells; ++z)
             for (std::uint32_t y = 0; y < kBlockCells; ++y)
                 for (std::uint32_t x = 0; x < kBlockCells; ++x, ++texel) {
-                    const std::uint32_t cx = block[0] * kBlockCells + x, cy = block[1] * kBlockCells + y,
+                    const std::uint32_t cx = block[0] * kBlockCells + x,
+                                        cy = block[1] * kBlockCells + y,
                                         cz = block[2] * kBlockCells + z;
-                    if (cx >= level.resolution || cy >= level.resolution || cz >= level.resolution) continue;
-                    fn(Coord(static_cast<std::int32_t>(cx), static_cast<std::int32_t>(cy), static_cast<std::int32_t>(cz)), *texel);
+                    if (cx >= level.resolution || cy >= level.resolution || cz >= level.resolution)
+                        continue;
+                    fn(Coord(static_cast<std::int32_t>(cx), static_cast<std::int32_t>(cy),
+                             static_cast<std::int32_t>(cz)),
+                       *texel);
                 }
     }
 }
 
 /// Channel @p channel of level @p levelIndex as an un-premultiplied radiance grid and an opacity
 /// (fog volume) grid.
-std::pair<Vec3SGrid::Ptr, FloatGrid::Ptr> channelGrids(const rvol::Volume& volume, std::uint32_t levelIndex, std::uint32_t channel,
-                                                      const std::string& radianceName, const std::string& opacityName) {
+std::pair<Vec3SGrid::Ptr, FloatGrid::Ptr> channelGrids(const rvol::Volume& volume,
+                                                       std::uint32_t levelIndex,
+                                                       std::uint32_t channel,
+                                                       const std::string& radianceName,
+                                                       const std::string& opacityName) {
     Vec3SGrid::Ptr radiance = makeGrid<Vec3SGrid>(radianceName, volume, levelIndex);
     radiance->setVectorType(openvdb::VEC_INVARIANT);
     FloatGrid::Ptr opacity = makeGrid<FloatGrid>(opacityName, volume, levelIndex);
@@ -110,7 +121,8 @@ void addAttributes(openvdb::GridCPtrVec& grids, const rvol::Volume& volume) {
     auto normalAccess = normal->getAccessor();
     auto occlusionAccess = occlusion->getAccessor();
     for (const rvol::VoxelAttributes& v : volume.staticVoxels) {
-        const Coord c(static_cast<std::int32_t>(v.x), static_cast<std::int32_t>(v.y), static_cast<std::int32_t>(v.z));
+        const Coord c(static_cast<std::int32_t>(v.x), static_cast<std::int32_t>(v.y),
+                      static_cast<std::int32_t>(v.z));
         if (nonZero(vec(v.albedo))) albedoAccess.setValueOn(c, vec(v.albedo));
         if (nonZero(vec(v.emission))) emissionAccess.setValueOn(c, vec(v.emission));
         if (nonZero(vec(v.normal))) normalAccess.setValueOn(c, vec(v.normal));
@@ -123,16 +135,19 @@ void addAttributes(openvdb::GridCPtrVec& grids, const rvol::Volume& volume) {
 }
 
 void checkVolume(const std::filesystem::path& file, const rvol::Volume& volume) {
-    if (volume.depth > 20) throw InvalidDataError(file, "radiance volume depth " + std::to_string(volume.depth) + " is over 20");
+    if (volume.depth > 20)
+        throw InvalidDataError(
+            file, "radiance volume depth " + std::to_string(volume.depth) + " is over 20");
     if (volume.levels.size() != std::size_t{volume.depth} + 1)
-        throw InvalidDataError(file, "radiance volume has " + std::to_string(volume.levels.size()) + " levels for depth " +
-                                         std::to_string(volume.depth));
+        throw InvalidDataError(file, "radiance volume has " + std::to_string(volume.levels.size()) +
+                                         " levels for depth " + std::to_string(volume.depth));
     for (std::uint32_t l = 0; l <= volume.depth; ++l) {
         const rvol::Level& level = volume.levels[l];
         const std::uint32_t channels = l == 0 ? 1 : rvol::kDirections;
         if (level.resolution != (1u << (volume.depth - l)) || level.channels != channels ||
             level.texels.size() != level.blocks.size() * channels * rvol::kBlockTexels)
-            throw InvalidDataError(file, "radiance volume level " + std::to_string(l) + " is inconsistent");
+            throw InvalidDataError(
+                file, "radiance volume level " + std::to_string(l) + " is inconsistent");
     }
     const std::uint32_t resolution = 1u << volume.depth;
     for (const rvol::VoxelAttributes& v : volume.staticVoxels)
@@ -144,8 +159,11 @@ void checkVolume(const std::filesystem::path& file, const rvol::Volume& volume) 
 /// into a stream we own, so that write errors are seen and the header can be patched afterwards.
 class StreamArchive final : public openvdb::io::Archive {
 public:
-    openvdb::io::Archive::Ptr copy() const override { return std::make_shared<StreamArchive>(*this); }
-    void writeTo(std::ostream& os, const openvdb::GridCPtrVec& grids, const openvdb::MetaMap& meta) const {
+    openvdb::io::Archive::Ptr copy() const override {
+        return std::make_shared<StreamArchive>(*this);
+    }
+    void writeTo(std::ostream& os, const openvdb::GridCPtrVec& grids,
+                 const openvdb::MetaMap& meta) const {
         Archive::write(os, grids, /*seekable=*/true, meta);
     }
 };
@@ -160,7 +178,10 @@ bool isUuidText(std::string_view text) {
     for (std::size_t i = 0; i < kUuidLength; ++i) {
         const char ch = text[i];
         const bool dash = i == 8 || i == 13 || i == 18 || i == 23;
-        if (dash ? ch != '-' : !((ch >= '0' && ch <= '9') || (ch >= 'a' && ch <= 'f') || (ch >= 'A' && ch <= 'F'))) return false;
+        if (dash ? ch != '-'
+                 : !((ch >= '0' && ch <= '9') || (ch >= 'a' && ch <= 'f') ||
+                     (ch >= 'A' && ch <= 'F')))
+            return false;
     }
     return true;
 }
@@ -233,8 +254,9 @@ std::string volumeUuid(const rvol::Volume& volume, const VdbExportOptions& optio
         hash.add(level.texels);
     }
     for (const rvol::VoxelAttributes& v : volume.staticVoxels) {
-        const std::array<float, 10> values{v.albedo[0], v.albedo[1], v.albedo[2], v.normal[0],   v.normal[1],
-                                           v.normal[2], v.emission[0], v.emission[1], v.emission[2], v.occlusion};
+        const std::array<float, 10> values{v.albedo[0],   v.albedo[1], v.albedo[2],   v.normal[0],
+                                           v.normal[1],   v.normal[2], v.emission[0], v.emission[1],
+                                           v.emission[2], v.occlusion};
         hash.addWord((std::uint64_t{v.x} << 42) | (std::uint64_t{v.y} << 21) | v.z);
         hash.add(values.data(), sizeof values);
     }
@@ -243,7 +265,8 @@ std::string volumeUuid(const rvol::Volume& volume, const VdbExportOptions& optio
 
 }  // namespace
 
-void exportVdb(const std::filesystem::path& file, const rvol::Volume& volume, const VdbExportOptions& options) {
+void exportVdb(const std::filesystem::path& file, const rvol::Volume& volume,
+               const VdbExportOptions& options) {
     checkVolume(file, volume);
     AtomicFile out(file);  // fails early on an unwritable directory
     initializeOpenVdb();
@@ -258,8 +281,9 @@ void exportVdb(const std::filesystem::path& file, const rvol::Volume& volume, co
         const std::string suffix = l == 1 ? std::string() : "_L" + std::to_string(l);
         openvdb::GridCPtrVec opacities;
         for (std::uint32_t d = 0; d < rvol::kDirections; ++d) {
-            const auto [rgb, a] = channelGrids(volume, l, d, std::string("radiance_") + kDirectionSuffix[d] + suffix,
-                                               std::string("opacity_") + kDirectionSuffix[d] + suffix);
+            const auto [rgb, a] =
+                channelGrids(volume, l, d, std::string("radiance_") + kDirectionSuffix[d] + suffix,
+                             std::string("opacity_") + kDirectionSuffix[d] + suffix);
             grids.push_back(rgb);
             opacities.push_back(a);
         }
@@ -269,12 +293,15 @@ void exportVdb(const std::filesystem::path& file, const rvol::Volume& volume, co
     openvdb::MetaMap meta;
     meta.insertMeta("source", openvdb::StringMetadata("libvox .rvol bake"));
     meta.insertMeta("depth", openvdb::Int32Metadata(static_cast<std::int32_t>(volume.depth)));
-    meta.insertMeta("origin", openvdb::Vec3DMetadata(openvdb::Vec3d(volume.origin[0], volume.origin[1], volume.origin[2])));
+    meta.insertMeta("origin", openvdb::Vec3DMetadata(openvdb::Vec3d(
+                                  volume.origin[0], volume.origin[1], volume.origin[2])));
     meta.insertMeta("size", openvdb::DoubleMetadata(volume.size));
 
     // Into AtomicFile's temporary (renamed into place by commit, removed on an exception).
-    std::fstream stream(out.temporaryPath(), std::ios::in | std::ios::out | std::ios::binary | std::ios::trunc);
-    if (!stream) throw IoError(file, "cannot open the temporary file " + out.temporaryPath().string());
+    std::fstream stream(out.temporaryPath(),
+                        std::ios::in | std::ios::out | std::ios::binary | std::ios::trunc);
+    if (!stream)
+        throw IoError(file, "cannot open the temporary file " + out.temporaryPath().string());
     try {
         StreamArchive().writeTo(stream, grids, meta);
     } catch (const openvdb::Exception& e) {

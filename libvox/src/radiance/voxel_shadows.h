@@ -1,5 +1,5 @@
-// Shadow rays through the solid voxels of level 0 (Gui et al. 2019, 2.2: "trace a ray from the voxel
-// towards the light; a solid voxel on the way occludes it").
+// Shadow rays through the solid voxels of level 0 (Gui et al. 2019, 2.2: "trace a ray from the
+// voxel towards the light; a solid voxel on the way occludes it").
 #pragma once
 
 #include <vox/math.h>

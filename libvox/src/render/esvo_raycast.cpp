@@ -24,9 +24,12 @@ namespace vox {
 void PinholeCamera::validate() const {
     const Vec3d forward = target - eye;
     if (length(forward) == 0) throw UsageError("camera: --eye and --target are the same point");
-    if (length(cross(forward, up)) <= 1e-12 * length(forward) * length(up)) throw UsageError("camera: --up is parallel to the view direction");
-    if (!(fovYDegrees > 0 && fovYDegrees < 180)) throw UsageError("camera: --fov must be between 0 and 180 degrees");
-    if (width < 1 || height < 1 || width > 16384 || height > 16384) throw UsageError("camera: image size must be 1..16384");
+    if (length(cross(forward, up)) <= 1e-12 * length(forward) * length(up))
+        throw UsageError("camera: --up is parallel to the view direction");
+    if (!(fovYDegrees > 0 && fovYDegrees < 180))
+        throw UsageError("camera: --fov must be between 0 and 180 degrees");
+    if (width < 1 || height < 1 || width > 16384 || height > 16384)
+        throw UsageError("camera: image size must be 1..16384");
 }
 
 namespace {
@@ -38,9 +41,14 @@ struct CameraBasis {
     int width, height;
 
     explicit CameraBasis(const PinholeCamera& c)
-        : eye(c.eye), forward(normalize(c.target - c.eye)), right(normalize(cross(forward, c.up))), up(cross(right, forward)),
-          tanHalf(std::tan(c.fovYDegrees * 0.5 * 3.14159265358979323846 / 180.0)), aspect(double(c.width) / double(c.height)),
-          width(c.width), height(c.height) {}
+        : eye(c.eye),
+          forward(normalize(c.target - c.eye)),
+          right(normalize(cross(forward, c.up))),
+          up(cross(right, forward)),
+          tanHalf(std::tan(c.fovYDegrees * 0.5 * 3.14159265358979323846 / 180.0)),
+          aspect(double(c.width) / double(c.height)),
+          width(c.width),
+          height(c.height) {}
 
     [[nodiscard]] Ray ray(int x, int y) const { return rayAt(x + 0.5, y + 0.5); }
     /// The ray through image position (@p px, @p py) in pixels: (0, 0) is the top left corner
@@ -65,17 +73,22 @@ double PinholeCamera::pixelAngle() const {
 EsvoRayCaster::EsvoRayCaster(const esvo::EsvoPool& pool) : pool_(pool) {
     const auto& m = pool.reader().header().worldToRoot;
     for (int i = 0; i < 12; ++i) a_[i] = m[i];
-    const double det = a_[0] * (a_[5] * a_[10] - a_[6] * a_[9]) - a_[1] * (a_[4] * a_[10] - a_[6] * a_[8]) +
+    const double det = a_[0] * (a_[5] * a_[10] - a_[6] * a_[9]) -
+                       a_[1] * (a_[4] * a_[10] - a_[6] * a_[8]) +
                        a_[2] * (a_[4] * a_[9] - a_[5] * a_[8]);
-    if (!(std::abs(det) > 0)) throw InvalidDataError(pool.reader().path(), "header: world-to-root transform is singular");
+    if (!(std::abs(det) > 0))
+        throw InvalidDataError(pool.reader().path(), "header: world-to-root transform is singular");
     unitScale_ = std::cbrt(std::abs(det));
     rowNorm_ = 0;
     for (int i = 0; i < 3; ++i)
-        rowNorm_ = std::max(rowNorm_, std::sqrt(a_[4 * i] * a_[4 * i] + a_[4 * i + 1] * a_[4 * i + 1] + a_[4 * i + 2] * a_[4 * i + 2]));
+        rowNorm_ =
+            std::max(rowNorm_, std::sqrt(a_[4 * i] * a_[4 * i] + a_[4 * i + 1] * a_[4 * i + 1] +
+                                         a_[4 * i + 2] * a_[4 * i + 2]));
     leafSize_ = std::ldexp(1.0, -static_cast<int>(pool.reader().header().leafDepth)) / unitScale_;
 }
 
-bool EsvoRayCaster::start(const Ray& ray, const CastOptions& options, detail::TraversalStart& s) const {
+bool EsvoRayCaster::start(const Ray& ray, const CastOptions& options,
+                          detail::TraversalStart& s) const {
     constexpr float epsilon = 0x1p-23f;  // 2^-kScaleMax
     // To octree coordinates [1,2]³; t stays the world distance because the direction is
     // transformed without renormalising.
@@ -93,14 +106,16 @@ bool EsvoRayCaster::start(const Ray& ray, const CastOptions& options, detail::Tr
     s.dx = dx, s.dy = dy, s.dz = dz;
 
     // t(x) = x·coef − bias, mirrored so that every direction component is negative.
-    s.txCoef = 1.0f / -std::abs(dx), s.tyCoef = 1.0f / -std::abs(dy), s.tzCoef = 1.0f / -std::abs(dz);
+    s.txCoef = 1.0f / -std::abs(dx), s.tyCoef = 1.0f / -std::abs(dy),
+    s.tzCoef = 1.0f / -std::abs(dz);
     s.txBias = s.txCoef * s.px, s.tyBias = s.tyCoef * s.py, s.tzBias = s.tzCoef * s.pz;
     s.octantMask = 7;
     if (dx > 0.0f) s.octantMask ^= 1, s.txBias = 3.0f * s.txCoef - s.txBias;
     if (dy > 0.0f) s.octantMask ^= 2, s.tyBias = 3.0f * s.tyCoef - s.tyBias;
     if (dz > 0.0f) s.octantMask ^= 4, s.tzBias = 3.0f * s.tzCoef - s.tzBias;
 
-    float tMin = std::max({2.0f * s.txCoef - s.txBias, 2.0f * s.tyCoef - s.tyBias, 2.0f * s.tzCoef - s.tzBias});
+    float tMin = std::max(
+        {2.0f * s.txCoef - s.txBias, 2.0f * s.tyCoef - s.tyBias, 2.0f * s.tzCoef - s.tzBias});
     float tMax = std::min({s.txCoef - s.txBias, s.tyCoef - s.tyBias, s.tzCoef - s.tzBias});
     tMin = std::max(tMin, std::max(options.tStart, 0.0f));
     tMax = std::min(tMax, static_cast<float>(std::min(options.tMax, 3.0e38)));
@@ -130,7 +145,8 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
     } stack[kScaleMax + 1];
 
     const float px = s.px, py = s.py, pz = s.pz, dx = s.dx, dy = s.dy, dz = s.dz;
-    const float txCoef = s.txCoef, tyCoef = s.tyCoef, tzCoef = s.tzCoef, txBias = s.txBias, tyBias = s.tyBias, tzBias = s.tzBias;
+    const float txCoef = s.txCoef, tyCoef = s.tyCoef, tzCoef = s.tzCoef, txBias = s.txBias,
+                tyBias = s.tyBias, tzBias = s.tzBias;
     const float lodCoef = s.lodCoef;
     const int octantMask = s.octantMask;
     float tMin = s.tMin, tMax = s.tMax;
@@ -180,17 +196,21 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
             Vec3f slabN{0, 0, 0};
             if (options.contours && ((descriptor2 >> slot) & 1u)) {
                 const std::uint32_t pointer = descriptor2 >> 8;
-                const esvo::Contour c =
-                    esvo::Contour::decode(words[parent + pointer + esvo::popc8(descriptor2 & ((1u << slot) - 1u))]);
+                const esvo::Contour c = esvo::Contour::decode(
+                    words[parent + pointer + esvo::popc8(descriptor2 & ((1u << slot) - 1u))]);
                 // Unmirrored centre of this voxel (a mirrored axis runs 3 − x).
                 const float cx = (octantMask & 1) ? posX + half : 3.0f - posX - half;
                 const float cy = (octantMask & 2) ? posY + half : 3.0f - posY - half;
                 const float cz = (octantMask & 4) ? posZ + half : 3.0f - posZ - half;
                 const float nd = float(c.nx) * dx + float(c.ny) * dy + float(c.nz) * dz;
-                const float no = float(c.nx) * (px - cx) + float(c.ny) * (py - cy) + float(c.nz) * (pz - cz);
-                const float centreOffset = scaleExp2 * float(c.position) * float(esvo::Contour::kStep);
-                const float halfThickness = scaleExp2 * float(c.thickness) * float(esvo::Contour::kStep) * 0.5f;
-                const float lo = centreOffset - halfThickness - no, hi = centreOffset + halfThickness - no;  // nd·t ∈ [lo, hi]
+                const float no =
+                    float(c.nx) * (px - cx) + float(c.ny) * (py - cy) + float(c.nz) * (pz - cz);
+                const float centreOffset =
+                    scaleExp2 * float(c.position) * float(esvo::Contour::kStep);
+                const float halfThickness =
+                    scaleExp2 * float(c.thickness) * float(esvo::Contour::kStep) * 0.5f;
+                const float lo = centreOffset - halfThickness - no,
+                            hi = centreOffset + halfThickness - no;  // nd·t ∈ [lo, hi]
                 if (nd != 0.0f) {
                     float t0 = lo / nd, t1 = hi / nd;
                     if (nd < 0.0f) std::swap(t0, t1);
@@ -209,8 +229,10 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
                 bool leaf = !((descriptor >> slot) & 1u) || level >= options.maxLevel;
                 std::int32_t offset = static_cast<std::int32_t>(descriptor >> 17);
                 if (!leaf && (descriptor & 0x10000u)) {
-                    offset = static_cast<std::int32_t>(words[parent + 2 * static_cast<std::uint32_t>(offset)]);
-                    leaf = offset == 0;  // child slice not loaded: this is the finest level there is
+                    offset = static_cast<std::int32_t>(
+                        words[parent + 2 * static_cast<std::uint32_t>(offset)]);
+                    leaf =
+                        offset == 0;  // child slice not loaded: this is the finest level there is
                 }
                 if (fromSlab) stop.slabT = tvMin, stop.slabNormal = slabN;
                 if (leaf) {
@@ -227,7 +249,8 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
                 // octree) a POP can, and would read a stale entry or none. One store per PUSH.
                 stack[scale] = {parent, tMax};
                 offset += static_cast<std::int32_t>(esvo::popc8(descriptor & ((1u << slot) - 1u)));
-                parent = static_cast<std::uint32_t>(static_cast<std::int64_t>(parent) + 2 * static_cast<std::int64_t>(offset));
+                parent = static_cast<std::uint32_t>(static_cast<std::int64_t>(parent) +
+                                                    2 * static_cast<std::int64_t>(offset));
                 idx = 0;
                 --scale;
                 scaleExp2 = half;
@@ -251,12 +274,21 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
         if ((idx & stepMask) != 0) {
             // POP: the highest bit where the old and new positions differ gives the scale.
             std::uint32_t differing = 0;
-            if (stepMask & 1) differing |= std::bit_cast<std::uint32_t>(posX) ^ std::bit_cast<std::uint32_t>(posX + scaleExp2);
-            if (stepMask & 2) differing |= std::bit_cast<std::uint32_t>(posY) ^ std::bit_cast<std::uint32_t>(posY + scaleExp2);
-            if (stepMask & 4) differing |= std::bit_cast<std::uint32_t>(posZ) ^ std::bit_cast<std::uint32_t>(posZ + scaleExp2);
-            scale = static_cast<int>(std::bit_cast<std::uint32_t>(static_cast<float>(differing)) >> 23) - 127;
+            if (stepMask & 1)
+                differing |= std::bit_cast<std::uint32_t>(posX) ^
+                             std::bit_cast<std::uint32_t>(posX + scaleExp2);
+            if (stepMask & 2)
+                differing |= std::bit_cast<std::uint32_t>(posY) ^
+                             std::bit_cast<std::uint32_t>(posY + scaleExp2);
+            if (stepMask & 4)
+                differing |= std::bit_cast<std::uint32_t>(posZ) ^
+                             std::bit_cast<std::uint32_t>(posZ + scaleExp2);
+            scale = static_cast<int>(std::bit_cast<std::uint32_t>(static_cast<float>(differing)) >>
+                                     23) -
+                    127;
             if (scale >= kScaleMax) break;
-            scaleExp2 = std::bit_cast<float>(static_cast<std::uint32_t>(scale - kScaleMax + 127) << 23);
+            scaleExp2 =
+                std::bit_cast<float>(static_cast<std::uint32_t>(scale - kScaleMax + 127) << 23);
             parent = stack[scale].parent;
             tMax = stack[scale].tMax;
             const std::uint32_t shx = std::bit_cast<std::uint32_t>(posX) >> scale;
@@ -282,10 +314,12 @@ CastHit EsvoRayCaster::cast(const Ray& ray, const CastOptions& options) const {
     return finish(s, stop, options, &stack[0].parent, sizeof(StackEntry) / sizeof(std::uint32_t));
 }
 
-void EsvoRayCaster::castMany(const Ray* rays, const float* tStarts, std::size_t count, const CastOptions& options, CastHit* hits) const {
+void EsvoRayCaster::castMany(const Ray* rays, const float* tStarts, std::size_t count,
+                             const CastOptions& options, CastHit* hits) const {
     if (options.beamRadius > 0) throw UsageError("castMany: beamRadius must be 0");
     // The lanes index words with signed 32-bit gathers.
-    if (detail::LaneCaster::available() && pool_.wordCount() < (std::size_t{1} << 31)) return detail::LaneCaster::cast(*this, rays, tStarts, count, options, hits);
+    if (detail::LaneCaster::available() && pool_.wordCount() < (std::size_t{1} << 31))
+        return detail::LaneCaster::cast(*this, rays, tStarts, count, options, hits);
     CastOptions rayOptions = options;
     for (std::size_t i = 0; i < count; ++i) {
         if (tStarts) rayOptions.tStart = std::max(options.tStart, tStarts[i]);
@@ -293,8 +327,9 @@ void EsvoRayCaster::castMany(const Ray* rays, const float* tStarts, std::size_t 
     }
 }
 
-CastHit EsvoRayCaster::finish(const detail::TraversalStart& s, const detail::TraversalStop& stop, const CastOptions& options,
-                              const std::uint32_t* stackParent, std::size_t stackStride) const {
+CastHit EsvoRayCaster::finish(const detail::TraversalStart& s, const detail::TraversalStop& stop,
+                              const CastOptions& options, const std::uint32_t* stackParent,
+                              std::size_t stackStride) const {
     using detail::kScaleMax;
     CastHit result;
     result.hit = true;
@@ -330,7 +365,8 @@ CastHit EsvoRayCaster::finish(const detail::TraversalStart& s, const detail::Tra
         int slot = stop.hitSlot;
         for (int sc = stop.scale;;) {
             esvo::AttributeValue value;
-            if (esvo::readAttribute(words, descriptorWord, static_cast<std::uint32_t>(slot), value)) {
+            if (esvo::readAttribute(words, descriptorWord, static_cast<std::uint32_t>(slot),
+                                    value)) {
                 result.hasAttributes = true;
                 result.color = value.color;
                 result.shadingNormal = {value.normal[0], value.normal[1], value.normal[2]};
@@ -338,9 +374,10 @@ CastHit EsvoRayCaster::finish(const detail::TraversalStart& s, const detail::Tra
             }
             if (++sc >= kScaleMax) break;  // the root's own value is stored nowhere
             descriptorWord = stackParent[std::size_t(sc) * stackStride];
-            const int idxAbove = static_cast<int>(((std::bit_cast<std::uint32_t>(stop.posX) >> sc) & 1u) |
-                                                  (((std::bit_cast<std::uint32_t>(stop.posY) >> sc) & 1u) << 1) |
-                                                  (((std::bit_cast<std::uint32_t>(stop.posZ) >> sc) & 1u) << 2));
+            const int idxAbove =
+                static_cast<int>(((std::bit_cast<std::uint32_t>(stop.posX) >> sc) & 1u) |
+                                 (((std::bit_cast<std::uint32_t>(stop.posY) >> sc) & 1u) << 1) |
+                                 (((std::bit_cast<std::uint32_t>(stop.posZ) >> sc) & 1u) << 2));
             slot = idxAbove ^ s.octantMask ^ 7;
         }
     }
@@ -397,10 +434,16 @@ float floatBelow(double d) {
 
 /// One axis of a dilated cell: the t ≥ 0 where o + d·t ∈ [lo − k·t − e, hi + k·t + e].
 struct AxisBeam {
-    double o, upCoef, upInv, downCoef, downInv, e;  // (d − k)·t ≤ hi + e − o; (−d − k)·t ≤ o − lo + e
+    double o, upCoef, upInv, downCoef, downInv,
+        e;  // (d − k)·t ≤ hi + e − o; (−d − k)·t ≤ o − lo + e
 
     AxisBeam(double origin, double direction, double k, double pad)
-        : o(origin), upCoef(direction - k), upInv(1.0 / upCoef), downCoef(-direction - k), downInv(1.0 / downCoef), e(pad) {}
+        : o(origin),
+          upCoef(direction - k),
+          upInv(1.0 / upCoef),
+          downCoef(-direction - k),
+          downInv(1.0 / downCoef),
+          e(pad) {}
 
     static void constrain(double coef, double inv, double rhs, double& t0, double& t1) {
         if (coef > 0)
@@ -425,28 +468,33 @@ CastHit EsvoRayCaster::castBeam(const Ray& ray, const CastOptions& options) cons
     const Vec3d& ow = ray.origin;
     const Vec3d& dw = ray.direction;
     // The same expressions cast() rounds to float.
-    const double o[3] = {a_[0] * ow.x + a_[1] * ow.y + a_[2] * ow.z + a_[3] + 1.0, a_[4] * ow.x + a_[5] * ow.y + a_[6] * ow.z + a_[7] + 1.0,
+    const double o[3] = {a_[0] * ow.x + a_[1] * ow.y + a_[2] * ow.z + a_[3] + 1.0,
+                         a_[4] * ow.x + a_[5] * ow.y + a_[6] * ow.z + a_[7] + 1.0,
                          a_[8] * ow.x + a_[9] * ow.y + a_[10] * ow.z + a_[11] + 1.0};
-    const double d[3] = {a_[0] * dw.x + a_[1] * dw.y + a_[2] * dw.z, a_[4] * dw.x + a_[5] * dw.y + a_[6] * dw.z,
+    const double d[3] = {a_[0] * dw.x + a_[1] * dw.y + a_[2] * dw.z,
+                         a_[4] * dw.x + a_[5] * dw.y + a_[6] * dw.z,
                          a_[8] * dw.x + a_[9] * dw.y + a_[10] * dw.z};
     const double oMax = std::max({std::abs(o[0]), std::abs(o[1]), std::abs(o[2])});
     constexpr double u = 0x1p-24;  // float rounding
     // Per unit t: the beam's chord in octree units, the fine direction's rounding to float and
     // its clamp to 2^-23, and slack for the double arithmetic of the coarse ray itself.
-    const double k = options.beamRadius * rowNorm_ * (1 + 1e-9) + u * rowNorm_ * 1.01 + 0x1p-23 + 1e-12;
+    const double k =
+        options.beamRadius * rowNorm_ * (1 + 1e-9) + u * rowNorm_ * 1.01 + 0x1p-23 + 1e-12;
     // Absolute: the fine caster's plane rounding (eta, point 3), its origin's rounding to float,
     // and a pad that absorbs this function's own double rounding for any t below ~1e6.
     const double e = u * (24.0 + 4.0 * oMax) + u * oMax + 1e-9;
-    const AxisBeam axes[3] = {AxisBeam(o[0], d[0], k, e), AxisBeam(o[1], d[1], k, e), AxisBeam(o[2], d[2], k, e)};
-    const double lod = static_cast<double>(static_cast<float>(options.lodAngle * unitScale_));  // cast()'s lodCoef
+    const AxisBeam axes[3] = {AxisBeam(o[0], d[0], k, e), AxisBeam(o[1], d[1], k, e),
+                              AxisBeam(o[2], d[2], k, e)};
+    const double lod =
+        static_cast<double>(static_cast<float>(options.lodAngle * unitScale_));  // cast()'s lodCoef
     const double lodSlack = 1.0 + 0x1p-20;  // cast() rounds tcMax·lodCoef to float
 
     struct Node {
         std::uint32_t descriptor;  // word index of the node's child descriptor
         std::uint32_t level;
-        double x, y, z;            // minimum corner in [1,2]³
-        double size;               // edge
-        double t0;                 // entry into the dilated node
+        double x, y, z;  // minimum corner in [1,2]³
+        double size;     // edge
+        double t0;       // entry into the dilated node
     };
     Node stack[8 * 24];
     int top = 0;
@@ -481,7 +529,8 @@ CastHit EsvoRayCaster::castBeam(const Ray& ray, const CastOptions& options) cons
             bool stop = !((descriptor >> slot) & 1u) || level >= options.maxLevel || level >= 23;
             std::int64_t offset = static_cast<std::int32_t>(descriptor >> 17);
             if (!stop && (descriptor & 0x10000u)) {
-                offset = static_cast<std::int32_t>(words[n.descriptor + 2 * static_cast<std::uint32_t>(offset)]);
+                offset = static_cast<std::int32_t>(
+                    words[n.descriptor + 2 * static_cast<std::uint32_t>(offset)]);
                 stop = offset == 0;
             }
             if (!stop && lod > 0 && t1 * lod * lodSlack >= size) stop = true;
@@ -491,12 +540,19 @@ CastHit EsvoRayCaster::castBeam(const Ray& ray, const CastOptions& options) cons
                 continue;
             }
             offset += esvo::popc8(descriptor & ((1u << slot) - 1u));
-            children[count++] = {static_cast<std::uint32_t>(static_cast<std::int64_t>(n.descriptor) + 2 * offset), level,
-                                 n.x + bx * size, n.y + by * size, n.z + bz * size, size, t0};
+            children[count++] = {
+                static_cast<std::uint32_t>(static_cast<std::int64_t>(n.descriptor) + 2 * offset),
+                level,
+                n.x + bx * size,
+                n.y + by * size,
+                n.z + bz * size,
+                size,
+                t0};
         }
         // Nearest on top of the stack: front to back, so a close stop prunes the rest early.
         for (int i = 1; i < count; ++i)  // insertion sort, farthest first
-            for (int j = i; j > 0 && children[j - 1].t0 < children[j].t0; --j) std::swap(children[j - 1], children[j]);
+            for (int j = i; j > 0 && children[j - 1].t0 < children[j].t0; --j)
+                std::swap(children[j - 1], children[j]);
         for (int i = 0; i < count; ++i)
             if (children[i].t0 < best) stack[top++] = children[i];
     }
@@ -539,25 +595,30 @@ double castPixels(const PinholeCamera& camera, RenderBuffers& out, const CastTil
     // Square tiles rather than rows: neighbouring rays walk the same nodes, so a tile reuses the
     // cache lines its first rays brought in.
     constexpr int kTile = 16;
-    tbb::parallel_for(tbb::blocked_range2d<int>(0, camera.height, kTile, 0, camera.width, kTile), [&](const tbb::blocked_range2d<int>& range) {
-        const PixelTile tile{range.cols().begin(), range.cols().end(), range.rows().begin(), range.rows().end()};
-        std::vector<CastHit> tileHits(tile.pixels());
-        castTile(tile, tileHits.data());
-        std::uint64_t localHits = 0;
-        const CastHit* h = tileHits.data();
-        for (int y = tile.y0; y != tile.y1; ++y)
-            for (int x = tile.x0; x != tile.x1; ++x, ++h) {
-                const std::size_t i = std::size_t(y) * std::size_t(camera.width) + std::size_t(x);
-                out.iterations[i] = h->iterations;
-                if (!h->hit) continue;
-                ++localHits;
-                out.depth[i] = h->t;
-                out.normal[i] = h->normal;
-                out.level[i] = static_cast<std::uint8_t>(h->level);
-                if (h->hasAttributes) out.color[i] = h->color, out.shadingNormal[i] = h->shadingNormal;
-            }
-        hits += localHits;
-    });
+    tbb::parallel_for(tbb::blocked_range2d<int>(0, camera.height, kTile, 0, camera.width, kTile),
+                      [&](const tbb::blocked_range2d<int>& range) {
+                          const PixelTile tile{range.cols().begin(), range.cols().end(),
+                                               range.rows().begin(), range.rows().end()};
+                          std::vector<CastHit> tileHits(tile.pixels());
+                          castTile(tile, tileHits.data());
+                          std::uint64_t localHits = 0;
+                          const CastHit* h = tileHits.data();
+                          for (int y = tile.y0; y != tile.y1; ++y)
+                              for (int x = tile.x0; x != tile.x1; ++x, ++h) {
+                                  const std::size_t i =
+                                      std::size_t(y) * std::size_t(camera.width) + std::size_t(x);
+                                  out.iterations[i] = h->iterations;
+                                  if (!h->hit) continue;
+                                  ++localHits;
+                                  out.depth[i] = h->t;
+                                  out.normal[i] = h->normal;
+                                  out.level[i] = static_cast<std::uint8_t>(h->level);
+                                  if (h->hasAttributes)
+                                      out.color[i] = h->color,
+                                      out.shadingNormal[i] = h->shadingNormal;
+                              }
+                          hits += localHits;
+                      });
     out.hits = hits;
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -565,21 +626,24 @@ double castPixels(const PinholeCamera& camera, RenderBuffers& out, const CastTil
 /// castPixels' tile caster for the octree: the tile's rays through EsvoRayCaster::castMany, each
 /// starting where @p startOf(x, y) says.
 template <class StartOf>
-auto octreeTiles(const EsvoRayCaster& caster, const CameraBasis& basis, const CastOptions& options, const StartOf& startOf) {
+auto octreeTiles(const EsvoRayCaster& caster, const CameraBasis& basis, const CastOptions& options,
+                 const StartOf& startOf) {
     return [&caster, &basis, &options, startOf](const PixelTile& tile, CastHit* hits) {
         std::vector<Ray> rays;
         std::vector<float> starts;
         rays.reserve(tile.pixels());
         starts.reserve(tile.pixels());
         for (int y = tile.y0; y != tile.y1; ++y)
-            for (int x = tile.x0; x != tile.x1; ++x) rays.push_back(basis.ray(x, y)), starts.push_back(startOf(x, y));
+            for (int x = tile.x0; x != tile.x1; ++x)
+                rays.push_back(basis.ray(x, y)), starts.push_back(startOf(x, y));
         caster.castMany(rays.data(), starts.data(), rays.size(), options, hits);
     };
 }
 
 }  // namespace
 
-RenderBuffers renderPixels(const PinholeCamera& camera, const std::function<CastHit(const Ray&)>& cast) {
+RenderBuffers renderPixels(const PinholeCamera& camera,
+                           const std::function<CastHit(const Ray&)>& cast) {
     camera.validate();
     RenderBuffers out = emptyBuffers(camera);
     const CameraBasis basis(camera);
@@ -590,13 +654,15 @@ RenderBuffers renderPixels(const PinholeCamera& camera, const std::function<Cast
     return out;
 }
 
-RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camera, const CastOptions& options, int beam) {
+RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camera,
+                         const CastOptions& options, int beam) {
     camera.validate();
     if (beam < 0 || beam > 64) throw UsageError("beam: block size must be 0 (off) or 2..64 pixels");
     RenderBuffers out = emptyBuffers(camera);
     const CameraBasis basis(camera);
     if (beam <= 1) {
-        out.seconds = castPixels(camera, out, octreeTiles(caster, basis, options, [](int, int) { return 0.0f; }));
+        out.seconds = castPixels(
+            camera, out, octreeTiles(caster, basis, options, [](int, int) { return 0.0f; }));
         return out;
     }
     out.beam = beam;
@@ -606,7 +672,8 @@ RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camer
     // distance between the plane points (projecting onto the unit sphere from outside it does
     // not stretch distances). That corner's start is below the pixel's hit, so the smallest of
     // the four is too.
-    const int blocksX = (camera.width + beam - 1) / beam, blocksY = (camera.height + beam - 1) / beam;
+    const int blocksX = (camera.width + beam - 1) / beam,
+              blocksY = (camera.height + beam - 1) / beam;
     const int cornersX = blocksX + 1, cornersY = blocksY + 1;
     CastOptions coarse = options;
     coarse.contours = false;
@@ -615,27 +682,32 @@ RenderBuffers renderEsvo(const EsvoRayCaster& caster, const PinholeCamera& camer
     std::vector<float> starts(std::size_t(cornersX) * std::size_t(cornersY));
     std::atomic<std::uint64_t> coarseIterations{0};
     const auto start = std::chrono::steady_clock::now();
-    tbb::parallel_for(tbb::blocked_range<int>(0, cornersY), [&](const tbb::blocked_range<int>& rows) {
-        std::uint64_t local = 0;
-        for (int j = rows.begin(); j != rows.end(); ++j)
-            for (int i = 0; i < cornersX; ++i) {
-                const CastHit h = caster.cast(basis.rayAt(double(i) * beam, double(j) * beam), coarse);
-                starts[std::size_t(j) * std::size_t(cornersX) + std::size_t(i)] = h.t;  // +inf: no ray of the beam hits
-                local += h.iterations;
-            }
-        coarseIterations += local;
-    });
-    out.coarseSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, cornersY), [&](const tbb::blocked_range<int>& rows) {
+            std::uint64_t local = 0;
+            for (int j = rows.begin(); j != rows.end(); ++j)
+                for (int i = 0; i < cornersX; ++i) {
+                    const CastHit h =
+                        caster.cast(basis.rayAt(double(i) * beam, double(j) * beam), coarse);
+                    starts[std::size_t(j) * std::size_t(cornersX) + std::size_t(i)] =
+                        h.t;  // +inf: no ray of the beam hits
+                    local += h.iterations;
+                }
+            coarseIterations += local;
+        });
+    out.coarseSeconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     out.coarseRays = starts.size();
     out.coarseIterations = coarseIterations;
     // Fine pass: every pixel from the smallest start of its block's corners.
-    const double fineSeconds = castPixels(camera, out, octreeTiles(caster, basis, options, [&](int x, int y) {
-        const std::size_t bx = std::size_t(x / beam), by = std::size_t(y / beam);
-        const float* row0 = &starts[by * std::size_t(cornersX) + bx];
-        const float* row1 = row0 + cornersX;
-        // +inf where no ray of the block can hit: cast() then returns at once.
-        return std::min({row0[0], row0[1], row1[0], row1[1]});
-    }));
+    const double fineSeconds =
+        castPixels(camera, out, octreeTiles(caster, basis, options, [&](int x, int y) {
+                       const std::size_t bx = std::size_t(x / beam), by = std::size_t(y / beam);
+                       const float* row0 = &starts[by * std::size_t(cornersX) + bx];
+                       const float* row1 = row0 + cornersX;
+                       // +inf where no ray of the block can hit: cast() then returns at once.
+                       return std::min({row0[0], row0[1], row1[0], row1[1]});
+                   }));
     out.seconds = out.coarseSeconds + fineSeconds;
     return out;
 }

@@ -18,26 +18,27 @@ inline constexpr int kScaleMax = 23;
 /// each axis, with every direction component negative after mirroring.
 struct TraversalStart {
     float px, py, pz;  ///< origin, octree coordinates (unmirrored)
-    float dx, dy, dz;  ///< direction, octree coordinates (unmirrored), no component of magnitude below 2^-23
+    float dx, dy,
+        dz;  ///< direction, octree coordinates (unmirrored), no component of magnitude below 2^-23
     float txCoef, tyCoef, tzCoef, txBias, tyBias, tzBias;
     float tMin, tMax;  ///< the active span inside the root cube
     int octantMask;    ///< the mirrored axes' bits are 0
     int idx;           ///< first child of the root, mirrored
     float posX, posY, posZ;
-    float lodCoef;     ///< a pixel's footprint per unit t, root-cube units; 0: no level-of-detail cut
+    float lodCoef;  ///< a pixel's footprint per unit t, root-cube units; 0: no level-of-detail cut
 };
 
 /// Where the loop stopped: at a hit voxel or outside the root.
 struct TraversalStop {
     bool hit = false;
-    float t = 0;                 ///< the span start at the hit
-    int scale = 0;               ///< scale of the hit voxel's parent's children
+    float t = 0;    ///< the span start at the hit
+    int scale = 0;  ///< scale of the hit voxel's parent's children
     float scaleExp2 = 0;
     float posX = 0, posY = 0, posZ = 0;  ///< the hit voxel's mirrored corner
-    std::uint32_t parent = 0;    ///< word of the hit voxel's parent descriptor
-    int hitSlot = 0;             ///< the hit voxel's child slot, unmirrored
+    std::uint32_t parent = 0;            ///< word of the hit voxel's parent descriptor
+    int hitSlot = 0;                     ///< the hit voxel's child slot, unmirrored
     std::uint32_t level = 0;
-    float slabT = -1;            ///< where a contour last raised the span's start
+    float slabT = -1;  ///< where a contour last raised the span's start
     Vec3f slabNormal{0, 0, 0};
     std::uint32_t iterations = 0;
 };
@@ -47,8 +48,8 @@ struct LaneCaster {
     /// Whether this CPU and build can run cast().
     static bool available();
     /// castMany's contract; needs available(), a pool of fewer than 2^31 words and no beam.
-    static void cast(const EsvoRayCaster& caster, const Ray* rays, const float* tStarts, std::size_t count,
-                     const CastOptions& options, CastHit* hits);
+    static void cast(const EsvoRayCaster& caster, const Ray* rays, const float* tStarts,
+                     std::size_t count, const CastOptions& options, CastHit* hits);
 };
 
 }  // namespace vox::detail

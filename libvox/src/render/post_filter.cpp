@@ -40,11 +40,14 @@ const std::array<KernelSample, kKernelSamples>& kernel() {
             const auto distance = static_cast<float>(std::sqrt(double(dx * dx + dy * dy)));
             const auto weight = static_cast<float>(0.5 * (area - previousArea));
             k[static_cast<std::size_t>(2 * i)] = {dx, dy, distance, weight};
-            k[static_cast<std::size_t>(2 * i + 1)] = {-dx, -dy, distance, weight};  // the centre twice: same weight in total
+            k[static_cast<std::size_t>(2 * i + 1)] = {
+                -dx, -dy, distance, weight};  // the centre twice: same weight in total
             previousArea = area;
         }
         // Rounding to pixels can reorder distances slightly; the walk needs them increasing.
-        std::stable_sort(k.begin(), k.end(), [](const KernelSample& a, const KernelSample& b) { return a.distance < b.distance; });
+        std::stable_sort(k.begin(), k.end(), [](const KernelSample& a, const KernelSample& b) {
+            return a.distance < b.distance;
+        });
         return k;
     }();
     return samples;
@@ -52,7 +55,8 @@ const std::array<KernelSample, kKernelSamples>& kernel() {
 
 }  // namespace
 
-std::vector<float> filterRadii(const RenderBuffers& buffers, const EsvoRayCaster& caster, const PinholeCamera& camera) {
+std::vector<float> filterRadii(const RenderBuffers& buffers, const EsvoRayCaster& caster,
+                               const PinholeCamera& camera) {
     std::vector<float> out(buffers.depth.size(), 0.0f);
     const int leafDepth = static_cast<int>(caster.leafDepth());
     for (std::size_t i = 0; i < out.size(); ++i) {
@@ -63,36 +67,40 @@ std::vector<float> filterRadii(const RenderBuffers& buffers, const EsvoRayCaster
     return out;
 }
 
-std::vector<Vec3f> postProcessFilter(const std::vector<Vec3f>& image, const std::vector<float>& radius, int width, int height) {
+std::vector<Vec3f> postProcessFilter(const std::vector<Vec3f>& image,
+                                     const std::vector<float>& radius, int width, int height) {
     std::vector<Vec3f> out(image.size());
     const auto& samples = kernel();
-    tbb::parallel_for(tbb::blocked_range<int>(0, height, 8), [&](const tbb::blocked_range<int>& rows) {
-        for (int y = rows.begin(); y != rows.end(); ++y)
-            for (int x = 0; x < width; ++x) {
-                const std::size_t i = std::size_t(y) * std::size_t(width) + std::size_t(x);
-                float r = std::min(radius[i], kKernelRadius);
-                if (r <= 1.0f) {
-                    out[i] = image[i];
-                    continue;
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, height, 8), [&](const tbb::blocked_range<int>& rows) {
+            for (int y = rows.begin(); y != rows.end(); ++y)
+                for (int x = 0; x < width; ++x) {
+                    const std::size_t i = std::size_t(y) * std::size_t(width) + std::size_t(x);
+                    float r = std::min(radius[i], kKernelRadius);
+                    if (r <= 1.0f) {
+                        out[i] = image[i];
+                        continue;
+                    }
+                    Vec3f sum{0, 0, 0};
+                    float total = 0;
+                    for (const KernelSample& s : samples) {
+                        const int sx = x + s.dx, sy = y + s.dy;
+                        // Outside the image counts as a miss: it ends the walk like a silhouette
+                        // does.
+                        const float r2 =
+                            sx < 0 || sy < 0 || sx >= width || sy >= height
+                                ? 0.0f
+                                : radius[std::size_t(sy) * std::size_t(width) + std::size_t(sx)];
+                        r = std::min(r, r2);
+                        if (s.distance > r) break;
+                        const float w = s.weight * std::min(r - s.distance, 1.0f);
+                        if (w <= 0) continue;
+                        sum += image[std::size_t(sy) * std::size_t(width) + std::size_t(sx)] * w;
+                        total += w;
+                    }
+                    out[i] = total > 0 ? sum * (1.0f / total) : image[i];
                 }
-                Vec3f sum{0, 0, 0};
-                float total = 0;
-                for (const KernelSample& s : samples) {
-                    const int sx = x + s.dx, sy = y + s.dy;
-                    // Outside the image counts as a miss: it ends the walk like a silhouette does.
-                    const float r2 = sx < 0 || sy < 0 || sx >= width || sy >= height
-                                         ? 0.0f
-                                         : radius[std::size_t(sy) * std::size_t(width) + std::size_t(sx)];
-                    r = std::min(r, r2);
-                    if (s.distance > r) break;
-                    const float w = s.weight * std::min(r - s.distance, 1.0f);
-                    if (w <= 0) continue;
-                    sum += image[std::size_t(sy) * std::size_t(width) + std::size_t(sx)] * w;
-                    total += w;
-                }
-                out[i] = total > 0 ? sum * (1.0f / total) : image[i];
-            }
-    });
+        });
     return out;
 }
 

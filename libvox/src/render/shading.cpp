@@ -13,7 +13,8 @@ std::vector<Vec3f> albedoImage(const RenderBuffers& buffers) {
     for (std::size_t i = 0; i < out.size(); ++i) {
         if (!hasAttributes(buffers, i)) continue;
         const std::uint32_t c = buffers.color[i];
-        out[i] = {srgbToLinear(float(esvo::colorChannel(c, 0)) / 255.0f), srgbToLinear(float(esvo::colorChannel(c, 1)) / 255.0f),
+        out[i] = {srgbToLinear(float(esvo::colorChannel(c, 0)) / 255.0f),
+                  srgbToLinear(float(esvo::colorChannel(c, 1)) / 255.0f),
                   srgbToLinear(float(esvo::colorChannel(c, 2)) / 255.0f)};
     }
     return out;
@@ -26,7 +27,8 @@ std::vector<Vec3f> shadeHeadlight(const RenderBuffers& buffers, const PinholeCam
             const std::size_t i = std::size_t(y) * std::size_t(buffers.width) + std::size_t(x);
             if (!std::isfinite(buffers.depth[i])) continue;
             const Vec3d d = camera.rayThrough(x, y).direction;
-            const Vec3f toEye{static_cast<float>(-d.x), static_cast<float>(-d.y), static_cast<float>(-d.z)};
+            const Vec3f toEye{static_cast<float>(-d.x), static_cast<float>(-d.y),
+                              static_cast<float>(-d.z)};
             // A file without attributes: the face normal.
             Vec3f n = hasAttributes(buffers, i) ? buffers.shadingNormal[i] : buffers.normal[i];
             // Facing the viewer: a sheet seen from behind shades like its front.

@@ -19,7 +19,8 @@ TriangleRayCaster::TriangleRayCaster(const Scene& scene, bool includeDynamic) : 
         if (mesh.dynamic && !includeDynamic) continue;
         for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
             sources_.push_back((std::uint64_t{m} << 32) | t);
-            const Vec3f a = mesh.positions[mesh.indices[3 * t]], b = mesh.positions[mesh.indices[3 * t + 1]],
+            const Vec3f a = mesh.positions[mesh.indices[3 * t]],
+                        b = mesh.positions[mesh.indices[3 * t + 1]],
                         c = mesh.positions[mesh.indices[3 * t + 2]];
             triangles_.push_back({a, b - a, c - a});
             centroids.push_back((a + b + c) * (1.0f / 3.0f));
@@ -31,17 +32,22 @@ TriangleRayCaster::TriangleRayCaster(const Scene& scene, bool includeDynamic) : 
     }
 }
 
-std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count, std::vector<Vec3f>& centroids) {
+std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
+                                       std::vector<Vec3f>& centroids) {
     const auto index = static_cast<std::uint32_t>(nodes_.size());
     nodes_.push_back({});
     Node node{};
-    for (int a = 0; a < 3; ++a) node.lo[a] = std::numeric_limits<float>::infinity(), node.hi[a] = -std::numeric_limits<float>::infinity();
-    float clo[3] = {node.lo[0], node.lo[1], node.lo[2]}, chi[3] = {node.hi[0], node.hi[1], node.hi[2]};
+    for (int a = 0; a < 3; ++a)
+        node.lo[a] = std::numeric_limits<float>::infinity(),
+        node.hi[a] = -std::numeric_limits<float>::infinity();
+    float clo[3] = {node.lo[0], node.lo[1], node.lo[2]},
+          chi[3] = {node.hi[0], node.hi[1], node.hi[2]};
     for (std::uint32_t i = first; i < first + count; ++i) {
         const Triangle& t = triangles_[i];
         const Vec3f v[3] = {t.v0, t.v0 + t.e1, t.v0 + t.e2};
         for (int a = 0; a < 3; ++a) {
-            for (const Vec3f& p : v) node.lo[a] = std::min(node.lo[a], p[a]), node.hi[a] = std::max(node.hi[a], p[a]);
+            for (const Vec3f& p : v)
+                node.lo[a] = std::min(node.lo[a], p[a]), node.hi[a] = std::max(node.hi[a], p[a]);
             clo[a] = std::min(clo[a], centroids[i][a]);
             chi[a] = std::max(chi[a], centroids[i][a]);
         }
@@ -59,12 +65,15 @@ std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
     std::vector<std::uint32_t> order(count);
     std::iota(order.begin(), order.end(), first);
     const std::uint32_t half = count / 2;
-    std::nth_element(order.begin(), order.begin() + half, order.end(),
-                     [&](std::uint32_t x, std::uint32_t y) { return centroids[x][axis] < centroids[y][axis]; });
+    std::nth_element(
+        order.begin(), order.begin() + half, order.end(),
+        [&](std::uint32_t x, std::uint32_t y) { return centroids[x][axis] < centroids[y][axis]; });
     std::vector<Triangle> tris(count);
     std::vector<Vec3f> cents(count);
     std::vector<std::uint64_t> sources(count);
-    for (std::uint32_t i = 0; i < count; ++i) tris[i] = triangles_[order[i]], cents[i] = centroids[order[i]], sources[i] = sources_[order[i]];
+    for (std::uint32_t i = 0; i < count; ++i)
+        tris[i] = triangles_[order[i]], cents[i] = centroids[order[i]],
+        sources[i] = sources_[order[i]];
     std::copy(tris.begin(), tris.end(), triangles_.begin() + first);
     std::copy(cents.begin(), cents.end(), centroids.begin() + first);
     std::copy(sources.begin(), sources.end(), sources_.begin() + first);
@@ -78,8 +87,10 @@ std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
 TriangleRayCaster::Nearest TriangleRayCaster::nearest(const Ray& ray, double tMax) const {
     Nearest result;
     if (nodes_.empty()) return result;
-    const Vec3f o{static_cast<float>(ray.origin.x), static_cast<float>(ray.origin.y), static_cast<float>(ray.origin.z)};
-    const Vec3f d{static_cast<float>(ray.direction.x), static_cast<float>(ray.direction.y), static_cast<float>(ray.direction.z)};
+    const Vec3f o{static_cast<float>(ray.origin.x), static_cast<float>(ray.origin.y),
+                  static_cast<float>(ray.origin.z)};
+    const Vec3f d{static_cast<float>(ray.direction.x), static_cast<float>(ray.direction.y),
+                  static_cast<float>(ray.direction.z)};
     const Vec3f inv{1.0f / d.x, 1.0f / d.y, 1.0f / d.z};
     float best = static_cast<float>(std::min(tMax, 3.0e38));
     std::uint32_t stack[64];
@@ -128,7 +139,8 @@ CastHit TriangleRayCaster::cast(const Ray& ray, double tMax, double footprintAng
     result.iterations = near.iterations;
     if (near.triangle == Nearest::kNone) return result;
     const float best = near.t;
-    const Vec3f d{static_cast<float>(ray.direction.x), static_cast<float>(ray.direction.y), static_cast<float>(ray.direction.z)};
+    const Vec3f d{static_cast<float>(ray.direction.x), static_cast<float>(ray.direction.y),
+                  static_cast<float>(ray.direction.z)};
     result.hit = true;
     result.t = best;
     Vec3f n = normalize(cross(triangles_[near.triangle].e1, triangles_[near.triangle].e2));
@@ -136,7 +148,8 @@ CastHit TriangleRayCaster::cast(const Ray& ray, double tMax, double footprintAng
     result.normal = n;
 
     const std::uint64_t source = sources_[near.triangle];
-    const detail::TriangleSource where{static_cast<std::uint32_t>(source >> 32), static_cast<std::uint32_t>(source)};
+    const detail::TriangleSource where{static_cast<std::uint32_t>(source >> 32),
+                                       static_cast<std::uint32_t>(source)};
     const Mesh& mesh = scene_.meshes[where.mesh];
     std::array<Vec3d, 3> corners;
     for (int k = 0; k < 3; ++k) {
@@ -144,10 +157,13 @@ CastHit TriangleRayCaster::cast(const Ray& ray, double tMax, double footprintAng
         corners[k] = {p.x, p.y, p.z};
     }
     const Vec3d at = ray.origin + ray.direction * double(best);
-    const detail::SurfaceSample sample = detail::shadeTriangle(scene_, where, corners, detail::barycentric(corners, at), footprintAngle * best);
+    const detail::SurfaceSample sample = detail::shadeTriangle(
+        scene_, where, corners, detail::barycentric(corners, at), footprintAngle * best);
     result.hasAttributes = true;
     result.color = detail::packLinearColor(sample.color);
-    result.shadingNormal = {static_cast<float>(sample.normal.x), static_cast<float>(sample.normal.y), static_cast<float>(sample.normal.z)};
+    result.shadingNormal = {static_cast<float>(sample.normal.x),
+                            static_cast<float>(sample.normal.y),
+                            static_cast<float>(sample.normal.z)};
     return result;
 }
 
@@ -165,13 +181,16 @@ SurfaceHit TriangleRayCaster::castSurface(const Ray& ray, double tMax) const {
     // order), so the weights need no re-projection of the rounded hit point.
     result.barycentric = {1.0 - double(near.u) - double(near.v), double(near.u), double(near.v)};
     const Triangle& tri = triangles_[near.triangle];
-    result.geometricNormal = normalize(cross(Vec3d{tri.e1.x, tri.e1.y, tri.e1.z}, Vec3d{tri.e2.x, tri.e2.y, tri.e2.z}));
+    result.geometricNormal =
+        normalize(cross(Vec3d{tri.e1.x, tri.e1.y, tri.e1.z}, Vec3d{tri.e2.x, tri.e2.y, tri.e2.z}));
     return result;
 }
 
 RenderBuffers renderTriangles(const TriangleRayCaster& caster, const PinholeCamera& camera) {
     const double footprint = camera.pixelAngle();
-    return renderPixels(camera, [&](const Ray& ray) { return caster.cast(ray, std::numeric_limits<double>::infinity(), footprint); });
+    return renderPixels(camera, [&](const Ray& ray) {
+        return caster.cast(ray, std::numeric_limits<double>::infinity(), footprint);
+    });
 }
 
 }  // namespace vox

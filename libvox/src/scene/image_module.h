@@ -40,12 +40,16 @@ public:
 struct ImageModule {
     int version = 0;
     /// Opens an image file (null, with @p error set, where it cannot).
-    std::unique_ptr<ImageReader> (*openFile)(const std::filesystem::path& file, std::string& error) = nullptr;
-    /// Opens encoded bytes; @p hintName's extension picks the decoder. The bytes must outlive the reader.
-    std::unique_ptr<ImageReader> (*openMemory)(std::span<const std::uint8_t> bytes, const std::string& hintName, std::string& error) = nullptr;
+    std::unique_ptr<ImageReader> (*openFile)(const std::filesystem::path& file,
+                                             std::string& error) = nullptr;
+    /// Opens encoded bytes; @p hintName's extension picks the decoder. The bytes must outlive the
+    /// reader.
+    std::unique_ptr<ImageReader> (*openMemory)(std::span<const std::uint8_t> bytes,
+                                               const std::string& hintName,
+                                               std::string& error) = nullptr;
     /// PNG bytes of 8-bit pixels (row 0 at the top); false, with @p error set, where it fails.
-    bool (*encodePng)(int width, int height, int channels, std::span<const std::uint8_t> pixels, std::vector<std::uint8_t>& png,
-                      std::string& error) = nullptr;
+    bool (*encodePng)(int width, int height, int channels, std::span<const std::uint8_t> pixels,
+                      std::vector<std::uint8_t>& png, std::string& error) = nullptr;
 };
 
 inline constexpr int kImageModuleVersion = 1;

@@ -13,7 +13,8 @@ using vox::detail::ImageReader;
 
 class OiioReader final : public ImageReader {
 public:
-    OiioReader(std::unique_ptr<OIIO::ImageInput> input, std::unique_ptr<OIIO::Filesystem::IOMemReader> memory)
+    OiioReader(std::unique_ptr<OIIO::ImageInput> input,
+               std::unique_ptr<OIIO::Filesystem::IOMemReader> memory)
         : memory_(std::move(memory)), input_(std::move(input)) {}
 
     int width() const override { return input_->spec().width; }
@@ -22,12 +23,17 @@ public:
     int channels() const override { return input_->spec().nchannels; }
     bool floatingPoint() const override { return input_->spec().format.is_floating_point(); }
     bool readUint8(int channels, std::uint8_t* out) override {
-        return guarded([&] { return input_->read_image(0, 0, 0, channels, OIIO::TypeDesc::UINT8, out); });
+        return guarded(
+            [&] { return input_->read_image(0, 0, 0, channels, OIIO::TypeDesc::UINT8, out); });
     }
     bool readFloatRows(int y0, int y1, int channels, float* out) override {
-        return guarded([&] { return input_->read_scanlines(0, 0, y0, y1, 0, 0, channels, OIIO::TypeDesc::FLOAT, out); });
+        return guarded([&] {
+            return input_->read_scanlines(0, 0, y0, y1, 0, 0, channels, OIIO::TypeDesc::FLOAT, out);
+        });
     }
-    std::string error() override { return thrown_.empty() ? input_->geterror() : std::exchange(thrown_, {}); }
+    std::string error() override {
+        return thrown_.empty() ? input_->geterror() : std::exchange(thrown_, {});
+    }
 
 private:
     template <typename Read>
@@ -39,7 +45,8 @@ private:
             return false;
         }
     }
-    std::unique_ptr<OIIO::Filesystem::IOMemReader> memory_;  // declared first: destroyed after the input reading through it
+    std::unique_ptr<OIIO::Filesystem::IOMemReader>
+        memory_;  // declared first: destroyed after the input reading through it
     std::unique_ptr<OIIO::ImageInput> input_;
     std::string thrown_;
 };
@@ -58,7 +65,8 @@ std::unique_ptr<ImageReader> openFile(const std::filesystem::path& file, std::st
     }
 }
 
-std::unique_ptr<ImageReader> openMemory(std::span<const std::uint8_t> bytes, const std::string& hintName, std::string& error) {
+std::unique_ptr<ImageReader> openMemory(std::span<const std::uint8_t> bytes,
+                                        const std::string& hintName, std::string& error) {
     try {
         auto memory = std::make_unique<OIIO::Filesystem::IOMemReader>(bytes.data(), bytes.size());
         auto input = OIIO::ImageInput::open(hintName, nullptr, memory.get());
@@ -73,7 +81,8 @@ std::unique_ptr<ImageReader> openMemory(std::span<const std::uint8_t> bytes, con
     }
 }
 
-bool encodePng(int width, int height, int channels, std::span<const std::uint8_t> pixels, std::vector<std::uint8_t>& png, std::string& error) {
+bool encodePng(int width, int height, int channels, std::span<const std::uint8_t> pixels,
+               std::vector<std::uint8_t>& png, std::string& error) {
     try {
         std::vector<unsigned char> bytes;
         OIIO::Filesystem::IOVecOutput writer(bytes);
@@ -92,8 +101,12 @@ bool encodePng(int width, int height, int channels, std::span<const std::uint8_t
     }
 }
 
-const vox::detail::ImageModule kModule{vox::detail::kImageModuleVersion, openFile, openMemory, encodePng};
+const vox::detail::ImageModule kModule{vox::detail::kImageModuleVersion, openFile, openMemory,
+                                       encodePng};
 
 }  // namespace
 
-extern "C" __attribute__((visibility("default"))) const vox::detail::ImageModule* vox_image_module_v1() { return &kModule; }
+extern "C" __attribute__((visibility("default"))) const vox::detail::ImageModule*
+vox_image_module_v1() {
+    return &kModule;
+}

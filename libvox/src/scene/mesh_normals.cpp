@@ -24,7 +24,9 @@ constexpr std::uint32_t kEmpty = 0xFFFFFFFFu;
 constexpr std::size_t kGrain = 1 << 14;
 
 Vec3d toDouble(Vec3f v) { return {v.x, v.y, v.z}; }
-Vec3f toFloat(Vec3d v) { return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)}; }
+Vec3f toFloat(Vec3d v) {
+    return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
+}
 
 /// The bits of a coordinate, -0 as +0: equal positions (by ==) have equal keys.
 std::uint32_t coordinateBits(float v) { return std::bit_cast<std::uint32_t>(v == 0.0f ? 0.0f : v); }
@@ -38,9 +40,10 @@ std::uint64_t positionHash(Vec3f p) {
 
 template <typename Body>
 void parallelFor(std::size_t count, const Body& body) {
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, kGrain), [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) body(i);
-    });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, kGrain),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t i = r.begin(); i != r.end(); ++i) body(i);
+                      });
 }
 
 /// For every vertex, the smallest index of a vertex at the same position (positions equal by
@@ -58,11 +61,14 @@ std::vector<std::uint32_t> weldByPosition(const std::vector<Vec3f>& positions) {
             std::atomic_ref<std::uint32_t> entry(table[slot]);
             std::uint32_t held = entry.load(std::memory_order_relaxed);
             if (held == kEmpty) {
-                if (entry.compare_exchange_strong(held, static_cast<std::uint32_t>(v), std::memory_order_relaxed)) return;
+                if (entry.compare_exchange_strong(held, static_cast<std::uint32_t>(v),
+                                                  std::memory_order_relaxed))
+                    return;
                 // Taken meanwhile: held is now the taker, looked at below.
             }
             if (!(positions[held] == p)) continue;
-            while (v < held && !entry.compare_exchange_weak(held, static_cast<std::uint32_t>(v), std::memory_order_relaxed)) {}
+            while (v < held && !entry.compare_exchange_weak(held, static_cast<std::uint32_t>(v),
+                                                            std::memory_order_relaxed)) {}
             return;
         }
     });
@@ -98,7 +104,8 @@ void flatNormals(Mesh& mesh) {
     unweld(mesh.colors, mesh.indices);
     mesh.normals.resize(mesh.indices.size());
     parallelFor(mesh.indices.size() / 3, [&](std::size_t t) {
-        std::iota(mesh.indices.begin() + 3 * t, mesh.indices.begin() + 3 * t + 3, static_cast<std::uint32_t>(3 * t));
+        std::iota(mesh.indices.begin() + 3 * t, mesh.indices.begin() + 3 * t + 3,
+                  static_cast<std::uint32_t>(3 * t));
         const Vec3f n = toFloat(normalize(faceNormal(mesh, t)));
         for (int k = 0; k < 3; ++k) mesh.normals[3 * t + k] = n;
     });
@@ -118,7 +125,8 @@ std::vector<Vec3f> smoothNormals(const Mesh& mesh) {
     for (std::size_t c = 0; c < cornerCount; ++c) ++start[mesh.indices[c]];
     std::inclusive_scan(start.begin(), start.end(), start.begin());
     std::vector<std::uint32_t> corners(cornerCount);
-    for (std::size_t c = cornerCount; c-- > 0;) corners[--start[mesh.indices[c]]] = static_cast<std::uint32_t>(c);
+    for (std::size_t c = cornerCount; c-- > 0;)
+        corners[--start[mesh.indices[c]]] = static_cast<std::uint32_t>(c);
     std::vector<std::uint32_t> nextWelded(vertexCount, kEmpty);
     for (std::size_t v = 0; v < vertexCount; ++v) {
         const std::uint32_t c = canonical[v];
@@ -135,7 +143,9 @@ std::vector<Vec3f> smoothNormals(const Mesh& mesh) {
         if (nextWelded[v] != kEmpty) {
             std::vector<std::uint32_t>& merged = mergedLists.local();
             merged.assign(list.begin(), list.end());
-            for (std::uint32_t u = nextWelded[v]; u != kEmpty; u = nextWelded[u]) merged.insert(merged.end(), corners.data() + start[u], corners.data() + start[u + 1]);
+            for (std::uint32_t u = nextWelded[v]; u != kEmpty; u = nextWelded[u])
+                merged.insert(merged.end(), corners.data() + start[u],
+                              corners.data() + start[u + 1]);
             std::sort(merged.begin(), merged.end());
             list = merged;
         }
@@ -145,8 +155,10 @@ std::vector<Vec3f> smoothNormals(const Mesh& mesh) {
             const std::size_t t = corner / 3, k = corner % 3;
             const Vec3d n = normalize(faceNormal(mesh, t));
             const Vec3d p = toDouble(mesh.positions[mesh.indices[3 * t + k]]);
-            const Vec3d e1 = normalize(toDouble(mesh.positions[mesh.indices[3 * t + (k + 1) % 3]]) - p);
-            const Vec3d e2 = normalize(toDouble(mesh.positions[mesh.indices[3 * t + (k + 2) % 3]]) - p);
+            const Vec3d e1 =
+                normalize(toDouble(mesh.positions[mesh.indices[3 * t + (k + 1) % 3]]) - p);
+            const Vec3d e2 =
+                normalize(toDouble(mesh.positions[mesh.indices[3 * t + (k + 2) % 3]]) - p);
             const double angle = std::acos(std::clamp(dot(e1, e2), -1.0, 1.0));
             sum += n * angle;
         }

@@ -20,7 +20,8 @@ namespace {
 constexpr std::size_t kChunk = 1 << 15;
 
 /// The bounds of the vertices @p indices refer to, as adding them one by one would give.
-Bounds3f indexedBounds(const std::vector<Vec3f>& positions, const std::vector<std::uint32_t>& indices) {
+Bounds3f indexedBounds(const std::vector<Vec3f>& positions,
+                       const std::vector<std::uint32_t>& indices) {
     const std::size_t chunks = (indices.size() + kChunk - 1) / kChunk;
     std::vector<Bounds3f> partial(chunks);
     tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
@@ -30,13 +31,16 @@ Bounds3f indexedBounds(const std::vector<Vec3f>& positions, const std::vector<st
     Bounds3f bounds;
     for (const Bounds3f& b : partial) {
         // Min with min, max with max: the earlier of equal values (+0, -0) stays, as one by one.
-        bounds.min = {std::min(bounds.min.x, b.min.x), std::min(bounds.min.y, b.min.y), std::min(bounds.min.z, b.min.z)};
-        bounds.max = {std::max(bounds.max.x, b.max.x), std::max(bounds.max.y, b.max.y), std::max(bounds.max.z, b.max.z)};
+        bounds.min = {std::min(bounds.min.x, b.min.x), std::min(bounds.min.y, b.min.y),
+                      std::min(bounds.min.z, b.min.z)};
+        bounds.max = {std::max(bounds.max.x, b.max.x), std::max(bounds.max.y, b.max.y),
+                      std::max(bounds.max.z, b.max.z)};
     }
     return bounds;
 }
 
-/// The first i in [0, count) for which @p bad(i) holds, or count: the same one whatever the threads.
+/// The first i in [0, count) for which @p bad(i) holds, or count: the same one whatever the
+/// threads.
 template <typename Predicate>
 std::size_t firstWhere(std::size_t count, const Predicate& bad) {
     return tbb::parallel_reduce(
@@ -80,8 +84,10 @@ Bounds3f Scene::bounds() const {
     Bounds3f bounds;
     for (const Mesh& mesh : meshes) {
         const Bounds3f b = indexedBounds(mesh.positions, mesh.indices);
-        bounds.min = {std::min(bounds.min.x, b.min.x), std::min(bounds.min.y, b.min.y), std::min(bounds.min.z, b.min.z)};
-        bounds.max = {std::max(bounds.max.x, b.max.x), std::max(bounds.max.y, b.max.y), std::max(bounds.max.z, b.max.z)};
+        bounds.min = {std::min(bounds.min.x, b.min.x), std::min(bounds.min.y, b.min.y),
+                      std::min(bounds.min.z, b.min.z)};
+        bounds.max = {std::max(bounds.max.x, b.max.x), std::max(bounds.max.y, b.max.y),
+                      std::max(bounds.max.z, b.max.z)};
     }
     return bounds;
 }
@@ -97,7 +103,9 @@ constexpr float kMaxCoordinate = 1e30f;
 constexpr double kMinExtent = 1e-30;
 
 Vec3d toDouble(Vec3f v) { return {v.x, v.y, v.z}; }
-Vec3f toFloat(Vec3d v) { return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)}; }
+Vec3f toFloat(Vec3d v) {
+    return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
+}
 
 /// Unnormalised face normal in double precision (its length is twice the area).
 Vec3d faceNormal(const Mesh& mesh, std::size_t triangle) {
@@ -118,7 +126,8 @@ bool isDegenerate(const Mesh& mesh, std::size_t triangle) {
 /// Drops the degenerate triangles of @p mesh, keeping the order of the others; returns how many.
 std::size_t dropDegenerateTriangles(Mesh& mesh) {
     const std::size_t triangles = mesh.triangleCount();
-    const std::size_t degenerate = countWhere(triangles, [&](std::size_t t) { return isDegenerate(mesh, t); });
+    const std::size_t degenerate =
+        countWhere(triangles, [&](std::size_t t) { return isDegenerate(mesh, t); });
     if (degenerate == 0) return 0;
     std::size_t kept = 0;  // in place, in order: rare enough to stay serial
     for (std::size_t t = 0; t < triangles; ++t) {
@@ -137,24 +146,31 @@ std::string meshLabel(const Mesh& mesh, std::size_t index) {
 
 void finalizeScene(ImportContext& context, MissingNormals missingNormals) {
     Scene& scene = context.scene();
-    std::size_t degenerate = 0, invalidNormals = 0, invalidUvs = 0, invalidColors = 0, trianglesBefore = 0;
+    std::size_t degenerate = 0, invalidNormals = 0, invalidUvs = 0, invalidColors = 0,
+                trianglesBefore = 0;
     for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
         Mesh& mesh = scene.meshes[m];
         const std::size_t vertexCount = mesh.positions.size();
         // Every check in parallel, each failing on the first offender in file order.
         const std::size_t badVertex = firstWhere(vertexCount, [&](std::size_t v) {
             const Vec3f& p = mesh.positions[v];
-            return !isFinite(p) || std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)}) > kMaxCoordinate;
+            return !isFinite(p) ||
+                   std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)}) > kMaxCoordinate;
         });
         if (badVertex < vertexCount) {
             if (!isFinite(mesh.positions[badVertex]))
-                context.fail(meshLabel(mesh, m) + ": vertex " + std::to_string(badVertex) + " has a non-finite position");
-            context.fail(meshLabel(mesh, m) + ": vertex " + std::to_string(badVertex) + " has a coordinate beyond ±1e30 (absurd scale)");
+                context.fail(meshLabel(mesh, m) + ": vertex " + std::to_string(badVertex) +
+                             " has a non-finite position");
+            context.fail(meshLabel(mesh, m) + ": vertex " + std::to_string(badVertex) +
+                         " has a coordinate beyond ±1e30 (absurd scale)");
         }
-        if (mesh.indices.size() % 3 != 0) context.fail(meshLabel(mesh, m) + ": index count is not a multiple of 3");
-        const std::size_t badIndex = firstWhere(mesh.indices.size(), [&](std::size_t i) { return mesh.indices[i] >= vertexCount; });
+        if (mesh.indices.size() % 3 != 0)
+            context.fail(meshLabel(mesh, m) + ": index count is not a multiple of 3");
+        const std::size_t badIndex = firstWhere(
+            mesh.indices.size(), [&](std::size_t i) { return mesh.indices[i] >= vertexCount; });
         if (badIndex < mesh.indices.size())
-            context.fail(meshLabel(mesh, m) + ": vertex index " + std::to_string(mesh.indices[badIndex]) + " out of range (" +
+            context.fail(meshLabel(mesh, m) + ": vertex index " +
+                         std::to_string(mesh.indices[badIndex]) + " out of range (" +
                          std::to_string(vertexCount) + " vertices)");
         trianglesBefore += mesh.triangleCount();
         degenerate += dropDegenerateTriangles(mesh);
@@ -168,7 +184,9 @@ void finalizeScene(ImportContext& context, MissingNormals missingNormals) {
             });
         invalidColors += countWhere(mesh.colors.size(), [&](std::size_t v) {
             Vec4f& color = mesh.colors[v];
-            if (std::isfinite(color.x) && std::isfinite(color.y) && std::isfinite(color.z) && std::isfinite(color.w)) return false;
+            if (std::isfinite(color.x) && std::isfinite(color.y) && std::isfinite(color.z) &&
+                std::isfinite(color.w))
+                return false;
             color = {1, 1, 1, 1};
             return true;
         });
@@ -181,15 +199,19 @@ void finalizeScene(ImportContext& context, MissingNormals missingNormals) {
                 const double len = isFinite(n) ? length(toDouble(n)) : 0.0;
                 return len > 0 && std::isfinite(len) ? len : 0.0;
             };
-            const std::size_t invalid = countWhere(mesh.normals.size(), [&](std::size_t v) { return validLength(mesh.normals[v]) == 0.0; });
-            const std::vector<Vec3f> replacements = invalid ? smoothNormals(mesh) : std::vector<Vec3f>();
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.normals.size(), kChunk), [&](const tbb::blocked_range<std::size_t>& r) {
-                for (std::size_t v = r.begin(); v != r.end(); ++v) {
-                    Vec3f& n = mesh.normals[v];
-                    const double len = validLength(n);
-                    n = len > 0 ? toFloat(toDouble(n) / len) : replacements[v];
-                }
+            const std::size_t invalid = countWhere(mesh.normals.size(), [&](std::size_t v) {
+                return validLength(mesh.normals[v]) == 0.0;
             });
+            const std::vector<Vec3f> replacements =
+                invalid ? smoothNormals(mesh) : std::vector<Vec3f>();
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.normals.size(), kChunk),
+                              [&](const tbb::blocked_range<std::size_t>& r) {
+                                  for (std::size_t v = r.begin(); v != r.end(); ++v) {
+                                      Vec3f& n = mesh.normals[v];
+                                      const double len = validLength(n);
+                                      n = len > 0 ? toFloat(toDouble(n) / len) : replacements[v];
+                                  }
+                              });
             invalidNormals += invalid;
         }
     }
@@ -199,30 +221,43 @@ void finalizeScene(ImportContext& context, MissingNormals missingNormals) {
     scene.degenerateTrianglesDropped += degenerate;
     if (scene.meshes.empty()) {
         if (trianglesBefore > 0 || scene.degenerateTrianglesDropped > 0)
-            context.fail("all " + std::to_string(trianglesBefore + scene.degenerateTrianglesDropped - degenerate) +
-                         " triangles are degenerate (no area)");
+            context.fail(
+                "all " +
+                std::to_string(trianglesBefore + scene.degenerateTrianglesDropped - degenerate) +
+                " triangles are degenerate (no area)");
         // What was skipped explains why nothing is left.
         std::string skipped;
-        for (const std::string& warning : scene.warnings) skipped += (skipped.empty() ? " (" : "; ") + warning;
+        for (const std::string& warning : scene.warnings)
+            skipped += (skipped.empty() ? " (" : "; ") + warning;
         context.fail("contains no triangles" + (skipped.empty() ? std::string() : skipped + ")"));
     }
     for (const Light& light : scene.lights)
-        if (std::max({std::fabs(light.position.x), std::fabs(light.position.y), std::fabs(light.position.z)}) > kMaxCoordinate)
+        if (std::max({std::fabs(light.position.x), std::fabs(light.position.y),
+                      std::fabs(light.position.z)}) > kMaxCoordinate)
             context.fail("light '" + light.name + "' has a position beyond ±1e30 (absurd scale)");
     // The finest voxel of the deepest octree (2^-20 of the longest side) must stay a normal float.
     const Bounds3f bounds = scene.bounds();
-    const double extent = std::max({double(bounds.max.x) - bounds.min.x, double(bounds.max.y) - bounds.min.y,
-                                    double(bounds.max.z) - bounds.min.z});
+    const double extent =
+        std::max({double(bounds.max.x) - bounds.min.x, double(bounds.max.y) - bounds.min.y,
+                  double(bounds.max.z) - bounds.min.z});
     if (extent < kMinExtent) {
         char text[64];
         std::snprintf(text, sizeof text, "%g", extent);
-        context.fail(std::string("the scene's longest side is ") + text + ", below 1e-30 (absurd scale: zero or denormal size)");
+        context.fail(std::string("the scene's longest side is ") + text +
+                     ", below 1e-30 (absurd scale: zero or denormal size)");
     }
     if (scene.degenerateTrianglesDropped)
-        context.warn("dropped " + std::to_string(scene.degenerateTrianglesDropped) + " degenerate triangle(s) with no area");
-    if (invalidNormals) context.warn("replaced " + std::to_string(invalidNormals) + " zero or non-finite normal(s)");
-    if (invalidUvs) context.warn("replaced " + std::to_string(invalidUvs) + " non-finite texture coordinate(s) by 0");
-    if (invalidColors) context.warn("replaced " + std::to_string(invalidColors) + " non-finite vertex colour(s) by white");
+        context.warn("dropped " + std::to_string(scene.degenerateTrianglesDropped) +
+                     " degenerate triangle(s) with no area");
+    if (invalidNormals)
+        context.warn("replaced " + std::to_string(invalidNormals) +
+                     " zero or non-finite normal(s)");
+    if (invalidUvs)
+        context.warn("replaced " + std::to_string(invalidUvs) +
+                     " non-finite texture coordinate(s) by 0");
+    if (invalidColors)
+        context.warn("replaced " + std::to_string(invalidColors) +
+                     " non-finite vertex colour(s) by white");
 }
 
 }  // namespace detail

@@ -20,9 +20,11 @@ struct TriangleSource {
 
 /// A shaded surface point.
 struct SurfaceSample {
-    Vec4f color{1, 1, 1, 1};  ///< linear RGBA: base colour factor × base colour texture × vertex colour
-    Vec3d normal{0, 0, 1};    ///< unit shading normal: interpolated, bent by the normal map
-    Vec3f emission{0, 0, 0};  ///< linear emitted radiance: emissive factor × strength × emissive texture
+    Vec4f color{1, 1, 1,
+                1};  ///< linear RGBA: base colour factor × base colour texture × vertex colour
+    Vec3d normal{0, 0, 1};  ///< unit shading normal: interpolated, bent by the normal map
+    Vec3f emission{0, 0,
+                   0};  ///< linear emitted radiance: emissive factor × strength × emissive texture
 };
 
 /// Shades triangle @p source of @p scene at barycentric coordinates @p b (weights of its three
@@ -33,8 +35,10 @@ struct SurfaceSample {
 /// exactly (Texture::integrate): a fragment's mean, not a blur centred on it.
 /// @p colorVariance: null, or receives the variance of the base colour (linear RGB) over the
 /// fragment that its texture contributes (0 without a fragment or a texture).
-[[nodiscard]] SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source, const std::array<Vec3d, 3>& corners, Vec3d b,
-                                          double footprint, std::span<const Vec3d> fragment = {}, Vec3f* colorVariance = nullptr);
+[[nodiscard]] SurfaceSample shadeTriangle(const Scene& scene, TriangleSource source,
+                                          const std::array<Vec3d, 3>& corners, Vec3d b,
+                                          double footprint, std::span<const Vec3d> fragment = {},
+                                          Vec3f* colorVariance = nullptr);
 
 /// esvo::packColor word of a linear RGBA colour: RGB sRGB-encoded, alpha linear, clamped to [0, 1]
 /// and rounded to 8 bits.
@@ -45,8 +49,13 @@ struct SurfaceSample {
 class BarycentricFrame {
 public:
     explicit BarycentricFrame(const std::array<Vec3d, 3>& corners)
-        : origin_(corners[0]), e1_(corners[1] - corners[0]), e2_(corners[2] - corners[0]), d00_(dot(e1_, e1_)), d01_(dot(e1_, e2_)),
-          d11_(dot(e2_, e2_)), denom_(d00_ * d11_ - d01_ * d01_) {}
+        : origin_(corners[0]),
+          e1_(corners[1] - corners[0]),
+          e2_(corners[2] - corners[0]),
+          d00_(dot(e1_, e1_)),
+          d01_(dot(e1_, e2_)),
+          d11_(dot(e2_, e2_)),
+          denom_(d00_ * d11_ - d01_ * d01_) {}
 
     /// The coordinates of @p p (see barycentric).
     [[nodiscard]] Vec3d operator()(Vec3d p) const {
@@ -93,6 +102,8 @@ private:
 
 /// Barycentric coordinates of the point of triangle @p corners nearest to @p p's projection onto
 /// its plane, clamped into the triangle.
-[[nodiscard]] inline Vec3d barycentric(const std::array<Vec3d, 3>& corners, Vec3d p) { return BarycentricFrame(corners)(p); }
+[[nodiscard]] inline Vec3d barycentric(const std::array<Vec3d, 3>& corners, Vec3d p) {
+    return BarycentricFrame(corners)(p);
+}
 
 }  // namespace vox::detail

@@ -29,16 +29,16 @@ int wrapIndex(int i, int n, WrapMode mode) {
     // texel itself (Texture::integrate looks up several per fragment).
     if (static_cast<unsigned>(i) < static_cast<unsigned>(n)) return i;
     switch (mode) {
-    case WrapMode::ClampToEdge:
-        return std::clamp(i, 0, n - 1);
-    case WrapMode::MirroredRepeat: {
-        const int period = 2 * n;
-        const int m = ((i % period) + period) % period;
-        return m < n ? m : period - 1 - m;
-    }
-    case WrapMode::Repeat:
-    default:
-        return ((i % n) + n) % n;
+        case WrapMode::ClampToEdge:
+            return std::clamp(i, 0, n - 1);
+        case WrapMode::MirroredRepeat: {
+            const int period = 2 * n;
+            const int m = ((i % period) + period) % period;
+            return m < n ? m : period - 1 - m;
+        }
+        case WrapMode::Repeat:
+        default:
+            return ((i % n) + n) % n;
     }
 }
 
@@ -47,32 +47,37 @@ int wrapIndex(int i, int n, WrapMode mode) {
 float reduceCoordinate(float u, WrapMode mode) {
     if (!std::isfinite(u)) return 0.0f;
     switch (mode) {
-    case WrapMode::ClampToEdge:
-        return std::clamp(u, -1.0f, 2.0f);
-    case WrapMode::MirroredRepeat:
-        return u - 2.0f * std::floor(u * 0.5f);
-    case WrapMode::Repeat:
-    default:
-        return u - std::floor(u);
+        case WrapMode::ClampToEdge:
+            return std::clamp(u, -1.0f, 2.0f);
+        case WrapMode::MirroredRepeat:
+            return u - 2.0f * std::floor(u * 0.5f);
+        case WrapMode::Repeat:
+        default:
+            return u - std::floor(u);
     }
 }
 
 /// Box-filters one axis of a linear float image from @p srcLen to @p dstLen texels, weighting
 /// each source texel by how much of it the destination texel covers (exact for odd sizes).
-std::vector<float> downsampleAxis(const std::vector<float>& src, int width, int height, bool alongX, int dstLen) {
+std::vector<float> downsampleAxis(const std::vector<float>& src, int width, int height, bool alongX,
+                                  int dstLen) {
     const int srcLen = alongX ? width : height;
     const int outW = alongX ? dstLen : width, outH = alongX ? height : dstLen;
     std::vector<float> dst(static_cast<std::size_t>(outW) * outH * 4, 0.0f);
     const double scale = static_cast<double>(srcLen) / dstLen;
     for (int d = 0; d < dstLen; ++d) {
         const double a = d * scale, b = (d + 1) * scale;
-        for (int s = static_cast<int>(std::floor(a)); s < std::min(srcLen, static_cast<int>(std::ceil(b))); ++s) {
-            const float w = static_cast<float>((std::min(b, s + 1.0) - std::max(a, static_cast<double>(s))) / scale);
+        for (int s = static_cast<int>(std::floor(a));
+             s < std::min(srcLen, static_cast<int>(std::ceil(b))); ++s) {
+            const float w = static_cast<float>(
+                (std::min(b, s + 1.0) - std::max(a, static_cast<double>(s))) / scale);
             if (w <= 0) continue;
             const int lines = alongX ? height : width;
             for (int line = 0; line < lines; ++line) {
-                const std::size_t si = alongX ? (static_cast<std::size_t>(line) * width + s) : (static_cast<std::size_t>(s) * width + line);
-                const std::size_t di = alongX ? (static_cast<std::size_t>(line) * outW + d) : (static_cast<std::size_t>(d) * outW + line);
+                const std::size_t si = alongX ? (static_cast<std::size_t>(line) * width + s)
+                                              : (static_cast<std::size_t>(s) * width + line);
+                const std::size_t di = alongX ? (static_cast<std::size_t>(line) * outW + d)
+                                              : (static_cast<std::size_t>(d) * outW + line);
                 for (int c = 0; c < 4; ++c) dst[di * 4 + c] += w * src[si * 4 + c];
             }
         }
@@ -90,11 +95,15 @@ float linearToSrgb(float v) {
     return v <= 0.0031308f ? v * 12.92f : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
 }
 
-double linearToSrgbSlope(double v) { return v <= 0.0031308 ? 12.92 : 1.055 / 2.4 * std::pow(v, 1.0 / 2.4 - 1.0); }
+double linearToSrgbSlope(double v) {
+    return v <= 0.0031308 ? 12.92 : 1.055 / 2.4 * std::pow(v, 1.0 / 2.4 - 1.0);
+}
 
 std::uint8_t srgbCode(float linear) {
     const float v = std::clamp(linear, 0.0f, 1.0f);
-    const auto direct = [](float x) { return static_cast<std::uint8_t>(std::lround(255.0f * linearToSrgb(x))); };
+    const auto direct = [](float x) {
+        return static_cast<std::uint8_t>(std::lround(255.0f * linearToSrgb(x)));
+    };
     if (!(v >= 0.0f && v <= 1.0f)) return direct(v);  // NaN, as the formula takes it
     // direct() never falls as its argument rises (checked over every float of [0, 1]; the test
     // checks it around every step): the code is the highest whose lowest value v reaches, and a
@@ -113,13 +122,16 @@ std::uint8_t srgbCode(float linear) {
             std::uint32_t lo = 0, hi = oneBits;  // direct(bits hi) ≥ k
             while (lo < hi) {
                 const std::uint32_t mid = lo + (hi - lo) / 2;
-                if (direct(std::bit_cast<float>(mid)) >= k) hi = mid;
-                else lo = mid + 1;
+                if (direct(std::bit_cast<float>(mid)) >= k)
+                    hi = mid;
+                else
+                    lo = mid + 1;
             }
             t.lowest[static_cast<std::size_t>(k)] = std::bit_cast<float>(lo);
         }
         t.lowest[256] = std::numeric_limits<float>::infinity();
-        for (int b = 0; b <= kBuckets; ++b) t.first[static_cast<std::size_t>(b)] = direct(static_cast<float>(b) / kBuckets);
+        for (int b = 0; b <= kBuckets; ++b)
+            t.first[static_cast<std::size_t>(b)] = direct(static_cast<float>(b) / kBuckets);
         return t;
     }();
     // v·kBuckets is exact (a power of two), so the bucket's start is at most v.
@@ -128,24 +140,41 @@ std::uint8_t srgbCode(float linear) {
     return static_cast<std::uint8_t>(code);
 }
 
-Texture::Texture(std::string name, int width, int height, int channels, std::span<const std::uint8_t> pixels,
-                 ColorSpace colorSpace)
+Texture::Texture(std::string name, int width, int height, int channels,
+                 std::span<const std::uint8_t> pixels, ColorSpace colorSpace)
     : name_(std::move(name)), colorSpace_(colorSpace), sourceChannels_(channels) {
     if (width < 1 || height < 1 || width > kMaxDimension || height > kMaxDimension)
         throw std::invalid_argument("Texture: size out of range");
     if (channels < 1 || channels > 4) throw std::invalid_argument("Texture: channels must be 1-4");
     const std::size_t texels = static_cast<std::size_t>(width) * height;
-    if (pixels.size() != texels * channels) throw std::invalid_argument("Texture: pixel buffer size mismatch");
+    if (pixels.size() != texels * channels)
+        throw std::invalid_argument("Texture: pixel buffer size mismatch");
 
     Level base{width, height, std::vector<std::uint8_t>(texels * 4)};
     for (std::size_t i = 0; i < texels; ++i) {
         const std::uint8_t* p = pixels.data() + i * channels;
         std::uint8_t* q = base.rgba.data() + i * 4;
         switch (channels) {
-        case 1: q[0] = q[1] = q[2] = p[0]; q[3] = 255; break;
-        case 2: q[0] = q[1] = q[2] = p[0]; q[3] = p[1]; break;
-        case 3: q[0] = p[0]; q[1] = p[1]; q[2] = p[2]; q[3] = 255; break;
-        default: q[0] = p[0]; q[1] = p[1]; q[2] = p[2]; q[3] = p[3]; break;
+            case 1:
+                q[0] = q[1] = q[2] = p[0];
+                q[3] = 255;
+                break;
+            case 2:
+                q[0] = q[1] = q[2] = p[0];
+                q[3] = p[1];
+                break;
+            case 3:
+                q[0] = p[0];
+                q[1] = p[1];
+                q[2] = p[2];
+                q[3] = 255;
+                break;
+            default:
+                q[0] = p[0];
+                q[1] = p[1];
+                q[2] = p[2];
+                q[3] = p[3];
+                break;
         }
     }
     levels_.push_back(std::move(base));
@@ -167,7 +196,8 @@ Texture::Texture(std::string name, int width, int height, int channels, std::spa
         for (std::size_t i = 0; i < static_cast<std::size_t>(w) * h; ++i) {
             for (int c = 0; c < 3; ++c) {
                 const float v = linear[i * 4 + c];
-                level.rgba[i * 4 + c] = quantize(colorSpace_ == ColorSpace::SRGB ? linearToSrgb(v) : v);
+                level.rgba[i * 4 + c] =
+                    quantize(colorSpace_ == ColorSpace::SRGB ? linearToSrgb(v) : v);
             }
             level.rgba[i * 4 + 3] = quantize(linear[i * 4 + 3]);
         }
@@ -213,15 +243,20 @@ Vec4f Texture::bilinear(const Level& level, Vec2f uv, WrapMode wrapS, WrapMode w
     const int xs[2] = {wrapIndex(x0, level.width, wrapS), wrapIndex(x0 + 1, level.width, wrapS)};
     const int ys[2] = {wrapIndex(y0, level.height, wrapT), wrapIndex(y0 + 1, level.height, wrapT)};
     auto at = [&](int xi, int yi) {
-        return decode(level.rgba.data() + (static_cast<std::size_t>(ys[yi]) * level.width + xs[xi]) * 4);
+        return decode(level.rgba.data() +
+                      (static_cast<std::size_t>(ys[yi]) * level.width + xs[xi]) * 4);
     };
-    return (at(0, 0) * (1 - tx) + at(1, 0) * tx) * (1 - ty) + (at(0, 1) * (1 - tx) + at(1, 1) * tx) * ty;
+    return (at(0, 0) * (1 - tx) + at(1, 0) * tx) * (1 - ty) +
+           (at(0, 1) * (1 - tx) + at(1, 1) * tx) * ty;
 }
 
 Vec4f Texture::sample(Vec2f uv, float footprint, WrapMode wrapS, WrapMode wrapT) const {
     if (levels_.empty()) return {1, 1, 1, 1};
-    const float texels = std::isfinite(footprint) ? footprint * static_cast<float>(std::max(width(), height())) : 0.0f;
-    const float lod = std::clamp(texels > 1.0f ? std::log2(texels) : 0.0f, 0.0f, static_cast<float>(levelCount() - 1));
+    const float texels = std::isfinite(footprint)
+                             ? footprint * static_cast<float>(std::max(width(), height()))
+                             : 0.0f;
+    const float lod = std::clamp(texels > 1.0f ? std::log2(texels) : 0.0f, 0.0f,
+                                 static_cast<float>(levelCount() - 1));
     const int fine = static_cast<int>(lod);
     const float t = lod - static_cast<float>(fine);
     const Vec4f a = bilinear(levels_[fine], uv, wrapS, wrapT);
@@ -284,11 +319,16 @@ public:
             }
         }
     }
-    [[nodiscard]] double area(int column, int row) const { return area_[static_cast<std::size_t>(row * width_ + column)]; }
+    [[nodiscard]] double area(int column, int row) const {
+        return area_[static_cast<std::size_t>(row * width_ + column)];
+    }
 
 private:
-    /// The cell of coordinate @p v ≥ 0 (its integer part; 0 below, by rounding), at most @p count − 1.
-    static int cell(double v, int count) { return std::min(static_cast<int>(std::max(v, 0.0)), count - 1); }
+    /// The cell of coordinate @p v ≥ 0 (its integer part; 0 below, by rounding), at most @p count
+    /// − 1.
+    static int cell(double v, int count) {
+        return std::min(static_cast<int>(std::max(v, 0.0)), count - 1);
+    }
     /// ⌈v⌉ for v ≥ 0.
     static int ceiling(double v) {
         const int whole = static_cast<int>(std::max(v, 0.0));
@@ -300,7 +340,8 @@ private:
     void addRowSegment(int row, double lo, double hi, double height) {
         double* area = &area_[static_cast<std::size_t>(row * width_)];
         double* cover = &cover_[static_cast<std::size_t>(row * width_)];
-        const int first = cell(lo, width_), last = std::max(std::min(ceiling(hi), width_) - 1, first);
+        const int first = cell(lo, width_),
+                  last = std::max(std::min(ceiling(hi), width_) - 1, first);
         if (first == last) {
             area[first] += height * (0.5 * (lo + hi) - first);
             cover[first] += height;
@@ -321,13 +362,16 @@ private:
     }
 
     int width_, height_;
-    std::array<double, kMaxCells * kMaxCells> area_;   // per cell; until finish(), without the heights from the right
-    std::array<double, kMaxCells * kMaxCells> cover_;  // per cell: the heights of the edge pieces in it
+    std::array<double, kMaxCells * kMaxCells>
+        area_;  // per cell; until finish(), without the heights from the right
+    std::array<double, kMaxCells * kMaxCells>
+        cover_;  // per cell: the heights of the edge pieces in it
 };
 
 }  // namespace
 
-Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMode wrapT, int maxTexels, Vec4f* meanSquare) const {
+Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMode wrapT,
+                         int maxTexels, Vec4f* meanSquare) const {
     // A single value: its square is the mean square.
     const auto single = [&](Vec4f v) {
         if (meanSquare) *meanSquare = {v.x * v.x, v.y * v.y, v.z * v.z, v.w * v.w};
@@ -341,13 +385,16 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
         hi = {std::max(hi.x, p.x), std::max(hi.y, p.y)};
         mean = mean + p * (1.0f / static_cast<float>(polygon.size()));
     }
-    if (!(std::isfinite(lo.x) && std::isfinite(lo.y) && std::isfinite(hi.x) && std::isfinite(hi.y))) return single(sample(mean, 0, wrapS, wrapT));
+    if (!(std::isfinite(lo.x) && std::isfinite(lo.y) && std::isfinite(hi.x) && std::isfinite(hi.y)))
+        return single(sample(mean, 0, wrapS, wrapT));
     int level = 0;
     const auto span = [&](int l) {
-        return std::max(double(hi.x - lo.x) * levels_[l].width, double(hi.y - lo.y) * levels_[l].height);
+        return std::max(double(hi.x - lo.x) * levels_[l].width,
+                        double(hi.y - lo.y) * levels_[l].height);
     };
     while (level + 1 < levelCount() && span(level) > maxTexels) ++level;
-    if (span(level) > 4.0 * maxTexels) return single(texel(level, 0, 0));  // the 1×1 level: the image's mean
+    if (span(level) > 4.0 * maxTexels)
+        return single(texel(level, 0, 0));  // the 1×1 level: the image's mean
     const Level& l = levels_[level];
     // Texel indices beyond float's integers (2^24) are neither exact nor within int: a polygon that
     // far out (huge but finite UVs) is point-sampled at its mean, which sample() wraps first.
@@ -355,8 +402,10 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
                          std::max({std::fabs(double(lo.y)), std::fabs(double(hi.y))}) * l.height;
     if (reach > 16777216.0) return single(sample(mean, 0, wrapS, wrapT));
 
-    const int x0 = static_cast<int>(std::floor(lo.x * l.width)), x1 = std::max(static_cast<int>(std::ceil(hi.x * l.width)), x0 + 1);
-    const int y0 = static_cast<int>(std::floor(lo.y * l.height)), y1 = std::max(static_cast<int>(std::ceil(hi.y * l.height)), y0 + 1);
+    const int x0 = static_cast<int>(std::floor(lo.x * l.width)),
+              x1 = std::max(static_cast<int>(std::ceil(hi.x * l.width)), x0 + 1);
+    const int y0 = static_cast<int>(std::floor(lo.y * l.height)),
+              y1 = std::max(static_cast<int>(std::ceil(hi.y * l.height)), y0 + 1);
     const float* srgb = colorSpace_ == ColorSpace::SRGB ? srgbDecodeTable().data() : nullptr;
     const auto texelAt = [&](int x, int y) {
         const int tx = wrapIndex(x, l.width, wrapS), ty = wrapIndex(y, l.height, wrapT);
@@ -372,14 +421,18 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
     const std::size_t n = std::min<std::size_t>(polygon.size(), points.size());
     double twiceArea = 0;  // signed: the polygon's orientation
     for (std::size_t i = 0; i < n; ++i)
-        points[i] = {double(polygon[i].x * static_cast<float>(l.width)) - x0, double(polygon[i].y * static_cast<float>(l.height)) - y0};
+        points[i] = {double(polygon[i].x * static_cast<float>(l.width)) - x0,
+                     double(polygon[i].y * static_cast<float>(l.height)) - y0};
     for (std::size_t i = 0; i < n; ++i) {
         const Point p = points[i], q = points[i + 1 == n ? 0 : i + 1];
         twiceArea += p.x * q.y - q.x * p.y;
     }
-    // Most fragments of a fine voxelization lie within one texel: its value, where the polygon has area.
-    if (x1 == x0 + 1 && y1 == y0 + 1) return single(twiceArea != 0 ? texelAt(x0, y0) : sample(mean, 0, wrapS, wrapT));
-    if (x1 - x0 > CellCoverage::kMaxCells || y1 - y0 > CellCoverage::kMaxCells) return single(sample(mean, 0, wrapS, wrapT));  // unreachable (see above)
+    // Most fragments of a fine voxelization lie within one texel: its value, where the polygon has
+    // area.
+    if (x1 == x0 + 1 && y1 == y0 + 1)
+        return single(twiceArea != 0 ? texelAt(x0, y0) : sample(mean, 0, wrapS, wrapT));
+    if (x1 - x0 > CellCoverage::kMaxCells || y1 - y0 > CellCoverage::kMaxCells)
+        return single(sample(mean, 0, wrapS, wrapT));  // unreachable (see above)
 
     // Otherwise the texels weigh by the areas of the polygon inside them.
     const int width = x1 - x0, height = y1 - y0;
@@ -398,7 +451,8 @@ Vec4f Texture::integrate(std::span<const Vec2f> polygon, WrapMode wrapS, WrapMod
             if (!(area > 0)) continue;
             const Vec4f v = texelAt(x0 + x, y0 + y);
             sum = sum + v * area;
-            if (meanSquare) squares = squares + Vec4f{v.x * v.x, v.y * v.y, v.z * v.z, v.w * v.w} * area;
+            if (meanSquare)
+                squares = squares + Vec4f{v.x * v.x, v.y * v.y, v.z * v.z, v.w * v.w} * area;
             total += area;
         }
     if (!(total > 0)) return single(sample(mean, 0, wrapS, wrapT));

@@ -16,7 +16,8 @@ void adviseHugePages(void* data, std::size_t bytes) noexcept {
     const std::uintptr_t end = (start + bytes) & ~std::uintptr_t{kHugePageBytes - 1};
     // Advice only: where the kernel has no huge pages to give (THP off, memory fragmented), the
     // range stays on small pages and nothing else changes.
-    if (data != nullptr && end > first) (void)::madvise(reinterpret_cast<void*>(first), end - first, MADV_HUGEPAGE);
+    if (data != nullptr && end > first)
+        (void)::madvise(reinterpret_cast<void*>(first), end - first, MADV_HUGEPAGE);
 #else
     (void)data;
     (void)bytes;

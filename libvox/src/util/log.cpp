@@ -21,7 +21,8 @@ std::atomic<int> currentVerbosity{static_cast<int>(Verbosity::Normal)};
 void write(std::string_view kind, std::string_view message) {
     std::lock_guard lock(outputMutex());
     // A progress bar may own the terminal line: clear it first; the bar redraws below.
-    std::fprintf(stderr, "%s%s: %.*s%.*s\n", Progress::enabled() ? "\r\033[K" : "", nameStorage().c_str(), static_cast<int>(kind.size()), kind.data(),
+    std::fprintf(stderr, "%s%s: %.*s%.*s\n", Progress::enabled() ? "\r\033[K" : "",
+                 nameStorage().c_str(), static_cast<int>(kind.size()), kind.data(),
                  static_cast<int>(message.size()), message.data());
     std::fflush(stderr);
 }

@@ -10,7 +10,8 @@ constexpr std::int64_t kRedrawIntervalNs = 100'000'000;  // 10 redraws a second 
 constexpr int kBarWidth = 30;
 
 std::int64_t nowNs() {
-    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(
+               std::chrono::steady_clock::now().time_since_epoch())
         .count();
 }
 
@@ -44,9 +45,10 @@ void Progress::draw(bool final) {
     char bar[kBarWidth + 1];
     for (int i = 0; i < kBarWidth; ++i) bar[i] = i < filled ? '#' : '.';
     bar[kBarWidth] = '\0';
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    std::fprintf(stderr, "\r%-24.24s [%s] %5.1f%% %6.1fs%s", label_.c_str(), bar, 100.0 * fraction, seconds,
-                 final ? "\r\033[K" : "");
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    std::fprintf(stderr, "\r%-24.24s [%s] %5.1f%% %6.1fs%s", label_.c_str(), bar, 100.0 * fraction,
+                 seconds, final ? "\r\033[K" : "");
     std::fflush(stderr);
     drawn_ = true;
 }

@@ -9,7 +9,8 @@ namespace vox {
 
 void Timings::add(const std::string& stage, double milliseconds) {
     std::lock_guard lock(mutex_);
-    auto it = std::find_if(entries_.begin(), entries_.end(), [&](const auto& e) { return e.first == stage; });
+    auto it = std::find_if(entries_.begin(), entries_.end(),
+                           [&](const auto& e) { return e.first == stage; });
     if (it == entries_.end())
         entries_.emplace_back(stage, milliseconds);
     else
@@ -33,7 +34,9 @@ Timings::Scope::Scope(Timings* timings, std::string stage)
 
 Timings::Scope::~Scope() {
     if (timings_)
-        timings_->add(stage_, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count());
+        timings_->add(stage_, std::chrono::duration<double, std::milli>(
+                                  std::chrono::steady_clock::now() - start_)
+                                  .count());
 }
 
 std::uint64_t peakRssBytes() {

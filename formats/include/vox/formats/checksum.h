@@ -13,11 +13,13 @@ namespace vox {
 /// of a followed by b.
 /// Uses the CPU's crc32 instruction (SSE4.2) where it has one, the portable tables otherwise:
 /// the same values either way.
-[[nodiscard]] std::uint32_t crc32c(const void* data, std::size_t size, std::uint32_t crc = 0) noexcept;
+[[nodiscard]] std::uint32_t crc32c(const void* data, std::size_t size,
+                                   std::uint32_t crc = 0) noexcept;
 
 namespace detail {
 /// crc32c by tables (slicing-by-8), on any host.
-[[nodiscard]] std::uint32_t crc32cPortable(const void* data, std::size_t size, std::uint32_t crc = 0) noexcept;
+[[nodiscard]] std::uint32_t crc32cPortable(const void* data, std::size_t size,
+                                           std::uint32_t crc = 0) noexcept;
 /// True if this CPU has the crc32 instruction (x86-64 with SSE4.2), which crc32c then uses.
 [[nodiscard]] bool crc32cHardwareAvailable() noexcept;
 }  // namespace detail

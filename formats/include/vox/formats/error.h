@@ -48,7 +48,8 @@ public:
 /// A file was read but is malformed, inconsistent, or describes something libvox rejects.
 class InvalidDataError : public Error {
 public:
-    InvalidDataError(const std::filesystem::path& file, std::string_view problem) : Error(file, problem) {}
+    InvalidDataError(const std::filesystem::path& file, std::string_view problem)
+        : Error(file, problem) {}
     [[nodiscard]] ExitCode exitCode() const noexcept override { return ExitCode::InvalidData; }
 };
 

@@ -18,7 +18,8 @@ using Vec3 = std::array<float, 3>;
 
 /// RGB channels hold sRGB-encoded values (so 8 bits are spent where the eye needs them); alpha
 /// is linear coverage.
-[[nodiscard]] constexpr std::uint32_t packColor(std::uint32_t r, std::uint32_t g, std::uint32_t b, std::uint32_t a = 255) noexcept {
+[[nodiscard]] constexpr std::uint32_t packColor(std::uint32_t r, std::uint32_t g, std::uint32_t b,
+                                                std::uint32_t a = 255) noexcept {
     return (r & 0xFFu) | ((g & 0xFFu) << 8) | ((b & 0xFFu) << 16) | ((a & 0xFFu) << 24);
 }
 [[nodiscard]] constexpr std::uint32_t colorChannel(std::uint32_t color, unsigned channel) noexcept {
@@ -47,7 +48,8 @@ struct PaletteLookup {
     std::uint32_t word = 0;
     [[nodiscard]] constexpr std::uint32_t mask() const noexcept { return word & 0xFFu; }
     [[nodiscard]] constexpr std::uint32_t valuePointer() const noexcept { return word >> 8; }
-    [[nodiscard]] static constexpr PaletteLookup make(std::uint32_t mask, std::uint32_t pointer) noexcept {
+    [[nodiscard]] static constexpr PaletteLookup make(std::uint32_t mask,
+                                                      std::uint32_t pointer) noexcept {
         return {(pointer << 8) | (mask & 0xFFu)};
     }
     static constexpr std::uint32_t kMaxPointer = 0xFFFFFFu;
@@ -69,7 +71,8 @@ inline constexpr std::uint32_t kCompressedBlockWords = 6;
 using CompressedBlock = std::array<std::uint32_t, kCompressedBlockWords>;
 
 /// RGB565 with R in the high bits, as DXT1.
-[[nodiscard]] constexpr std::uint32_t packRgb565(std::uint32_t r8, std::uint32_t g8, std::uint32_t b8) noexcept {
+[[nodiscard]] constexpr std::uint32_t packRgb565(std::uint32_t r8, std::uint32_t g8,
+                                                 std::uint32_t b8) noexcept {
     return ((r8 >> 3) << 11) | ((g8 >> 2) << 5) | (b8 >> 3);
 }
 /// Expands an RGB565 endpoint to 8 bits per channel by bit replication; returns packColor(r, g, b).
@@ -79,7 +82,8 @@ using CompressedBlock = std::array<std::uint32_t, kCompressedBlockWords>;
 }
 /// The four palette colours of endpoints @p c0, @p c1 (RGB565): {c0, c1, ⅔c0+⅓c1, ⅓c0+⅔c1},
 /// each channel (2a + b + 1) / 3 in integers on the expanded 8-bit values.
-[[nodiscard]] std::array<std::uint32_t, 4> colorPalette(std::uint32_t c0, std::uint32_t c1) noexcept;
+[[nodiscard]] std::array<std::uint32_t, 4> colorPalette(std::uint32_t c0,
+                                                        std::uint32_t c1) noexcept;
 
 /// The palette weights of the 2-bit axis indices: {−1, −⅓, ⅓, 1}.
 inline constexpr std::array<float, 4> kAxisWeights{-1.0f, -1.0f / 3.0f, 1.0f / 3.0f, 1.0f};
@@ -91,7 +95,9 @@ inline constexpr std::array<float, 4> kAxisWeights{-1.0f, -1.0f / 3.0f, 1.0f / 3
 [[nodiscard]] std::uint32_t encodeAxis(const Vec3& axis) noexcept;
 
 /// The 2-bit index of @p slot in an index word.
-[[nodiscard]] constexpr std::uint32_t blockIndex(std::uint32_t word, unsigned slot) noexcept { return (word >> (2 * slot)) & 3u; }
+[[nodiscard]] constexpr std::uint32_t blockIndex(std::uint32_t word, unsigned slot) noexcept {
+    return (word >> (2 * slot)) & 3u;
+}
 
 /// Words in a DxtLookup attachment before its first block: the lookup array (one word per
 /// descriptor-area unit), padded to a whole unit.
@@ -116,6 +122,7 @@ struct AttributeValue {
 /// found through the descriptor's page header, info section and attachment directory (the block
 /// must be one that validateBlock accepts, 8 KB aligned in @p words). Returns false where it
 /// stores none: the voxel then inherits its parent voxel's value (or the block has no colours).
-bool readAttribute(const std::uint32_t* words, std::uint32_t descriptorWord, std::uint32_t slot, AttributeValue& out) noexcept;
+bool readAttribute(const std::uint32_t* words, std::uint32_t descriptorWord, std::uint32_t slot,
+                   AttributeValue& out) noexcept;
 
 }  // namespace vox::esvo

@@ -35,8 +35,12 @@ public:
     [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
     [[nodiscard]] const Header& header() const noexcept { return header_; }
     [[nodiscard]] const Directory& directory() const noexcept { return directory_; }
-    [[nodiscard]] const SliceEntry& slice(std::uint32_t index) const { return directory_.slices.at(index); }
-    [[nodiscard]] std::uint32_t sliceCount() const noexcept { return static_cast<std::uint32_t>(directory_.slices.size()); }
+    [[nodiscard]] const SliceEntry& slice(std::uint32_t index) const {
+        return directory_.slices.at(index);
+    }
+    [[nodiscard]] std::uint32_t sliceCount() const noexcept {
+        return static_cast<std::uint32_t>(directory_.slices.size());
+    }
 
     /// Reads slice @p index into @p destination (exactly slice(index).byteSize bytes) with one
     /// read and verifies its checksum. Thread-safe.
@@ -55,7 +59,8 @@ struct VoxelPosition {
     std::uint32_t level = 0;
     std::uint32_t x = 0, y = 0, z = 0;
     [[nodiscard]] VoxelPosition child(std::uint32_t slot) const noexcept {
-        return {level + 1, 2 * x + (slot & 1u), 2 * y + ((slot >> 1) & 1u), 2 * z + ((slot >> 2) & 1u)};
+        return {level + 1, 2 * x + (slot & 1u), 2 * y + ((slot >> 1) & 1u),
+                2 * z + ((slot >> 2) & 1u)};
     }
     friend bool operator==(const VoxelPosition&, const VoxelPosition&) = default;
 };
@@ -68,11 +73,12 @@ struct FrontierDescriptor {
 
 /// What validating one block found, for checking its child slices.
 struct BlockSummary {
-    std::vector<FrontierDescriptor> frontier;  ///< in frontier-table order
-    std::vector<std::uint64_t> voxelsPerLevel; ///< voxels this block holds, by level
-    std::vector<std::uint64_t> leavesPerLevel; ///< of them, voxels without children
-    std::vector<std::uint64_t> contoursPerLevel; ///< of them, voxels with a contour of their own
-    std::uint64_t descriptorBytes = 0, farPointerBytes = 0, pageHeaderBytes = 0, infoBytes = 0, paddingBytes = 0, contourBytes = 0;
+    std::vector<FrontierDescriptor> frontier;     ///< in frontier-table order
+    std::vector<std::uint64_t> voxelsPerLevel;    ///< voxels this block holds, by level
+    std::vector<std::uint64_t> leavesPerLevel;    ///< of them, voxels without children
+    std::vector<std::uint64_t> contoursPerLevel;  ///< of them, voxels with a contour of their own
+    std::uint64_t descriptorBytes = 0, farPointerBytes = 0, pageHeaderBytes = 0, infoBytes = 0,
+                  paddingBytes = 0, contourBytes = 0;
     /// Attribute attachment: lookup words (uncompressed), stored values, compressed blocks.
     std::uint64_t attributeLookupBytes = 0, attributeValueBytes = 0, attributeBlockBytes = 0;
 };
@@ -82,18 +88,26 @@ struct BlockTables {
     std::uint32_t infoWord = 0;
     std::uint32_t rootGroupCount = 0, rootGroupTableWord = 0;
     std::uint32_t frontierCount = 0, frontierTableWord = 0;
-    std::uint32_t descriptorEndWord = 0;  ///< end of the descriptor area: the first attachment, or the info section
-    std::uint32_t contourWord = 0;        ///< start of the contour array; descriptorEndWord when there is none
+    std::uint32_t descriptorEndWord =
+        0;  ///< end of the descriptor area: the first attachment, or the info section
+    std::uint32_t contourWord =
+        0;  ///< start of the contour array; descriptorEndWord when there is none
     std::uint32_t contourEndWord = 0;
-    /// The colour/normal attachment: AttachmentKind::Palette, Dxt or DxtLookup, or Contour when there is none.
+    /// The colour/normal attachment: AttachmentKind::Palette, Dxt or DxtLookup, or Contour when
+    /// there is none.
     AttachmentKind attributeKind = AttachmentKind::Contour;
     std::uint32_t attributeWord = 0, attributeEndWord = 0;
-    [[nodiscard]] bool hasAttributes() const noexcept { return attributeKind != AttachmentKind::Contour; }
+    [[nodiscard]] bool hasAttributes() const noexcept {
+        return attributeKind != AttachmentKind::Contour;
+    }
 };
 /// Reads the tables' location from a block; throws InvalidDataError if they are out of range,
-/// naming the slice, the byte in it and, when @p fileOffset (the slice's) is given, the file offset.
-[[nodiscard]] BlockTables readBlockTables(std::span<const std::uint8_t> block, const std::filesystem::path& file,
-                                          std::uint32_t sliceIndex, std::optional<std::uint64_t> fileOffset = std::nullopt);
+/// naming the slice, the byte in it and, when @p fileOffset (the slice's) is given, the file
+/// offset.
+[[nodiscard]] BlockTables readBlockTables(std::span<const std::uint8_t> block,
+                                          const std::filesystem::path& file,
+                                          std::uint32_t sliceIndex,
+                                          std::optional<std::uint64_t> fileOffset = std::nullopt);
 
 /// Checks every structural invariant of one slice's block: page headers at every 8 KB boundary
 /// pointing at the info section, info section and tables, masks, child and far pointers in range
@@ -101,17 +115,20 @@ struct BlockTables {
 /// counts equal to the directory's, and the root groups matching the parent's frontier
 /// descriptors @p parents (for the root slice: one entry, mask 1, at level 0). Throws
 /// InvalidDataError "FILE: slice S, byte B: what".
-BlockSummary validateBlock(const std::filesystem::path& file, const Header& header, std::uint32_t sliceIndex,
-                           const SliceEntry& entry, std::span<const std::uint8_t> block,
+BlockSummary validateBlock(const std::filesystem::path& file, const Header& header,
+                           std::uint32_t sliceIndex, const SliceEntry& entry,
+                           std::span<const std::uint8_t> block,
                            std::span<const FrontierDescriptor> parents);
 
 /// Per-part byte totals over a whole file, and its leaves and contours by level (voxinspect info).
 struct FileBreakdown {
-    std::uint64_t descriptorBytes = 0, farPointerBytes = 0, pageHeaderBytes = 0, infoBytes = 0, paddingBytes = 0,
-                  contourBytes = 0, attributeLookupBytes = 0, attributeValueBytes = 0, attributeBlockBytes = 0,
-                  headerAndDirectoryBytes = 0, slicePaddingBytes = 0;
-    std::vector<std::uint64_t> leavesPerLevel;    ///< voxels without children, levels 0 … leaf depth
-    std::vector<std::uint64_t> contoursPerLevel;  ///< voxels with a contour of their own, levels 0 … leaf depth
+    std::uint64_t descriptorBytes = 0, farPointerBytes = 0, pageHeaderBytes = 0, infoBytes = 0,
+                  paddingBytes = 0, contourBytes = 0, attributeLookupBytes = 0,
+                  attributeValueBytes = 0, attributeBlockBytes = 0, headerAndDirectoryBytes = 0,
+                  slicePaddingBytes = 0;
+    std::vector<std::uint64_t> leavesPerLevel;  ///< voxels without children, levels 0 … leaf depth
+    std::vector<std::uint64_t>
+        contoursPerLevel;  ///< voxels with a contour of their own, levels 0 … leaf depth
 };
 
 /// Validates the whole file: header, directory, every slice and the links between slices.
@@ -127,7 +144,9 @@ public:
     explicit EsvoPool(const EsvoReader& reader);
 
     [[nodiscard]] const EsvoReader& reader() const noexcept { return reader_; }
-    [[nodiscard]] bool loaded(std::uint32_t slice) const { return slices_.at(slice).baseWord != kNotLoaded; }
+    [[nodiscard]] bool loaded(std::uint32_t slice) const {
+        return slices_.at(slice).baseWord != kNotLoaded;
+    }
     /// Loads @p slice (its parent must be loaded), validating it, and links it in.
     void load(std::uint32_t slice);
     /// Unlinks and frees @p slice and everything loaded below it. The root slice stays.
@@ -143,7 +162,8 @@ public:
     /// Visits every voxel below the root that the loaded slices hold, depth first in slot order,
     /// with its colour and normal resolved: its own stored value, else the nearest ancestor's
     /// (nullptr before any ancestor has one, e.g. in a file without colours).
-    void forEachVoxel(const std::function<void(const VoxelPosition&, const AttributeValue*)>& visit) const;
+    void forEachVoxel(
+        const std::function<void(const VoxelPosition&, const AttributeValue*)>& visit) const;
     [[nodiscard]] std::uint32_t loadedSliceCount() const noexcept { return loadedCount_; }
 
 private:

@@ -35,7 +35,8 @@ constexpr std::uint32_t kBlockTexels = kBlockCells * kBlockCells * kBlockCells;
 /// where direction[a] = 0): colour blended by d_a²/|d|², opacity 1 − Π_a (1 − a_a)^(|d_a| / Σ|d|),
 /// the colour rescaled to that opacity (docs/rvol-format.md, "Directional sample"). The one
 /// definition the reader, the bake's cones and the final gather share.
-[[nodiscard]] Texel combineDirectional(const std::array<Texel, 3>& facing, const std::array<double, 3>& direction) noexcept;
+[[nodiscard]] Texel combineDirectional(const std::array<Texel, 3>& facing,
+                                       const std::array<double, 3>& direction) noexcept;
 
 /// Morton code of (x, y, z) (x in bit 0), up to 21 bits per axis.
 [[nodiscard]] std::uint64_t morton3(std::uint32_t x, std::uint32_t y, std::uint32_t z) noexcept;
@@ -53,13 +54,17 @@ struct Level {
     std::vector<Texel> texels;
 
     /// Index of the block holding cell (x, y, z), or -1.
-    [[nodiscard]] std::int64_t findBlock(std::uint32_t x, std::uint32_t y, std::uint32_t z) const noexcept;
+    [[nodiscard]] std::int64_t findBlock(std::uint32_t x, std::uint32_t y,
+                                         std::uint32_t z) const noexcept;
     /// The texel of cell (x, y, z) in @p channel; zero outside the level or outside every block.
-    [[nodiscard]] Texel at(std::uint32_t x, std::uint32_t y, std::uint32_t z, std::uint32_t channel) const noexcept;
+    [[nodiscard]] Texel at(std::uint32_t x, std::uint32_t y, std::uint32_t z,
+                           std::uint32_t channel) const noexcept;
     /// Offset of cell (x, y, z) of block @p block, channel @p channel, in texels.
-    [[nodiscard]] static std::size_t texelIndex(std::size_t block, std::uint32_t channels, std::uint32_t channel, std::uint32_t x,
+    [[nodiscard]] static std::size_t texelIndex(std::size_t block, std::uint32_t channels,
+                                                std::uint32_t channel, std::uint32_t x,
                                                 std::uint32_t y, std::uint32_t z) noexcept {
-        return ((block * channels + channel) * kBlockCells + (z % kBlockCells)) * kBlockCells * kBlockCells +
+        return ((block * channels + channel) * kBlockCells + (z % kBlockCells)) * kBlockCells *
+                   kBlockCells +
                (y % kBlockCells) * kBlockCells + (x % kBlockCells);
     }
 };
@@ -69,20 +74,20 @@ enum VoxelFlags : std::uint8_t { kVoxelDynamic = 1 };
 
 /// The attributes of one finest-level voxel, filtered over the triangle fragments inside it.
 struct VoxelAttributes {
-    std::uint32_t x = 0, y = 0, z = 0;          ///< cell at level 0
-    std::array<float, 3> albedo{0, 0, 0};       ///< linear, area-weighted mean base colour
-    float coverage = 0;                         ///< mean base-colour alpha
-    std::array<float, 3> normal{0, 0, 1};       ///< unit mean normal
-    std::array<float, 3> emission{0, 0, 0};     ///< linear emitted radiance
-    float occlusion = 0;                        ///< ambient occlusion (Gui et al. eq. 4), 0 = open
+    std::uint32_t x = 0, y = 0, z = 0;       ///< cell at level 0
+    std::array<float, 3> albedo{0, 0, 0};    ///< linear, area-weighted mean base colour
+    float coverage = 0;                      ///< mean base-colour alpha
+    std::array<float, 3> normal{0, 0, 1};    ///< unit mean normal
+    std::array<float, 3> emission{0, 0, 0};  ///< linear emitted radiance
+    float occlusion = 0;                     ///< ambient occlusion (Gui et al. eq. 4), 0 = open
 };
 
 /// What the bake records about itself (shown by `voxinspect info`).
 struct BakeInfo {
     std::uint32_t bounces = 0;
-    float shadowApertureDegrees = 0;   ///< 0: shadow rays
+    float shadowApertureDegrees = 0;  ///< 0: shadow rays
     float aoLambda = 0;
-    std::uint32_t attenuation = 0;     ///< vox::Attenuation
+    std::uint32_t attenuation = 0;  ///< vox::Attenuation
     std::uint32_t lights = 0;
 };
 
@@ -98,7 +103,9 @@ struct Volume {
     std::vector<VoxelAttributes> dynamicVoxels;  ///< ascending Morton order; not in the radiance
     BakeInfo bake;
 
-    [[nodiscard]] double cellSize(std::uint32_t level) const noexcept { return size / double(1u << (depth - level)); }
+    [[nodiscard]] double cellSize(std::uint32_t level) const noexcept {
+        return size / double(1u << (depth - level));
+    }
 };
 
 }  // namespace vox::rvol

@@ -34,7 +34,8 @@ inline constexpr std::uint32_t kHeaderBytes = 256;
 inline constexpr std::uint32_t kLevelEntryBytes = 32;
 inline constexpr std::uint32_t kBrickEntryBytes = 12;
 inline constexpr std::uint32_t kAttributeRecordBytes = 16;
-inline constexpr std::uint32_t kSectionAlignment = 64;  ///< file offset alignment of every section and level
+inline constexpr std::uint32_t kSectionAlignment =
+    64;  ///< file offset alignment of every section and level
 /// Deepest level-0 grid: the attribute records' 32-bit Morton codes hold 10 bits per axis.
 inline constexpr std::uint32_t kMaxDepth = 10;
 inline constexpr std::uint32_t kMinBrickTexels = 2;
@@ -45,7 +46,8 @@ inline constexpr std::uint32_t kMaxBrickTexels = 32;
 /// an RGB9E5 and an A8 plane, was 1.x's.)
 inline constexpr std::uint32_t kTexelFormatRgb9e5AxisA8 = 2;
 /// Header flags.
-inline constexpr std::uint32_t kFlagStaticAttributes = 1;  ///< the static attribute layer was written
+inline constexpr std::uint32_t kFlagStaticAttributes =
+    1;  ///< the static attribute layer was written
 /// Level-0 bricks are their RGB9E5 plane only (4·N³ bytes, no A8 plane), the opacity implicit: a
 /// word ≠ 0 is opacity 1, a word = 0 opacity 0 (docs/rvol-format.md, "Level 0 with binary
 /// opacity"). The writer sets it when every level-0 opacity is 0 or 1 (RvolWriteOptions).
@@ -69,7 +71,9 @@ inline constexpr float kRgb9e5Max = 65408.0f;
 [[nodiscard]] std::array<float, 3> decodeRgb9e5(std::uint32_t packed) noexcept;
 /// round(255 · clamp(v, 0, 1)) (NaN → 0): opacity, coverage and occlusion.
 [[nodiscard]] std::uint8_t encodeUnorm8(float v) noexcept;
-[[nodiscard]] inline float decodeUnorm8(std::uint8_t v) noexcept { return static_cast<float>(v) / 255.0f; }
+[[nodiscard]] inline float decodeUnorm8(std::uint8_t v) noexcept {
+    return static_cast<float>(v) / 255.0f;
+}
 /// Linear [0, 1] → 8-bit sRGB, round(255 · srgb(clamp(v, 0, 1))) (NaN → 0).
 [[nodiscard]] std::uint8_t encodeSrgb8(float linear) noexcept;
 /// 8-bit sRGB → linear.
@@ -83,14 +87,18 @@ inline constexpr float kRgb9e5Max = 65408.0f;
 // ---- geometry -------------------------------------------------------------------------------
 
 /// Cells per axis of @p level in a volume of @p depth (2^(depth − level)).
-[[nodiscard]] constexpr std::uint32_t levelResolution(std::uint32_t depth, std::uint32_t level) noexcept {
+[[nodiscard]] constexpr std::uint32_t levelResolution(std::uint32_t depth,
+                                                      std::uint32_t level) noexcept {
     return 1u << (depth - level);
 }
 /// Channels of @p level: 1 at level 0, kDirections above.
-[[nodiscard]] constexpr std::uint32_t levelChannels(std::uint32_t level) noexcept { return level == 0 ? 1u : kDirections; }
+[[nodiscard]] constexpr std::uint32_t levelChannels(std::uint32_t level) noexcept {
+    return level == 0 ? 1u : kDirections;
+}
 /// Bricks per axis covering the cell centres 0 … resolution − 1 with bricks of @p brickTexels
 /// texels that share a face: max(1, ⌈(resolution − 1)/(brickTexels − 1)⌉).
-[[nodiscard]] constexpr std::uint32_t bricksPerAxis(std::uint32_t resolution, std::uint32_t brickTexels) noexcept {
+[[nodiscard]] constexpr std::uint32_t bricksPerAxis(std::uint32_t resolution,
+                                                    std::uint32_t brickTexels) noexcept {
     const std::uint32_t step = brickTexels - 1;
     return resolution <= 1 ? 1u : (resolution - 1 + step - 1) / step;
 }
@@ -106,24 +114,31 @@ inline constexpr float kRgb9e5Max = 65408.0f;
 /// @p binaryOpacity: a file with kFlagBinaryLevel0Opacity), one per axis (3) for the six
 /// directional channels, whose ± pair shares its opacity (front-to-back compositing's opacity
 /// a_f + (1 − a_f)·a_b is symmetric in front and back); @p binaryOpacity does not change those.
-[[nodiscard]] constexpr std::uint32_t alphaPlanes(std::uint32_t channels, bool binaryOpacity = false) noexcept {
+[[nodiscard]] constexpr std::uint32_t alphaPlanes(std::uint32_t channels,
+                                                  bool binaryOpacity = false) noexcept {
     return channels == 1 ? (binaryOpacity ? 0u : 1u) : channels / 2;
 }
 /// The A8 plane holding the opacity of @p channel: channel/2 (PosX, NegX → 0 (x); PosY, NegY → 1
 /// (y); PosZ, NegZ → 2 (z); level 0's channel 0 → 0).
-[[nodiscard]] constexpr std::uint32_t alphaPlaneOf(std::uint32_t channel) noexcept { return channel / 2; }
+[[nodiscard]] constexpr std::uint32_t alphaPlaneOf(std::uint32_t channel) noexcept {
+    return channel / 2;
+}
 /// Byte offset in a brick of @p channel's RGB9E5 plane: channel · 4N³.
-[[nodiscard]] constexpr std::uint64_t rgbPlaneOffset(std::uint32_t brickTexels, std::uint32_t channel) noexcept {
+[[nodiscard]] constexpr std::uint64_t rgbPlaneOffset(std::uint32_t brickTexels,
+                                                     std::uint32_t channel) noexcept {
     return channel * rgbPlaneBytes(brickTexels);
 }
 /// Byte offset in a brick of @p channels channels of A8 plane @p plane: after every RGB9E5 plane.
-[[nodiscard]] constexpr std::uint64_t alphaPlaneOffset(std::uint32_t brickTexels, std::uint32_t channels, std::uint32_t plane) noexcept {
+[[nodiscard]] constexpr std::uint64_t alphaPlaneOffset(std::uint32_t brickTexels,
+                                                       std::uint32_t channels,
+                                                       std::uint32_t plane) noexcept {
     return channels * rgbPlaneBytes(brickTexels) + plane * alphaPlaneBytes(brickTexels);
 }
 /// Bytes of a brick of @p channels channels: the RGB9E5 planes then the A8 planes (N = 4: 320 at
 /// level 0, 256 with @p binaryOpacity, 6·256 + 3·64 = 1728 above; N = 5: 628, 500, 3384).
 /// @p binaryOpacity: the file has kFlagBinaryLevel0Opacity (it changes level 0's bricks only).
-[[nodiscard]] constexpr std::uint64_t brickBytes(std::uint32_t brickTexels, std::uint32_t channels, bool binaryOpacity = false) noexcept {
+[[nodiscard]] constexpr std::uint64_t brickBytes(std::uint32_t brickTexels, std::uint32_t channels,
+                                                 bool binaryOpacity = false) noexcept {
     return alphaPlaneOffset(brickTexels, channels, alphaPlanes(channels, binaryOpacity));
 }
 /// The first multiple of kSectionAlignment at or after @p offset.
@@ -138,8 +153,8 @@ struct Header {
     std::uint16_t versionMajor = kVersionMajor;
     std::uint16_t versionMinor = kVersionMinor;
     std::uint32_t depth = 0;
-    std::uint32_t levelCount = 1;           ///< depth + 1
-    std::uint32_t brickTexels = 4;          ///< N, texels per brick edge
+    std::uint32_t levelCount = 1;   ///< depth + 1
+    std::uint32_t brickTexels = 4;  ///< N, texels per brick edge
     std::uint32_t texelFormat = kTexelFormatRgb9e5AxisA8;
     std::uint32_t flags = 0;                ///< kFlagStaticAttributes, kFlagBinaryLevel0Opacity
     std::array<double, 3> origin{0, 0, 0};  ///< world position of the root cube's minimum corner
@@ -160,20 +175,24 @@ struct Header {
     std::uint32_t dynamicAttributesChecksum = 0;
     std::uint64_t fileBytes = 0;
 
-    [[nodiscard]] double cellSize(std::uint32_t level) const noexcept { return size / double(levelResolution(depth, level)); }
+    [[nodiscard]] double cellSize(std::uint32_t level) const noexcept {
+        return size / double(levelResolution(depth, level));
+    }
     /// Level-0 bricks are stored without their A8 plane (kFlagBinaryLevel0Opacity).
-    [[nodiscard]] bool binaryLevel0Opacity() const noexcept { return (flags & kFlagBinaryLevel0Opacity) != 0; }
+    [[nodiscard]] bool binaryLevel0Opacity() const noexcept {
+        return (flags & kFlagBinaryLevel0Opacity) != 0;
+    }
 };
 
 /// One entry of the level table (docs/rvol-format.md, "Level table").
 struct LevelEntry {
-    std::uint32_t resolution = 0;     ///< cells per axis
-    std::uint32_t channels = 0;       ///< 1 at level 0, 6 above
+    std::uint32_t resolution = 0;  ///< cells per axis
+    std::uint32_t channels = 0;    ///< 1 at level 0, 6 above
     std::uint32_t bricksPerAxis = 0;
-    std::uint32_t brickBytes = 0;     ///< bytes of each brick of the level
-    std::uint32_t brickCount = 0;     ///< bricks stored
-    std::uint32_t firstBrick = 0;     ///< index of the level's first entry in the brick directory
-    std::uint64_t dataOffset = 0;     ///< file offset of the level's first brick
+    std::uint32_t brickBytes = 0;  ///< bytes of each brick of the level
+    std::uint32_t brickCount = 0;  ///< bricks stored
+    std::uint32_t firstBrick = 0;  ///< index of the level's first entry in the brick directory
+    std::uint64_t dataOffset = 0;  ///< file offset of the level's first brick
 };
 
 /// One brick directory entry (docs/rvol-format.md, "Brick directory").
@@ -189,10 +208,10 @@ struct BrickEntry {
 
 /// One encoded attribute record (docs/rvol-format.md, "Attribute layers").
 struct AttributeRecord {
-    std::uint32_t morton = 0;      ///< morton3(x, y, z) of the level-0 cell
+    std::uint32_t morton = 0;                      ///< morton3(x, y, z) of the level-0 cell
     std::array<std::uint8_t, 4> albedoCoverage{};  ///< sRGB8 R, G, B, linear coverage
     std::uint32_t normalOcclusion = 0;  ///< octahedral normal (bits 0–23), occlusion (24–31)
-    std::uint32_t emission = 0;    ///< RGB9E5
+    std::uint32_t emission = 0;         ///< RGB9E5
 };
 [[nodiscard]] AttributeRecord encodeAttributes(const VoxelAttributes& voxel) noexcept;
 [[nodiscard]] VoxelAttributes decodeAttributes(const AttributeRecord& record) noexcept;
@@ -203,7 +222,8 @@ struct RvolWriteOptions {
     /// N, texels per brick edge, kMinBrickTexels … kMaxBrickTexels. 5 (4 cells per brick and axis)
     /// stored the fewest bytes of N = 3 … 8 on the Cornell box and on 2CylinderEngine at 256³.
     std::uint32_t brickTexels = 5;
-    bool staticAttributes = true;    ///< write the static attribute layer (the dynamic one is always written)
+    bool staticAttributes =
+        true;  ///< write the static attribute layer (the dynamic one is always written)
     /// Store level 0 in the binary-opacity layout (kFlagBinaryLevel0Opacity, 4·N³ instead of
     /// 4·N³ + ⌈N³/4⌉·4 bytes per brick) when the volume allows it without changing a decoded
     /// texel: every level-0 texel's opacity encodes as A8 0 or 255, and every texel of A8 0 has
@@ -224,20 +244,23 @@ struct RvolWriteResult {
     std::uint64_t bricks = 0;
     std::vector<std::uint64_t> bricksPerLevel;
     std::uint64_t staticVoxels = 0, dynamicVoxels = 0;  ///< records written
-    bool binaryLevel0Opacity = false;  ///< level 0 was stored in the binary-opacity layout (kFlagBinaryLevel0Opacity)
+    bool binaryLevel0Opacity =
+        false;  ///< level 0 was stored in the binary-opacity layout (kFlagBinaryLevel0Opacity)
 };
 
 /// Writes @p volume to @p file atomically (AtomicFile). The same volume and options give the same
 /// bytes. Level 0 takes the binary-opacity layout when RvolWriteOptions::binaryLevel0Opacity
 /// allows and the volume qualifies (see there). Each axis' A8 plane at levels ≥ 1 holds the mean
-/// of its two channels' opacities (each clamped to [0, 1] first); they are equal for volumes the bake produces, so a volume whose ±
-/// opacities differ reads back with both replaced by their mean. Expects a consistent volume:
-/// depth ≤ kMaxDepth; levels[l] with resolution 2^(depth − l) and levelChannels(l) channels, blocks strictly ascending and inside the level, texels sized
-/// blocks × channels × kBlockTexels; voxel attributes inside level 0 in strictly ascending Morton
-/// order; origin finite, size finite and > 0. Texels of cells ≥ resolution are not stored.
+/// of its two channels' opacities (each clamped to [0, 1] first); they are equal for volumes the
+/// bake produces, so a volume whose ± opacities differ reads back with both replaced by their mean.
+/// Expects a consistent volume: depth ≤ kMaxDepth; levels[l] with resolution 2^(depth − l) and
+/// levelChannels(l) channels, blocks strictly ascending and inside the level, texels sized blocks ×
+/// channels × kBlockTexels; voxel attributes inside level 0 in strictly ascending Morton order;
+/// origin finite, size finite and > 0. Texels of cells ≥ resolution are not stored.
 /// @throws UsageError for bad options, std::invalid_argument for an inconsistent volume, IoError
 /// if the file cannot be written.
-RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volume, const RvolWriteOptions& options = {});
+RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volume,
+                          const RvolWriteOptions& options = {});
 
 // ---- reading --------------------------------------------------------------------------------
 
@@ -263,14 +286,16 @@ public:
     [[nodiscard]] std::span<const BrickEntry> bricks(std::uint32_t level) const;
     /// Index (within the level) of the brick at brick coordinates (x, y, z), or -1 if it is not
     /// stored (its texels are all zero). @throws std::out_of_range for a bad level.
-    [[nodiscard]] std::int64_t findBrick(std::uint32_t level, std::uint32_t x, std::uint32_t y, std::uint32_t z) const;
+    [[nodiscard]] std::int64_t findBrick(std::uint32_t level, std::uint32_t x, std::uint32_t y,
+                                         std::uint32_t z) const;
     /// File offset of brick @p index of @p level: dataOffset + index × brickBytes.
     [[nodiscard]] std::uint64_t brickOffset(std::uint32_t level, std::uint32_t index) const;
 
     /// The stored bytes of brick @p index of @p level (brickBytes of them, as a GPU would upload
     /// them), checksum verified. @throws std::out_of_range for a bad level or index,
     /// InvalidDataError on a checksum mismatch.
-    [[nodiscard]] std::vector<std::uint8_t> readBrickBytes(std::uint32_t level, std::uint32_t index) const;
+    [[nodiscard]] std::vector<std::uint8_t> readBrickBytes(std::uint32_t level,
+                                                           std::uint32_t index) const;
     /// Brick @p index of @p level decoded: channels × N³ texels, channel-major, then z, y, x
     /// (x fastest); texel (i, j, k) is cell (bx·(N−1) + i, by·(N−1) + j, bz·(N−1) + k). Each
     /// channel's opacity comes from its axis' A8 plane, so ± channels read the same opacity; at
@@ -283,12 +308,14 @@ public:
     /// around u in that brick, zero if the brick is not stored. Decoded bricks are cached (see
     /// setCacheBytes). @throws std::out_of_range for a bad level or channel, InvalidDataError if
     /// a brick read fails its checksum.
-    [[nodiscard]] Texel sample(std::uint32_t level, std::uint32_t channel, const std::array<double, 3>& position) const;
+    [[nodiscard]] Texel sample(std::uint32_t level, std::uint32_t channel,
+                               const std::array<double, 3>& position) const;
     /// What a cone travelling along @p direction sees at @p position: Σ over the axes s of
     /// d_s²/|d|² × sample of the channel of s with d_s's sign (PosX for d_x > 0, NegX for d_x < 0;
     /// the directional convention of rvol.h). Level 0: the isotropic channel. A zero or
     /// non-finite @p direction gives zero at levels ≥ 1.
-    [[nodiscard]] Texel sampleDirectional(std::uint32_t level, const std::array<double, 3>& position,
+    [[nodiscard]] Texel sampleDirectional(std::uint32_t level,
+                                          const std::array<double, 3>& position,
                                           const std::array<double, 3>& direction) const;
     /// Bytes of decoded bricks kept for sample() (least recently used go first); 64 MiB by default.
     void setCacheBytes(std::uint64_t bytes) const;
@@ -310,7 +337,8 @@ public:
 
 private:
     struct Cache;
-    [[nodiscard]] std::shared_ptr<const std::vector<Texel>> cachedBrick(std::uint32_t level, std::uint32_t index) const;
+    [[nodiscard]] std::shared_ptr<const std::vector<Texel>> cachedBrick(std::uint32_t level,
+                                                                        std::uint32_t index) const;
 
     std::filesystem::path path_;
     std::unique_ptr<vox::ReadOnlyFile> file_;  // opened by the constructor, never null
@@ -327,7 +355,8 @@ private:
 /// (2^-24, 0, 0)). @p binaryOpacity does not change 6-channel bricks.
 /// @throws std::invalid_argument if @p channels is neither 1 nor kDirections, or @p bytes is not
 /// brickBytes(@p brickTexels, @p channels, @p binaryOpacity) long.
-[[nodiscard]] std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_t brickTexels, std::uint32_t channels,
+[[nodiscard]] std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes,
+                                             std::uint32_t brickTexels, std::uint32_t channels,
                                              bool binaryOpacity = false);
 
 // ---- validation -----------------------------------------------------------------------------
@@ -336,19 +365,21 @@ private:
 struct RvolReport {
     std::uint64_t fileBytes = 0;
     std::uint64_t headerBytes = 0, levelTableBytes = 0, directoryBytes = 0;
-    std::uint64_t radianceBytes = 0;   ///< brick data
+    std::uint64_t radianceBytes = 0;  ///< brick data
     std::uint64_t staticAttributeBytes = 0, dynamicAttributeBytes = 0;
-    std::uint64_t paddingBytes = 0;    ///< alignment gaps (all zero)
+    std::uint64_t paddingBytes = 0;  ///< alignment gaps (all zero)
     std::uint64_t bricks = 0;
     std::vector<std::uint64_t> bricksPerLevel;
-    std::vector<std::uint64_t> nonZeroTexelsPerLevel;  ///< distinct cells with a non-zero texel in any channel
+    std::vector<std::uint64_t>
+        nonZeroTexelsPerLevel;  ///< distinct cells with a non-zero texel in any channel
     std::uint64_t staticVoxels = 0, dynamicVoxels = 0;
 };
 
 /// Reads and checks every brick and attribute record of an open file: brick checksums, no stored
 /// brick all zero (in the binary-opacity layout: a non-zero word), zero texels for cells outside
-/// the level, zero A8 plane padding, equal shared faces between neighbouring bricks (and zero faces towards bricks that are not stored), attribute
-/// checksums, Morton codes strictly ascending and inside level 0, zero gaps between sections.
+/// the level, zero A8 plane padding, equal shared faces between neighbouring bricks (and zero faces
+/// towards bricks that are not stored), attribute checksums, Morton codes strictly ascending and
+/// inside level 0, zero gaps between sections.
 /// @throws InvalidDataError "FILE: where: what" at the first problem.
 RvolReport validateRvol(const RvolReader& reader);
 

@@ -23,7 +23,8 @@ namespace vox::runtime {
 /// normal: the shading normal (the face's where there is none) as 127.5·(n + 1); depth: grey
 /// from near (255) to far (51); iterations: blue-green-red heat map; level: a palette.
 /// @throws vox::UsageError for an unknown channel.
-[[nodiscard]] std::vector<std::uint8_t> composeChannel(const GpuFrame& frame, const Camera& camera, const std::string& channel);
+[[nodiscard]] std::vector<std::uint8_t> composeChannel(const GpuFrame& frame, const Camera& camera,
+                                                       const std::string& channel);
 
 [[nodiscard]] float srgbToLinear(float v);
 [[nodiscard]] float linearToSrgb(float v);

@@ -22,27 +22,33 @@ struct GpuCastOptions {
     /// Stop where a voxel is smaller than this many radians along the ray (the pixel footprint:
     /// Camera::pixelAngle() × voxinspect's --lod-scale); 0 disables the level-of-detail cut.
     double lodAngle = 0;
-    std::uint32_t maxLevel = std::numeric_limits<std::uint32_t>::max();  ///< treat this level as leaves
-    bool contours = true;     ///< intersect voxels' contours
-    bool attributes = true;   ///< decode colour and shading normal (raw, dxt, dxt-lookup)
+    std::uint32_t maxLevel =
+        std::numeric_limits<std::uint32_t>::max();  ///< treat this level as leaves
+    bool contours = true;                           ///< intersect voxels' contours
+    bool attributes = true;  ///< decode colour and shading normal (raw, dxt, dxt-lookup)
 };
 
 /// One frame read back to the host, one entry per pixel, row 0 at the top (libvox RenderBuffers'
 /// layout, so the images compare pixel by pixel).
 struct GpuFrame {
     int width = 0, height = 0;
-    std::vector<float> depth;              ///< distance along the ray (world units); +inf where it missed
-    std::vector<float> normal;             ///< 3 per pixel: world normal of the face or contour entered; 0 on a miss
-    std::vector<float> shadingNormal;      ///< 3 per pixel: unit decoded shading normal; 0 where none
-    std::vector<std::uint32_t> color;      ///< esvo::packColor word (sRGB RGB, alpha); 0 where none
-    std::vector<std::uint32_t> iterations; ///< traversal loop iterations
-    std::vector<std::uint8_t> level;       ///< level of the voxel hit; 0 on a miss
+    std::vector<float> depth;  ///< distance along the ray (world units); +inf where it missed
+    std::vector<float>
+        normal;  ///< 3 per pixel: world normal of the face or contour entered; 0 on a miss
+    std::vector<float> shadingNormal;  ///< 3 per pixel: unit decoded shading normal; 0 where none
+    std::vector<std::uint32_t> color;  ///< esvo::packColor word (sRGB RGB, alpha); 0 where none
+    std::vector<std::uint32_t> iterations;  ///< traversal loop iterations
+    std::vector<std::uint8_t> level;        ///< level of the voxel hit; 0 on a miss
     std::uint64_t hits = 0;
-    double gpuMilliseconds = 0;            ///< GL_TIME_ELAPSED of the dispatch (llvmpipe reports ~0 for compute)
-    double wallMilliseconds = 0;           ///< host wall time from the dispatch to glFinish (no read-back)
-    [[nodiscard]] bool hit(std::size_t i) const { return depth[i] != std::numeric_limits<float>::infinity(); }
+    double gpuMilliseconds =
+        0;  ///< GL_TIME_ELAPSED of the dispatch (llvmpipe reports ~0 for compute)
+    double wallMilliseconds = 0;  ///< host wall time from the dispatch to glFinish (no read-back)
+    [[nodiscard]] bool hit(std::size_t i) const {
+        return depth[i] != std::numeric_limits<float>::infinity();
+    }
     [[nodiscard]] bool hasAttributes(std::size_t i) const {
-        return shadingNormal[3 * i] != 0 || shadingNormal[3 * i + 1] != 0 || shadingNormal[3 * i + 2] != 0;
+        return shadingNormal[3 * i] != 0 || shadingNormal[3 * i + 1] != 0 ||
+               shadingNormal[3 * i + 2] != 0;
     }
 };
 

@@ -24,21 +24,22 @@ struct EsvoStreamOptions {
     /// shader storage block (GL_MAX_SHADER_STORAGE_BLOCK_SIZE, 128 MiB on llvmpipe) less the
     /// root slice. options() tells the budget in force.
     std::uint64_t budgetBytes = 256u << 20;
-    std::uint64_t frameLoadBytes = 0;            ///< most bytes of slices loaded per update (0: all that is needed)
-    double lodScale = 1;                         ///< detail: voxels of about lodScale pixels
+    std::uint64_t frameLoadBytes =
+        0;                ///< most bytes of slices loaded per update (0: all that is needed)
+    double lodScale = 1;  ///< detail: voxels of about lodScale pixels
     UploadPath uploadPath = UploadPath::PersistentRing;
-    std::uint64_t ringBytes = 8u << 20;          ///< the staging ring (PersistentRing)
+    std::uint64_t ringBytes = 8u << 20;  ///< the staging ring (PersistentRing)
 };
 
 /// What one update() did.
 struct EsvoStreamUpdate {
-    std::uint32_t loaded = 0, evicted = 0;      ///< slices
-    std::uint64_t loadedBytes = 0;              ///< resident bytes of the slices loaded
-    std::uint32_t pending = 0;                  ///< needed slices left for later frames by frameLoadBytes
-    std::uint32_t neededNotFitting = 0;         ///< needed slices the budget leaves out
-    std::uint64_t uploadedBytes = 0;            ///< bytes sent to the GPU
-    std::uint64_t residentBytes = 0;            ///< slice bytes resident after the update
-    double seconds = 0;                         ///< reading, validating and uploading
+    std::uint32_t loaded = 0, evicted = 0;  ///< slices
+    std::uint64_t loadedBytes = 0;          ///< resident bytes of the slices loaded
+    std::uint32_t pending = 0;           ///< needed slices left for later frames by frameLoadBytes
+    std::uint32_t neededNotFitting = 0;  ///< needed slices the budget leaves out
+    std::uint64_t uploadedBytes = 0;     ///< bytes sent to the GPU
+    std::uint64_t residentBytes = 0;     ///< slice bytes resident after the update
+    double seconds = 0;                  ///< reading, validating and uploading
     /// Slices found corrupt or unreadable so far (this update and earlier ones): each is left out
     /// with everything below it, never retried, and rays stop at its parent's level there.
     std::uint32_t badSlices = 0;
@@ -54,8 +55,10 @@ struct EsvoStreamUpdate {
 /// coarser voxels where detail has not arrived. Needs the context current on the calling thread.
 class EsvoStream {
 public:
-    /// Opens @p file (header, directory, root slice). @throws IoError, InvalidDataError, RuntimeError.
-    EsvoStream(GlContext& context, const std::filesystem::path& file, const EsvoStreamOptions& options = {});
+    /// Opens @p file (header, directory, root slice). @throws IoError, InvalidDataError,
+    /// RuntimeError.
+    EsvoStream(GlContext& context, const std::filesystem::path& file,
+               const EsvoStreamOptions& options = {});
 
     void setCamera(const Camera& camera);
     /// A new budget, at most the one the stream was opened with (its GPU buffer is that big).

@@ -35,7 +35,7 @@ struct GpuShadingPoint {
     std::array<float, 3> normal{0, 0, 1};  ///< unit, on the viewer's side
     std::array<float, 3> albedo{0, 0, 0};
     std::array<float, 3> emission{0, 0, 0};
-    std::array<float, 3> view{0, 0, 1};    ///< unit, towards the viewer
+    std::array<float, 3> view{0, 0, 1};  ///< unit, towards the viewer
 };
 
 /// The terms of one point (vox::FinalGatherParts in float).
@@ -49,8 +49,8 @@ struct FinalGatherGpuOptions {
     double specularApertureDegrees = 10;  ///< full apex angle, (0, 90)
     double shadowApertureDegrees = 10;    ///< full apex angle, (0, 90)
     bool shadowCones = true;
-    double offsetCells = 2;               ///< cone start off the surface, level-0 cells
-    double aoLambda = 8;                  ///< eq. 4's λ (the bake's: rvol BakeInfo::aoLambda)
+    double offsetCells = 2;  ///< cone start off the surface, level-0 cells
+    double aoLambda = 8;     ///< eq. 4's λ (the bake's: rvol BakeInfo::aoLambda)
     double specularF0 = 0.04;
     /// true: the texture unit's trilinear filter over the atlas slots (one fetch per plane);
     /// false: eight texelFetch per plane with float weights (exactly the CPU's interpolation).
@@ -69,7 +69,8 @@ public:
 
     /// Every term of each point, the direct one summed over @p lights with shadow cones, through
     /// one dispatch (64 points per work group). Blocks until the results are read back.
-    [[nodiscard]] std::vector<GpuGatherParts> shade(const RvolGpuVolume& volume, std::span<const GpuShadingPoint> points,
+    [[nodiscard]] std::vector<GpuGatherParts> shade(const RvolGpuVolume& volume,
+                                                    std::span<const GpuShadingPoint> points,
                                                     std::span<const GpuPunctualLight> lights);
     /// RadianceField::sample(level, position, direction) on the GPU for each query (tests).
     struct SampleQuery {
@@ -77,7 +78,8 @@ public:
         std::array<float, 3> position{0, 0, 0};
         std::array<float, 3> direction{0, 0, 1};
     };
-    [[nodiscard]] std::vector<std::array<float, 4>> sample(const RvolGpuVolume& volume, std::span<const SampleQuery> queries);
+    [[nodiscard]] std::vector<std::array<float, 4>> sample(const RvolGpuVolume& volume,
+                                                           std::span<const SampleQuery> queries);
 
     [[nodiscard]] const FinalGatherGpuOptions& options() const noexcept { return options_; }
     /// Seconds the last shade() took on the GPU, upload and read-back included (glFinish).

@@ -23,7 +23,8 @@ public:
 
 /// One message the GL implementation reported through KHR_debug.
 struct GlDebugMessage {
-    std::uint32_t source = 0, type = 0, id = 0, severity = 0;  ///< GL_DEBUG_SOURCE_*, GL_DEBUG_TYPE_*, id, GL_DEBUG_SEVERITY_*
+    std::uint32_t source = 0, type = 0, id = 0,
+                  severity = 0;  ///< GL_DEBUG_SOURCE_*, GL_DEBUG_TYPE_*, id, GL_DEBUG_SEVERITY_*
     std::string text;
 };
 
@@ -42,9 +43,11 @@ public:
     GlContext(const GlContext&) = delete;
     GlContext& operator=(const GlContext&) = delete;
 
-    [[nodiscard]] const std::string& renderer() const noexcept { return renderer_; }  ///< GL_RENDERER
-    [[nodiscard]] const std::string& version() const noexcept { return version_; }    ///< GL_VERSION
-    [[nodiscard]] const std::string& vendor() const noexcept { return vendor_; }      ///< GL_VENDOR
+    [[nodiscard]] const std::string& renderer() const noexcept {
+        return renderer_;
+    }                                                                               ///< GL_RENDERER
+    [[nodiscard]] const std::string& version() const noexcept { return version_; }  ///< GL_VERSION
+    [[nodiscard]] const std::string& vendor() const noexcept { return vendor_; }    ///< GL_VENDOR
     [[nodiscard]] int majorVersion() const noexcept { return major_; }
     [[nodiscard]] int minorVersion() const noexcept { return minor_; }
     /// How the context came about: "surfaceless", "device" or "default" (EGL), "current" (adopted).
@@ -53,7 +56,8 @@ public:
     /// GL errors (KHR_debug messages of type GL_DEBUG_TYPE_ERROR) since construction or the
     /// last clearDebugMessages(). Tests assert this is 0 after every frame.
     [[nodiscard]] std::uint64_t errorCount() const;
-    /// Every message received (the first 256 kept), errors and others (performance, portability...).
+    /// Every message received (the first 256 kept), errors and others (performance,
+    /// portability...).
     [[nodiscard]] std::vector<GlDebugMessage> debugMessages() const;
     /// The kept error messages joined by "; " (for a test failure or an exception).
     [[nodiscard]] std::string errorSummary() const;
@@ -64,7 +68,8 @@ public:
     void throwOnErrors(const std::string& what) const;
 
     /// KHR_debug callback target (public for the C callback only).
-    void onDebugMessage(std::uint32_t source, std::uint32_t type, std::uint32_t id, std::uint32_t severity, const char* text);
+    void onDebugMessage(std::uint32_t source, std::uint32_t type, std::uint32_t id,
+                        std::uint32_t severity, const char* text);
 
 protected:
     GlContext() = default;
@@ -78,7 +83,8 @@ private:
     std::string renderer_, version_, vendor_;
     int major_ = 0, minor_ = 0;
     bool attached_ = false;
-    mutable std::mutex mutex_;  // GL may call back from a driver thread when output is not synchronous
+    mutable std::mutex
+        mutex_;  // GL may call back from a driver thread when output is not synchronous
     std::vector<GlDebugMessage> messages_;
     std::uint64_t errors_ = 0;
 };
@@ -102,9 +108,10 @@ public:
     [[nodiscard]] const char* platformName() const noexcept override;
 
 private:
-    void* display_ = nullptr;   // EGLDisplay
-    void* context_ = nullptr;   // EGLContext
-    void* surface_ = nullptr;   // EGLSurface: a 1×1 pbuffer when EGL_KHR_surfaceless_context is missing
+    void* display_ = nullptr;  // EGLDisplay
+    void* context_ = nullptr;  // EGLContext
+    void* surface_ =
+        nullptr;  // EGLSurface: a 1×1 pbuffer when EGL_KHR_surfaceless_context is missing
     EglPlatform platform_ = EglPlatform::Default;
 };
 

@@ -27,7 +27,9 @@ public:
     /// Gives @p slot back (it must have come from allocate() and not been released since).
     void release(std::uint32_t slot);
     [[nodiscard]] std::uint32_t capacity() const noexcept { return capacity_; }
-    [[nodiscard]] std::uint32_t used() const noexcept { return next_ - 1 - static_cast<std::uint32_t>(free_.size()); }
+    [[nodiscard]] std::uint32_t used() const noexcept {
+        return next_ - 1 - static_cast<std::uint32_t>(free_.size());
+    }
 
 private:
     std::uint32_t capacity_;
@@ -38,11 +40,13 @@ private:
 /// Where RvolGpuVolume::bind() puts its objects; the GLSL of final_gather_gpu.cpp declares the
 /// same bindings (a shader of its own must too).
 struct RvolGpuBindings {
-    std::uint32_t rgbAtlasUnit = 0;    ///< sampler3D: the GL_RGB9_E5 radiance atlas, GL_LINEAR
-    std::uint32_t wordAtlasUnit = 1;   ///< usampler3D: the same storage as GL_R32UI (texture view), GL_NEAREST
+    std::uint32_t rgbAtlasUnit = 0;  ///< sampler3D: the GL_RGB9_E5 radiance atlas, GL_LINEAR
+    std::uint32_t wordAtlasUnit =
+        1;  ///< usampler3D: the same storage as GL_R32UI (texture view), GL_NEAREST
     std::uint32_t alphaAtlasUnit = 2;  ///< sampler3D: the GL_R8 opacity atlas, GL_LINEAR
     std::uint32_t infoBinding = 4;     ///< SSBO: volume geometry and the level table
-    std::uint32_t indirectionBinding = 5;  ///< SSBO: per level, brick and plane, the packed atlas slot
+    std::uint32_t indirectionBinding =
+        5;  ///< SSBO: per level, brick and plane, the packed atlas slot
 };
 
 struct RvolGpuVolumeOptions {
@@ -88,7 +92,8 @@ public:
     /// Allocates the atlases for every brick of @p reader (plus the options' extra slots) and, by
     /// default, uploads them all. @throws RuntimeError when an atlas needs more slots than
     /// GL_MAX_3D_TEXTURE_SIZE allows, or on a GL error; InvalidDataError for a corrupt brick.
-    RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader, const RvolGpuVolumeOptions& options = {});
+    RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader,
+                  const RvolGpuVolumeOptions& options = {});
     ~RvolGpuVolume();
     RvolGpuVolume(const RvolGpuVolume&) = delete;
     RvolGpuVolume& operator=(const RvolGpuVolume&) = delete;
@@ -118,7 +123,9 @@ public:
     [[nodiscard]] std::uint64_t residentBytes() const noexcept;
     /// Of the atlases, the bytes of slots holding a brick's plane.
     [[nodiscard]] std::uint64_t usedAtlasBytes() const noexcept;
-    [[nodiscard]] std::uint64_t indirectionBytes() const noexcept { return indirection_.size() * 4; }
+    [[nodiscard]] std::uint64_t indirectionBytes() const noexcept {
+        return indirection_.size() * 4;
+    }
     [[nodiscard]] std::uint64_t uploadedBytesTotal() const noexcept { return uploadedTotal_; }
 
     [[nodiscard]] unsigned rgbAtlas() const noexcept { return rgbAtlas_; }
@@ -130,12 +137,15 @@ public:
     /// GPU bytes of the slots brick @p level holds: what a residency budget counts.
     [[nodiscard]] std::uint64_t brickBytes(std::uint32_t level) const noexcept;
     /// Planes per brick entry of the indirection: 2 at level 0, 9 above.
-    [[nodiscard]] static std::uint32_t planesPerBrick(std::uint32_t level) noexcept { return level == 0 ? 2u : 9u; }
+    [[nodiscard]] static std::uint32_t planesPerBrick(std::uint32_t level) noexcept {
+        return level == 0 ? 2u : 9u;
+    }
 
 private:
     [[nodiscard]] std::uint64_t entryOffset(std::uint32_t level, std::uint32_t index) const;
     void createAtlas(unsigned& texture, const std::array<std::uint32_t, 3>& grid, bool rgb);
-    [[nodiscard]] std::array<std::uint32_t, 3> slotOrigin(const std::array<std::uint32_t, 3>& grid, std::uint32_t slot) const noexcept;
+    [[nodiscard]] std::array<std::uint32_t, 3> slotOrigin(const std::array<std::uint32_t, 3>& grid,
+                                                          std::uint32_t slot) const noexcept;
 
     GlContext& context_;
     const rvol::RvolReader& reader_;
@@ -145,8 +155,9 @@ private:
     unsigned rgbAtlas_ = 0, wordView_ = 0, alphaAtlas_ = 0, infoBuffer_ = 0, indirectionBuffer_ = 0;
     std::array<std::uint32_t, 3> rgbGrid_{1, 1, 1}, alphaGrid_{1, 1, 1};
     AtlasSlotAllocator rgbSlots_, alphaSlots_;
-    std::vector<std::uint64_t> levelBase_;       // per level: first u32 of its indirection entries
-    std::vector<std::uint32_t> indirection_;     // host copy of the indirection SSBO (packed slot coordinates)
+    std::vector<std::uint64_t> levelBase_;  // per level: first u32 of its indirection entries
+    std::vector<std::uint32_t>
+        indirection_;  // host copy of the indirection SSBO (packed slot coordinates)
     std::vector<std::vector<std::uint8_t>> residentFlags_;  // per level, per directory index
     std::uint64_t residentBricks_ = 0;
     std::uint64_t infoBytes_ = 0;

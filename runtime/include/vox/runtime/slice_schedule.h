@@ -48,15 +48,16 @@ struct SliceRegion {
 struct SliceSelection {
     /// Slices to have resident, parents before children (slice 0, the root, always first).
     std::vector<std::uint32_t> slices;
-    std::uint64_t bytes = 0;              ///< their residentBytesOf total
-    std::uint32_t neededNotFitting = 0;   ///< needed slices left out by the budget (0: full detail)
+    std::uint64_t bytes = 0;             ///< their residentBytesOf total
+    std::uint32_t neededNotFitting = 0;  ///< needed slices left out by the budget (0: full detail)
 };
 
 /// Selects the slices @p view needs from @p reader's file, at most @p budgetBytes in all (the
 /// root slice always, even over the budget). Deterministic: ties go to the lower slice index.
 /// @p excluded (one flag per slice, or null): slices never to select, nor anything below them
 /// (slices found corrupt).
-[[nodiscard]] SliceSelection selectSlices(const esvo::EsvoReader& reader, const std::vector<SliceRegion>& regions,
+[[nodiscard]] SliceSelection selectSlices(const esvo::EsvoReader& reader,
+                                          const std::vector<SliceRegion>& regions,
                                           const StreamingView& view, std::uint64_t budgetBytes,
                                           const std::vector<char>* excluded = nullptr);
 
@@ -74,7 +75,8 @@ public:
     /// What update() did.
     struct Update {
         std::vector<std::uint32_t> loaded;   ///< in load order
-        std::vector<std::uint32_t> evicted;  ///< slices unloaded (with EsvoPool::unload, which also drops their descendants)
+        std::vector<std::uint32_t> evicted;  ///< slices unloaded (with EsvoPool::unload, which also
+                                             ///< drops their descendants)
         std::uint64_t loadedBytes = 0;       ///< residentBytesOf the loaded slices
         /// Selected slices left for later frames by the per-frame load limit (0: the view is at
         /// the detail the budget allows).

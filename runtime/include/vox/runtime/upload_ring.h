@@ -27,7 +27,8 @@ class UploadRing {
 public:
     /// @p ringBytes: the staging ring's size (rounded up to 256 bytes; uploads larger than a
     /// quarter of it go in several parts). @throws RuntimeError on a GL error.
-    UploadRing(GlContext& context, std::uint64_t ringBytes = 8u << 20, UploadPath path = UploadPath::PersistentRing);
+    UploadRing(GlContext& context, std::uint64_t ringBytes = 8u << 20,
+               UploadPath path = UploadPath::PersistentRing);
     ~UploadRing();
     UploadRing(const UploadRing&) = delete;
     UploadRing& operator=(const UploadRing&) = delete;
