@@ -13,7 +13,7 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
-# shellcheck source=slurm_cluster.sh
+# shellcheck source-path=SCRIPTDIR source=slurm_cluster.sh
 source "$here/slurm_cluster.sh"
 slurm_cluster_check
 build=$(cd "${1:-$root/build}" && pwd)
