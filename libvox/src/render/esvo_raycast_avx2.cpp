@@ -11,6 +11,7 @@
 #include <vox/raycast.h>
 
 #include "esvo_traversal.h"
+#include "../util/cpu_features.h"
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define VOX_RAYCAST_AVX2 1
@@ -403,16 +404,6 @@ VOX_AVX2 void runLanes(LaneState& L, const std::uint32_t* words, const CastOptio
     LaneRegs r = loadLanes(L);
     while (any(r.active)) step(r, L, words, options, lodCoef);
     storeLanes(L, r);
-}
-
-/// What this CPU (and its OS, which __builtin_cpu_supports also asks) can run, asked once.
-struct CpuFeatures {
-    bool avx2 = __builtin_cpu_supports("avx2") != 0;
-    bool avx512vl = __builtin_cpu_supports("avx512vl") != 0;
-};
-const CpuFeatures& cpuFeatures() {
-    static const CpuFeatures features;
-    return features;
 }
 
 }  // namespace
