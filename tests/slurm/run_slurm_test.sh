@@ -2,7 +2,8 @@
 # scripts/voxelize-slurm against a real Slurm (issue 35): starts munged, slurmctld and slurmd as a
 # one-node cluster in a temporary directory (tests/slurm/slurm_cluster.sh), then
 #   1. an array of 4 partition runs + merge of the Cornell box at depth 10, partition level 2
-#      (57 partitions): the merged .esvo equals a local voxelize build byte for byte;
+#      (57 partitions), and the radiance bake as its own job: the merged .esvo and the .rvol
+#      equal a local voxelize build's byte for byte;
 #   2. the same with run 3 killed by scancel while it runs: the merge is cancelled, no output;
 #      a part with a corrupt header and one with a corrupt block; --resubmit builds only the
 #      runs whose part is missing or corrupt (the block's as named by the failed merge), and
@@ -64,6 +65,7 @@ ok "one-node cluster up: $(sinfo -h -N -o '%N %c CPUs %m MB %T')"
 scene=$("$make_scene" cornell-box -o "$tmp/scene")
 opts=(--depth 10 --partition-level 2)
 "$voxelize" "$scene" -o "$tmp/local.esvo" "${opts[@]}" --stats "$tmp/local.json" -q
+"$voxelize" "$scene" --radiance "$tmp/local.rvol" --radiance-depth 6 -q
 partitions=$(json "$tmp/local.json" octree.partitions)
 [ "$partitions" -ge 8 ] || fail "only $partitions partitions"
 
@@ -72,6 +74,7 @@ expect_usage_error "--runs" "$scene" -o "$tmp/u/x.esvo" --runs 0 --workdir "$tmp
 expect_usage_error "unknown option '--depht'" "$scene" -o "$tmp/u/x.esvo" --runs 2 --workdir "$tmp/u" --depht 10
 expect_usage_error "--partition" "$scene" -o "$tmp/u/x.esvo" --runs 2 --workdir "$tmp/u" --partition 1/2
 expect_usage_error ".esvo" "$scene" -o "$tmp/u/x.esvopart" --runs 2 --workdir "$tmp/u"
+expect_usage_error "needs partitions" "$scene" -o "$tmp/u/x.esvo" --runs 2 --workdir "$tmp/u" --depth 9
 expect_usage_error "no submission to resubmit" "$scene" -o "$tmp/u/x.esvo" --runs 2 --workdir "$tmp/u" --voxelize "$voxelize" --resubmit
 [ -z "$(squeue -h -o %A)" ] || fail "a usage error submitted a job"
 ok "usage errors: one line, exit 1, no job"
@@ -87,17 +90,23 @@ grep -q -- "--radiance $tmp/dry/scene.rvol --bounces 1 " "$tmp/dry/radiance.sbat
 [ -z "$(squeue -h -o %A)" ] || fail "--dry-run submitted a job"
 ok "--dry-run writes parts.sbatch, merge.sbatch, radiance.sbatch and submits nothing"
 
-# Round 1: 4 runs + merge, against the local build.
+# Round 1: 4 runs + merge and the bake, against the local build.
 r1=$tmp/r1
-ids=$("$front" "$scene" -o "$r1/scene.esvo" --runs 4 --workdir "$r1" "${opts[@]}" --voxelize "$voxelize" --cpus-per-task 1)
+bake=(--radiance "$r1/scene.rvol" --radiance-depth 6)
+ids=$("$front" "$scene" -o "$r1/scene.esvo" --runs 4 --workdir "$r1" "${opts[@]}" "${bake[@]}" --voxelize "$voxelize" --cpus-per-task 1)
 array=$(job array "$ids")
 merge=$(job merge "$ids")
-[ -n "$array" ] && [ -n "$merge" ] || fail "voxelize-slurm printed: $ids"
-slurm_wait_gone 300 "$array" "$merge" || fail "round 1 did not finish"
+radiance=$(job radiance "$ids")
+[ -n "$array" ] && [ -n "$merge" ] && [ -n "$radiance" ] || fail "voxelize-slurm printed: $ids"
+slurm_wait_gone 300 "$array" "$merge" "$radiance" || fail "round 1 did not finish"
 for k in 1 2 3 4; do expect_state "${array}_$k" COMPLETED; done
 expect_state "$merge" COMPLETED
+expect_state "$radiance" COMPLETED
 cmp "$tmp/local.esvo" "$r1/scene.esvo" || fail "round 1: the merged .esvo differs from the local build"
 ok "4 runs + merge ($partitions partitions): the merged .esvo is the local build's bytes ($(stat -c %s "$r1/scene.esvo") bytes)"
+cmp "$tmp/local.rvol" "$r1/scene.rvol" || fail "round 1: the .rvol differs from the local bake"
+[ "$(json "$r1/radiance.stats.json" radiance.depth)" = 6 ] || fail "radiance.stats.json: no radiance depth 6"
+ok "the bake as a job of its own: the local bake's bytes ($(stat -c %s "$r1/scene.rvol") bytes), its stats beside"
 built=0
 for k in 1 2 3 4; do
     [ "$(json "$r1/part-$k.stats.json" octree.partition.run)/$(json "$r1/part-$k.stats.json" octree.partition.runs)" = "$k/4" ] ||
@@ -108,10 +117,10 @@ done
 [ "$built" -eq "$partitions" ] || fail "the runs built $built partitions of $partitions"
 [ "$(json "$r1/merge.stats.json" octree.file_bytes)" -eq "$(stat -c %s "$tmp/local.esvo")" ] || fail "merge.stats.json file_bytes"
 ok "each run's --stats and log beside its part; the runs built the $partitions partitions once each"
-again=$("$front" "$scene" -o "$r1/scene.esvo" --runs 4 --workdir "$r1" "${opts[@]}" --voxelize "$voxelize" --resubmit)
+again=$("$front" "$scene" -o "$r1/scene.esvo" --runs 4 --workdir "$r1" "${opts[@]}" "${bake[@]}" --voxelize "$voxelize" --resubmit)
 [[ $again == *"nothing to resubmit"* ]] || fail "--resubmit of a complete build printed: $again"
-expect_usage_error "already holds a submission" "$scene" -o "$r1/scene.esvo" --runs 4 --workdir "$r1" "${opts[@]}" --voxelize "$voxelize"
-expect_usage_error "differs from the submission" "$scene" -o "$r1/scene.esvo" --runs 4 --workdir "$r1" --depth 9 --voxelize "$voxelize" --resubmit
+expect_usage_error "already holds a submission" "$scene" -o "$r1/scene.esvo" --runs 4 --workdir "$r1" "${opts[@]}" "${bake[@]}" --voxelize "$voxelize"
+expect_usage_error "differs from the submission" "$scene" -o "$r1/scene.esvo" --runs 4 --workdir "$r1" --depth 11 "${bake[@]}" --voxelize "$voxelize" --resubmit
 ok "--resubmit of a complete build submits nothing; other options or a second submission are refused"
 
 # Round 2: run 3 is held (the real voxelize, started late) and cancelled while it runs.
