@@ -8,7 +8,8 @@
 #      a part with a corrupt header and one with a corrupt block; --resubmit builds only the
 #      runs whose part is missing or corrupt (the block's as named by the failed merge), and
 #      the merge then gives the same bytes again.
-# Usage: tests/slurm/run_slurm_test.sh [BUILD_DIR]    (default: build)
+# Usage: tests/slurm/run_slurm_test.sh [BUILD_DIR]    (default: build; LIBVOX_VOXELIZE and
+# LIBVOX_MAKE_EXAMPLE_SCENE override BUILD_DIR/tools/voxelize, BUILD_DIR/examples/make_example_scene)
 # Exit 0 passed, 1 failed, 77 skipped (not root, or no slurm-wlm/munge). Stops its daemons on
 # exit. LIBVOX_SLURM_KEEP=1 keeps the temporary directory (logs, parts).
 set -euo pipefail
@@ -18,8 +19,8 @@ root=$(cd "$here/../.." && pwd)
 source "$here/slurm_cluster.sh"
 slurm_cluster_check
 build=$(cd "${1:-$root/build}" && pwd)
-voxelize=$build/tools/voxelize
-make_scene=$build/examples/make_example_scene
+voxelize=${LIBVOX_VOXELIZE:-$build/tools/voxelize}
+make_scene=${LIBVOX_MAKE_EXAMPLE_SCENE:-$build/examples/make_example_scene}
 front=$root/scripts/voxelize-slurm
 for f in "$voxelize" "$make_scene"; do
     [ -x "$f" ] || { echo "FAIL: $f not built" >&2; exit 1; }
