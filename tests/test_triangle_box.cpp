@@ -5,7 +5,7 @@
 // must give the reference polygon coordinate for coordinate, and the contour fit on shared
 // fragments the reference fit. These are what keep the voxelizer's output byte-identical. A
 // voxel's fragments split from its parent's must equal its triangles clipped directly within
-// rounding (the split cuts in coarser frames; docs/esvo-format.md §14).
+// rounding (the split cuts in coarser frames; docs/internals/esvo-writer.md).
 #include "octree/contours.h"
 #include "octree/triangle_box.h"
 #include "scene/surface_shading.h"

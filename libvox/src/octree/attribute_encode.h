@@ -8,7 +8,7 @@
 // real blocks of depth-10 scenes, Default takes 12–32 thousand instructions a normal block (about
 // 1.8–3.4 µs; Best 2–3 times that) for 0–1 % more mean normal error than the Default before it,
 // and 2.5–12 thousand a colour block for at most 0.03 dB less colour PSNR; see
-// docs/esvo-format.md §14.
+// docs/internals/esvo-writer.md.
 #pragma once
 
 #include <vox/formats/esvo_attributes.h>

@@ -1,8 +1,9 @@
 // Laying an octree out as .esvo slices: child descriptors with near/far pointers, page headers,
-// info sections, contour and attribute attachments, grouped into slices (docs/esvo-format.md §8,
-// the writer's choices in §14). Works on a view of a subtree, so that a file can be laid out
-// one partition at a time: the slices below each voxel of the partition level are laid out from
-// that voxel's subtree alone, and the slices above it (the top) from the levels down to it.
+// info sections, contour and attribute attachments, grouped into slices (docs/esvo-format.md §8;
+// libvox's layout in docs/internals/esvo-writer.md). Works on a view of a subtree, so that a file
+// can be laid out one partition at a time: the slices below each voxel of the partition level are
+// laid out from that voxel's subtree alone, and the slices above it (the top) from the levels down
+// to it.
 #pragma once
 
 #include <vox/formats/esvo.h>

@@ -99,7 +99,7 @@ NormalSearch fewSearch(AttributeEffort effort) {
 
 /// The search of each effort (@p light: of the 3-D search of a block whose face-plane fit is
 /// already within lightBelow). Best is the original exhaustive search; the others were chosen
-/// on the real blocks of bench/attribute_encode_bench --scene (docs/esvo-format.md §14).
+/// on the real blocks of bench/attribute_encode_bench --scene (docs/internals/esvo-writer.md).
 NormalSearch normalSearch(AttributeEffort effort, bool light = false) {
     NormalSearch s;
     if (effort == AttributeEffort::Best) return s;

@@ -462,7 +462,7 @@ public:
     /// The same polygon as clipping the triangle to the child's cube directly, but with its cuts
     /// made in the ancestors' frames and the mapping rounded (2p ∓ ½ is exact only for |2p| ≥ ¼),
     /// so its coordinates can differ by a few units in the last place of the coarsest frame that
-    /// cut them (docs/esvo-format.md §14, "Fragments from the parent's").
+    /// cut them (docs/internals/esvo-writer.md, "Fragments from the parent's").
     void splitInto(std::size_t entry, std::uint32_t mask, std::array<CubeFragments, 8>& children) {
         using clip_detail::Part;
         const Part whole{points_.data() + begin_[entry], begin_[entry + 1] - begin_[entry], true};
