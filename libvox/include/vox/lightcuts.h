@@ -66,12 +66,11 @@ struct LightTreeOptions {
     /// cheapest allowed pair merges next, and clustering stops when no pair is allowed. So a
     /// tree's lights span (position box diagonal) at most the r_a + r_b of its last merge, at
     /// most twice its largest influence radius, however far a chain of overlapping lights
-    /// reaches (16 × 16 lights 2 m apart with 5 m ranges: 24 trees), and groups of lights whose
-    /// influences do not meet are never in one tree. Applies to point and spot lights;
-    /// directional lights reach everywhere and share one tree. (Overlap of the clusters'
-    /// influence boxes, the other reading, merges every chain of overlapping lights into one
-    /// tree, since each merge grows the box.) false: classic Lightcuts, one tree for the point
-    /// and spot lights (and one for the directional lights, if any).
+    /// reaches, and groups of lights whose influences do not meet are never in one tree. Applies to
+    /// point and spot lights; directional lights reach everywhere and share one tree. (Overlap of
+    /// the clusters' influence boxes, the other reading, merges every chain of overlapping lights
+    /// into one tree, since each merge grows the box.) false: classic Lightcuts, one tree for the
+    /// point and spot lights (and one for the directional lights, if any).
     bool forest = true;
     /// The irradiance (lux) below which a light without a range is taken not to reach a point:
     /// its influence radius is sqrt(luminance(colour × intensity) / influenceThreshold). Only
@@ -151,8 +150,7 @@ public:
     /// diagonal of the point and spot lights' bounding box. The cheapest (allowed) pair is always
     /// merged next (exact greedy agglomeration, ties broken by node index), found through a k-d
     /// tree over the clusters with lower bounds on the cost (Walter et al. 2008's heap-based
-    /// method): 10 000 point and spot lights build in about 0.1 s on one core (0.3 s for 10 000
-    /// spots pointing every which way). The result does not depend on the thread count.
+    /// method). The result does not depend on the thread count.
     explicit LightTree(std::span<const Light> lights, const LightTreeOptions& options = {});
 
     [[nodiscard]] const std::vector<LightTreeNode>& nodes() const noexcept { return nodes_; }
@@ -240,26 +238,24 @@ struct LightcutPoint {
 /// Refinement always splits the node with the largest bound next.
 enum class LightcutCriterion : std::uint8_t {
     /// Every node's bound ≤ threshold: Walter 2005's criterion and the paper's (1.1, eq. 3). Each
-    /// cluster's error is within the threshold, but their sum is not: on a 500-light test scene
-    /// 57 % of points (22 % with shadow rays) are within 2 % of brute force, the worst 10 %.
+    /// cluster's error is within the threshold, but their sum is not: where many lights of similar
+    /// weight reach a point, the result can be off by several times the threshold.
     PerNode,
     /// Σ bounds ≤ threshold: the result is guaranteed within relativeError of the exact sum over
-    /// the searched trees (LightcutResult::errorBound). The most nodes of the three (about twice
-    /// per-node's on the test scenes).
+    /// the searched trees (LightcutResult::errorBound). The most nodes of the three.
     Sum,
     /// √(Σ bounds²) ≤ threshold: treats the clusters' errors as independent (they are, over the
-    /// representatives' draws), so the result lies within the threshold at ≥ 99 % of points in the
-    /// tests (all of them there, the worst 1.8 %) with about 1.6 times per-node's cut.
+    /// representatives' draws), so the result lies within the threshold at almost every point,
+    /// without a guarantee; a fresh cut has at least PerNode's nodes and at most Sum's.
     RootSumSquare,
 };
 
 /// How fine a cut must be.
 struct LightcutOptions {
     /// What must meet the threshold. RootSumSquare (the default) keeps the result itself within
-    /// about relativeError, which per node (Lightcuts as published) does not guarantee: on the
-    /// example scenes both keep ≥ 99.7 % of points within 2 % (per node's worst 3.9 %, rss's
-    /// 2.1 %), at nearly the same cut size, but where many lights of similar weight reach a point
-    /// (a 500-light test scene) per node leaves 43 % of the points outside 2 % (docs/lighting.md).
+    /// about relativeError, which per node (Lightcuts as published) does not where many lights of
+    /// similar weight reach a point (docs/lighting.md; measurements in
+    /// docs/internals/lighting.md).
     LightcutCriterion criterion = LightcutCriterion::RootSumSquare;
     /// The threshold relative to the cut's total estimate (luminance). Walter 2005 and the paper
     /// use 0.02 (Weber–Fechner).
@@ -396,8 +392,8 @@ struct LightcutResult {
 /// evaluated when the sum of its children's bounds already fails (a parent's bound is at least
 /// that sum). Then the cut is refined exactly as a fresh cut is, so the final cut meets the same
 /// criterion against its own total (or stops at maxCutSize) and carries the same error
-/// guarantee; on coherent runs it takes fewer search steps (tests: 28 % fewer per node, 42 %
-/// fewer root-sum-square, on a plane under 200 lights). Its cut can differ from the fresh one.
+/// guarantee; on coherent runs it takes fewer search steps, and its cut can differ from the
+/// fresh one.
 /// Call reset() where a run ends (the next point is not similar: different material or
 /// visibility, or a normal more than ~10° off, the paper's criterion). Not thread-safe: one
 /// cursor per thread.

@@ -29,14 +29,9 @@ enum class LightcutsMode : std::uint8_t {
     Off,  ///< every light at every point (brute force)
 };
 
-/// The light count from which LightcutsMode::Auto uses Lightcuts. Measured (docs/lighting.md;
-/// bench/lightcuts_sweep, bench/lightcuts_table.sh): what decides is less the count than how many
-/// lights reach a point. In the bake (shadow rays are cheap) brute force, which rejects lights
-/// out of range for the price of a distance, stays ahead on the light grid up to all 256 lights
-/// (6.4 in range per voxel; 1.0–1.4× at depths 7–8) while Lightcuts wins on the city block from
-/// 16 lights (from 128 with building the forest and clusters, 40× at 10 000); in the render
-/// (shadow cones are dear) Lightcuts is 1.2–1.3× faster already on the 30-light corridor. From
-/// 32 lights the choice costs the bake a few milliseconds at worst and pays in the render.
+/// The static light count from which LightcutsMode::Auto uses Lightcuts; below it, every light is
+/// evaluated at every point (brute force). The choice changes the run time and, within each
+/// method's error, the result. The measurements behind the value: docs/internals/lighting.md.
 inline constexpr std::size_t kLightcutsAutoLights = 32;
 
 /// Parses "auto", "on" or "off". @throws UsageError otherwise.

@@ -115,9 +115,10 @@ enum class AttributeEncoding : std::uint8_t {
 /// (no partitions) up to depth 9. See EsvoWriteOptions::partitionLevel.
 [[nodiscard]] std::uint32_t defaultPartitionLevel(std::uint32_t leafDepth);
 
-/// How hard the compressed (Dxt, DxtLookup) attribute encoders search (docs/esvo-format.md §14):
-/// Default is within 0.02 dB colour PSNR and 2 % mean normal error of Best at about 1.8× its
-/// speed; Fast about 1.6× Default's speed at 8–11 % more normal error.
+/// How hard the compressed (Dxt, DxtLookup) attribute encoders search for each block: Fast,
+/// Default and Best take increasingly long for an increasingly small error. Every effort is
+/// deterministic, and the effort is part of the output: files written with different efforts
+/// may differ. Measurements: docs/internals/esvo-writer.md.
 enum class AttributeEffort : std::uint8_t { Fast, Default, Best };
 
 /// Options for writeEsvo.
@@ -193,7 +194,7 @@ struct EsvoBuildResult {
 
 /// The kernels the compressed attribute encoders run on this machine: "avx512" (AVX-512F),
 /// "sse2", or "scalar" (a build without SSE2). They give the same bytes; only the time differs
-/// (docs/esvo-format.md §14), which is why reports name them.
+/// (docs/internals/esvo-writer.md), which is why reports name them.
 [[nodiscard]] const char* attributeEncoderKernels() noexcept;
 
 /// Half the physical memory (capped by the cgroup's limit where there is one).

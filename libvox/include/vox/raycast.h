@@ -159,9 +159,7 @@ struct RenderBuffers {
 
 /// The post-process filter's radius per pixel: half the edge of the voxel hit, in pixels at its
 /// distance (0 where the ray missed). Half, so that the disc spans one voxel and turns the
-/// blocks into a smooth ramp: measured against the triangle rendering (bench/raycast_peer,
-/// Cornell box and spider at depths 6–7, voxels of 2–5 pixels) a radius of the whole edge lost
-/// 0.4–1.0 dB, half of it ±0.1 dB.
+/// blocks into a smooth ramp (the measurement behind it: docs/internals/esvo-writer.md).
 [[nodiscard]] std::vector<float> filterRadii(const RenderBuffers& buffers,
                                              const EsvoRayCaster& caster,
                                              const PinholeCamera& camera);

@@ -23,11 +23,8 @@ namespace vox::rvol {
 // ---- constants ------------------------------------------------------------------------------
 
 inline constexpr std::array<std::uint8_t, 4> kMagic{'R', 'V', 'O', 'L'};
-/// 2.0: bricks of levels ≥ 1 hold one A8 opacity plane per axis instead of one per channel (1.x).
-/// 3.0: level-0 bricks may drop their A8 plane (kFlagBinaryLevel0Opacity). A new major, not 2.1:
-/// readers check only the major and accept any minor, so 2.x readers would have taken a 2.1 file
-/// for their own (libvox's 2.0 reader happens to fail on the level table's brick sizes, but
-/// nothing promised that).
+/// The format version this library reads and writes, 3.0 (docs/rvol-format.md, "Versions"; the
+/// earlier versions: docs/internals/rvol-writer.md).
 inline constexpr std::uint16_t kVersionMajor = 3;  ///< readers reject other majors
 inline constexpr std::uint16_t kVersionMinor = 0;  ///< readers accept any minor of their major
 inline constexpr std::uint32_t kHeaderBytes = 256;
@@ -42,8 +39,8 @@ inline constexpr std::uint32_t kMinBrickTexels = 2;
 inline constexpr std::uint32_t kMaxBrickTexels = 32;
 /// Texel format 2 (the only one of 2.x and 3.x): per channel an RGB9E5 plane (GL_RGB9_E5), then
 /// the A8 opacity planes (GL_R8): one per axis (x, y, z) at levels ≥ 1, shared by the axis' ±
-/// channels; at level 0 one, or none with kFlagBinaryLevel0Opacity. (Texel format 1, per channel
-/// an RGB9E5 and an A8 plane, was 1.x's.)
+/// channels; at level 0 one, or none with kFlagBinaryLevel0Opacity. Readers reject any other
+/// value.
 inline constexpr std::uint32_t kTexelFormatRgb9e5AxisA8 = 2;
 /// Header flags.
 inline constexpr std::uint32_t kFlagStaticAttributes =
@@ -219,8 +216,8 @@ struct AttributeRecord {
 // ---- writing --------------------------------------------------------------------------------
 
 struct RvolWriteOptions {
-    /// N, texels per brick edge, kMinBrickTexels … kMaxBrickTexels. 5 (4 cells per brick and axis)
-    /// stored the fewest bytes of N = 3 … 8 on the Cornell box and on 2CylinderEngine at 256³.
+    /// N, texels per brick edge, kMinBrickTexels … kMaxBrickTexels; default 5 (4 cells per brick
+    /// and axis; why: docs/internals/rvol-writer.md).
     std::uint32_t brickTexels = 5;
     bool staticAttributes =
         true;  ///< write the static attribute layer (the dynamic one is always written)
