@@ -3,7 +3,7 @@
 // from an ancestor), B against A — e.g. compressed against raw. Prints JSON: colour PSNR over 8-bit
 // sRGB RGB, normal angle mean / p50 / p99 / max in degrees, per level and over all voxels.
 // Usage: attribute_compare A.esvo B.esvo
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_reader.h>
 
 #include <nlohmann/json.hpp>

@@ -20,7 +20,7 @@
 #include "attribute_corpus.h"
 #include "octree/attribute_encode.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_attributes.h>
 #include <vox/import.h>
 #include <vox/octree.h>

@@ -23,7 +23,7 @@
 //   max_err    Lightcuts' largest relative error
 // Last, the crossover: the smallest N from which Lightcuts is faster than brute force at that
 // count and at every larger count measured, by lc_s and by lc_all_s.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/import.h>
 #include <vox/radiance.h>
 #include <vox/util/log.h>

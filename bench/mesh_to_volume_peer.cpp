@@ -18,7 +18,7 @@
 //        [--half-width W (voxels, default 0.87)] [--output FILE.vdb] [--stats FILE.json]
 //        [--cross-check]
 #include <vox/formats/atomic_file.h>
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/import.h>
 #include <vox/octree.h>
 #include <vox/util/log.h>

@@ -38,7 +38,7 @@
 #include "octree/triangle_box.h"
 #include "scene/surface_shading.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/import.h>
 #include <vox/radiance.h>
 #include <vox/triangle_raycast.h>

@@ -21,7 +21,7 @@
 // rays).
 // --threads: TBB threads for every caster (default: all cores). --embree-only: cast only Embree
 // (ESVO is not read): bench/raycast_table.sh's peer run beside voxinspect render.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_attributes.h>
 #include <vox/import.h>
 #include <vox/util/log.h>

@@ -5,7 +5,7 @@
 // (a crash, a sanitizer report, another exception, a leak, a hang) is a bug.
 #include "fuzz_support.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_reader.h>
 
 #include <cstddef>

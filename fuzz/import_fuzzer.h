@@ -4,7 +4,7 @@
 
 #include "fuzz_support.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/import.h>
 #include <vox/octree.h>
 #include <vox/util/parallel.h>

@@ -5,7 +5,7 @@
 // a bug.
 #include "fuzz_support.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/rvol_io.h>
 
 #include <cstddef>

@@ -1,6 +1,6 @@
 // Every model of Debian's assimp-testmodels that libvox's formats cover: the valid ones import
 // with the asserted triangle counts, the broken ones fail with the asserted error kind.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/import.h>
 
 #include "assimp_models.h"

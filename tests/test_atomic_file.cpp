@@ -1,5 +1,5 @@
 #include <vox/formats/atomic_file.h>
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 
 #include "test_support.h"
 

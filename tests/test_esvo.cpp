@@ -2,7 +2,7 @@
 // (formats/src/esvo*.cpp): files written from voxelized meshes open, validate and hold exactly the
 // octree's voxels, whatever the slice size and near pointer limit; output is deterministic;
 // corrupted files are rejected with InvalidDataError naming the file; the pool streams slices.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo.h>
 #include <vox/formats/esvo_reader.h>
 #include <vox/octree.h>

@@ -1,7 +1,7 @@
 // Colour and normal attachments end to end: the uncompressed (palette) and compressed (DXT-style)
 // encodings written by writeEsvo, checked by the validator, streamed into an EsvoPool and read
 // back by the ray caster, against the triangle reference rendering of the same scene.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_attributes.h>
 #include <vox/formats/esvo_reader.h>
 #include <vox/import.h>

@@ -4,7 +4,7 @@
 // normal, hits, over real files (the Cornell box and Wuson.ply voxelized at depths 6-9, cubes
 // and contours), full and partly loaded pools, level of detail on and off, blocks of 4 and 8,
 // and cameras outside, inside the box and at grazing angles; and the fine pass must get cheaper.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_reader.h>
 #include <vox/import.h>
 #include <vox/octree.h>

@@ -3,7 +3,7 @@
 // level, attribute encoding, round size, scratch spill and thread count; runs of a build split
 // with a partition selection merge into the same bytes; merge rejects parts that are missing,
 // repeated, corrupt or from another build.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_reader.h>
 #include <vox/import.h>
 #include <vox/octree.h>

@@ -3,7 +3,7 @@
 // ray cast; an independent triangle ray caster (BVH + Möller–Trumbore in double) renders the mesh
 // from the same cameras. Hits and distances must agree to within a leaf voxel; slicing and
 // streaming must not change what the octree shows except by coarsening it.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_reader.h>
 #include <vox/import.h>
 #include <vox/octree.h>

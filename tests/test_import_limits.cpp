@@ -1,8 +1,8 @@
 // Hostile numbers in every importer (issue 10), checked the same way whatever the format: NaN or
 // infinite positions and coordinates beyond ±1e30 are invalid data, and so is a scene whose
 // longest side is below 1e-30 (zero or denormal size); NaN or infinite normals and texture
-// coordinates are repaired with a warning (an error under --strict) (docs/import.md).
-#include <vox/formats/error.h>
+// coordinates are repaired with a warning (an error in strict mode) (docs/import.md).
+#include <vox/base/error.h>
 #include <vox/import.h>
 
 #include "gltf_builder.h"
@@ -344,7 +344,7 @@ TEST(ImportLimits, NonFiniteNormalsAreRepairedWithAWarningInEveryFormatThatHasNo
                     EXPECT_NEAR(vox::length(n), 1.0f, 1e-5f);
                 }
             const std::string message = importError<vox::InvalidDataError>(file, strict());
-            EXPECT_NE(message.find("non-finite normal(s) (an error under --strict)"),
+            EXPECT_NE(message.find("non-finite normal(s) (an error in strict mode)"),
                       std::string::npos)
                 << message;
         }
@@ -402,7 +402,7 @@ TEST(ImportLimits,
             EXPECT_GT(replaced, 0) << "the bad vertex's coordinate is (0, 0)";
             const std::string message = importError<vox::InvalidDataError>(file, strict());
             EXPECT_NE(
-                message.find("non-finite texture coordinate(s) by 0 (an error under --strict)"),
+                message.find("non-finite texture coordinate(s) by 0 (an error in strict mode)"),
                 std::string::npos)
                 << message;
         }

@@ -3,7 +3,7 @@
 // cluster–light lists and cut reuse against brute force, its determinism and its search steps
 // against classic Lightcuts, brute force itself, directLight's method choice and comparison, and
 // the option parsers.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/many_lights.h>
 
 #include "test_random.h"

@@ -1,4 +1,4 @@
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/import.h>
 
 #include "import_expect.h"

@@ -1,7 +1,7 @@
 // The OpenGL runtime against the CPU reference, on real GL (Mesa llvmpipe in CI): the headless
 // context, KHR_debug error collection, and the compute-shader ray caster's images against
 // EsvoRayCaster's on the same cameras (hit mask, depth, normals, colours, shaded PSNR).
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_reader.h>
 #include <vox/formats/rvol_io.h>
 #include <vox/import.h>
@@ -71,8 +71,8 @@ vox::PinholeCamera cpuCamera(const View& v) {
     c.eye = v.eye, c.target = v.target, c.width = v.width, c.height = v.height;
     return c;
 }
-rt::Camera gpuCamera(const View& v) {
-    rt::Camera c;
+vox::PinholeCamera gpuCamera(const View& v) {
+    vox::PinholeCamera c;
     c.eye = {v.eye.x, v.eye.y, v.eye.z}, c.target = {v.target.x, v.target.y, v.target.z},
     c.width = v.width, c.height = v.height;
     return c;
@@ -102,13 +102,15 @@ std::vector<std::uint8_t> toBytes(const std::vector<vox::Vec3f>& linear) {
 }
 
 Comparison compare(const vox::RenderBuffers& cpu, const rt::GpuFrame& gpu,
-                   const vox::PinholeCamera& cpuCam, const rt::Camera& gpuCam) {
+                   const vox::PinholeCamera& cpuCam, const vox::PinholeCamera& gpuCam) {
     Comparison c;
     c.pixels = cpu.depth.size();
     const std::vector<std::uint8_t> cpuShaded = toBytes(vox::shadeHeadlight(cpu, cpuCam));
-    const std::vector<std::uint8_t> gpuShaded = rt::composeChannel(gpu, gpuCam, "shaded");
+    const std::vector<std::uint8_t> gpuShaded =
+        rt::composeChannel(gpu, gpuCam, vox::parseChannel("shaded"));
     const std::vector<std::uint8_t> cpuColor = toBytes(vox::albedoImage(cpu));
-    const std::vector<std::uint8_t> gpuColor = rt::composeChannel(gpu, gpuCam, "color");
+    const std::vector<std::uint8_t> gpuColor =
+        rt::composeChannel(gpu, gpuCam, vox::parseChannel("color"));
     double shadedSq = 0, colorSq = 0;
     for (std::size_t i = 0; i < c.pixels; ++i) {
         const bool ch = std::isfinite(cpu.depth[i]), gh = gpu.hit(i);
@@ -169,7 +171,7 @@ Comparison castBoth(vox::runtime::HeadlessGlContext& gl, const vox::EsvoRayCaste
                     rt::EsvoGpuRaycaster& gpu, const View& view, double lodScale,
                     const std::string& what, vox::RenderBuffers* reference = nullptr) {
     const vox::PinholeCamera cc = cpuCamera(view);
-    const rt::Camera gc = gpuCamera(view);
+    const vox::PinholeCamera gc = gpuCamera(view);
     vox::CastOptions options;
     options.lodAngle = cc.pixelAngle() * lodScale;
     options.attributes = true;
@@ -452,11 +454,12 @@ TEST(RuntimeRaycast, SameImageTwice) {
     pool.loadAll();
     rt::EsvoGpuPool gpuPool(*gl, pool);
     rt::EsvoGpuRaycaster gpu(*gl, gpuPool);
-    const rt::Camera camera = gpuCamera(kViews[0]);
+    const vox::PinholeCamera camera = gpuCamera(kViews[0]);
     rt::GpuCastOptions options;
     options.lodAngle = camera.pixelAngle();
     const rt::GpuFrame a = gpu.render(camera, options), b = gpu.render(camera, options);
-    EXPECT_EQ(rt::composeChannel(a, camera, "shaded"), rt::composeChannel(b, camera, "shaded"));
+    EXPECT_EQ(rt::composeChannel(a, camera, vox::parseChannel("shaded")),
+              rt::composeChannel(b, camera, vox::parseChannel("shaded")));
     EXPECT_EQ(a.iterations, b.iterations);
     EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
 }

@@ -61,24 +61,7 @@ const Baked& baked() {
     return *b;
 }
 
-rt::GpuPunctualLight toGpu(const vox::Light& l) {
-    rt::GpuPunctualLight g;
-    g.type = l.type == vox::Light::Type::Directional ? rt::GpuPunctualLight::Type::Directional
-             : l.type == vox::Light::Type::Spot      ? rt::GpuPunctualLight::Type::Spot
-                                                     : rt::GpuPunctualLight::Type::Point;
-    g.color = {l.color.x, l.color.y, l.color.z};
-    g.intensity = l.intensity;
-    g.range = l.range;
-    g.innerConeAngle = l.innerConeAngle;
-    g.outerConeAngle = l.outerConeAngle;
-    g.position = {l.position.x, l.position.y, l.position.z};
-    g.direction = {l.direction.x, l.direction.y, l.direction.z};
-    return g;
-}
-
-std::array<float, 3> f3(Vec3d v) {
-    return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
-}
+vox::Vec3f f3(Vec3d v) { return vox::vec3Cast<float>(v); }
 
 /// PSNR over points of one term: peak the reference's largest component.
 struct Psnr {
@@ -271,8 +254,8 @@ TEST(FinalGatherGpu, FinalGatherMatchesTheCpuAtA64x48CamerasSurfacePoints) {
             gpuPoints.push_back(g);
         }
     ASSERT_GT(points.size(), 2000u);
-    std::vector<rt::GpuPunctualLight> lights;
-    for (const vox::Light& l : b.scene.lights) lights.push_back(toGpu(l));
+    std::vector<vox::PunctualLight> lights;
+    for (const vox::Light& l : b.scene.lights) lights.push_back(l);
     ASSERT_EQ(lights.size(), 3u);
 
     vox::FinalGatherOptions cpuOptions;
@@ -305,10 +288,10 @@ TEST(FinalGatherGpu, FinalGatherMatchesTheCpuAtA64x48CamerasSurfacePoints) {
                          dir[3] = {r.direct.x, r.direct.y, r.direct.z},
                          ind[3] = {r.indirect.x, r.indirect.y, r.indirect.z},
                          spe[3] = {r.specular.x, r.specular.y, r.specular.z};
-            finalP.add(fin, gpu[i].final.data(), 3);
-            directP.add(dir, gpu[i].direct.data(), 3);
-            indirectP.add(ind, gpu[i].indirect.data(), 3);
-            specularP.add(spe, gpu[i].specular.data(), 3);
+            finalP.add(fin, &gpu[i].final.x, 3);
+            directP.add(dir, &gpu[i].direct.x, 3);
+            indirectP.add(ind, &gpu[i].indirect.x, 3);
+            specularP.add(spe, &gpu[i].specular.x, 3);
             aoP.add(&r.ao, &gpu[i].ao, 1);
         }
         std::printf(
@@ -340,7 +323,7 @@ TEST(RvolResidency, AClipmapAroundTheEyeWithinTheBudgetFallsBackToCoarserLevelsA
         << "the atlas is sized for the budget";
     rt::RvolResidency residency(streamed, budget);
     // An eye in a lower corner of the box: fine bricks there, coarse ones elsewhere.
-    rt::Camera camera;
+    vox::PinholeCamera camera;
     camera.eye = {h.origin[0] + 0.2 * h.size, h.origin[1] + 0.2 * h.size,
                   h.origin[2] + 0.7 * h.size};
     camera.target = {h.origin[0] + 0.5 * h.size, h.origin[1] + 0.4 * h.size,

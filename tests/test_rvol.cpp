@@ -4,7 +4,7 @@
 // interpolation of the in-memory level; deterministic output; corrupted files rejected with
 // InvalidDataError and never a crash.
 #include <vox/formats/checksum.h>
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/rvol.h>
 #include <vox/formats/rvol_io.h>
 

@@ -32,7 +32,7 @@ std::filesystem::path smallSliceOctree(const vox::test::ScratchDir& dir) {
     return file;
 }
 
-StreamingView view(std::array<double, 3> eye, std::array<double, 3> target, int size = 256) {
+StreamingView view(vox::Vec3d eye, vox::Vec3d target, int size = 256) {
     StreamingView v;
     v.camera.eye = eye;
     v.camera.target = target;

@@ -4,7 +4,7 @@
 // voxel and value); un-premultiplied radiance; active voxels exactly at the non-zero cells;
 // byte-identical repeated exports; IoError and no file left behind for unwritable targets.
 #include <vox/formats/atomic_file.h>
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/rvol.h>
 #include <vox/vdb_export.h>
 

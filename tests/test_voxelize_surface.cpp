@@ -2,7 +2,7 @@
 // leaf cubes a triangle touches (closed cubes), checked against an independent brute force that
 // clips each triangle against every leaf cube; the per-level masks must be consistent; the result
 // must not depend on the thread count; deep octrees stay sparse; bad input is rejected.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/octree.h>
 #include <vox/scene.h>
 #include <vox/util/parallel.h>

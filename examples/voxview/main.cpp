@@ -6,18 +6,19 @@
 // tools: 0 ok, 1 usage, 2 cannot read or write a file, 3 invalid input data, 4 no usable OpenGL
 // 4.5 or an internal error.
 //
-// The lights: the runtime library takes punctual lights (GpuPunctualLight) and links no scene
-// importer; an application brings its own. voxview reads them from --scene with libvox's
-// vox::importScene, which is why this example (not vox::runtime) links vox::core.
+// The lights: the runtime library takes punctual lights (vox::PunctualLight, which vox::Light
+// extends) and links no scene importer; an application brings its own. voxview reads them from
+// --scene with libvox's vox::importScene, which is why this example (not vox::runtime) links
+// vox::core.
 #include "png_writer.h"
 #include "window.h"
 
 #include <vox/formats/atomic_file.h>
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_attributes.h>
 #include <vox/formats/esvo_reader.h>
 #include <vox/formats/rvol_io.h>
-#include <vox/import.h>  // vox::core: the lights of --scene
+#include <vox/import.h>  // vox::import: the lights of --scene
 #include <vox/runtime/channels.h>
 #include <vox/runtime/esvo_gpu_pool.h>
 #include <vox/runtime/esvo_gpu_raycaster.h>
@@ -43,13 +44,9 @@
 
 namespace {
 
-vox::runtime::Vec3d parseVector(const std::string& text, const char* option) {
-    vox::runtime::Vec3d v{};
-    char tail = 0;
-    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &tail) != 3 ||
-        !std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
-        throw vox::UsageError(std::string(option) + " expects x,y,z (got '" + text + "')");
-    return v;
+vox::Vec3d parseVector(const std::string& text, const char* option) {
+    if (const auto v = vox::parseVec3(text)) return *v;
+    throw vox::UsageError(std::string(option) + " expects x,y,z (got '" + text + "')");
 }
 
 struct Options {
@@ -88,22 +85,7 @@ std::uint8_t toByte(float v) {
 /// exposure × linear radiance, Reinhard x/(1 + x) per channel, sRGB-encoded to 8 bits.
 std::uint8_t toneMap(double linear, double exposure) {
     const double x = std::max(0.0, exposure * linear);
-    return toByte(rt::linearToSrgb(static_cast<float>(x / (1 + x))));
-}
-
-rt::GpuPunctualLight toGpuLight(const vox::Light& l) {
-    rt::GpuPunctualLight g;
-    g.type = l.type == vox::Light::Type::Directional ? rt::GpuPunctualLight::Type::Directional
-             : l.type == vox::Light::Type::Spot      ? rt::GpuPunctualLight::Type::Spot
-                                                     : rt::GpuPunctualLight::Type::Point;
-    g.color = {l.color.x, l.color.y, l.color.z};
-    g.intensity = l.intensity;
-    g.range = l.range;
-    g.innerConeAngle = l.innerConeAngle;
-    g.outerConeAngle = l.outerConeAngle;
-    g.position = {l.position.x, l.position.y, l.position.z};
-    g.direction = {l.direction.x, l.direction.y, l.direction.z};
-    return g;
+    return toByte(vox::linearToSrgb(static_cast<float>(x / (1 + x))));
 }
 
 /// The shading points of a frame's hits, built as libvox's esvoShadingPoint builds them from a
@@ -116,13 +98,11 @@ struct ShadingPoints {
     std::vector<rt::GpuShadingPoint> points;
 };
 
-ShadingPoints shadingPoints(const rt::GpuFrame& frame, const rt::Camera& camera) {
-    using V = rt::Vec3d;
+ShadingPoints shadingPoints(const rt::GpuFrame& frame, const vox::PinholeCamera& camera) {
+    using V = vox::Vec3d;
     const auto dot = [](const V& a, const V& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
-    const auto f3 = [](const V& v) {
-        return std::array<float, 3>{float(v[0]), float(v[1]), float(v[2])};
-    };
-    const rt::CameraBasis basis(camera);
+    const auto f3 = [](const V& v) { return vox::vec3Cast<float>(v); };
+    const vox::CameraBasis basis(camera);
     ShadingPoints out;
     out.pixels.reserve(frame.hits);
     out.points.reserve(frame.hits);
@@ -145,11 +125,10 @@ ShadingPoints shadingPoints(const rt::GpuFrame& frame, const rt::Camera& camera)
                              : side;
             if (dot(n, side) < 0) n = {-n[0], -n[1], -n[2]};
             const double len = std::sqrt(dot(n, n));
-            p.normal =
-                len > 0 ? f3({n[0] / len, n[1] / len, n[2] / len}) : std::array<float, 3>{0, 0, 0};
+            p.normal = len > 0 ? f3({n[0] / len, n[1] / len, n[2] / len}) : vox::Vec3f{0, 0, 0};
             if (attributes) {
                 for (unsigned k = 0; k < 3; ++k)
-                    p.albedo[k] = rt::srgbToLinear(
+                    p.albedo[k] = vox::srgbToLinear(
                         float(vox::esvo::colorChannel(frame.color[i], k)) / 255.0f);
             } else {
                 p.albedo = {0.8f, 0.8f, 0.8f};
@@ -170,18 +149,18 @@ std::vector<std::uint8_t> composeGather(const rt::GpuFrame& frame, const Shading
     for (std::size_t k = 0; k < sp.pixels.size(); ++k) {
         std::uint8_t* p = &rgb[3 * sp.pixels[k]];
         const rt::GpuGatherParts& g = parts[k];
-        const std::array<float, 3>* radiance = channel == "final"      ? &g.final
-                                               : channel == "direct"   ? &g.direct
-                                               : channel == "indirect" ? &g.indirect
-                                               : channel == "specular" ? &g.specular
-                                                                       : nullptr;
+        const vox::Vec3f* radiance = channel == "final"      ? &g.final
+                                     : channel == "direct"   ? &g.direct
+                                     : channel == "indirect" ? &g.indirect
+                                     : channel == "specular" ? &g.specular
+                                                             : nullptr;
         if (radiance) {
             for (std::size_t c = 0; c < 3; ++c) p[c] = toneMap(double((*radiance)[c]), exposure);
         } else if (channel == "ao") {
             p[0] = p[1] = p[2] = toByte(g.ao);
         } else if (channel == "albedo") {
             for (std::size_t c = 0; c < 3; ++c)
-                p[c] = toByte(rt::linearToSrgb(std::clamp(sp.points[k].albedo[c], 0.0f, 1.0f)));
+                p[c] = toByte(vox::linearToSrgb(std::clamp(sp.points[k].albedo[c], 0.0f, 1.0f)));
         } else {  // normal
             for (std::size_t c = 0; c < 3; ++c) p[c] = toByte(0.5f * (sp.points[k].normal[c] + 1));
         }
@@ -193,15 +172,14 @@ constexpr double kPi = 3.14159265358979323846;
 
 /// The camera of each frame: the given one, an orbit around the target at the eye's distance and
 /// height ("orbit"), or a file of lines "ex,ey,ez tx,ty,tz" (one per frame, repeated if short).
-std::vector<vox::runtime::Camera> cameraPath(const Options& o, const vox::runtime::Camera& camera) {
-    std::vector<vox::runtime::Camera> path;
-    if (o.cameraPath.empty())
-        return std::vector<vox::runtime::Camera>(std::size_t(o.frames), camera);
+std::vector<vox::PinholeCamera> cameraPath(const Options& o, const vox::PinholeCamera& camera) {
+    std::vector<vox::PinholeCamera> path;
+    if (o.cameraPath.empty()) return std::vector<vox::PinholeCamera>(std::size_t(o.frames), camera);
     if (o.cameraPath == "orbit") {
         const double dx = camera.eye[0] - camera.target[0], dz = camera.eye[2] - camera.target[2];
         const double radius = std::hypot(dx, dz), start = std::atan2(dx, dz);
         for (int f = 0; f < o.frames; ++f) {
-            vox::runtime::Camera c = camera;
+            vox::PinholeCamera c = camera;
             const double a = start + 2 * kPi * f / o.frames;
             c.eye = {camera.target[0] + radius * std::sin(a), camera.eye[1],
                      camera.target[2] + radius * std::cos(a)};
@@ -212,9 +190,9 @@ std::vector<vox::runtime::Camera> cameraPath(const Options& o, const vox::runtim
     std::ifstream in(o.cameraPath);
     if (!in) throw vox::IoError(o.cameraPath, "cannot open the camera path");
     std::string eye, target;
-    std::vector<vox::runtime::Camera> keys;
+    std::vector<vox::PinholeCamera> keys;
     while (in >> eye >> target) {
-        vox::runtime::Camera c = camera;
+        vox::PinholeCamera c = camera;
         c.eye = parseVector(eye, "--camera-path");
         c.target = parseVector(target, "--camera-path");
         c.validate();
@@ -282,16 +260,16 @@ void run(Options o) {
     const bool gatherMode = !o.rvol.empty();
     if (gatherMode && !o.channelGiven) o.channel = "final";
     if (gatherMode) {
-        if (!isGatherChannel(o.channel) && !vox::runtime::isChannel(o.channel))
+        if (!isGatherChannel(o.channel) && !vox::channelNamed(o.channel))
             throw vox::UsageError(
                 "--channel with --rvol must be final, direct, indirect, specular, ao, albedo or "
                 "normal (or an octree "
                 "channel: depth, face-normal, color, shaded, iterations, level)");
     } else {
-        if (isGatherChannel(o.channel) && !vox::runtime::isChannel(o.channel))
+        if (isGatherChannel(o.channel) && !vox::channelNamed(o.channel))
             throw vox::UsageError("--channel " + o.channel +
                                   " needs --rvol FILE.rvol (the radiance volume's final gather)");
-        if (!vox::runtime::isChannel(o.channel))
+        if (!vox::channelNamed(o.channel))
             throw vox::UsageError(
                 "--channel must be depth, normal, face-normal, color, shaded, iterations or level");
         if (!o.scene.empty())
@@ -308,7 +286,7 @@ void run(Options o) {
     if (o.gatherFilter != "hardware" && o.gatherFilter != "fetch")
         throw vox::UsageError("--gather-filter must be hardware or fetch");
     if (!(o.lodScale >= 0)) throw vox::UsageError("--lod-scale must be 0 or more");
-    vox::runtime::Camera camera;
+    vox::PinholeCamera camera;
     camera.eye = parseVector(o.eye, "--eye");
     camera.target = parseVector(o.target, "--target");
     camera.up = parseVector(o.up, "--up");
@@ -321,7 +299,7 @@ void run(Options o) {
         throw vox::UsageError("--budget must be positive and --frame-load 0 or more");
     if (o.upload != "ring" && o.upload != "subdata")
         throw vox::UsageError("--upload must be ring or subdata");
-    const std::vector<vox::runtime::Camera> path = cameraPath(o, camera);
+    const std::vector<vox::PinholeCamera> path = cameraPath(o, camera);
 
     const auto start = std::chrono::steady_clock::now();
     // Headless: a context of our own through EGL. With a window: the window's context, adopted.
@@ -352,14 +330,14 @@ void run(Options o) {
     std::unique_ptr<rt::FinalGatherGpu> gather;
     std::unique_ptr<rt::RvolResidency> bricks;
     nlohmann::json brickFrames = nlohmann::json::array();
-    std::vector<rt::GpuPunctualLight> lights;
+    std::vector<vox::PunctualLight> lights;
     std::size_t staticLights = 0;
     if (gatherChannel) {
         rvolReader = std::make_unique<vox::rvol::RvolReader>(o.rvol);
         if (!o.scene.empty()) {
             const vox::Scene scene = vox::importScene(o.scene);
             for (const vox::Light& light : scene.lights) {
-                lights.push_back(toGpuLight(light));
+                lights.push_back(light);
                 staticLights += !light.dynamic;
             }
         }
@@ -397,7 +375,9 @@ void run(Options o) {
     options.maxLevel = o.maxLevel;
     // The final gather's shading points need the colours and shading normals (esvoShadingPoint
     // casts with attributes whatever it is given).
-    options.attributes = gatherChannel || vox::runtime::channelNeedsAttributes(o.channel);
+    const auto octreeChannel = vox::channelNamed(o.channel);
+    options.attributes =
+        gatherChannel || (octreeChannel && vox::channelNeedsAttributes(*octreeChannel));
     ShadingPoints points;
     std::vector<rt::GpuGatherParts> parts;
     std::vector<double> pointsMs, gatherMs, gatherGpuMs;
@@ -457,8 +437,9 @@ void run(Options o) {
         lastFrame = int(at);
         if (window) {
             const bool open = window->present(
-                gatherChannel ? composeGather(frame, points, parts, o.channel, o.exposure)
-                              : vox::runtime::composeChannel(frame, path[at], o.channel),
+                gatherChannel
+                    ? composeGather(frame, points, parts, o.channel, o.exposure)
+                    : vox::runtime::composeChannel(frame, path[at], vox::parseChannel(o.channel)),
                 frame.width, frame.height);
             context.throwOnErrors("presenting frame " + std::to_string(f));
             if (!open) break;
@@ -468,12 +449,13 @@ void run(Options o) {
     const vox::runtime::EsvoGpuPool& gpuPool = stream.gpuPool();
     const auto rendered = std::chrono::steady_clock::now();
     // The last frame's camera: what the image shows (the rays the points were built from).
-    const rt::Camera& lastCamera = path[std::size_t(lastFrame)];
+    const vox::PinholeCamera& lastCamera = path[std::size_t(lastFrame)];
     if (!o.output.empty())
-        voxview::writePngRgb8(o.output, frame.width, frame.height,
-                              gatherChannel
-                                  ? composeGather(frame, points, parts, o.channel, o.exposure)
-                                  : vox::runtime::composeChannel(frame, lastCamera, o.channel));
+        voxview::writePngRgb8(
+            o.output, frame.width, frame.height,
+            gatherChannel
+                ? composeGather(frame, points, parts, o.channel, o.exposure)
+                : vox::runtime::composeChannel(frame, lastCamera, vox::parseChannel(o.channel)));
     if (!o.quiet)
         std::fprintf(
             stderr,
@@ -673,6 +655,9 @@ int main(int argc, char** argv) {
         o.framesGiven = app.get_option("--frames")->count() > 0;
         run(o);
         return 0;
+    } catch (const vox::ParameterError& e) {
+        std::fprintf(stderr, "voxview: error: %s\n", e.commandLineMessage().c_str());
+        return static_cast<int>(e.exitCode());
     } catch (const vox::Error& e) {
         std::fprintf(stderr, "voxview: error: %s\n", e.what());
         return static_cast<int>(e.exitCode());

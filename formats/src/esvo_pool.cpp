@@ -1,5 +1,5 @@
 // The CPU-side slice pool: blocks in one word arena, linked by patching frontier far slots.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_reader.h>
 
 #include <algorithm>

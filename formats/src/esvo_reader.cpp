@@ -1,4 +1,4 @@
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_reader.h>
 
 #include <vox/formats/read_only_file.h>

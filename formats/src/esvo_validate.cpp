@@ -1,5 +1,5 @@
 // Structural validation of .esvo blocks and files (docs/esvo-format.md, "Invariants").
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_attributes.h>
 #include <vox/formats/esvo_reader.h>
 

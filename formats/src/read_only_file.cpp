@@ -1,6 +1,6 @@
 #include <vox/formats/read_only_file.h>
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 
 #include "positional_io.h"
 

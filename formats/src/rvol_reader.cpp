@@ -1,7 +1,7 @@
 // The .rvol reader (docs/rvol-format.md): header, level table and brick directory up front,
 // bricks and attribute layers on demand, trilinear sampling over the node-centred bricks.
 #include <vox/formats/checksum.h>
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/rvol_io.h>
 
 #include <vox/formats/read_only_file.h>

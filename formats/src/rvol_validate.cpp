@@ -1,5 +1,5 @@
 // Validation of whole .rvol files (docs/rvol-format.md, "Invariants checked by validate").
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/rvol_io.h>
 
 #include "rvol_internal.h"

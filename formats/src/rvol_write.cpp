@@ -3,7 +3,7 @@
 // and attribute layers through an AtomicFile.
 #include <vox/formats/atomic_file.h>
 #include <vox/formats/checksum.h>
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/rvol_io.h>
 
 #include "rvol_internal.h"

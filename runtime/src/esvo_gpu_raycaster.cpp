@@ -1,4 +1,4 @@
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/runtime/esvo_gpu_pool.h>
 #include <vox/runtime/esvo_gpu_raycaster.h>
 #include <vox/runtime/gl_context.h>
@@ -48,7 +48,7 @@ EsvoGpuRaycaster::~EsvoGpuRaycaster() {
     if (query_ != 0) glDeleteQueries(1, &query_);
 }
 
-GpuFrame EsvoGpuRaycaster::render(const Camera& camera, const GpuCastOptions& options) {
+GpuFrame EsvoGpuRaycaster::render(const PinholeCamera& camera, const GpuCastOptions& options) {
     camera.validate();
     const CameraBasis basis(camera);
     const std::size_t pixels = std::size_t(camera.width) * std::size_t(camera.height);

@@ -31,7 +31,7 @@ EsvoStream::EsvoStream(GlContext& context, const std::filesystem::path& file,
     caster_ = std::make_unique<EsvoGpuRaycaster>(context, *gpuPool_);
 }
 
-void EsvoStream::setCamera(const Camera& camera) {
+void EsvoStream::setCamera(const PinholeCamera& camera) {
     camera.validate();
     camera_ = camera;
 }

@@ -53,7 +53,7 @@ struct ScopedBuffer {
     ScopedBuffer& operator=(const ScopedBuffer&) = delete;
 };
 
-void put3(float* out, const std::array<float, 3>& v, float w = 0) {
+void put3(float* out, Vec3f v, float w = 0) {
     out[0] = v[0];
     out[1] = v[1];
     out[2] = v[2];
@@ -104,7 +104,7 @@ FinalGatherGpu::~FinalGatherGpu() {
 
 std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume,
                                                   std::span<const GpuShadingPoint> points,
-                                                  std::span<const GpuPunctualLight> lights) {
+                                                  std::span<const PunctualLight> lights) {
     const auto start = std::chrono::steady_clock::now();
     std::vector<GpuGatherParts> out(points.size());
     if (points.empty()) {
@@ -122,7 +122,7 @@ std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume,
     }
     std::vector<float> lightData(lights.size() * 16);
     for (std::size_t i = 0; i < lights.size(); ++i) {
-        const GpuPunctualLight& l = lights[i];
+        const PunctualLight& l = lights[i];
         float* d = &lightData[i * 16];
         put3(d, l.position, static_cast<float>(static_cast<std::uint32_t>(l.type)));
         put3(d + 4, l.direction, l.range);

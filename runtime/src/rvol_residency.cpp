@@ -19,7 +19,7 @@ RvolResidency::RvolResidency(RvolGpuVolume& volume, std::uint64_t budgetBytes, d
     }
 }
 
-RvolResidency::Update RvolResidency::update(const Camera& camera) {
+RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
     ++frame_;
     const rvol::RvolReader& reader = volume_.reader();
     const auto& header = reader.header();

@@ -1,7 +1,7 @@
 // Which slices a view needs and keeping a pool of them under a budget (the streaming policy).
 #include <vox/runtime/slice_schedule.h>
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 
 #include <algorithm>
 #include <cmath>
@@ -17,18 +17,13 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-using V3 = std::array<double, 3>;
+using V3 = Vec3d;
 
-V3 sub(V3 a, V3 b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-double dot(V3 a, V3 b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-V3 cross(V3 a, V3 b) {
-    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-V3 scale(V3 a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
-V3 add(V3 a, V3 b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
+/// Unit vector by the reciprocal of the length (not vox::normalize's division: the schedule's
+/// planes keep the bits they always had).
 V3 unit(V3 a) {
     const double l = std::sqrt(dot(a, a));
-    return l > 0 ? scale(a, 1 / l) : V3{0, 0, 0};
+    return l > 0 ? a * (1 / l) : V3{0, 0, 0};
 }
 
 /// The view in root-cube coordinates: the eye, and inward normals of the frustum's near and four
@@ -51,18 +46,18 @@ struct RootView {
                       m[4] * d[0] + m[5] * d[1] + m[6] * d[2],
                       m[8] * d[0] + m[9] * d[1] + m[10] * d[2]};
         };
-        const Camera& camera = view.camera;
+        const PinholeCamera& camera = view.camera;
         camera.validate();
         if (!(view.lodScale > 0))
             throw UsageError("streaming view: the LOD scale must be positive");
         eye = point(camera.eye);
-        const V3 forward = unit(direction(sub(camera.target, camera.eye)));
+        const V3 forward = unit(direction(camera.target - camera.eye));
         const V3 right = unit(cross(forward, unit(direction(camera.up))));
         const V3 up = cross(right, forward);
         const double ty = std::tan(0.5 * camera.fovYDegrees * kPi / 180);
         const double tx = ty * double(camera.width) / double(camera.height);
-        planes = {forward, sub(scale(forward, tx), right), add(scale(forward, tx), right),
-                  sub(scale(forward, ty), up), add(scale(forward, ty), up)};
+        planes = {forward, forward * tx - right, forward * tx + right, forward * ty - up,
+                  forward * ty + up};
         pixelAngle = camera.pixelAngle();
         lodScale = view.lodScale;
     }
@@ -75,7 +70,7 @@ struct RootView {
             // The corner furthest along n.
             const V3 corner{n[0] > 0 ? lo[0] + s : lo[0], n[1] > 0 ? lo[1] + s : lo[1],
                             n[2] > 0 ? lo[2] + s : lo[2]};
-            if (dot(n, sub(corner, eye)) < 0) return false;
+            if (dot(n, corner - eye) < 0) return false;
         }
         return true;
     }

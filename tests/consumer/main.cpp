@@ -1,5 +1,5 @@
 // Imports the scene given on the command line and prints its triangle count.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/import.h>
 #include <vox/version.h>
 

@@ -2,7 +2,7 @@
 // must give: shared by the importer test and the tools test.
 #pragma once
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 
 #include <cstddef>
 

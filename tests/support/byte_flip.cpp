@@ -1,6 +1,6 @@
 #include "byte_flip.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_reader.h>
 #include <vox/formats/rvol_io.h>
 

@@ -1,7 +1,7 @@
 // Import expectations shared by the importer tests.
 #pragma once
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/import.h>
 
 #include <gtest/gtest.h>

@@ -87,8 +87,6 @@ struct Moments {
     }
 };
 
-Vec3d toDouble(Vec3f v) { return {v.x, v.y, v.z}; }
-
 }  // namespace
 
 double luminance(Vec3d rgb) { return 0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z; }
@@ -126,7 +124,8 @@ bool PathReference::intersect(const Ray& ray, Vertex& out) const {
     const Mesh& mesh = scene_.meshes[hit.mesh];
     std::array<Vec3d, 3> corners;
     for (int k = 0; k < 3; ++k)
-        corners[k] = toDouble(mesh.positions[mesh.indices[3 * std::size_t{hit.triangle} + k]]);
+        corners[k] =
+            vec3Cast<double>(mesh.positions[mesh.indices[3 * std::size_t{hit.triangle} + k]]);
     // The point from the barycentric weights in double precision lies on the triangle's plane,
     // unlike origin + t·d with t rounded to float: offsets then measure from the surface itself.
     out.position = corners[0] * hit.barycentric.x + corners[1] * hit.barycentric.y +
@@ -139,7 +138,7 @@ bool PathReference::intersect(const Ray& ray, Vertex& out) const {
         dot(hit.geometricNormal, ray.direction) < 0 ? hit.geometricNormal : -hit.geometricNormal;
     out.normal = dot(s.normal, out.side) < 0 ? -s.normal : s.normal;
     out.albedo = {s.color.x, s.color.y, s.color.z};
-    out.emission = toDouble(s.emission);
+    out.emission = vec3Cast<double>(s.emission);
     return true;
 }
 

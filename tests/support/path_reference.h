@@ -24,7 +24,7 @@
 /// over √N.
 #pragma once
 
-#include <vox/math.h>
+#include <vox/base/math.h>
 #include <vox/scene.h>
 #include <vox/triangle_raycast.h>
 

@@ -4,9 +4,7 @@
 
 namespace vox::test {
 
-namespace {
-Vec3f toFloat(Vec3d v) { return {float(v.x), float(v.y), float(v.z)}; }
-}  // namespace
+namespace {}  // namespace
 
 std::uint32_t addMaterial(Scene& scene, Vec3f albedo, Vec3f emission) {
     Material m;
@@ -19,9 +17,9 @@ std::uint32_t addMaterial(Scene& scene, Vec3f albedo, Vec3f emission) {
 void addQuad(Scene& scene, Vec3d corner, Vec3d u, Vec3d v, std::uint32_t material) {
     Mesh mesh;
     mesh.material = material;
-    mesh.positions = {toFloat(corner), toFloat(corner + u), toFloat(corner + u + v),
-                      toFloat(corner + v)};
-    const Vec3f n = toFloat(normalize(cross(u, v)));
+    mesh.positions = {vec3Cast<float>(corner), vec3Cast<float>(corner + u),
+                      vec3Cast<float>(corner + u + v), vec3Cast<float>(corner + v)};
+    const Vec3f n = vec3Cast<float>(normalize(cross(u, v)));
     mesh.normals = {n, n, n, n};
     mesh.indices = {0, 1, 2, 0, 2, 3};
     scene.meshes.push_back(std::move(mesh));

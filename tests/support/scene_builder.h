@@ -1,7 +1,7 @@
 // Scenes built in code for the lighting tests: materials, quads and boxes with exact normals.
 #pragma once
 
-#include <vox/math.h>
+#include <vox/base/math.h>
 #include <vox/scene.h>
 
 #include <cstdint>

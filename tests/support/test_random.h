@@ -2,7 +2,7 @@
 // every platform's libstdc++ for a seed.
 #pragma once
 
-#include <vox/math.h>
+#include <vox/base/math.h>
 
 #include <cmath>
 #include <cstdint>

@@ -1,6 +1,6 @@
 #include "camera_options.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 
 #include <cmath>
 #include <cstdio>
@@ -8,12 +8,8 @@
 namespace vox::tools {
 
 Vec3d parseVector(const std::string& text, const char* option) {
-    Vec3d v;
-    char tail = 0;
-    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v.x, &v.y, &v.z, &tail) != 3 ||
-        !std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-        throw UsageError(std::string(option) + " expects x,y,z (got '" + text + "')");
-    return v;
+    if (const auto v = parseVec3(text)) return *v;
+    throw UsageError(std::string(option) + " expects x,y,z (got '" + text + "')");
 }
 
 void CameraOptions::add(CLI::App& command) {

@@ -2,7 +2,7 @@
 // voxinspect render (.esvo and .rvol alike).
 #pragma once
 
-#include <vox/math.h>
+#include <vox/base/math.h>
 #include <vox/raycast.h>
 
 #include <CLI/CLI.hpp>

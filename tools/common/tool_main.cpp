@@ -1,6 +1,6 @@
 #include "tool_main.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/util/log.h>
 #include <vox/util/parallel.h>
 #include <vox/util/progress.h>
@@ -38,6 +38,9 @@ int runTool(const std::string& program, CLI::App& app, int argc, char** argv,
         ThreadLimit threads(options.threads);
         body();
         return static_cast<int>(ExitCode::Ok);
+    } catch (const ParameterError& e) {
+        log::error(e.commandLineMessage());
+        return static_cast<int>(e.exitCode());
     } catch (const Error& e) {
         log::error(e.what());
         return static_cast<int>(e.exitCode());

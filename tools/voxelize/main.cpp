@@ -3,7 +3,7 @@
 #include "../common/reports.h"
 #include "../common/tool_main.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/import.h>
 #include <vox/formats/rvol_io.h>
 #include <vox/octree.h>

@@ -3,7 +3,8 @@
 #include "../common/camera_options.h"
 #include "../common/reports.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/channels.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_reader.h>
 #include <vox/image_io.h>
 #include <vox/raycast.h>
@@ -229,32 +230,31 @@ void dump(const std::string& file, long long sliceIndex, bool json) {
     }
 }
 
-std::array<std::uint8_t, 3> levelColour(std::uint32_t level) {
-    static constexpr std::array<std::array<std::uint8_t, 3>, 8> palette{{{230, 25, 75},
-                                                                         {60, 180, 75},
-                                                                         {255, 225, 25},
-                                                                         {0, 130, 200},
-                                                                         {245, 130, 48},
-                                                                         {145, 30, 180},
-                                                                         {70, 240, 240},
-                                                                         {240, 50, 230}}};
-    return palette[level % palette.size()];
-}
+/// RenderBuffers as vox::composeChannel reads them; linear: the colour or shaded image.
+struct BufferPixels {
+    const RenderBuffers& image;
+    const std::vector<Vec3f>& colours;
+
+    [[nodiscard]] bool hit(std::size_t i) const { return std::isfinite(image.depth[i]); }
+    [[nodiscard]] float depth(std::size_t i) const { return image.depth[i]; }
+    [[nodiscard]] std::uint32_t iterations(std::size_t i) const { return image.iterations[i]; }
+    [[nodiscard]] std::uint32_t level(std::size_t i) const { return image.level[i]; }
+    [[nodiscard]] bool hasAttributes(std::size_t i) const { return vox::hasAttributes(image, i); }
+    [[nodiscard]] Vec3f faceNormal(std::size_t i) const { return image.normal[i]; }
+    [[nodiscard]] Vec3f shadingNormal(std::size_t i) const { return image.shadingNormal[i]; }
+    [[nodiscard]] Vec3f linear(std::size_t i) const { return colours[i]; }
+};
 
 void render(const EsvoCommands& c) {
     const PinholeCamera camera = c.camera.camera();
-    static const std::array<std::string, 7> kChannels{"depth", "normal", "iterations", "level",
-                                                      "color", "shaded", "face-normal"};
-    if (std::find(kChannels.begin(), kChannels.end(), c.channel) == kChannels.end())
-        throw UsageError(
-            "--channel must be depth, normal, face-normal, color, shaded, iterations or level");
-    const bool colorChannel = c.channel == "color" || c.channel == "shaded";
+    const Channel channel = parseChannel(c.channel);
+    const bool colorChannel = isColorChannel(channel);
     if (c.filter && !colorChannel)
         throw UsageError("--filter applies to --channel color or shaded");
     if (!(c.lodScale >= 0)) throw UsageError("--lod-scale must be 0 or more");
     // The beam leaves every channel the same except iterations, which then counts the fine pass:
     // that one shows a single pass's work unless --beam asks otherwise.
-    const int beam = c.beam != -1 ? c.beam : (c.channel == "iterations" ? 0 : 8);
+    const int beam = c.beam != -1 ? c.beam : (channel == Channel::Iterations ? 0 : 8);
     if (beam != 0 && beam != 4 && beam != 8) throw UsageError("--beam must be 0, 4 or 8");
 
     const esvo::EsvoReader reader(c.file);
@@ -264,61 +264,21 @@ void render(const EsvoCommands& c) {
     CastOptions options;
     options.lodAngle = camera.pixelAngle() * c.lodScale;
     options.maxLevel = c.maxLevel;
-    options.attributes = c.channel != "depth" && c.channel != "iterations" &&
-                         c.channel != "level" && c.channel != "face-normal";
-    if (c.channel == "color" && !reader.header().hasAttributes())
+    options.attributes = channelNeedsAttributes(channel);
+    if (channel == Channel::Color && !reader.header().hasAttributes())
         throw UsageError(c.file + ": no colours in this file (voxelize --attributes none)");
     const RenderBuffers image = renderEsvo(caster, camera, options, beam);
     std::vector<Vec3f> linear;  // color / shaded
     if (colorChannel) {
-        linear = c.channel == "color" ? albedoImage(image) : shadeHeadlight(image, camera);
+        linear = channel == Channel::Color ? albedoImage(image) : shadeHeadlight(image, camera);
         if (c.filter)
             linear = postProcessFilter(linear, filterRadii(image, caster, camera), image.width,
                                        image.height);
     }
 
     const std::size_t pixels = image.depth.size();
-    std::vector<std::uint8_t> rgb(3 * pixels, 0);
-    float nearest = std::numeric_limits<float>::infinity(), farthest = 0;
-    std::uint32_t maxIterations = 1;
-    for (std::size_t i = 0; i < pixels; ++i) {
-        if (std::isfinite(image.depth[i]))
-            nearest = std::min(nearest, image.depth[i]),
-            farthest = std::max(farthest, image.depth[i]);
-        maxIterations = std::max(maxIterations, image.iterations[i]);
-    }
-    for (std::size_t i = 0; i < pixels; ++i) {
-        std::uint8_t* p = &rgb[3 * i];
-        const bool hit = std::isfinite(image.depth[i]);
-        if (c.channel == "iterations") {
-            // Heat map: blue (few) to red (many), linear in iterations.
-            const float v = float(image.iterations[i]) / float(maxIterations);
-            p[0] = static_cast<std::uint8_t>(255 * std::clamp(2 * v - 0.5f, 0.0f, 1.0f));
-            p[1] = static_cast<std::uint8_t>(255 * std::clamp(1 - std::abs(2 * v - 1), 0.0f, 1.0f));
-            p[2] = static_cast<std::uint8_t>(255 * std::clamp(1.5f - 2 * v, 0.0f, 1.0f));
-            continue;
-        }
-        if (!hit) continue;
-        if (colorChannel) {
-            for (int k = 0; k < 3; ++k)
-                p[k] = static_cast<std::uint8_t>(
-                    std::lround(255.0f * linearToSrgb(std::clamp(linear[i][k], 0.0f, 1.0f))));
-        } else if (c.channel == "depth") {
-            const float v =
-                farthest > nearest ? (image.depth[i] - nearest) / (farthest - nearest) : 0.0f;
-            p[0] = p[1] = p[2] = static_cast<std::uint8_t>(std::lround(255 * (1 - 0.8f * v)));
-        } else if (c.channel == "normal" || c.channel == "face-normal") {
-            const Vec3f n = c.channel == "normal" && hasAttributes(image, i)
-                                ? image.shadingNormal[i]
-                                : image.normal[i];
-            p[0] = static_cast<std::uint8_t>(std::lround(127.5f * (n.x + 1)));
-            p[1] = static_cast<std::uint8_t>(std::lround(127.5f * (n.y + 1)));
-            p[2] = static_cast<std::uint8_t>(std::lround(127.5f * (n.z + 1)));
-        } else {
-            const auto colour = levelColour(image.level[i]);
-            std::copy(colour.begin(), colour.end(), p);
-        }
-    }
+    const std::vector<std::uint8_t> rgb =
+        composeChannel(channel, pixels, BufferPixels{image, linear});
     writePng(c.output, image.width, image.height, 3, rgb);
     if (!c.depthOut.empty()) writePfm(c.depthOut, image.width, image.height, image.depth);
     const double rays = double(pixels);

@@ -6,7 +6,7 @@
 #include "esvo_commands.h"
 #include "rvol_commands.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/import.h>
 #include <vox/version.h>
 

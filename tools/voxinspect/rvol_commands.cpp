@@ -4,7 +4,7 @@
 #include "../common/reports.h"
 
 #include <vox/final_gather.h>
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_reader.h>
 #include <vox/formats/rvol_io.h>
 #include <vox/image_io.h>

@@ -8,7 +8,7 @@
 
 #include <vox/lighting.h>
 #include <vox/many_lights.h>
-#include <vox/math.h>
+#include <vox/base/math.h>
 #include <vox/radiance_field.h>
 #include <vox/raycast.h>
 #include <vox/scene.h>

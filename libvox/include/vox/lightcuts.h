@@ -37,7 +37,7 @@
 #pragma once
 
 #include <vox/lighting.h>
-#include <vox/math.h>
+#include <vox/base/math.h>
 #include <vox/scene.h>
 
 #include <array>

@@ -4,7 +4,7 @@
 /// the path-traced reference, so that they light the same scene.
 #pragma once
 
-#include <vox/math.h>
+#include <vox/base/math.h>
 #include <vox/scene.h>
 
 #include <array>

@@ -10,7 +10,7 @@
 #pragma once
 
 #include <vox/lightcuts.h>
-#include <vox/math.h>
+#include <vox/base/math.h>
 #include <vox/raycast.h>
 
 #include <array>

@@ -9,7 +9,7 @@
 #include <vox/formats/rvol.h>
 #include <vox/lighting.h>
 #include <vox/many_lights.h>
-#include <vox/math.h>
+#include <vox/base/math.h>
 #include <vox/scene.h>
 #include <vox/util/timings.h>
 

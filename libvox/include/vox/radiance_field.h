@@ -4,7 +4,7 @@
 #pragma once
 
 #include <vox/formats/rvol.h>
-#include <vox/math.h>
+#include <vox/base/math.h>
 
 #include <cstdint>
 #include <vector>

@@ -9,7 +9,8 @@
 #pragma once
 
 #include <vox/formats/esvo_reader.h>
-#include <vox/math.h>
+#include <vox/base/camera.h>
+#include <vox/base/math.h>
 
 #include <cstddef>
 #include <cstdint>
@@ -18,26 +19,6 @@
 #include <vector>
 
 namespace vox {
-
-/// A ray in world units; @p direction is unit length, so t is a distance.
-struct Ray {
-    Vec3d origin;
-    Vec3d direction;
-};
-
-/// A pinhole camera: vertical field of view, rays through pixel centres, row 0 at the top.
-struct PinholeCamera {
-    Vec3d eye{0, 0, 1}, target{0, 0, 0}, up{0, 1, 0};
-    double fovYDegrees = 60;
-    int width = 512, height = 512;
-
-    [[nodiscard]] Ray rayThrough(int x, int y) const;
-    /// Angle one pixel subtends at the image centre, in radians.
-    [[nodiscard]] double pixelAngle() const;
-    /// Throws UsageError for a zero view direction, an up vector parallel to it, a bad field of
-    /// view or image size.
-    void validate() const;
-};
 
 struct CastOptions {
     /// Stop where a voxel is smaller than this many radians as seen along the ray (the pixel

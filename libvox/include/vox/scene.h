@@ -3,7 +3,8 @@
 /// transforms applied), materials, textures and punctual lights.
 #pragma once
 
-#include <vox/math.h>
+#include <vox/base/light.h>
+#include <vox/base/math.h>
 #include <vox/texture.h>
 
 #include <cstdint>
@@ -72,17 +73,9 @@ struct Mesh {
 };
 
 /// A punctual light after KHR_lights_punctual, in world space.
-struct Light {
-    enum class Type : std::uint8_t { Directional, Point, Spot };
+/// A light of the scene: the punctual light plus what the import knows about it.
+struct Light : PunctualLight {
     std::string name;
-    Type type = Type::Point;
-    Vec3f color{1, 1, 1};                ///< linear
-    float intensity = 1.0f;              ///< candela (point, spot) or lux (directional)
-    float range = 0.0f;                  ///< cut-off distance; 0 = unlimited
-    float innerConeAngle = 0.0f;         ///< radians (spot)
-    float outerConeAngle = 0.78539816f;  ///< radians (spot)
-    Vec3f position{0, 0, 0};             ///< world (point, spot)
-    Vec3f direction{0, 0, -1};           ///< world, unit, the way light travels (directional, spot)
     bool dynamic = false;
 };
 

@@ -3,7 +3,8 @@
 /// sets, so that a voxel can average the texels under its own size rather than point-sample.
 #pragma once
 
-#include <vox/math.h>
+#include <vox/base/color.h>
+#include <vox/base/math.h>
 
 #include <cstdint>
 #include <filesystem>
@@ -97,14 +98,5 @@ private:
 [[nodiscard]] Texture decodeTexture(std::span<const std::uint8_t> encoded,
                                     const std::filesystem::path& container, const std::string& what,
                                     const std::string& mimeType, ColorSpace colorSpace);
-
-/// sRGB-encoded value in [0, 1] to linear, and back (IEC 61966-2-1).
-[[nodiscard]] float srgbToLinear(float value);
-[[nodiscard]] float linearToSrgb(float value);
-/// The slope of linearToSrgb at a linear value (12.92 up to its linear segment's end).
-[[nodiscard]] double linearToSrgbSlope(double value);
-/// The 8-bit sRGB code of a linear value: exactly lround(255 · linearToSrgb(clamp(value, 0, 1))),
-/// by table instead of a pow (what packing a voxel's mean colour costs).
-[[nodiscard]] std::uint8_t srgbCode(float value);
 
 }  // namespace vox

@@ -1,6 +1,6 @@
 #include "draco_decode.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 
 #include <draco/compression/decode.h>
 #include <draco/core/decoder_buffer.h>

@@ -1,7 +1,7 @@
 // Draco mesh decoding shared by the .drc importer and glTF's KHR_draco_mesh_compression.
 #pragma once
 
-#include <vox/math.h>
+#include <vox/base/math.h>
 
 #include <cstdint>
 #include <filesystem>

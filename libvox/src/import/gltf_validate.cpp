@@ -1,6 +1,6 @@
 #include "gltf_validate.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 
 #include <nlohmann/json.hpp>
 

@@ -17,7 +17,7 @@ ImportContext::ImportContext(std::filesystem::path input, const ImportOptions& o
     : input_(std::move(input)), options_(options), scene_(scene) {}
 
 void ImportContext::warn(const std::string& problem) {
-    if (options_.strict) fail(problem + " (an error under --strict)");
+    if (options_.strict) fail(problem + " (an error in strict mode)");
     // Printed by importScene once the import has succeeded: a failed import reports one line.
     scene_.warnings.push_back(problem);
 }
@@ -113,7 +113,7 @@ void ImportContext::decodeTextures() {
 void ImportContext::finish(MissingNormals missingNormals) {
     for (const std::string& name : options_.dynamicNames)
         if (!usedDynamicNames_.count(name))
-            warn("--dynamic '" + name + "' matches nothing in the file");
+            warn("dynamic mesh name '" + name + "' matches nothing in the file");
     finalizeScene(*this, missingNormals);
 }
 

@@ -2,7 +2,7 @@
 // warnings (errors under --strict), dynamic-name matching, texture de-duplication.
 #pragma once
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/import.h>
 
 #include <cstdint>
@@ -94,6 +94,9 @@ void generateNormals(Mesh& mesh, MissingNormals mode);
 /// (vertices at equal positions weld, so UV seams do not split the shading); zero where no
 /// triangle touches the position. Positions must be finite. The same bits for any thread count.
 [[nodiscard]] std::vector<Vec3f> smoothNormals(const Mesh& mesh);
+/// The unnormalised face normal of @p triangle in double precision (its length is twice the
+/// triangle's area).
+[[nodiscard]] Vec3d faceNormal(const Mesh& mesh, std::size_t triangle);
 
 /// Lower-case extension with its dot.
 [[nodiscard]] std::string lowerExtension(const std::filesystem::path& file);

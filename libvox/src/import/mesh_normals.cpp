@@ -3,7 +3,7 @@
 // whatever the thread count: every sum is taken in the order of the corners it sums.
 #include <vox/scene.h>
 
-#include "../import/import_context.h"
+#include "import_context.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -18,15 +18,18 @@
 #include <span>
 
 namespace vox::detail {
+
+Vec3d faceNormal(const Mesh& mesh, std::size_t triangle) {
+    const Vec3d a = vec3Cast<double>(mesh.positions[mesh.indices[3 * triangle]]);
+    const Vec3d b = vec3Cast<double>(mesh.positions[mesh.indices[3 * triangle + 1]]);
+    const Vec3d c = vec3Cast<double>(mesh.positions[mesh.indices[3 * triangle + 2]]);
+    return cross(b - a, c - a);
+}
+
 namespace {
 
 constexpr std::uint32_t kEmpty = 0xFFFFFFFFu;
 constexpr std::size_t kGrain = 1 << 14;
-
-Vec3d toDouble(Vec3f v) { return {v.x, v.y, v.z}; }
-Vec3f toFloat(Vec3d v) {
-    return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
-}
 
 /// The bits of a coordinate, -0 as +0: equal positions (by ==) have equal keys.
 std::uint32_t coordinateBits(float v) { return std::bit_cast<std::uint32_t>(v == 0.0f ? 0.0f : v); }
@@ -82,14 +85,6 @@ std::vector<std::uint32_t> weldByPosition(const std::vector<Vec3f>& positions) {
     return canonical;
 }
 
-/// Unnormalised face normal in double precision (its length is twice the area).
-Vec3d faceNormal(const Mesh& mesh, std::size_t triangle) {
-    const Vec3d a = toDouble(mesh.positions[mesh.indices[3 * triangle]]);
-    const Vec3d b = toDouble(mesh.positions[mesh.indices[3 * triangle + 1]]);
-    const Vec3d c = toDouble(mesh.positions[mesh.indices[3 * triangle + 2]]);
-    return cross(b - a, c - a);
-}
-
 template <typename T>
 void unweld(std::vector<T>& values, const std::vector<std::uint32_t>& indices) {
     if (values.empty()) return;
@@ -106,7 +101,7 @@ void flatNormals(Mesh& mesh) {
     parallelFor(mesh.indices.size() / 3, [&](std::size_t t) {
         std::iota(mesh.indices.begin() + 3 * t, mesh.indices.begin() + 3 * t + 3,
                   static_cast<std::uint32_t>(3 * t));
-        const Vec3f n = toFloat(normalize(faceNormal(mesh, t)));
+        const Vec3f n = vec3Cast<float>(normalize(faceNormal(mesh, t)));
         for (int k = 0; k < 3; ++k) mesh.normals[3 * t + k] = n;
     });
 }
@@ -154,15 +149,15 @@ std::vector<Vec3f> smoothNormals(const Mesh& mesh) {
         for (const std::uint32_t corner : list) {
             const std::size_t t = corner / 3, k = corner % 3;
             const Vec3d n = normalize(faceNormal(mesh, t));
-            const Vec3d p = toDouble(mesh.positions[mesh.indices[3 * t + k]]);
+            const Vec3d p = vec3Cast<double>(mesh.positions[mesh.indices[3 * t + k]]);
             const Vec3d e1 =
-                normalize(toDouble(mesh.positions[mesh.indices[3 * t + (k + 1) % 3]]) - p);
+                normalize(vec3Cast<double>(mesh.positions[mesh.indices[3 * t + (k + 1) % 3]]) - p);
             const Vec3d e2 =
-                normalize(toDouble(mesh.positions[mesh.indices[3 * t + (k + 2) % 3]]) - p);
+                normalize(vec3Cast<double>(mesh.positions[mesh.indices[3 * t + (k + 2) % 3]]) - p);
             const double angle = std::acos(std::clamp(dot(e1, e2), -1.0, 1.0));
             sum += n * angle;
         }
-        normals[v] = toFloat(normalize(sum));
+        normals[v] = vec3Cast<float>(normalize(sum));
     });
     parallelFor(vertexCount, [&](std::size_t v) {
         if (canonical[v] != v) normals[v] = normals[canonical[v]];

@@ -22,19 +22,6 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::uint32_t kDead = kNoLightNode;
 
-Vec3d toDouble(Vec3f v) { return {v.x, v.y, v.z}; }
-Vec3f toFloat(Vec3d v) { return {float(v.x), float(v.y), float(v.z)}; }
-
-/// The float just below / above a double (so that a float box holds the double value).
-float floatBelow(double v) {
-    const float f = float(v);
-    return double(f) <= v ? f : std::nextafter(f, -std::numeric_limits<float>::infinity());
-}
-float floatAbove(double v) {
-    const float f = float(v);
-    return double(f) >= v ? f : std::nextafter(f, std::numeric_limits<float>::infinity());
-}
-
 Bounds3f unionOf(const Bounds3f& a, const Bounds3f& b) {
     Bounds3f r = a;
     r.add(b);
@@ -74,7 +61,9 @@ Cone unionCone(Cone a, Cone b) {
     return {normalize(a.axis * std::cos(turn) + ortho * (std::sin(turn) / len)), theta};
 }
 
-Cone coneOf(const LightTreeNode& n) { return {toDouble(n.coneAxis), double(n.coneHalfAngle)}; }
+Cone coneOf(const LightTreeNode& n) {
+    return {vec3Cast<double>(n.coneAxis), double(n.coneHalfAngle)};
+}
 
 double diagonal2(const Bounds3f& a, const Bounds3f& b) {
     double s = 0;
@@ -89,7 +78,8 @@ double diagonal2(const Bounds3f& a, const Bounds3f& b) {
 /// The half-angle unionCone would give (without its axis).
 double unionHalfAngle(Vec3f axisA, double ta, Vec3f axisB, double tb) {
     if (ta >= kPi || tb >= kPi) return kPi;
-    const double d = std::acos(std::clamp(dot(toDouble(axisA), toDouble(axisB)), -1.0, 1.0));
+    const double d =
+        std::acos(std::clamp(dot(vec3Cast<double>(axisA), vec3Cast<double>(axisB)), -1.0, 1.0));
     if (d + tb <= ta) return ta;
     if (d + ta <= tb) return tb;
     return std::min(kPi, 0.5 * (ta + d + tb) + 1e-6);
@@ -178,7 +168,7 @@ public:
         const LightTreeNode& A = nodes_[a];
         const double floor = orientationFloor(A);
         const bool spotOnly = A.hasSpot && !A.hasOmni;
-        const Vec3d axisA = toDouble(A.coneAxis);
+        const Vec3d axisA = vec3Cast<double>(A.coneAxis);
         const double ra = radiusOf(a);
         std::vector<std::pair<double, std::uint32_t>> stack;
         stack.reserve(64);
@@ -200,7 +190,7 @@ public:
                     if (radius_ && !forestAllows(d2, ra, B.radius)) continue;
                     double orientation = floor;
                     if (spotOnly && B.hasSpot && !B.hasOmni) {
-                        const Vec3d chord = axisA - toDouble(B.axis);
+                        const Vec3d chord = axisA - vec3Cast<double>(B.axis);
                         orientation = std::max(floor, chordBound(dot(chord, chord)));
                     }
                     if (weight * (d2 + c2_ * orientation) > best) continue;
@@ -458,8 +448,8 @@ static std::vector<std::uint32_t> agglomerate(std::vector<LightTreeNode>& nodes,
         n.bounds = unionOf(A.bounds, B.bounds);
         n.influence = unionOf(A.influence, B.influence);
         const Cone cone = unionCone(coneOf(A), coneOf(B));
-        n.coneAxis = toFloat(cone.axis);
-        n.coneHalfAngle = cone.theta >= kPi ? float(kPi) : floatAbove(cone.theta);
+        n.coneAxis = vec3Cast<float>(cone.axis);
+        n.coneHalfAngle = cone.theta >= kPi ? float(kPi) : floatAtOrAbove(cone.theta);
         n.maxOuterAngle = std::max(A.maxOuterAngle, B.maxOuterAngle);
         n.maxRange = std::max(A.maxRange, B.maxRange);
         n.intensity = A.intensity + B.intensity;
@@ -491,7 +481,7 @@ LightTree::LightTree(std::span<const Light> lights, const LightTreeOptions& opti
     if (lights.size() >= std::size_t(kNoLightNode) / 2)
         throw std::invalid_argument("LightTree: too many lights");
     const std::size_t n = lights.size();
-    auto rgbOf = [](const Light& l) { return toDouble(l.color) * double(l.intensity); };
+    auto rgbOf = [](const Light& l) { return vec3Cast<double>(l.color) * double(l.intensity); };
     std::vector<char> usable(n, 0);
     Bounds3f positions;
     double brightest = 0;
@@ -500,17 +490,17 @@ LightTree::LightTree(std::span<const Light> lights, const LightTreeOptions& opti
         const Vec3d rgb = rgbOf(l);
         bool ok = !l.dynamic && isFinite(rgb) && rgb.x >= 0 && rgb.y >= 0 && rgb.z >= 0;
         if (l.type == Light::Type::Directional)
-            ok = ok && isFinite(l.direction) && length(toDouble(l.direction)) > 0;
+            ok = ok && isFinite(l.direction) && length(vec3Cast<double>(l.direction)) > 0;
         else
             ok = ok && isFinite(l.position) && std::isfinite(l.range);
         if (l.type == Light::Type::Spot)
-            ok = ok && isFinite(l.direction) && length(toDouble(l.direction)) > 0;
+            ok = ok && isFinite(l.direction) && length(vec3Cast<double>(l.direction)) > 0;
         usable[i] = ok;
         if (!ok || l.type == Light::Type::Directional) continue;
         positions.add(l.position);
         brightest = std::max(brightest, lightLuminance(rgb));
     }
-    if (!positions.empty()) diagonal_ = length(toDouble(positions.extent()));
+    if (!positions.empty()) diagonal_ = length(vec3Cast<double>(positions.extent()));
     threshold_ =
         options.influenceThreshold > 0
             ? options.influenceThreshold
@@ -531,12 +521,12 @@ LightTree::LightTree(std::span<const Light> lights, const LightTreeOptions& opti
         if (l.type == Light::Type::Directional) {
             // Clustered by the unit vector towards the light, exactly as lightArrival computes it.
             leaf.directional = true;
-            const Vec3d to = -normalize(toDouble(l.direction));
+            const Vec3d to = -normalize(vec3Cast<double>(l.direction));
             constexpr double pad = 1e-6;
-            leaf.bounds.add(
-                Vec3f{floatBelow(to.x - pad), floatBelow(to.y - pad), floatBelow(to.z - pad)});
-            leaf.bounds.add(
-                Vec3f{floatAbove(to.x + pad), floatAbove(to.y + pad), floatAbove(to.z + pad)});
+            leaf.bounds.add(Vec3f{floatAtOrBelow(to.x - pad), floatAtOrBelow(to.y - pad),
+                                  floatAtOrBelow(to.z - pad)});
+            leaf.bounds.add(Vec3f{floatAtOrAbove(to.x + pad), floatAtOrAbove(to.y + pad),
+                                  floatAtOrAbove(to.z + pad)});
             leaf.influence = {{-inf, -inf, -inf}, {inf, inf, inf}};
             leaf.maxRange = inf;
             radius_[i] = kInf;
@@ -551,15 +541,15 @@ LightTree::LightTree(std::span<const Light> lights, const LightTreeOptions& opti
             if (std::isinf(r)) {
                 leaf.influence = {{-inf, -inf, -inf}, {inf, inf, inf}};
             } else {
-                const Vec3d p = toDouble(l.position);
-                leaf.influence.add(
-                    Vec3f{floatBelow(p.x - r), floatBelow(p.y - r), floatBelow(p.z - r)});
-                leaf.influence.add(
-                    Vec3f{floatAbove(p.x + r), floatAbove(p.y + r), floatAbove(p.z + r)});
+                const Vec3d p = vec3Cast<double>(l.position);
+                leaf.influence.add(Vec3f{floatAtOrBelow(p.x - r), floatAtOrBelow(p.y - r),
+                                         floatAtOrBelow(p.z - r)});
+                leaf.influence.add(Vec3f{floatAtOrAbove(p.x + r), floatAtOrAbove(p.y + r),
+                                         floatAtOrAbove(p.z + r)});
             }
             if (l.type == Light::Type::Spot) {
                 leaf.hasSpot = true;
-                leaf.coneAxis = toFloat(normalize(toDouble(l.direction)));
+                leaf.coneAxis = vec3Cast<float>(normalize(vec3Cast<double>(l.direction)));
                 leaf.coneHalfAngle = 1e-6f;  // the float axis is within that of the exact one
                 leaf.maxOuterAngle = std::max(0.0f, l.outerConeAngle);
             } else {

@@ -15,8 +15,6 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kInvPi = 1.0 / kPi;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-Vec3d toDouble(Vec3f v) { return {v.x, v.y, v.z}; }
-
 /// The callback's visibility, clamped to [0, 1] (NaN: 0).
 double visibilityOf(const LightVisibility& visibility, const Light& light,
                     const LightArrival& arrival) {
@@ -110,7 +108,7 @@ struct Response {
 
 /// The scalar G of lightcutBound (before intensity and albedo); +∞ where the point lies in the box.
 double geometricBound(const LightTreeNode& node, const Response& response, Vec3d point) {
-    const Vec3d lo = toDouble(node.bounds.min), hi = toDouble(node.bounds.max);
+    const Vec3d lo = vec3Cast<double>(node.bounds.min), hi = vec3Cast<double>(node.bounds.max);
     if (node.directional) return response.bound(lo, hi);
     double d2 = 0;
     for (int k = 0; k < 3; ++k) {
@@ -124,7 +122,7 @@ double geometricBound(const LightTreeNode& node, const Response& response, Vec3d
     if (node.hasSpot && !node.hasOmni) {
         // Directions from the lights to the point, x − p for p in the box, against the cone of
         // spot axes widened by the largest outer angle.
-        const Frame axis(normalize(toDouble(node.coneAxis)));
+        const Frame axis(normalize(vec3Cast<double>(node.coneAxis)));
         const double c = std::clamp(maxCosine(axis, point - hi, point - lo), -1.0, 1.0);
         if (std::acos(c) > double(node.coneHalfAngle) + double(node.maxOuterAngle) + 1e-6) return 0;
     }
@@ -179,7 +177,7 @@ struct Context {
         if (!lightArrival(light, point, arrival)) return 0;
         const double cosine = at.response(arrival.toLight);
         if (!(cosine > 0)) return 0;
-        const Vec3d rgb = toDouble(light.color) * double(light.intensity);
+        const Vec3d rgb = vec3Cast<double>(light.color) * double(light.intensity);
         const double peak = std::max({rgb.x, rgb.y, rgb.z});
         if (!(peak > 0)) return 0;
         // irradiance = colour × intensity × falloff channel by channel: the brightest channel's
@@ -403,7 +401,7 @@ LightcutPoint LightcutPoint::lambertian(Vec3d position, Vec3d normal, Vec3d albe
 
 LightcutPoint LightcutPoint::voxel(Vec3d position, const VoxelNormals& normals, Attenuation mode,
                                    Vec3d albedo) {
-    LightcutPoint p = lambertian(position, toDouble(normals.mean), albedo);
+    LightcutPoint p = lambertian(position, vec3Cast<double>(normals.mean), albedo);
     switch (mode) {
         case Attenuation::Weighted:
             p.axisWeighted = true;

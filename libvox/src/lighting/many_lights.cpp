@@ -1,7 +1,7 @@
 // Direct light at many render points from many lights: spatial clusters of render points with
 // their cluster–light lists and cut reuse (the paper's 1.3 and 1.4), classic Lightcuts and brute
 // force for comparison.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/many_lights.h>
 #include <vox/util/progress.h>
 
@@ -103,14 +103,14 @@ LightcutsMode parseLightcutsMode(const std::string& text) {
     if (text == "auto") return LightcutsMode::Auto;
     if (text == "on") return LightcutsMode::On;
     if (text == "off") return LightcutsMode::Off;
-    throw UsageError("--lightcuts must be auto, on or off (got '" + text + "')");
+    throw ParameterError("lightcuts", "must be auto, on or off (got '" + text + "')");
 }
 
 LightcutCriterion parseLightcutCriterion(const std::string& text) {
     if (text == "per-node") return LightcutCriterion::PerNode;
     if (text == "sum") return LightcutCriterion::Sum;
     if (text == "rss") return LightcutCriterion::RootSumSquare;
-    throw UsageError("--lightcut-criterion must be per-node, sum or rss (got '" + text + "')");
+    throw ParameterError("lightcutCriterion", "must be per-node, sum or rss (got '" + text + "')");
 }
 
 const char* lightcutCriterionName(LightcutCriterion criterion) {

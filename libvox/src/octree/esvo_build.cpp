@@ -7,7 +7,7 @@
 #include "esvo_parts.h"
 #include "surface_voxelizer.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/util/log.h>
 
 #include <tbb/parallel_for.h>
@@ -188,7 +188,7 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
     EsvoBuildResult result;
     result.memoryLimit = options.memoryLimit ? options.memoryLimit : defaultMemoryLimit();
     if (options.partitions.count == 0 || options.partitions.index >= options.partitions.count)
-        throw UsageError("--partition K/N needs 1 ≤ K ≤ N");
+        throw ParameterError("partition", "K/N needs 1 ≤ K ≤ N");
     const auto voxelizerStart = Clock::now();
     const detail::SurfaceVoxelizer voxelizer(scene, vo);
     result.voxelizeSeconds = secondsSince(voxelizerStart);
@@ -196,12 +196,12 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
     const std::uint32_t depth = voxelizer.depth();
     const std::uint32_t p = detail::resolvePartitionLevel(options.write.partitionLevel, depth);
     if (p > voxelizer.cellLevel())
-        throw UsageError("--partition-level must be at most " +
-                         std::to_string(voxelizer.cellLevel()) + " at depth " +
-                         std::to_string(depth));
+        throw ParameterError("partitionLevel", "must be at most " +
+                                                   std::to_string(voxelizer.cellLevel()) +
+                                                   " at depth " + std::to_string(depth));
     if (options.partitions.count > 1 && p == 0)
-        throw UsageError(
-            "--partition needs partitions: a depth of 10 or more, or --partition-level");
+        throw ParameterError("partition",
+                             "needs partitions: a depth of 10 or more, or a partition level");
     result.leafDepth = depth;
     result.partitionLevel = p;
     const bool attributes = vo.attributes;
@@ -213,9 +213,10 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
     // rest of the limit goes to a quarter for finished slices and the remainder to partitions.
     const std::uint64_t baseline = currentRssBytes();
     if (baseline >= result.memoryLimit / 2)
-        throw UsageError("--memory-limit " + megabytes(result.memoryLimit) +
-                         " is too small: the scene and its triangles already take " +
-                         megabytes(baseline));
+        throw ParameterError("memoryLimit",
+                             megabytes(result.memoryLimit) +
+                                 " is too small: the scene and its triangles already take " +
+                                 megabytes(baseline));
     const std::uint64_t storeBudget =
         options.memorySliceBytes ? options.memorySliceBytes : result.memoryLimit / 4;
     const std::uint64_t partitionBudget =
@@ -348,7 +349,7 @@ EsvoBuildResult buildEsvo(const std::filesystem::path& file, const Scene& scene,
     }
     if (options.write.timings) options.write.timings->add("esvo", 1000 * secondsSince(finishStart));
     if (peakRssBytes() > result.memoryLimit)
-        log::warning("peak memory " + megabytes(peakRssBytes()) + " exceeded --memory-limit " +
+        log::warning("peak memory " + megabytes(peakRssBytes()) + " exceeded the memory limit " +
                      megabytes(result.memoryLimit));
     return result;
 }

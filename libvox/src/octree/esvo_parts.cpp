@@ -1,7 +1,7 @@
 #include "esvo_parts.h"
 
 #include <vox/formats/atomic_file.h>
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 
 #include <array>
 #include <cstring>

@@ -4,7 +4,7 @@
 #include "esvo_assemble.h"
 #include "surface_voxelizer.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo.h>
 
 #include <tbb/parallel_for.h>
@@ -18,17 +18,18 @@ namespace detail {
 std::uint32_t resolvePartitionLevel(std::int32_t requested, std::uint32_t leafDepth) {
     if (requested < 0) return defaultPartitionLevel(leafDepth);
     if (static_cast<std::uint32_t>(requested) >= leafDepth)
-        throw UsageError("--partition-level must be below the leaf depth (" +
-                         std::to_string(leafDepth) + ")");
+        throw ParameterError("partitionLevel",
+                             "must be below the leaf depth (" + std::to_string(leafDepth) + ")");
     return static_cast<std::uint32_t>(requested);
 }
 
 esvo::Header esvoHeader(const RootCube& cube, std::uint32_t leafDepth, bool contours,
                         bool attributes, const EsvoWriteOptions& options) {
     if (options.sliceBytes < esvo::kMinSliceBytes)
-        throw UsageError("--slice-bytes must be at least " + std::to_string(esvo::kMinSliceBytes));
+        throw ParameterError("sliceBytes",
+                             "must be at least " + std::to_string(esvo::kMinSliceBytes));
     if (options.nearPointerLimit < 32 || options.nearPointerLimit > esvo::kNearPointerMax)
-        throw UsageError("near pointer limit must be between 32 and 32767");
+        throw ParameterError("nearPointerLimit", "must be between 32 and 32767");
     if (leafDepth < 1 || leafDepth > esvo::kMaxLeafDepth)
         throw UsageError("leaf depth out of range");
     esvo::Header header;

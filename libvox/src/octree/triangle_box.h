@@ -7,7 +7,7 @@
 // product gives an axis that never separates.
 #pragma once
 
-#include <vox/math.h>
+#include <vox/base/math.h>
 
 #include <algorithm>
 #include <array>

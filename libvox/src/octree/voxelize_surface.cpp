@@ -8,7 +8,7 @@
 #include "voxel_attributes.h"
 #include "../util/huge_pages.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo.h>
 #include <vox/octree.h>
 #include <vox/util/progress.h>
@@ -418,7 +418,8 @@ detail::SurfaceVoxelizer::SurfaceVoxelizer(const Scene& scene,
                                            const SurfaceVoxelizeOptions& options)
     : scene_(scene), options_(options) {
     if (options.depth < 1 || options.depth > esvo::kMaxLeafDepth)
-        throw UsageError("--depth must be between 1 and " + std::to_string(esvo::kMaxLeafDepth));
+        throw ParameterError("depth",
+                             "must be between 1 and " + std::to_string(esvo::kMaxLeafDepth));
     depth_ = options.depth;
     const auto selected = [&](const Mesh& mesh) {
         return options.onlyDynamic ? mesh.dynamic : (!mesh.dynamic || options.includeDynamic);

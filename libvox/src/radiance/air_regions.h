@@ -6,7 +6,7 @@
 
 #include "voxel_shadows.h"
 
-#include <vox/math.h>
+#include <vox/base/math.h>
 
 #include <cstdint>
 #include <vector>

@@ -4,7 +4,7 @@
 
 #include "../scene/surface_shading.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_attributes.h>
 #include <vox/texture.h>
 #include <vox/triangle_raycast.h>
@@ -24,12 +24,8 @@ constexpr double kPi = 3.14159265358979323846;
 
 double tanHalfAperture(double degrees, const char* what) {
     if (!(degrees > 0 && degrees < 90))
-        throw UsageError(std::string(what) + " must be between 0 and 90 degrees (exclusive)");
+        throw ParameterError(what, "must be between 0 and 90 degrees (exclusive)");
     return std::tan(0.5 * degrees * kPi / 180);
-}
-
-Vec3f toFloat(Vec3d v) {
-    return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
 }
 
 }  // namespace
@@ -37,8 +33,8 @@ Vec3f toFloat(Vec3d v) {
 FinalGather::FinalGather(const RadianceField& field, std::span<const Light> lights,
                          const FinalGatherOptions& options)
     : field_(field), options_(options) {
-    tanHalfSpecular_ = tanHalfAperture(options.specularApertureDegrees, "--spec-aperture");
-    tanHalfShadow_ = tanHalfAperture(options.shadowApertureDegrees, "--shadow-aperture");
+    tanHalfSpecular_ = tanHalfAperture(options.specularApertureDegrees, "specularApertureDegrees");
+    tanHalfShadow_ = tanHalfAperture(options.shadowApertureDegrees, "shadowApertureDegrees");
     if (!(options.offsetCells >= 0) || !std::isfinite(options.offsetCells))
         throw UsageError("final gather: the cone offset must be ≥ 0");
     if (!(options.aoLambda >= 0) || !std::isfinite(options.aoLambda))
@@ -242,13 +238,13 @@ FinalGatherImage renderFinalGather(const FinalGather& gather, const PinholeCamer
                               const std::size_t i = hitPixels[k];
                               const ShadingPoint& point = points[i];
                               const FinalGatherParts parts = gather.shade(point, direct[k]);
-                              image.final[i] = toFloat(parts.final);
-                              image.direct[i] = toFloat(parts.direct);
-                              image.indirect[i] = toFloat(parts.indirect);
-                              image.specular[i] = toFloat(parts.specular);
+                              image.final[i] = vec3Cast<float>(parts.final);
+                              image.direct[i] = vec3Cast<float>(parts.direct);
+                              image.indirect[i] = vec3Cast<float>(parts.indirect);
+                              image.specular[i] = vec3Cast<float>(parts.specular);
                               image.ao[i] = static_cast<float>(parts.ao);
-                              image.albedo[i] = toFloat(point.albedo);
-                              image.normal[i] = toFloat(point.normal);
+                              image.albedo[i] = vec3Cast<float>(point.albedo);
+                              image.normal[i] = vec3Cast<float>(point.normal);
                           }
                       });
     image.hits = hitPixels.size();

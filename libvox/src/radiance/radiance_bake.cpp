@@ -5,7 +5,7 @@
 #include "radiance_mips.h"
 #include "voxel_shadows.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/octree.h>
 #include <vox/radiance.h>
 #include <vox/radiance_field.h>
@@ -96,12 +96,12 @@ struct GatherVolume {
 
 RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options) {
     if (options.depth < 1 || options.depth > 10)
-        throw UsageError("--radiance-depth must be between 1 and 10");
-    if (options.bounces > 16) throw UsageError("--bounces must be at most 16");
+        throw ParameterError("radianceDepth", "must be between 1 and 10");
+    if (options.bounces > 16) throw ParameterError("bounces", "must be at most 16");
     if (!(options.shadowApertureDegrees >= 0 && options.shadowApertureDegrees < 90))
-        throw UsageError("--shadow-aperture must be at least 0 and below 90 degrees");
+        throw ParameterError("shadowApertureDegrees", "must be at least 0 and below 90 degrees");
     if (!(options.aoLambda >= 0) || !std::isfinite(options.aoLambda))
-        throw UsageError("--ao-lambda must be a finite number ≥ 0");
+        throw ParameterError("aoLambda", "must be a finite number ≥ 0");
 
     RadianceBake bake;
     rvol::Volume& volume = bake.volume;

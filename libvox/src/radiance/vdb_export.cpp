@@ -3,7 +3,7 @@
 #include <vox/vdb_export.h>
 
 #include <vox/formats/atomic_file.h>
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 
 #include <openvdb/io/Archive.h>
 #include <openvdb/openvdb.h>

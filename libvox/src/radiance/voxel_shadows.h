@@ -2,7 +2,7 @@
 // voxel towards the light; a solid voxel on the way occludes it").
 #pragma once
 
-#include <vox/math.h>
+#include <vox/base/math.h>
 
 #include <array>
 #include <cstdint>

@@ -1,7 +1,7 @@
 // The reference ray caster: Laine & Karras' traversal (tech report section 6 and appendix A),
 // written against libvox's block layout. Octree coordinates are [1,2]³ so that POP can read the
 // cube position off the float bit patterns.
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/formats/esvo_attributes.h>
 #include <vox/raycast.h>
 
@@ -20,53 +20,6 @@
 namespace vox {
 
 // ---- camera ----------------------------------------------------------------------------------
-
-void PinholeCamera::validate() const {
-    const Vec3d forward = target - eye;
-    if (length(forward) == 0) throw UsageError("camera: --eye and --target are the same point");
-    if (length(cross(forward, up)) <= 1e-12 * length(forward) * length(up))
-        throw UsageError("camera: --up is parallel to the view direction");
-    if (!(fovYDegrees > 0 && fovYDegrees < 180))
-        throw UsageError("camera: --fov must be between 0 and 180 degrees");
-    if (width < 1 || height < 1 || width > 16384 || height > 16384)
-        throw UsageError("camera: image size must be 1..16384");
-}
-
-namespace {
-
-/// The camera's basis, computed once per image rather than once per ray.
-struct CameraBasis {
-    Vec3d eye, forward, right, up;
-    double tanHalf, aspect;
-    int width, height;
-
-    explicit CameraBasis(const PinholeCamera& c)
-        : eye(c.eye),
-          forward(normalize(c.target - c.eye)),
-          right(normalize(cross(forward, c.up))),
-          up(cross(right, forward)),
-          tanHalf(std::tan(c.fovYDegrees * 0.5 * 3.14159265358979323846 / 180.0)),
-          aspect(double(c.width) / double(c.height)),
-          width(c.width),
-          height(c.height) {}
-
-    [[nodiscard]] Ray ray(int x, int y) const { return rayAt(x + 0.5, y + 0.5); }
-    /// The ray through image position (@p px, @p py) in pixels: (0, 0) is the top left corner
-    /// of the image, (x + 0.5, y + 0.5) the centre of pixel (x, y).
-    [[nodiscard]] Ray rayAt(double px, double py) const {
-        const double sx = (px / width * 2.0 - 1.0) * tanHalf * aspect;
-        const double sy = (1.0 - py / height * 2.0) * tanHalf;
-        return {eye, normalize(forward + right * sx + up * sy)};
-    }
-};
-
-}  // namespace
-
-Ray PinholeCamera::rayThrough(int x, int y) const { return CameraBasis(*this).ray(x, y); }
-
-double PinholeCamera::pixelAngle() const {
-    return 2.0 * std::tan(fovYDegrees * 0.5 * 3.14159265358979323846 / 180.0) / height;
-}
 
 // ---- ray caster ------------------------------------------------------------------------------
 
@@ -418,13 +371,13 @@ CastHit EsvoRayCaster::finish(const detail::TraversalStart& s, const detail::Tra
 //    where the level-of-detail cut could fire (exit of the dilated cell · lodCoef >= size, with
 //    slack). A dilated child lies inside its dilated parent, so the descent loses nothing, and
 //    contours only shrink spans, so ignoring them only lowers the bound. The result is <= every
-//    fine hit distance of the beam, and is returned as a float strictly below it (floatBelow).
+//    fine hit distance of the beam, and is returned as a float strictly below it (beamStartBelow).
 
 namespace {
 
 /// A float strictly below @p d: the largest at or below d − 2^-30·(1 + |d|); 0 if that is not
 /// positive (a start of 0 is the single pass itself).
-float floatBelow(double d) {
+float beamStartBelow(double d) {
     const double x = d - 0x1p-30 * (1.0 + std::abs(d));  // clears the double rounding of d
     if (!(x > 0)) return 0.0f;
     float f = static_cast<float>(x);
@@ -558,7 +511,7 @@ CastHit EsvoRayCaster::castBeam(const Ray& ray, const CastOptions& options) cons
     }
     if (best == std::numeric_limits<double>::infinity()) return result;
     result.hit = true;
-    result.t = floatBelow(best);
+    result.t = beamStartBelow(best);
     return result;
 }
 

@@ -3,7 +3,7 @@
 // finish a ray with the same code and differ only in how they run the loop between.
 #pragma once
 
-#include <vox/math.h>
+#include <vox/base/math.h>
 #include <vox/raycast.h>
 
 #include <cstddef>

@@ -26,19 +26,11 @@ std::vector<Vec3f> shadeHeadlight(const RenderBuffers& buffers, const PinholeCam
         for (int x = 0; x < buffers.width; ++x) {
             const std::size_t i = std::size_t(y) * std::size_t(buffers.width) + std::size_t(x);
             if (!std::isfinite(buffers.depth[i])) continue;
-            const Vec3d d = camera.rayThrough(x, y).direction;
-            const Vec3f toEye{static_cast<float>(-d.x), static_cast<float>(-d.y),
-                              static_cast<float>(-d.z)};
-            // A file without attributes: the face normal.
-            Vec3f n = hasAttributes(buffers, i) ? buffers.shadingNormal[i] : buffers.normal[i];
-            // Facing the viewer: a sheet seen from behind shades like its front.
-            if (dot(n, toEye) < 0) n = -n;
-            const float diffuse = std::max(0.0f, dot(n, toEye));
-            // With the light at the eye, the mirror direction of the light is 2(n·l)n − l.
-            const Vec3f reflected = n * (2 * dot(n, toEye)) - toEye;
-            const float specular = 0.25f * std::pow(std::max(0.0f, dot(reflected, toEye)), 32.0f);
-            const Vec3f albedo = hasAttributes(buffers, i) ? out[i] : Vec3f{0.8f, 0.8f, 0.8f};
-            out[i] = albedo * (0.1f + 0.9f * diffuse) + Vec3f{specular, specular, specular};
+            const Vec3f toEye = -vec3Cast<float>(camera.rayThrough(x, y).direction);
+            // A file without attributes: the face normal on grey.
+            out[i] = hasAttributes(buffers, i)
+                         ? shadeHeadlight(buffers.shadingNormal[i], toEye, out[i])
+                         : shadeHeadlight(buffers.normal[i], toEye, Vec3f{0.8f, 0.8f, 0.8f});
         }
     return out;
 }

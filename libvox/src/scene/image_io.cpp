@@ -1,7 +1,7 @@
 #include "image_module.h"
 
 #include <vox/formats/atomic_file.h>
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/image_io.h>
 
 #include <stdexcept>

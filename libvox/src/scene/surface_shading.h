@@ -2,7 +2,7 @@
 // the triangle reference renderer shows, from one function so the two cannot disagree.
 #pragma once
 
-#include <vox/math.h>
+#include <vox/base/math.h>
 #include <vox/scene.h>
 
 #include <algorithm>

@@ -2,7 +2,7 @@
 // from files or from memory (GLB buffer views, data URIs).
 #include "image_module.h"
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 #include <vox/texture.h>
 
 #include <algorithm>

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
 
 namespace vox {
 
@@ -36,6 +37,27 @@ class UsageError : public Error {
 public:
     explicit UsageError(const std::string& message) : Error(message) {}
     [[nodiscard]] ExitCode exitCode() const noexcept override { return ExitCode::Usage; }
+};
+
+/// A library function was given an argument outside its contract. parameter() names it as the
+/// API does (a function parameter or an options field: `depth`, `eye`, …); the tools translate
+/// the name to their flag (tools/common/tool_main.h). what() is "parameter problem".
+class ParameterError : public UsageError {
+public:
+    ParameterError(std::string parameter, const std::string& problem)
+        : UsageError(parameter + " " + problem),
+          parameter_(std::move(parameter)),
+          problem_(problem) {}
+    [[nodiscard]] const std::string& parameter() const noexcept { return parameter_; }
+    [[nodiscard]] const std::string& problem() const noexcept { return problem_; }
+    /// The message with the parameter spelled as libvox's command-line tools spell its flag:
+    /// camelCase becomes --kebab-case, and the few flags named otherwise are looked up
+    /// (fovYDegrees: --fov, size: --width/--height, specularApertureDegrees: --spec-aperture,
+    /// shadowApertureDegrees: --shadow-aperture).
+    [[nodiscard]] std::string commandLineMessage() const;
+
+private:
+    std::string parameter_, problem_;
 };
 
 /// A file could not be opened, read, written or renamed.

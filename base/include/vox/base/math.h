@@ -1,11 +1,14 @@
 /// @file math.h
-/// @brief The small vector, matrix and bounds types libvox's public API uses.
+/// @brief The small vector, matrix and bounds types every libvox layer uses (vox::base).
 #pragma once
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <optional>
+#include <string>
 
 namespace vox {
 
@@ -162,5 +165,31 @@ struct Bounds3f {
     }
     [[nodiscard]] Vec3f extent() const { return empty() ? Vec3f{} : max - min; }
 };
+
+/// The vector written "x,y,z" (three finite numbers, nothing else), or none.
+inline std::optional<Vec3d> parseVec3(const std::string& text) {
+    Vec3d v;
+    char tail = 0;
+    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v.x, &v.y, &v.z, &tail) != 3 || !isFinite(v))
+        return std::nullopt;
+    return v;
+}
+
+/// @p v with each component converted to @p To (double → float rounds to nearest).
+template <typename To, typename From>
+constexpr Vec3<To> vec3Cast(Vec3<From> v) {
+    return {static_cast<To>(v.x), static_cast<To>(v.y), static_cast<To>(v.z)};
+}
+
+/// The largest float ≤ @p v (a float box built from these holds the double value).
+inline float floatAtOrBelow(double v) {
+    const float f = static_cast<float>(v);
+    return double(f) <= v ? f : std::nextafter(f, -std::numeric_limits<float>::infinity());
+}
+/// The smallest float ≥ @p v.
+inline float floatAtOrAbove(double v) {
+    const float f = static_cast<float>(v);
+    return double(f) >= v ? f : std::nextafter(f, std::numeric_limits<float>::infinity());
+}
 
 }  // namespace vox

@@ -6,13 +6,15 @@
 /// search for good blocks are build-side (libvox).
 #pragma once
 
+#include <vox/base/math.h>
+
 #include <array>
 #include <cstdint>
 
 namespace vox::esvo {
 
 /// A normal or axis vector in object space.
-using Vec3 = std::array<float, 3>;
+using Vec3 = Vec3f;
 
 // ---- colour: 8 bits per channel, R in the low byte, A in the high byte (ABGR) ---------------
 

@@ -4,7 +4,7 @@
 /// invocation per pixel, walking an EsvoGpuPool.
 #pragma once
 
-#include <vox/runtime/camera.h>
+#include <vox/base/camera.h>
 #include <vox/runtime/shader.h>
 
 #include <cstdint>
@@ -65,7 +65,7 @@ public:
 
     /// Dispatches the cast for @p camera (validated) and reads the result back.
     /// @throws vox::UsageError for a bad camera, RuntimeError on any GL error.
-    [[nodiscard]] GpuFrame render(const Camera& camera, const GpuCastOptions& options);
+    [[nodiscard]] GpuFrame render(const PinholeCamera& camera, const GpuCastOptions& options);
 
     /// World size of a leaf voxel's edge.
     [[nodiscard]] double leafVoxelSize() const noexcept { return leafSize_; }

@@ -4,7 +4,7 @@
 #pragma once
 
 #include <vox/formats/esvo_reader.h>
-#include <vox/runtime/camera.h>
+#include <vox/base/camera.h>
 #include <vox/runtime/esvo_gpu_pool.h>
 #include <vox/runtime/esvo_gpu_raycaster.h>
 #include <vox/runtime/slice_schedule.h>
@@ -60,7 +60,7 @@ public:
     EsvoStream(GlContext& context, const std::filesystem::path& file,
                const EsvoStreamOptions& options = {});
 
-    void setCamera(const Camera& camera);
+    void setCamera(const PinholeCamera& camera);
     /// A new budget, at most the one the stream was opened with (its GPU buffer is that big).
     void setBudget(std::uint64_t bytes);
     /// Brings the resident slices to what the camera needs. A slice that fails to load (checksum,
@@ -76,7 +76,7 @@ public:
     [[nodiscard]] const esvo::EsvoPool& pool() const noexcept { return *pool_; }
     [[nodiscard]] const EsvoGpuPool& gpuPool() const noexcept { return *gpuPool_; }
     [[nodiscard]] const UploadRing& ring() const noexcept { return ring_; }
-    [[nodiscard]] const Camera& camera() const noexcept { return camera_; }
+    [[nodiscard]] const PinholeCamera& camera() const noexcept { return camera_; }
     [[nodiscard]] const EsvoStreamOptions& options() const noexcept { return options_; }
 
 private:
@@ -88,7 +88,7 @@ private:
     UploadRing ring_;
     std::unique_ptr<EsvoGpuPool> gpuPool_;
     std::unique_ptr<EsvoGpuRaycaster> caster_;
-    Camera camera_;
+    PinholeCamera camera_;
 };
 
 }  // namespace vox::runtime

@@ -4,6 +4,9 @@
 /// shadow cones, six diffuse cones (indirect light and AO) and a specular cone per shading point.
 #pragma once
 
+#include <vox/base/light.h>
+#include <vox/base/math.h>
+
 #include <vox/runtime/rvol_gpu_volume.h>
 #include <vox/runtime/shader.h>
 
@@ -17,30 +20,18 @@ namespace vox::runtime {
 class GlContext;
 
 /// A punctual light (vox::Light's fields; the runtime does not link libvox).
-struct GpuPunctualLight {
-    enum class Type : std::uint32_t { Directional = 0, Point = 1, Spot = 2 };
-    Type type = Type::Point;
-    std::array<float, 3> color{1, 1, 1};  ///< linear
-    float intensity = 1;                  ///< candela (point, spot) or lux (directional)
-    float range = 0;                      ///< 0: unlimited
-    float innerConeAngle = 0;             ///< radians (spot)
-    float outerConeAngle = 0.78539816f;   ///< radians (spot)
-    std::array<float, 3> position{0, 0, 0};
-    std::array<float, 3> direction{0, 0, -1};  ///< the way light travels
-};
-
 /// One surface point to shade (vox::ShadingPoint in float).
 struct GpuShadingPoint {
-    std::array<float, 3> position{0, 0, 0};
-    std::array<float, 3> normal{0, 0, 1};  ///< unit, on the viewer's side
-    std::array<float, 3> albedo{0, 0, 0};
-    std::array<float, 3> emission{0, 0, 0};
-    std::array<float, 3> view{0, 0, 1};  ///< unit, towards the viewer
+    Vec3f position{0, 0, 0};
+    Vec3f normal{0, 0, 1};  ///< unit, on the viewer's side
+    Vec3f albedo{0, 0, 0};
+    Vec3f emission{0, 0, 0};
+    Vec3f view{0, 0, 1};  ///< unit, towards the viewer
 };
 
 /// The terms of one point (vox::FinalGatherParts in float).
 struct GpuGatherParts {
-    std::array<float, 3> final{0, 0, 0}, direct{0, 0, 0}, indirect{0, 0, 0}, specular{0, 0, 0};
+    Vec3f final{0, 0, 0}, direct{0, 0, 0}, indirect{0, 0, 0}, specular{0, 0, 0};
     float ao = 1;
 };
 
@@ -71,12 +62,12 @@ public:
     /// one dispatch (64 points per work group). Blocks until the results are read back.
     [[nodiscard]] std::vector<GpuGatherParts> shade(const RvolGpuVolume& volume,
                                                     std::span<const GpuShadingPoint> points,
-                                                    std::span<const GpuPunctualLight> lights);
+                                                    std::span<const PunctualLight> lights);
     /// RadianceField::sample(level, position, direction) on the GPU for each query (tests).
     struct SampleQuery {
         std::uint32_t level = 0;
-        std::array<float, 3> position{0, 0, 0};
-        std::array<float, 3> direction{0, 0, 1};
+        Vec3f position{0, 0, 0};
+        Vec3f direction{0, 0, 1};
     };
     [[nodiscard]] std::vector<std::array<float, 4>> sample(const RvolGpuVolume& volume,
                                                            std::span<const SampleQuery> queries);

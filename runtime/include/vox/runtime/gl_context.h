@@ -2,7 +2,7 @@
 /// @brief A headless OpenGL 4.5 core context through EGL, with KHR_debug error collection.
 #pragma once
 
-#include <vox/formats/error.h>
+#include <vox/base/error.h>
 
 #include <cstdint>
 #include <functional>

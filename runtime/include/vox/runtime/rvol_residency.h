@@ -12,7 +12,7 @@
 /// missing brick (kMissingBrick) then always has a resident level above it to fall back to.
 #pragma once
 
-#include <vox/runtime/camera.h>
+#include <vox/base/camera.h>
 #include <vox/runtime/rvol_gpu_volume.h>
 
 #include <cstdint>
@@ -34,7 +34,7 @@ public:
     };
     /// Selects for @p camera's eye, evicts what is not selected (finest level first, then least
     /// recently selected) as far as needed, uploads what is missing.
-    Update update(const Camera& camera);
+    Update update(const PinholeCamera& camera);
     [[nodiscard]] std::uint64_t residentBytes() const noexcept { return residentBytes_; }
     [[nodiscard]] std::uint64_t budget() const noexcept { return budget_; }
 

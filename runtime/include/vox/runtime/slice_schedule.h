@@ -13,7 +13,7 @@
 
 #include <vox/formats/esvo.h>
 #include <vox/formats/esvo_reader.h>
-#include <vox/runtime/camera.h>
+#include <vox/base/camera.h>
 
 #include <array>
 #include <cstdint>
@@ -24,7 +24,7 @@ namespace vox::runtime {
 
 /// A view to stream for: the camera, and the detail wanted.
 struct StreamingView {
-    Camera camera;
+    PinholeCamera camera;
     /// A slice is needed while its frontier voxels look bigger than lodScale pixels (1: about
     /// one voxel per pixel, as the ray caster's LOD cut at the pixel angle).
     double lodScale = 1;
