@@ -4,4 +4,3 @@ target_compile_options(libvox_warnings INTERFACE
   -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wcast-align -Wunused
   -Woverloaded-virtual -Wimplicit-fallthrough -Wno-missing-field-initializers
   $<$<BOOL:${LIBVOX_WERROR}>:-Werror>)
-install(TARGETS libvox_warnings EXPORT libvoxTargets)
