@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# voxelize against the peer a user would reach for, OpenVDB's meshToVolume (issue 9): for each
+# voxelize against the peer a user would reach for, OpenVDB's meshToVolume: for each
 # mesh (the generated 1,048,576-triangle bumpy sphere and the assimp-testmodels meshes with the
 # most triangles) and each depth, the default build (error-bounded voxelization, hierarchy,
 # contours, dxt colours and normals, .esvo written) against meshToVolume's unsigned distance field with a

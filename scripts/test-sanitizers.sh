@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The sanitizer job (issue 10; docs/fuzzing.md), run by scripts/test.sh after the normal suite:
+# The sanitizer job (docs/fuzzing.md), a command of its own that .ci/run runs after scripts/test.sh:
 # one clang build with AddressSanitizer + UndefinedBehaviorSanitizer (undefined behaviour aborts)
 # and the libFuzzer harnesses, into its own build directory; then the unit and tool tests on it,
 # then each fuzzer for LIBVOX_FUZZ_SECONDS (default 60) from its seed corpus (CTest label fuzz).
