@@ -7,6 +7,7 @@
 
 #include "rvol_internal.h"  // the .rvol header's field offsets (formats/src)
 
+#include <bit>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
@@ -122,18 +123,27 @@ bool repairRvolChecksums(std::vector<std::uint8_t>& bytes) {
     // Bricks first (their checksums are in the directory), level by level as the table places them.
     if (levelTable <= bytes.size() && levelTableBytes <= bytes.size() - levelTable &&
         directoryInside) {
+        const std::uint32_t n = load<std::uint32_t>(bytes, o::kBrickTexels);
         for (std::uint64_t e = levelTable; e + kLevelEntryBytes <= levelTable + levelTableBytes;
              e += kLevelEntryBytes) {
-            const std::uint64_t brickSize = load<std::uint32_t>(bytes, e + 12),
-                                count = load<std::uint32_t>(bytes, e + 16),
-                                first = load<std::uint32_t>(bytes, e + 20),
-                                dataOffset = load<std::uint64_t>(bytes, e + 24);
+            const std::uint32_t channels = load<std::uint32_t>(bytes, e + 4);
+            const std::uint64_t count = load<std::uint32_t>(bytes, e + 16),
+                                first = load<std::uint32_t>(bytes, e + 20);
+            std::uint64_t offset = load<std::uint64_t>(bytes, e + 24);
+            if (channels > 16 || n > kMaxBrickTexels) break;
+            const std::uint32_t rgbBits = (1u << channels) - 1;
+            // Each brick's stored size from its entry's plane bits and texel count.
             for (std::uint64_t i = 0; i < count; ++i) {
                 const std::uint64_t entry = directory + (first + i) * kBrickEntryBytes;
-                if (first + i >= directoryBytes / kBrickEntryBytes ||
-                    dataOffset + (i + 1) * brickSize > bytes.size())
-                    break;
-                changed |= storeChecksum(bytes, entry + 8, dataOffset + i * brickSize, brickSize);
+                if (first + i >= directoryBytes / kBrickEntryBytes) break;
+                const std::uint32_t planes = load<std::uint16_t>(bytes, entry + 6);
+                const std::uint64_t size =
+                    storedBrickBytes(n, static_cast<std::uint32_t>(std::popcount(planes & rgbBits)),
+                                     static_cast<std::uint32_t>(std::popcount(planes & ~rgbBits)),
+                                     load<std::uint32_t>(bytes, entry + 8));
+                if (offset > bytes.size() || size > bytes.size() - offset) break;
+                changed |= storeChecksum(bytes, entry + 12, offset, size);
+                offset += size;
             }
         }
     }

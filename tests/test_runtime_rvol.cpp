@@ -20,6 +20,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -88,13 +89,20 @@ TEST(RvolGpuVolume, UploadsEveryBrickIntoAtlasSlotsAndEvictedBricksFallBackToThe
     const Baked& b = baked();
     rt::RvolGpuVolume volume(*gl, *b.reader);
     EXPECT_EQ(volume.residentBricks(), b.reader->header().brickCount);
-    std::uint64_t rgbPlanes = 0, alphaPlanes = 0;
+    // A slot per plane the file stores; the planes it leaves out (all zero) take the zero slot.
+    std::uint64_t rgbPlanes = 0, alphaPlanes = 0, densePlanes = 0;
     for (std::uint32_t l = 0; l < b.reader->levels().size(); ++l) {
-        const std::uint64_t n = b.reader->level(l).brickCount;
-        rgbPlanes += n * (l == 0 ? 1 : 6);
-        alphaPlanes += n * (l == 0 ? (b.reader->header().binaryLevel0Opacity() ? 0 : 1) : 3);
+        const std::uint32_t channels = l == 0 ? 1 : 6;
+        for (const vox::rvol::BrickEntry& e : b.reader->bricks(l)) {
+            rgbPlanes +=
+                static_cast<std::uint64_t>(std::popcount(e.planes & ((1u << channels) - 1)));
+            alphaPlanes +=
+                static_cast<std::uint64_t>(std::popcount(unsigned{e.planes} >> channels));
+        }
+        densePlanes += b.reader->level(l).brickCount * (l == 0 ? 1 : 6);
     }
     EXPECT_TRUE(b.reader->header().binaryLevel0Opacity());
+    EXPECT_LT(rgbPlanes, densePlanes) << "some directional planes are all zero";
     EXPECT_EQ(volume.rgbSlots().used(), rgbPlanes);
     EXPECT_EQ(volume.alphaSlots().used(), alphaPlanes);
     EXPECT_GT(volume.residentBytes(), volume.usedAtlasBytes());
@@ -110,8 +118,8 @@ TEST(RvolGpuVolume, UploadsEveryBrickIntoAtlasSlotsAndEvictedBricksFallBackToThe
         static_cast<unsigned long long>(volume.indirectionBytes()),
         static_cast<unsigned long long>(volume.uploadedBytesTotal()));
 
-    // Evicting a level-1 brick frees its 6 + 3 slots and makes it sample as the level above;
-    // uploading it again reuses them and restores the samples.
+    // Evicting a level-1 brick frees its slots (one per stored plane) and makes it sample as the
+    // level above; uploading it again reuses them and restores the samples.
     rt::FinalGatherGpu gather(*gl, {.hardwareFilter = false});
     const vox::rvol::BrickEntry e = b.reader->bricks(1)[0];
     const double cell = b.reader->header().cellSize(1);
@@ -134,8 +142,8 @@ TEST(RvolGpuVolume, UploadsEveryBrickIntoAtlasSlotsAndEvictedBricksFallBackToThe
     const std::uint32_t rgbUsed = volume.rgbSlots().used(), alphaUsed = volume.alphaSlots().used();
     volume.evictBrick(1, 0);
     EXPECT_FALSE(volume.resident(1, 0));
-    EXPECT_EQ(volume.rgbSlots().used(), rgbUsed - 6);
-    EXPECT_EQ(volume.alphaSlots().used(), alphaUsed - 3);
+    EXPECT_EQ(volume.rgbSlots().used(), rgbUsed - std::popcount(e.planes & 0x3Fu));
+    EXPECT_EQ(volume.alphaSlots().used(), alphaUsed - std::popcount(unsigned{e.planes} >> 6));
     // A missing brick is not empty: samples there fall back to the level above, which holds.
     std::vector<rt::FinalGatherGpu::SampleQuery> coarser = queries;
     for (auto& q : coarser) q.level = 2;
@@ -316,7 +324,8 @@ TEST(RvolResidency, AClipmapAroundTheEyeWithinTheBudgetFallsBackToCoarserLevelsA
     const rt::RvolGpuVolume full(*gl, *b.reader);
     std::uint64_t fullBytes = 0;
     for (std::uint32_t l = 0; l < h.levelCount; ++l)
-        fullBytes += b.reader->level(l).brickCount * full.brickBytes(l);
+        for (std::uint32_t i = 0; i < b.reader->level(l).brickCount; ++i)
+            fullBytes += full.brickBytes(l, i);
     const std::uint64_t budget = fullBytes / 4;
     rt::RvolGpuVolume streamed(*gl, *b.reader, {.uploadAll = false, .atlasBytes = budget});
     EXPECT_LT(streamed.residentBytes(), full.residentBytes())

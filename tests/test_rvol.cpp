@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -215,24 +216,88 @@ void fixChecksums(std::vector<std::uint8_t>& bytes) {
         if (inside(offset, size)) store<std::uint32_t>(h + field, vox::crc32c(h + offset, size));
     };
     const auto levelCount = load<std::uint32_t>(h + 16);
+    const auto n = load<std::uint32_t>(h + 20);
     const auto directoryOffset = load<std::uint64_t>(h + 160);
     const auto directoryBytes = load<std::uint64_t>(h + 168);
-    if (levelCount <= 11 && inside(directoryOffset, directoryBytes))
+    if (levelCount <= 11 && n <= rvol::kMaxBrickTexels && inside(directoryOffset, directoryBytes))
         for (std::uint32_t l = 0; l < levelCount; ++l) {
             const std::uint8_t* e = h + 256 + 32 * l;
-            const auto brickBytes = load<std::uint32_t>(e + 12),
-                       count = load<std::uint32_t>(e + 16), first = load<std::uint32_t>(e + 20);
-            const auto dataOffset = load<std::uint64_t>(e + 24);
-            for (std::uint32_t i = 0; i < count; ++i)
-                if (inside(directoryOffset + 12 * (std::uint64_t{first} + i), 12))
-                    crcAt(directoryOffset + 12 * (first + i) + 8,
-                          dataOffset + std::uint64_t{i} * brickBytes, brickBytes);
+            const auto channels = load<std::uint32_t>(e + 4), count = load<std::uint32_t>(e + 16),
+                       first = load<std::uint32_t>(e + 20);
+            std::uint64_t offset = load<std::uint64_t>(e + 24);
+            if (channels > 6) continue;
+            for (std::uint32_t i = 0; i < count; ++i) {
+                const std::uint64_t entry = directoryOffset + 16 * (std::uint64_t{first} + i);
+                if (!inside(entry, 16)) break;
+                // The brick's stored size from its entry's plane bits and texel count.
+                const std::uint32_t planes = load<std::uint16_t>(h + entry + 6),
+                                    rgb = planes & ((1u << channels) - 1);
+                const std::uint64_t size = rvol::storedBrickBytes(
+                    n, static_cast<std::uint32_t>(std::popcount(rgb)),
+                    static_cast<std::uint32_t>(std::popcount(planes >> channels)),
+                    load<std::uint32_t>(h + entry + 8));
+                crcAt(entry + 12, offset, size);
+                offset += size;
+            }
         }
     if (levelCount <= 11) crcAt(152, 256, 32 * levelCount);
     crcAt(156, directoryOffset, directoryBytes);
     crcAt(224, load<std::uint64_t>(h + 192), load<std::uint64_t>(h + 200));
     crcAt(228, load<std::uint64_t>(h + 208), load<std::uint64_t>(h + 216));
     crcAt(252, 0, 252);
+}
+
+/// @p bytes (a valid file read by @p reader) with brick @p index of @p level replaced by
+/// @p brick, laid out again (every later brick, level and section moved, offsets and checksums
+/// made right): a file whose only fault is in that brick's texels.
+std::vector<std::uint8_t> withBrick(const std::vector<std::uint8_t>& bytes,
+                                    const rvol::RvolReader& reader, std::uint32_t level,
+                                    std::uint32_t index, const rvol::PackedBrick& brick) {
+    const rvol::Header& h = reader.header();
+    std::vector<std::uint8_t> out(bytes.begin(),
+                                  bytes.begin() + static_cast<std::ptrdiff_t>(h.brickDataOffset));
+    for (std::uint32_t l = 0; l < h.levelCount; ++l) {
+        out.resize(rvol::alignSection(out.size()), 0);
+        store<std::uint64_t>(out.data() + 256 + 32 * l + 24, out.size());
+        for (std::uint32_t i = 0; i < reader.level(l).brickCount; ++i) {
+            std::vector<std::uint8_t> stored = reader.readStoredBrick(l, i);
+            if (l == level && i == index) {
+                stored = brick.bytes;
+                const std::uint64_t entry =
+                    h.directoryOffset + 16 * (reader.level(l).firstBrick + i);
+                store<std::uint16_t>(out.data() + entry + 6, brick.planes);
+                store<std::uint32_t>(out.data() + entry + 8, brick.texels);
+            }
+            out.insert(out.end(), stored.begin(), stored.end());
+        }
+    }
+    const std::uint64_t dataEnd = out.size();
+    store<std::uint64_t>(out.data() + 184, dataEnd - h.brickDataOffset);
+    out.resize(rvol::alignSection(out.size()), 0);
+    store<std::uint64_t>(out.data() + 192, out.size());
+    out.insert(out.end(), bytes.begin() + static_cast<std::ptrdiff_t>(h.staticAttributesOffset),
+               bytes.begin() +
+                   static_cast<std::ptrdiff_t>(h.staticAttributesOffset + h.staticAttributesBytes));
+    out.resize(rvol::alignSection(out.size()), 0);
+    store<std::uint64_t>(out.data() + 208, out.size());
+    out.insert(out.end(), bytes.begin() + static_cast<std::ptrdiff_t>(h.dynamicAttributesOffset),
+               bytes.end());
+    store<std::uint64_t>(out.data() + 232, out.size());
+    fixChecksums(out);
+    return out;
+}
+
+/// withBrick with brick @p index of @p level's dense planes edited by @p edit, then packed.
+template <typename Edit>
+std::vector<std::uint8_t> withEditedBrick(const std::vector<std::uint8_t>& bytes,
+                                          const rvol::RvolReader& reader, std::uint32_t level,
+                                          std::uint32_t index, Edit&& edit) {
+    std::vector<std::uint8_t> dense = reader.readBrickBytes(level, index);
+    edit(dense);
+    return withBrick(
+        bytes, reader, level, index,
+        rvol::packBrick(dense, reader.header().brickTexels, reader.level(level).channels,
+                        reader.header().binaryLevel0Opacity()));
 }
 
 }  // namespace
@@ -417,7 +482,7 @@ TEST(Rvol, BricksShareFacesAndEmptyOnesAreNotStored) {
     const rvol::LevelEntry& e = reader.level(0);
     EXPECT_EQ(e.resolution, 8u);
     EXPECT_EQ(e.bricksPerAxis, 3u);
-    EXPECT_EQ(e.brickBytes, 320u);  // 64 texels × (4 + 1) bytes
+    EXPECT_EQ(e.denseBrickBytes, 320u);  // 64 texels × (4 + 1) bytes
     const auto bricks = reader.bricks(0);
     ASSERT_EQ(bricks.size(), 3u);
     // Morton order: (0,0,0) = 0, (1,0,0) = 1, (2,2,2) = 56.
@@ -426,7 +491,11 @@ TEST(Rvol, BricksShareFacesAndEmptyOnesAreNotStored) {
     EXPECT_EQ(bricks[2].morton(), 56u);
     EXPECT_EQ(reader.findBrick(0, 2, 2, 2), 2);
     EXPECT_EQ(reader.findBrick(0, 0, 1, 0), -1);
-    EXPECT_EQ(reader.brickOffset(0, 2), e.dataOffset + 640);
+    // Bricks 0 and 1 hold one texel each: an 8-byte mask, a word, an opacity padded to 4.
+    EXPECT_EQ(reader.bricks(0)[0].texels, 1u);
+    EXPECT_EQ(reader.bricks(0)[0].planes, 0b11u);
+    EXPECT_EQ(reader.storedBrickSize(0, 0), 16u);
+    EXPECT_EQ(reader.brickOffset(0, 2), e.dataOffset + 32);
     EXPECT_EQ(e.dataOffset % 64, 0u);
 
     const auto texelAt = [](std::uint32_t i, std::uint32_t j, std::uint32_t k) {
@@ -440,7 +509,12 @@ TEST(Rvol, BricksShareFacesAndEmptyOnesAreNotStored) {
         EXPECT_EQ(b1[t], t == texelAt(0, 0, 0) ? a : rvol::Texel{}) << t;  // … and brick 1's first
         EXPECT_EQ(b2[t], t == texelAt(1, 1, 1) ? b : rvol::Texel{}) << t;  // cell 7 = 6 + 1
     }
-    // The stored bytes: per channel the RGB9E5 plane, then the A8 plane.
+    // Stored: the occupancy mask (texel 3), the texel's word, its opacity, zero padding.
+    const std::vector<std::uint8_t> stored = reader.readStoredBrick(0, 0);
+    EXPECT_EQ(rvol::encodeRgb9e5(0.5f, 1.0f, 2.0f), 0x8C010040u);
+    EXPECT_EQ(stored, (std::vector<std::uint8_t>{0x08, 0, 0, 0, 0, 0, 0, 0, 0x40, 0x00, 0x01, 0x8C,
+                                                 128, 0, 0, 0}));
+    // Expanded: per channel the RGB9E5 plane, then the A8 plane.
     const std::vector<std::uint8_t> raw = reader.readBrickBytes(0, 0);
     ASSERT_EQ(raw.size(), 320u);
     EXPECT_EQ(load<std::uint32_t>(raw.data() + 4 * texelAt(3, 0, 0)),
@@ -476,6 +550,108 @@ TEST(Rvol, BricksShareFacesAndEmptyOnesAreNotStored) {
               (std::vector<std::uint64_t>{2, 0, 0, 0}));
 }
 
+TEST(Rvol, PackedBricksRoundTripAndStoreOnlyOccupiedTexelsOfNonZeroPlanes) {
+    // packBrick keeps the texels with a non-zero byte in some plane (the occupancy mask) of the
+    // planes with a non-zero byte; expandBrick gives the dense planes back exactly.
+    std::mt19937 rng(77);
+    for (std::uint32_t n : {2u, 3u, 4u, 5u, 8u})
+        for (std::uint32_t channels : {1u, 6u})
+            for (bool binary : {false, true}) {
+                SCOPED_TRACE(std::to_string(n) + " texels, " + std::to_string(channels) +
+                             " channels, binary " + std::to_string(binary));
+                const std::uint32_t n3 = n * n * n, alpha = rvol::alphaPlanes(channels, binary),
+                                    planes = channels + alpha;
+                for (int trial = 0; trial < 40; ++trial) {
+                    std::vector<std::uint8_t> dense(rvol::brickBytes(n, channels, binary), 0);
+                    // Sparse texels, some planes left all zero.
+                    const double fill = std::uniform_real_distribution<double>(0, 0.6)(rng);
+                    std::uint32_t usedPlanes =
+                        std::uniform_int_distribution<std::uint32_t>(0, (1u << planes) - 1)(rng);
+                    if (trial == 0) usedPlanes = 0;  // an all-zero brick
+                    std::vector<bool> occupied(n3, false);
+                    std::uint16_t wantPlanes = 0;
+                    for (std::uint32_t t = 0; t < n3; ++t) {
+                        if (std::uniform_real_distribution<double>(0, 1)(rng) >= fill) continue;
+                        for (std::uint32_t p = 0; p < planes; ++p) {
+                            if ((usedPlanes & 1u << p) == 0 || rng() % 2) continue;
+                            const std::uint32_t value = rng() | 1u << (rng() % 8);  // not zero
+                            if (p < channels)
+                                store<std::uint32_t>(
+                                    dense.data() + rvol::rgbPlaneOffset(n, p) + 4 * t, value);
+                            else
+                                dense[rvol::alphaPlaneOffset(n, channels, p - channels) + t] =
+                                    static_cast<std::uint8_t>(value | 1);
+                            occupied[t] = true;
+                            wantPlanes = static_cast<std::uint16_t>(wantPlanes | 1u << p);
+                        }
+                    }
+                    const auto wantTexels = static_cast<std::uint32_t>(
+                        std::count(occupied.begin(), occupied.end(), true));
+                    const rvol::PackedBrick packed = rvol::packBrick(dense, n, channels, binary);
+                    EXPECT_EQ(packed.planes, wantPlanes);
+                    EXPECT_EQ(packed.texels, wantTexels);
+                    if (wantTexels == 0) {
+                        EXPECT_TRUE(packed.bytes.empty());
+                        continue;
+                    }
+                    const auto rgb = static_cast<std::uint32_t>(
+                                   std::popcount(wantPlanes & ((1u << channels) - 1u))),
+                               a8 = static_cast<std::uint32_t>(std::popcount(
+                                   static_cast<std::uint32_t>(wantPlanes) >> channels));
+                    ASSERT_EQ(packed.bytes.size(), rvol::storedBrickBytes(n, rgb, a8, wantTexels));
+                    EXPECT_EQ(packed.bytes.size() % 4, 0u);
+                    // The mask: bit t of byte t/8 for each occupied texel.
+                    for (std::uint32_t t = 0; t < n3; ++t)
+                        EXPECT_EQ((packed.bytes[t / 8] >> (t % 8)) & 1u, occupied[t] ? 1u : 0u);
+                    // The first stored plane's first value is the first occupied texel's.
+                    const auto first = static_cast<std::uint32_t>(
+                        std::find(occupied.begin(), occupied.end(), true) - occupied.begin());
+                    const std::uint64_t mask = rvol::brickMaskBytes(n);
+                    const std::uint32_t p0 =
+                        static_cast<std::uint32_t>(std::countr_zero(unsigned{wantPlanes}));
+                    if (p0 < channels)
+                        EXPECT_EQ(load<std::uint32_t>(packed.bytes.data() + mask),
+                                  load<std::uint32_t>(dense.data() + rvol::rgbPlaneOffset(n, p0) +
+                                                      4 * first));
+                    else
+                        EXPECT_EQ(
+                            packed.bytes[mask],
+                            dense[rvol::alphaPlaneOffset(n, channels, p0 - channels) + first]);
+                    EXPECT_EQ(rvol::expandBrick(packed.bytes, n, channels, binary, packed.planes,
+                                                packed.texels),
+                              dense);
+                    // A wrong entry or mask is refused, never misread.
+                    EXPECT_THROW((void)rvol::expandBrick(packed.bytes, n, channels, binary,
+                                                         packed.planes, packed.texels + 1),
+                                 std::invalid_argument);
+                    EXPECT_THROW((void)rvol::expandBrick(packed.bytes, n, channels, binary,
+                                                         static_cast<std::uint16_t>(1u << planes),
+                                                         packed.texels),
+                                 std::invalid_argument);
+                    std::vector<std::uint8_t> flipped = packed.bytes;
+                    const std::uint32_t t = rng() % n3;
+                    flipped[t / 8] ^= static_cast<std::uint8_t>(1u << (t % 8));
+                    EXPECT_THROW((void)rvol::expandBrick(flipped, n, channels, binary,
+                                                         packed.planes, packed.texels),
+                                 std::invalid_argument);
+                    if (n3 % 32 != 0) {  // a mask bit past the brick's texels
+                        flipped = packed.bytes;
+                        flipped[n3 / 8] ^= static_cast<std::uint8_t>(1u << (n3 % 8));
+                        flipped[first / 8] ^= static_cast<std::uint8_t>(1u << (first % 8));
+                        EXPECT_THROW((void)rvol::expandBrick(flipped, n, channels, binary,
+                                                             packed.planes, packed.texels),
+                                     std::invalid_argument);
+                    }
+                }
+            }
+    EXPECT_EQ(rvol::brickMaskBytes(2), 4u);
+    EXPECT_EQ(rvol::brickMaskBytes(4), 8u);
+    EXPECT_EQ(rvol::brickMaskBytes(5), 16u);
+    EXPECT_EQ(rvol::storedBrickBytes(5, 6, 3, 40), 16u + 6 * 4 * 40 + 120);
+    EXPECT_EQ(rvol::storedBrickBytes(5, 1, 0, 26), 16u + 104);
+    EXPECT_EQ(rvol::storedBrickBytes(4, 1, 1, 2), 8u + 8 + 4);
+}
+
 TEST(Rvol, WorkedExampleOfTheSpec) {
     // docs/rvol-format.md, "Worked example": the same volume gives the bytes the spec lists.
     ScratchDir dir;
@@ -500,16 +676,16 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     a.normal = {0, 1, 0};
     a.occlusion = 0.25f;
     v.staticVoxels = {a};
-    EXPECT_EQ(rvol::writeRvol(dir / "ex.rvol", v, kFourTexels).fileBytes, 2496u);
+    EXPECT_EQ(rvol::writeRvol(dir / "ex.rvol", v, kFourTexels).fileBytes, 576u);
     const std::vector<std::uint8_t> b = readBytes(dir / "ex.rvol");
-    ASSERT_EQ(b.size(), 2496u);
+    ASSERT_EQ(b.size(), 576u);
 
     // The whole file, byte for byte, as the spec lists it (every byte not set here is zero).
-    std::vector<std::uint8_t> want(2496, 0);
+    std::vector<std::uint8_t> want(576, 0);
     std::uint8_t* w = want.data();
     // Header.
     std::memcpy(w, "RVOL", 4);
-    store<std::uint16_t>(w + 4, 3);  // version 3.0
+    store<std::uint16_t>(w + 4, 4);  // version 4.0
     store<std::uint32_t>(w + 8, 256);
     store<std::uint32_t>(w + 12, 1);  // depth
     store<std::uint32_t>(w + 16, 2);  // levels
@@ -528,54 +704,61 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     store<std::uint64_t>(w + 120, 1);                     // static voxels (0 dynamic)
     store<std::uint64_t>(w + 136, 256);
     store<std::uint64_t>(w + 144, 64);
-    store<std::uint32_t>(w + 152, 0x4AC5680Bu);  // level table checksum
-    store<std::uint32_t>(w + 156, 0xCC0F3D9Eu);  // directory checksum
+    store<std::uint32_t>(w + 152, 0xF2C01D53u);  // level table checksum
+    store<std::uint32_t>(w + 156, 0x3BDFB28Eu);  // directory checksum
     store<std::uint64_t>(w + 160, 320);
-    store<std::uint64_t>(w + 168, 24);
+    store<std::uint64_t>(w + 168, 32);
     store<std::uint64_t>(w + 176, 384);
-    store<std::uint64_t>(w + 184, 2048);
-    store<std::uint64_t>(w + 192, 2432);
+    store<std::uint64_t>(w + 184, 100);
+    store<std::uint64_t>(w + 192, 512);
     store<std::uint64_t>(w + 200, 16);
-    store<std::uint64_t>(w + 208, 2496);         // dynamic layer, 0 bytes
+    store<std::uint64_t>(w + 208, 576);          // dynamic layer, 0 bytes
     store<std::uint32_t>(w + 224, 0x1F01AA95u);  // static layer checksum (dynamic: 0)
-    store<std::uint64_t>(w + 232, 2496);
-    store<std::uint32_t>(w + 252, 0x5E6FFBE4u);  // header checksum
-    // Level table: resolution, channels, bricks per axis, brick bytes, bricks, first entry, data
-    // offset.
+    store<std::uint64_t>(w + 232, 576);
+    store<std::uint32_t>(w + 252, 0x44B1427Eu);  // header checksum
+    // Level table: resolution, channels, bricks per axis, dense brick bytes, bricks, first entry,
+    // data offset.
     for (const auto& [at, entry, offset] :
          {std::tuple{256, std::array<std::uint32_t, 6>{2, 1, 1, 320, 1, 0}, 384},
-          std::tuple{288, std::array<std::uint32_t, 6>{1, 6, 1, 1728, 1, 1}, 704}}) {
+          std::tuple{288, std::array<std::uint32_t, 6>{1, 6, 1, 1728, 1, 1}, 448}}) {
         for (int i = 0; i < 6; ++i) store<std::uint32_t>(w + at + 4 * i, entry[i]);
         store<std::uint64_t>(w + at + 24, static_cast<std::uint64_t>(offset));
     }
-    // Directory: bricks (0,0,0) of both levels.
-    store<std::uint32_t>(w + 320 + 8, 0xAF98C607u);
-    store<std::uint32_t>(w + 332 + 8, 0xD6D289A3u);
-    // Level 0's brick: RGB9E5 plane, then the A8 plane at brick byte 256.
-    store<std::uint32_t>(w + 384, 0x78000100u);  // red (0.5, 0, 0)
-    store<std::uint32_t>(w + 388, 0x80020000u);  // green (0, 1, 0)
-    w[384 + 256] = 128;
-    w[384 + 257] = 255;
-    // Level 1's brick: the RGB9E5 planes of PosX … NegZ at brick byte 256·c, then the A8 planes
-    // of the x, y and z axes at 1536, 1600, 1664.
+    // Directory: bricks (0,0,0) of both levels: plane bits, texels, checksum.
+    store<std::uint16_t>(w + 320 + 6, 0b11);  // RGB9E5 and A8 planes
+    store<std::uint32_t>(w + 320 + 8, 2);
+    store<std::uint32_t>(w + 320 + 12, 0xF256514Bu);
+    store<std::uint16_t>(w + 336 + 6, 0x1FF);  // six RGB9E5 and three A8 planes
+    store<std::uint32_t>(w + 336 + 8, 1);
+    store<std::uint32_t>(w + 336 + 12, 0x4A31860Au);
+    // Level 0's brick (20 bytes): the 8-byte mask (texels 0 and 1), their words, their opacities
+    // and two bytes of padding.
+    w[384] = 0b11;
+    store<std::uint32_t>(w + 392, 0x78000100u);  // red (0.5, 0, 0)
+    store<std::uint32_t>(w + 396, 0x80020000u);  // green (0, 1, 0)
+    w[400] = 128;
+    w[401] = 255;
+    // Level 1's brick (36 bytes): the mask (texel 0), the word of PosX … NegZ, the opacities of
+    // the x, y and z axes and one byte of padding.
+    w[448] = 1;
     for (std::uint32_t c = 0; c < 6; ++c)
-        store<std::uint32_t>(w + 704 + 256 * c, c == 0   ? 0x68020100u
-                                                : c == 1 ? 0x70020000u
-                                                         : 0x70020080u);
-    w[704 + 1536] = 64;
-    w[704 + 1600] = 96;
-    w[704 + 1664] = 96;
+        store<std::uint32_t>(w + 456 + 4 * c, c == 0   ? 0x68020100u
+                                              : c == 1 ? 0x70020000u
+                                                       : 0x70020080u);
+    w[480] = 64;
+    w[481] = 96;
+    w[482] = 96;
     // Static layer: Morton code 1, albedo sRGB 188 ×3 and coverage 255, normal +y with
     // occlusion 64.
-    store<std::uint32_t>(w + 2432, 1);
-    store<std::uint32_t>(w + 2436, 0xFFBCBCBCu);
-    store<std::uint32_t>(w + 2440, 0x40FFF800u);
+    store<std::uint32_t>(w + 512, 1);
+    store<std::uint32_t>(w + 516, 0xFFBCBCBCu);
+    store<std::uint32_t>(w + 520, 0x40FFF800u);
     const auto mismatch = std::mismatch(b.begin(), b.end(), want.begin());
     EXPECT_TRUE(mismatch.first == b.end())
         << "first difference at byte " << (mismatch.first - b.begin());
 
     const rvol::RvolReader reader(dir / "ex.rvol");
-    EXPECT_EQ(rvol::validateRvol(reader).paddingBytes, 88u);
+    EXPECT_EQ(rvol::validateRvol(reader).paddingBytes, 152u);
     const rvol::Texel t = reader.sample(0, 0, {1.0, 0.5, 0.5});
     EXPECT_FLOAT_EQ(t.g, 0.5f);
     EXPECT_FLOAT_EQ(t.a, (128 / 255.0f + 1) / 2);
@@ -632,14 +815,15 @@ TEST(Rvol, OpacityIsStoredOncePerAxis) {
     const rvol::RvolReader reader(dir / "v.rvol");
     const rvol::LevelEntry& e = reader.level(1);
     EXPECT_EQ(e.channels, 6u);
-    EXPECT_EQ(e.brickBytes, 1728u);
+    EXPECT_EQ(e.denseBrickBytes, 1728u);
     ASSERT_EQ(e.brickCount, 1u);
-    EXPECT_EQ(reader.level(0).brickBytes, 320u);
+    EXPECT_EQ(reader.level(0).denseBrickBytes, 320u);
     EXPECT_EQ(result.radianceBytes,
-              reader.level(0).brickCount * 320u + 1728u + reader.level(2).brickCount * 1728u);
+              reader.level(0).dataBytes + reader.level(1).dataBytes + reader.level(2).dataBytes);
+    EXPECT_EQ(reader.level(1).dataBytes, reader.storedBrickSize(1, 0));
     EXPECT_EQ(result.radianceBytes, rvol::validateRvol(reader).radianceBytes);
 
-    // The stored bytes: RGB9E5 planes of PosX … NegZ at 256·c, then the x, y, z A8 planes at
+    // Expanded: RGB9E5 planes of PosX … NegZ at 256·c, then the x, y, z A8 planes at
     // 1536 + 64·p.
     const std::vector<std::uint8_t> raw = reader.readBrickBytes(1, 0);
     ASSERT_EQ(raw.size(), 1728u);
@@ -741,16 +925,16 @@ TEST(Rvol, BinaryLevel0OpacityWorkedExampleOfTheSpec) {
     v.levels = {l0, rvol::Level{1, 6, {}, {}}};
     const rvol::RvolWriteResult result = rvol::writeRvol(dir / "ex.rvol", v);
     EXPECT_TRUE(result.binaryLevel0Opacity);
-    EXPECT_EQ(result.fileBytes, 896u);
-    EXPECT_EQ(result.radianceBytes, 500u);
-    EXPECT_EQ(result.paddingBytes, 896u - 256 - 64 - 12 - 500);
+    EXPECT_EQ(result.fileBytes, 448u);
+    EXPECT_EQ(result.radianceBytes, 24u);
+    EXPECT_EQ(result.paddingBytes, 448u - 256 - 64 - 16 - 24);
     const std::vector<std::uint8_t> b = readBytes(dir / "ex.rvol");
-    ASSERT_EQ(b.size(), 896u);
+    ASSERT_EQ(b.size(), 448u);
 
-    std::vector<std::uint8_t> want(896, 0);
+    std::vector<std::uint8_t> want(448, 0);
     std::uint8_t* w = want.data();
     std::memcpy(w, "RVOL", 4);
-    store<std::uint16_t>(w + 4, 3);  // version 3.0
+    store<std::uint16_t>(w + 4, 4);  // version 4.0
     store<std::uint32_t>(w + 8, 256);
     store<std::uint32_t>(w + 12, 1);  // depth
     store<std::uint32_t>(w + 16, 2);  // levels
@@ -765,28 +949,31 @@ TEST(Rvol, BinaryLevel0OpacityWorkedExampleOfTheSpec) {
     store<std::uint64_t>(w + 112, 1);  // bricks (no voxels)
     store<std::uint64_t>(w + 136, 256);
     store<std::uint64_t>(w + 144, 64);
-    store<std::uint32_t>(w + 152, 0xFDA07A27u);  // level table checksum
-    store<std::uint32_t>(w + 156, 0x90CD92DAu);  // directory checksum
+    store<std::uint32_t>(w + 152, 0x37A6E885u);  // level table checksum
+    store<std::uint32_t>(w + 156, 0xC37DDDADu);  // directory checksum
     store<std::uint64_t>(w + 160, 320);
-    store<std::uint64_t>(w + 168, 12);
+    store<std::uint64_t>(w + 168, 16);
     store<std::uint64_t>(w + 176, 384);
-    store<std::uint64_t>(w + 184,
-                         512);  // level 0's 500 bytes, the gap to level 1's (empty) data at 896
-    store<std::uint64_t>(w + 192, 896);  // static layer, 0 bytes
-    store<std::uint64_t>(w + 208, 896);  // dynamic layer, 0 bytes
-    store<std::uint64_t>(w + 232, 896);
-    store<std::uint32_t>(w + 252, 0x82BF50A6u);  // header checksum
+    store<std::uint64_t>(w + 184, 64);   // level 0's 24 bytes, the gap to level 1's (empty) data
+    store<std::uint64_t>(w + 192, 448);  // static layer, 0 bytes
+    store<std::uint64_t>(w + 208, 448);  // dynamic layer, 0 bytes
+    store<std::uint64_t>(w + 232, 448);
+    store<std::uint32_t>(w + 252, 0x01FC9382u);  // header checksum
     for (const auto& [at, entry, offset] :
          {std::tuple{256, std::array<std::uint32_t, 6>{2, 1, 1, 500, 1, 0}, 384},
-          std::tuple{288, std::array<std::uint32_t, 6>{1, 6, 1, 3384, 0, 1}, 896}}) {
+          std::tuple{288, std::array<std::uint32_t, 6>{1, 6, 1, 3384, 0, 1}, 448}}) {
         for (int i = 0; i < 6; ++i) store<std::uint32_t>(w + at + 4 * i, entry[i]);
         store<std::uint64_t>(w + at + 24, static_cast<std::uint64_t>(offset));
     }
-    store<std::uint32_t>(w + 320 + 8, 0x92C74FC6u);  // brick (0,0,0) of level 0
-    // Level 0's brick: the RGB9E5 plane alone, 125 words.
-    store<std::uint32_t>(w + 384,
+    // Brick (0,0,0) of level 0: the RGB9E5 plane only, two texels.
+    store<std::uint16_t>(w + 320 + 6, 1);
+    store<std::uint32_t>(w + 320 + 8, 2);
+    store<std::uint32_t>(w + 320 + 12, 0xA348AB3Cu);
+    // Level 0's brick (24 bytes): the 16-byte mask (texels 0 and 1), their words.
+    w[384] = 0b11;
+    store<std::uint32_t>(w + 400,
                          rvol::kSolidBlackWord);  // solid black: the smallest non-zero word
-    store<std::uint32_t>(w + 388, 0x80020000u);   // green (0, 1, 0)
+    store<std::uint32_t>(w + 404, 0x80020000u);   // green (0, 1, 0)
     EXPECT_EQ(rvol::kSolidBlackWord, 1u);
     EXPECT_EQ(rvol::encodeRgb9e5(0x1p-24f, 0, 0), rvol::kSolidBlackWord);
     const auto mismatch = std::mismatch(b.begin(), b.end(), want.begin());
@@ -794,7 +981,7 @@ TEST(Rvol, BinaryLevel0OpacityWorkedExampleOfTheSpec) {
         << "first difference at byte " << (mismatch.first - b.begin());
 
     const rvol::RvolReader reader(dir / "ex.rvol");
-    EXPECT_EQ(rvol::validateRvol(reader).paddingBytes, 64u);
+    EXPECT_EQ(rvol::validateRvol(reader).paddingBytes, 88u);
     const std::vector<rvol::Texel> texels = reader.readBrick(0, 0);
     EXPECT_EQ(texels[0], (rvol::Texel{0x1p-24f, 0, 0, 1}));  // solid, radiance ≈ 6e-8
     EXPECT_EQ(texels[1], (rvol::Texel{0, 1, 0, 1}));
@@ -815,9 +1002,10 @@ TEST(Rvol, BinaryLevel0OpacityIsChosenOnlyWhenEveryOpacityIs0Or1) {
         const bool binary = (reader.header().flags & rvol::kFlagBinaryLevel0Opacity) != 0;
         EXPECT_EQ(binary, result.binaryLevel0Opacity);
         EXPECT_EQ(binary, reader.header().binaryLevel0Opacity());
-        EXPECT_EQ(reader.header().versionMajor, 3u);
-        EXPECT_EQ(reader.level(0).brickBytes, rvol::brickBytes(options.brickTexels, 1, binary));
-        EXPECT_EQ(reader.level(1).brickBytes,
+        EXPECT_EQ(reader.header().versionMajor, 4u);
+        EXPECT_EQ(reader.level(0).denseBrickBytes,
+                  rvol::brickBytes(options.brickTexels, 1, binary));
+        EXPECT_EQ(reader.level(1).denseBrickBytes,
                   rvol::brickBytes(options.brickTexels, 6));  // unchanged above level 0
         const rvol::RvolReport report = rvol::validateRvol(reader);
         EXPECT_EQ(report.radianceBytes, result.radianceBytes);
@@ -827,18 +1015,21 @@ TEST(Rvol, BinaryLevel0OpacityIsChosenOnlyWhenEveryOpacityIs0Or1) {
     const rvol::Volume v = makeBinaryVolume(4, 12);
     const auto [binary, result] = write(v);
     EXPECT_TRUE(binary);
-    // At N = 5, 500 bytes per level-0 brick instead of 628: the same bricks, 128 bytes less each.
+    // At N = 5, 500 bytes per dense level-0 brick instead of 628; stored, each level-0 brick
+    // saves its M opacities (padded to 4), M the texels of its mask, the same in both layouts.
+    std::uint64_t opacityBytes = 0;
     {
         const rvol::RvolReader reader(dir / "v.rvol");
-        EXPECT_EQ(reader.level(0).brickBytes, 500u);
+        EXPECT_EQ(reader.level(0).denseBrickBytes, 500u);
         EXPECT_EQ(reader.readBrickBytes(0, 0).size(), 500u);
+        for (const rvol::BrickEntry& e : reader.bricks(0)) opacityBytes += (e.texels + 3) / 4 * 4;
     }
     rvol::RvolWriteOptions a8;
     a8.binaryLevel0Opacity = false;
     const auto [notAsked, withA8] = write(v, a8);
     EXPECT_FALSE(notAsked);
     EXPECT_EQ(withA8.bricksPerLevel, result.bricksPerLevel);
-    EXPECT_EQ(withA8.radianceBytes - result.radianceBytes, 128 * result.bricksPerLevel[0]);
+    EXPECT_EQ(withA8.radianceBytes - result.radianceBytes, opacityBytes);
     EXPECT_EQ(withA8.bricks, result.bricks);
     {  // The A8 layout reads black solid cells back as (0, 0, 0, 1); the binary one (below) as
        // (2^-24, 0, 0, 1).
@@ -886,7 +1077,7 @@ TEST(Rvol, BinaryLevel0OpacityRoundTripsAndSamplesAsTrilinear) {
         const rvol::RvolReader reader(file);
         EXPECT_EQ(reader.header().flags,
                   rvol::kFlagStaticAttributes | rvol::kFlagBinaryLevel0Opacity);
-        EXPECT_EQ(reader.level(0).brickBytes, 4u * n * n * n);
+        EXPECT_EQ(reader.level(0).denseBrickBytes, 4u * n * n * n);
         const rvol::RvolReport report = rvol::validateRvol(reader);
         EXPECT_EQ(report.radianceBytes, result.radianceBytes);
         EXPECT_EQ(report.bricksPerLevel, result.bricksPerLevel);
@@ -1006,8 +1197,9 @@ TEST(Rvol, RoundTripIsExactForRepresentableTexels) {
         for (std::uint32_t l = 0; l <= 5; ++l) {
             EXPECT_EQ(reader.level(l).channels, l == 0 ? 1u : 6u);
             // Level 0: an RGB9E5 and an A8 plane; above: six RGB9E5 planes and three A8 planes.
-            EXPECT_EQ(reader.level(l).brickBytes, (l == 0 ? 1 : 6) * rvol::rgbPlaneBytes(n) +
-                                                      (l == 0 ? 1 : 3) * rvol::alphaPlaneBytes(n));
+            EXPECT_EQ(reader.level(l).denseBrickBytes,
+                      (l == 0 ? 1 : 6) * rvol::rgbPlaneBytes(n) +
+                          (l == 0 ? 1 : 3) * rvol::alphaPlaneBytes(n));
             EXPECT_EQ(reader.level(l).brickCount, result.bricksPerLevel[l]);
         }
 
@@ -1375,7 +1567,7 @@ TEST(Rvol, BinaryLevel0OpacityCorruptionIsInvalidData) {
     const std::vector<std::uint8_t> bytes = readBytes(good);
     const rvol::RvolReader reader(good);
     const rvol::LevelEntry& l0 = reader.level(0);
-    ASSERT_EQ(l0.brickBytes, 256u);
+    ASSERT_EQ(l0.denseBrickBytes, 256u);
     const fs::path bad = dir / "bad.rvol";
     const auto rejectedWith = [&](std::vector<std::uint8_t> data, const std::string& expected) {
         fixChecksums(data);
@@ -1398,20 +1590,21 @@ TEST(Rvol, BinaryLevel0OpacityCorruptionIsInvalidData) {
         for (std::uint32_t i = 0; i < l0.brickCount && !found; ++i) {
             const rvol::BrickEntry& b = reader.bricks(0)[i];
             if (reader.findBrick(0, b.x + 1u, b.y, b.z) < 0) continue;
-            std::vector<std::uint8_t> data = bytes;
             const std::uint64_t texel = 3 + 4 * (1 + 4 * 2);  // (3, 1, 2): on the +x face
-            data[reader.brickOffset(0, i) + 4 * texel] ^= 0x01;
-            rejectedWith(data, "shared face with brick (" + std::to_string(b.x + 1) + "," +
-                                   std::to_string(b.y) + "," + std::to_string(b.z) +
-                                   ") differs (channel 0)");
+            rejectedWith(withEditedBrick(
+                             bytes, reader, 0, i,
+                             [&](std::vector<std::uint8_t>& dense) { dense[4 * texel] ^= 0x01; }),
+                         "shared face with brick (" + std::to_string(b.x + 1) + "," +
+                             std::to_string(b.y) + "," + std::to_string(b.z) +
+                             ") differs (channel 0)");
             found = true;
         }
         EXPECT_TRUE(found);
     }
-    {  // A brick made all zero: every word 0, every cell empty.
+    {  // A brick's stored bytes made all zero: its mask no longer holds its entry's texels.
         std::vector<std::uint8_t> data = bytes;
         std::fill_n(data.begin() + static_cast<std::ptrdiff_t>(reader.brickOffset(0, 0)),
-                    l0.brickBytes, 0);
+                    reader.storedBrickSize(0, 0), 0);
         rejectedWith(data, "level 0, brick 0");
     }
     {  // A non-zero word (a solid cell) on a face towards a brick that is not stored.
@@ -1420,11 +1613,13 @@ TEST(Rvol, BinaryLevel0OpacityCorruptionIsInvalidData) {
             const rvol::BrickEntry& b = reader.bricks(0)[i];
             if (b.x + 1u >= l0.bricksPerAxis || reader.findBrick(0, b.x + 1u, b.y, b.z) >= 0)
                 continue;
-            std::vector<std::uint8_t> data = bytes;
             const std::uint64_t texel = 3 + 4 * (1 + 4 * 2);
-            store<std::uint32_t>(data.data() + reader.brickOffset(0, i) + 4 * texel,
-                                 rvol::kSolidBlackWord);
-            rejectedWith(data, "which is not stored, is not zero");
+            rejectedWith(withEditedBrick(bytes, reader, 0, i,
+                                         [&](std::vector<std::uint8_t>& dense) {
+                                             store<std::uint32_t>(dense.data() + 4 * texel,
+                                                                  rvol::kSolidBlackWord);
+                                         }),
+                         "which is not stored, is not zero");
             found = true;
         }
         EXPECT_TRUE(found);
@@ -1461,10 +1656,12 @@ TEST(Rvol, ErrorMessagesSayWhere) {
               bad.string() + ": brick directory: checksum mismatch");
     const rvol::LevelEntry& l1 = reader.level(1);
     const rvol::BrickEntry& b = reader.bricks(1)[2];
-    EXPECT_EQ(message(flipped(reader.brickOffset(1, 2) + 100)),
+    EXPECT_EQ(message(flipped(reader.brickOffset(1, 2) + 9)),
               bad.string() + ": level 1, brick 2 (" + std::to_string(b.x) + "," +
                   std::to_string(b.y) + "," + std::to_string(b.z) + "), file offset " +
-                  std::to_string(l1.dataOffset + 2 * l1.brickBytes) + ": checksum mismatch");
+                  std::to_string(l1.dataOffset + reader.storedBrickSize(1, 0) +
+                                 reader.storedBrickSize(1, 1)) +
+                  ": checksum mismatch");
     EXPECT_EQ(message(flipped(h.staticAttributesOffset + 16 * 3 + 5)),
               bad.string() + ": static attribute layer: checksum mismatch");
     EXPECT_EQ(message(flipped(h.dynamicAttributesOffset + 1)),
@@ -1473,18 +1670,14 @@ TEST(Rvol, ErrorMessagesSayWhere) {
               bad.string() + ": header says " + std::to_string(bytes.size()) +
                   " bytes but the file has " + std::to_string(bytes.size() - 1) +
                   " (truncated or appended to)");
-    // A 1.x file (one A8 plane per channel) and a 2.x file (always an A8 plane at level 0) are
-    // rejected by their version, never misread.
+    // Files of 1.x (one A8 plane per channel), 2.x (always an A8 plane at level 0) and 3.x (dense
+    // bricks of a fixed size) are rejected by their version, never misread.
     std::vector<std::uint8_t> version = bytes;
-    version[4] = 1;
-    EXPECT_EQ(message(version),
-              bad.string() + ": unsupported .rvol version 1.0 (this reader reads 3.x)");
-    version[4] = 2;
-    EXPECT_EQ(message(version),
-              bad.string() + ": unsupported .rvol version 2.0 (this reader reads 3.x)");
-    version[4] = 4;
-    EXPECT_EQ(message(version),
-              bad.string() + ": unsupported .rvol version 4.0 (this reader reads 3.x)");
+    for (const std::uint8_t major : {1, 2, 3, 5}) {
+        version[4] = major;
+        EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version " +
+                                        std::to_string(major) + ".0 (this reader reads 4.x)");
+    }
     // Any minor of the reader's major is accepted (the header checksum made right).
     version = bytes;
     version[6] = 7;
@@ -1521,31 +1714,94 @@ TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
     {  // Two directory entries swapped: no longer in Morton order.
         std::vector<std::uint8_t> data = bytes;
         std::swap_ranges(data.begin() + static_cast<std::ptrdiff_t>(h.directoryOffset),
-                         data.begin() + static_cast<std::ptrdiff_t>(h.directoryOffset + 12),
-                         data.begin() + static_cast<std::ptrdiff_t>(h.directoryOffset + 12));
+                         data.begin() + static_cast<std::ptrdiff_t>(h.directoryOffset + 16),
+                         data.begin() + static_cast<std::ptrdiff_t>(h.directoryOffset + 16));
         rejectedWith(data, "not in strictly ascending Morton order");
     }
     {  // A brick coordinate past the level.
         std::vector<std::uint8_t> data = bytes;
-        const std::uint64_t last = h.directoryOffset + 12 * (l0.brickCount - 1);
+        const std::uint64_t last = h.directoryOffset + 16 * (l0.brickCount - 1);
         store<std::uint16_t>(data.data() + last + 4, static_cast<std::uint16_t>(l0.bricksPerAxis));
         rejectedWith(data, "outside the level's");
     }
-    {  // Non-zero directory padding.
+    {  // Plane bits of a plane level 0 does not have (an A8 file: RGB9E5 and A8 only).
         std::vector<std::uint8_t> data = bytes;
-        data[h.directoryOffset + 6] = 1;
-        rejectedWith(data, "directory entry padding is not zero");
+        data[h.directoryOffset + 6] |= 0b100;
+        rejectedWith(data, "brick directory: level 0, entry 0: plane bits 7 not 1");
+        data = bytes;
+        store<std::uint16_t>(data.data() + h.directoryOffset + 6, 0);  // no plane stored
+        rejectedWith(data, "plane bits 0 not 1");
+    }
+    {  // No texels, or more than a brick has.
+        std::vector<std::uint8_t> data = bytes;
+        store<std::uint32_t>(data.data() + h.directoryOffset + 8, 0);
+        rejectedWith(data, "brick directory: level 0, entry 0: 0 texels, not 1 … 64");
+        store<std::uint32_t>(data.data() + h.directoryOffset + 8, 65);
+        rejectedWith(data, "65 texels, not 1 … 64");
+    }
+    {  // Non-canonical stored bricks, their sizes kept: an unused plane, a mask texel zero in
+       // every plane, non-zero padding.
+        const std::uint32_t n = h.brickTexels;
+        bool plane = false, texel = false, padding = false;
+        for (std::uint32_t i = 0; i < l0.brickCount; ++i) {
+            const rvol::BrickEntry& b = reader.bricks(0)[i];
+            const std::vector<std::uint8_t> stored = reader.readStoredBrick(0, i);
+            const std::uint64_t offset = reader.brickOffset(0, i), mask = rvol::brickMaskBytes(n);
+            if (!plane && b.planes == 0b11) {
+                // The A8 plane's values zeroed where every texel has a non-zero word.
+                const rvol::PackedBrick rgbOnly = rvol::packBrick(
+                    [&] {
+                        std::vector<std::uint8_t> dense = reader.readBrickBytes(0, i);
+                        std::fill(dense.begin() + 4 * 64, dense.end(), 0);
+                        return dense;
+                    }(),
+                    n, 1);
+                if (rgbOnly.texels == b.texels) {
+                    std::vector<std::uint8_t> data = bytes;
+                    std::fill_n(data.begin() + static_cast<std::ptrdiff_t>(
+                                                   offset + mask + 4 * std::uint64_t{b.texels}),
+                                b.texels, 0);
+                    rejectedWith(data, "a stored plane is all zero (plane bits 3, planes 1");
+                    plane = true;
+                }
+            }
+            if (!texel && b.texels >= 2 && b.planes == 0b11) {
+                // The first mask texel's word and opacity zeroed, the others left.
+                std::vector<std::uint8_t> data = bytes;
+                std::fill_n(data.begin() + static_cast<std::ptrdiff_t>(offset + mask), 4, 0);
+                data[offset + mask + 4 * std::uint64_t{b.texels}] = 0;
+                const rvol::PackedBrick check =
+                    rvol::packBrick(rvol::expandBrick({data.data() + offset, stored.size()}, n, 1,
+                                                      false, b.planes, b.texels),
+                                    n, 1);
+                if (check.planes == b.planes) {
+                    rejectedWith(data, "occupancy mask holds a texel that is zero in every plane");
+                    texel = true;
+                }
+            }
+            if (!padding && b.texels % 4 != 0) {
+                std::vector<std::uint8_t> data = bytes;
+                data[offset + stored.size() - 1] = 1;
+                rejectedWith(
+                    data, "level 0, brick " + std::to_string(i) + " (" + std::to_string(b.x) + "," +
+                              std::to_string(b.y) + "," + std::to_string(b.z) + "), file offset " +
+                              std::to_string(offset) + ": padding after the A8 planes is not zero");
+                padding = true;
+            }
+        }
+        EXPECT_TRUE(plane && texel && padding);
     }
     {  // One texel of a shared face changed in only one of the two bricks.
         bool found = false;
         for (std::uint32_t i = 0; i < l0.brickCount && !found; ++i) {
             const rvol::BrickEntry& b = reader.bricks(0)[i];
             if (reader.findBrick(0, b.x + 1u, b.y, b.z) < 0) continue;
-            std::vector<std::uint8_t> data = bytes;
             const std::uint64_t texel = 3 + 4 * (1 + 4 * 2);  // (3, 1, 2): on the +x face
-            data[reader.brickOffset(0, i) + 4 * texel] ^= 0x01;
-            rejectedWith(data, "shared face with brick (" + std::to_string(b.x + 1) + "," +
-                                   std::to_string(b.y) + "," + std::to_string(b.z) + ") differs");
+            rejectedWith(withEditedBrick(
+                             bytes, reader, 0, i,
+                             [&](std::vector<std::uint8_t>& dense) { dense[4 * texel] ^= 0x01; }),
+                         "shared face with brick (" + std::to_string(b.x + 1) + "," +
+                             std::to_string(b.y) + "," + std::to_string(b.z) + ") differs");
             found = true;
         }
         EXPECT_TRUE(found);
@@ -1557,21 +1813,27 @@ TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
         for (std::uint32_t i = 0; i < l1.brickCount && !found; ++i) {
             const rvol::BrickEntry& b = reader.bricks(1)[i];
             if (reader.findBrick(1, b.x + 1u, b.y, b.z) < 0) continue;
-            std::vector<std::uint8_t> data = bytes;
             const std::uint64_t texel = 3 + 4 * (1 + 4 * 2);  // (3, 1, 2): on the +x face
-            data[reader.brickOffset(1, i) + rvol::alphaPlaneOffset(4, 6, 0) + texel] ^= 0x01;
-            rejectedWith(data, "shared face with brick (" + std::to_string(b.x + 1) + "," +
-                                   std::to_string(b.y) + "," + std::to_string(b.z) +
-                                   ") differs (x-axis A8 plane)");
+            rejectedWith(withEditedBrick(bytes, reader, 1, i,
+                                         [&](std::vector<std::uint8_t>& dense) {
+                                             dense[rvol::alphaPlaneOffset(4, 6, 0) + texel] ^= 0x01;
+                                         }),
+                         "shared face with brick (" + std::to_string(b.x + 1) + "," +
+                             std::to_string(b.y) + "," + std::to_string(b.z) +
+                             ") differs (x-axis A8 plane)");
             found = true;
         }
         EXPECT_TRUE(found);
     }
-    {  // A brick made all zero.
+    {  // A brick's stored bytes made all zero.
         std::vector<std::uint8_t> data = bytes;
         std::fill_n(data.begin() + static_cast<std::ptrdiff_t>(reader.brickOffset(0, 0)),
-                    l0.brickBytes, 0);
-        rejectedWith(data, "level 0, brick 0");
+                    reader.storedBrickSize(0, 0), 0);
+        const rvol::BrickEntry& b = reader.bricks(0)[0];
+        rejectedWith(data, "level 0, brick 0 (" + std::to_string(b.x) + "," + std::to_string(b.y) +
+                               "," + std::to_string(b.z) + "), file offset " +
+                               std::to_string(reader.brickOffset(0, 0)) +
+                               ": occupancy mask does not hold the entry's texels");
     }
     {  // Two attribute records swapped.
         std::vector<std::uint8_t> data = bytes;
@@ -1597,7 +1859,7 @@ TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
     {  // A header claiming far more than the file holds: rejected before any allocation.
         std::vector<std::uint8_t> data = bytes;
         store<std::uint64_t>(data.data() + 112, std::uint64_t{1} << 60);  // brickCount
-        store<std::uint64_t>(data.data() + 168, std::uint64_t{12} << 60);
+        store<std::uint64_t>(data.data() + 168, std::uint64_t{16} << 60);
         rejectedWith(data, "brick directory misplaced");
         data = bytes;
         store<std::uint64_t>(data.data() + 120, std::uint64_t{1} << 40);  // static voxels
@@ -1614,45 +1876,51 @@ TEST(Rvol, StructuralCorruptionIsCaughtBehindValidChecksums) {
         data = bytes;
         store<std::uint32_t>(data.data() + 256 + 32 + 16,
                              l0.brickCount + 1);  // level 1 claims a brick more
-        rejectedWith(data, "level table, level 1");
+        rejectedWith(data, "level table");
     }
 }
 
-TEST(Rvol, AlphaPlanePaddingMustBeZero) {
-    // N = 3: 27 opacities per A8 plane, padded to 28 bytes.
+TEST(Rvol, StoredBrickPaddingMustBeZero) {
+    // N = 3: a stored brick ends with its A8 planes' M opacities each, padded to a multiple of 4.
     ScratchDir dir;
     const fs::path good = dir / "good.rvol", bad = dir / "bad.rvol";
     rvol::writeRvol(good, makeVolume(3, 8), {3, true});
     const std::vector<std::uint8_t> bytes = readBytes(good);
     const rvol::RvolReader reader(good);
     ASSERT_EQ(openAndValidate(good), Outcome::Valid);
-    ASSERT_GT(reader.level(0).brickCount, 0u);
-    ASSERT_GT(reader.level(1).brickCount, 0u);
-    EXPECT_EQ(reader.level(0).brickBytes, 108u + 28);
-    EXPECT_EQ(reader.level(1).brickBytes, 6u * 108 + 3 * 28);
-    const auto rejectedWith = [&](std::uint32_t level, std::uint32_t plane,
-                                  const std::string& expected) {
-        std::vector<std::uint8_t> data = bytes;
-        const std::uint32_t channels = reader.level(level).channels;
-        data[reader.brickOffset(level, 0) + rvol::alphaPlaneOffset(3, channels, plane) + 27] = 1;
-        fixChecksums(data);
-        vox::test::writeBinary(bad, data);
-        try {
-            const rvol::RvolReader r(bad);
-            (void)rvol::validateRvol(r);
-            ADD_FAILURE() << "accepted; expected: " << expected;
-        } catch (const vox::InvalidDataError& e) {
-            EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    EXPECT_EQ(reader.level(0).denseBrickBytes, 108u + 28);
+    EXPECT_EQ(reader.level(1).denseBrickBytes, 6u * 108 + 3 * 28);
+    EXPECT_EQ(rvol::brickMaskBytes(3), 4u);
+    for (std::uint32_t level : {0u, 1u}) {
+        SCOPED_TRACE("level " + std::to_string(level));
+        bool found = false;
+        for (std::uint32_t i = 0; i < reader.level(level).brickCount && !found; ++i) {
+            const rvol::BrickEntry& b = reader.bricks(level)[i];
+            const std::uint32_t alpha = static_cast<std::uint32_t>(std::popcount(
+                static_cast<std::uint32_t>(b.planes >> reader.level(level).channels)));
+            if (alpha * b.texels % 4 == 0) continue;  // no padding
+            std::vector<std::uint8_t> data = bytes;
+            data[reader.brickOffset(level, i) + reader.storedBrickSize(level, i) - 1] = 1;
+            fixChecksums(data);
+            vox::test::writeBinary(bad, data);
+            try {
+                const rvol::RvolReader r(bad);
+                (void)rvol::validateRvol(r);
+                ADD_FAILURE() << "accepted";
+            } catch (const vox::InvalidDataError& e) {
+                EXPECT_NE(std::string(e.what()).find(
+                              "level " + std::to_string(level) + ", brick " + std::to_string(i) +
+                              " (" + std::to_string(b.x) + "," + std::to_string(b.y) + "," +
+                              std::to_string(b.z) + "), file offset " +
+                              std::to_string(reader.brickOffset(level, i)) +
+                              ": padding after the A8 planes is not zero"),
+                          std::string::npos)
+                    << e.what();
+            }
+            found = true;
         }
-    };
-    const rvol::BrickEntry& first = reader.bricks(0)[0];
-    rejectedWith(0, 0,
-                 "level 0, brick 0 (" + std::to_string(first.x) + "," + std::to_string(first.y) +
-                     "," + std::to_string(first.z) + "), file offset " +
-                     std::to_string(reader.brickOffset(0, 0)) + ": A8 plane padding is not zero");
-    rejectedWith(1, 0, "level 1, brick 0");
-    rejectedWith(1, 0, "x-axis A8 plane padding is not zero");
-    rejectedWith(1, 2, "z-axis A8 plane padding is not zero");
+        EXPECT_TRUE(found);
+    }
 }
 
 TEST(Rvol, MissingFileIsIoError) {

@@ -5,8 +5,10 @@
 #include "rvol_internal.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace vox::rvol {
 namespace {
@@ -127,6 +129,111 @@ VoxelAttributes decodeAttributes(const AttributeRecord& r) noexcept {
     v.occlusion = decodeUnorm8(static_cast<std::uint8_t>(r.normalOcclusion >> 24));
     v.emission = decodeRgb9e5(r.emission);
     return v;
+}
+
+namespace {
+
+/// The planes of a dense brick: offset and bytes per texel of each (RGB9E5 planes, then A8).
+struct PlaneLayout {
+    std::uint32_t count = 0, rgb = 0;
+    std::array<std::uint64_t, 16> offset{};
+    [[nodiscard]] std::uint32_t texelBytes(std::uint32_t plane) const noexcept {
+        return plane < rgb ? 4u : 1u;
+    }
+};
+
+PlaneLayout planeLayout(const char* who, std::uint32_t brickTexels, std::uint32_t channels,
+                        bool binaryOpacity) {
+    if (channels != 1 && channels != kDirections)
+        throw std::invalid_argument(std::string(who) + ": a brick has 1 or 6 channels");
+    if (brickTexels < kMinBrickTexels || brickTexels > kMaxBrickTexels)
+        throw std::invalid_argument(std::string(who) + ": brick size out of range");
+    PlaneLayout layout;
+    layout.rgb = channels;
+    const std::uint32_t alpha = alphaPlanes(channels, binaryOpacity);
+    layout.count = channels + alpha;
+    for (std::uint32_t c = 0; c < channels; ++c) layout.offset[c] = rgbPlaneOffset(brickTexels, c);
+    for (std::uint32_t p = 0; p < alpha; ++p)
+        layout.offset[channels + p] = alphaPlaneOffset(brickTexels, channels, p);
+    return layout;
+}
+
+}  // namespace
+
+PackedBrick packBrick(std::span<const std::uint8_t> dense, std::uint32_t brickTexels,
+                      std::uint32_t channels, bool binaryOpacity) {
+    const PlaneLayout layout = planeLayout("packBrick", brickTexels, channels, binaryOpacity);
+    if (dense.size() != brickBytes(brickTexels, channels, binaryOpacity))
+        throw std::invalid_argument("packBrick: byte count does not match the brick size");
+    const std::size_t n3 = std::size_t{brickTexels} * brickTexels * brickTexels;
+    const auto nonZero = [&](std::uint32_t plane, std::size_t t) {
+        const std::uint32_t size = layout.texelBytes(plane);
+        const std::uint8_t* v = dense.data() + layout.offset[plane] + size * t;
+        return std::any_of(v, v + size, [](std::uint8_t b) { return b != 0; });
+    };
+    PackedBrick out;
+    std::vector<std::uint8_t> mask(brickMaskBytes(brickTexels), 0);
+    for (std::size_t t = 0; t < n3; ++t)
+        for (std::uint32_t p = 0; p < layout.count; ++p)
+            if (nonZero(p, t)) {
+                out.planes = static_cast<std::uint16_t>(out.planes | 1u << p);
+                if ((mask[t / 8] & 1u << (t % 8)) == 0) ++out.texels;
+                mask[t / 8] = static_cast<std::uint8_t>(mask[t / 8] | 1u << (t % 8));
+            }
+    if (out.texels == 0) return out;
+    std::uint32_t rgbStored = 0, alphaStored = 0;
+    for (std::uint32_t p = 0; p < layout.count; ++p)
+        if (out.planes & 1u << p) ++(p < layout.rgb ? rgbStored : alphaStored);
+    out.bytes.assign(storedBrickBytes(brickTexels, rgbStored, alphaStored, out.texels), 0);
+    std::copy(mask.begin(), mask.end(), out.bytes.begin());
+    std::uint8_t* at = out.bytes.data() + mask.size();
+    // Planes in plane order, each the mask's texels in texel order.
+    for (std::uint32_t p = 0; p < layout.count; ++p) {
+        if ((out.planes & 1u << p) == 0) continue;
+        const std::uint32_t size = layout.texelBytes(p);
+        for (std::size_t t = 0; t < n3; ++t)
+            if (mask[t / 8] & 1u << (t % 8)) {
+                std::copy_n(dense.data() + layout.offset[p] + size * t, size, at);
+                at += size;
+            }
+    }
+    return out;
+}
+
+std::vector<std::uint8_t> expandBrick(std::span<const std::uint8_t> stored,
+                                      std::uint32_t brickTexels, std::uint32_t channels,
+                                      bool binaryOpacity, std::uint16_t planes,
+                                      std::uint32_t texels) {
+    const PlaneLayout layout = planeLayout("expandBrick", brickTexels, channels, binaryOpacity);
+    const std::size_t n3 = std::size_t{brickTexels} * brickTexels * brickTexels;
+    if ((planes >> layout.count) != 0)
+        throw std::invalid_argument("expandBrick: plane bits of planes the level does not have");
+    if (texels > n3) throw std::invalid_argument("expandBrick: more texels than the brick has");
+    std::uint32_t rgbStored = 0, alphaStored = 0;
+    for (std::uint32_t p = 0; p < layout.count; ++p)
+        if (planes & 1u << p) ++(p < layout.rgb ? rgbStored : alphaStored);
+    if (stored.size() != storedBrickBytes(brickTexels, rgbStored, alphaStored, texels))
+        throw std::invalid_argument("expandBrick: stored size does not match the directory entry");
+    const std::uint64_t maskBytes = brickMaskBytes(brickTexels);
+    std::uint64_t count = 0;
+    for (std::size_t i = 0; i < maskBytes; ++i) count += std::popcount(stored[i]);
+    for (std::size_t t = n3; t < maskBytes * 8; ++t)
+        if (stored[t / 8] & 1u << (t % 8))
+            throw std::invalid_argument("expandBrick: occupancy mask bits past the brick's texels");
+    if (count != texels)
+        throw std::invalid_argument("expandBrick: occupancy mask does not hold the entry's texels");
+    std::vector<std::uint8_t> dense(brickBytes(brickTexels, channels, binaryOpacity), 0);
+    const std::uint8_t* at = stored.data() + maskBytes;
+    for (std::uint32_t p = 0; p < layout.count; ++p) {
+        if ((planes & 1u << p) == 0) continue;
+        const std::uint32_t size = layout.texelBytes(p);
+        for (std::size_t t = 0; t < n3; ++t)
+            if (stored[t / 8] & 1u << (t % 8)) {
+                std::copy_n(at, size, dense.data() + layout.offset[p] + size * t);
+                at += size;
+            }
+    }
+    return dense;
 }
 
 std::vector<Texel> decodeBrick(std::span<const std::uint8_t> bytes, std::uint32_t brickTexels,

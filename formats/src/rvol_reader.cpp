@@ -8,6 +8,7 @@
 #include "rvol_internal.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <list>
 #include <mutex>
@@ -121,18 +122,20 @@ Header decodeHeader(const std::filesystem::path& file, const std::uint8_t* p,
     return h;
 }
 
+/// The level table; the levels' data offsets and sizes are checked with the directory
+/// (decodeDirectory), which holds the bricks' sizes.
 std::vector<LevelEntry> decodeLevelTable(const std::filesystem::path& file, const Header& h,
                                          const std::uint8_t* p) {
     if (h.levelTableChecksum != crc32c(p, h.levelTableBytes))
         invalid(file, "level table: checksum mismatch");
     std::vector<LevelEntry> levels(h.levelCount);
-    std::uint64_t nextBrick = 0, end = h.brickDataOffset;
+    std::uint64_t nextBrick = 0;
     for (std::uint32_t l = 0; l < h.levelCount; ++l, p += kLevelEntryBytes) {
         LevelEntry& e = levels[l];
         e.resolution = load<std::uint32_t>(p + 0);
         e.channels = load<std::uint32_t>(p + 4);
         e.bricksPerAxis = load<std::uint32_t>(p + 8);
-        e.brickBytes = load<std::uint32_t>(p + 12);
+        e.denseBrickBytes = load<std::uint32_t>(p + 12);
         e.brickCount = load<std::uint32_t>(p + 16);
         e.firstBrick = load<std::uint32_t>(p + 20);
         e.dataOffset = load<std::uint64_t>(p + 24);
@@ -140,7 +143,7 @@ std::vector<LevelEntry> decodeLevelTable(const std::filesystem::path& file, cons
         if (e.resolution != levelResolution(h.depth, l) || e.channels != levelChannels(l))
             invalid(file, where + "resolution or channel count wrong for depth " + str(h.depth));
         if (e.bricksPerAxis != bricksPerAxis(e.resolution, h.brickTexels) ||
-            e.brickBytes != brickBytes(h.brickTexels, e.channels, h.binaryLevel0Opacity()))
+            e.denseBrickBytes != brickBytes(h.brickTexels, e.channels, h.binaryLevel0Opacity()))
             invalid(file, where + "bricks per axis or brick size wrong for " + str(h.brickTexels) +
                               "-texel bricks");
         const std::uint64_t perAxis = e.bricksPerAxis;
@@ -148,24 +151,20 @@ std::vector<LevelEntry> decodeLevelTable(const std::filesystem::path& file, cons
             invalid(file, where + "more bricks than the level has");
         if (e.firstBrick != nextBrick)
             invalid(file, where + "first directory entry does not follow the previous level's");
-        if (e.dataOffset != alignSection(end)) invalid(file, where + "brick data misplaced");
         nextBrick += e.brickCount;
-        end = e.dataOffset + std::uint64_t{e.brickCount} * e.brickBytes;
-        if (nextBrick > h.brickCount || end > h.brickDataOffset + h.brickDataBytes)
-            invalid(file,
-                    where + "more bricks than the header counts or than the brick data holds");
+        if (nextBrick > h.brickCount) invalid(file, where + "more bricks than the header counts");
     }
     if (nextBrick != h.brickCount)
         invalid(file, "level table: levels hold " + str(nextBrick) + " bricks, the header counts " +
                           str(h.brickCount));
-    if (end != h.brickDataOffset + h.brickDataBytes)
-        invalid(file, "level table: brick data size differs from the header's");
     return levels;
 }
 
+/// The directory, and per entry the file offset of its brick (@p offsets). Checks each entry, and
+/// places every level's bricks (the sum of their stored sizes) and the levels' data offsets.
 std::vector<BrickEntry> decodeDirectory(const std::filesystem::path& file, const Header& h,
-                                        const std::vector<LevelEntry>& levels,
-                                        const std::uint8_t* p) {
+                                        std::vector<LevelEntry>& levels, const std::uint8_t* p,
+                                        std::vector<std::uint64_t>& offsets) {
     if (h.directoryChecksum != crc32c(p, h.directoryBytes))
         invalid(file, "brick directory: checksum mismatch");
     std::vector<BrickEntry> entries(h.brickCount);
@@ -173,26 +172,51 @@ std::vector<BrickEntry> decodeDirectory(const std::filesystem::path& file, const
         e.x = load<std::uint16_t>(p + 0);
         e.y = load<std::uint16_t>(p + 2);
         e.z = load<std::uint16_t>(p + 4);
-        e.padding = load<std::uint16_t>(p + 6);
-        e.checksum = load<std::uint32_t>(p + 8);
+        e.planes = load<std::uint16_t>(p + 6);
+        e.texels = load<std::uint32_t>(p + 8);
+        e.checksum = load<std::uint32_t>(p + 12);
         p += kBrickEntryBytes;
     }
+    offsets.resize(entries.size());
+    const std::uint32_t n = h.brickTexels;
+    const std::uint64_t n3 = std::uint64_t{n} * n * n,
+                        dataEnd = h.brickDataOffset + h.brickDataBytes;
+    std::uint64_t end = h.brickDataOffset;
     for (std::uint32_t l = 0; l < levels.size(); ++l) {
-        const LevelEntry& level = levels[l];
+        LevelEntry& level = levels[l];
+        if (level.dataOffset != alignSection(end))
+            invalid(file, "level table, level " + str(l) + ": brick data misplaced");
+        const std::uint32_t rgb = level.channels,
+                            planes = rgb + alphaPlanes(level.channels, h.binaryLevel0Opacity());
+        end = level.dataOffset;
         for (std::uint32_t i = 0; i < level.brickCount; ++i) {
             const BrickEntry& e = entries[level.firstBrick + i];
+            const std::string where = "brick directory: level " + str(l) + ", entry " + str(i);
             if (e.x >= level.bricksPerAxis || e.y >= level.bricksPerAxis ||
                 e.z >= level.bricksPerAxis)
-                invalid(file, "brick directory: level " + str(l) + ", entry " + str(i) +
-                                  ": brick (" + str(e.x) + "," + str(e.y) + "," + str(e.z) +
+                invalid(file, where + ": brick (" + str(e.x) + "," + str(e.y) + "," + str(e.z) +
                                   ") outside the level's " + str(level.bricksPerAxis) +
                                   " bricks per axis");
             // Binary search (findBrick) relies on this order.
             if (i > 0 && e.morton() <= entries[level.firstBrick + i - 1].morton())
-                invalid(file, "brick directory: level " + str(l) + ", entry " + str(i) +
-                                  ": not in strictly ascending Morton order");
+                invalid(file, where + ": not in strictly ascending Morton order");
+            if (e.planes == 0 || (e.planes >> planes) != 0)
+                invalid(file, where + ": plane bits " + str(e.planes) + " not 1 … 2^" +
+                                  str(planes) + " - 1");
+            if (e.texels == 0 || e.texels > n3)
+                invalid(file, where + ": " + str(e.texels) + " texels, not 1 … " + str(n3));
+            const auto rgbStored = static_cast<std::uint32_t>(
+                           std::popcount(static_cast<std::uint32_t>(e.planes & ((1u << rgb) - 1)))),
+                       alphaStored = static_cast<std::uint32_t>(
+                           std::popcount(static_cast<std::uint32_t>(e.planes >> rgb)));
+            offsets[level.firstBrick + i] = end;
+            // Each brick is at most a few hundred kB: no overflow before the bound below.
+            end += storedBrickBytes(n, rgbStored, alphaStored, e.texels);
+            if (end > dataEnd) invalid(file, where + ": bricks end past the brick data");
         }
+        level.dataBytes = end - level.dataOffset;
     }
+    if (end != dataEnd) invalid(file, "brick directory: bricks end before the brick data does");
     return entries;
 }
 
@@ -237,7 +261,7 @@ RvolReader::RvolReader(std::filesystem::path file)
     std::vector<std::uint8_t> directoryBytes(
         header_.directoryBytes);  // inside the file, checked above
     readBytes(header_.directoryOffset, directoryBytes.data(), directoryBytes.size());
-    directory_ = decodeDirectory(path_, header_, levels_, directoryBytes.data());
+    directory_ = decodeDirectory(path_, header_, levels_, directoryBytes.data(), brickOffsets_);
 }
 
 RvolReader::~RvolReader() = default;
@@ -267,21 +291,44 @@ std::int64_t RvolReader::findBrick(std::uint32_t level, std::uint32_t x, std::ui
 std::uint64_t RvolReader::brickOffset(std::uint32_t level, std::uint32_t index) const {
     const LevelEntry& e = levels_.at(level);
     if (index >= e.brickCount) throw std::out_of_range("RvolReader: brick index out of range");
-    return e.dataOffset + std::uint64_t{index} * e.brickBytes;
+    return brickOffsets_[e.firstBrick + index];
 }
 
-std::vector<std::uint8_t> RvolReader::readBrickBytes(std::uint32_t level,
-                                                     std::uint32_t index) const {
+std::uint64_t RvolReader::storedBrickSize(std::uint32_t level, std::uint32_t index) const {
     const std::uint64_t offset = brickOffset(level, index);
     const LevelEntry& e = levels_[level];
-    std::vector<std::uint8_t> bytes(e.brickBytes);
+    const std::uint64_t end = index + 1 < e.brickCount ? brickOffsets_[e.firstBrick + index + 1]
+                                                       : e.dataOffset + e.dataBytes;
+    return end - offset;
+}
+
+std::vector<std::uint8_t> RvolReader::readStoredBrick(std::uint32_t level,
+                                                      std::uint32_t index) const {
+    const std::uint64_t offset = brickOffset(level, index);
+    std::vector<std::uint8_t> bytes(storedBrickSize(level, index));
     readBytes(offset, bytes.data(), bytes.size());
-    const BrickEntry& entry = directory_[e.firstBrick + index];
+    const BrickEntry& entry = directory_[levels_[level].firstBrick + index];
     if (crc32c(bytes.data(), bytes.size()) != entry.checksum)
         invalid(path_, "level " + str(level) + ", brick " + str(index) + " (" + str(entry.x) + "," +
                            str(entry.y) + "," + str(entry.z) + "), file offset " + str(offset) +
                            ": checksum mismatch");
     return bytes;
+}
+
+std::vector<std::uint8_t> RvolReader::readBrickBytes(std::uint32_t level,
+                                                     std::uint32_t index) const {
+    const std::vector<std::uint8_t> stored = readStoredBrick(level, index);
+    const BrickEntry& entry = directory_[levels_[level].firstBrick + index];
+    try {
+        return expandBrick(stored, header_.brickTexels, levels_[level].channels,
+                           header_.binaryLevel0Opacity(), entry.planes, entry.texels);
+    } catch (const std::invalid_argument& e) {
+        // Sizes come from the entry, so this is a mask that disagrees with it.
+        invalid(path_, "level " + str(level) + ", brick " + str(index) + " (" + str(entry.x) + "," +
+                           str(entry.y) + "," + str(entry.z) + "), file offset " +
+                           str(brickOffset(level, index)) + ": " +
+                           std::string(e.what()).substr(sizeof "expandBrick: " - 1));
+    }
 }
 
 std::vector<Texel> RvolReader::readBrick(std::uint32_t level, std::uint32_t index) const {

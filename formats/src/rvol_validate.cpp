@@ -20,8 +20,8 @@ public:
           level_(level),
           e_(reader.level(level)),
           n_(reader.header().brickTexels),
-          n3_(std::size_t{n_} * n_ * n_),
-          planes_(alphaPlanes(e_.channels, reader.header().binaryLevel0Opacity())),
+          binary_(reader.header().binaryLevel0Opacity()),
+          planes_(alphaPlanes(e_.channels, binary_)),
           entries_(reader.bricks(level)) {}
 
     /// Returns the level's distinct non-zero cells.
@@ -29,16 +29,12 @@ public:
         std::uint64_t nonZero = 0;
         for (std::uint32_t i = 0; i < e_.brickCount; ++i) {
             const BrickEntry& b = entries_[i];
-            if (b.padding != 0) fail(i, "directory entry padding is not zero");
             const std::vector<std::uint8_t> bytes =
-                reader_.readBrickBytes(level_, i);  // checks the CRC
+                reader_.readBrickBytes(level_, i);  // checks the CRC and the mask's size
             // In the binary-opacity layout a non-zero byte is a non-zero word: a solid cell.
             if (std::all_of(bytes.begin(), bytes.end(), [](std::uint8_t v) { return v == 0; }))
                 fail(i, "all texels zero (an empty brick must not be stored)");
-            for (std::uint32_t p = 0; p < planes_; ++p)
-                for (std::uint64_t at = n3_; at < alphaPlaneBytes(n_); ++at)
-                    if (bytes[alphaOffset(p) + at] != 0)
-                        fail(i, planeName(p) + " padding is not zero");
+            checkPacked(i, bytes);
             const std::array<std::uint32_t, 3> coords{b.x, b.y, b.z};
             const std::uint32_t step = n_ - 1;
             for (std::uint32_t k = 0; k < n_; ++k)
@@ -87,6 +83,19 @@ public:
     }
 
 private:
+    /// The stored form is the one packBrick gives (so a file is determined by its texels): no
+    /// stored plane all zero, no mask texel zero in every plane, zero padding.
+    void checkPacked(std::uint32_t index, const std::vector<std::uint8_t>& dense) const {
+        const BrickEntry& b = entries_[index];
+        const PackedBrick packed = packBrick(dense, n_, e_.channels, binary_);
+        if (packed.planes != b.planes)
+            fail(index, "a stored plane is all zero (plane bits " + str(b.planes) + ", planes " +
+                            str(packed.planes) + " hold a non-zero texel)");
+        if (packed.texels != b.texels)
+            fail(index, "occupancy mask holds a texel that is zero in every plane");
+        if (packed.bytes != reader_.readStoredBrick(level_, index))
+            fail(index, "padding after the A8 planes is not zero");
+    }
     [[noreturn]] void fail(std::uint32_t index, const std::string& what) const {
         const BrickEntry& b = entries_[index];
         throw InvalidDataError(reader_.path(),
@@ -173,7 +182,7 @@ private:
     std::uint32_t level_;
     const LevelEntry& e_;
     std::uint32_t n_;
-    std::size_t n3_;
+    bool binary_;           ///< the file has binary level-0 opacity
     std::uint32_t planes_;  ///< A8 planes per brick (none at level 0 with binary opacity)
     std::span<const BrickEntry> entries_;
 };
@@ -235,8 +244,8 @@ RvolReport validateRvol(const RvolReader& reader) {
     for (std::uint32_t l = 0; l < h.levelCount; ++l) {
         const LevelEntry& e = reader.level(l);
         checkGap(reader, end, e.dataOffset - end, r);
-        end = e.dataOffset + std::uint64_t{e.brickCount} * e.brickBytes;
-        r.radianceBytes += std::uint64_t{e.brickCount} * e.brickBytes;
+        end = e.dataOffset + e.dataBytes;
+        r.radianceBytes += e.dataBytes;
         r.bricksPerLevel.push_back(e.brickCount);
         r.nonZeroTexelsPerLevel.push_back(LevelChecker(reader, l).run());
     }

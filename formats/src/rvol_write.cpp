@@ -141,8 +141,8 @@ struct EncodedLevel {
 };
 
 /// Cuts @p level into bricks of @p n texels per edge sharing their faces and encodes those with a
-/// non-zero byte, in ascending Morton order of their coordinates. @p binaryOpacity: level 0 in the
-/// binary-opacity layout (binaryOpacityFits(level) holds).
+/// non-zero byte, in ascending Morton order of their coordinates, each packed (packBrick). @p
+/// binaryOpacity: level 0 in the binary-opacity layout (binaryOpacityFits(level) holds).
 EncodedLevel encodeLevel(const Level& level, std::uint32_t n, bool binaryOpacity) {
     EncodedLevel out;
     const std::uint32_t step = n - 1, res = level.resolution, channels = level.channels;
@@ -173,7 +173,7 @@ EncodedLevel encodeLevel(const Level& level, std::uint32_t n, bool binaryOpacity
     candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
 
     const std::uint32_t planes = alphaPlanes(channels, binary);
-    std::vector<std::uint8_t> brick(out.entry.brickBytes);
+    std::vector<std::uint8_t> brick(out.entry.denseBrickBytes);
     for (std::uint64_t code : candidates) {
         const auto b = demorton3(code);
         std::fill(brick.begin(), brick.end(), std::uint8_t{0});
@@ -222,12 +222,15 @@ EncodedLevel encodeLevel(const Level& level, std::uint32_t n, bool binaryOpacity
                     }
                 }
         if (!nonZero) continue;  // empty space: absent bricks read as zero
+        // Stored sparse: the thin surfaces leave most texels of a brick, and some planes, zero.
+        const PackedBrick packed = packBrick(brick, n, channels, binary);
         out.directory.push_back({static_cast<std::uint16_t>(b[0]), static_cast<std::uint16_t>(b[1]),
-                                 static_cast<std::uint16_t>(b[2]), 0,
-                                 crc32c(brick.data(), brick.size())});
-        out.data.insert(out.data.end(), brick.begin(), brick.end());
+                                 static_cast<std::uint16_t>(b[2]), packed.planes, packed.texels,
+                                 crc32c(packed.bytes.data(), packed.bytes.size())});
+        out.data.insert(out.data.end(), packed.bytes.begin(), packed.bytes.end());
     }
     out.entry.brickCount = static_cast<std::uint32_t>(out.directory.size());
+    out.entry.dataBytes = out.data.size();
     return out;
 }
 
@@ -311,7 +314,7 @@ RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volum
         store<std::uint32_t>(p + 0, e.resolution);
         store<std::uint32_t>(p + 4, e.channels);
         store<std::uint32_t>(p + 8, e.bricksPerAxis);
-        store<std::uint32_t>(p + 12, e.brickBytes);
+        store<std::uint32_t>(p + 12, e.denseBrickBytes);
         store<std::uint32_t>(p + 16, e.brickCount);
         store<std::uint32_t>(p + 20, e.firstBrick);
         store<std::uint64_t>(p + 24, e.dataOffset);
@@ -325,8 +328,9 @@ RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volum
                 store<std::uint16_t>(p + 0, e.x);
                 store<std::uint16_t>(p + 2, e.y);
                 store<std::uint16_t>(p + 4, e.z);
-                store<std::uint16_t>(p + 6, 0);
-                store<std::uint32_t>(p + 8, e.checksum);
+                store<std::uint16_t>(p + 6, e.planes);
+                store<std::uint32_t>(p + 8, e.texels);
+                store<std::uint32_t>(p + 12, e.checksum);
                 p += kBrickEntryBytes;
             }
     }

@@ -4,6 +4,7 @@
 #include <GL/glcorearb.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -60,16 +61,21 @@ RvolGpuVolume::RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader,
     alpha16_ = options.alpha16;
     const auto& levels = reader.levels();
 
-    // Slots: one RGB (and, without binary opacity, one A8) per level-0 brick, six RGB and three A8
-    // above.
+    // Slots: one per stored plane of every brick (RGB: one at level 0, up to six above; A8: one at
+    // level 0 without binary opacity, up to three above). Planes the file leaves out are all zero
+    // and take the zero slot.
     std::uint64_t rgbNeeded = 1, alphaNeeded = 1;  // + the zero slot
     levelBase_.resize(levels.size());
     residentFlags_.resize(levels.size());
     std::uint64_t entries = 0;
     for (std::uint32_t l = 0; l < levels.size(); ++l) {
         const std::uint64_t bricks = levels[l].brickCount;
-        rgbNeeded += bricks * (l == 0 ? 1 : rvol::kDirections);
-        alphaNeeded += bricks * (l == 0 ? (binaryLevel0_ ? 0 : 1) : 3);
+        const std::uint32_t channels = rvol::levelChannels(l);
+        for (const rvol::BrickEntry& e : reader.bricks(l)) {
+            const std::uint32_t planes = e.planes;
+            rgbNeeded += static_cast<std::uint32_t>(std::popcount(planes & ((1u << channels) - 1)));
+            alphaNeeded += static_cast<std::uint32_t>(std::popcount(planes >> channels));
+        }
         levelBase_[l] = entries;
         const std::uint64_t k = levels[l].bricksPerAxis;
         entries += k * k * k * planesPerBrick(l);
@@ -221,20 +227,24 @@ bool RvolGpuVolume::uploadBrick(std::uint32_t level, std::uint32_t index) {
     if (resident(level, index)) return true;
     const std::uint32_t channels = rvol::levelChannels(level);
     const std::uint32_t alphaPlanes = rvol::alphaPlanes(channels, level == 0 && binaryLevel0_);
-    std::vector<std::uint32_t> rgb, alpha;
+    const std::uint32_t stored = reader_.bricks(level)[index].planes;
+    // Per plane its slot; 0 (the zero slot) for a plane the file leaves out (all zero).
+    std::vector<std::uint32_t> rgb(channels, 0), alpha(alphaPlanes, 0);
     const auto giveBack = [&] {
         for (std::uint32_t s : rgb) rgbSlots_.release(s);
         for (std::uint32_t s : alpha) alphaSlots_.release(s);
     };
     for (std::uint32_t c = 0; c < channels; ++c) {
+        if ((stored & 1u << c) == 0) continue;
         const auto s = rgbSlots_.allocate();
         if (!s) return giveBack(), false;
-        rgb.push_back(*s);
+        rgb[c] = *s;
     }
     for (std::uint32_t p = 0; p < alphaPlanes; ++p) {
+        if ((stored & 1u << (channels + p)) == 0) continue;
         const auto s = alphaSlots_.allocate();
         if (!s) return giveBack(), false;
-        alpha.push_back(*s);
+        alpha[p] = *s;
     }
     const std::vector<std::uint8_t> bytes = reader_.readBrickBytes(level, index);
     const auto n = static_cast<GLsizei>(n_);
@@ -247,15 +257,18 @@ bool RvolGpuVolume::uploadBrick(std::uint32_t level, std::uint32_t index) {
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);  // A8 rows of odd N are not 4-byte multiples
     for (std::uint32_t c = 0; c < channels; ++c) {
         const auto o = slotOrigin(rgbGrid_, rgb[c]);
+        indirection_[entry + c] = pack(o);
+        if (rgb[c] == 0) continue;
         glTextureSubImage3D(rgbAtlas_, 0, static_cast<GLint>(o[0] * n_),
                             static_cast<GLint>(o[1] * n_), static_cast<GLint>(o[2] * n_), n, n, n,
                             GL_RGB, GL_UNSIGNED_INT_5_9_9_9_REV,
                             bytes.data() + rvol::rgbPlaneOffset(n_, c));
-        indirection_[entry + c] = pack(o);
     }
     std::vector<std::uint16_t> wide(alpha16_ ? std::size_t{n_} * n_ * n_ : 0);
     for (std::uint32_t p = 0; p < alphaPlanes; ++p) {
         const auto o = slotOrigin(alphaGrid_, alpha[p]);
+        indirection_[entry + channels + p] = pack(o);
+        if (alpha[p] == 0) continue;
         const std::uint8_t* plane = bytes.data() + rvol::alphaPlaneOffset(n_, channels, p);
         for (std::size_t t = 0; t < wide.size(); ++t)
             wide[t] = static_cast<std::uint16_t>(plane[t] * 257u);  // k/255 = 257k/65535
@@ -264,7 +277,6 @@ bool RvolGpuVolume::uploadBrick(std::uint32_t level, std::uint32_t index) {
             static_cast<GLint>(o[2] * n_), n, n, n, GL_RED,
             alpha16_ ? GL_UNSIGNED_SHORT : GL_UNSIGNED_BYTE,
             alpha16_ ? static_cast<const void*>(wide.data()) : static_cast<const void*>(plane));
-        indirection_[entry + channels + p] = pack(o);
     }
     glPixelStorei(GL_UNPACK_ALIGNMENT, alignment);
     const std::uint32_t planes = planesPerBrick(level);
@@ -288,6 +300,7 @@ void RvolGpuVolume::evictBrick(std::uint32_t level, std::uint32_t index) {
         return (e & m) +
                grid[0] * (((e >> kSlotBits) & m) + grid[1] * ((e >> (2 * kSlotBits)) & m));
     };
+    // release() ignores slot 0, the zero slot of planes the file leaves out.
     for (std::uint32_t c = 0; c < channels; ++c)
         rgbSlots_.release(unpack(indirection_[entry + c], rgbGrid_));
     for (std::uint32_t p = 0; p < alphaPlanes; ++p)
@@ -310,11 +323,13 @@ void RvolGpuVolume::bind(const RvolGpuBindings& bindings) const {
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, bindings.indirectionBinding, indirectionBuffer_);
 }
 
-std::uint64_t RvolGpuVolume::brickBytes(std::uint32_t level) const noexcept {
+std::uint64_t RvolGpuVolume::brickBytes(std::uint32_t level, std::uint32_t index) const {
     const std::uint64_t slot = std::uint64_t{n_} * n_ * n_;
     const std::uint32_t channels = rvol::levelChannels(level);
-    return channels * 4 * slot +
-           rvol::alphaPlanes(channels, level == 0 && binaryLevel0_) * alphaTexelBytes() * slot;
+    const std::uint32_t stored = reader_.bricks(level)[index].planes;
+    const auto rgb = static_cast<std::uint32_t>(std::popcount(stored & ((1u << channels) - 1))),
+               alpha = static_cast<std::uint32_t>(std::popcount(stored >> channels));
+    return rgb * 4 * slot + alpha * alphaTexelBytes() * slot;
 }
 
 std::uint64_t RvolGpuVolume::residentBytes() const noexcept {

@@ -15,7 +15,7 @@ RvolResidency::RvolResidency(RvolGpuVolume& volume, std::uint64_t budgetBytes, d
     for (std::uint32_t l = 0; l < levels.size(); ++l) {
         lastUsed_[l].assign(levels[l].brickCount, 0);
         for (std::uint32_t i = 0; i < levels[l].brickCount; ++i)
-            if (volume.resident(l, i)) residentBytes_ += volume.brickBytes(l);
+            if (volume.resident(l, i)) residentBytes_ += volume.brickBytes(l, i);
     }
 }
 
@@ -68,7 +68,7 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
     std::size_t kept = 0;
     for (; kept < candidates.size(); ++kept) {
         const Candidate& c = candidates[kept];
-        const std::uint64_t b = volume_.brickBytes(c.level);
+        const std::uint64_t b = volume_.brickBytes(c.level, c.index);
         if (bytes + b > budget_) break;
         bytes += b;
         selected[c.level][c.index] = 1;
@@ -82,7 +82,7 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
     std::uint64_t missing = 0;
     for (std::size_t k = 0; k < kept; ++k)
         if (!volume_.resident(candidates[k].level, candidates[k].index))
-            missing += volume_.brickBytes(candidates[k].level);
+            missing += volume_.brickBytes(candidates[k].level, candidates[k].index);
     std::vector<std::tuple<std::uint32_t, std::uint64_t, std::uint32_t>>
         victims;  // level, last used, index
     for (std::uint32_t l = 0; l <= top; ++l)
@@ -93,7 +93,7 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
     for (const auto& [level, used, index] : victims) {
         if (residentBytes_ + missing <= budget_) break;
         volume_.evictBrick(level, index);
-        residentBytes_ -= volume_.brickBytes(level);
+        residentBytes_ -= volume_.brickBytes(level, index);
         ++out.evicted;
     }
     // Upload in priority order (covers first).
@@ -104,7 +104,7 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
             out.neededNotFitting += static_cast<std::uint32_t>(kept - k);
             break;
         }
-        residentBytes_ += volume_.brickBytes(c.level);
+        residentBytes_ += volume_.brickBytes(c.level, c.index);
         ++out.uploaded;
     }
     out.residentBytes = residentBytes_;

@@ -71,12 +71,10 @@ std::vector<FlipRegion> flipRegionsOf(const fs::path& file, const FlipRegionOpti
         for (std::uint32_t l = 0; l < reader.levels().size(); ++l) {
             const auto& level = reader.level(l);
             if (level.brickCount == 0) continue;
-            bricks.ranges.push_back(
-                {level.dataOffset,
-                 level.dataOffset + std::uint64_t{level.brickCount} * level.brickBytes});
+            bricks.ranges.push_back({level.dataOffset, level.dataOffset + level.dataBytes});
             for (std::uint32_t b = 0; b < level.brickCount; ++b)
-                bricks.units.push_back(
-                    {reader.brickOffset(l, b), reader.brickOffset(l, b) + level.brickBytes});
+                bricks.units.push_back({reader.brickOffset(l, b),
+                                        reader.brickOffset(l, b) + reader.storedBrickSize(l, b)});
         }
         regions.push_back(bricks);
         FlipRegion attributes{"attributes", {}, {}, false};

@@ -72,8 +72,8 @@ nlohmann::json rvolReport(const rvol::RvolReader& reader, const rvol::RvolReport
              {"cell_size", h.cellSize(l)},
              {"bricks_per_axis", e.bricksPerAxis},
              {"bricks", e.brickCount},
-             {"brick_bytes", e.brickBytes},
-             {"bytes", std::uint64_t{e.brickCount} * e.brickBytes},
+             {"dense_brick_bytes", e.denseBrickBytes},
+             {"bytes", e.dataBytes},
              {"cells",
               l < report.nonZeroTexelsPerLevel.size() ? report.nonZeroTexelsPerLevel[l] : 0}});
     }

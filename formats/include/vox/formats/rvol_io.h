@@ -23,13 +23,13 @@ namespace vox::rvol {
 // ---- constants ------------------------------------------------------------------------------
 
 inline constexpr std::array<std::uint8_t, 4> kMagic{'R', 'V', 'O', 'L'};
-/// The format version this library reads and writes, 3.0 (docs/rvol-format.md, "Versions"; the
+/// The format version this library reads and writes, 4.0 (docs/rvol-format.md, "Versions"; the
 /// earlier versions: docs/internals/rvol-writer.md).
-inline constexpr std::uint16_t kVersionMajor = 3;  ///< readers reject other majors
+inline constexpr std::uint16_t kVersionMajor = 4;  ///< readers reject other majors
 inline constexpr std::uint16_t kVersionMinor = 0;  ///< readers accept any minor of their major
 inline constexpr std::uint32_t kHeaderBytes = 256;
 inline constexpr std::uint32_t kLevelEntryBytes = 32;
-inline constexpr std::uint32_t kBrickEntryBytes = 12;
+inline constexpr std::uint32_t kBrickEntryBytes = 16;
 inline constexpr std::uint32_t kAttributeRecordBytes = 16;
 inline constexpr std::uint32_t kSectionAlignment =
     64;  ///< file offset alignment of every section and level
@@ -37,10 +37,11 @@ inline constexpr std::uint32_t kSectionAlignment =
 inline constexpr std::uint32_t kMaxDepth = 10;
 inline constexpr std::uint32_t kMinBrickTexels = 2;
 inline constexpr std::uint32_t kMaxBrickTexels = 32;
-/// Texel format 2 (the only one of 2.x and 3.x): per channel an RGB9E5 plane (GL_RGB9_E5), then
+/// Texel format 2 (the only one of 2.x … 4.x): per channel an RGB9E5 plane (GL_RGB9_E5), then
 /// the A8 opacity planes (GL_R8): one per axis (x, y, z) at levels ≥ 1, shared by the axis' ±
-/// channels; at level 0 one, or none with kFlagBinaryLevel0Opacity. Readers reject any other
-/// value.
+/// channels; at level 0 one, or none with kFlagBinaryLevel0Opacity. In 4.x a brick stores of
+/// these planes only the texels of its occupancy mask, and only the planes that are not all zero
+/// (packBrick, expandBrick). Readers reject any other value.
 inline constexpr std::uint32_t kTexelFormatRgb9e5AxisA8 = 2;
 /// Header flags.
 inline constexpr std::uint32_t kFlagStaticAttributes =
@@ -138,6 +139,20 @@ inline constexpr float kRgb9e5Max = 65408.0f;
                                                  bool binaryOpacity = false) noexcept {
     return alphaPlaneOffset(brickTexels, channels, alphaPlanes(channels, binaryOpacity));
 }
+/// Bytes of a stored brick's occupancy mask: one bit per texel (N³ bits), padded to a multiple of
+/// 4 bytes.
+[[nodiscard]] constexpr std::uint64_t brickMaskBytes(std::uint32_t brickTexels) noexcept {
+    return (std::uint64_t{brickTexels} * brickTexels * brickTexels + 31) / 32 * 4;
+}
+/// Bytes of a stored brick: the mask, @p rgbPlanes RGB9E5 planes of @p texels words each, then
+/// @p alphaPlanes A8 planes of @p texels bytes each, padded to a multiple of 4.
+[[nodiscard]] constexpr std::uint64_t storedBrickBytes(std::uint32_t brickTexels,
+                                                       std::uint32_t rgbPlanes,
+                                                       std::uint32_t alphaPlanes,
+                                                       std::uint64_t texels) noexcept {
+    return brickMaskBytes(brickTexels) + 4 * rgbPlanes * texels +
+           (alphaPlanes * texels + 3) / 4 * 4;
+}
 /// The first multiple of kSectionAlignment at or after @p offset.
 [[nodiscard]] constexpr std::uint64_t alignSection(std::uint64_t offset) noexcept {
     return (offset + kSectionAlignment - 1) / kSectionAlignment * kSectionAlignment;
@@ -186,17 +201,23 @@ struct LevelEntry {
     std::uint32_t resolution = 0;  ///< cells per axis
     std::uint32_t channels = 0;    ///< 1 at level 0, 6 above
     std::uint32_t bricksPerAxis = 0;
-    std::uint32_t brickBytes = 0;  ///< bytes of each brick of the level
+    /// Bytes of each brick of the level expanded to its dense planes (brickBytes()): what
+    /// readBrickBytes returns and a GPU atlas holds; stored bricks are smaller.
+    std::uint32_t denseBrickBytes = 0;
     std::uint32_t brickCount = 0;  ///< bricks stored
     std::uint32_t firstBrick = 0;  ///< index of the level's first entry in the brick directory
     std::uint64_t dataOffset = 0;  ///< file offset of the level's first brick
+    std::uint64_t dataBytes = 0;   ///< not stored: the sum of the level's stored brick sizes
 };
 
 /// One brick directory entry (docs/rvol-format.md, "Brick directory").
 struct BrickEntry {
     std::uint16_t x = 0, y = 0, z = 0;  ///< brick coordinates in the level
-    std::uint16_t padding = 0;          ///< 0 in a valid file
-    std::uint32_t checksum = 0;         ///< CRC-32C of the brick's bytes
+    /// Bit p: plane p is stored (planes 0 … channels − 1 RGB9E5, then the A8 planes); the
+    /// others are all zero.
+    std::uint16_t planes = 0;
+    std::uint32_t texels = 0;    ///< texels of the occupancy mask (1 … N³)
+    std::uint32_t checksum = 0;  ///< CRC-32C of the brick's stored bytes
     [[nodiscard]] std::uint64_t morton() const noexcept { return morton3(x, y, z); }
 };
 
@@ -285,12 +306,20 @@ public:
     /// stored (its texels are all zero). @throws std::out_of_range for a bad level.
     [[nodiscard]] std::int64_t findBrick(std::uint32_t level, std::uint32_t x, std::uint32_t y,
                                          std::uint32_t z) const;
-    /// File offset of brick @p index of @p level: dataOffset + index × brickBytes.
+    /// File offset of brick @p index of @p level: dataOffset plus the stored sizes of the level's
+    /// bricks before it. @throws std::out_of_range for a bad level or index.
     [[nodiscard]] std::uint64_t brickOffset(std::uint32_t level, std::uint32_t index) const;
+    /// Stored bytes of brick @p index of @p level (storedBrickBytes of its directory entry).
+    [[nodiscard]] std::uint64_t storedBrickSize(std::uint32_t level, std::uint32_t index) const;
 
-    /// The stored bytes of brick @p index of @p level (brickBytes of them, as a GPU would upload
-    /// them), checksum verified. @throws std::out_of_range for a bad level or index,
-    /// InvalidDataError on a checksum mismatch.
+    /// The bytes of brick @p index of @p level as stored in the file, checksum verified.
+    /// @throws std::out_of_range for a bad level or index, InvalidDataError on a checksum mismatch.
+    [[nodiscard]] std::vector<std::uint8_t> readStoredBrick(std::uint32_t level,
+                                                            std::uint32_t index) const;
+    /// Brick @p index of @p level expanded to its dense planes (denseBrickBytes of them, the
+    /// layout of brickBytes(): what a GPU uploads), checksum verified. @throws std::out_of_range
+    /// for a bad level or index, InvalidDataError on a checksum mismatch or a stored brick that
+    /// does not match its directory entry.
     [[nodiscard]] std::vector<std::uint8_t> readBrickBytes(std::uint32_t level,
                                                            std::uint32_t index) const;
     /// Brick @p index of @p level decoded: channels × N³ texels, channel-major, then z, y, x
@@ -342,10 +371,33 @@ private:
     Header header_;
     std::vector<LevelEntry> levels_;
     std::vector<BrickEntry> directory_;
+    std::vector<std::uint64_t> brickOffsets_;  // per directory entry: file offset of its brick
     std::unique_ptr<Cache> cache_;
 };
 
-/// Decodes the @p channels × N³ texels of a brick's stored bytes (readBrick's order), channel c's
+/// A brick in its stored form: the occupancy mask and the planes that are not all zero.
+struct PackedBrick {
+    std::vector<std::uint8_t> bytes;  ///< storedBrickBytes(N, …) bytes
+    std::uint16_t planes = 0;         ///< BrickEntry::planes
+    std::uint32_t texels = 0;         ///< BrickEntry::texels; 0: the brick is all zero
+};
+/// Packs a brick's dense planes (brickBytes(@p brickTexels, @p channels, @p binaryOpacity) bytes)
+/// into its stored form: the mask holds the texels with a non-zero byte in some plane, a plane is
+/// stored if one of its bytes is non-zero, each stored plane holds the mask's texels in texel
+/// order. A8 plane padding is not stored (it must be zero). texels = 0 for an all-zero brick.
+/// @throws std::invalid_argument for a bad size or channel count.
+[[nodiscard]] PackedBrick packBrick(std::span<const std::uint8_t> dense, std::uint32_t brickTexels,
+                                    std::uint32_t channels, bool binaryOpacity = false);
+/// The inverse of packBrick: the dense planes of a stored brick whose directory entry has
+/// @p planes and @p texels. Only checks what it needs to stay in bounds and exact: the size
+/// (storedBrickBytes), plane bits of planes the level has, the mask's bit count equal to
+/// @p texels and its bits past N³ zero. @throws std::invalid_argument otherwise.
+[[nodiscard]] std::vector<std::uint8_t> expandBrick(std::span<const std::uint8_t> stored,
+                                                    std::uint32_t brickTexels,
+                                                    std::uint32_t channels, bool binaryOpacity,
+                                                    std::uint16_t planes, std::uint32_t texels);
+
+/// Decodes the @p channels × N³ texels of a brick's dense bytes (readBrick's order), channel c's
 /// opacity from A8 plane alphaPlaneOf(c); with @p binaryOpacity (the file's
 /// kFlagBinaryLevel0Opacity) a level-0 brick (1 channel) has no A8 plane and a texel's opacity is
 /// 1 where its RGB9E5 word is not 0, else 0 (the word decoded as usual: kSolidBlackWord gives

@@ -75,11 +75,14 @@ inline constexpr std::uint32_t kMissingBrick = 0x80000000u;
 
 /// The radiance of an .rvol file in GL (OpenGL 4.5). Layout (docs/runtime.md):
 /// - **RGB atlas**: one GL_RGB9_E5 3D texture of slots of N×N×N texels (N = brickTexels); a
-///   level-0 brick takes one slot (its RGB plane), a brick of levels ≥ 1 six (one per
-///   directional channel). The planes are uploaded as stored (GL_UNSIGNED_INT_5_9_9_9_REV).
+///   level-0 brick takes one slot (its RGB plane), a brick of levels ≥ 1 up to six (one per
+///   directional channel the file stores; a plane it leaves out is all zero and points at the
+///   zero slot). The planes are uploaded expanded (RvolReader::readBrickBytes,
+///   GL_UNSIGNED_INT_5_9_9_9_REV).
 /// - **Opacity atlas**: one GL_R8 3D texture of N³ slots: one per level-0 brick (none with
 ///   binary level-0 opacity, kFlagBinaryLevel0Opacity: the shader reads the RGB words through a
-///   GL_R32UI view of the RGB atlas and counts non-zero corners), three per brick above (x, y, z).
+///   GL_R32UI view of the RGB atlas and counts non-zero corners), up to three per brick above
+///   (x, y, z; likewise only the stored ones).
 /// - **Indirection**: an SSBO of u32, per level K³ bricks × P planes (P = 2 at level 0: RGB,
 ///   opacity; 9 above: six RGB channels then the x, y, z opacities), each the slot's grid
 ///   coordinates packed 10 bits each (x | y << 10 | z << 20). 0 is slot (0, 0, 0), the all-zero
@@ -134,8 +137,9 @@ public:
     [[nodiscard]] unsigned infoBuffer() const noexcept { return infoBuffer_; }
     [[nodiscard]] unsigned indirectionBuffer() const noexcept { return indirectionBuffer_; }
 
-    /// GPU bytes of the slots brick @p level holds: what a residency budget counts.
-    [[nodiscard]] std::uint64_t brickBytes(std::uint32_t level) const noexcept;
+    /// GPU bytes of the slots brick @p index of @p level takes (its stored planes; the planes
+    /// the file leaves out take none): what a residency budget counts.
+    [[nodiscard]] std::uint64_t brickBytes(std::uint32_t level, std::uint32_t index) const;
     /// Planes per brick entry of the indirection: 2 at level 0, 9 above.
     [[nodiscard]] static std::uint32_t planesPerBrick(std::uint32_t level) noexcept {
         return level == 0 ? 2u : 9u;
