@@ -264,8 +264,112 @@ TEST(RadianceBake, LightcutsGiveTheSameVolumeWhateverTheThreadCount) {
         two = vox::bakeRadiance(scene, options);
     }
     EXPECT_EQ(one.directLight.used.searchSteps, two.directLight.used.searchSteps);
+    // Shared shadow rays (on by default) answer the same queries on one thread as on two.
+    EXPECT_GT(one.directLight.used.visibilityShared, 0u);
+    EXPECT_EQ(one.directLight.used.visibilityShared, two.directLight.used.visibilityShared);
     for (std::size_t l = 0; l < one.volume.levels.size(); ++l)
         EXPECT_TRUE(one.volume.levels[l].texels == two.volume.levels[l].texels) << l;
+}
+
+namespace {
+
+/// Bakes @p scene's direct light through Lightcuts twice, with shadow rays shared among nearby
+/// voxels and with one ray per voxel, and expects the very same irradiance at every voxel.
+/// Returns the shared bake.
+vox::RadianceBake expectSharedRaysChangeNothing(const vox::Scene& scene, std::uint32_t depth) {
+    vox::RadianceBakeOptions options;
+    options.depth = depth;
+    options.bounces = 0;
+    options.keepVoxelLighting = true;
+    options.lightcuts = vox::LightcutsMode::On;
+    options.shareShadowRays = false;
+    const auto own = vox::bakeRadiance(scene, options);
+    options.shareShadowRays = true;
+    auto shared = vox::bakeRadiance(scene, options);
+    EXPECT_EQ(own.directLight.used.visibilityShared, 0u);
+    EXPECT_EQ(own.directLight.used.visibilityEvaluations,
+              shared.directLight.used.visibilityEvaluations);
+    EXPECT_GT(shared.directLight.used.visibilityShared, 0u);
+    EXPECT_GT(shared.directLight.used.sharedVisibilityTests, 0u);
+    EXPECT_EQ(own.directLight.used.searchSteps, shared.directLight.used.searchSteps);
+    EXPECT_EQ(own.voxels.size(), shared.voxels.size());
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < std::min(own.voxels.size(), shared.voxels.size()); ++i)
+        if (!(own.voxels[i].direct == shared.voxels[i].direct)) ++differ;
+    EXPECT_EQ(differ, 0u) << "of " << own.voxels.size() << " voxels";
+    return shared;
+}
+
+}  // namespace
+
+TEST(RadianceBake, SharedShadowRaysGiveExactlyTheRaysAnswerOnTheLightGrid) {
+    vox::test::ScratchDir dir;
+    const vox::Scene scene = vox::importScene(
+        vox::scenes::writeLightGrid(dir.path(), vox::scenes::BufferStorage::External, 32));
+    ASSERT_EQ(scene.lights.size(), 1024u);
+    const auto shared = expectSharedRaysChangeNothing(scene, 6);
+    // Most queries are answered by a test shared by a block of voxels.
+    const auto& used = shared.directLight.used;
+    EXPECT_GT(double(used.visibilityShared), 0.5 * double(used.visibilityEvaluations));
+}
+
+TEST(RadianceBake, SharedShadowRaysDoNotLeakLightPastAWallBetweenVoxels) {
+    // A floor with a thin wall across it, taller than the 64 lights that stand on one side: the
+    // other side gets no direct light at all. The wall runs through the middle of the voxel
+    // blocks whose rays are tested together, so that a block holds voxels on both sides.
+    vox::Scene scene;
+    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4},
+                       vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
+    vox::test::addBox(scene, {0.33, 0, -2}, {0.36, 0.5, 2},
+                      vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
+    for (int i = 0; i < 8; ++i)
+        for (int j = 0; j < 8; ++j) {
+            vox::Light light;
+            light.position = {-1.8f + 0.2f * float(i), 0.3f, -1.75f + 0.5f * float(j)};
+            light.intensity = 1;
+            light.range = 3;
+            scene.lights.push_back(light);
+        }
+    const auto shared = expectSharedRaysChangeNothing(scene, 6);
+    std::size_t dark = 0, lit = 0;
+    for (const auto& v : shared.voxels) {
+        if (v.normal.y < 0.9 || v.centre.y > 0.05) continue;  // the floor's top only
+        if (v.centre.x > 0.45) {
+            EXPECT_EQ(v.direct, (Vec3f{0, 0, 0})) << v.centre.x << "," << v.centre.z;
+            ++dark;
+        } else if (v.centre.x < 0.25) {
+            lit += v.direct.x > 0;
+        }
+    }
+    EXPECT_GT(dark, 300u);
+    EXPECT_GT(lit, 300u);
+}
+
+TEST(RadianceBake, SharedShadowRaysGiveExactlyTheRaysAnswerAmongRandomBoxes) {
+    // Boxes of every size at random places and lights among them: wherever the block tests
+    // decided wrongly, some voxel's light would change.
+    vox::Scene scene;
+    const auto material = vox::test::addMaterial(scene, {0.6f, 0.6f, 0.6f});
+    vox::test::addQuad(scene, {-4, 0, 4}, {8, 0, 0}, {0, 0, -8}, material);
+    std::uint64_t state = 0x5EEDu;
+    const auto uniform = [&](double lo, double hi) {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return lo + (hi - lo) * double(state >> 11) / double(1ull << 53);
+    };
+    for (int k = 0; k < 40; ++k) {
+        const double x = uniform(-3.8, 3.6), z = uniform(-3.8, 3.6), y = uniform(0, 1.5);
+        vox::test::addBox(scene, {x, y, z},
+                          {x + uniform(0.02, 0.8), y + uniform(0.02, 1.2), z + uniform(0.02, 0.8)},
+                          material);
+    }
+    for (int k = 0; k < 200; ++k) {
+        vox::Light light;
+        light.position = {float(uniform(-4, 4)), float(uniform(0.1, 3)), float(uniform(-4, 4))};
+        light.intensity = float(uniform(0.5, 3));
+        light.range = float(uniform(1, 4));
+        scene.lights.push_back(light);
+    }
+    expectSharedRaysChangeNothing(scene, 6);
 }
 
 TEST(RadianceBake, LightcutsAutoTurnsOnWithManyLights) {

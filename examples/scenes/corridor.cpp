@@ -3,6 +3,7 @@
 #include "scene_kit.h"
 #include "shapes.h"
 
+#include <cmath>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -39,8 +40,8 @@ struct Mover {
 };
 constexpr Mover kMovers[2] = {{-25, 3, Facts::kLanternHeight}, {22, -2, Facts::kSearchlightHeight}};
 
-/// The static corridor: geometry and the 30 lamps, appended to @p roots.
-void addCorridor(GltfBuilder& gltf, std::vector<int>& roots) {
+/// The static corridor: geometry and, with @p lamps, the 30 lamps, appended to @p roots.
+void addCorridor(GltfBuilder& gltf, std::vector<int>& roots, bool lamps = true) {
     SceneRng rng(kSeed);
     const int floorMaterial = gltf.addMaterial({"Floor", {0.35f, 0.33f, 0.30f, 1}});
     const int ceilingMaterial = gltf.addMaterial({"Ceiling", {0.85f, 0.85f, 0.84f, 1}});
@@ -112,6 +113,7 @@ void addCorridor(GltfBuilder& gltf, std::vector<int>& roots) {
         }
     });
 
+    if (!lamps) return;
     // The lamps: a mix of colour temperatures and intensities, all with the same range.
     static constexpr std::array<std::array<float, 3>, 3> colors{
         {{1.0f, 0.85f, 0.66f}, {1.0f, 0.95f, 0.88f}, {0.86f, 0.92f, 1.0f}}};
@@ -150,6 +152,50 @@ std::filesystem::path writeCorridor(const std::filesystem::path& directory, Buff
     addCorridor(gltf, roots);
     gltf.setSceneRoots(roots);
     const auto file = fileIn(directory, "corridor", storage);
+    gltf.write(file, storage);
+    return file;
+}
+
+std::filesystem::path writeCorridorStrips(const std::filesystem::path& directory,
+                                          BufferStorage storage) {
+    using Strips = CorridorStripFacts;
+    std::filesystem::create_directories(directory);
+    GltfBuilder gltf;
+    std::vector<int> roots;
+    addCorridor(gltf, roots, false);
+    SceneRng rng(kSeed ^ 0x5374726970ull);  // "Strip"
+    LightPalette palette(gltf);
+    static constexpr std::array<std::array<float, 3>, 2> colors{
+        {{1.0f, 0.86f, 0.70f}, {0.92f, 0.95f, 1.0f}}};
+    const int intensitySteps =
+        static_cast<int>((Strips::kMaxIntensity - Strips::kMinIntensity) / 0.5f) + 1;
+    int written = 0;
+    for (int row = 0; row < 2; ++row)
+        for (int k = 0; k < Strips::kSlots; ++k) {
+            const double x = quantize(-Facts::kLength / 2 + Strips::kStripSpacing * (k + 0.5));
+            bool inPartition = false;
+            for (float partition : Facts::kPartitions)
+                inPartition = inPartition || std::abs(x - partition) < Strips::kPartitionGap;
+            if (inPartition) continue;
+            const int tint = rng.below(static_cast<int>(colors.size()));
+            const float intensity =
+                static_cast<float>(rng.steps(Strips::kMinIntensity, 0.5, intensitySteps));
+            const int light = palette(
+                {"Strip." + std::to_string(tint) + "." + std::to_string(intensity).substr(0, 3),
+                 "point", colors[static_cast<std::size_t>(tint)], intensity, Strips::kStripRange});
+            const std::string name = "StripLight_" + std::to_string(row) + "_" + std::to_string(k);
+            roots.push_back(gltf.addNode(
+                {name,
+                 -1,
+                 light,
+                 {x, Strips::kStripHeight, row ? Strips::kStripOffset : -Strips::kStripOffset}}));
+            ++written;
+        }
+    if (written != Strips::kLights)
+        throw std::logic_error("corridor strips: " + std::to_string(written) + " lights, not " +
+                               std::to_string(Strips::kLights));
+    gltf.setSceneRoots(roots);
+    const auto file = fileIn(directory, "corridor_strips", storage);
     gltf.write(file, storage);
     return file;
 }

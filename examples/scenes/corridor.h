@@ -44,6 +44,23 @@ struct CorridorFacts {
     static constexpr float kSearchlightRange = 9.3f;  ///< ∛100 × 2.0 m
 };
 
+/// Facts about the LED-strip corridor (corridor_strips): the corridor's geometry (lamp housings
+/// included) lit instead of by the 30 lamps by two strips of small point lights under the
+/// ceiling, every kStripSpacing along x at z = ±kStripOffset, leaving out the places where a
+/// partition wall stands. Many ranged lights of similar weight reach every point (about 80 on
+/// the floor), with partitions, doors, pillars and crates in the way.
+struct CorridorStripFacts {
+    static constexpr float kStripSpacing = 0.1f;  ///< lights at x = -29.95, -29.85, …, 29.95
+    static constexpr int kSlots = 600;            ///< positions per strip before the gaps
+    static constexpr float kStripOffset = 1.0f;   ///< the strips run at z = ±1
+    static constexpr float kStripHeight = 2.5f;
+    /// No light within this of a partition's centre plane (the partitions are 0.2 thick).
+    static constexpr float kPartitionGap = 0.12f;
+    static constexpr int kLights = 1184;  ///< 2 × (600 − 4 partitions × 2 slots in the gap)
+    static constexpr float kStripRange = 4.0f;
+    static constexpr float kMinIntensity = 1.0f, kMaxIntensity = 2.5f;  ///< candela
+};
+
 /// Where moving light @p light (0: lantern, 1: searchlight) is at @p frame ≥ 0. Both move at a
 /// constant speed along the corridor's axis (z = 0), the lantern +3 m per frame from x = -25, the
 /// searchlight -2 m per frame from x = 22, turning back at x = ±28.
@@ -53,6 +70,11 @@ struct CorridorFacts {
 /// static lamps. Returns the scene file's path.
 std::filesystem::path writeCorridor(const std::filesystem::path& directory,
                                     BufferStorage storage = BufferStorage::External);
+
+/// Writes "corridor_strips.gltf" (or .glb): the corridor's geometry with its CorridorStripFacts
+/// lights instead of the lamps. Returns the scene file's path.
+std::filesystem::path writeCorridorStrips(const std::filesystem::path& directory,
+                                          BufferStorage storage = BufferStorage::External);
 
 /// Writes "corridor_moving_f<frame>.gltf" (or .glb): the same corridor and lamps (same bytes for
 /// them in every frame) plus the two moving lights at their positions at @p frame (≥ 0).

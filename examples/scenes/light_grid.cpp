@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -16,8 +17,10 @@ constexpr std::uint64_t kSeed = 0x4C69676874477264ull;  // "LightGrd"
 
 }  // namespace
 
-std::filesystem::path writeLightGrid(const std::filesystem::path& directory,
-                                     BufferStorage storage) {
+std::filesystem::path writeLightGrid(const std::filesystem::path& directory, BufferStorage storage,
+                                     int lightsPerSide) {
+    if (lightsPerSide < 1)
+        throw std::invalid_argument("light grid: lights per side must be at least 1");
     std::filesystem::create_directories(directory);
     SceneRng rng(kSeed);
     GltfBuilder gltf;
@@ -72,24 +75,29 @@ std::filesystem::path writeLightGrid(const std::filesystem::path& directory,
                                                 {"amber", {1.0f, 0.65f, 0.30f}},
                                                 {"teal", {0.55f, 0.95f, 0.90f}}}};
     LightPalette palette(gltf);
-    for (int i = 0; i < Facts::kLightsPerSide; ++i)
-        for (int j = 0; j < Facts::kLightsPerSide; ++j) {
-            const double x = Facts::kLightSpacing * (i - (Facts::kLightsPerSide - 1) / 2.0);
-            const double z = Facts::kLightSpacing * (j - (Facts::kLightsPerSide - 1) / 2.0);
+    const double spacing =
+        double(Facts::kLightSpacing) * Facts::kLightsPerSide / double(lightsPerSide);
+    for (int i = 0; i < lightsPerSide; ++i)
+        for (int j = 0; j < lightsPerSide; ++j) {
+            const double x = spacing * (i - (lightsPerSide - 1) / 2.0);
+            const double z = spacing * (j - (lightsPerSide - 1) / 2.0);
             const Tint& tint =
                 tints[static_cast<std::size_t>(rng.below(static_cast<int>(tints.size())))];
             const float intensity = static_cast<float>(rng.steps(Facts::kMinIntensity, 5, 3));
             const int light = palette({"GridLight." + std::string(tint.name) + "." +
                                            std::to_string(static_cast<int>(intensity)),
                                        "point", tint.color, intensity, Facts::kLightRange});
-            char name[32];
+            char name[40];
             std::snprintf(name, sizeof name, "GridLight_%02d_%02d", i, j);
             roots.push_back(gltf.addNode({name, -1, light, {x, Facts::kLightHeight, z}}));
         }
 
     gltf.setSceneRoots(roots);
+    const std::string stem = lightsPerSide == Facts::kLightsPerSide
+                                 ? std::string("light_grid")
+                                 : "light_grid_" + std::to_string(lightsPerSide * lightsPerSide);
     const std::filesystem::path file =
-        directory / (storage == BufferStorage::Glb ? "light_grid.glb" : "light_grid.gltf");
+        directory / (stem + (storage == BufferStorage::Glb ? ".glb" : ".gltf"));
     gltf.write(file, storage);
     return file;
 }

@@ -37,7 +37,12 @@ struct LightGridFacts {
 };
 
 /// Writes "light_grid.gltf" (+ .bin, or "light_grid.glb") into @p directory; returns its path.
+/// With @p lightsPerSide other than LightGridFacts::kLightsPerSide the lights are that many per
+/// side over the same span (spacing kLightSpacing × kLightsPerSide / lightsPerSide), with the
+/// same height and range, and the file is "light_grid_<lights>.gltf": 32 gives 1024 lights 1 m
+/// apart, about 28 of which reach a floor point. The geometry is the same for every count.
 std::filesystem::path writeLightGrid(const std::filesystem::path& directory,
-                                     BufferStorage storage = BufferStorage::External);
+                                     BufferStorage storage = BufferStorage::External,
+                                     int lightsPerSide = LightGridFacts::kLightsPerSide);
 
 }  // namespace vox::scenes

@@ -1,8 +1,7 @@
 // Writes libvox's example scenes.
 // Usage: make_example_scene [cornell-box | bumpy-sphere | sphere [--rings R --segments S] |
-// corridor |
-//                            corridor-moving [--frame N] | light-grid | city-block] [-o DIR]
-//                            [--glb]
+//                            corridor | corridor-moving [--frame N] | corridor-strips |
+//                            light-grid [--lights-per-side N] | city-block] [-o DIR] [--glb]
 #include "bumpy_sphere.h"
 #include "city_block.h"
 #include "cornell_box.h"
@@ -20,10 +19,9 @@
 namespace {
 
 constexpr const char* kUsage =
-    "usage: make_example_scene [cornell-box | bumpy-sphere | sphere [--rings R --segments S] | "
-    "corridor |\n"
-    "                           corridor-moving [--frame N] | light-grid | city-block] [-o DIR] "
-    "[--glb]\n";
+    "usage: make_example_scene [cornell-box | bumpy-sphere | sphere [--rings R --segments S] |\n"
+    "                           corridor | corridor-moving [--frame N] | corridor-strips |\n"
+    "                           light-grid [--lights-per-side N] | city-block] [-o DIR] [--glb]\n";
 
 int usageError(const std::string& message) {
     std::fprintf(stderr, "make_example_scene: error: %s\n%s", message.c_str(), kUsage);
@@ -47,6 +45,7 @@ int main(int argc, char** argv) {
     std::string scene = "cornell-box";
     int rings = 513, segments = 1024;  // 1,048,576 triangles
     int frame = -1;
+    int lightsPerSide = -1;
     for (int i = 1; i < argc; ++i) {
         const std::string arg = argv[i];
         if ((arg == "-o" || arg == "--output") && i + 1 < argc) {
@@ -54,8 +53,8 @@ int main(int argc, char** argv) {
         } else if (arg == "--glb") {
             storage = vox::scenes::BufferStorage::Glb;
         } else if (arg == "cornell-box" || arg == "bumpy-sphere" || arg == "sphere" ||
-                   arg == "corridor" || arg == "corridor-moving" || arg == "light-grid" ||
-                   arg == "city-block") {
+                   arg == "corridor" || arg == "corridor-moving" || arg == "corridor-strips" ||
+                   arg == "light-grid" || arg == "city-block") {
             scene = arg;
         } else if (arg == "--rings" && i + 1 < argc) {
             rings = std::max(3, std::atoi(argv[++i]));
@@ -66,12 +65,19 @@ int main(int argc, char** argv) {
             if (frame < 0)
                 return usageError(std::string("--frame needs a non-negative integer, not '") +
                                   argv[i] + "'");
+        } else if (arg == "--lights-per-side" && i + 1 < argc) {
+            lightsPerSide = parseCount(argv[++i]);
+            if (lightsPerSide < 1)
+                return usageError(std::string("--lights-per-side needs a positive integer, not '") +
+                                  argv[i] + "'");
         } else {
             return usageError("unknown argument '" + arg + "'");
         }
     }
     if (frame >= 0 && scene != "corridor-moving")
         return usageError("--frame applies to corridor-moving only");
+    if (lightsPerSide >= 0 && scene != "light-grid")
+        return usageError("--lights-per-side applies to light-grid only");
     try {
         std::filesystem::path file;
         if (scene == "cornell-box")
@@ -80,8 +86,12 @@ int main(int argc, char** argv) {
             file = vox::scenes::writeCorridor(directory, storage);
         else if (scene == "corridor-moving")
             file = vox::scenes::writeCorridorMoving(directory, std::max(frame, 0), storage);
+        else if (scene == "corridor-strips")
+            file = vox::scenes::writeCorridorStrips(directory, storage);
         else if (scene == "light-grid")
-            file = vox::scenes::writeLightGrid(directory, storage);
+            file = vox::scenes::writeLightGrid(
+                directory, storage,
+                lightsPerSide > 0 ? lightsPerSide : vox::scenes::LightGridFacts::kLightsPerSide);
         else if (scene == "city-block")
             file = vox::scenes::writeCityBlock(directory, storage);
         else

@@ -184,6 +184,8 @@ nlohmann::json manyLightStats(const ManyLightStats& s) {
             {"mean_search_steps", s.meanSearchSteps()},
             {"light_evaluations", s.lightEvaluations},
             {"visibility_evaluations", s.visibilityEvaluations},
+            {"visibility_shared", s.visibilityShared},
+            {"shared_visibility_tests", s.sharedVisibilityTests},
             {"mean_trees_searched", s.points ? double(s.treesSearched) / double(s.points) : 0.0},
             {"truncated_points", s.truncated},
             {"seconds", s.seconds},

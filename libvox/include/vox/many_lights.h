@@ -97,23 +97,47 @@ struct SimilarityOptions {
 using PointVisibility =
     std::function<double(std::size_t point, const Light& light, const LightArrival& arrival)>;
 
+/// What a ClusterVisibility reports about the visibility it shared among points.
+struct SharedVisibilityStats {
+    std::uint64_t tests = 0;  ///< tests run once for a group of points
+    /// Calls answered by such a test, without a ray or cone of their own.
+    std::uint64_t answered = 0;
+};
+
+/// Visibility for the points of one cluster, in [0, 1]: as PointVisibility, with @p light the
+/// light's index into the lights the light tree was built from. Called on one thread only, for
+/// the cluster's points in their order, so it may keep state from call to call, e.g. a test that
+/// decides a light's visibility for a whole group of nearby points at once.
+using ClusterVisibility = std::function<double(std::size_t point, std::uint32_t light,
+                                               const Light& lightRef, const LightArrival& arrival)>;
+
+/// Makes the ClusterVisibility of one cluster from its points (indices into the points, in the
+/// order they are lit); what it shares it counts into @p stats (which outlives the result).
+/// Called concurrently for different clusters.
+using ClusterVisibilityFactory = std::function<ClusterVisibility(
+    std::span<const std::uint32_t> points, SharedVisibilityStats& stats)>;
+
 /// What lighting a set of points cost and how good it was.
 struct ManyLightStats {
     std::string method;  ///< "lightcuts", "classic" or "brute-force"
     std::uint64_t points = 0;
-    std::uint64_t lights = 0;            ///< lights in leaves of the tree
-    std::uint64_t trees = 0;             ///< trees in the forest (1 or 2 for classic)
-    std::uint64_t clusters = 0;          ///< spatial clusters (0: none)
-    std::uint64_t runs = 0;              ///< runs of similar points the cuts were reused along
-    std::uint64_t cutNodes = 0;          ///< Σ cut size over the points
-    std::uint64_t searchSteps = 0;       ///< Σ LightcutStats::searchSteps
-    std::uint64_t lightEvaluations = 0;  ///< Σ lightArrival calls
-    std::uint64_t visibilityEvaluations = 0;
-    std::uint64_t treesSearched = 0;  ///< Σ trees searched per point
-    std::uint64_t truncated = 0;      ///< points whose cut stopped at maxCutSize
-    double seconds = 0;               ///< wall time (building the tree not included)
-    double treeSeconds = 0;           ///< building the light tree
-    double clusterSeconds = 0;        ///< clustering the points and their cluster–light lists
+    std::uint64_t lights = 0;                 ///< lights in leaves of the tree
+    std::uint64_t trees = 0;                  ///< trees in the forest (1 or 2 for classic)
+    std::uint64_t clusters = 0;               ///< spatial clusters (0: none)
+    std::uint64_t runs = 0;                   ///< runs of similar points the cuts were reused along
+    std::uint64_t cutNodes = 0;               ///< Σ cut size over the points
+    std::uint64_t searchSteps = 0;            ///< Σ LightcutStats::searchSteps
+    std::uint64_t lightEvaluations = 0;       ///< Σ lightArrival calls
+    std::uint64_t visibilityEvaluations = 0;  ///< visibility queries (lights times points)
+    /// Of those, the queries a shared test answered (ClusterVisibilityFactory): the rays or
+    /// cones traced are visibilityEvaluations − visibilityShared.
+    std::uint64_t visibilityShared = 0;
+    std::uint64_t sharedVisibilityTests = 0;  ///< shared tests run
+    std::uint64_t treesSearched = 0;          ///< Σ trees searched per point
+    std::uint64_t truncated = 0;              ///< points whose cut stopped at maxCutSize
+    double seconds = 0;                       ///< wall time (building the tree not included)
+    double treeSeconds = 0;                   ///< building the light tree
+    double clusterSeconds = 0;  ///< clustering the points and their cluster–light lists
 
     [[nodiscard]] double meanCutSize() const noexcept {
         return points ? double(cutNodes) / double(points) : 0;
@@ -129,6 +153,9 @@ struct ManyLightOptions {
     bool clusterLists =
         true;               ///< search only the trees whose influence overlaps the point's cluster
     bool reuseCuts = true;  ///< start each point of a cluster from the previous point's cut
+    /// When set (and there are clusters), the visibility of each cluster's points comes from the
+    /// ClusterVisibility it makes instead of the PointVisibility.
+    ClusterVisibilityFactory clusterVisibility;
 };
 
 /// Lights every point with Lightcuts: clusters in parallel (TBB), the points of a cluster in
@@ -178,11 +205,14 @@ struct ManyLightReport {
 /// Direct light at @p points through @p mode: the whole of what the bake and the renderer do.
 /// Builds the forest over @p lights (static ones), clusters with @p clusters (called only when
 /// Lightcuts runs), lights the points into @p out, and with @p compare also runs classic Lightcuts
-/// and brute force (their results discarded) and fills the report's comparison.
+/// and brute force (their results discarded) and fills the report's comparison. Lightcuts takes
+/// its visibility from @p clusterVisibility where one is given (ManyLightOptions); classic
+/// Lightcuts and brute force always from @p visibility, one query per light and point.
 [[nodiscard]] ManyLightReport directLight(std::span<const Light> lights,
                                           std::span<const LightcutPoint> points, LightcutsMode mode,
                                           const LightcutOptions& cut, bool compare,
                                           const std::function<RenderPointClusters()>& clusters,
-                                          const PointVisibility& visibility, std::span<Vec3d> out);
+                                          const PointVisibility& visibility, std::span<Vec3d> out,
+                                          const ClusterVisibilityFactory& clusterVisibility = {});
 
 }  // namespace vox

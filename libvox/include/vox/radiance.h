@@ -37,6 +37,10 @@ struct RadianceBakeOptions {
     /// Also light every voxel with classic Lightcuts and brute force, for
     /// RadianceBake::directLight's comparison (the bake keeps the method lightcuts chose).
     bool lightcutsCompare = false;
+    /// With shadow rays (shadowApertureDegrees 0), Lightcuts decides a light's rays for a block of
+    /// nearby voxels with one test where that test proves them all clear, and traces a voxel's own
+    /// ray only where it cannot: the same volume as false (every voxel traces its own), faster.
+    bool shareShadowRays = true;
     Timings* timings = nullptr;
 };
 

@@ -81,6 +81,8 @@ void addStats(ManyLightStats& total, const ManyLightStats& s) {
     total.searchSteps += s.searchSteps;
     total.lightEvaluations += s.lightEvaluations;
     total.visibilityEvaluations += s.visibilityEvaluations;
+    total.visibilityShared += s.visibilityShared;
+    total.sharedVisibilityTests += s.sharedVisibilityTests;
     total.treesSearched += s.treesSearched;
     total.truncated += s.truncated;
 }
@@ -318,17 +320,35 @@ ManyLightStats lightPoints(const LightTree& tree, std::span<const LightcutPoint>
                         cursor.clearRoots();
                     }
                     ManyLightStats& s = perCluster[c];
+                    SharedVisibilityStats shared;
+                    ClusterVisibility clusterVisibility;
+                    if (options.clusterVisibility)
+                        clusterVisibility =
+                            options.clusterVisibility(std::span<const std::uint32_t>(clusters.order)
+                                                          .subspan(first, last - first),
+                                                      shared);
+                    const Light* lightsBegin = tree.lights().data();
                     auto run = std::lower_bound(clusters.runs.begin(), clusters.runs.end(), first);
                     for (std::uint32_t k = first; k < last; ++k) {
                         const std::uint32_t i = clusters.order[k];
                         const bool runStarts = run != clusters.runs.end() && *run == k;
                         if (runStarts) ++run;
                         if (!options.reuseCuts || runStarts) cursor.reset();
-                        const LightcutResult result =
-                            cursor.evaluate(points[i], visibilityAt(visibility, i));
+                        LightVisibility pointVisibility;
+                        if (clusterVisibility)
+                            pointVisibility = [&clusterVisibility, lightsBegin, i](
+                                                  const Light& light, const LightArrival& arrival) {
+                                return clusterVisibility(i, std::uint32_t(&light - lightsBegin),
+                                                         light, arrival);
+                            };
+                        else
+                            pointVisibility = visibilityAt(visibility, i);
+                        const LightcutResult result = cursor.evaluate(points[i], pointVisibility);
                         out[i] = result.radiance;
                         addStats(s, result.stats);
                     }
+                    s.visibilityShared += shared.answered;
+                    s.sharedVisibilityTests += shared.tests;
                     progress.advance(last - first);
                 }
             });
@@ -404,7 +424,8 @@ LightcutErrorStats compareWithBruteForce(std::span<const Vec3d> estimate,
 ManyLightReport directLight(std::span<const Light> lights, std::span<const LightcutPoint> points,
                             LightcutsMode mode, const LightcutOptions& cut, bool compare,
                             const std::function<RenderPointClusters()>& clusters,
-                            const PointVisibility& visibility, std::span<Vec3d> out) {
+                            const PointVisibility& visibility, std::span<Vec3d> out,
+                            const ClusterVisibilityFactory& clusterVisibility) {
     ManyLightReport report;
     const bool useLightcuts =
         mode == LightcutsMode::On ||
@@ -416,7 +437,8 @@ ManyLightReport directLight(std::span<const Light> lights, std::span<const Light
         start = Clock::now();
         const RenderPointClusters groups = clusters ? clusters() : RenderPointClusters{};
         const double clusterSeconds = secondsSince(start);
-        ManyLightStats s = lightPoints(tree, points, groups, {cut, true, true}, visibility, into);
+        ManyLightStats s = lightPoints(tree, points, groups, {cut, true, true, clusterVisibility},
+                                       visibility, into);
         s.treeSeconds = treeSeconds;
         s.clusterSeconds = clusterSeconds;
         return s;
@@ -436,7 +458,7 @@ ManyLightReport directLight(std::span<const Light> lights, std::span<const Light
         const double treeSeconds = secondsSince(start);
         std::vector<Vec3d> classic(points.size());
         report.classic =
-            lightPoints(classicTree, points, {}, {cut, false, false}, visibility, classic);
+            lightPoints(classicTree, points, {}, {cut, false, false, {}}, visibility, classic);
         report.classic.method = "classic";
         report.classic.treeSeconds = treeSeconds;
         report.classicError = compareWithBruteForce(classic, brute, cut.relativeError);

@@ -15,7 +15,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace vox {
@@ -241,9 +243,46 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
                 materials[i].albedo = toVec3d(leaves[i].albedo);
             return clusterVoxelPoints(materials, cells, options.depth, kClusterVoxels);
         };
+        // Lightcuts' shadow rays, decided a block of voxels at a time where one test proves the
+        // whole block's rays to a light clear or blocked (exactly the rays' answers, see
+        // ShadowRayGroups); classic Lightcuts and brute force trace every ray.
+        std::optional<detail::ShadowRayGroups> rayGroups;
+        ClusterVisibilityFactory sharedRays;
+        if (!shadowCones && options.shareShadowRays) {
+            std::vector<Vec3d> normals(leaves.size());
+            for (std::size_t i = 0; i < leaves.size(); ++i)
+                normals[i] = toVec3d(leaves[i].normals.mean);
+            std::vector<Vec3d> lightCells(scene.lights.size());
+            for (std::size_t k = 0; k < scene.lights.size(); ++k) {
+                const Light& light = scene.lights[k];
+                const double nan = std::numeric_limits<double>::quiet_NaN();
+                lightCells[k] = light.type == Light::Type::Directional
+                                    ? Vec3d{nan, nan, nan}
+                                    : Vec3d{(double(light.position.x) - volume.origin[0]) / cell,
+                                            (double(light.position.y) - volume.origin[1]) / cell,
+                                            (double(light.position.z) - volume.origin[2]) / cell};
+            }
+            rayGroups.emplace(solid, cells, std::move(normals), std::move(lightCells));
+            sharedRays = [&](std::span<const std::uint32_t>,
+                             SharedVisibilityStats& stats) -> ClusterVisibility {
+                auto verdicts = std::make_shared<detail::ShadowRayGroups::Verdicts>();
+                return [&, verdicts](std::size_t i, std::uint32_t index, const Light&,
+                                     const LightArrival& arrival) -> double {
+                    const int side =
+                        dot(toVec3d(leaves[i].normals.mean), arrival.toLight) >= 0 ? 1 : -1;
+                    const double maxT =
+                        std::isfinite(arrival.distance) ? arrival.distance / cell : 1e30;
+                    return rayGroups->occluded(i, index, side, arrival.toLight, maxT, *verdicts,
+                                               stats)
+                               ? 0.0
+                               : 1.0;
+                };
+            };
+        }
         std::vector<Vec3d> irradiance(leaves.size());
-        bake.directLight = directLight(scene.lights, points, options.lightcuts, options.lightcut,
-                                       options.lightcutsCompare, clusters, visibility, irradiance);
+        bake.directLight =
+            directLight(scene.lights, points, options.lightcuts, options.lightcut,
+                        options.lightcutsCompare, clusters, visibility, irradiance, sharedRays);
         for (std::size_t i = 0; i < leaves.size(); ++i)
             direct[i] = {static_cast<float>(irradiance[i].x), static_cast<float>(irradiance[i].y),
                          static_cast<float>(irradiance[i].z)};

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
+#include <utility>
 
 namespace vox::detail {
 
@@ -39,7 +41,8 @@ bool SolidGrid::blockEmpty(std::int64_t x, std::int64_t y, std::int64_t z) const
     return !blocks_[(bz * blocksPerAxis_ + by) * blocksPerAxis_ + bx];
 }
 
-bool SolidGrid::occluded(Vec3d origin, Vec3d dir, double maxT) const noexcept {
+bool SolidGrid::occluded(Vec3d origin, Vec3d dir, double maxT,
+                         std::array<std::int64_t, 3>* hit) const noexcept {
     const double r = resolution_;
     // Clip the segment to the grid.
     double t0 = 0, t1 = maxT;
@@ -70,8 +73,10 @@ bool SolidGrid::occluded(Vec3d origin, Vec3d dir, double maxT) const noexcept {
                                     empty ? c[1] / kBlock * kBlock : c[1],
                                     empty ? c[2] / kBlock * kBlock : c[2]};
         const std::int64_t size = empty ? kBlock : 1;
-        if (!empty && solid(c[0], c[1], c[2]) && !(c[0] == sx && c[1] == sy && c[2] == sz))
+        if (!empty && solid(c[0], c[1], c[2]) && !(c[0] == sx && c[1] == sy && c[2] == sz)) {
+            if (hit) *hit = {c[0], c[1], c[2]};
             return true;
+        }
         double exit = std::numeric_limits<double>::infinity();
         for (int axis = 0; axis < 3; ++axis) {
             if (dir[axis] > 0)
@@ -82,6 +87,252 @@ bool SolidGrid::occluded(Vec3d origin, Vec3d dir, double maxT) const noexcept {
         t = std::max(exit, t + 1e-7);
     }
     return false;
+}
+
+bool SolidGrid::anySolid(Vec3d lo, Vec3d hi) const noexcept {
+    const double r = resolution_;
+    std::int64_t first[3], last[3];
+    for (int axis = 0; axis < 3; ++axis) {
+        if (!(hi[axis] >= 0 && lo[axis] <= r)) return false;  // (NaN: nothing)
+        first[axis] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor(lo[axis])), 0,
+                                               resolution_ - 1);
+        last[axis] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor(hi[axis])), 0,
+                                              resolution_ - 1);
+    }
+    const auto res = static_cast<std::size_t>(resolution_);
+    for (std::int64_t bz = first[2] / kBlock; bz <= last[2] / kBlock; ++bz)
+        for (std::int64_t by = first[1] / kBlock; by <= last[1] / kBlock; ++by)
+            for (std::int64_t bx = first[0] / kBlock; bx <= last[0] / kBlock; ++bx) {
+                if (blockEmpty(bx * kBlock, by * kBlock, bz * kBlock)) continue;
+                const std::int64_t x0 = std::max<std::int64_t>(first[0], bx * kBlock),
+                                   x1 = std::min<std::int64_t>(last[0], bx * kBlock + kBlock - 1);
+                const std::int64_t y0 = std::max<std::int64_t>(first[1], by * kBlock),
+                                   y1 = std::min<std::int64_t>(last[1], by * kBlock + kBlock - 1);
+                const std::int64_t z0 = std::max<std::int64_t>(first[2], bz * kBlock),
+                                   z1 = std::min<std::int64_t>(last[2], bz * kBlock + kBlock - 1);
+                for (std::int64_t z = z0; z <= z1; ++z)
+                    for (std::int64_t y = y0; y <= y1; ++y) {
+                        // The row's bits x0 … x1, in one or two words.
+                        const std::size_t row =
+                            (static_cast<std::size_t>(z) * res + static_cast<std::size_t>(y)) * res;
+                        std::size_t i = row + static_cast<std::size_t>(x0);
+                        const std::size_t end = row + static_cast<std::size_t>(x1) + 1;
+                        while (i < end) {
+                            const std::size_t word = i / 64, bit = i % 64;
+                            const std::size_t count = std::min<std::size_t>(64 - bit, end - i);
+                            const std::uint64_t mask =
+                                (count == 64 ? ~std::uint64_t{0}
+                                             : ((std::uint64_t{1} << count) - 1))
+                                << bit;
+                            if (bits_[word] & mask) return true;
+                            i += count;
+                        }
+                    }
+            }
+    return false;
+}
+
+namespace {
+
+bool finite(Vec3d v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+/// The box of the points (1 − u)·a + u·b, a in [aLo, aHi], b in [bLo, bHi], for u in [u0, u1]
+/// (0 ≤ u0 ≤ u1 ≤ 1): per axis, each bound is linear in u, so one of the two ends gives it.
+void boxBetween(Vec3d aLo, Vec3d aHi, Vec3d bLo, Vec3d bHi, double u0, double u1, double pad,
+                Vec3d& lo, Vec3d& hi) {
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min((1 - u0) * aLo[k] + u0 * bLo[k], (1 - u1) * aLo[k] + u1 * bLo[k]) - pad;
+        hi[k] = std::max((1 - u0) * aHi[k] + u0 * bHi[k], (1 - u1) * aHi[k] + u1 * bHi[k]) + pad;
+    }
+}
+
+}  // namespace
+
+bool SolidGrid::beamClear(Vec3d fromLo, Vec3d fromHi, Vec3d toLo, Vec3d toHi) const noexcept {
+    // Padding: the rays step 1e-9 past their samples, and the callers' boxes come from world
+    // coordinates rounded differently than the rays' directions and lengths.
+    constexpr double kPad = 1e-6;
+    if (!finite(fromLo) || !finite(fromHi) || !finite(toLo) || !finite(toHi)) return false;
+    double length = 0;
+    for (int k = 0; k < 3; ++k)
+        length = std::max({length, std::abs(toHi[k] - fromLo[k]), std::abs(toLo[k] - fromHi[k])});
+    // One box per cell of length; the last one reaches past the end by the padding.
+    const auto slabs = static_cast<std::int64_t>(std::ceil(length)) + 1;
+    for (std::int64_t k = 0; k < slabs; ++k) {
+        const double u0 = double(k) / double(slabs);
+        const double u1 = k + 1 == slabs ? 1.0 : double(k + 1) / double(slabs);
+        Vec3d lo, hi;
+        boxBetween(fromLo, fromHi, toLo, toHi, u0, u1, kPad, lo, hi);
+        if (k + 1 == slabs) {
+            // Past the end: the ray's samples lie up to 1e-9 beyond it.
+            for (int axis = 0; axis < 3; ++axis) {
+                const double reach = kPad * (1 + std::abs(toHi[axis] - fromLo[axis]) +
+                                             std::abs(toLo[axis] - fromHi[axis]));
+                lo[axis] -= reach;
+                hi[axis] += reach;
+            }
+        }
+        if (anySolid(lo, hi)) return false;
+    }
+    return true;
+}
+
+bool SolidGrid::allSolid(Vec3d lo, Vec3d hi) const noexcept {
+    std::int64_t first[3], last[3];
+    for (int axis = 0; axis < 3; ++axis) {
+        if (!(lo[axis] <= hi[axis])) return false;  // (NaN too)
+        // The cells whose closed cubes meet [lo, hi]; one outside the grid is empty.
+        first[axis] = static_cast<std::int64_t>(std::ceil(lo[axis])) - 1;
+        last[axis] = static_cast<std::int64_t>(std::floor(hi[axis]));
+        if (first[axis] < 0 || last[axis] >= std::int64_t{resolution_}) return false;
+    }
+    for (std::int64_t z = first[2]; z <= last[2]; ++z)
+        for (std::int64_t y = first[1]; y <= last[1]; ++y)
+            for (std::int64_t x = first[0]; x <= last[0]; ++x)
+                if (!solid(x, y, z)) return false;
+    return true;
+}
+
+bool SolidGrid::layerBlocks(Vec3d fromLo, Vec3d fromHi, Vec3d toLo, Vec3d toHi, int axis,
+                            std::int64_t layer) const noexcept {
+    constexpr double kPad = 1e-6;
+    if (!finite(fromLo) || !finite(fromHi) || !finite(toLo) || !finite(toHi)) return false;
+    if (layer < 0 || layer >= std::int64_t{resolution_}) return false;
+    // Mirror the axis so that the segments run towards +axis; they must start before the layer
+    // (so that their first cell is not in it) and end past it.
+    const bool positive = toLo[axis] > fromHi[axis];
+    if (!positive && !(toHi[axis] < fromLo[axis])) return false;
+    const double enter = positive ? double(layer) : -double(layer + 1), leave = enter + 1;
+    const double aLo = positive ? fromLo[axis] : -fromHi[axis];
+    const double aHi = positive ? fromHi[axis] : -fromLo[axis];
+    const double bLo = positive ? toLo[axis] : -toHi[axis];
+    const double bHi = positive ? toHi[axis] : -toLo[axis];
+    if (!(aHi < enter - kPad) || !(bLo > leave + kPad)) return false;
+    // The parameters at which a segment a + u·(b − a) is inside the layer, for every a and b.
+    const double u0 = std::max(0.0, (enter - aHi) / (bHi - aLo) - kPad);
+    const double u1 = std::min(1.0, (leave - aLo) / (bLo - aHi) + kPad);
+    if (!(u0 <= u1)) return false;
+    Vec3d lo, hi;
+    boxBetween(fromLo, fromHi, toLo, toHi, u0, u1, kPad, lo, hi);
+    lo[axis] = hi[axis] = double(layer) + 0.5;
+    return allSolid(lo, hi);
+}
+
+ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
+                                 std::span<const std::array<std::uint32_t, 3>> cells,
+                                 std::vector<Vec3d> normals, std::vector<Vec3d> lights)
+    : grid_(grid),
+      cells_(cells),
+      normals_(std::move(normals)),
+      lights_(std::move(lights)),
+      groupOf_(cells.size()),
+      originEmpty_(cells.size(), 0) {
+    for (std::size_t i = 0; i < cells.size(); ++i)
+        for (int s = 0; s < 2; ++s) {
+            const Vec3d o = origin(i, s == 0 ? 1 : -1);
+            if (!grid_.solid(static_cast<std::int64_t>(std::floor(o.x)),
+                             static_cast<std::int64_t>(std::floor(o.y)),
+                             static_cast<std::int64_t>(std::floor(o.z))))
+                originEmpty_[i] = static_cast<std::uint8_t>(originEmpty_[i] | (1u << s));
+        }
+    // Groups: the voxels sorted by block and by the axis direction their normal is closest to,
+    // level by level; a group's boxes hold its members'. Apart from the direction, a block's two
+    // sides of a thin wall or floor would share boxes that take in the wall itself.
+    std::vector<std::uint32_t> facing(cells.size());
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+        const Vec3d n = normals_[i];
+        int axis = 0;
+        for (int k = 1; k < 3; ++k)
+            if (std::abs(n[k]) > std::abs(n[axis])) axis = k;
+        facing[i] = static_cast<std::uint32_t>(2 * axis + (n[axis] < 0 ? 1 : 0));
+    }
+    std::vector<std::uint32_t> order(cells.size());
+    for (int level = 0; level < kLevels; ++level) {
+        const std::uint32_t shift = static_cast<std::uint32_t>(kLevels - level);
+        const auto blockOf = [&](std::uint32_t i) {
+            return std::array<std::uint32_t, 4>{cells[i][2] >> shift, cells[i][1] >> shift,
+                                                cells[i][0] >> shift, facing[i]};
+        };
+        std::iota(order.begin(), order.end(), 0u);
+        std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+            const auto ka = blockOf(a), kb = blockOf(b);
+            return ka != kb ? ka < kb : a < b;
+        });
+        for (std::size_t k = 0; k < order.size(); ++k) {
+            const std::uint32_t i = order[k];
+            if (k == 0 || blockOf(order[k - 1]) != blockOf(i)) {
+                Group g;
+                const double inf = std::numeric_limits<double>::infinity();
+                g.originLo = {Vec3d{inf, inf, inf}, Vec3d{inf, inf, inf}};
+                g.originHi = {Vec3d{-inf, -inf, -inf}, Vec3d{-inf, -inf, -inf}};
+                g.endLo = g.originLo;
+                g.endHi = g.originHi;
+                groups_.push_back(g);
+            }
+            Group& g = groups_.back();
+            groupOf_[i][static_cast<std::size_t>(level)] =
+                static_cast<std::uint32_t>(groups_.size() - 1);
+            for (std::size_t s = 0; s < 2; ++s) {
+                if (!(originEmpty_[i] & (1u << s))) continue;
+                const double side = s == 0 ? 1 : -1;
+                const Vec3d o = origin(i, int(side));
+                for (int axis = 0; axis < 3; ++axis) {
+                    g.originLo[s][axis] = std::min(g.originLo[s][axis], o[axis]);
+                    g.originHi[s][axis] = std::max(g.originHi[s][axis], o[axis]);
+                    const double end = side * normals_[i][axis];
+                    g.endLo[s][axis] = std::min(g.endLo[s][axis], end);
+                    g.endHi[s][axis] = std::max(g.endHi[s][axis], end);
+                }
+            }
+        }
+    }
+}
+
+Vec3d ShadowRayGroups::origin(std::size_t voxel, int side) const noexcept {
+    const auto& c = cells_[voxel];
+    const Vec3d n = normals_[voxel];
+    return {c[0] + 0.5 + side * n.x, c[1] + 0.5 + side * n.y, c[2] + 0.5 + side * n.z};
+}
+
+bool ShadowRayGroups::occluded(std::size_t voxel, std::uint32_t light, int side, Vec3d dir,
+                               double maxT, Verdicts& verdicts,
+                               SharedVisibilityStats& counts) const {
+    const std::size_t s = side > 0 ? 0 : 1;
+    const Vec3d from = origin(voxel, side);
+    const Vec3d target = light < lights_.size() ? lights_[light] : Vec3d{0, 0, 0};
+    if (!(originEmpty_[voxel] & (1u << s)) || light >= lights_.size() || !std::isfinite(target.x) ||
+        !std::isfinite(target.y) || !std::isfinite(target.z) || !std::isfinite(maxT))
+        return grid_.occluded(from, dir, maxT);
+    enum : std::uint8_t { kUndecided = 0, kClear = 1, kBlocked = 2 };
+    // The voxel's own ray, traced at most once: it answers where no group can, and the cell that
+    // stops it names the layers the blocked test tries.
+    int own = -1;
+    std::array<std::int64_t, 3> hit{};
+    for (const std::uint32_t g : groupOf_[voxel]) {
+        const std::uint64_t key = (std::uint64_t{g} << 32) | (std::uint64_t{light} << 1) | s;
+        auto [it, added] = verdicts.try_emplace(key, kUndecided);
+        if (added) {
+            const Group& group = groups_[g];
+            const Vec3d toLo = target + group.endLo[s], toHi = target + group.endHi[s];
+            ++counts.tests;
+            if (grid_.beamClear(group.originLo[s], group.originHi[s], toLo, toHi)) {
+                it->second = kClear;
+            } else {
+                if (own < 0) own = grid_.occluded(from, dir, maxT, &hit) ? 1 : 0;
+                if (own == 1)
+                    for (int axis = 0; axis < 3 && it->second == kUndecided; ++axis)
+                        if (grid_.layerBlocks(group.originLo[s], group.originHi[s], toLo, toHi,
+                                              axis, hit[std::size_t(axis)]))
+                            it->second = kBlocked;
+            }
+        }
+        if (it->second != kUndecided) {
+            if (own < 0) ++counts.answered;
+            return it->second == kBlocked;
+        }
+    }
+    if (own < 0) own = grid_.occluded(from, dir, maxT) ? 1 : 0;
+    return own == 1;
 }
 
 }  // namespace vox::detail
