@@ -249,12 +249,12 @@ uniform float uSpecularF0;
 uniform float uTanHalfSpecular;
 uniform float uTanHalfShadow;
 uniform bool uShadowCones;
-uniform float uDiffuseTanHalf;   // tan 30°
-uniform float uDiffuseWeights[2];   // centre, side (normalised: the six sum to π)
-uniform float uDiffuseCos[5], uDiffuseSin[5];
+uniform float uDiffuseTanHalf;   // tan 28°
+uniform float uDiffuseWeights[2];   // centre, ring (normalised: the seven sum to π)
+uniform vec2 uDiffuseTilt;          // cos, sin of the ring's 55° tilt
+uniform float uDiffuseCos[6], uDiffuseSin[6];
 
 const float kPi = 3.14159265358979323846;
-const float kSqrt3Over2 = 0.86602540378443864676;
 
 // vox::lightArrival; false where the light cannot reach p. infinite: directional.
 bool lightArrival(GpuLight light, vec3 p, out vec3 toLight, out float distance, out bool infinite, out vec3 irradiance) {
@@ -338,11 +338,11 @@ void main() {
     vec3 planePoint = position + n * finestCell();
     vec3 gathered = vec3(0.0);
     float occlusion = 0.0, weightSum = 0.0;
-    for (int i = 0; i < 6; ++i) {
+    for (int i = 0; i < 7; ++i) {
         vec3 dir = n;
         float weight = uDiffuseWeights[0];
         if (i > 0) {
-            dir = normalize(n * 0.5 + (tangent * uDiffuseCos[i - 1] + bitangent * uDiffuseSin[i - 1]) * kSqrt3Over2);
+            dir = normalize(n * uDiffuseTilt.x + (tangent * uDiffuseCos[i - 1] + bitangent * uDiffuseSin[i - 1]) * uDiffuseTilt.y);
             weight = uDiffuseWeights[1];
         }
         ConeResult r = traceCone(origin, dir, uDiffuseTanHalf, 0.0, 1e30, planePoint, n, uAoLambda, false);

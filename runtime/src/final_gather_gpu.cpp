@@ -80,20 +80,26 @@ FinalGatherGpu::FinalGatherGpu(GlContext& context, const FinalGatherGpuOptions& 
         p, shadeProgram_.uniform("uTanHalfShadow"),
         static_cast<float>(std::tan(0.5 * options_.shadowApertureDegrees * kPi / 180)));
     glProgramUniform1i(p, shadeProgram_.uniform("uShadowCones"), options_.shadowCones ? 1 : 0);
-    const double centre = kPi * 0.25, side = 2 * kPi * (1 - std::cos(kPi / 6)) * 0.5;
-    const double norm = kPi / (centre + 5 * side);
-    const float weights[2] = {static_cast<float>(centre * norm), static_cast<float>(side * norm)};
+    // The diffuse cones (RadianceField::diffuseCones): one along the normal and six tilted 55°,
+    // half-angle 28°, weighted by their exact cosine-weighted solid angles scaled to sum to π.
+    constexpr double kHalf = 28 * kPi / 180, kTilt = 55 * kPi / 180;
+    constexpr int kRing = 6;
+    const double cap = kPi * std::sin(kHalf) * std::sin(kHalf), ring = std::cos(kTilt) * cap;
+    const double norm = kPi / (cap + kRing * ring);
+    const float weights[2] = {static_cast<float>(cap * norm), static_cast<float>(ring * norm)};
     glProgramUniform1fv(p, shadeProgram_.uniform("uDiffuseWeights"), 2, weights);
     glProgramUniform1f(p, shadeProgram_.uniform("uDiffuseTanHalf"),
-                       static_cast<float>(std::tan(kPi / 6)));
-    float cosines[5], sines[5];
-    for (int i = 0; i < 5; ++i) {
-        const double phi = 2 * kPi * i / 5;
+                       static_cast<float>(std::tan(kHalf)));
+    glProgramUniform2f(p, shadeProgram_.uniform("uDiffuseTilt"),
+                       static_cast<float>(std::cos(kTilt)), static_cast<float>(std::sin(kTilt)));
+    float cosines[kRing], sines[kRing];
+    for (int i = 0; i < kRing; ++i) {
+        const double phi = 2 * kPi * i / kRing;
         cosines[i] = static_cast<float>(std::cos(phi));
         sines[i] = static_cast<float>(std::sin(phi));
     }
-    glProgramUniform1fv(p, shadeProgram_.uniform("uDiffuseCos"), 5, cosines);
-    glProgramUniform1fv(p, shadeProgram_.uniform("uDiffuseSin"), 5, sines);
+    glProgramUniform1fv(p, shadeProgram_.uniform("uDiffuseCos"), kRing, cosines);
+    glProgramUniform1fv(p, shadeProgram_.uniform("uDiffuseSin"), kRing, sines);
     glCreateQueries(GL_TIME_ELAPSED, 1, &query_);
     context_.throwOnErrors("final gather: setting up the shader");
 }

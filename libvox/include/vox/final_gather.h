@@ -1,7 +1,7 @@
 /// @file final_gather.h
 /// @brief A cone-traced final gather over a baked radiance volume (Gui et al. 2019, 2.4, at the
 /// pixels instead of the voxels): a surface point seen by the camera is lit by the scene's static
-/// punctual lights through shadow cones, by the volume's light through six diffuse cones and by
+/// punctual lights through shadow cones, by the volume's light through seven diffuse cones and by
 /// one specular cone along the mirrored view direction. `voxinspect render FILE.rvol` shades with
 /// it, and a GL runtime's shader is meant to compute exactly these terms (docs/cli.md).
 #pragma once
@@ -58,7 +58,7 @@ struct FinalGatherOptions {
 /// The terms of one shaded point, linear radiance towards the viewer.
 struct FinalGatherParts {
     Vec3d direct{0, 0, 0};    ///< Σ lights albedo/π · E · max(0, n·l) · visibility
-    Vec3d indirect{0, 0, 0};  ///< albedo/π · the six diffuse cones' irradiance
+    Vec3d indirect{0, 0, 0};  ///< albedo/π · the seven diffuse cones' irradiance
     Vec3d specular{0, 0, 0};  ///< Schlick(F0, n·v) · radiance of the cone along the mirrored view
     double ao = 1;            ///< 1 − the diffuse cones' occlusion: 1 open, 0 enclosed
     Vec3d final{0, 0, 0};     ///< emission + direct + indirect + specular

@@ -6,6 +6,7 @@
 #include <vox/formats/rvol.h>
 #include <vox/base/math.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -55,11 +56,25 @@ public:
     [[nodiscard]] ConeResult traceCone(const Cone& cone, double aoLambda,
                                        bool opacityOnly = false) const noexcept;
 
-    /// Diffuse irradiance at a surface point: six 60° cones over the hemisphere of @p normal (one
-    /// along it, five tilted 60° at azimuths 72° apart), weighted by their cosine-weighted solid
-    /// angles so that uniform radiance L gives π·L. @p offset: world distance the cones start off
-    /// the surface, along the normal; no sample filters behind a plane one level-0 cell above
-    /// @p point (Cone::planePoint).
+    /// The diffuse gather's cones over the hemisphere of a normal n with tangent frame (t, b):
+    /// one along n and kRing tilted from it, cone i along
+    /// n·cosTilt + (t·cosAzimuth[i] + b·sinAzimuth[i])·sinTilt, all of half-angle tangent
+    /// tanHalf. The weights are the cones' cosine-weighted solid angles, scaled so that
+    /// centreWeight + kRing·ringWeight = π.
+    struct DiffuseCones {
+        static constexpr std::size_t kRing = 6;
+        double tanHalf = 0;
+        double cosTilt = 0, sinTilt = 0;
+        double cosAzimuth[kRing] = {}, sinAzimuth[kRing] = {};
+        double centreWeight = 0, ringWeight = 0;
+    };
+    [[nodiscard]] static const DiffuseCones& diffuseCones() noexcept;
+
+    /// Diffuse irradiance at a surface point: the diffuseCones() over the hemisphere of
+    /// @p normal, so that uniform radiance L gives π·L. The tangent t is
+    /// normalize(cross(h, n)) with h = (1, 0, 0) where |n_x| < 0.9, else (0, 1, 0); b = n × t.
+    /// @p offset: world distance the cones start off the surface, along the normal; no sample
+    /// filters behind a plane one level-0 cell above @p point (Cone::planePoint).
     struct Gather {
         Vec3d irradiance{0, 0, 0};
         double occlusion = 0;  ///< cosine-weighted mean of the cones' eq. 4 occlusion

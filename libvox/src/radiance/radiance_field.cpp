@@ -151,12 +151,7 @@ RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLa
 
 RadianceField::Gather RadianceField::gatherDiffuse(Vec3d point, Vec3d normal, double offset,
                                                    double aoLambda) const noexcept {
-    // Cosine-weighted solid angles of a 30° half-angle cone: π·sin²30° along the normal, and
-    // 2π(1 − cos 30°)·cos 60° tilted by 60°; normalised so that the six sum to π.
-    constexpr double kPi = 3.14159265358979323846;
-    const double centre = kPi * 0.25, side = 2 * kPi * (1 - std::cos(kPi / 6)) * 0.5;
-    const double norm = kPi / (centre + 5 * side);
-    const double tanHalf = std::tan(kPi / 6);
+    const DiffuseCones& cones = diffuseCones();
     // A tangent frame that depends only on the normal (deterministic).
     const Vec3d helper = std::abs(normal.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
     const Vec3d tangent = normalize(cross(helper, normal));
@@ -166,23 +161,50 @@ RadianceField::Gather RadianceField::gatherDiffuse(Vec3d point, Vec3d normal, do
     const Vec3d origin = point + normal * offset;
     Gather out;
     double weightSum = 0;
-    for (int i = 0; i < 6; ++i) {
+    for (std::size_t i = 0; i <= DiffuseCones::kRing; ++i) {
         Vec3d dir = normal;
-        double weight = centre * norm;
+        double weight = cones.centreWeight;
         if (i > 0) {
-            const double phi = 2 * kPi * (i - 1) / 5;
-            dir = normalize(normal * 0.5 + (tangent * std::cos(phi) + bitangent * std::sin(phi)) *
-                                               (std::sqrt(3.0) / 2));
-            weight = side * norm;
+            dir = normalize(normal * cones.cosTilt + (tangent * cones.cosAzimuth[i - 1] +
+                                                      bitangent * cones.sinAzimuth[i - 1]) *
+                                                         cones.sinTilt);
+            weight = cones.ringWeight;
         }
         const ConeResult r = traceCone(
-            {origin, dir, tanHalf, 0, 1e30, point + normal * finestCell_, normal}, aoLambda);
+            {origin, dir, cones.tanHalf, 0, 1e30, point + normal * finestCell_, normal}, aoLambda);
         out.irradiance += r.radiance * weight;
         out.occlusion += r.occlusion * weight;
         weightSum += weight;
     }
     out.occlusion /= weightSum;
     return out;
+}
+
+const RadianceField::DiffuseCones& RadianceField::diffuseCones() noexcept {
+    static const DiffuseCones cones = [] {
+        constexpr double kPi = 3.14159265358979323846;
+        constexpr double kHalf = 28 * kPi / 180, kTilt = 55 * kPi / 180;
+        DiffuseCones c;
+        c.tanHalf = std::tan(kHalf);
+        c.cosTilt = std::cos(kTilt);
+        c.sinTilt = std::sin(kTilt);
+        // The exact cosine-weighted solid angle of a cone of half-angle h whose axis makes angle
+        // θ with the normal (wholly above the horizon) is cos θ · π sin² h. With h = 28° and
+        // θ = 55° the seven sum to 0.979 π: the cones nearly tile the cosine-weighted hemisphere,
+        // and scaling them to sum to π (uniform radiance L gives π·L) changes each by 2 %.
+        const double cap = kPi * std::sin(kHalf) * std::sin(kHalf);
+        const double centre = cap, ring = c.cosTilt * cap;
+        const double norm = kPi / (centre + DiffuseCones::kRing * ring);
+        c.centreWeight = centre * norm;
+        c.ringWeight = ring * norm;
+        for (std::size_t i = 0; i < DiffuseCones::kRing; ++i) {
+            const double phi = 2 * kPi * double(i) / DiffuseCones::kRing;
+            c.cosAzimuth[i] = std::cos(phi);
+            c.sinAzimuth[i] = std::sin(phi);
+        }
+        return c;
+    }();
+    return cones;
 }
 
 }  // namespace vox

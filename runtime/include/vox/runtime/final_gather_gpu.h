@@ -1,7 +1,7 @@
 /// @file final_gather_gpu.h
 /// @brief The cone-traced final gather of vox::FinalGather (libvox/include/vox/final_gather.h) as
 /// an OpenGL compute shader over an RvolGpuVolume: direct light from punctual lights through
-/// shadow cones, six diffuse cones (indirect light and AO) and a specular cone per shading point.
+/// shadow cones, seven diffuse cones (indirect light and AO) and a specular cone per shading point.
 #pragma once
 
 #include <vox/base/light.h>
