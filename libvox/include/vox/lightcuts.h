@@ -44,6 +44,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -420,6 +421,15 @@ public:
         return previous_;
     }
 
+    /// Working storage kept from point to point (internal).
+    struct Scratch;
+
+    LightcutCursor(const LightcutCursor& other);
+    LightcutCursor& operator=(const LightcutCursor& other);
+    LightcutCursor(LightcutCursor&&) noexcept;
+    LightcutCursor& operator=(LightcutCursor&&) noexcept;
+    ~LightcutCursor();
+
 private:
     const LightTree* tree_;
     LightcutOptions options_;
@@ -427,6 +437,7 @@ private:
     bool allRoots_ = true;
     std::vector<std::uint32_t> previous_;
     bool havePrevious_ = false;
+    std::unique_ptr<Scratch> scratch_;
 };
 
 }  // namespace vox

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <unordered_map>
+#include <utility>
 
 namespace vox {
 
@@ -196,7 +196,7 @@ struct Context {
 /// One node of a cut at the current point.
 struct Entry {
     double key;       // luminance of the error bound; −1 for leaves (exact, never split)
-    double boundLum;  // luminance of lightcutBound, leaves included
+    double boundLum;  // luminance of lightcutBound; for leaves −1 until boundLumOf needs it
     std::uint32_t node;
     double g;        // the representative's factor
     Vec3d estimate;  // albedo/π × intensity × g
@@ -214,11 +214,26 @@ Entry makeEntry(const Context& ctx, std::uint32_t index, double g) {
     e.node = index;
     e.g = g;
     e.estimate = ctx.albedoOverPi * node.intensity * g;
-    const Vec3d bound = boundOf(node, ctx.response, ctx.point, ctx.albedoOverPi);
-    e.boundLum = lightLuminance(bound);
-    if (std::isnan(e.boundLum)) e.boundLum = kInf;
-    e.key = node.leaf() ? -1.0 : e.boundLum;
+    // A leaf is exact and never split: only merging back asks for its bound.
+    e.boundLum = -1;
+    e.key = -1;
+    if (!node.leaf()) {
+        const Vec3d bound = boundOf(node, ctx.response, ctx.point, ctx.albedoOverPi);
+        e.boundLum = lightLuminance(bound);
+        if (std::isnan(e.boundLum)) e.boundLum = kInf;
+        e.key = e.boundLum;
+    }
     return e;
+}
+
+/// The luminance of @p e's bound, computed on first use for a leaf.
+double boundLumOf(const Context& ctx, Entry& e) {
+    if (e.boundLum < 0) {
+        e.boundLum = lightLuminance(
+            boundOf(ctx.tree.nodes()[e.node], ctx.response, ctx.point, ctx.albedoOverPi));
+        if (std::isnan(e.boundLum)) e.boundLum = kInf;
+    }
+    return e.boundLum;
 }
 
 double thresholdOf(const LightcutOptions& o, Vec3d total) {
@@ -340,9 +355,9 @@ void refine(const Context& ctx, std::vector<Entry>& heap, LightcutResult& result
 /// The trees to search at the point, ascending (indices into LightTree::roots()): with @p all,
 /// those whose influence contains it (through the tree's root index), else those of @p roots
 /// that do; counts searched and skipped trees.
-std::vector<std::uint32_t> treesAt(const Context& ctx, std::span<const std::uint32_t> roots,
-                                   bool all) {
-    std::vector<std::uint32_t> out;
+void treesAt(const Context& ctx, std::span<const std::uint32_t> roots, bool all,
+             std::vector<std::uint32_t>& out) {
+    out.clear();
     const auto& treeRoots = ctx.tree.roots();
     if (all) {
         ctx.tree.rootsContaining(ctx.point, out);
@@ -359,7 +374,6 @@ std::vector<std::uint32_t> treesAt(const Context& ctx, std::span<const std::uint
         out.erase(std::unique(out.begin(), out.end()), out.end());
     }
     ctx.stats.treesSearched += std::uint32_t(out.size());
-    return out;
 }
 
 void startTree(const Context& ctx, std::uint32_t t, std::vector<Entry>& heap) {
@@ -373,7 +387,9 @@ LightcutResult freshCut(const LightTree& tree, std::span<const std::uint32_t> ro
     LightcutResult result;
     const Context ctx(tree, point, options, visibility, result.stats);
     std::vector<Entry> heap;
-    for (std::uint32_t t : treesAt(ctx, roots, all)) startTree(ctx, t, heap);
+    std::vector<std::uint32_t> trees;
+    treesAt(ctx, roots, all, trees);
+    for (std::uint32_t t : trees) startTree(ctx, t, heap);
     refine(ctx, heap, result);
     return result;
 }
@@ -469,8 +485,68 @@ LightcutResult bruteForce(const LightTree& tree, const LightcutPoint& point,
     return result;
 }
 
+/// The cursor's working storage, kept from point to point so that a point allocates nothing.
+struct LightcutCursor::Scratch {
+    std::vector<std::uint32_t> here, present, work;
+    std::vector<Entry> entries, heap;
+    std::vector<char> dead;
+    /// Open addressing from node to its entry (kNoLightNode: empty slot); a power of two long.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> slots;
+
+    void clearIndex(std::size_t count) {
+        std::size_t size = 64;
+        while (size < 4 * count) size *= 2;
+        slots.assign(size, {kNoLightNode, 0});
+    }
+    [[nodiscard]] std::size_t slotOf(std::uint32_t node) const {
+        const std::size_t mask = slots.size() - 1;
+        std::uint32_t h = node * 0x9E3779B1u;
+        h ^= h >> 16;
+        std::size_t i = h & mask;
+        while (slots[i].first != kNoLightNode && slots[i].first != node) i = (i + 1) & mask;
+        return i;
+    }
+    void index(std::uint32_t node, std::uint32_t entry) {
+        if (4 * (entries.size() + 1) > slots.size() * 3) {
+            // Grow: rebuild from the live entries.
+            std::vector<std::pair<std::uint32_t, std::uint32_t>> old;
+            old.swap(slots);
+            clearIndex(2 * old.size());
+            for (const auto& [n, e] : old)
+                if (n != kNoLightNode) slots[slotOf(n)] = {n, e};
+        }
+        slots[slotOf(node)] = {node, entry};
+    }
+    /// The entry of @p node, or kNoLightNode.
+    [[nodiscard]] std::uint32_t find(std::uint32_t node) const {
+        const auto& slot = slots[slotOf(node)];
+        return slot.first == node ? slot.second : kNoLightNode;
+    }
+};
+
 LightcutCursor::LightcutCursor(const LightTree& tree, const LightcutOptions& options)
-    : tree_(&tree), options_(options) {}
+    : tree_(&tree), options_(options), scratch_(std::make_unique<Scratch>()) {}
+
+LightcutCursor::LightcutCursor(const LightcutCursor& other)
+    : tree_(other.tree_),
+      options_(other.options_),
+      roots_(other.roots_),
+      allRoots_(other.allRoots_),
+      previous_(other.previous_),
+      havePrevious_(other.havePrevious_),
+      scratch_(std::make_unique<Scratch>()) {}
+
+LightcutCursor& LightcutCursor::operator=(const LightcutCursor& other) {
+    if (this != &other) {
+        LightcutCursor copy(other);
+        *this = std::move(copy);
+    }
+    return *this;
+}
+
+LightcutCursor::LightcutCursor(LightcutCursor&&) noexcept = default;
+LightcutCursor& LightcutCursor::operator=(LightcutCursor&&) noexcept = default;
+LightcutCursor::~LightcutCursor() = default;
 
 void LightcutCursor::setRoots(std::vector<std::uint32_t> roots) {
     roots_ = std::move(roots);
@@ -494,20 +570,23 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
     const LightTree& tree = *tree_;
     if (!havePrevious_) {
         LightcutResult result = freshCut(tree, roots_, allRoots_, point, options_, visibility);
-        previous_ = result.cut;
+        previous_.assign(result.cut.begin(), result.cut.end());
         havePrevious_ = true;
         return result;
     }
     LightcutResult result;
     const Context ctx(tree, point, options_, visibility, result.stats);
     const auto& nodes = tree.nodes();
+    Scratch& w = *scratch_;
 
     // The previous cut's nodes in trees still searched, evaluated here; trees entered since start
     // from their roots.
-    const std::vector<std::uint32_t> here = treesAt(ctx, roots_, allRoots_);
-    std::vector<std::uint32_t> present;
-    std::vector<Entry> entries;
-    entries.reserve(previous_.size() + 8);
+    treesAt(ctx, roots_, allRoots_, w.here);
+    const std::vector<std::uint32_t>& here = w.here;
+    std::vector<std::uint32_t>& present = w.present;
+    std::vector<Entry>& entries = w.entries;
+    present.clear();
+    entries.clear();
     for (std::uint32_t node : previous_) {
         const std::uint32_t t = tree.treeOf(node);
         if (!std::binary_search(here.begin(), here.end(), t)) continue;
@@ -528,11 +607,12 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
         budget.add(e.key);
     }
     const double threshold = thresholdOf(options_, total);
-    std::unordered_map<std::uint32_t, std::uint32_t> where;  // node → entry
-    where.reserve(entries.size() * 2);
-    for (std::uint32_t i = 0; i < entries.size(); ++i) where.emplace(entries[i].node, i);
-    std::vector<char> dead(entries.size(), 0);
-    std::vector<std::uint32_t> work;
+    w.clearIndex(entries.size());
+    for (std::uint32_t i = 0; i < entries.size(); ++i) w.index(entries[i].node, i);
+    std::vector<char>& dead = w.dead;
+    dead.assign(entries.size(), 0);
+    std::vector<std::uint32_t>& work = w.work;
+    work.clear();
     for (std::uint32_t i = 0; i < entries.size(); ++i)
         if (entries[i].key <= threshold) work.push_back(i);
     while (!work.empty()) {
@@ -543,14 +623,14 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
         const std::uint32_t p = nodes[u].parent;
         if (p == kNoLightNode) continue;
         const std::uint32_t s = nodes[p].left == u ? nodes[p].right : nodes[p].left;
-        const auto it = where.find(s);
-        if (it == where.end() || dead[it->second]) continue;
-        const std::uint32_t j = it->second;
+        const std::uint32_t j = w.find(s);
+        if (j == kNoLightNode || dead[j]) continue;
         if (entries[j].key > threshold) continue;
         // A parent's bound is at least the sum of its children's: where even that fails the
         // criterion, the parent need not be evaluated.
         if (!budget.acceptsReplacing(entries[i].key, entries[j].key,
-                                     entries[i].boundLum + entries[j].boundLum, threshold))
+                                     boundLumOf(ctx, entries[i]) + boundLumOf(ctx, entries[j]),
+                                     threshold))
             continue;
         const LightTreeNode& parent = nodes[p];
         const double g =
@@ -561,22 +641,20 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
         budget.remove(entries[j].key);
         budget.add(e.key);
         dead[i] = dead[j] = 1;
-        where.erase(u);
-        where.erase(s);
         ++result.stats.mergedBack;
-        where.emplace(p, std::uint32_t(entries.size()));
         entries.push_back(e);
         dead.push_back(0);
+        w.index(p, std::uint32_t(entries.size() - 1));
         work.push_back(std::uint32_t(entries.size() - 1));
     }
-    std::vector<Entry> heap;
-    heap.reserve(entries.size());
+    std::vector<Entry>& heap = w.heap;
+    heap.clear();
     for (std::uint32_t i = 0; i < entries.size(); ++i)
         if (!dead[i]) heap.push_back(entries[i]);
 
     // Split what is under-split, as a fresh cut does.
     refine(ctx, heap, result);
-    previous_ = result.cut;
+    previous_.assign(result.cut.begin(), result.cut.end());
     return result;
 }
 

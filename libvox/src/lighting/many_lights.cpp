@@ -327,23 +327,32 @@ ManyLightStats lightPoints(const LightTree& tree, std::span<const LightcutPoint>
                             options.clusterVisibility(std::span<const std::uint32_t>(clusters.order)
                                                           .subspan(first, last - first),
                                                       shared);
+                    // One callback per cluster, reading the point being lit.
                     const Light* lightsBegin = tree.lights().data();
+                    std::size_t current = 0;
+                    LightVisibility clusterPointVisibility;
+                    if (clusterVisibility)
+                        clusterPointVisibility = [&clusterVisibility, &current, lightsBegin](
+                                                     const Light& light,
+                                                     const LightArrival& arrival) {
+                            return clusterVisibility(current, std::uint32_t(&light - lightsBegin),
+                                                     light, arrival);
+                        };
+                    else if (visibility)
+                        clusterPointVisibility = [&visibility, &current](
+                                                     const Light& light,
+                                                     const LightArrival& arrival) {
+                            return visibility(current, light, arrival);
+                        };
                     auto run = std::lower_bound(clusters.runs.begin(), clusters.runs.end(), first);
                     for (std::uint32_t k = first; k < last; ++k) {
                         const std::uint32_t i = clusters.order[k];
                         const bool runStarts = run != clusters.runs.end() && *run == k;
                         if (runStarts) ++run;
                         if (!options.reuseCuts || runStarts) cursor.reset();
-                        LightVisibility pointVisibility;
-                        if (clusterVisibility)
-                            pointVisibility = [&clusterVisibility, lightsBegin, i](
-                                                  const Light& light, const LightArrival& arrival) {
-                                return clusterVisibility(i, std::uint32_t(&light - lightsBegin),
-                                                         light, arrival);
-                            };
-                        else
-                            pointVisibility = visibilityAt(visibility, i);
-                        const LightcutResult result = cursor.evaluate(points[i], pointVisibility);
+                        current = i;
+                        const LightcutResult result =
+                            cursor.evaluate(points[i], clusterPointVisibility);
                         out[i] = result.radiance;
                         addStats(s, result.stats);
                     }

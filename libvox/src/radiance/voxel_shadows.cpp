@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <utility>
 
 namespace vox::detail {
@@ -156,14 +155,14 @@ bool SolidGrid::beamClear(Vec3d fromLo, Vec3d fromHi, Vec3d toLo, Vec3d toHi) co
     double length = 0;
     for (int k = 0; k < 3; ++k)
         length = std::max({length, std::abs(toHi[k] - fromLo[k]), std::abs(toLo[k] - fromHi[k])});
-    // One box per cell of length; the last one reaches past the end by the padding.
+    // One box per cell of length; the last one reaches past the end by the padding. Away from the
+    // start, where the beam mostly crosses empty blocks, eight boxes are tried as one first.
     const auto slabs = static_cast<std::int64_t>(std::ceil(length)) + 1;
-    for (std::int64_t k = 0; k < slabs; ++k) {
-        const double u0 = double(k) / double(slabs);
-        const double u1 = k + 1 == slabs ? 1.0 : double(k + 1) / double(slabs);
-        Vec3d lo, hi;
+    const auto slabBox = [&](std::int64_t first, std::int64_t last, Vec3d& lo, Vec3d& hi) {
+        const double u0 = double(first) / double(slabs);
+        const double u1 = last == slabs ? 1.0 : double(last) / double(slabs);
         boxBetween(fromLo, fromHi, toLo, toHi, u0, u1, kPad, lo, hi);
-        if (k + 1 == slabs) {
+        if (last == slabs) {
             // Past the end: the ray's samples lie up to 1e-9 beyond it.
             for (int axis = 0; axis < 3; ++axis) {
                 const double reach = kPad * (1 + std::abs(toHi[axis] - fromLo[axis]) +
@@ -172,7 +171,26 @@ bool SolidGrid::beamClear(Vec3d fromLo, Vec3d fromHi, Vec3d toLo, Vec3d toHi) co
                 hi[axis] += reach;
             }
         }
+    };
+    constexpr std::int64_t kChunk = 8, kNear = 4;
+    Vec3d lo, hi;
+    for (std::int64_t k = 0; k < slabs;) {
+        if (k >= kNear && k + kChunk <= slabs) {
+            slabBox(k, k + kChunk, lo, hi);
+            if (!anySolid(lo, hi)) {
+                k += kChunk;
+                continue;
+            }
+            for (std::int64_t j = k; j < k + kChunk; ++j) {
+                slabBox(j, j + 1, lo, hi);
+                if (anySolid(lo, hi)) return false;
+            }
+            k += kChunk;
+            continue;
+        }
+        slabBox(k, k + 1, lo, hi);
         if (anySolid(lo, hi)) return false;
+        ++k;
     }
     return true;
 }
@@ -246,21 +264,18 @@ ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
             if (std::abs(n[k]) > std::abs(n[axis])) axis = k;
         facing[i] = static_cast<std::uint32_t>(2 * axis + (n[axis] < 0 ? 1 : 0));
     }
-    std::vector<std::uint32_t> order(cells.size());
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> order(cells.size());
     for (int level = 0; level < kLevels; ++level) {
         const std::uint32_t shift = static_cast<std::uint32_t>(kLevels - level);
-        const auto blockOf = [&](std::uint32_t i) {
-            return std::array<std::uint32_t, 4>{cells[i][2] >> shift, cells[i][1] >> shift,
-                                                cells[i][0] >> shift, facing[i]};
-        };
-        std::iota(order.begin(), order.end(), 0u);
-        std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-            const auto ka = blockOf(a), kb = blockOf(b);
-            return ka != kb ? ka < kb : a < b;
-        });
+        for (std::uint32_t i = 0; i < cells.size(); ++i)
+            order[i] = {(std::uint64_t{cells[i][2] >> shift} << 43) |
+                            (std::uint64_t{cells[i][1] >> shift} << 23) |
+                            (std::uint64_t{cells[i][0] >> shift} << 3) | facing[i],
+                        i};
+        std::sort(order.begin(), order.end());
         for (std::size_t k = 0; k < order.size(); ++k) {
-            const std::uint32_t i = order[k];
-            if (k == 0 || blockOf(order[k - 1]) != blockOf(i)) {
+            const std::uint32_t i = order[k].second;
+            if (k == 0 || order[k - 1].first != order[k].first) {
                 Group g;
                 const double inf = std::numeric_limits<double>::infinity();
                 g.originLo = {Vec3d{inf, inf, inf}, Vec3d{inf, inf, inf}};
@@ -294,6 +309,31 @@ Vec3d ShadowRayGroups::origin(std::size_t voxel, int side) const noexcept {
     return {c[0] + 0.5 + side * n.x, c[1] + 0.5 + side * n.y, c[2] + 0.5 + side * n.z};
 }
 
+namespace {
+constexpr std::uint64_t kEmptyKey = ~std::uint64_t{0};
+}
+
+std::pair<std::uint8_t*, bool> ShadowRayGroups::Verdicts::find(std::uint64_t key) {
+    if (4 * (used_ + 1) > 3 * keys_.size()) {
+        std::vector<std::uint64_t> keys(std::max<std::size_t>(1024, 2 * keys_.size()), kEmptyKey);
+        std::vector<std::uint8_t> values(keys.size(), 0);
+        keys.swap(keys_);
+        values.swap(values_);
+        for (std::size_t i = 0; i < keys.size(); ++i)
+            if (keys[i] != kEmptyKey) *find(keys[i]).first = values[i];
+    }
+    const std::size_t mask = keys_.size() - 1;
+    std::size_t i = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> 20) & mask;
+    while (keys_[i] != kEmptyKey) {
+        if (keys_[i] == key) return {&values_[i], false};
+        i = (i + 1) & mask;
+    }
+    keys_[i] = key;
+    values_[i] = 0;
+    ++used_;
+    return {&values_[i], true};
+}
+
 bool ShadowRayGroups::occluded(std::size_t voxel, std::uint32_t light, int side, Vec3d dir,
                                double maxT, Verdicts& verdicts,
                                SharedVisibilityStats& counts) const {
@@ -310,25 +350,25 @@ bool ShadowRayGroups::occluded(std::size_t voxel, std::uint32_t light, int side,
     std::array<std::int64_t, 3> hit{};
     for (const std::uint32_t g : groupOf_[voxel]) {
         const std::uint64_t key = (std::uint64_t{g} << 32) | (std::uint64_t{light} << 1) | s;
-        auto [it, added] = verdicts.try_emplace(key, kUndecided);
+        auto [verdict, added] = verdicts.find(key);
         if (added) {
             const Group& group = groups_[g];
             const Vec3d toLo = target + group.endLo[s], toHi = target + group.endHi[s];
             ++counts.tests;
             if (grid_.beamClear(group.originLo[s], group.originHi[s], toLo, toHi)) {
-                it->second = kClear;
+                *verdict = kClear;
             } else {
                 if (own < 0) own = grid_.occluded(from, dir, maxT, &hit) ? 1 : 0;
                 if (own == 1)
-                    for (int axis = 0; axis < 3 && it->second == kUndecided; ++axis)
+                    for (int axis = 0; axis < 3 && *verdict == kUndecided; ++axis)
                         if (grid_.layerBlocks(group.originLo[s], group.originHi[s], toLo, toHi,
                                               axis, hit[std::size_t(axis)]))
-                            it->second = kBlocked;
+                            *verdict = kBlocked;
             }
         }
-        if (it->second != kUndecided) {
+        if (*verdict != kUndecided) {
             if (own < 0) ++counts.answered;
-            return it->second == kBlocked;
+            return *verdict == kBlocked;
         }
     }
     if (own < 0) own = grid_.occluded(from, dir, maxT) ? 1 : 0;

@@ -8,7 +8,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
-#include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace vox::detail {
@@ -65,8 +65,18 @@ private:
 class ShadowRayGroups {
 public:
     /// What the group tests decided, keyed by group, light and side; one per thread (e.g. per
-    /// cluster of the direct light).
-    using Verdicts = std::unordered_map<std::uint64_t, std::uint8_t>;
+    /// cluster of the direct light). Open addressing: the verdicts of a cluster are looked up
+    /// once per visibility query.
+    class Verdicts {
+    public:
+        /// The verdict slot of @p key, and whether it was just added (holding 0).
+        std::pair<std::uint8_t*, bool> find(std::uint64_t key);
+
+    private:
+        std::vector<std::uint64_t> keys_;  // kEmpty: a free slot
+        std::vector<std::uint8_t> values_;
+        std::size_t used_ = 0;
+    };
 
     /// @p cells: the voxels; @p normals: their mean normals (the rays leave the voxel centre one
     /// normal along it, on the side facing the light); @p lights: the light positions in cell
