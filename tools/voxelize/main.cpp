@@ -8,6 +8,7 @@
 #include <vox/formats/rvol_io.h>
 #include <vox/octree.h>
 #include <vox/radiance.h>
+#include <vox/radiance_tiles.h>
 #include <vox/vdb_export.h>
 #include <vox/util/log.h>
 #include <vox/util/timings.h>
@@ -16,6 +17,7 @@
 #include <chrono>
 #include <cstdio>
 #include <limits>
+#include <optional>
 
 namespace {
 
@@ -55,6 +57,9 @@ struct VoxelizeOptions {
     std::string lightcutCriterion = "rss";
     unsigned lightcutMaxCut = 1000;
     bool lightcutsCompare = false;
+    unsigned radianceTileDepth = 0;  // 0: one volume up to depth 10, tiles from 11
+    unsigned radianceHalo = 0;       // 0: a quarter tile
+    std::string radianceTile;        // "K/N" or "index"
     // Partitioned and out-of-core builds
     std::string memoryLimit;  // empty: vox::defaultMemoryLimit()
     std::string partition;    // "K/N"
@@ -101,6 +106,46 @@ vox::PartitionSelection parsePartition(const std::string& text) {
     return {k - 1, n};
 }
 
+/// The tiling of a tiled radiance bake, or none for a single volume. @throws UsageError.
+std::optional<vox::RadianceTiling> radianceTiling(const VoxelizeOptions& options,
+                                                  std::uint64_t memoryLimit) {
+    if (options.radianceTileDepth == 0 && options.radianceDepth <= 10) {
+        if (!options.radianceTile.empty() || options.radianceHalo != 0)
+            throw vox::UsageError(
+                "--radiance-tile and --radiance-halo need a tiled bake "
+                "(--radiance-tile-depth, or --radiance-depth above 10)");
+        return std::nullopt;
+    }
+    const std::uint32_t tileDepth =
+        options.radianceTileDepth != 0
+            ? options.radianceTileDepth
+            : vox::RadianceTiling::tileDepthFor(options.radianceDepth, memoryLimit);
+    try {
+        return vox::RadianceTiling::plan(options.radianceDepth, tileDepth, options.radianceHalo);
+    } catch (const vox::ParameterError& e) {
+        throw vox::UsageError(std::string("--radiance-tile-depth: ") + e.what());
+    }
+}
+
+/// "K/N" (1 ≤ K ≤ N ≤ 65536) or "index" → the job of a tiled bake. @throws UsageError.
+vox::TiledBakeJob parseRadianceTile(const std::string& text) {
+    vox::TiledBakeJob job;
+    if (text.empty()) return job;
+    if (text == "index") {
+        job.kind = vox::TiledBakeJob::Kind::Index;
+        return job;
+    }
+    unsigned k = 0, n = 0;
+    char tail = 0;
+    if (std::sscanf(text.c_str(), "%u/%u%c", &k, &n, &tail) != 2 || k < 1 || k > n || n > 65536)
+        throw vox::UsageError("--radiance-tile: '" + text +
+                              "' is not K/N with 1 ≤ K ≤ N ≤ 65536, nor 'index'");
+    job.kind = vox::TiledBakeJob::Kind::Run;
+    job.run = k - 1;
+    job.runs = n;
+    return job;
+}
+
 /// The octree part of --stats for a build or a merge.
 nlohmann::json octreeReport(const std::string& output, const vox::EsvoBuildResult& built,
                             const std::string& attributes, double buildSeconds,
@@ -128,8 +173,61 @@ nlohmann::json octreeReport(const std::string& output, const vox::EsvoBuildResul
             {"scratch_bytes", built.scratchBytes}};
 }
 
+/// A tiled bake (or one run of it, or its index step); returns its part of the report.
+nlohmann::json bakeTiled(const VoxelizeOptions& options, const vox::Scene& scene,
+                         const vox::RadianceBakeOptions& bakeOptions,
+                         const vox::RadianceTiling& tiling, vox::Timings& timings) {
+    const vox::TiledBakeJob job = parseRadianceTile(options.radianceTile);
+    vox::rvol::RvolWriteOptions writeOptions;
+    writeOptions.brickTexels = options.brickTexels;
+    writeOptions.staticAttributes = !options.noStaticAttributes;
+    const auto start = std::chrono::steady_clock::now();
+    vox::TiledBakeResult result;
+    {
+        vox::Timings::Scope timer(&timings, "radiance_tiled_bake");
+        result =
+            vox::bakeTiledRadiance(scene, bakeOptions, tiling, job, options.radiance, writeOptions);
+    }
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    char summary[512];
+    std::snprintf(summary, sizeof summary,
+                  "%s: %u³ cells in tiles of %u³ (halo %u, far field %u³): %llu of %llu tiles "
+                  "baked, %llu static voxels, %.2f MB of tiles in %.2f s",
+                  options.radiance.c_str(), 1u << tiling.depth, 1u << tiling.tileDepth, tiling.halo,
+                  1u << tiling.farDepth, static_cast<unsigned long long>(result.tilesBaked),
+                  static_cast<unsigned long long>(result.tilesTotal),
+                  static_cast<unsigned long long>(result.staticVoxels),
+                  double(result.tileBytes) / 1e6, seconds);
+    vox::log::info(summary);
+    nlohmann::json report = {{"output", options.radiance},
+                             {"depth", tiling.depth},
+                             {"resolution", 1u << tiling.depth},
+                             {"tile_depth", tiling.tileDepth},
+                             {"halo", tiling.halo},
+                             {"far_depth", tiling.farDepth},
+                             {"tiles", result.tilesTotal},
+                             {"tiles_baked", result.tilesBaked},
+                             {"static_voxels", result.staticVoxels},
+                             {"dynamic_voxels", result.dynamicVoxels},
+                             {"largest_tile_voxels", result.largestTileVoxels},
+                             {"bounces", options.bounces},
+                             {"brick_texels", options.brickTexels},
+                             {"tile_bytes", result.tileBytes},
+                             {"far_bytes", result.farBytes},
+                             {"index_bytes", result.indexBytes},
+                             {"file_bytes", result.tileBytes + result.farBytes + result.indexBytes},
+                             {"far_seconds", result.farSeconds},
+                             {"tile_seconds", result.tileSeconds},
+                             {"bake_seconds", seconds}};
+    if (job.kind == vox::TiledBakeJob::Kind::Run)
+        report["run"] = {{"run", job.run + 1}, {"runs", job.runs}};
+    return report;
+}
+
 /// Bakes and writes the .rvol; returns its part of the report.
 nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& scene,
+                            const std::optional<vox::RadianceTiling>& tiling,
                             vox::Timings& timings) {
     vox::RadianceBakeOptions bakeOptions;
     bakeOptions.depth = options.radianceDepth;
@@ -145,6 +243,7 @@ nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& sc
     bakeOptions.lightcut.criterion = vox::parseLightcutCriterion(options.lightcutCriterion);
     bakeOptions.lightcut.maxCutSize = options.lightcutMaxCut;
     bakeOptions.lightcutsCompare = options.lightcutsCompare;
+    if (tiling) return bakeTiled(options, scene, bakeOptions, *tiling, timings);
     const auto start = std::chrono::steady_clock::now();
     vox::RadianceBake bake;
     {
@@ -222,6 +321,11 @@ void voxelize(const VoxelizeOptions& options) {
                               "' (expected .rvol)");
     if (!options.exportVdb.empty() && options.radiance.empty())
         throw vox::UsageError("--export-vdb needs --radiance");
+    const std::optional<vox::RadianceTiling> tiling =
+        options.radiance.empty() ? std::nullopt : radianceTiling(options, memoryLimit);
+    parseRadianceTile(options.radianceTile);
+    if (tiling && !options.exportVdb.empty())
+        throw vox::UsageError("--export-vdb: not for a tiled bake");
     if (!options.exportVdb.empty() &&
         std::filesystem::path(options.exportVdb).extension() != ".vdb")
         throw vox::UsageError("--export-vdb: expected a .vdb file name");
@@ -316,7 +420,8 @@ void voxelize(const VoxelizeOptions& options) {
                                              {"runs", partitions.count}};
     }
 
-    if (!options.radiance.empty()) report["radiance"] = bakeRadiance(options, scene, timings);
+    if (!options.radiance.empty())
+        report["radiance"] = bakeRadiance(options, scene, tiling, timings);
 
     timings.add("total",
                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
@@ -441,8 +546,20 @@ int main(int argc, char** argv) {
                    "Bake a mipmapped anisotropic radiance volume here (.rvol)");
     app.add_option("--radiance-depth", options.radianceDepth,
                    "Radiance volume: 2^N cells along the scene's longest side")
-        ->check(CLI::Range(1, 10))
+        ->check(CLI::Range(1, 13))
         ->capture_default_str();
+    app.add_option("--radiance-tile-depth", options.radianceTileDepth,
+                   "Bake the radiance volume in tiles of 2^T cells per axis, each in memory "
+                   "bounded by its tile (default: one volume up to depth 10; from 11, tiles as "
+                   "large as --memory-limit allows)")
+        ->check(CLI::Range(2, 9));
+    app.add_option("--radiance-halo", options.radianceHalo,
+                   "Tiled bake: cells around each tile lit and gathered with it (default: a "
+                   "quarter tile)")
+        ->check(CLI::Range(1, 256));
+    app.add_option("--radiance-tile", options.radianceTile,
+                   "Tiled bake: bake only run K of N of the tiles (K/N), or write the far field "
+                   "and the index once every run has ('index')");
     app.add_option(
            "--attenuation", options.attenuation,
            "Direct light's normal attenuation per voxel: weighted (per axis, by the voxel's own "

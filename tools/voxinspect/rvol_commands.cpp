@@ -7,6 +7,7 @@
 #include <vox/base/error.h>
 #include <vox/formats/esvo_reader.h>
 #include <vox/formats/rvol_io.h>
+#include <vox/formats/rvol_tiles.h>
 #include <vox/image_io.h>
 #include <vox/import.h>
 #include <vox/radiance_field.h>
@@ -22,6 +23,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <system_error>
 
 namespace vox::tools {
@@ -109,7 +111,10 @@ nlohmann::json rvolReport(const rvol::RvolReader& reader, const rvol::RvolReport
               {"padding", report.paddingBytes}}}};
 }
 
+void printTiledInfo(const std::string& file, bool json);
+
 void printInfo(const std::string& file, bool json) {
+    if (rvol::isTileIndex(file)) return printTiledInfo(file, json);
     const rvol::RvolReader reader(file);
     const rvol::RvolReport validated = rvol::validateRvol(reader);
     const nlohmann::json report = rvolReport(reader, validated, file);
@@ -154,7 +159,70 @@ void printInfo(const std::string& file, bool json) {
         std::printf("    %-20s %12llu\n", part, u64(report["bytes"][part].get<std::uint64_t>()));
 }
 
+// ---- tiled volumes (a tile index, its tiles and far field) -------------------------------------
+
+void printTiledInfo(const std::string& file, bool json) {
+    const rvol::TileIndex index = rvol::readTileIndex(file);
+    std::uint64_t voxels = 0, bytes = 0, bricks = 0;
+    for (const rvol::TileEntry& t : index.tiles) {
+        voxels += t.staticVoxels;
+        bytes += t.fileBytes;
+        bricks += t.bricks;
+    }
+    const std::uint64_t indexBytes =
+        rvol::kTileIndexHeaderBytes + index.tiles.size() * rvol::kTileEntryBytes;
+    if (json) {
+        nlohmann::json out{
+            {"file", file},
+            {"kind", "tile index"},
+            {"version",
+             std::to_string(index.versionMajor) + "." + std::to_string(index.versionMinor)},
+            {"depth", index.depth},
+            {"resolution", 1ull << index.depth},
+            {"tile_depth", index.tileDepth},
+            {"halo", index.halo},
+            {"far_depth", index.farDepth},
+            {"brick_texels", index.brickTexels},
+            {"origin", index.origin},
+            {"size", index.size},
+            {"tiles", index.tiles.size()},
+            {"static_voxels", voxels},
+            {"bricks", bricks},
+            {"bounces", index.bake.bounces},
+            {"bytes", {{"index", indexBytes}, {"tiles", bytes}, {"far", index.farFileBytes}}}};
+        std::cout << out.dump(2) << "\n";
+        return;
+    }
+    std::printf("%s: tiled radiance volume, tile index %u.%u\n", file.c_str(), index.versionMajor,
+                index.versionMinor);
+    std::printf("  depth           %u (%llu cells per axis)\n", index.depth,
+                static_cast<unsigned long long>(1ull << index.depth));
+    std::printf("  tiles           %zu of 2^%u cells per axis, halo %u, far field depth %u\n",
+                index.tiles.size(), index.tileDepth, index.halo, index.farDepth);
+    std::printf("  root cube       origin (%g, %g, %g), size %g\n", index.origin[0],
+                index.origin[1], index.origin[2], index.size);
+    std::printf("  static voxels   %llu\n  bricks          %llu\n",
+                static_cast<unsigned long long>(voxels), static_cast<unsigned long long>(bricks));
+    std::printf("  bytes           index %llu, tiles %llu, far field %llu\n",
+                static_cast<unsigned long long>(indexBytes), static_cast<unsigned long long>(bytes),
+                static_cast<unsigned long long>(index.farFileBytes));
+}
+
+void validateTiled(const std::string& file) {
+    const rvol::TiledRvolReport report = rvol::validateTiledRvol(file);
+    if (log::verbosity() == log::Verbosity::Quiet) return;
+    std::printf(
+        "%s: valid tiled .rvol (%llu tiles, %llu bricks, %llu static voxels, %llu bytes "
+        "of tiles, %llu of far field)\n",
+        file.c_str(), static_cast<unsigned long long>(report.tiles),
+        static_cast<unsigned long long>(report.bricks),
+        static_cast<unsigned long long>(report.staticVoxels),
+        static_cast<unsigned long long>(report.tileBytes),
+        static_cast<unsigned long long>(report.farBytes));
+}
+
 void validate(const std::string& file) {
+    if (rvol::isTileIndex(file)) return validateTiled(file);
     const rvol::RvolReader reader(file);
     const rvol::RvolReport report = rvol::validateRvol(reader);
     if (log::verbosity() == log::Verbosity::Quiet) return;
@@ -188,8 +256,25 @@ void sample(const RvolCommands& c) {
     const Vec3d at = parseVector(c.at, "--at");
     const bool hasDir = !c.dir.empty();
     const Vec3d dir = hasDir ? parseDirection(c.dir) : Vec3d{0, 0, 0};
-    const rvol::RvolReader reader(c.file);
-    const std::uint32_t depth = reader.header().depth;
+    // A tile index samples across its tiles as one volume; a single file as it is.
+    std::unique_ptr<rvol::TiledRvolReader> tiled;
+    std::unique_ptr<rvol::RvolReader> single;
+    if (rvol::isTileIndex(c.file))
+        tiled = std::make_unique<rvol::TiledRvolReader>(c.file);
+    else
+        single = std::make_unique<rvol::RvolReader>(c.file);
+    const struct {
+        const rvol::TiledRvolReader* tiled;
+        const rvol::RvolReader* single;
+        rvol::Texel sample(std::uint32_t l, std::uint32_t k, const std::array<double, 3>& p) const {
+            return tiled ? tiled->sample(l, k, p) : single->sample(l, k, p);
+        }
+        rvol::Texel sampleDirectional(std::uint32_t l, const std::array<double, 3>& p,
+                                      const std::array<double, 3>& d) const {
+            return tiled ? tiled->sampleDirectional(l, p, d) : single->sampleDirectional(l, p, d);
+        }
+    } reader{tiled.get(), single.get()};
+    const std::uint32_t depth = tiled ? tiled->index().depth : single->header().depth;
     if (c.level < 0 || static_cast<std::uint32_t>(c.level) > depth)
         throw UsageError("--level " + std::to_string(c.level) + ": " + c.file +
                          " has levels 0 to " + std::to_string(depth));
@@ -487,6 +572,10 @@ bool RvolCommands::run() {
     const bool rvolFile = isRvolFile(c.file);
     if (c.render->parsed()) {
         if (rvolFile) {
+            if (rvol::isTileIndex(c.file))
+                throw UsageError("render: " + c.file +
+                                 " is a tiled volume; render one of its tiles (" +
+                                 rvol::tileDirectory(c.file).string() + "/tile-X-Y-Z.rvol)");
             if (const char* option =
                     firstGiven(*c.render, {"--filter", "--depth-out", "--max-level",
                                            "--load-levels", "--lod-scale", "--beam"}))

@@ -13,10 +13,28 @@
 #include <vox/scene.h>
 #include <vox/util/timings.h>
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
 namespace vox {
+
+/// One region of a larger volume, for a tiled bake (radiance_tiles.h): the bake runs in @p cube,
+/// lights and gathers only the cells of the kept box, and stores only those of the owned cube.
+struct RadianceBakeRegion {
+    Vec3d cubeOrigin{0, 0, 0};  ///< the bake's root cube (2^depth cells), instead of the scene's
+    double cubeSize = 1;
+    std::array<std::uint32_t, 3> keepLo{}, keepHi{};  ///< cells of the cube kept: [lo, hi)
+    /// The stored volume: 2^ownDepth cells per axis from cell ownLo of the cube, at ownOrigin
+    /// (world) with edge ownSize; it must lie inside the kept box.
+    std::array<std::uint32_t, 3> ownLo{};
+    std::uint32_t ownDepth = 1;
+    Vec3d ownOrigin{0, 0, 0};
+    double ownSize = 1;
+    /// The whole root cube baked coarser (its finest cell 2^k times the cube's): cones and shadow
+    /// rays that leave the kept box continue through it. Null: nothing beyond the kept box.
+    const rvol::Volume* far = nullptr;
+};
 
 /// Options for bakeRadiance.
 struct RadianceBakeOptions {
@@ -41,6 +59,9 @@ struct RadianceBakeOptions {
     /// nearby voxels with one test where that test proves them all clear, and traces a voxel's own
     /// ray only where it cannot: the same volume as false (every voxel traces its own), faster.
     bool shareShadowRays = true;
+    /// Bake one region only (tiled bakes); null: the whole scene. Shadow rays are then traced
+    /// one by one (shareShadowRays does not apply).
+    const RadianceBakeRegion* region = nullptr;
     Timings* timings = nullptr;
 };
 

@@ -90,14 +90,27 @@ public:
     /// Cell edge of level 0, world units.
     [[nodiscard]] double finestCell() const noexcept { return finestCell_; }
 
+    /// Makes cones reach beyond this volume: a sample whose filter (1.5 cells each way at its
+    /// level) leaves the box [@p nearLo, @p nearHi] (world) reads @p far instead, at the level of
+    /// the same footprint (never below far's level 0), and cones end, and ambient occlusion is
+    /// scaled, by far's root cube. @p far must cover this volume, with a finest cell 2^k times
+    /// this one's (k ≥ 0), and outlive this field; null detaches it.
+    void setFarField(const RadianceField* far, Vec3d nearLo, Vec3d nearHi) noexcept;
+
 private:
     struct LevelIndex {
         std::uint32_t blocksPerAxis = 1;
         std::vector<std::int32_t> blocks;  ///< dense: block index in the level, or -1
     };
+    /// sampleLod here or, where the sample's filter leaves the near box, in the far field.
+    [[nodiscard]] rvol::Texel sampleNearOrFar(double level, Vec3d p, Vec3d dir) const noexcept;
+
     const rvol::Volume& volume_;
     std::vector<LevelIndex> index_;
     double finestCell_ = 1;
+    const RadianceField* far_ = nullptr;
+    Vec3d nearLo_{0, 0, 0}, nearHi_{0, 0, 0};
+    double farLevelOffset_ = 0;  ///< log2(far's finest cell / this one's)
 };
 
 }  // namespace vox

@@ -108,7 +108,9 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     RadianceBake bake;
     rvol::Volume& volume = bake.volume;
     const Bounds3f bounds = scene.bounds();
-    const RootCube cube = RootCube::enclosing(bounds);
+    const RadianceBakeRegion* tile = options.region;
+    const RootCube cube =
+        tile ? RootCube{tile->cubeOrigin, tile->cubeSize} : RootCube::enclosing(bounds);
     volume.origin = {cube.origin.x, cube.origin.y, cube.origin.z};
     volume.size = cube.size;
     volume.depth = options.depth;
@@ -127,6 +129,26 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     if (scene.dynamicTriangleCount() > 0) {
         voxelize.onlyDynamic = true;
         dynamicLeaves = voxelizeSurface(scene, voxelize).leafMaterials;
+    }
+    if (tile) {
+        // A tile: only the cells of the kept box (its own region and the halo) take part.
+        const auto outside = [tile](const LeafMaterial& v) {
+            return v.x < tile->keepLo[0] || v.y < tile->keepLo[1] || v.z < tile->keepLo[2] ||
+                   v.x >= tile->keepHi[0] || v.y >= tile->keepHi[1] || v.z >= tile->keepHi[2];
+        };
+        std::erase_if(leaves, outside);
+        std::erase_if(dynamicLeaves, outside);
+        if (leaves.empty()) {  // nothing to light: an empty volume over the owned cube
+            rvol::Volume own;
+            own.origin = {tile->ownOrigin.x, tile->ownOrigin.y, tile->ownOrigin.z};
+            own.size = tile->ownSize;
+            own.depth = tile->ownDepth;
+            own.sceneBounds = volume.sceneBounds;
+            std::vector<std::size_t> none;
+            detail::allocateVolume(own, {}, none);
+            bake.volume = std::move(own);
+            return bake;
+        }
     }
     bake.staticVoxels = leaves.size();
     bake.dynamicVoxels = dynamicLeaves.size();
@@ -189,6 +211,48 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
                 regionVolumes.push_back(std::move(gv));
             }
     }
+    // A tile's cones and shadow rays continue beyond its kept box through the far field.
+    std::unique_ptr<RadianceField> farField;
+    std::optional<detail::SolidGrid> farSolid;
+    double farCell = 0;
+    if (tile && tile->far) {
+        farField = std::make_unique<RadianceField>(*tile->far);
+        farCell = tile->far->cellSize(0);
+        std::vector<std::array<std::uint32_t, 3>> farCells;
+        farCells.reserve(tile->far->staticVoxels.size());
+        for (const rvol::VoxelAttributes& v : tile->far->staticVoxels)
+            farCells.push_back({v.x, v.y, v.z});
+        farSolid.emplace(tile->far->depth, farCells);
+        const Vec3d nearLo{volume.origin[0] + tile->keepLo[0] * cell,
+                           volume.origin[1] + tile->keepLo[1] * cell,
+                           volume.origin[2] + tile->keepLo[2] * cell};
+        const Vec3d nearHi{volume.origin[0] + tile->keepHi[0] * cell,
+                           volume.origin[1] + tile->keepHi[1] * cell,
+                           volume.origin[2] + tile->keepHi[2] * cell};
+        all.field->setFarField(farField.get(), nearLo, nearHi);
+        for (auto& gv : regionVolumes) gv->field->setFarField(farField.get(), nearLo, nearHi);
+    }
+    // Whether a shadow ray (level-0 cell units) leaving the kept box is blocked in the far field.
+    const auto farOccluded = [&](Vec3d local, Vec3d dir, double maxT) {
+        if (!farSolid) return false;
+        double exit = maxT;  // where the ray leaves the kept box
+        for (int a = 0; a < 3; ++a) {
+            if (dir[a] > 0) exit = std::min(exit, (tile->keepHi[a] - local[a]) / dir[a]);
+            if (dir[a] < 0) exit = std::min(exit, (tile->keepLo[a] - local[a]) / dir[a]);
+        }
+        exit = std::max(exit, 0.0);
+        if (exit >= maxT) return false;
+        const double scale = cell / farCell;
+        const Vec3d world = Vec3d{volume.origin[0], volume.origin[1], volume.origin[2]} +
+                            (local + dir * exit) * cell;
+        const Vec3d farLocal{(world.x - tile->far->origin[0]) / farCell,
+                             (world.y - tile->far->origin[1]) / farCell,
+                             (world.z - tile->far->origin[2]) / farCell};
+        // The last far cells before a light are not tested: a coarse cell holding the light's
+        // own fixture (a lamp under a ceiling) would shadow everything it lights.
+        const double farMaxT = (maxT - exit) * scale - (std::isfinite(maxT) ? 1.75 : 0.0);
+        return farMaxT > 0 && farSolid->occluded(farLocal, dir, farMaxT);
+    };
     const RadianceField& field = *all.field;
 
     const auto staticLights = std::count_if(scene.lights.begin(), scene.lights.end(),
@@ -233,7 +297,10 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
             const Vec3d local{v.x + 0.5 + side * n.x, v.y + 0.5 + side * n.y,
                               v.z + 0.5 + side * n.z};
             const double maxT = std::isfinite(arrival.distance) ? arrival.distance / cell : 1e30;
-            return solid.occluded(local, arrival.toLight, maxT) ? 0.0 : 1.0;
+            return solid.occluded(local, arrival.toLight, maxT) ||
+                           farOccluded(local, arrival.toLight, maxT)
+                       ? 0.0
+                       : 1.0;
         };
         // Clusters for the cluster–light lists and cut reuse: octree nodes of similar voxels (the
         // same material, normals within 10°), at most kClusterVoxels each.
@@ -248,7 +315,7 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         // ShadowRayGroups); classic Lightcuts and brute force trace every ray.
         std::optional<detail::ShadowRayGroups> rayGroups;
         ClusterVisibilityFactory sharedRays;
-        if (!shadowCones && options.shareShadowRays) {
+        if (!shadowCones && options.shareShadowRays && !tile) {
             std::vector<Vec3d> normals(leaves.size());
             for (std::size_t i = 0; i < leaves.size(); ++i)
                 normals[i] = toVec3d(leaves[i].normals.mean);
@@ -367,6 +434,61 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         a.occlusion = ao;
         return a;
     };
+    if (tile) {
+        // Store the owned cube alone, its level 0 from the owned voxels, its mips filtered anew.
+        const auto& lo = tile->ownLo;
+        const std::uint32_t n = 1u << tile->ownDepth;
+        const auto owned = [&](const LeafMaterial& v) {
+            return v.x >= lo[0] && v.y >= lo[1] && v.z >= lo[2] && v.x - lo[0] < n &&
+                   v.y - lo[1] < n && v.z - lo[2] < n;
+        };
+        const auto local = [&](LeafMaterial v) {
+            v.x -= lo[0];
+            v.y -= lo[1];
+            v.z -= lo[2];
+            return v;
+        };
+        rvol::Volume own;
+        own.origin = {tile->ownOrigin.x, tile->ownOrigin.y, tile->ownOrigin.z};
+        own.size = tile->ownSize;
+        own.depth = tile->ownDepth;
+        own.sceneBounds = volume.sceneBounds;
+        own.bake = volume.bake;
+        std::vector<LeafMaterial> ownLeaves;
+        std::vector<Vec3f> ownRadiance;
+        // The owned cube need not be aligned to its own size in the bake's cube: re-sort the
+        // voxels into Morton order of their owned-cube cells.
+        const auto mortonOrder = [&](const std::vector<LeafMaterial>& from) {
+            std::vector<std::pair<std::uint64_t, std::size_t>> order;
+            for (std::size_t i = 0; i < from.size(); ++i)
+                if (owned(from[i])) {
+                    const LeafMaterial v = local(from[i]);
+                    order.emplace_back(rvol::morton3(v.x, v.y, v.z), i);
+                }
+            std::sort(order.begin(), order.end());
+            return order;
+        };
+        for (const auto& [code, i] : mortonOrder(leaves)) {
+            ownLeaves.push_back(local(leaves[i]));
+            ownRadiance.push_back(radiance[i]);
+            own.staticVoxels.push_back(attributes(ownLeaves.back(), occlusion[i]));
+        }
+        for (const auto& [code, i] : mortonOrder(dynamicLeaves))
+            own.dynamicVoxels.push_back(attributes(local(dynamicLeaves[i]), 0));
+        {
+            GatherVolume stored;
+            std::vector<std::size_t> everyone(ownLeaves.size());
+            for (std::size_t i = 0; i < ownLeaves.size(); ++i) everyone[i] = i;
+            stored.build(own, ownLeaves, std::move(everyone));
+            stored.update(ownRadiance);
+        }
+        bake.staticVoxels = own.staticVoxels.size();
+        bake.dynamicVoxels = own.dynamicVoxels.size();
+        regionVolumes.clear();
+        all.field.reset();
+        bake.volume = std::move(own);
+        return bake;
+    }
     volume.staticVoxels.reserve(leaves.size());
     for (std::size_t i = 0; i < leaves.size(); ++i)
         volume.staticVoxels.push_back(attributes(leaves[i], occlusion[i]));

@@ -104,13 +104,33 @@ Texel RadianceField::sampleLod(double level, Vec3d p, Vec3d dir) const noexcept 
     return {mix(a.r, b.r), mix(a.g, b.g), mix(a.b, b.b), mix(a.a, b.a)};
 }
 
+void RadianceField::setFarField(const RadianceField* far, Vec3d nearLo, Vec3d nearHi) noexcept {
+    far_ = far;
+    nearLo_ = nearLo;
+    nearHi_ = nearHi;
+    farLevelOffset_ = far ? std::round(std::log2(far->finestCell_ / finestCell_)) : 0;
+}
+
+Texel RadianceField::sampleNearOrFar(double level, Vec3d p, Vec3d dir) const noexcept {
+    if (far_) {
+        // The filter of both levels sampleLod blends stays within 1.5 cells of the upper one.
+        const double reach = 1.5 * finestCell_ * std::exp2(std::ceil(level));
+        if (p.x - reach < nearLo_.x || p.y - reach < nearLo_.y || p.z - reach < nearLo_.z ||
+            p.x + reach > nearHi_.x || p.y + reach > nearHi_.y || p.z + reach > nearHi_.z)
+            return far_->sampleLod(std::max(level - farLevelOffset_, 0.0), p, dir);
+    }
+    return sampleLod(level, p, dir);
+}
+
 RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLambda,
                                                    bool opacityOnly) const noexcept {
     ConeResult out;
-    const double size = volume_.size;
-    const Vec3d lo{volume_.origin[0], volume_.origin[1], volume_.origin[2]};
+    // With a far field the cone runs through the far field's (the world's) cube.
+    const rvol::Volume& outer = far_ ? far_->volume_ : volume_;
+    const double size = outer.size;
+    const Vec3d lo{outer.origin[0], outer.origin[1], outer.origin[2]};
     const Vec3d hi = lo + Vec3d{size, size, size};
-    const double top = static_cast<double>(volume_.levels.size() - 1);
+    const double top = static_cast<double>(outer.levels.size() - 1) + (far_ ? farLevelOffset_ : 0);
     double t = std::max(cone.start, 0.5 * finestCell_);
     double opacity = 0, occlusion = 0;
     Vec3d radiance{0, 0, 0};
@@ -132,7 +152,7 @@ RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLa
         const double level = std::log2(footprint / finestCell_);
         if (level > top) break;
         const double step = 0.5 * diameter;
-        const Texel s = sampleLod(level, p, cone.dir);
+        const Texel s = sampleNearOrFar(level, p, cone.dir);
         if (s.a > 1e-6f) {
             // The sample's opacity is for a footprint-long path; the step covers half of it.
             const double a = std::clamp(double(s.a), 0.0, 1.0);

@@ -1,0 +1,146 @@
+/// @file rvol_tiles.h
+/// @brief Tiled radiance volumes (docs/rvol-format.md, "Tiled volumes"): a tile index file naming
+/// the tiles of a volume deeper than one .rvol file holds, each tile an .rvol file over 2^T³
+/// finest cells of its own, and a far-field .rvol of the whole root cube at a coarser depth that
+/// supplies the levels above the tiles. Writing the index, reading and sampling across tiles, and
+/// validating the whole set.
+#pragma once
+
+#include <vox/formats/rvol_io.h>
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <vector>
+
+namespace vox::rvol {
+
+inline constexpr std::array<std::uint8_t, 4> kTileIndexMagic{'R', 'V', 'T', 'I'};
+/// The tile index version this library reads and writes, 1.0 (docs/rvol-format.md, "Tiled
+/// volumes"). Readers reject other majors and accept any minor of theirs.
+inline constexpr std::uint16_t kTileIndexVersionMajor = 1;
+inline constexpr std::uint16_t kTileIndexVersionMinor = 0;
+inline constexpr std::uint32_t kTileIndexHeaderBytes = 192;
+inline constexpr std::uint32_t kTileEntryBytes = 32;
+/// Deepest finest level of a tiled volume: 2^13 cells per axis.
+inline constexpr std::uint32_t kMaxTiledDepth = 13;
+
+/// One tile of the index: tile coordinates (finest cell / 2^tileDepth) and what binds the entry to
+/// its file.
+struct TileEntry {
+    std::uint16_t x = 0, y = 0, z = 0;
+    std::uint32_t headerChecksum = 0;  ///< the tile file's header checksum (header bytes 252…255)
+    std::uint64_t fileBytes = 0;       ///< the tile file's size
+    std::uint64_t staticVoxels = 0;    ///< the tile file's staticVoxelCount
+    std::uint64_t bricks = 0;          ///< the tile file's brickCount
+    [[nodiscard]] std::uint64_t morton() const noexcept { return morton3(x, y, z); }
+};
+
+/// The tile index's contents (docs/rvol-format.md, "Tile index").
+struct TileIndex {
+    std::uint16_t versionMajor = kTileIndexVersionMajor;
+    std::uint16_t versionMinor = kTileIndexVersionMinor;
+    std::uint32_t depth = 0;      ///< D: the finest level has 2^D cells per axis
+    std::uint32_t tileDepth = 0;  ///< T: a tile owns 2^T cells per axis of the finest level
+    std::uint32_t halo = 0;       ///< H: cells around its own the bake computed (informational)
+    std::uint32_t farDepth = 0;   ///< F: depth of the far-field volume
+    std::uint32_t brickTexels = 5;
+    std::array<double, 3> origin{0, 0, 0};
+    double size = 1;
+    std::array<float, 6> sceneBounds{};
+    BakeInfo bake;
+    std::uint64_t farFileBytes = 0;
+    std::uint32_t farHeaderChecksum = 0;
+    std::vector<TileEntry> tiles;  ///< strictly ascending Morton order
+
+    /// Finest cell edge: size / 2^depth.
+    [[nodiscard]] double cellSize() const noexcept { return size / double(1ull << depth); }
+    /// World origin of tile (x, y, z)'s own region: origin + (x, y, z)·2^T·cellSize().
+    [[nodiscard]] std::array<double, 3> tileOrigin(std::uint32_t x, std::uint32_t y,
+                                                   std::uint32_t z) const noexcept;
+    /// Edge of a tile's region: 2^T·cellSize().
+    [[nodiscard]] double tileSize() const noexcept {
+        return cellSize() * double(1ull << tileDepth);
+    }
+};
+
+/// Where the tiles of the index @p index live: "<index>.tiles/".
+[[nodiscard]] std::filesystem::path tileDirectory(const std::filesystem::path& index);
+/// The file of tile (x, y, z): "<index>.tiles/tile-X-Y-Z.rvol" (decimal).
+[[nodiscard]] std::filesystem::path tilePath(const std::filesystem::path& index, std::uint32_t x,
+                                             std::uint32_t y, std::uint32_t z);
+/// The far-field file: "<index>.tiles/far.rvol".
+[[nodiscard]] std::filesystem::path farFieldPath(const std::filesystem::path& index);
+
+/// Whether @p file starts with the tile index magic (false if it cannot be read).
+[[nodiscard]] bool isTileIndex(const std::filesystem::path& file);
+
+/// Writes the index atomically (AtomicFile). Expects tiles in strictly ascending Morton order with
+/// coordinates below 2^(depth − tileDepth). @throws std::invalid_argument for an inconsistent
+/// index, IoError if the file cannot be written.
+void writeTileIndex(const std::filesystem::path& file, const TileIndex& index);
+
+/// Reads and checks a tile index (header checksum, fields in range, table checksum, tiles in
+/// strictly ascending Morton order and inside the volume). Tiles and the far field are not opened.
+/// @throws IoError, InvalidDataError naming the file.
+[[nodiscard]] TileIndex readTileIndex(const std::filesystem::path& file);
+
+/// A tiled volume open for sampling: the index, and the tile and far-field files opened on first
+/// use, each checked against its index entry (header checksum, size, depth, geometry). Samples
+/// cross tile borders as a single volume of depth D would: level l ≤ T reads every cell from the
+/// tile owning it, levels above T come from the far field. Not thread-safe.
+class TiledRvolReader {
+public:
+    explicit TiledRvolReader(std::filesystem::path index);
+    ~TiledRvolReader();
+
+    [[nodiscard]] const TileIndex& index() const noexcept { return index_; }
+    [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
+    /// Index in index().tiles of tile (x, y, z), or -1.
+    [[nodiscard]] std::int64_t findTile(std::uint32_t x, std::uint32_t y,
+                                        std::uint32_t z) const noexcept;
+    /// Tile @p i opened and checked against its entry. @throws IoError, InvalidDataError.
+    [[nodiscard]] const RvolReader& tile(std::size_t i) const;
+    /// The far field opened and checked. @throws IoError, InvalidDataError.
+    [[nodiscard]] const RvolReader& farField() const;
+
+    /// Texel of cell (x, y, z) of @p level (≤ depth), @p channel: from the owning tile at levels
+    /// ≤ T (zero where no tile is listed), from the far field above.
+    [[nodiscard]] Texel cell(std::uint32_t level, std::uint32_t channel, std::uint32_t x,
+                             std::uint32_t y, std::uint32_t z) const;
+    /// Trilinear sample as RvolReader::sample over the whole depth-D volume.
+    [[nodiscard]] Texel sample(std::uint32_t level, std::uint32_t channel,
+                               const std::array<double, 3>& position) const;
+    /// As RvolReader::sampleDirectional over the whole depth-D volume.
+    [[nodiscard]] Texel sampleDirectional(std::uint32_t level,
+                                          const std::array<double, 3>& position,
+                                          const std::array<double, 3>& direction) const;
+
+private:
+    std::filesystem::path path_;
+    TileIndex index_;
+    std::map<std::uint64_t, std::size_t> byMorton_;
+    mutable std::vector<std::unique_ptr<RvolReader>> tiles_;
+    mutable std::unique_ptr<RvolReader> far_;
+};
+
+/// What validateTiledRvol found.
+struct TiledRvolReport {
+    std::uint64_t indexBytes = 0;
+    std::uint64_t tiles = 0;
+    std::uint64_t tileBytes = 0;  ///< all tile files
+    std::uint64_t farBytes = 0;
+    std::uint64_t bricks = 0;  ///< all tiles' and the far field's
+    std::uint64_t staticVoxels = 0;
+    std::uint64_t largestTileBytes = 0;
+};
+
+/// Validates the index, every tile file (validateRvol, and its entry: header checksum, size,
+/// depth T, brick texels, origin and size of its region, voxel and brick counts) and the far field
+/// (validateRvol; depth F, the root cube). @throws InvalidDataError "FILE: problem" at the first
+/// problem (FILE the index or the tile), IoError if a file is missing.
+TiledRvolReport validateTiledRvol(const std::filesystem::path& index);
+
+}  // namespace vox::rvol
