@@ -12,11 +12,13 @@
 #include <vox/util/progress.h>
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 
@@ -313,9 +315,10 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         // Lightcuts' shadow rays, decided a block of voxels at a time where one test proves the
         // whole block's rays to a light clear or blocked (exactly the rays' answers, see
         // ShadowRayGroups); classic Lightcuts and brute force trace every ray.
+        // Built when Lightcuts first asks, so that its time counts in Lightcuts' own.
         std::optional<detail::ShadowRayGroups> rayGroups;
-        ClusterVisibilityFactory sharedRays;
-        if (!shadowCones && options.shareShadowRays && !tile) {
+        std::once_flag groupsBuilt;
+        const auto buildGroups = [&] {
             std::vector<Vec3d> normals(leaves.size());
             for (std::size_t i = 0; i < leaves.size(); ++i)
                 normals[i] = toVec3d(leaves[i].normals.mean);
@@ -330,8 +333,14 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
                                             (double(light.position.z) - volume.origin[2]) / cell};
             }
             rayGroups.emplace(solid, cells, std::move(normals), std::move(lightCells));
+        };
+        ClusterVisibilityFactory sharedRays;
+        if (!shadowCones && options.shareShadowRays && !tile) {
             sharedRays = [&](std::span<const std::uint32_t>,
                              SharedVisibilityStats& stats) -> ClusterVisibility {
+                // Isolated: waiting for its own parallel work, the building thread must not pick
+                // up another cluster's task, which would wait for the groups in turn.
+                std::call_once(groupsBuilt, [&] { tbb::this_task_arena::isolate(buildGroups); });
                 auto verdicts = std::make_shared<detail::ShadowRayGroups::Verdicts>();
                 return [&, verdicts](std::size_t i, std::uint32_t index, const Light&,
                                      const LightArrival& arrival) -> double {

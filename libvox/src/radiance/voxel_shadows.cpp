@@ -1,5 +1,8 @@
 #include "voxel_shadows.h"
 
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -245,7 +248,7 @@ ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
       lights_(std::move(lights)),
       groupOf_(cells.size()),
       originEmpty_(cells.size(), 0) {
-    for (std::size_t i = 0; i < cells.size(); ++i)
+    tbb::parallel_for(std::size_t{0}, cells.size(), [&](std::size_t i) {
         for (int s = 0; s < 2; ++s) {
             const Vec3d o = origin(i, s == 0 ? 1 : -1);
             if (!grid_.solid(static_cast<std::int64_t>(std::floor(o.x)),
@@ -253,6 +256,7 @@ ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
                              static_cast<std::int64_t>(std::floor(o.z))))
                 originEmpty_[i] = static_cast<std::uint8_t>(originEmpty_[i] | (1u << s));
         }
+    });
     // Groups: the voxels sorted by block and by the axis direction their normal is closest to,
     // level by level; a group's boxes hold its members'. Apart from the direction, a block's two
     // sides of a thin wall or floor would share boxes that take in the wall itself.
@@ -272,7 +276,7 @@ ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
                             (std::uint64_t{cells[i][1] >> shift} << 23) |
                             (std::uint64_t{cells[i][0] >> shift} << 3) | facing[i],
                         i};
-        std::sort(order.begin(), order.end());
+        tbb::parallel_sort(order.begin(), order.end());
         for (std::size_t k = 0; k < order.size(); ++k) {
             const std::uint32_t i = order[k].second;
             if (k == 0 || order[k - 1].first != order[k].first) {

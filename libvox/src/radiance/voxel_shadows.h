@@ -52,7 +52,7 @@ private:
 };
 
 /// Shadow rays of nearby voxels decided together. The voxels are grouped by aligned blocks of the
-/// grid at three sizes (8, 4 and 2 cells) and by the axis direction their normal is closest to.
+/// grid at two sizes (4 and 2 cells) and by the axis direction their normal is closest to.
 /// For a group and a light, one test decides the rays of every member at once where it can:
 /// - *clear* (beamClear): no solid cell in a set of boxes holding every segment from a member's
 ///   ray origin towards the light;
@@ -95,7 +95,9 @@ public:
                                 SharedVisibilityStats& counts) const;
 
 private:
-    static constexpr int kLevels = 3;  // blocks of 8, 4 and 2 cells
+    // Blocks of 4 and 2 cells: 8-cell blocks failed their tests more often than they answered
+    // (docs/internals/lighting.md).
+    static constexpr int kLevels = 2;
     struct Group {
         // Per side (+1, −1), over the members whose origin cell is empty on that side: their ray
         // origins, and where their rays end relative to the light (side × normal).
