@@ -626,8 +626,13 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
         const std::uint32_t j = w.find(s);
         if (j == kNoLightNode || dead[j]) continue;
         if (entries[j].key > threshold) continue;
-        // A parent's bound is at least the sum of its children's: where even that fails the
-        // criterion, the parent need not be evaluated.
+        // A parent's bound is at least the sum of its children's, and a child's bound at least
+        // its estimate: where even the estimates' sum fails the criterion, neither the leaves'
+        // bounds nor the parent need be evaluated.
+        if (!budget.acceptsReplacing(entries[i].key, entries[j].key,
+                                     lightLuminance(entries[i].estimate + entries[j].estimate),
+                                     threshold))
+            continue;
         if (!budget.acceptsReplacing(entries[i].key, entries[j].key,
                                      boundLumOf(ctx, entries[i]) + boundLumOf(ctx, entries[j]),
                                      threshold))

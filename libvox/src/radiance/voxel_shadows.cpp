@@ -268,6 +268,7 @@ ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
             if (std::abs(n[k]) > std::abs(n[axis])) axis = k;
         facing[i] = static_cast<std::uint32_t>(2 * axis + (n[axis] < 0 ? 1 : 0));
     }
+    groups_.reserve(cells.size() * kLevels);
     std::vector<std::pair<std::uint64_t, std::uint32_t>> order(cells.size());
     for (int level = 0; level < kLevels; ++level) {
         const std::uint32_t shift = static_cast<std::uint32_t>(kLevels - level);
