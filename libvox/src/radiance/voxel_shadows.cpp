@@ -364,11 +364,21 @@ bool ShadowRayGroups::occluded(std::size_t voxel, std::uint32_t light, int side,
                 *verdict = kClear;
             } else {
                 if (own < 0) own = grid_.occluded(from, dir, maxT, &hit) ? 1 : 0;
+                // The hit cell's layer along each axis, and the next one the ray enters (a wall
+                // a few cells thick is whole there where the ray only grazed its face).
                 if (own == 1)
-                    for (int axis = 0; axis < 3 && *verdict == kUndecided; ++axis)
-                        if (grid_.layerBlocks(group.originLo[s], group.originHi[s], toLo, toHi,
-                                              axis, hit[std::size_t(axis)]))
-                            *verdict = kBlocked;
+                    for (int step = 0; step < 2 && *verdict == kUndecided; ++step)
+                        for (int axis = 0; axis < 3 && *verdict == kUndecided; ++axis) {
+                            const std::int64_t layer =
+                                hit[std::size_t(axis)] + (step == 0 ? 0
+                                                                    : (dir[axis] > 0   ? 1
+                                                                       : dir[axis] < 0 ? -1
+                                                                                       : 0));
+                            if ((step == 0 || layer != hit[std::size_t(axis)]) &&
+                                grid_.layerBlocks(group.originLo[s], group.originHi[s], toLo, toHi,
+                                                  axis, layer))
+                                *verdict = kBlocked;
+                        }
             }
         }
         if (*verdict != kUndecided) {
