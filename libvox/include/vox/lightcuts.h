@@ -421,9 +421,6 @@ public:
         return previous_;
     }
 
-    /// Working storage kept from point to point (internal).
-    struct Scratch;
-
     LightcutCursor(const LightcutCursor& other);
     LightcutCursor& operator=(const LightcutCursor& other);
     LightcutCursor(LightcutCursor&&) noexcept;
@@ -431,6 +428,7 @@ public:
     ~LightcutCursor();
 
 private:
+    struct Scratch;  // working storage kept from point to point
     const LightTree* tree_;
     LightcutOptions options_;
     std::vector<std::uint32_t> roots_;
