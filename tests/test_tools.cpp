@@ -719,7 +719,7 @@ TEST(Tools, RadianceBakeIsByteIdenticalWhateverTheThreadCountAndRejectsBadOption
     expectOneLineError(voxelize({scene.string(), "--export-vdb", (dir / "x.vdb").string()}), 1,
                        "--export-vdb needs --radiance");
     expectOneLineError(voxelize({scene.string(), "--radiance", (dir / "x.rvol").string(),
-                                 "--radiance-depth", "11"}),
+                                 "--radiance-depth", "14"}),
                        1, "--radiance-depth");
     EXPECT_FALSE(std::filesystem::exists(dir / "x.rvol"));
 }
