@@ -19,6 +19,8 @@
 
 namespace vox {
 
+class SceneOccupancy;
+
 /// One region of a larger volume, for a tiled bake (radiance_tiles.h): the bake runs in @p cube,
 /// lights and gathers only the cells of the kept box, and stores only those of the owned cube.
 struct RadianceBakeRegion {
@@ -31,9 +33,16 @@ struct RadianceBakeRegion {
     std::uint32_t ownDepth = 1;
     Vec3d ownOrigin{0, 0, 0};
     double ownSize = 1;
-    /// The whole root cube baked coarser (its finest cell 2^k times the cube's): cones and shadow
-    /// rays that leave the kept box continue through it. Null: nothing beyond the kept box.
+    /// The whole root cube baked coarser (its finest cell 2^k times the cube's): cones that leave
+    /// the kept box continue through it. Null: nothing beyond the kept box.
     const rvol::Volume* far = nullptr;
+    /// The whole scene's static occupancy at the finest level, in the leaf units of the root cube
+    /// (2^rootDepth cells per axis) of which this cube's cell 0 is cell @p cubeCell: shadow rays
+    /// that leave the kept box continue through it, and the air regions end at that root cube's
+    /// faces (the kept box must lie inside it). Null: shadow rays end at the kept box.
+    const SceneOccupancy* occupancy = nullptr;
+    std::array<std::int64_t, 3> cubeCell{};
+    std::uint32_t rootDepth = 0;
 };
 
 /// Options for bakeRadiance.

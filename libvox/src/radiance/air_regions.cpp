@@ -4,15 +4,21 @@
 
 namespace vox::detail {
 
-AirRegions::AirRegions(const SolidGrid& solid, std::uint32_t depth) : resolution_(1u << depth) {
+AirRegions::AirRegions(const SolidGrid& solid, std::uint32_t depth, std::array<std::int64_t, 3> lo,
+                       std::array<std::int64_t, 3> hi)
+    : resolution_(1u << depth) {
     const std::size_t r = resolution_;
     labels_.assign(r * r * r, kNone);
     for (std::size_t z = 0; z < r; ++z)
         for (std::size_t y = 0; y < r; ++y)
-            for (std::size_t x = 0; x < r; ++x)
-                if (solid.solid(static_cast<std::int64_t>(x), static_cast<std::int64_t>(y),
-                                static_cast<std::int64_t>(z)))
-                    labels_[(z * r + y) * r + x] = kSolid;
+            for (std::size_t x = 0; x < r; ++x) {
+                const std::int64_t c[3] = {static_cast<std::int64_t>(x),
+                                           static_cast<std::int64_t>(y),
+                                           static_cast<std::int64_t>(z)};
+                bool outside = false;
+                for (int a = 0; a < 3; ++a) outside = outside || c[a] < lo[a] || c[a] >= hi[a];
+                if (outside || solid.solid(c[0], c[1], c[2])) labels_[(z * r + y) * r + x] = kSolid;
+            }
     std::vector<std::uint32_t> stack;
     for (std::size_t seed = 0; seed < labels_.size(); ++seed) {
         if (labels_[seed] != kNone) continue;

@@ -8,6 +8,7 @@
 
 #include <vox/base/math.h>
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -19,8 +20,12 @@ public:
     static constexpr std::uint16_t kNone =
         0xFFFE;  ///< no region (also: regions beyond the label range)
 
-    /// Labels the 6-connected components of the cells @p solid leaves empty, in scan order.
-    AirRegions(const SolidGrid& solid, std::uint32_t depth);
+    /// Labels the 6-connected components of the cells @p solid leaves empty, in scan order. Cells
+    /// outside [@p lo, @p hi) hold no air (they are labelled kSolid): beyond the root cube of a
+    /// region's bake there is no space to face or to connect through, as in the whole bake.
+    AirRegions(const SolidGrid& solid, std::uint32_t depth, std::array<std::int64_t, 3> lo = {},
+               std::array<std::int64_t, 3> hi = {kNoLimit, kNoLimit, kNoLimit});
+    static constexpr std::int64_t kNoLimit = std::int64_t{1} << 40;
 
     [[nodiscard]] std::uint32_t count() const noexcept { return count_; }
     [[nodiscard]] std::uint16_t label(std::int64_t x, std::int64_t y,

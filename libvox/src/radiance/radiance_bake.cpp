@@ -3,6 +3,7 @@
 // re-filter after each.
 #include "air_regions.h"
 #include "radiance_mips.h"
+#include "scene_occupancy.h"
 #include "voxel_shadows.h"
 
 #include <vox/base/error.h>
@@ -173,7 +174,15 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     std::vector<std::int32_t> gatherFrom(leaves.size(), -1);  // index into regionVolumes, -1: all
     {
         Timings::Scope timer(options.timings, "radiance_regions");
-        const detail::AirRegions regions(solid, options.depth);
+        // A tile's cube reaches beyond the root cube, where the whole bake has no air.
+        std::array<std::int64_t, 3> rootLo{}, rootHi{};
+        rootHi.fill(detail::AirRegions::kNoLimit);
+        if (tile && tile->occupancy)
+            for (std::size_t a = 0; a < 3; ++a) {
+                rootLo[a] = -tile->cubeCell[a];
+                rootHi[a] = (std::int64_t{1} << tile->rootDepth) - tile->cubeCell[a];
+            }
+        const detail::AirRegions regions(solid, options.depth, rootLo, rootHi);
         std::vector<std::uint16_t> faced(leaves.size());
         std::vector<std::uint64_t> facedCount(regions.count(), 0);
         for (std::size_t i = 0; i < leaves.size(); ++i) {
@@ -213,18 +222,12 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
                 regionVolumes.push_back(std::move(gv));
             }
     }
-    // A tile's cones and shadow rays continue beyond its kept box through the far field.
+    // A tile's cones continue beyond its kept box through the far field; its shadow rays through
+    // the whole scene's occupancy at this level's resolution (the far field's coarse, thickened
+    // cells shadowed a fifth of the direct light wrongly).
     std::unique_ptr<RadianceField> farField;
-    std::optional<detail::SolidGrid> farSolid;
-    double farCell = 0;
     if (tile && tile->far) {
         farField = std::make_unique<RadianceField>(*tile->far);
-        farCell = tile->far->cellSize(0);
-        std::vector<std::array<std::uint32_t, 3>> farCells;
-        farCells.reserve(tile->far->staticVoxels.size());
-        for (const rvol::VoxelAttributes& v : tile->far->staticVoxels)
-            farCells.push_back({v.x, v.y, v.z});
-        farSolid.emplace(tile->far->depth, farCells);
         const Vec3d nearLo{volume.origin[0] + tile->keepLo[0] * cell,
                            volume.origin[1] + tile->keepLo[1] * cell,
                            volume.origin[2] + tile->keepLo[2] * cell};
@@ -234,9 +237,10 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         all.field->setFarField(farField.get(), nearLo, nearHi);
         for (auto& gv : regionVolumes) gv->field->setFarField(farField.get(), nearLo, nearHi);
     }
-    // Whether a shadow ray (level-0 cell units) leaving the kept box is blocked in the far field.
+    // Whether a shadow ray (level-0 cell units) is blocked after leaving the kept box, where the
+    // tile's own grid holds no voxels.
     const auto farOccluded = [&](Vec3d local, Vec3d dir, double maxT) {
-        if (!farSolid) return false;
+        if (!tile || !tile->occupancy) return false;
         double exit = maxT;  // where the ray leaves the kept box
         for (int a = 0; a < 3; ++a) {
             if (dir[a] > 0) exit = std::min(exit, (tile->keepHi[a] - local[a]) / dir[a]);
@@ -244,16 +248,12 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         }
         exit = std::max(exit, 0.0);
         if (exit >= maxT) return false;
-        const double scale = cell / farCell;
-        const Vec3d world = Vec3d{volume.origin[0], volume.origin[1], volume.origin[2]} +
-                            (local + dir * exit) * cell;
-        const Vec3d farLocal{(world.x - tile->far->origin[0]) / farCell,
-                             (world.y - tile->far->origin[1]) / farCell,
-                             (world.z - tile->far->origin[2]) / farCell};
-        // The last far cells before a light are not tested: a coarse cell holding the light's
-        // own fixture (a lamp under a ceiling) would shadow everything it lights.
-        const double farMaxT = (maxT - exit) * scale - (std::isfinite(maxT) ? 1.75 : 0.0);
-        return farMaxT > 0 && farSolid->occluded(farLocal, dir, farMaxT);
+        const Vec3d world{local.x + double(tile->cubeCell[0]), local.y + double(tile->cubeCell[1]),
+                          local.z + double(tile->cubeCell[2])};
+        const std::array<std::int64_t, 3> start{static_cast<std::int64_t>(std::floor(world.x)),
+                                                static_cast<std::int64_t>(std::floor(world.y)),
+                                                static_cast<std::int64_t>(std::floor(world.z))};
+        return tile->occupancy->occluded(world, dir, exit, maxT, start);
     };
     const RadianceField& field = *all.field;
 

@@ -3,6 +3,8 @@
 // the index that binds the tile files together (docs/internals/rvol-writer.md, "Tiled bakes").
 #include <vox/radiance_tiles.h>
 
+#include "scene_occupancy.h"
+
 #include <vox/base/error.h>
 #include <vox/octree.h>
 #include <vox/util/log.h>
@@ -12,6 +14,7 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <string>
 
 namespace vox {
@@ -42,6 +45,53 @@ rvol::TileEntry entryOf(const rvol::RvolReader& reader, std::array<std::uint32_t
     e.staticVoxels = reader.header().staticVoxelCount;
     e.bricks = reader.header().brickCount;
     return e;
+}
+
+/// The whole scene's occupancy at depth D for the tiles' shadow rays, its triangles binned in the
+/// far field's cells.
+SceneOccupancy occupancyOf(const Scene& scene, const RadianceTiling& tiling,
+                           const rvol::Volume& far) {
+    const RootCube world{{far.origin[0], far.origin[1], far.origin[2]}, far.size};
+    return SceneOccupancy(scene, world, tiling.depth, tiling.farDepth);
+}
+
+RadianceBake bakeTile(const Scene& scene, const RadianceBakeOptions& options,
+                      const RadianceTiling& tiling, std::array<std::uint32_t, 3> tile,
+                      const rvol::Volume& far, const SceneOccupancy& occupancy) {
+    rvol::TileIndex geometry;  // the index's arithmetic, so that tile origins match it exactly
+    geometry.depth = tiling.depth;
+    geometry.tileDepth = tiling.tileDepth;
+    geometry.origin = far.origin;
+    geometry.size = far.size;
+    const double cell = geometry.cellSize();
+    const std::uint32_t own = 1u << tiling.tileDepth, half = own / 2;
+    RadianceBakeRegion region;
+    for (int a = 0; a < 3; ++a) {
+        const std::int64_t first = std::int64_t{tile[a]} * own - half;
+        region.cubeOrigin[a] = far.origin[a] + double(first) * cell;
+        region.cubeCell[static_cast<std::size_t>(a)] = first;
+        // The kept box ends at the root cube's faces: a surface on a face touches the cells on
+        // both sides of it in the tile's cube, but the whole volume has no cell beyond the face
+        // (those voxels shadowed the outer faces of a box whose walls end at the root cube).
+        const std::int64_t world = std::int64_t{1} << tiling.depth;
+        region.keepLo[a] = static_cast<std::uint32_t>(
+            std::max<std::int64_t>(std::int64_t{half} - tiling.halo, -first));
+        region.keepHi[a] = static_cast<std::uint32_t>(
+            std::min<std::int64_t>(std::int64_t{half} + own + tiling.halo, world - first));
+        region.ownLo[a] = half;
+    }
+    region.cubeSize = cell * double(2 * own);
+    region.ownDepth = tiling.tileDepth;
+    const auto origin = geometry.tileOrigin(tile[0], tile[1], tile[2]);
+    region.ownOrigin = {origin[0], origin[1], origin[2]};
+    region.ownSize = geometry.tileSize();
+    region.far = &far;
+    region.occupancy = &occupancy;
+    region.rootDepth = tiling.depth;
+    RadianceBakeOptions tileOptions = options;
+    tileOptions.depth = tiling.tileDepth + 1;
+    tileOptions.region = &region;
+    return bakeRadiance(scene, tileOptions);
 }
 
 }  // namespace
@@ -122,31 +172,7 @@ std::vector<std::uint32_t> radianceTileRuns(
 RadianceBake bakeRadianceTile(const Scene& scene, const RadianceBakeOptions& options,
                               const RadianceTiling& tiling, std::array<std::uint32_t, 3> tile,
                               const rvol::Volume& far) {
-    rvol::TileIndex geometry;  // the index's arithmetic, so that tile origins match it exactly
-    geometry.depth = tiling.depth;
-    geometry.tileDepth = tiling.tileDepth;
-    geometry.origin = far.origin;
-    geometry.size = far.size;
-    const double cell = geometry.cellSize();
-    const std::uint32_t own = 1u << tiling.tileDepth, half = own / 2;
-    RadianceBakeRegion region;
-    for (int a = 0; a < 3; ++a) {
-        const double first = double(std::int64_t{tile[a]} * own - half);
-        region.cubeOrigin[a] = far.origin[a] + first * cell;
-        region.keepLo[a] = half - tiling.halo;
-        region.keepHi[a] = half + own + tiling.halo;
-        region.ownLo[a] = half;
-    }
-    region.cubeSize = cell * double(2 * own);
-    region.ownDepth = tiling.tileDepth;
-    const auto origin = geometry.tileOrigin(tile[0], tile[1], tile[2]);
-    region.ownOrigin = {origin[0], origin[1], origin[2]};
-    region.ownSize = geometry.tileSize();
-    region.far = &far;
-    RadianceBakeOptions tileOptions = options;
-    tileOptions.depth = tiling.tileDepth + 1;
-    tileOptions.region = &region;
-    return bakeRadiance(scene, tileOptions);
+    return bakeTile(scene, options, tiling, tile, far, occupancyOf(scene, tiling, far));
 }
 
 TiledBakeResult bakeTiledRadiance(const Scene& scene, const RadianceBakeOptions& options,
@@ -160,6 +186,8 @@ TiledBakeResult bakeTiledRadiance(const Scene& scene, const RadianceBakeOptions&
     const rvol::Volume far = bakeRadiance(scene, farOptions).volume;
     result.farSeconds = secondsSince(start);
     const auto tiles = radianceTiles(far, tiling);
+    std::optional<SceneOccupancy> occupancy;
+    if (job.kind != TiledBakeJob::Kind::Index) occupancy.emplace(occupancyOf(scene, tiling, far));
     result.tilesTotal = tiles.size();
     const auto runs = radianceTileRuns(tiles, job.kind == TiledBakeJob::Kind::Run ? job.runs : 1);
 
@@ -198,7 +226,7 @@ TiledBakeResult bakeTiledRadiance(const Scene& scene, const RadianceBakeOptions&
             continue;
         }
         if (job.kind == TiledBakeJob::Kind::Run && runs[i] != job.run) continue;
-        RadianceBake bake = bakeRadianceTile(scene, quiet(options), tiling, t, far);
+        RadianceBake bake = bakeTile(scene, quiet(options), tiling, t, far, *occupancy);
         const rvol::RvolWriteResult written = rvol::writeRvol(file, bake.volume, write);
         ++result.tilesBaked;
         result.staticVoxels += bake.staticVoxels;
