@@ -130,8 +130,10 @@ AttributeSums AttributeSampler::filter(std::span<const std::uint32_t> list, Vec3
 
 AttributeSums AttributeSampler::filter(const CubeFragments& fragments,
                                        std::span<const std::uint32_t> list, Vec3d c, double h,
-                                       AttributeScratch& scratch, TriangleView view) const {
+                                       AttributeScratch& scratch, TriangleView view,
+                                       bool errorMoments) const {
     view = resolve(view);
+    errorMoments = errorMoments && errorMoments_;
     AttributeSums sums;
     const double edge = 2 * h;
     const double toLocal = 1.0 / edge;
@@ -176,10 +178,10 @@ AttributeSums AttributeSampler::filter(const CubeFragments& fragments,
         const Vec3d at = barycentric(c + centroid * edge);
         const SurfaceSample sample =
             shadeTriangle(scene_, sources_[t], corners, at, edge, scratch.barycentrics,
-                          errorMoments_ ? &colorVariance : nullptr);
+                          errorMoments ? &colorVariance : nullptr);
         const Vec4f& color = sample.color;
         const Vec3d& normal = sample.normal;
-        if (errorMoments_) {
+        if (errorMoments) {
             for (int ch = 0; ch < 3; ++ch)
                 sums.colorSquares[ch] +=
                     (double(color[ch]) * color[ch] + colorVariance[ch]) * weight;

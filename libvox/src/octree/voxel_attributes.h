@@ -113,9 +113,12 @@ public:
                                        AttributeScratch& scratch, TriangleView view = {}) const;
     /// filter on the fragments of @p list in that cube, in its local frame (CubeFragments::clip at
     /// scale filterScale(h) gives the same sums, or a parent's CubeFragments::splitInto).
+    /// @p errorMoments: false leaves the error moments (normalSpread, colorSquares, facetWeight)
+    /// 0 even where the sampler sums them; every other field is the same.
     [[nodiscard]] AttributeSums filter(const CubeFragments& fragments,
                                        std::span<const std::uint32_t> list, Vec3d c, double h,
-                                       AttributeScratch& scratch, TriangleView view = {}) const;
+                                       AttributeScratch& scratch, TriangleView view = {},
+                                       bool errorMoments = true) const;
     /// The scale from leaf units to the local frame of a cube of half-extent @p h that filter clips
     /// in.
     [[nodiscard]] static double filterScale(double h) { return 1.0 / (2 * h); }

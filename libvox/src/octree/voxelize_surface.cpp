@@ -292,11 +292,14 @@ private:
                 if (leaf) {
                     if (level + 1 < depth_)
                         masks_[level + 1 - rootLevel_].push_back(0);  // a leaf above the leaf depth
+                    // A leaf's error moments are never read (a voxel's error comes from its own
+                    // filtering, not its children's sums): where the criterion did not filter it
+                    // (the leaf depth, or no bounds), it is filtered without them.
                     if (attributes_)
                         childSums = filtered ? criterionSums_
-                                             : attributes_->filter(*ownFragments, children[slot],
-                                                                   childCentre, childHalf,
-                                                                   attributeScratch_, view());
+                                             : attributes_->filter(
+                                                   *ownFragments, children[slot], childCentre,
+                                                   childHalf, attributeScratch_, view(), false);
                 } else if (buildNode(level + 1, cx, cy, cz, children[slot], ownFragments, childSlab,
                                      &childSums) == 0) {
                     continue;
