@@ -90,8 +90,9 @@ public:
     /// Cell edge of level 0, world units.
     [[nodiscard]] double finestCell() const noexcept { return finestCell_; }
 
-    /// Makes cones reach beyond this volume: a sample whose filter (1.5 cells each way at its
-    /// level) leaves the box [@p nearLo, @p nearHi] (world) reads @p far instead, at the level of
+    /// Makes cones reach beyond this volume: a sample whose filter (the two cells per axis it
+    /// reads at the upper of its two levels) leaves the box [@p nearLo, @p nearHi] (world) reads
+    /// @p far instead, at the level of
     /// the same footprint (never below far's level 0), and cones end, and ambient occlusion is
     /// scaled, by far's root cube. @p far must cover this volume, with a finest cell 2^k times
     /// this one's (k ≥ 0), and outlive this field; null detaches it.

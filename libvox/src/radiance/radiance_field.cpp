@@ -113,11 +113,16 @@ void RadianceField::setFarField(const RadianceField* far, Vec3d nearLo, Vec3d ne
 
 Texel RadianceField::sampleNearOrFar(double level, Vec3d p, Vec3d dir) const noexcept {
     if (far_) {
-        // The filter of both levels sampleLod blends stays within 1.5 cells of the upper one.
-        const double reach = 1.5 * finestCell_ * std::exp2(std::ceil(level));
-        if (p.x - reach < nearLo_.x || p.y - reach < nearLo_.y || p.z - reach < nearLo_.z ||
-            p.x + reach > nearHi_.x || p.y + reach > nearHi_.y || p.z + reach > nearHi_.z)
-            return far_->sampleLod(std::max(level - farLevelOffset_, 0.0), p, dir);
+        // The two cells per axis that the upper of the two levels sampleLod blends filters (they
+        // hold the lower level's) must lie inside the near box: a cell that straddles its edge
+        // holds only some of its voxels, and reads too dark and too clear.
+        const double c = finestCell_ * std::exp2(std::ceil(std::max(level, 0.0)));
+        for (int axis = 0; axis < 3; ++axis) {
+            const double o = volume_.origin[static_cast<std::size_t>(axis)];
+            const double first = std::floor((p[axis] - o) / c - 0.5);
+            if (o + first * c < nearLo_[axis] || o + (first + 2) * c > nearHi_[axis])
+                return far_->sampleLod(std::max(level - farLevelOffset_, 0.0), p, dir);
+        }
     }
     return sampleLod(level, p, dir);
 }
