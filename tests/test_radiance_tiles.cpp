@@ -48,7 +48,7 @@ std::map<std::string, std::vector<char>> filesOf(const fs::path& index) {
 TEST(RadianceTiles, PlanKeepsTheFarFieldBelowTheTiles) {
     const auto t = vox::RadianceTiling::plan(12, 8);
     EXPECT_EQ(t.halo, 64u);
-    EXPECT_EQ(t.farDepth, 7u);  // far cells of 32 finest cells: half the halo
+    EXPECT_EQ(t.farDepth, 8u);  // far cells of 16 finest cells: a quarter of the halo
     EXPECT_EQ(vox::RadianceTiling::plan(13, 6).farDepth, 10u);
     EXPECT_THROW((void)vox::RadianceTiling::plan(13, 3), vox::ParameterError);     // F would be 11
     EXPECT_THROW((void)vox::RadianceTiling::plan(8, 5, 17), vox::ParameterError);  // halo > T/2
@@ -56,20 +56,20 @@ TEST(RadianceTiles, PlanKeepsTheFarFieldBelowTheTiles) {
     EXPECT_EQ(vox::RadianceTiling::tileDepthFor(12, 256ull << 20), 7u);
 }
 
-/// A single-volume bake and a tiled one (depth 6, tiles of 16³ with a 4-cell halo, far cells of
-/// 2) of the Cornell box, voxel by voxel.
+/// A single-volume bake and a tiled one (depth 6, tiles of 16³ with a halo of @p halo cells) of
+/// the Cornell box, voxel by voxel.
 struct Agreement {
     double diff = 0, sum = 0;  ///< Σ |tiled − single| and Σ single, of r + g + b over the voxels
     double worst = 0;          ///< the largest relative difference of one voxel
 };
 
-Agreement agreement(const fs::path& dir, std::uint32_t bounces) {
+Agreement agreement(const fs::path& dir, std::uint32_t bounces, std::uint32_t halo) {
     const vox::Scene scene = vox::importScene(vox::scenes::writeCornellBox(dir));
     vox::RadianceBakeOptions single = options(bounces);
     single.depth = 6;
     const vox::rvol::Volume whole = vox::bakeRadiance(scene, single).volume;
     const fs::path index = dir / "tiled.rvol";
-    const auto tiling = vox::RadianceTiling::plan(6, 4);
+    const auto tiling = vox::RadianceTiling::plan(6, 4, halo);
     const auto result = vox::bakeTiledRadiance(scene, options(bounces), tiling, {}, index, {});
     EXPECT_EQ(result.tilesBaked, result.tilesTotal);
     EXPECT_EQ(result.staticVoxels, whole.staticVoxels.size());
@@ -105,7 +105,7 @@ TEST(RadianceTiles, TiledDirectLightIsTheSingleVolumes) {
     // beyond the root cube: every voxel's direct light is the single bake's (it was 20.7 % off
     // with shadow rays through the far field's coarse cells, and the box's outer faces black).
     const vox::test::ScratchDir dir;
-    const Agreement a = agreement(dir.path(), 0);
+    const Agreement a = agreement(dir.path(), 0, 4);  // far cells of 1
     // Measured 0.05 % summed over the box, 0.4 % at worst (rounding: the tile's cube has another
     // origin, so the voxel centres and ray origins differ in the last bits).
     EXPECT_LT(a.diff / a.sum, 0.002);
@@ -114,11 +114,12 @@ TEST(RadianceTiles, TiledDirectLightIsTheSingleVolumes) {
 
 TEST(RadianceTiles, TiledBakeAgreesWithTheSingleVolume) {
     const vox::test::ScratchDir dir;
-    const Agreement a = agreement(dir.path(), 1);
+    // A halo of 8 cells, far cells of 2: cones read a coarser far field beyond the halo.
+    const Agreement a = agreement(dir.path(), 1, 8);
     // One bounce, which reads the far field beyond the halo: the radiance summed over the box
-    // within 4 % (measured 3.6 %, 23 % with the far field's shadow rays; the seams at larger
+    // within 3.7 % (measured 3.4 %, 23 % with the far field's shadow rays; the seams at larger
     // depths are in docs/internals/rvol-writer.md, "Tiled bakes").
-    EXPECT_LT(a.diff / a.sum, 0.04);
+    EXPECT_LT(a.diff / a.sum, 0.037);
 }
 
 TEST(RadianceTiles, ByteIdenticalWhateverTheThreadCount) {
