@@ -1,5 +1,7 @@
 #include "scene_occupancy.h"
 
+#include "../util/segment_clip.h"
+
 #include <vox/formats/rvol.h>
 
 #include <tbb/enumerable_thread_specific.h>
@@ -113,17 +115,7 @@ bool SceneOccupancy::occluded(Vec3d origin, Vec3d dir, double t0, double t1,
     // bins skipping empty space.
     const std::int64_t resolution = std::int64_t{1} << depth_;
     const double r = double(resolution);
-    for (int axis = 0; axis < 3; ++axis) {
-        if (dir[axis] == 0) {
-            if (origin[axis] < 0 || origin[axis] >= r) return false;
-            continue;
-        }
-        double a = (0 - origin[axis]) / dir[axis], b = (r - origin[axis]) / dir[axis];
-        if (a > b) std::swap(a, b);
-        t0 = std::max(t0, a);
-        t1 = std::min(t1, b);
-    }
-    if (t0 >= t1) return false;
+    if (!detail::clipSegmentToCube(origin, dir, r, t0, t1)) return false;
     const std::int64_t binCells = std::int64_t{1} << shift_;
     std::int64_t lastBin[3] = {-1, -1, -1};
     std::pair<std::size_t, std::size_t> range{0, 0};

@@ -1,5 +1,7 @@
 #include "voxel_shadows.h"
 
+#include "../util/segment_clip.h"
+
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
@@ -46,19 +48,8 @@ bool SolidGrid::blockEmpty(std::int64_t x, std::int64_t y, std::int64_t z) const
 bool SolidGrid::occluded(Vec3d origin, Vec3d dir, double maxT,
                          std::array<std::int64_t, 3>* hit) const noexcept {
     const double r = resolution_;
-    // Clip the segment to the grid.
     double t0 = 0, t1 = maxT;
-    for (int axis = 0; axis < 3; ++axis) {
-        if (dir[axis] == 0) {
-            if (origin[axis] < 0 || origin[axis] >= r) return false;
-            continue;
-        }
-        double a = (0 - origin[axis]) / dir[axis], b = (r - origin[axis]) / dir[axis];
-        if (a > b) std::swap(a, b);
-        t0 = std::max(t0, a);
-        t1 = std::min(t1, b);
-    }
-    if (t0 >= t1) return false;
+    if (!detail::clipSegmentToCube(origin, dir, r, t0, t1)) return false;
     const std::int64_t sx = static_cast<std::int64_t>(std::floor(origin.x)),
                        sy = static_cast<std::int64_t>(std::floor(origin.y)),
                        sz = static_cast<std::int64_t>(std::floor(origin.z));
