@@ -29,10 +29,9 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 /// Where the cones of a gather start, in level-0 cells off the surface: clear of the surface's own
-/// conservative voxels (up to two thick where a plane runs along a cell boundary). Measured against
-/// the path-traced reference (bench/radiance_accuracy, Cornell box, depth 6): 1 cell gives 28.7 %
-/// bounce-1 error, 1.5 gives 26.7 %, 2 gives 24.5 %, 3 gives 23.3 % but loses contact light in
-/// corners.
+/// conservative voxels (up to two thick where a plane runs along a cell boundary); starting further
+/// out loses contact light in corners and skips thin occluders. Chosen against the path-traced
+/// reference (bench/radiance_accuracy).
 constexpr double kGatherOffsetCells = 2;
 /// A voxel shows no light to a cone looking along an axis direction when under this share of its
 /// surface on that axis faces the cone (it is the back of a surface there).
