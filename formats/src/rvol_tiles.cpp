@@ -111,7 +111,7 @@ void writeTileIndex(const std::filesystem::path& file, const TileIndex& index) {
     for (std::size_t i = 0; i < index.tiles.size(); ++i)
         encodeEntry(table.data() + i * kTileEntryBytes, index.tiles[i]);
     std::array<std::uint8_t, kTileIndexHeaderBytes> h{};
-    std::copy(kTileIndexMagic.begin(), kTileIndexMagic.end(), h.begin());
+    std::copy(kTileIndexMagic.begin(), kTileIndexMagic.end(), h.begin() + tix::kMagic);
     store(h.data() + tix::kVersionMajor, kTileIndexVersionMajor);
     store(h.data() + tix::kVersionMinor, kTileIndexVersionMinor);
     store(h.data() + tix::kHeaderBytes, kTileIndexHeaderBytes);
@@ -151,7 +151,7 @@ TileIndex readTileIndex(const std::filesystem::path& file) {
         throw bad("tile index: file is shorter than its " + std::to_string(kTileIndexHeaderBytes) +
                   "-byte header");
     const std::uint8_t* h = bytes.data();
-    if (!std::equal(kTileIndexMagic.begin(), kTileIndexMagic.end(), h))
+    if (!std::equal(kTileIndexMagic.begin(), kTileIndexMagic.end(), h + tix::kMagic))
         throw bad("tile index: not a tile index (bad magic)");
     TileIndex index;
     index.versionMajor = load<std::uint16_t>(h + tix::kVersionMajor);
