@@ -139,14 +139,7 @@ bool SceneOccupancy::occluded(Vec3d origin, Vec3d dir, double t0, double t1,
         if (!empty && !(c[0] == skip[0] && c[1] == skip[1] && c[2] == skip[2]) &&
             cellSolid(c, range))
             return true;
-        double exit = std::numeric_limits<double>::infinity();
-        for (int axis = 0; axis < 3; ++axis) {
-            if (dir[axis] > 0)
-                exit = std::min(exit, (double(lo[axis] + size) - origin[axis]) / dir[axis]);
-            else if (dir[axis] < 0)
-                exit = std::min(exit, (double(lo[axis]) - origin[axis]) / dir[axis]);
-        }
-        t = std::max(exit, t + 1e-7);
+        t = std::max(detail::exitOfCube(origin, dir, lo, size), t + 1e-7);
     }
     return false;
 }

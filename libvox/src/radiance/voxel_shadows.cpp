@@ -70,14 +70,7 @@ bool SolidGrid::occluded(Vec3d origin, Vec3d dir, double maxT,
             if (hit) *hit = {c[0], c[1], c[2]};
             return true;
         }
-        double exit = std::numeric_limits<double>::infinity();
-        for (int axis = 0; axis < 3; ++axis) {
-            if (dir[axis] > 0)
-                exit = std::min(exit, (double(lo[axis] + size) - origin[axis]) / dir[axis]);
-            else if (dir[axis] < 0)
-                exit = std::min(exit, (double(lo[axis]) - origin[axis]) / dir[axis]);
-        }
-        t = std::max(exit, t + 1e-7);
+        t = std::max(detail::exitOfCube(origin, dir, lo, size), t + 1e-7);
     }
     return false;
 }

@@ -6,6 +6,8 @@
 #include <vox/base/math.h>
 
 #include <algorithm>
+#include <cstdint>
+#include <limits>
 #include <utility>
 
 namespace vox::detail {
@@ -26,6 +28,20 @@ inline bool clipSegmentToCube(const Vec3d& origin, const Vec3d& dir, double size
         t1 = std::min(t1, b);
     }
     return t0 < t1;
+}
+
+/// The ray parameter at which origin + t·dir leaves the cube [lo, lo + size) (each axis), for the
+/// voxel walks' next step; +inf if dir is 0.
+inline double exitOfCube(const Vec3d& origin, const Vec3d& dir, const std::int64_t (&lo)[3],
+                         std::int64_t size) {
+    double exit = std::numeric_limits<double>::infinity();
+    for (int axis = 0; axis < 3; ++axis) {
+        if (dir[axis] > 0)
+            exit = std::min(exit, (double(lo[axis] + size) - origin[axis]) / dir[axis]);
+        else if (dir[axis] < 0)
+            exit = std::min(exit, (double(lo[axis]) - origin[axis]) / dir[axis]);
+    }
+    return exit;
 }
 
 }  // namespace vox::detail
