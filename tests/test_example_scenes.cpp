@@ -273,6 +273,27 @@ TEST(ExampleScenes, CityBlockHas10000LightsSplitAsDocumented) {
     RecordProperty("mean_overlaps", std::to_string(meanOverlaps));
 }
 
+TEST(ExampleScenes, CityOfOtherSizesScalesItsExtentAndLights) {
+    vox::test::ScratchDir dir;
+    constexpr int kSide = 3, kBlocks = kSide * kSide;
+    const vox::Scene scene = vox::importScene(vox::scenes::writeCityBlock(dir.path(), {}, kSide));
+    const vox::Bounds3f bounds = scene.bounds();
+    EXPECT_FLOAT_EQ(bounds.max.x, (3 * 40.0f + 4 * 12.0f) / 2);
+    EXPECT_FLOAT_EQ(bounds.min.z, -CityBlockFacts::halfExtent(kSide));
+    std::map<std::string, int> counts;
+    for (const vox::Light& light : scene.lights) {
+        ++counts[prefixOf(light.name)];
+        expectInside(light, bounds);
+    }
+    EXPECT_EQ(counts[CityBlockFacts::kStreetLampPrefix], kBlocks * 8);
+    EXPECT_EQ(counts[CityBlockFacts::kNeonPrefix], kBlocks);
+    EXPECT_EQ(counts[CityBlockFacts::kWindowPrefix], 6240 * kBlocks / 400);  // 140
+    EXPECT_EQ(counts[CityBlockFacts::kFloodlightPrefix], 4);  // one building, four facades
+    EXPECT_THROW(vox::scenes::writeCityBlock(dir.path(), {}, 0), std::invalid_argument);
+    EXPECT_THROW(vox::scenes::writeCityBlock(dir.path(), {}, CityBlockFacts::kMaxBlocksPerSide + 1),
+                 std::invalid_argument);
+}
+
 TEST(ExampleScenes, GenerationIsByteIdenticalAcrossRuns) {
     vox::test::ScratchDir a, b;
     for (const vox::test::ScratchDir* dir : {&a, &b})

@@ -20,7 +20,6 @@ using Facts = CityBlockFacts;
 constexpr std::uint64_t kSeed = 0x43697479426C6B73ull;  // "CityBlks"
 constexpr float kPitch = Facts::kLotSize + Facts::kStreetWidth;
 constexpr float kWindowOffset = 0.3f, kNeonOffset = 0.4f, kFloodlightOffset = 1.0f;
-constexpr int kFloodlitBuildings = Facts::kFloodlights / 4;
 
 struct Building {
     float x0, z0, x1, z1;  ///< footprint
@@ -116,8 +115,18 @@ GltfBuilder::Primitive lampPost(int axis, float sign, int material) {
 }  // namespace
 
 std::filesystem::path writeCityBlock(const std::filesystem::path& directory,
-                                     BufferStorage storage) {
+                                     BufferStorage storage, int blocksPerSide) {
+    if (blocksPerSide < 1 || blocksPerSide > Facts::kMaxBlocksPerSide)
+        throw std::invalid_argument("city: blocks per side must be 1 to " +
+                                    std::to_string(Facts::kMaxBlocksPerSide));
     std::filesystem::create_directories(directory);
+    // Light counts scale with the blocks: the default city's per block, rounded down.
+    const int blocks = blocksPerSide * blocksPerSide;
+    const float halfExtent = Facts::halfExtent(blocksPerSide);
+    const std::size_t windows =
+        static_cast<std::size_t>(Facts::kWindows) * static_cast<std::size_t>(blocks) /
+        static_cast<std::size_t>(Facts::kBlocks);
+    const int floodlitBuildings = std::max(1, Facts::kFloodlights / 4 * blocks / Facts::kBlocks);
     SceneRng rng(kSeed);
     GltfBuilder gltf;
     gltf.setCompactJson(true);
@@ -141,8 +150,8 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory,
     // and per building, one mesh per material, which keeps the file small.
     GltfBuilder::Primitive ground;
     ground.material = groundMaterial;
-    appendBox(ground, {-Facts::kHalfExtent, -Facts::kGroundThickness, -Facts::kHalfExtent},
-              {Facts::kHalfExtent, 0, Facts::kHalfExtent});
+    appendBox(ground, {-halfExtent, -Facts::kGroundThickness, -halfExtent},
+              {halfExtent, 0, halfExtent});
     roots.push_back(gltf.addNode({"Ground", gltf.addMesh("Ground", {ground})}));
     const int sidewalkMesh =
         gltf.addMesh("Sidewalk", {boxPrimitive({0, 0, 0}, {1, 1, 1}, sidewalkMaterial)});
@@ -156,12 +165,12 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory,
     // transcendental function can change a height between platforms).
     std::vector<Building> buildings;
     std::vector<std::array<int, 2>> blockBuildings;  // [first, end) per block
-    for (int bi = 0; bi < Facts::kBlocksPerSide; ++bi)
-        for (int bj = 0; bj < Facts::kBlocksPerSide; ++bj) {
+    for (int bi = 0; bi < blocksPerSide; ++bi)
+        for (int bj = 0; bj < blocksPerSide; ++bj) {
             const float lx =
-                -Facts::kHalfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bi);
+                -halfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bi);
             const float lz =
-                -Facts::kHalfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bj);
+                -halfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bj);
             char name[32];
             std::snprintf(name, sizeof name, "Sidewalk_%02d_%02d", bi, bj);
             const float sw = Facts::kSidewalkWidth;
@@ -206,10 +215,12 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory,
     // Street lamps: two on each side of every block, on its sidewalk, their heads over the road;
     // sodium or LED per street, intensities mixed per lamp.
     {
-        std::array<std::array<bool, Facts::kBlocksPerSide + 1>, 2>
-            sodium{};  // [x-facing (vertical) streets, z-facing streets]
-        for (auto& streets : sodium)
-            for (bool& s : streets) s = rng.below(2) == 0;
+        // [x-facing (vertical) streets, z-facing streets]
+        std::array<std::vector<bool>, 2> sodium;
+        for (auto& streets : sodium) {
+            streets.resize(static_cast<std::size_t>(blocksPerSide) + 1);
+            for (std::size_t s = 0; s < streets.size(); ++s) streets[s] = rng.below(2) == 0;
+        }
         int lampPosts[2][2];
         for (int axis : {0, 1})
             for (int side : {0, 1})
@@ -218,12 +229,12 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory,
                                  {lampPost(axis * 2, side ? 1.0f : -1.0f, metalMaterial)});
         const float out = Facts::kSidewalkWidth + 1.1f;  // from the lot's edge to the lamp
         int count = 0;
-        for (int bi = 0; bi < Facts::kBlocksPerSide; ++bi)
-            for (int bj = 0; bj < Facts::kBlocksPerSide; ++bj) {
+        for (int bi = 0; bi < blocksPerSide; ++bi)
+            for (int bj = 0; bj < blocksPerSide; ++bj) {
                 const float lx =
-                    -Facts::kHalfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bi);
+                    -halfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bi);
                 const float lz =
-                    -Facts::kHalfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bj);
+                    -halfExtent + Facts::kStreetWidth + kPitch * static_cast<float>(bj);
                 for (int axis : {0, 1})
                     for (int side : {0, 1}) {
                         const int street = (axis == 0 ? bi : bj) + side;
@@ -278,9 +289,8 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory,
                                                  floor * double(Facts::kFloorHeight) + 1.7,
                                                  kWindowOffset));
             }
-        if (slots.size() < static_cast<std::size_t>(Facts::kWindows))
-            throw std::logic_error("city: too few window slots");
-        std::size_t needed = Facts::kWindows, count = 0;
+        if (slots.size() < windows) throw std::logic_error("city: too few window slots");
+        std::size_t needed = windows, count = 0;
         for (std::size_t i = 0; i < slots.size() && needed > 0; ++i) {
             if (rng.next() % (slots.size() - i) >= needed) continue;
             --needed;
@@ -308,7 +318,7 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory,
                                                     {"violet", {0.60f, 0.20f, 1.0f}},
                                                     {"red", {1.0f, 0.15f, 0.10f}},
                                                     {"yellow", {1.0f, 0.75f, 0.10f}}}};
-        for (int block = 0; block < Facts::kBlocks; ++block) {
+        for (int block = 0; block < blocks; ++block) {
             const auto [first, end] = blockBuildings[static_cast<std::size_t>(block)];
             const Building& b = buildings[static_cast<std::size_t>(first + rng.below(end - first))];
             const Facade f = facades(b)[static_cast<std::size_t>(rng.below(4))];
@@ -341,7 +351,7 @@ std::filesystem::path writeCityBlock(const std::filesystem::path& directory,
                                                     {"amber", {1.0f, 0.80f, 0.50f}}}};
         constexpr float intensity = 3000.0f;
         int count = 0;
-        for (int k = 0; k < kFloodlitBuildings; ++k) {
+        for (int k = 0; k < floodlitBuildings; ++k) {
             const Building& b = buildings[order[static_cast<std::size_t>(k)]];
             const Tint& tint =
                 tints[static_cast<std::size_t>(rng.below(static_cast<int>(tints.size())))];

@@ -22,9 +22,18 @@ struct CityBlockFacts {
     static constexpr float kLotSize = 40.0f;                         ///< a block's lot, square
     static constexpr float kStreetWidth = 12.0f;  ///< 2 m sidewalk + 8 m road + 2 m sidewalk
     static constexpr float kSidewalkWidth = 2.0f, kSidewalkHeight = 0.15f;
-    /// The city spans x, z ∈ [-526, 526]: 20 lots and 21 streets (the outer ones included).
+    /// Half the width of a city of @p blocksPerSide lots and blocksPerSide + 1 streets (the outer
+    /// ones included) per side.
+    static constexpr float halfExtent(int blocksPerSide) {
+        return (static_cast<float>(blocksPerSide) * kLotSize +
+                static_cast<float>(blocksPerSide + 1) * kStreetWidth) /
+               2;
+    }
+    /// The default city spans x, z ∈ [-526, 526] (halfExtent(kBlocksPerSide)).
     static constexpr float kHalfExtent =
         (kBlocksPerSide * kLotSize + (kBlocksPerSide + 1) * kStreetWidth) / 2;
+    /// Largest city writeCityBlock makes: 80 × 80 blocks, 4.17 km across.
+    static constexpr int kMaxBlocksPerSide = 80;
     static constexpr float kGroundThickness = 0.2f;
     static constexpr float kFloorHeight = 3.5f;
     static constexpr int kMaxFloors = 30;
@@ -66,8 +75,17 @@ struct CityBlockFacts {
     static constexpr std::size_t kTriangleBudget = 200000;
 };
 
+static_assert(CityBlockFacts::halfExtent(CityBlockFacts::kBlocksPerSide) ==
+              CityBlockFacts::kHalfExtent);
+
 /// Writes "city_block.gltf" (+ .bin, or "city_block.glb") into @p directory; returns its path.
+/// @p blocksPerSide (1 … kMaxBlocksPerSide) other than kBlocksPerSide makes a city of that many
+/// blocks per side, as wide as CityBlockFacts::halfExtent says, with the street lamps and neon
+/// signs of every block and the windows and floodlights of the default city per block (rounded
+/// down; at least one floodlit building); the facts' counts hold for the default only.
+/// @throws std::invalid_argument for a block count out of range.
 std::filesystem::path writeCityBlock(const std::filesystem::path& directory,
-                                     BufferStorage storage = BufferStorage::External);
+                                     BufferStorage storage = BufferStorage::External,
+                                     int blocksPerSide = CityBlockFacts::kBlocksPerSide);
 
 }  // namespace vox::scenes

@@ -1,7 +1,8 @@
 // Writes libvox's example scenes.
 // Usage: make_example_scene [cornell-box | bumpy-sphere | sphere [--rings R --segments S] |
 //                            corridor | corridor-moving [--frame N] | corridor-strips |
-//                            light-grid [--lights-per-side N] | city-block] [-o DIR] [--glb]
+//                            light-grid [--lights-per-side N] |
+//                            city-block [--blocks-per-side N]] [-o DIR] [--glb]
 #include "bumpy_sphere.h"
 #include "city_block.h"
 #include "cornell_box.h"
@@ -21,7 +22,8 @@ namespace {
 constexpr const char* kUsage =
     "usage: make_example_scene [cornell-box | bumpy-sphere | sphere [--rings R --segments S] |\n"
     "                           corridor | corridor-moving [--frame N] | corridor-strips |\n"
-    "                           light-grid [--lights-per-side N] | city-block] [-o DIR] [--glb]\n";
+    "                           light-grid [--lights-per-side N] |\n"
+    "                           city-block [--blocks-per-side N]] [-o DIR] [--glb]\n";
 
 int usageError(const std::string& message) {
     std::fprintf(stderr, "make_example_scene: error: %s\n%s", message.c_str(), kUsage);
@@ -46,6 +48,7 @@ int main(int argc, char** argv) {
     int rings = 513, segments = 1024;  // 1,048,576 triangles
     int frame = -1;
     int lightsPerSide = -1;
+    int blocksPerSide = -1;
     for (int i = 1; i < argc; ++i) {
         const std::string arg = argv[i];
         if ((arg == "-o" || arg == "--output") && i + 1 < argc) {
@@ -70,6 +73,12 @@ int main(int argc, char** argv) {
             if (lightsPerSide < 1)
                 return usageError(std::string("--lights-per-side needs a positive integer, not '") +
                                   argv[i] + "'");
+        } else if (arg == "--blocks-per-side" && i + 1 < argc) {
+            blocksPerSide = parseCount(argv[++i]);
+            if (blocksPerSide < 1 || blocksPerSide > vox::scenes::CityBlockFacts::kMaxBlocksPerSide)
+                return usageError(std::string("--blocks-per-side needs an integer from 1 to ") +
+                                  std::to_string(vox::scenes::CityBlockFacts::kMaxBlocksPerSide) +
+                                  ", not '" + argv[i] + "'");
         } else {
             return usageError("unknown argument '" + arg + "'");
         }
@@ -78,6 +87,8 @@ int main(int argc, char** argv) {
         return usageError("--frame applies to corridor-moving only");
     if (lightsPerSide >= 0 && scene != "light-grid")
         return usageError("--lights-per-side applies to light-grid only");
+    if (blocksPerSide >= 0 && scene != "city-block")
+        return usageError("--blocks-per-side applies to city-block only");
     try {
         std::filesystem::path file;
         if (scene == "cornell-box")
@@ -93,7 +104,9 @@ int main(int argc, char** argv) {
                 directory, storage,
                 lightsPerSide > 0 ? lightsPerSide : vox::scenes::LightGridFacts::kLightsPerSide);
         else if (scene == "city-block")
-            file = vox::scenes::writeCityBlock(directory, storage);
+            file = vox::scenes::writeCityBlock(
+                directory, storage,
+                blocksPerSide > 0 ? blocksPerSide : vox::scenes::CityBlockFacts::kBlocksPerSide);
         else
             file =
                 vox::scenes::writeBumpySphere(directory, rings, segments, scene == "bumpy-sphere");
