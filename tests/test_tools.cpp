@@ -1,6 +1,7 @@
 // voxelize and voxinspect as a content build meets them: exit codes, one-line errors, no
 // output on failure, --stats and --depfile.
 #include <vox/formats/atomic_file.h>
+#include <vox/formats/rvol_tiles.h>
 #include <vox/octree.h>
 #include <vox/texture.h>
 
@@ -879,20 +880,13 @@ TEST(Tools, RvolSlicesWriteOnePngPerLevelAndChannel) {
                        1, "--index", "voxinspect");
 }
 
-TEST(Tools, RvolRenderFinalGathersTheScene) {
-    ScratchDir dir;
-    const auto rvol = bakeCornellRvol(dir);
-    const auto scene = dir / "cornell_box.gltf";
-    const auto png = dir / "final.png";
-    const std::vector<std::string> camera{"--eye", "0,1,3.2", "--target", "0,1,0",    "--fov",
-                                          "50",    "--width", "48",       "--height", "36"};
-    const auto render = [&](const std::filesystem::path& out, std::vector<std::string> extra) {
-        std::vector<std::string> args{"render", rvol.string(), "-o", out.string()};
-        args.insert(args.end(), camera.begin(), camera.end());
-        args.insert(args.end(), extra.begin(), extra.end());
-        return voxinspect(args);
-    };
-    const ProcessResult r = render(png, {"--scene", scene.string(), "--threads", "1"});
+/// voxinspect render's camera looking into the Cornell box, 48 × 36 pixels.
+const std::vector<std::string> kCornellCamera{"--eye", "0,1,3.2", "--target", "0,1,0",    "--fov",
+                                              "50",    "--width", "48",       "--height", "36"};
+
+/// A render with kCornellCamera that succeeded quietly and shows the box: bright enough, the red
+/// wall on the left (the red excess r − g of the leftmost quarter above the rightmost's).
+void expectCornellRender(const ProcessResult& r, const std::filesystem::path& png) {
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_TRUE(r.err.empty()) << r.err;
     const vox::Texture image = vox::loadTexture(png, vox::ColorSpace::Linear);
@@ -910,6 +904,22 @@ TEST(Tools, RvolRenderFinalGathersTheScene) {
     EXPECT_GT(mean, 0.05);
     EXPECT_GT(leftRed, rightRed + 0.1 * image.height())
         << "the red wall is on the left, the green one on the right";
+}
+
+TEST(Tools, RvolRenderFinalGathersTheScene) {
+    ScratchDir dir;
+    const auto rvol = bakeCornellRvol(dir);
+    const auto scene = dir / "cornell_box.gltf";
+    const auto png = dir / "final.png";
+    const std::vector<std::string>& camera = kCornellCamera;
+    const auto render = [&](const std::filesystem::path& out, std::vector<std::string> extra) {
+        std::vector<std::string> args{"render", rvol.string(), "-o", out.string()};
+        args.insert(args.end(), camera.begin(), camera.end());
+        args.insert(args.end(), extra.begin(), extra.end());
+        return voxinspect(args);
+    };
+    ASSERT_NO_FATAL_FAILURE(
+        expectCornellRender(render(png, {"--scene", scene.string(), "--threads", "1"}), png));
     // Deterministic whatever the thread count.
     const auto threaded = dir / "threaded.png";
     ASSERT_EQ(render(threaded, {"--scene", scene.string(), "--threads", "3"}).exitCode, 0);
@@ -943,6 +953,44 @@ TEST(Tools, RvolRenderFinalGathersTheScene) {
                                       png.string(), "--exposure",  "2"};
     esvoArgs.insert(esvoArgs.end(), camera.begin(), camera.end());
     expectOneLineError(voxinspect(esvoArgs), 1, "--exposure", "voxinspect");
+}
+
+TEST(Tools, RvolRenderTiledVolumeAcrossItsTiles) {
+    ScratchDir dir;
+    const auto scene = vox::scenes::writeCornellBox(dir.path());
+    const auto index = dir / "tiled.rvol";
+    const ProcessResult bake =
+        voxelize({scene.string(), "--radiance", index.string(), "--radiance-depth", "6",
+                  "--radiance-tile-depth", "4", "--bounces", "1"});
+    ASSERT_EQ(bake.exitCode, 0) << bake.err;
+    ASSERT_TRUE(vox::rvol::isTileIndex(index));
+    const auto png = dir / "tiled.png";
+    const auto render = [&](const std::filesystem::path& out, const std::string& threads) {
+        std::vector<std::string> args{"render", index.string(), "--scene",   scene.string(),
+                                      "-o",     out.string(),   "--threads", threads};
+        args.insert(args.end(), kCornellCamera.begin(), kCornellCamera.end());
+        return voxinspect(args);
+    };
+    ASSERT_NO_FATAL_FAILURE(expectCornellRender(render(png, "1"), png));
+    // Tiles are opened as the cones first reach them, by whichever thread: the same image.
+    const auto threaded = dir / "threaded.png";
+    ASSERT_EQ(render(threaded, "2").exitCode, 0);
+    EXPECT_EQ(readBytes(png), readBytes(threaded));
+
+    // A missing tile (the one holding most voxels: a wall the camera sees) is a file that cannot
+    // be read: exit 2, one line naming it, no image.
+    const vox::rvol::TileIndex tiles = vox::rvol::readTileIndex(index);
+    const auto largest = std::max_element(
+        tiles.tiles.begin(), tiles.tiles.end(),
+        [](const auto& a, const auto& b) { return a.staticVoxels < b.staticVoxels; });
+    ASSERT_NE(largest, tiles.tiles.end());
+    const auto missing = vox::rvol::tilePath(index, largest->x, largest->y, largest->z);
+    std::filesystem::remove(missing);
+    std::filesystem::remove(png);
+    expectOneLineError(render(png, "2"), 2, missing.string(), "voxinspect");
+    EXPECT_FALSE(std::filesystem::exists(png));
+    for (const std::string& name : dir.files())
+        EXPECT_FALSE(vox::AtomicFile::isTemporaryName(name)) << name;
 }
 
 TEST(Tools, LightcutsLightTheBakeAndTheRenderAndReportTheirStatistics) {

@@ -8,8 +8,10 @@
 #include <vox/formats/rvol_tiles.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <fstream>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 
@@ -248,11 +250,24 @@ void checkAgainstIndex(const RvolReader& reader, const TileIndex& index, std::ui
 
 }  // namespace
 
+/// The files opened so far. A slot is published (release) once its reader is open and checked,
+/// so that samplers reach an open file without locking; opening takes the mutex, one file at a
+/// time, which costs little next to the sampling that follows.
+struct TiledRvolReader::OpenFiles {
+    explicit OpenFiles(std::size_t tileCount) : tiles(tileCount), ownedTiles(tileCount) {}
+
+    std::mutex mutex;
+    std::vector<std::atomic<const RvolReader*>> tiles;
+    std::atomic<const RvolReader*> far{nullptr};
+    std::vector<std::unique_ptr<RvolReader>> ownedTiles;  // guarded by mutex
+    std::unique_ptr<RvolReader> ownedFar;                 // guarded by mutex
+};
+
 TiledRvolReader::TiledRvolReader(std::filesystem::path index)
     : path_(std::move(index)), index_(readTileIndex(path_)) {
     for (std::size_t i = 0; i < index_.tiles.size(); ++i)
         byMorton_.emplace(index_.tiles[i].morton(), i);
-    tiles_.resize(index_.tiles.size());
+    open_ = std::make_unique<OpenFiles>(index_.tiles.size());
 }
 
 TiledRvolReader::~TiledRvolReader() = default;
@@ -264,25 +279,30 @@ std::int64_t TiledRvolReader::findTile(std::uint32_t x, std::uint32_t y,
 }
 
 const RvolReader& TiledRvolReader::tile(std::size_t i) const {
-    if (!tiles_.at(i)) {
-        const TileEntry& t = index_.tiles[i];
-        auto reader = std::make_unique<RvolReader>(tilePath(path_, t.x, t.y, t.z));
-        checkAgainstIndex(*reader, index_, index_.tileDepth, index_.tileOrigin(t.x, t.y, t.z),
-                          index_.tileSize(), t.headerChecksum, t.fileBytes);
-        reader->setCacheBytes(8u << 20);
-        tiles_[i] = std::move(reader);
-    }
-    return *tiles_[i];
+    std::atomic<const RvolReader*>& slot = open_->tiles.at(i);
+    if (const RvolReader* open = slot.load(std::memory_order_acquire)) return *open;
+    const std::lock_guard lock(open_->mutex);
+    if (const RvolReader* open = slot.load(std::memory_order_relaxed)) return *open;
+    const TileEntry& t = index_.tiles[i];
+    auto reader = std::make_unique<RvolReader>(tilePath(path_, t.x, t.y, t.z));
+    checkAgainstIndex(*reader, index_, index_.tileDepth, index_.tileOrigin(t.x, t.y, t.z),
+                      index_.tileSize(), t.headerChecksum, t.fileBytes);
+    reader->setCacheBytes(8u << 20);
+    open_->ownedTiles[i] = std::move(reader);
+    slot.store(open_->ownedTiles[i].get(), std::memory_order_release);
+    return *open_->ownedTiles[i];
 }
 
 const RvolReader& TiledRvolReader::farField() const {
-    if (!far_) {
-        auto reader = std::make_unique<RvolReader>(farFieldPath(path_));
-        checkAgainstIndex(*reader, index_, index_.farDepth, index_.origin, index_.size,
-                          index_.farHeaderChecksum, index_.farFileBytes);
-        far_ = std::move(reader);
-    }
-    return *far_;
+    if (const RvolReader* open = open_->far.load(std::memory_order_acquire)) return *open;
+    const std::lock_guard lock(open_->mutex);
+    if (const RvolReader* open = open_->far.load(std::memory_order_relaxed)) return *open;
+    auto reader = std::make_unique<RvolReader>(farFieldPath(path_));
+    checkAgainstIndex(*reader, index_, index_.farDepth, index_.origin, index_.size,
+                      index_.farHeaderChecksum, index_.farFileBytes);
+    open_->ownedFar = std::move(reader);
+    open_->far.store(open_->ownedFar.get(), std::memory_order_release);
+    return *open_->ownedFar;
 }
 
 Texel TiledRvolReader::cell(std::uint32_t level, std::uint32_t channel, std::uint32_t x,
@@ -327,6 +347,13 @@ Texel TiledRvolReader::sample(std::uint32_t level, std::uint32_t channel,
         c1[a] = std::min(c0[a] + 1, resolution - 1);
         f[a] = u - fl;
     }
+    // Where one tile owns all eight cells, its own filter reads them: one brick lookup, not eight.
+    const std::uint32_t shift = index_.tileDepth - level;
+    if (c0[0] >> shift == c1[0] >> shift && c0[1] >> shift == c1[1] >> shift &&
+        c0[2] >> shift == c1[2] >> shift) {
+        const std::int64_t t = findTile(c0[0] >> shift, c0[1] >> shift, c0[2] >> shift);
+        return t < 0 ? Texel{} : tile(static_cast<std::size_t>(t)).sample(level, channel, position);
+    }
     double sum[4] = {0, 0, 0, 0};
     for (int corner = 0; corner < 8; ++corner) {
         const double w = (corner & 1 ? f[0] : 1 - f[0]) * (corner & 2 ? f[1] : 1 - f[1]) *
@@ -355,6 +382,11 @@ Texel TiledRvolReader::sampleDirectional(std::uint32_t level, const std::array<d
             facing[a] =
                 sample(level, static_cast<std::uint32_t>(2 * a + (direction[a] < 0)), position);
     return combineDirectional(facing, direction);
+}
+
+std::unique_ptr<RvolSampler> openRvolSampler(const std::filesystem::path& file) {
+    if (isTileIndex(file)) return std::make_unique<TiledRvolReader>(file);
+    return std::make_unique<RvolReader>(file);
 }
 
 // ---- validation -----------------------------------------------------------------------------

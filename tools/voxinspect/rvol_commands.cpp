@@ -256,25 +256,9 @@ void sample(const RvolCommands& c) {
     const Vec3d at = parseVector(c.at, "--at");
     const bool hasDir = !c.dir.empty();
     const Vec3d dir = hasDir ? parseDirection(c.dir) : Vec3d{0, 0, 0};
-    // A tile index samples across its tiles as one volume; a single file as it is.
-    std::unique_ptr<rvol::TiledRvolReader> tiled;
-    std::unique_ptr<rvol::RvolReader> single;
-    if (rvol::isTileIndex(c.file))
-        tiled = std::make_unique<rvol::TiledRvolReader>(c.file);
-    else
-        single = std::make_unique<rvol::RvolReader>(c.file);
-    const struct {
-        const rvol::TiledRvolReader* tiled;
-        const rvol::RvolReader* single;
-        rvol::Texel sample(std::uint32_t l, std::uint32_t k, const std::array<double, 3>& p) const {
-            return tiled ? tiled->sample(l, k, p) : single->sample(l, k, p);
-        }
-        rvol::Texel sampleDirectional(std::uint32_t l, const std::array<double, 3>& p,
-                                      const std::array<double, 3>& d) const {
-            return tiled ? tiled->sampleDirectional(l, p, d) : single->sampleDirectional(l, p, d);
-        }
-    } reader{tiled.get(), single.get()};
-    const std::uint32_t depth = tiled ? tiled->index().depth : single->header().depth;
+    const std::unique_ptr<rvol::RvolSampler> file = rvol::openRvolSampler(c.file);
+    const rvol::RvolSampler& reader = *file;
+    const std::uint32_t depth = reader.depth();
     if (c.level < 0 || static_cast<std::uint32_t>(c.level) > depth)
         throw UsageError("--level " + std::to_string(c.level) + ": " + c.file +
                          " has levels 0 to " + std::to_string(depth));
@@ -395,14 +379,18 @@ void render(const RvolCommands& r, const EsvoCommands& c) {
         throw UsageError("render " + c.file +
                          " needs --scene SCENE or --esvo FILE.esvo for the primary hits");
 
-    const rvol::RvolReader reader(c.file);
-    const rvol::Volume volume = reader.readVolume();
-    const RadianceField field(volume);
+    // One file is read whole, so that the cones look texels up without locks; a tiled volume
+    // (larger than memory, by design) is sampled from its files as the cones reach them.
+    const std::unique_ptr<rvol::RvolSampler> file = rvol::openRvolSampler(c.file);
+    const auto* single = dynamic_cast<const rvol::RvolReader*>(file.get());
+    const rvol::Volume volume = single ? single->readVolume() : rvol::Volume{};
+    const RadianceField field = single ? RadianceField(volume) : RadianceField(*file);
+    const rvol::BakeInfo& bake = file->bakeInfo();
     FinalGatherOptions options;
     options.specularApertureDegrees = r.specAperture;
     options.shadowApertureDegrees = r.shadowAperture;
     options.shadowCones = !r.noShadowCones;
-    options.aoLambda = reader.header().bake.aoLambda;
+    options.aoLambda = bake.aoLambda;
     options.lightcuts = parseLightcutsMode(r.lightcuts);
     options.lightcut.relativeError = r.lightcutError;
     options.lightcut.criterion = parseLightcutCriterion(r.lightcutCriterion);
@@ -413,14 +401,14 @@ void render(const RvolCommands& r, const EsvoCommands& c) {
     if (!r.scene.empty()) scene = importScene(r.scene);
     const FinalGather gather(field, scene.lights, options);
     if (r.scene.empty()) {
-        if (reader.header().bake.lights > 0)
+        if (bake.lights > 0)
             log::warning(r.esvo +
                          ": no lights without --scene: the direct term is 0 (the bake had " +
-                         std::to_string(reader.header().bake.lights) + ")");
-    } else if (gather.staticLightCount() != reader.header().bake.lights) {
+                         std::to_string(bake.lights) + ")");
+    } else if (gather.staticLightCount() != bake.lights) {
         log::warning(r.scene + ": " + std::to_string(gather.staticLightCount()) +
                      " static lights, but " + c.file + " was baked with " +
-                     std::to_string(reader.header().bake.lights));
+                     std::to_string(bake.lights));
     }
 
     FinalGatherImage image;
@@ -572,10 +560,6 @@ bool RvolCommands::run() {
     const bool rvolFile = isRvolFile(c.file);
     if (c.render->parsed()) {
         if (rvolFile) {
-            if (rvol::isTileIndex(c.file))
-                throw UsageError("render: " + c.file +
-                                 " is a tiled volume; render one of its tiles (" +
-                                 rvol::tileDirectory(c.file).string() + "/tile-X-Y-Z.rvol)");
             if (const char* option =
                     firstGiven(*c.render, {"--filter", "--depth-out", "--max-level",
                                            "--load-levels", "--lod-scale", "--beam"}))

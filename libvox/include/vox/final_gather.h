@@ -65,7 +65,8 @@ struct FinalGatherParts {
 };
 
 /// Shades surface points against one radiance volume and a set of punctual lights. Thread-safe
-/// (shade() only reads); the field (and its volume) must outlive it.
+/// (shade() only reads); the field (and its volume) must outlive it. Shading throws what the
+/// field's sampling throws (a volume read from files: IoError, InvalidDataError).
 class FinalGather {
 public:
     /// Lights the direct term with every light of @p lights, static and dynamic: the volume holds
@@ -77,14 +78,13 @@ public:
                 const FinalGatherOptions& options = {});
 
     /// Every term of @p point, the direct one by summing every light.
-    [[nodiscard]] FinalGatherParts shade(const ShadingPoint& point) const noexcept;
+    [[nodiscard]] FinalGatherParts shade(const ShadingPoint& point) const;
     /// Every term of @p point with the direct light (radiance) given: what renderFinalGather
     /// does once Lightcuts has lit its pixels.
-    [[nodiscard]] FinalGatherParts shade(const ShadingPoint& point, Vec3d direct) const noexcept;
+    [[nodiscard]] FinalGatherParts shade(const ShadingPoint& point, Vec3d direct) const;
     /// Visibility of one light from @p point (1 − the opacity a shadow cone from the offset point
     /// towards the light accumulates up to the light's distance); 1 without shadow cones.
-    [[nodiscard]] double visibility(const ShadingPoint& point,
-                                    const LightArrival& arrival) const noexcept;
+    [[nodiscard]] double visibility(const ShadingPoint& point, const LightArrival& arrival) const;
 
     [[nodiscard]] const RadianceField& field() const noexcept { return field_; }
     [[nodiscard]] const FinalGatherOptions& options() const noexcept { return options_; }
@@ -136,7 +136,7 @@ using ShadingPointFunction = std::function<bool(const Ray& ray, ShadingPoint& ou
 /// hit; the direct light of all hit points through directLight (Lightcuts over view-frustum
 /// clusters, or brute force, as FinalGatherOptions say); then @p gather's shade() for the other
 /// terms, in parallel (TBB). Deterministic: the same inputs give the same image whatever the
-/// thread count. @throws UsageError for a bad camera.
+/// thread count. @throws UsageError for a bad camera, and what shading throws (FinalGather).
 [[nodiscard]] FinalGatherImage renderFinalGather(const FinalGather& gather,
                                                  const PinholeCamera& camera,
                                                  const ShadingPointFunction& surface);

@@ -1,9 +1,12 @@
 /// @file radiance_field.h
-/// @brief Sampling and cone tracing over an rvol::Volume in memory (Gui et al. 2019, 2.3–2.4): the
-/// bake's bounces, `voxinspect render`'s final gather and the tests all trace cones through this.
+/// @brief Sampling and cone tracing over a radiance volume (Gui et al. 2019, 2.3–2.4), an
+/// rvol::Volume in memory or a volume read through an rvol::RvolSampler (a file, a tiled volume):
+/// the bake's bounces, `voxinspect render`'s final gather and the tests all trace cones through
+/// this.
 #pragma once
 
 #include <vox/formats/rvol.h>
+#include <vox/formats/rvol_sampler.h>
 #include <vox/base/math.h>
 
 #include <cstddef>
@@ -12,23 +15,31 @@
 
 namespace vox {
 
-/// Read access to a volume's levels with a dense block index per level, for fast lookups. The
-/// volume must outlive the field and keep its blocks (texel values may change: the bake rewrites
-/// them each bounce).
+/// Read access to a volume's levels. Over an rvol::Volume: a dense block index per level, for
+/// fast lookups; the volume must outlive the field and keep its blocks (texel values may change:
+/// the bake rewrites them each bounce). Over an rvol::RvolSampler: every sample is the sampler's,
+/// and the sampling members throw what it throws (a file that cannot be read). Const members are
+/// thread-safe.
 class RadianceField {
 public:
     explicit RadianceField(const rvol::Volume& volume);
+    /// Samples through @p sampler, which must outlive the field.
+    explicit RadianceField(const rvol::RvolSampler& sampler);
 
-    [[nodiscard]] const rvol::Volume& volume() const noexcept { return volume_; }
+    /// Level 0 has 2^depth() cells per axis.
+    [[nodiscard]] std::uint32_t depth() const noexcept { return depth_; }
+    /// Root cube: minimum corner and edge, world units.
+    [[nodiscard]] Vec3d origin() const noexcept { return origin_; }
+    [[nodiscard]] double size() const noexcept { return size_; }
 
     /// Trilinear sample of level @p level at world point @p p, the cone looking along unit @p dir:
     /// level 0's single channel, or the three directional channels facing @p dir: colour blended
     /// by dir_s² (paper 2.3), opacity as 1 − Π_s (1 − a_s)^(|dir_s| / Σ|dir|), so a wall opaque
     /// along its normal stays opaque to oblique cones. Cell coordinates are clamped to the level,
     /// like a GPU's clamp-to-edge.
-    [[nodiscard]] rvol::Texel sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexcept;
+    [[nodiscard]] rvol::Texel sample(std::uint32_t level, Vec3d p, Vec3d dir) const;
     /// Between levels: linear in the fractional level (clamped to [0, depth]).
-    [[nodiscard]] rvol::Texel sampleLod(double level, Vec3d p, Vec3d dir) const noexcept;
+    [[nodiscard]] rvol::Texel sampleLod(double level, Vec3d p, Vec3d dir) const;
 
     /// One cone: from @p origin along unit @p dir, half-angle tangent @p tanHalfAngle, samples from
     /// @p start to @p maxDistance (world units) stepping half a footprint, compositing front to
@@ -54,7 +65,7 @@ public:
     /// @p aoLambda: eq. 4's λ, per root-cube edge of cone radius. @p opacityOnly skips radiance
     /// (shadow cones).
     [[nodiscard]] ConeResult traceCone(const Cone& cone, double aoLambda,
-                                       bool opacityOnly = false) const noexcept;
+                                       bool opacityOnly = false) const;
 
     /// The diffuse gather's cones over the hemisphere of a normal n with tangent frame (t, b):
     /// one along n and kRing tilted from it, cone i along
@@ -80,10 +91,10 @@ public:
         double occlusion = 0;  ///< cosine-weighted mean of the cones' eq. 4 occlusion
     };
     [[nodiscard]] Gather gatherDiffuse(Vec3d point, Vec3d normal, double offset,
-                                       double aoLambda) const noexcept;
+                                       double aoLambda) const;
 
     /// The texels of cell (x, y, z) of @p level (channel c at offset c·rvol::kBlockTexels), or null
-    /// where no block holds it. Coordinates must be inside the level.
+    /// where no block holds it. Coordinates must be inside the level; a field over a Volume only.
     [[nodiscard]] const rvol::Texel* cellTexels(std::uint32_t level, std::uint32_t x,
                                                 std::uint32_t y, std::uint32_t z) const noexcept;
 
@@ -95,7 +106,8 @@ public:
     /// @p far instead, at the level of
     /// the same footprint (never below far's level 0), and cones end, and ambient occlusion is
     /// scaled, by far's root cube. @p far must cover this volume, with a finest cell 2^k times
-    /// this one's (k ≥ 0), and outlive this field; null detaches it.
+    /// this one's (k ≥ 0), and outlive this field; null detaches it. A field over a Volume only
+    /// (a sampler of a tiled volume reads its own far field).
     void setFarField(const RadianceField* far, Vec3d nearLo, Vec3d nearHi) noexcept;
 
 private:
@@ -104,10 +116,14 @@ private:
         std::vector<std::int32_t> blocks;  ///< dense: block index in the level, or -1
     };
     /// sampleLod here or, where the sample's filter leaves the near box, in the far field.
-    [[nodiscard]] rvol::Texel sampleNearOrFar(double level, Vec3d p, Vec3d dir) const noexcept;
+    [[nodiscard]] rvol::Texel sampleNearOrFar(double level, Vec3d p, Vec3d dir) const;
 
-    const rvol::Volume& volume_;
+    const rvol::Volume* volume_ = nullptr;        // either this
+    const rvol::RvolSampler* sampler_ = nullptr;  // or this
     std::vector<LevelIndex> index_;
+    Vec3d origin_{0, 0, 0};
+    double size_ = 1;
+    std::uint32_t depth_ = 0;
     double finestCell_ = 1;
     const RadianceField* far_ = nullptr;
     Vec3d nearLo_{0, 0, 0}, nearHi_{0, 0, 0};

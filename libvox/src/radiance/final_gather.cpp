@@ -45,8 +45,7 @@ FinalGather::FinalGather(const RadianceField& field, std::span<const Light> ligh
     offset_ = options.offsetCells * field.finestCell();
 }
 
-double FinalGather::visibility(const ShadingPoint& point,
-                               const LightArrival& arrival) const noexcept {
+double FinalGather::visibility(const ShadingPoint& point, const LightArrival& arrival) const {
     if (!options_.shadowCones) return 1;
     const Vec3d origin = point.position + point.normal * offset_;
     double maxDistance = 1e30;
@@ -71,7 +70,7 @@ std::size_t FinalGather::staticLightCount() const noexcept {
         std::count_if(lights_.begin(), lights_.end(), [](const Light& l) { return !l.dynamic; }));
 }
 
-FinalGatherParts FinalGather::shade(const ShadingPoint& point) const noexcept {
+FinalGatherParts FinalGather::shade(const ShadingPoint& point) const {
     Vec3d irradiance{0, 0, 0};  // direct, after the cosine and visibility
     for (const Light& light : lights_) {
         LightArrival arrival;
@@ -85,7 +84,7 @@ FinalGatherParts FinalGather::shade(const ShadingPoint& point) const noexcept {
     return shade(point, point.albedo / kPi * irradiance);
 }
 
-FinalGatherParts FinalGather::shade(const ShadingPoint& point, Vec3d direct) const noexcept {
+FinalGatherParts FinalGather::shade(const ShadingPoint& point, Vec3d direct) const {
     FinalGatherParts out;
     const Vec3d n = point.normal;
     const Vec3d albedoOverPi = point.albedo / kPi;

@@ -11,7 +11,12 @@ using rvol::kBlockTexels;
 using rvol::Texel;
 
 RadianceField::RadianceField(const rvol::Volume& volume)
-    : volume_(volume), index_(volume.levels.size()) {
+    : volume_(&volume),
+      index_(volume.levels.size()),
+      origin_{volume.origin[0], volume.origin[1], volume.origin[2]},
+      size_(volume.size),
+      // The levels present (depth + 1 once allocated).
+      depth_(static_cast<std::uint32_t>(volume.levels.size()) - 1) {
     finestCell_ = volume.cellSize(0);
     for (std::size_t l = 0; l < volume.levels.size(); ++l) {
         const rvol::Level& level = volume.levels[l];
@@ -29,6 +34,13 @@ RadianceField::RadianceField(const rvol::Volume& volume)
     }
 }
 
+RadianceField::RadianceField(const rvol::RvolSampler& sampler)
+    : sampler_(&sampler),
+      origin_{sampler.origin()[0], sampler.origin()[1], sampler.origin()[2]},
+      size_(sampler.size()),
+      depth_(sampler.depth()),
+      finestCell_(sampler.size() / double(std::uint64_t{1} << sampler.depth())) {}
+
 const Texel* RadianceField::cellTexels(std::uint32_t level, std::uint32_t x, std::uint32_t y,
                                        std::uint32_t z) const noexcept {
     const LevelIndex& index = index_[level];
@@ -37,18 +49,19 @@ const Texel* RadianceField::cellTexels(std::uint32_t level, std::uint32_t x, std
                          index.blocksPerAxis +
                      x / kBlockCells];
     if (block < 0) return nullptr;
-    const rvol::Level& l = volume_.levels[level];
+    const rvol::Level& l = volume_->levels[level];
     return l.texels.data() +
            rvol::Level::texelIndex(static_cast<std::size_t>(block), l.channels, 0, x, y, z);
 }
 
-Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexcept {
-    const rvol::Level& l = volume_.levels[level];
-    const double cellSize = volume_.cellSize(level);
+Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const {
+    if (sampler_) return sampler_->sampleDirectional(level, {p.x, p.y, p.z}, {dir.x, dir.y, dir.z});
+    const rvol::Level& l = volume_->levels[level];
+    const double cellSize = volume_->cellSize(level);
     const double last = l.resolution - 1.0;
     double u[3];
     for (int axis = 0; axis < 3; ++axis)
-        u[axis] = std::clamp((p[axis] - volume_.origin[axis]) / cellSize - 0.5, 0.0, last);
+        u[axis] = std::clamp((p[axis] - origin_[axis]) / cellSize - 0.5, 0.0, last);
     std::uint32_t c0[3], c1[3];
     double f[3];
     for (int axis = 0; axis < 3; ++axis) {
@@ -92,13 +105,12 @@ Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const noexc
     return rvol::combineDirectional(facing, {dir.x, dir.y, dir.z});
 }
 
-Texel RadianceField::sampleLod(double level, Vec3d p, Vec3d dir) const noexcept {
-    const double top = static_cast<double>(volume_.levels.size() - 1);
-    level = std::clamp(level, 0.0, top);
+Texel RadianceField::sampleLod(double level, Vec3d p, Vec3d dir) const {
+    level = std::clamp(level, 0.0, static_cast<double>(depth_));
     const auto lo = static_cast<std::uint32_t>(std::floor(level));
     const double f = level - lo;
     const Texel a = sample(lo, p, dir);
-    if (f <= 0 || lo + 1 >= volume_.levels.size()) return a;
+    if (f <= 0 || lo >= depth_) return a;
     const Texel b = sample(lo + 1, p, dir);
     const auto mix = [f](float x, float y) { return static_cast<float>(x + (y - x) * f); };
     return {mix(a.r, b.r), mix(a.g, b.g), mix(a.b, b.b), mix(a.a, b.a)};
@@ -111,14 +123,14 @@ void RadianceField::setFarField(const RadianceField* far, Vec3d nearLo, Vec3d ne
     farLevelOffset_ = far ? std::round(std::log2(far->finestCell_ / finestCell_)) : 0;
 }
 
-Texel RadianceField::sampleNearOrFar(double level, Vec3d p, Vec3d dir) const noexcept {
+Texel RadianceField::sampleNearOrFar(double level, Vec3d p, Vec3d dir) const {
     if (far_) {
         // The two cells per axis that the upper of the two levels sampleLod blends filters (they
         // hold the lower level's) must lie inside the near box: a cell that straddles its edge
         // holds only some of its voxels, and reads too dark and too clear.
         const double c = finestCell_ * std::exp2(std::ceil(std::max(level, 0.0)));
         for (int axis = 0; axis < 3; ++axis) {
-            const double o = volume_.origin[static_cast<std::size_t>(axis)];
+            const double o = origin_[axis];
             const double first = std::floor((p[axis] - o) / c - 0.5);
             if (o + first * c < nearLo_[axis] || o + (first + 2) * c > nearHi_[axis])
                 return far_->sampleLod(std::max(level - farLevelOffset_, 0.0), p, dir);
@@ -128,14 +140,14 @@ Texel RadianceField::sampleNearOrFar(double level, Vec3d p, Vec3d dir) const noe
 }
 
 RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLambda,
-                                                   bool opacityOnly) const noexcept {
+                                                   bool opacityOnly) const {
     ConeResult out;
     // With a far field the cone runs through the far field's (the world's) cube.
-    const rvol::Volume& outer = far_ ? far_->volume_ : volume_;
-    const double size = outer.size;
-    const Vec3d lo{outer.origin[0], outer.origin[1], outer.origin[2]};
+    const RadianceField& outer = far_ ? *far_ : *this;
+    const double size = outer.size_;
+    const Vec3d lo = outer.origin_;
     const Vec3d hi = lo + Vec3d{size, size, size};
-    const double top = static_cast<double>(outer.levels.size() - 1) + (far_ ? farLevelOffset_ : 0);
+    const double top = static_cast<double>(outer.depth_) + (far_ ? farLevelOffset_ : 0);
     double t = std::max(cone.start, 0.5 * finestCell_);
     double opacity = 0, occlusion = 0;
     Vec3d radiance{0, 0, 0};
@@ -175,7 +187,7 @@ RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLa
 }
 
 RadianceField::Gather RadianceField::gatherDiffuse(Vec3d point, Vec3d normal, double offset,
-                                                   double aoLambda) const noexcept {
+                                                   double aoLambda) const {
     const DiffuseCones& cones = diffuseCones();
     // A tangent frame that depends only on the normal (deterministic).
     const Vec3d helper = std::abs(normal.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};

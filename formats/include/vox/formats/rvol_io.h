@@ -6,6 +6,7 @@
 #pragma once
 
 #include <vox/formats/rvol.h>
+#include <vox/formats/rvol_sampler.h>
 
 #include <array>
 #include <cstdint>
@@ -287,15 +288,21 @@ RvolWriteResult writeRvol(const std::filesystem::path& file, const Volume& volum
 /// ascending Morton order per level); bricks and attributes are read when asked for. Every
 /// allocation is bounded by the file's size. Errors: IoError (2), InvalidDataError (3) naming the
 /// file and the problem. Every const member function is thread-safe.
-class RvolReader {
+class RvolReader final : public RvolSampler {
 public:
     explicit RvolReader(std::filesystem::path file);
-    ~RvolReader();
+    ~RvolReader() override;
     RvolReader(const RvolReader&) = delete;
     RvolReader& operator=(const RvolReader&) = delete;
 
     [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
     [[nodiscard]] const Header& header() const noexcept { return header_; }
+    [[nodiscard]] std::uint32_t depth() const noexcept override { return header_.depth; }
+    [[nodiscard]] const std::array<double, 3>& origin() const noexcept override {
+        return header_.origin;
+    }
+    [[nodiscard]] double size() const noexcept override { return header_.size; }
+    [[nodiscard]] const BakeInfo& bakeInfo() const noexcept override { return header_.bake; }
     [[nodiscard]] const std::vector<LevelEntry>& levels() const noexcept { return levels_; }
     [[nodiscard]] const LevelEntry& level(std::uint32_t level) const { return levels_.at(level); }
     /// Every directory entry, level 0's first.
@@ -335,14 +342,14 @@ public:
     /// setCacheBytes). @throws std::out_of_range for a bad level or channel, InvalidDataError if
     /// a brick read fails its checksum.
     [[nodiscard]] Texel sample(std::uint32_t level, std::uint32_t channel,
-                               const std::array<double, 3>& position) const;
+                               const std::array<double, 3>& position) const override;
     /// What a cone travelling along @p direction sees at @p position: Σ over the axes s of
     /// d_s²/|d|² × sample of the channel of s with d_s's sign (PosX for d_x > 0, NegX for d_x < 0;
     /// the directional convention of rvol.h). Level 0: the isotropic channel. A zero or
     /// non-finite @p direction gives zero at levels ≥ 1.
     [[nodiscard]] Texel sampleDirectional(std::uint32_t level,
                                           const std::array<double, 3>& position,
-                                          const std::array<double, 3>& direction) const;
+                                          const std::array<double, 3>& direction) const override;
     /// Bytes of decoded bricks kept for sample() (least recently used go first); 64 MiB by default.
     void setCacheBytes(std::uint64_t bytes) const;
 

@@ -90,18 +90,31 @@ void writeTileIndex(const std::filesystem::path& file, const TileIndex& index);
 /// A tiled volume open for sampling: the index, and the tile and far-field files opened on first
 /// use, each checked against its index entry (header checksum, size, depth, geometry). Samples
 /// cross tile borders as a single volume of depth D would: level l ≤ T reads every cell from the
-/// tile owning it, levels above T come from the far field. Not thread-safe.
-class TiledRvolReader {
+/// tile owning it, levels above T come from the far field. Every const member function is
+/// thread-safe: a file is opened once, by the first caller that needs it, while others wait for
+/// it; a file that fails to open is tried again by the next caller.
+class TiledRvolReader final : public RvolSampler {
 public:
+    /// Reads and checks the index (readTileIndex). @throws IoError, InvalidDataError.
     explicit TiledRvolReader(std::filesystem::path index);
-    ~TiledRvolReader();
+    ~TiledRvolReader() override;
+    TiledRvolReader(const TiledRvolReader&) = delete;
+    TiledRvolReader& operator=(const TiledRvolReader&) = delete;
 
     [[nodiscard]] const TileIndex& index() const noexcept { return index_; }
     [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
+    [[nodiscard]] std::uint32_t depth() const noexcept override { return index_.depth; }
+    [[nodiscard]] const std::array<double, 3>& origin() const noexcept override {
+        return index_.origin;
+    }
+    [[nodiscard]] double size() const noexcept override { return index_.size; }
+    [[nodiscard]] const BakeInfo& bakeInfo() const noexcept override { return index_.bake; }
+
     /// Index in index().tiles of tile (x, y, z), or -1.
     [[nodiscard]] std::int64_t findTile(std::uint32_t x, std::uint32_t y,
                                         std::uint32_t z) const noexcept;
-    /// Tile @p i opened and checked against its entry. @throws IoError, InvalidDataError.
+    /// Tile @p i opened and checked against its entry. @throws std::out_of_range for a bad @p i,
+    /// IoError, InvalidDataError.
     [[nodiscard]] const RvolReader& tile(std::size_t i) const;
     /// The far field opened and checked. @throws IoError, InvalidDataError.
     [[nodiscard]] const RvolReader& farField() const;
@@ -110,21 +123,28 @@ public:
     /// ≤ T (zero where no tile is listed), from the far field above.
     [[nodiscard]] Texel cell(std::uint32_t level, std::uint32_t channel, std::uint32_t x,
                              std::uint32_t y, std::uint32_t z) const;
-    /// Trilinear sample as RvolReader::sample over the whole depth-D volume.
+    /// Trilinear sample as RvolReader::sample over the whole depth-D volume: each of the eight
+    /// cells from the tile owning it (where one tile owns all eight, its own filter reads them,
+    /// equal up to rounding), levels above T from the far field.
     [[nodiscard]] Texel sample(std::uint32_t level, std::uint32_t channel,
-                               const std::array<double, 3>& position) const;
+                               const std::array<double, 3>& position) const override;
     /// As RvolReader::sampleDirectional over the whole depth-D volume.
     [[nodiscard]] Texel sampleDirectional(std::uint32_t level,
                                           const std::array<double, 3>& position,
-                                          const std::array<double, 3>& direction) const;
+                                          const std::array<double, 3>& direction) const override;
 
 private:
+    struct OpenFiles;
+
     std::filesystem::path path_;
     TileIndex index_;
     std::map<std::uint64_t, std::size_t> byMorton_;
-    mutable std::vector<std::unique_ptr<RvolReader>> tiles_;
-    mutable std::unique_ptr<RvolReader> far_;
+    std::unique_ptr<OpenFiles> open_;
 };
+
+/// @p file open for sampling: a TiledRvolReader where it starts with the tile index magic
+/// (isTileIndex), else an RvolReader. @throws what their constructors throw.
+[[nodiscard]] std::unique_ptr<RvolSampler> openRvolSampler(const std::filesystem::path& file);
 
 /// What validateTiledRvol found.
 struct TiledRvolReport {
