@@ -140,8 +140,8 @@ TEST(RvolGpuVolume, UploadsEveryBrickIntoAtlasSlotsAndEvictedBricksFallBackToThe
     for (const auto& s : before) total += s[0] + s[1] + s[2] + s[3];
     EXPECT_GT(total, 0);
     const std::uint32_t rgbUsed = volume.rgbSlots().used(), alphaUsed = volume.alphaSlots().used();
-    volume.evictBrick(1, 0);
-    EXPECT_FALSE(volume.resident(1, 0));
+    volume.evictBrick({rt::kBaseFile, 1, 0});
+    EXPECT_FALSE(volume.resident({rt::kBaseFile, 1, 0}));
     EXPECT_EQ(volume.rgbSlots().used(), rgbUsed - std::popcount(e.planes & 0x3Fu));
     EXPECT_EQ(volume.alphaSlots().used(), alphaUsed - std::popcount(unsigned{e.planes} >> 6));
     // A missing brick is not empty: samples there fall back to the level above, which holds.
@@ -151,7 +151,7 @@ TEST(RvolGpuVolume, UploadsEveryBrickIntoAtlasSlotsAndEvictedBricksFallBackToThe
     double fallback = 0;
     for (const auto& s : gather.sample(volume, queries)) fallback += s[0] + s[1] + s[2] + s[3];
     EXPECT_GT(fallback, 0);
-    ASSERT_TRUE(volume.uploadBrick(1, 0));
+    ASSERT_TRUE(volume.uploadBrick({rt::kBaseFile, 1, 0}));
     EXPECT_EQ(volume.rgbSlots().used(), rgbUsed);
     EXPECT_EQ(gather.sample(volume, queries), before);
     EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
@@ -325,7 +325,7 @@ TEST(RvolResidency, AClipmapAroundTheEyeWithinTheBudgetFallsBackToCoarserLevelsA
     std::uint64_t fullBytes = 0;
     for (std::uint32_t l = 0; l < h.levelCount; ++l)
         for (std::uint32_t i = 0; i < b.reader->level(l).brickCount; ++i)
-            fullBytes += full.brickBytes(l, i);
+            fullBytes += full.brickBytes({rt::kBaseFile, l, i});
     const std::uint64_t budget = fullBytes / 4;
     rt::RvolGpuVolume streamed(*gl, *b.reader, {.uploadAll = false, .atlasBytes = budget});
     EXPECT_LT(streamed.residentBytes(), full.residentBytes())
@@ -345,10 +345,10 @@ TEST(RvolResidency, AClipmapAroundTheEyeWithinTheBudgetFallsBackToCoarserLevelsA
     // The top level is whole, and every resident brick's level above is resident where it samples.
     const std::uint32_t top = h.levelCount - 1;
     for (std::uint32_t i = 0; i < b.reader->level(top).brickCount; ++i)
-        EXPECT_TRUE(streamed.resident(top, i));
+        EXPECT_TRUE(streamed.resident({rt::kBaseFile, top, i}));
     std::uint32_t fine = 0;
     for (std::uint32_t i = 0; i < b.reader->level(0).brickCount; ++i)
-        fine += streamed.resident(0, i);
+        fine += streamed.resident({rt::kBaseFile, 0, i});
     EXPECT_GT(fine, 0u);
     EXPECT_LT(fine, b.reader->level(0).brickCount);
 

@@ -3,8 +3,10 @@
 // A port of vox::RadianceField::sample / sampleLod / traceCone / gatherDiffuse
 // (libvox/src/radiance/radiance_field.cpp), rvol::combineDirectional (formats/src/rvol.cpp),
 // vox::lightArrival (libvox/src/lighting/punctual.cpp) and FinalGather::visibility / shade
-// (libvox/src/radiance/final_gather.cpp), over the atlases of RvolGpuVolume. Differences from the
-// CPU, all below the tests' tolerance (docs/runtime.md):
+// (libvox/src/radiance/final_gather.cpp), over the atlases of RvolGpuVolume: a single .rvol, or a
+// tiled volume (rvol::TiledRvolReader's sampling: levels up to the tile depth from the tile owning
+// each cell, the levels above from the far field). Differences from the CPU, all below the tests'
+// tolerance (docs/runtime.md):
 // - float instead of double;
 // - the opacity correction 1 − (1 − a)^(step/diameter) with step/diameter = ½ exactly (as on the
 //   CPU, where step = 0.5·diameter) written as a / (1 + sqrt(1 − a)): the same value without the
@@ -12,7 +14,8 @@
 // - with VOX_HARDWARE_FILTER the radiance (and the A8 opacity) is filtered by the texture unit,
 //   whose weights may be fixed point (8 bits on many GPUs); without it, eight texelFetch per
 //   plane with float weights, as the CPU does. Binary level-0 opacity is always fetched
-//   (GL_R32UI view, corners with a non-zero word).
+//   (GL_R32UI view, corners with a non-zero word), and so is the half cell along a tile border,
+//   whose corners lie in different tiles' bricks.
 // The host prepends "#version 450 core" and the #defines (VOX_MODE_SHADE or VOX_MODE_SAMPLE,
 // VOX_HARDWARE_FILTER).
 #pragma once
@@ -27,95 +30,171 @@ layout(binding = 0) uniform sampler3D uRgbAtlas;    // GL_RGB9_E5, GL_LINEAR
 layout(binding = 1) uniform usampler3D uWordAtlas;  // the same storage as GL_R32UI
 layout(binding = 2) uniform sampler3D uAlphaAtlas;  // GL_R8, GL_LINEAR
 
-struct LevelInfo { uint base; uint bricksPerAxis; uint resolution; uint planes; };
+const uint kMissingBrick = 0x80000000u;  // indirection: a brick the GPU does not hold
+const uint kMissingTile = 0x80000000u;   // tile table: a tile the GPU does not hold
+const uint kAbsentTile = 0x40000000u;    // tile table: a tile the index does not list (all zero)
+const uint kNoLevel = 0xFFFFFFFFu;
+const uint kBinaryOpacity = 0x10000u;    // LevelInfo.planes: level-0 opacity in the RGB words
+
+// One level table entry. Entries 0 … levelCount − 1 are the volume's levels 0 … depth; a tiled
+// volume appends the far field's levels that the tiles also cover (where a tile is missing).
+struct LevelInfo {
+    uint base;           // first indirection entry; of tiled levels, within a tile's block
+    uint bricksPerAxis;  // K of the file the level comes from (a tile's, for tiled levels)
+    uint resolution;     // cells per axis over the whole root cube
+    uint planes;         // per brick: 2 (isotropic, level-0 layout) or 9; | kBinaryOpacity
+    uint tileCells;      // cells per axis of a tile; 0: untiled (a single volume, the far field)
+    uint fallback;       // the entry to sample where a brick of this one is missing, or kNoLevel
+    uint coarser;        // the next coarser level's entry (sampleLod blends towards it), or kNoLevel
+    uint level;          // the volume level of its cells
+};
 layout(std430, binding = 4) readonly buffer RvolInfo {
     vec4 volOriginSize;   // origin xyz, size
-    uvec4 volGeometry;    // depth, N, levelCount, flags (bit 0: binary level-0 opacity)
+    uvec4 volGeometry;    // depth, N, levelCount (depth + 1), tiles per axis (tiled volumes)
+    uvec4 tileBlocks;     // first entry of tile slot 0's block, entries per block
     vec4 rgbAtlasSize;
     vec4 alphaAtlasSize;
     LevelInfo levels[];
 };
 layout(std430, binding = 5) readonly buffer RvolIndirection { uint slots[]; };
+// Per tile (x fastest): its slot, kMissingTile or kAbsentTile. One unused entry for a single volume.
+layout(std430, binding = 3) readonly buffer RvolTiles { uint tiles[]; };
 
 uvec3 slotTexel(uint slotWord) {
     return uvec3(slotWord & 1023u, (slotWord >> 10) & 1023u, (slotWord >> 20) & 1023u) * volGeometry.y;
 }
 
-// Where p falls in a level: the brick's first indirection entry and the continuous texel
-// coordinate t in [0, N − 1] inside the brick (RvolReader::sample's convention, which equals
-// RadianceField::sample's cell interpolation since bricks share faces).
-void locate(uint level, vec3 p, out uint entry, out vec3 t) {
-    LevelInfo L = levels[level];
+// The eight texels trilinear filtering reads around a point at one level, and where they lie
+// (set by locate(), read by the filters; globals, so that no call copies the arrays). Bricks share
+// faces, so inside one file the eight always lie in one brick (gOneBrick): the hardware filter
+// reads them at gT. Across a tile border they lie in two to eight bricks of different tiles,
+// fetched one by one (gEntry, gTexel per corner).
+bool gOneBrick;
+vec3 gT;           // gOneBrick: the continuous texel coordinate in [0, N − 1]
+vec3 gF;           // the weights of the upper corners
+uint gEntry0;      // gOneBrick: the brick's first indirection entry
+ivec3 gTexel0;     // gOneBrick: the lower corner's texel in it
+uint gEntry[8];    // else, per corner: its brick's first indirection entry
+ivec3 gTexel[8];   // else, per corner: its texel in that brick
+
+float cornerWeight(int c) {
+    return ((c & 1) != 0 ? gF.x : 1.0 - gF.x) * ((c & 2) != 0 ? gF.y : 1.0 - gF.y) * ((c & 4) != 0 ? gF.z : 1.0 - gF.z);
+}
+
+// The atlas texel of corner c of the footprint in the plane's atlas.
+ivec3 cornerTexel(int c, uint plane) {
+    if (gOneBrick) return ivec3(slotTexel(slots[gEntry0 + plane])) + gTexel0 + ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+    return ivec3(slotTexel(slots[gEntry[c] + plane])) + gTexel[c];
+}
+
+// The first indirection entry of brick b of a level whose bricks start at base.
+uint brickEntry(LevelInfo L, uint base, uvec3 b) {
+    uint k = L.bricksPerAxis;
+    return base + ((b.z * k + b.y) * k + b.x) * (L.planes & 0xFFFFu);
+}
+
+// Where tile `tile`'s level-L bricks start; false where the tile is not resident. An absent tile
+// is all zero: its bricks are entry 0, the zero brick (absent is set).
+bool tileLevelBase(LevelInfo L, uvec3 tile, out uint base, out bool absent) {
+    uint n = volGeometry.w;
+    uint word = tiles[(tile.z * n + tile.y) * n + tile.x];
+    absent = word == kAbsentTile;
+    base = absent ? 0u : tileBlocks.x + word * tileBlocks.y + L.base;
+    return word != kMissingTile;
+}
+
+// Where level entry e's filter reads around p (RvolReader::sample's convention over the whole
+// level; TiledRvolReader::sample's at tile borders); false where a brick it needs is missing.
+bool locate(uint e, vec3 p) {
+    LevelInfo L = levels[e];
     float cell = volOriginSize.w / float(L.resolution);
     vec3 u = clamp((p - volOriginSize.xyz) / cell - 0.5, vec3(0.0), vec3(float(L.resolution - 1u)));
     float span = float(volGeometry.y - 1u);
-    uvec3 b = min(uvec3(floor(u / span)), uvec3(L.bricksPerAxis - 1u));
-    t = u - vec3(b) * span;
-    uint k = L.bricksPerAxis;
-    entry = L.base + ((b.z * k + b.y) * k + b.x) * L.planes;
+    uvec3 c0 = uvec3(floor(u));
+    uvec3 c1 = min(c0 + 1u, uvec3(L.resolution - 1u));
+    gOneBrick = L.tileCells == 0u || all(equal(c0 / L.tileCells, c1 / L.tileCells));
+    if (gOneBrick) {
+        uint base = L.base;
+        bool absent = false;
+        if (L.tileCells != 0u) {
+            uvec3 tile = c0 / L.tileCells;
+            if (!tileLevelBase(L, tile, base, absent)) return false;
+            u -= vec3(tile * L.tileCells);
+        }
+        uvec3 b = min(uvec3(floor(u / span)), uvec3(L.bricksPerAxis - 1u));
+        gT = u - vec3(b) * span;
+        gEntry0 = absent ? 0u : brickEntry(L, base, b);
+        vec3 i = min(floor(gT), vec3(span - 1.0));
+        gF = gT - i;
+        gTexel0 = ivec3(i);
+        return slots[gEntry0] != kMissingBrick;
+    }
+    // Across a tile border: each corner from the tile that owns its cell.
+    gF = u - vec3(c0);
+    uint n = uint(span);
+    for (int c = 0; c < 8; ++c) {
+        uvec3 cell = mix(c0, c1, bvec3((c & 1) != 0, (c & 2) != 0, (c & 4) != 0));
+        uvec3 tile = cell / L.tileCells;
+        uint base;
+        bool absent;
+        if (!tileLevelBase(L, tile, base, absent)) return false;
+        uvec3 local = cell - tile * L.tileCells;
+        uvec3 b = min(local / n, uvec3(L.bricksPerAxis - 1u));
+        gEntry[c] = absent ? 0u : brickEntry(L, base, b);
+        gTexel[c] = ivec3(local - b * n);
+        if (slots[gEntry[c]] == kMissingBrick) return false;
+    }
+    return true;
 }
 
-// One RGB plane's radiance at t.
-vec3 filterRgb(uint slotWord, vec3 t) {
-    vec3 o = vec3(slotTexel(slotWord));
+// One RGB plane's radiance.
+vec3 filterRgb(uint plane) {
 #ifdef VOX_HARDWARE_FILTER
-    return texture(uRgbAtlas, (o + t + 0.5) / rgbAtlasSize.xyz).rgb;
-#else
-    vec3 i = min(floor(t), vec3(float(volGeometry.y - 2u)));
-    vec3 f = t - i;
-    ivec3 base = ivec3(o + i);
+    if (gOneBrick)
+        return textureLod(uRgbAtlas, (vec3(slotTexel(slots[gEntry0 + plane])) + gT + 0.5) / rgbAtlasSize.xyz, 0.0).rgb;
+#endif
     vec3 sum = vec3(0.0);
     for (int c = 0; c < 8; ++c) {
-        ivec3 d = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        float w = (d.x == 1 ? f.x : 1.0 - f.x) * (d.y == 1 ? f.y : 1.0 - f.y) * (d.z == 1 ? f.z : 1.0 - f.z);
+        float w = cornerWeight(c);
         if (w <= 0.0) continue;
-        sum += w * texelFetch(uRgbAtlas, base + d, 0).rgb;
+        sum += w * texelFetch(uRgbAtlas, cornerTexel(c, plane), 0).rgb;
     }
     return sum;
-#endif
 }
 
-// One A8 plane's opacity at t, and its transmittance 1 − opacity, computed so that it is 0 where
+// One A8 plane's opacity, and its transmittance 1 − opacity, computed so that it is 0 where
 // the CPU's opacity (a double sum rounded to float) is exactly 1: combineDirectional's
 // log(max(1 − a, 1e-12)) jumps from about −16.6 (1 − a = 2^-24) to −27.6 (a = 1) there, so
 // every corner's weight must leave no float error below 1.
-vec2 filterAlpha(uint slotWord, vec3 t) {
-    vec3 o = vec3(slotTexel(slotWord));
+vec2 filterAlpha(uint plane) {
 #ifdef VOX_HARDWARE_FILTER
-    float a = texture(uAlphaAtlas, (o + t + 0.5) / alphaAtlasSize.xyz).r;
-    // The filter's result within two float steps of 1 is an opaque neighbourhood (a sum of
-    // weights that does not quite reach 1): fully opaque, as the CPU's float rounding makes it.
-    float transmittance = 1.0 - a;
-    return transmittance <= exp2(-23.0) ? vec2(1.0, 0.0) : vec2(a, transmittance);
-#else
-    vec3 i = min(floor(t), vec3(float(volGeometry.y - 2u)));
-    vec3 f = t - i;
-    ivec3 base = ivec3(o + i);
+    if (gOneBrick) {
+        float a = textureLod(uAlphaAtlas, (vec3(slotTexel(slots[gEntry0 + plane])) + gT + 0.5) / alphaAtlasSize.xyz, 0.0).r;
+        // The filter's result within two float steps of 1 is an opaque neighbourhood (a sum of
+        // weights that does not quite reach 1): fully opaque, as the CPU's float rounding makes it.
+        float transmittance = 1.0 - a;
+        return transmittance <= exp2(-23.0) ? vec2(1.0, 0.0) : vec2(a, transmittance);
+    }
+#endif
     float sum = 0.0, transmittance = 0.0;
     for (int c = 0; c < 8; ++c) {
-        ivec3 d = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        float w = (d.x == 1 ? f.x : 1.0 - f.x) * (d.y == 1 ? f.y : 1.0 - f.y) * (d.z == 1 ? f.z : 1.0 - f.z);
+        float w = cornerWeight(c);
         if (w <= 0.0) continue;
-        float a = texelFetch(uAlphaAtlas, base + d, 0).r;
+        float a = texelFetch(uAlphaAtlas, cornerTexel(c, plane), 0).r;
         sum += w * a;
         transmittance += w * (1.0 - a);
     }
     // Below half a float step under 1 the CPU's opacity rounds to 1.
     return transmittance < exp2(-25.0) ? vec2(1.0, 0.0) : vec2(sum, transmittance);
-#endif
 }
 
 // Binary level-0 opacity: the trilinear weights of the corners whose RGB9E5 word is not 0.
-float filterBinaryAlpha(uint slotWord, vec3 t) {
-    vec3 i = min(floor(t), vec3(float(volGeometry.y - 2u)));
-    vec3 f = t - i;
-    ivec3 base = ivec3(vec3(slotTexel(slotWord)) + i);
+float filterBinaryAlpha() {
     float sum = 0.0;
     for (int c = 0; c < 8; ++c) {
-        ivec3 d = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        float w = (d.x == 1 ? f.x : 1.0 - f.x) * (d.y == 1 ? f.y : 1.0 - f.y) * (d.z == 1 ? f.z : 1.0 - f.z);
+        float w = cornerWeight(c);
         if (w <= 0.0) continue;
-        if (texelFetch(uWordAtlas, base + d, 0).r != 0u) sum += w;
+        if (texelFetch(uWordAtlas, cornerTexel(c, 0u), 0).r != 0u) sum += w;
     }
     return sum;
 }
@@ -140,53 +219,67 @@ vec4 combineDirectional(vec4 facing[3], float transmittance[3], vec3 d) {
     return vec4(rgb * scale, alpha);
 }
 
-// RadianceField::sample.
-vec4 sampleLevel(uint level, vec3 p, vec3 dir) {
-    uint entry;
-    vec3 t;
-    locate(level, p, entry, t);
-    if (level == 0u) {
-        vec3 rgb = filterRgb(slots[entry], t);
-        float a = (volGeometry.w & 1u) != 0u ? filterBinaryAlpha(slots[entry], t) : filterAlpha(slots[entry + 1u], t).x;
+// RadianceField::sample at level entry e, where locate() found the footprint.
+vec4 sampleLevel(uint e, vec3 dir) {
+    uint planes = levels[e].planes;
+    if ((planes & 0xFFFFu) == 2u) {
+        vec3 rgb = filterRgb(0u);
+        float a = (planes & kBinaryOpacity) != 0u ? filterBinaryAlpha() : filterAlpha(1u).x;
         return vec4(rgb, a);
     }
     vec4 facing[3];
     float transmittance[3];
     for (int a = 0; a < 3; ++a) {
         uint channel = uint(2 * a) + (dir[a] < 0.0 ? 1u : 0u);
-        vec2 alpha = filterAlpha(slots[entry + 6u + uint(a)], t);
-        facing[a] = vec4(filterRgb(slots[entry + channel], t), alpha.x);
+        vec2 alpha = filterAlpha(6u + uint(a));
+        facing[a] = vec4(filterRgb(channel), alpha.x);
         transmittance[a] = alpha.y;
     }
     return combineDirectional(facing, transmittance, dir);
 }
 
-// Whether the brick holding p at level is one the GPU does not hold (kMissingBrick: streamed out).
-bool missingAt(uint level, vec3 p) {
-    uint entry;
-    vec3 t;
-    locate(level, p, entry, t);
-    return slots[entry] == 0x80000000u;
-}
+// What this invocation's samples met: a missing brick served by a coarser cover (gFellBack), or
+// one with no resident cover at all, read as zero (gHole).
+bool gFellBack = false, gHole = false;
 
-// RadianceField::sampleLod; where streaming left the brick at the level missing, the finest
-// coarser level present (a residency keeps a brick's coarser cover whenever it keeps the brick).
+// RadianceField::sampleLod. Where streaming left a brick at the level missing, the entry's
+// fallback (the next coarser level; over a tiled level, the far field at the same level or its
+// finest) and so on up; a residency keeps those covers whenever it keeps the finer brick.
 vec4 sampleLod(float level, vec3 p, vec3 dir) {
     float top = float(volGeometry.z - 1u);
     level = clamp(level, 0.0, top);
-    uint lo = uint(floor(level));
-    while (lo + 1u < volGeometry.z && missingAt(lo, p)) {
-        ++lo;
-        level = max(level, float(lo));
+    uint e = uint(floor(level));
+    while (!locate(e, p)) {
+        gFellBack = true;
+        e = levels[e].fallback;
+        if (e == kNoLevel) {
+            gHole = true;
+            return vec4(0.0);
+        }
     }
-    float f = level - float(lo);
-    vec4 a = sampleLevel(lo, p, dir);
-    if (f <= 0.0 || lo + 1u >= volGeometry.z || missingAt(lo + 1u, p)) return a;
-    vec4 b = sampleLevel(lo + 1u, p, dir);
-    return a + (b - a) * f;
+    float f = level - float(levels[e].level);  // ≤ 0 where it fell back past the level asked for
+    uint c = levels[e].coarser;
+    // The level, then the coarser one it blends towards, through one sampleLevel call: a loop of
+    // unknown trip count, so that the compiler does not unroll it (every inlined copy of the
+    // filters costs a JIT compiler such as llvmpipe's seconds).
+    vec4 a = vec4(0.0);
+    for (bool first = true;; first = false) {
+        vec4 s = sampleLevel(e, dir);
+        if (!first) return a + (s - a) * f;
+        a = s;
+        if (f <= 0.0 || c == kNoLevel || !locate(c, p)) return a;
+        e = c;
+    }
 }
 
 float finestCell() { return volOriginSize.w / float(levels[0].resolution); }
+
+// Per dispatch: the points (queries) whose samples fell back to a coarser cover, or met a hole.
+layout(std430, binding = 9) buffer RvolCounters { uint fallbackCount; uint holeCount; };
+void countFallbacks() {
+    if (gFellBack) atomicAdd(fallbackCount, 1u);
+    if (gHole) atomicAdd(holeCount, 1u);
+}
 
 struct ConeResult { vec3 radiance; float opacity; float occlusion; };
 
@@ -296,77 +389,77 @@ bool lightArrival(GpuLight light, vec3 p, out vec3 toLight, out float distance, 
     return true;
 }
 
-// FinalGather::visibility.
-float visibility(vec3 position, vec3 n, vec3 toLight, float distance, bool infinite) {
-    if (!uShadowCones) return 1.0;
-    vec3 origin = position + n * uOffset;
-    float maxDistance = 1e30;
-    if (!infinite) {
-        vec3 light = position + toLight * distance;
-        maxDistance = length(light - origin) / (1.0 + 3.0 * uTanHalfShadow);
-    }
-    ConeResult r = traceCone(origin, toLight, uTanHalfShadow, 0.0, maxDistance, position + n * finestCell(), n, 0.0, true);
-    return 1.0 - r.opacity;
-}
-
 void main() {
     uint index = gl_GlobalInvocationID.x;
     if (index >= uCount) return;
     GatherPoint point = points[index];
     vec3 position = point.position.xyz, n = point.normal.xyz, albedoOverPi = point.albedo.rgb / kPi;
-
-    // Direct: Σ lights E · cos · visibility (FinalGather::shade(point)).
-    vec3 irradiance = vec3(0.0);
-    for (uint l = 0u; l < uLightCount; ++l) {
-        vec3 toLight, e;
-        float distance;
-        bool infinite;
-        if (!lightArrival(lights[l], position, toLight, distance, infinite, e)) continue;
-        float cosine = dot(n, toLight);
-        if (!(cosine > 0.0)) continue;
-        float v = visibility(position, n, toLight, distance, infinite);
-        if (!(v > 0.0)) continue;
-        irradiance += e * (cosine * v);
-    }
-    vec3 direct = albedoOverPi * irradiance;
-
-    // Indirect and AO: RadianceField::gatherDiffuse.
+    vec3 origin = position + n * uOffset;
+    vec3 planePoint = position + n * finestCell();
     vec3 helper = abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
     vec3 tangent = normalize(cross(helper, n));
     vec3 bitangent = cross(n, tangent);
-    vec3 origin = position + n * uOffset;
-    vec3 planePoint = position + n * finestCell();
-    vec3 gathered = vec3(0.0);
-    float occlusion = 0.0, weightSum = 0.0;
-    for (int i = 0; i < 7; ++i) {
-        vec3 dir = n;
-        float weight = uDiffuseWeights[0];
-        if (i > 0) {
-            dir = normalize(n * uDiffuseTilt.x + (tangent * uDiffuseCos[i - 1] + bitangent * uDiffuseSin[i - 1]) * uDiffuseTilt.y);
-            weight = uDiffuseWeights[1];
-        }
-        ConeResult r = traceCone(origin, dir, uDiffuseTanHalf, 0.0, 1e30, planePoint, n, uAoLambda, false);
-        gathered += r.radiance * weight;
-        occlusion += r.occlusion * weight;
-        weightSum += weight;
-    }
-    occlusion /= weightSum;
-    vec3 indirect = albedoOverPi * gathered;
-    float ao = clamp(1.0 - occlusion, 0.0, 1.0);
-
-    // Specular: Schlick(F0, n·v) × the cone along the mirrored view.
-    vec3 specular = vec3(0.0);
     float cosView = clamp(dot(n, point.view.xyz), 0.0, 1.0);
     vec3 mirrored = n * (2.0 * cosView) - point.view.xyz;
     float mirroredLength = length(mirrored);
-    if (mirroredLength > 0.0) {
-        vec3 reflected = mirrored / mirroredLength;
-        float fresnel = uSpecularF0 + (1.0 - uSpecularF0) * pow(1.0 - cosView, 5.0);
-        ConeResult r = traceCone(origin, reflected, uTanHalfSpecular, 0.0, 1e30, planePoint, n, uAoLambda, false);
-        specular = r.radiance * fresnel;
+
+    // Every cone of the point through one traceCone call (the shader's size is what a JIT
+    // compiler such as llvmpipe's takes seconds over): cone k < uLightCount is light k's shadow
+    // cone (FinalGather::visibility), the next seven the diffuse cones
+    // (RadianceField::gatherDiffuse), the last the specular cone.
+    vec3 irradiance = vec3(0.0), gathered = vec3(0.0), specular = vec3(0.0);
+    float occlusion = 0.0, weightSum = 0.0;
+    for (uint k = 0u; k < uLightCount + 8u; ++k) {
+        vec3 dir, lightIrradiance = vec3(0.0);
+        float tanHalf = uDiffuseTanHalf, maxDistance = 1e30, weight = 0.0, cosine = 0.0;
+        if (k < uLightCount) {
+            // Direct: Σ lights E · cos · visibility (FinalGather::shade(point)).
+            float distance;
+            bool infinite;
+            if (!lightArrival(lights[k], position, dir, distance, infinite, lightIrradiance)) continue;
+            cosine = dot(n, dir);
+            if (!(cosine > 0.0)) continue;
+            if (!uShadowCones) {
+                irradiance += lightIrradiance * cosine;
+                continue;
+            }
+            tanHalf = uTanHalfShadow;
+            if (!infinite) maxDistance = length(position + dir * distance - origin) / (1.0 + 3.0 * uTanHalfShadow);
+        } else if (k < uLightCount + 7u) {
+            uint i = k - uLightCount;
+            dir = n;
+            weight = uDiffuseWeights[0];
+            if (i > 0u) {
+                dir = normalize(n * uDiffuseTilt.x + (tangent * uDiffuseCos[i - 1u] + bitangent * uDiffuseSin[i - 1u]) * uDiffuseTilt.y);
+                weight = uDiffuseWeights[1];
+            }
+        } else {
+            // Specular: Schlick(F0, n·v) × the cone along the mirrored view.
+            if (!(mirroredLength > 0.0)) continue;
+            dir = mirrored / mirroredLength;
+            tanHalf = uTanHalfSpecular;
+        }
+        bool shadow = k < uLightCount;
+        ConeResult r = traceCone(origin, dir, tanHalf, 0.0, maxDistance, planePoint, n, shadow ? 0.0 : uAoLambda, shadow);
+        if (shadow) {
+            float v = 1.0 - r.opacity;
+            if (v > 0.0) irradiance += lightIrradiance * (cosine * v);
+        } else if (k < uLightCount + 7u) {
+            gathered += r.radiance * weight;
+            occlusion += r.occlusion * weight;
+            weightSum += weight;
+        } else {
+            float fresnel = uSpecularF0 + (1.0 - uSpecularF0) * pow(1.0 - cosView, 5.0);
+            specular = r.radiance * fresnel;
+        }
     }
+    vec3 direct = albedoOverPi * irradiance;
+    occlusion /= weightSum;
+    vec3 indirect = albedoOverPi * gathered;
+    float ao = clamp(1.0 - occlusion, 0.0, 1.0);
     vec3 finalColor = point.emission.rgb + direct + indirect + specular;
     parts[index] = GatherParts(vec4(finalColor, 1.0), vec4(direct, 1.0), vec4(indirect, 1.0), vec4(specular, ao));
+    countFallbacks();
 }
 #endif
 
@@ -383,6 +476,7 @@ void main() {
     SampleQuery q = queries[index];
     // Through sampleLod: an integer level samples that level alone, or, streamed out, the coarser one.
     samples[index] = sampleLod(q.positionLevel.w, q.positionLevel.xyz, q.direction.xyz);
+    countFallbacks();
 }
 #endif
 )GLSL";

@@ -53,6 +53,10 @@ struct ScopedBuffer {
     ScopedBuffer& operator=(const ScopedBuffer&) = delete;
 };
 
+/// The shader's RvolCounters: points (queries) that fell back to a coarser cover, that met a hole.
+constexpr GLuint kCountersBinding = 9;
+constexpr std::uint32_t kZeroCounters[4] = {0, 0, 0, 0};  // ScopedBuffer takes 16 bytes at least
+
 void put3(float* out, Vec3f v, float w = 0) {
     out[0] = v[0];
     out[1] = v[1];
@@ -115,6 +119,7 @@ std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume,
     std::vector<GpuGatherParts> out(points.size());
     if (points.empty()) {
         lastSeconds_ = lastGpuSeconds_ = 0;
+        lastFallbacks_ = lastHoles_ = 0;
         return out;
     }
     std::vector<float> pointData(points.size() * 20);
@@ -148,10 +153,8 @@ std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume,
     const ScopedBuffer partsBuffer(points.size() * 64, nullptr, GL_CLIENT_STORAGE_BIT);
 
     const GLuint p = shadeProgram_.id();
-    const rvol::Header& header = volume.reader().header();
-    const double finest = header.cellSize(0);
     glProgramUniform1f(p, shadeProgram_.uniform("uOffset"),
-                       static_cast<float>(options_.offsetCells * finest));
+                       static_cast<float>(options_.offsetCells * volume.finestCellSize()));
     glProgramUniform1ui(p, shadeProgram_.uniform("uCount"), static_cast<GLuint>(points.size()));
     glProgramUniform1ui(p, shadeProgram_.uniform("uLightCount"),
                         static_cast<GLuint>(lights.size()));
@@ -159,6 +162,8 @@ std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume,
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, pointBuffer.id);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, partsBuffer.id);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, lightBuffer.id);
+    const ScopedBuffer counters(sizeof kZeroCounters, kZeroCounters, GL_CLIENT_STORAGE_BIT);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kCountersBinding, counters.id);
     glUseProgram(p);
     glBeginQuery(GL_TIME_ELAPSED, query_);
     glDispatchCompute(static_cast<GLuint>((points.size() + 63) / 64), 1, 1);
@@ -170,6 +175,7 @@ std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume,
     GLuint64 nanoseconds = 0;
     glGetQueryObjectui64v(query_, GL_QUERY_RESULT, &nanoseconds);
     lastGpuSeconds_ = double(nanoseconds) * 1e-9;
+    readCounters(counters.id);
     context_.throwOnErrors("final gather: shading " + std::to_string(points.size()) + " points");
     for (std::size_t i = 0; i < points.size(); ++i) {
         const float* d = &raw[i * 16];
@@ -184,9 +190,17 @@ std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume,
     return out;
 }
 
+void FinalGatherGpu::readCounters(unsigned buffer) {
+    std::uint32_t counts[2] = {0, 0};
+    glGetNamedBufferSubData(buffer, 0, sizeof counts, counts);
+    lastFallbacks_ = counts[0];
+    lastHoles_ = counts[1];
+}
+
 std::vector<std::array<float, 4>> FinalGatherGpu::sample(const RvolGpuVolume& volume,
                                                          std::span<const SampleQuery> queries) {
     std::vector<std::array<float, 4>> out(queries.size());
+    lastFallbacks_ = lastHoles_ = 0;
     if (queries.empty()) return out;
     std::vector<float> data(queries.size() * 8);
     for (std::size_t i = 0; i < queries.size(); ++i) {
@@ -200,12 +214,15 @@ std::vector<std::array<float, 4>> FinalGatherGpu::sample(const RvolGpuVolume& vo
     volume.bind();
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, queryBuffer.id);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, sampleBuffer.id);
+    const ScopedBuffer counters(sizeof kZeroCounters, kZeroCounters, GL_CLIENT_STORAGE_BIT);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kCountersBinding, counters.id);
     glUseProgram(p);
     glDispatchCompute(static_cast<GLuint>((queries.size() + 63) / 64), 1, 1);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     glUseProgram(0);
     glGetNamedBufferSubData(sampleBuffer.id, 0, static_cast<GLsizeiptr>(out.size() * 16),
                             out.data());
+    readCounters(counters.id);
     context_.throwOnErrors("rvol sample: " + std::to_string(queries.size()) + " queries");
     return out;
 }

@@ -1,4 +1,5 @@
 #include <vox/runtime/gl_context.h>
+#include <vox/formats/rvol_tiles.h>
 #include <vox/runtime/rvol_gpu_volume.h>
 
 #include <GL/glcorearb.h>
@@ -15,16 +16,23 @@ namespace {
 constexpr std::uint32_t kSlotBits = 10;  // per axis in a packed indirection entry
 constexpr std::uint32_t kSlotAxisMax = 1u << kSlotBits;
 
-/// The info SSBO's fixed part (std430: every member 16-byte aligned), then the level table.
+/// The info SSBO's fixed part (std430: every member 16-byte aligned), then the level table
+/// (final_gather_glsl.h's RvolInfo and LevelInfo).
 struct InfoHeader {
-    float originSize[4];        // origin xyz, size
-    std::uint32_t geometry[4];  // depth, N, levelCount, flags (bit 0: binary level-0 opacity)
-    float rgbAtlasSize[4];      // texels per axis, w unused
+    float originSize[4];          // origin xyz, size
+    std::uint32_t geometry[4];    // depth, N, levels (depth + 1), tiles per axis
+    std::uint32_t tileBlocks[4];  // first entry of tile slot 0's block, entries per block
+    float rgbAtlasSize[4];        // texels per axis, w unused
     float alphaAtlasSize[4];
 };
 struct InfoLevel {
-    std::uint32_t base, bricksPerAxis, resolution, planes;
+    std::uint32_t base, bricksPerAxis, resolution, planes, tileCells, fallback, coarser, level;
 };
+constexpr std::uint32_t kBinaryOpacityBit = 0x10000;  // InfoLevel::planes: binary level-0 opacity
+constexpr std::uint32_t kNoLevel = 0xFFFFFFFFu;
+constexpr std::uint32_t kNoTileSlot = 0xFFFFFFFFu;
+/// Indirection entries 0 … 8: the zero brick, every plane at the zero slot (an absent tile's).
+constexpr std::uint64_t kZeroBrickEntries = 9;
 
 /// A grid of slots holding @p slots with each axis ≤ @p maxPerAxis, as cubic as it goes.
 std::array<std::uint32_t, 3> slotGrid(std::uint32_t slots, std::uint32_t maxPerAxis) {
@@ -55,56 +63,130 @@ void AtlasSlotAllocator::release(std::uint32_t slot) {
 RvolGpuVolume::RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader,
                              const RvolGpuVolumeOptions& options)
     : context_(context), reader_(reader) {
-    const rvol::Header& header = reader.header();
+    build(options);
+}
+
+RvolGpuVolume::RvolGpuVolume(GlContext& context, const rvol::TiledRvolReader& reader,
+                             const RvolGpuVolumeOptions& options)
+    : context_(context), reader_(reader.farField()), tiled_(&reader) {
+    if (!options.uploadAll && options.atlasBytes == 0)
+        throw RuntimeError(
+            reader.path().string() +
+            ": a tiled volume streamed needs atlasBytes (its tiles are not counted)");
+    build(options);
+}
+
+void RvolGpuVolume::build(const RvolGpuVolumeOptions& options) {
+    const rvol::Header& header = reader_.header();
     n_ = header.brickTexels;
     binaryLevel0_ = header.binaryLevel0Opacity();
     alpha16_ = options.alpha16;
-    const auto& levels = reader.levels();
+    const auto& levels = reader_.levels();
+    depth_ = header.depth;
+    const std::string name = (tiled_ ? tiled_->path() : reader_.path()).string();
+    if (tiled_) {
+        const rvol::TileIndex& index = tiled_->index();
+        depth_ = index.depth;
+        baseLevelOffset_ = index.depth - index.farDepth;
+        tiles_.resize(index.tiles.size());
+        // Every tile shares one level table, so one level-0 layout: the first tile's (checked
+        // against each tile as it is opened).
+        if (!index.tiles.empty())
+            tileBinaryLevel0_ = tiled_->tile(0).header().binaryLevel0Opacity();
+    }
 
     // Slots: one per stored plane of every brick (RGB: one at level 0, up to six above; A8: one at
     // level 0 without binary opacity, up to three above). Planes the file leaves out are all zero
     // and take the zero slot.
     std::uint64_t rgbNeeded = 1, alphaNeeded = 1;  // + the zero slot
+    const auto countPlanes = [&](const rvol::RvolReader& file) {
+        for (std::uint32_t l = 0; l < file.levels().size(); ++l) {
+            const std::uint32_t channels = rvol::levelChannels(l);
+            for (const rvol::BrickEntry& e : file.bricks(l)) {
+                const std::uint32_t planes = e.planes;
+                rgbNeeded +=
+                    static_cast<std::uint32_t>(std::popcount(planes & ((1u << channels) - 1)));
+                alphaNeeded += static_cast<std::uint32_t>(std::popcount(planes >> channels));
+            }
+        }
+    };
+    countPlanes(reader_);
+    if (tiled_ && options.uploadAll)
+        for (std::size_t t = 0; t < tiles_.size(); ++t) countPlanes(tiled_->tile(t));
+
+    // The indirection: the zero brick (every absent tile's), the base file's levels, then the
+    // tile slots' blocks.
+    std::uint64_t entries = kZeroBrickEntries;
     levelBase_.resize(levels.size());
     residentFlags_.resize(levels.size());
-    std::uint64_t entries = 0;
     for (std::uint32_t l = 0; l < levels.size(); ++l) {
-        const std::uint64_t bricks = levels[l].brickCount;
-        const std::uint32_t channels = rvol::levelChannels(l);
-        for (const rvol::BrickEntry& e : reader.bricks(l)) {
-            const std::uint32_t planes = e.planes;
-            rgbNeeded += static_cast<std::uint32_t>(std::popcount(planes & ((1u << channels) - 1)));
-            alphaNeeded += static_cast<std::uint32_t>(std::popcount(planes >> channels));
-        }
         levelBase_[l] = entries;
         const std::uint64_t k = levels[l].bricksPerAxis;
         entries += k * k * k * planesPerBrick(l);
-        residentFlags_[l].assign(bricks, 0);
+        residentFlags_[l].assign(levels[l].brickCount, 0);
+    }
+    tileBlocksBase_ = entries;
+    GLint maxBlock = 0;
+    glGetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &maxBlock);
+    const std::uint64_t maxEntries = static_cast<std::uint64_t>(maxBlock) / 4;
+    if (tiled_) {
+        const rvol::TileIndex& index = tiled_->index();
+        for (std::uint32_t l = 0; l <= index.tileDepth; ++l) {
+            tileLevelBase_.push_back(tileBlockEntries_);
+            const std::uint64_t k = rvol::bricksPerAxis(1u << (index.tileDepth - l), n_);
+            tileBlockEntries_ += k * k * k * planesPerBrick(l);
+        }
+        std::uint64_t slots = options.tileSlots;
+        if (options.uploadAll) {
+            slots = tiles_.size();
+        } else if (slots == 0) {
+            slots = std::max<std::uint64_t>(1, options.atlasBytes / 4 / (tileBlockEntries_ * 4));
+        }
+        slots = std::min<std::uint64_t>(slots, tiles_.size());
+        const std::uint64_t room = maxEntries > entries ? (maxEntries - entries) : 0;
+        if (slots > room / tileBlockEntries_) {
+            if (options.uploadAll || room < tileBlockEntries_)
+                throw RuntimeError(name + ": " + std::to_string(slots) + " tile blocks of " +
+                                   std::to_string(tileBlockEntries_ * 4) +
+                                   " bytes do not fit GL_MAX_SHADER_STORAGE_BLOCK_SIZE (" +
+                                   std::to_string(maxBlock) + ")");
+            slots = room / tileBlockEntries_;
+        }
+        tileSlotCount_ = static_cast<std::uint32_t>(slots);
+        for (std::uint32_t s = tileSlotCount_; s-- > 0;) freeTileSlots_.push_back(s);
+        entries += slots * tileBlockEntries_;
+        const std::uint64_t perAxis = 1ull << (index.depth - index.tileDepth);
+        if (perAxis * perAxis * perAxis > maxEntries)
+            throw RuntimeError(name + ": the tile table of " + std::to_string(perAxis) +
+                               "³ tiles does not fit GL_MAX_SHADER_STORAGE_BLOCK_SIZE");
+        tileTable_.assign(perAxis * perAxis * perAxis, kAbsentTile);
+        for (std::uint32_t t = 0; t < tiles_.size(); ++t)
+            tileTable_[tileTableIndex(t)] = kMissingTile;
+    } else {
+        tileTable_.assign(1, kAbsentTile);  // never read: no level is tiled
     }
     if (!options.uploadAll && options.atlasBytes > 0) {
         // Sized for the budget: 6 RGB slots (4 bytes a texel) to 3 opacity slots a brick.
         const std::uint64_t slot = std::uint64_t{n_} * n_ * n_;
         const std::uint64_t perBrick = 6 * 4 * slot + 3 * (alpha16_ ? 2 : 1) * slot;
         const std::uint64_t bricks = options.atlasBytes / perBrick + 1;
-        rgbNeeded = std::min<std::uint64_t>(rgbNeeded, 1 + 6 * bricks + 8);
-        alphaNeeded = std::min<std::uint64_t>(alphaNeeded, 1 + 3 * bricks + 8);
+        rgbNeeded =
+            tiled_ ? 1 + 6 * bricks + 8 : std::min<std::uint64_t>(rgbNeeded, 1 + 6 * bricks + 8);
+        alphaNeeded =
+            tiled_ ? 1 + 3 * bricks + 8 : std::min<std::uint64_t>(alphaNeeded, 1 + 3 * bricks + 8);
     }
     rgbNeeded += options.extraRgbSlots;
     alphaNeeded += options.extraAlphaSlots;
-    if (entries > (1ull << 30))
-        throw RuntimeError(reader.path().string() + ": the indirection table would hold " +
-                           std::to_string(entries) + " entries");
+    if (entries > std::min<std::uint64_t>(maxEntries, 1ull << 30))
+        throw RuntimeError(name + ": the indirection table would hold " + std::to_string(entries) +
+                           " entries, more than GL_MAX_SHADER_STORAGE_BLOCK_SIZE allows");
     indirection_.assign(entries, 0);
     if (!options.uploadAll)  // every brick the file has is missing until uploaded
         for (std::uint32_t l = 0; l < levels.size(); ++l)
-            for (std::uint32_t i = 0; i < levels[l].brickCount; ++i) {
-                const std::uint64_t k = levels[l].bricksPerAxis;
-                const rvol::BrickEntry& e = reader.bricks(l)[i];
-                const std::uint64_t entry =
-                    levelBase_[l] + ((e.z * k + e.y) * k + e.x) * planesPerBrick(l);
-                std::fill_n(indirection_.begin() + static_cast<std::ptrdiff_t>(entry),
+            for (std::uint32_t i = 0; i < levels[l].brickCount; ++i)
+                std::fill_n(indirection_.begin() +
+                                static_cast<std::ptrdiff_t>(entryOffset({kBaseFile, l, i})),
                             planesPerBrick(l), kMissingBrick);
-            }
 
     GLint max3d = 0;
     glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
@@ -112,7 +194,7 @@ RvolGpuVolume::RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader,
         std::min<std::uint32_t>(kSlotAxisMax, static_cast<std::uint32_t>(max3d) / n_);
     const std::uint64_t maxSlots = std::uint64_t{perAxis} * perAxis * perAxis;
     if (rgbNeeded > maxSlots || alphaNeeded > maxSlots)
-        throw RuntimeError(reader.path().string() + ": the radiance atlas needs " +
+        throw RuntimeError(name + ": the radiance atlas needs " +
                            std::to_string(std::max(rgbNeeded, alphaNeeded)) + " slots of " +
                            std::to_string(n_) + "³ texels, more than this GL's 3D textures hold (" +
                            std::to_string(maxSlots) + ", GL_MAX_3D_TEXTURE_SIZE " +
@@ -132,56 +214,105 @@ RvolGpuVolume::RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader,
     static constexpr char kViewLabel[] = "rvol atlas words (R32UI view)";
     glObjectLabel(GL_TEXTURE, wordView_, sizeof kViewLabel - 1, kViewLabel);
 
-    // Info SSBO.
-    std::vector<std::uint8_t> info(sizeof(InfoHeader) + levels.size() * sizeof(InfoLevel));
+    writeInfo();
+    const auto createBuffer = [](unsigned& buffer, const std::vector<std::uint32_t>& words,
+                                 const char* label) {
+        glCreateBuffers(1, &buffer);
+        glNamedBufferStorage(buffer, static_cast<GLsizeiptr>(words.size() * 4), words.data(),
+                             GL_DYNAMIC_STORAGE_BIT);
+        glObjectLabel(GL_BUFFER, buffer, static_cast<GLsizei>(std::strlen(label)), label);
+    };
+    createBuffer(indirectionBuffer_, indirection_, "rvol indirection");
+    createBuffer(tileTableBuffer_, tileTable_, "rvol tile table");
+    context_.throwOnErrors(name + ": allocating the radiance atlas");
+
+    if (options.uploadAll) {
+        const auto uploadFile = [&](std::uint32_t file) {
+            const rvol::RvolReader& r = fileReader(file);
+            for (std::uint32_t l = 0; l < r.levels().size(); ++l)
+                for (std::uint32_t i = 0; i < r.level(l).brickCount; ++i)
+                    if (!uploadBrick({file, l, i}))
+                        throw RuntimeError(name + ": radiance atlas full");  // sized above
+        };
+        uploadFile(kBaseFile);
+        for (std::uint32_t t = 0; t < tiles_.size(); ++t) uploadFile(t);
+    }
+}
+
+void RvolGpuVolume::writeInfo() {
+    // The level table: the volume's levels 0 … depth, then (tiled) the far field's levels the
+    // tiles also cover, which missing tiles fall back to.
+    std::vector<InfoLevel> table;
+    const auto& levels = reader_.levels();
+    const auto baseEntry = [&](std::uint32_t level, std::uint32_t fileLevel) {
+        const bool isotropic = fileLevel == 0;
+        return InfoLevel{
+            static_cast<std::uint32_t>(levelBase_[fileLevel]),
+            levels[fileLevel].bricksPerAxis,
+            1u << (depth_ - level),
+            planesPerBrick(fileLevel) | (isotropic && binaryLevel0_ ? kBinaryOpacityBit : 0u),
+            0,
+            level < depth_ ? level + 1 : kNoLevel,
+            level < depth_ ? level + 1 : kNoLevel,
+            level};
+    };
+    if (!tiled_) {
+        for (std::uint32_t l = 0; l <= depth_; ++l) table.push_back(baseEntry(l, l));
+    } else {
+        const std::uint32_t tileDepth = tiled_->index().tileDepth;
+        // Entry of the far field's level at volume level l ≤ tileDepth (appended after depth).
+        const auto farEntry = [&](std::uint32_t l) {
+            return l > tileDepth ? l : depth_ + 1 + (l - baseLevelOffset_);
+        };
+        for (std::uint32_t l = 0; l <= depth_; ++l) {
+            if (l > tileDepth) {
+                table.push_back(baseEntry(l, l - baseLevelOffset_));
+                continue;
+            }
+            const std::uint32_t cells = 1u << (tileDepth - l);
+            table.push_back(
+                {static_cast<std::uint32_t>(tileLevelBase_[l]), rvol::bricksPerAxis(cells, n_),
+                 1u << (depth_ - l),
+                 planesPerBrick(l) | (l == 0 && tileBinaryLevel0_ ? kBinaryOpacityBit : 0u), cells,
+                 farEntry(std::max(l, baseLevelOffset_)), l + 1, l});
+        }
+        for (std::uint32_t l = baseLevelOffset_; l <= tileDepth; ++l) {
+            InfoLevel e = baseEntry(l, l - baseLevelOffset_);
+            e.fallback = e.coarser = farEntry(l + 1);
+            table.push_back(e);
+        }
+    }
+
+    std::vector<std::uint8_t> info(sizeof(InfoHeader) + table.size() * sizeof(InfoLevel));
     InfoHeader h{};
-    h.originSize[0] = static_cast<float>(header.origin[0]);
-    h.originSize[1] = static_cast<float>(header.origin[1]);
-    h.originSize[2] = static_cast<float>(header.origin[2]);
-    h.originSize[3] = static_cast<float>(header.size);
-    h.geometry[0] = header.depth;
+    const std::array<double, 3> origin = tiled_ ? tiled_->index().origin : reader_.header().origin;
+    const double size = tiled_ ? tiled_->index().size : reader_.header().size;
+    for (std::size_t a = 0; a < 3; ++a) h.originSize[a] = static_cast<float>(origin[a]);
+    h.originSize[3] = static_cast<float>(size);
+    h.geometry[0] = depth_;
     h.geometry[1] = n_;
-    h.geometry[2] = header.levelCount;
-    h.geometry[3] = binaryLevel0_ ? 1u : 0u;
-    for (int a = 0; a < 3; ++a) {
-        h.rgbAtlasSize[a] = static_cast<float>(rgbGrid_[static_cast<std::size_t>(a)] * n_);
-        h.alphaAtlasSize[a] = static_cast<float>(alphaGrid_[static_cast<std::size_t>(a)] * n_);
+    h.geometry[2] = depth_ + 1;
+    h.geometry[3] = tiled_ ? 1u << (depth_ - tiled_->index().tileDepth) : 1u;
+    h.tileBlocks[0] = static_cast<std::uint32_t>(tileBlocksBase_);
+    h.tileBlocks[1] = static_cast<std::uint32_t>(tileBlockEntries_);
+    for (std::size_t a = 0; a < 3; ++a) {
+        h.rgbAtlasSize[a] = static_cast<float>(rgbGrid_[a] * n_);
+        h.alphaAtlasSize[a] = static_cast<float>(alphaGrid_[a] * n_);
     }
     std::memcpy(info.data(), &h, sizeof h);
-    for (std::uint32_t l = 0; l < levels.size(); ++l) {
-        const InfoLevel entry{static_cast<std::uint32_t>(levelBase_[l]), levels[l].bricksPerAxis,
-                              levels[l].resolution, planesPerBrick(l)};
-        std::memcpy(info.data() + sizeof h + l * sizeof entry, &entry, sizeof entry);
-    }
+    std::memcpy(info.data() + sizeof h, table.data(), table.size() * sizeof(InfoLevel));
     glCreateBuffers(1, &infoBuffer_);
     glNamedBufferStorage(infoBuffer_, static_cast<GLsizeiptr>(info.size()), info.data(), 0);
     infoBytes_ = info.size();
-    glCreateBuffers(1, &indirectionBuffer_);
-    glNamedBufferStorage(indirectionBuffer_,
-                         static_cast<GLsizeiptr>(std::max<std::size_t>(4, indirection_.size() * 4)),
-                         nullptr, GL_DYNAMIC_STORAGE_BIT);
-    if (!indirection_.empty())
-        glNamedBufferSubData(indirectionBuffer_, 0,
-                             static_cast<GLsizeiptr>(indirection_.size() * 4), indirection_.data());
     static constexpr char kInfoLabel[] = "rvol info";
-    static constexpr char kIndirectionLabel[] = "rvol indirection";
     glObjectLabel(GL_BUFFER, infoBuffer_, sizeof kInfoLabel - 1, kInfoLabel);
-    glObjectLabel(GL_BUFFER, indirectionBuffer_, sizeof kIndirectionLabel - 1, kIndirectionLabel);
-    context_.throwOnErrors(reader.path().string() + ": allocating the radiance atlas");
-
-    if (options.uploadAll)
-        for (std::uint32_t l = 0; l < levels.size(); ++l)
-            for (std::uint32_t i = 0; i < levels[l].brickCount; ++i)
-                if (!uploadBrick(l, i))
-                    throw RuntimeError(reader.path().string() +
-                                       ": radiance atlas full");  // sized above: cannot happen
 }
 
 RvolGpuVolume::~RvolGpuVolume() {
     const GLuint textures[3] = {wordView_, rgbAtlas_, alphaAtlas_};
     glDeleteTextures(3, textures);
-    const GLuint buffers[2] = {infoBuffer_, indirectionBuffer_};
-    glDeleteBuffers(2, buffers);
+    const GLuint buffers[3] = {infoBuffer_, indirectionBuffer_, tileTableBuffer_};
+    glDeleteBuffers(3, buffers);
 }
 
 void RvolGpuVolume::createAtlas(unsigned& texture, const std::array<std::uint32_t, 3>& grid,
@@ -213,42 +344,114 @@ std::array<std::uint32_t, 3> RvolGpuVolume::slotOrigin(const std::array<std::uin
     return {slot % grid[0], (slot / grid[0]) % grid[1], slot / (grid[0] * grid[1])};
 }
 
-std::uint64_t RvolGpuVolume::entryOffset(std::uint32_t level, std::uint32_t index) const {
-    const rvol::BrickEntry& e = reader_.bricks(level)[index];
-    const std::uint64_t k = reader_.level(level).bricksPerAxis;
-    return levelBase_[level] + ((e.z * k + e.y) * k + e.x) * planesPerBrick(level);
+const rvol::RvolReader& RvolGpuVolume::fileReader(std::uint32_t file) const {
+    return file == kBaseFile ? reader_ : tiled_->tile(file);
 }
 
-bool RvolGpuVolume::resident(std::uint32_t level, std::uint32_t index) const {
-    return residentFlags_.at(level).at(index) != 0;
+double RvolGpuVolume::finestCellSize() const noexcept {
+    return tiled_ ? tiled_->index().cellSize() : reader_.header().cellSize(0);
 }
 
-bool RvolGpuVolume::uploadBrick(std::uint32_t level, std::uint32_t index) {
-    if (resident(level, index)) return true;
+std::uint64_t RvolGpuVolume::tileTableIndex(std::uint32_t tile) const {
+    const rvol::TileEntry& t = tiled_->index().tiles.at(tile);
+    const std::uint64_t n = 1ull << (depth_ - tiled_->index().tileDepth);
+    return (t.z * n + t.y) * n + t.x;
+}
+
+bool RvolGpuVolume::tileResident(std::uint32_t tile) const {
+    return tiles_.at(tile).slot != kNoTileSlot;
+}
+
+std::uint64_t RvolGpuVolume::entryOffset(const RvolBrickRef& brick) const {
+    const rvol::RvolReader& file = fileReader(brick.file);
+    const rvol::BrickEntry& e = file.bricks(brick.level)[brick.index];
+    const std::uint64_t k = file.level(brick.level).bricksPerAxis;
+    const std::uint64_t inLevel = ((e.z * k + e.y) * k + e.x) * planesPerBrick(brick.level);
+    if (brick.file == kBaseFile) return levelBase_[brick.level] + inLevel;
+    return tileBlocksBase_ + tiles_[brick.file].slot * tileBlockEntries_ +
+           tileLevelBase_[brick.level] + inLevel;
+}
+
+bool RvolGpuVolume::resident(const RvolBrickRef& brick) const {
+    if (brick.file == kBaseFile) return residentFlags_.at(brick.level).at(brick.index) != 0;
+    const TileState& t = tiles_.at(brick.file);
+    return t.slot != kNoTileSlot && t.resident.at(brick.level).at(brick.index) != 0;
+}
+
+void RvolGpuVolume::uploadWords(unsigned buffer, const std::vector<std::uint32_t>& words,
+                                std::uint64_t first, std::uint64_t count) {
+    glNamedBufferSubData(buffer, static_cast<GLintptr>(first * 4),
+                         static_cast<GLsizeiptr>(count * 4), words.data() + first);
+}
+
+bool RvolGpuVolume::takeTileSlot(std::uint32_t tile) {
+    if (freeTileSlots_.empty()) return false;
+    const rvol::RvolReader& file = tiled_->tile(tile);  // opens and checks it on first use
+    if (file.header().binaryLevel0Opacity() != tileBinaryLevel0_)
+        throw InvalidDataError(file.path(), "level-0 opacity layout differs from the first tile's");
+    TileState& t = tiles_[tile];
+    t.slot = freeTileSlots_.back();
+    freeTileSlots_.pop_back();
+    t.resident.assign(file.levels().size(), {});
+    // The block: every brick the tile has missing, the others the zero slot (empty).
+    const std::uint64_t block = tileBlocksBase_ + t.slot * tileBlockEntries_;
+    std::fill_n(indirection_.begin() + static_cast<std::ptrdiff_t>(block), tileBlockEntries_, 0u);
+    for (std::uint32_t l = 0; l < file.levels().size(); ++l) {
+        t.resident[l].assign(file.level(l).brickCount, 0);
+        for (std::uint32_t i = 0; i < file.level(l).brickCount; ++i)
+            std::fill_n(
+                indirection_.begin() + static_cast<std::ptrdiff_t>(entryOffset({tile, l, i})),
+                planesPerBrick(l), kMissingBrick);
+    }
+    uploadWords(indirectionBuffer_, indirection_, block, tileBlockEntries_);
+    const std::uint64_t at = tileTableIndex(tile);
+    tileTable_[at] = t.slot;
+    uploadWords(tileTableBuffer_, tileTable_, at, 1);
+    return true;
+}
+
+void RvolGpuVolume::releaseTileSlot(std::uint32_t tile) {
+    TileState& t = tiles_[tile];
+    freeTileSlots_.push_back(t.slot);
+    t = TileState{};
+    const std::uint64_t at = tileTableIndex(tile);
+    tileTable_[at] = kMissingTile;
+    uploadWords(tileTableBuffer_, tileTable_, at, 1);
+}
+
+bool RvolGpuVolume::uploadBrick(const RvolBrickRef& brick) {
+    if (resident(brick)) return true;
+    const bool tile = brick.file != kBaseFile;
+    if (tile && !tileResident(brick.file) && !takeTileSlot(brick.file)) return false;
+    const rvol::RvolReader& file = fileReader(brick.file);
+    const std::uint32_t level = brick.level;
     const std::uint32_t channels = rvol::levelChannels(level);
-    const std::uint32_t alphaPlanes = rvol::alphaPlanes(channels, level == 0 && binaryLevel0_);
-    const std::uint32_t stored = reader_.bricks(level)[index].planes;
+    const std::uint32_t alphaPlanes =
+        rvol::alphaPlanes(channels, level == 0 && binaryLevel0(brick.file));
+    const std::uint32_t stored = file.bricks(level)[brick.index].planes;
     // Per plane its slot; 0 (the zero slot) for a plane the file leaves out (all zero).
     std::vector<std::uint32_t> rgb(channels, 0), alpha(alphaPlanes, 0);
     const auto giveBack = [&] {
         for (std::uint32_t s : rgb) rgbSlots_.release(s);
         for (std::uint32_t s : alpha) alphaSlots_.release(s);
+        if (tile && tiles_[brick.file].residentBricks == 0) releaseTileSlot(brick.file);
+        return false;
     };
     for (std::uint32_t c = 0; c < channels; ++c) {
         if ((stored & 1u << c) == 0) continue;
         const auto s = rgbSlots_.allocate();
-        if (!s) return giveBack(), false;
+        if (!s) return giveBack();
         rgb[c] = *s;
     }
     for (std::uint32_t p = 0; p < alphaPlanes; ++p) {
         if ((stored & 1u << (channels + p)) == 0) continue;
         const auto s = alphaSlots_.allocate();
-        if (!s) return giveBack(), false;
+        if (!s) return giveBack();
         alpha[p] = *s;
     }
-    const std::vector<std::uint8_t> bytes = reader_.readBrickBytes(level, index);
+    const std::vector<std::uint8_t> bytes = file.readBrickBytes(level, brick.index);
     const auto n = static_cast<GLsizei>(n_);
-    const std::uint64_t entry = entryOffset(level, index);
+    const std::uint64_t entry = entryOffset(brick);
     const auto pack = [](const std::array<std::uint32_t, 3>& o) {
         return o[0] | (o[1] << kSlotBits) | (o[2] << (2 * kSlotBits));
     };
@@ -279,22 +482,27 @@ bool RvolGpuVolume::uploadBrick(std::uint32_t level, std::uint32_t index) {
             alpha16_ ? static_cast<const void*>(wide.data()) : static_cast<const void*>(plane));
     }
     glPixelStorei(GL_UNPACK_ALIGNMENT, alignment);
-    const std::uint32_t planes = planesPerBrick(level);
-    glNamedBufferSubData(indirectionBuffer_, static_cast<GLintptr>(entry * 4),
-                         static_cast<GLsizeiptr>(planes * 4), indirection_.data() + entry);
-    residentFlags_[level][index] = 1;
+    uploadWords(indirectionBuffer_, indirection_, entry, planesPerBrick(level));
+    if (tile) {
+        tiles_[brick.file].resident[level][brick.index] = 1;
+        ++tiles_[brick.file].residentBricks;
+    } else {
+        residentFlags_[level][brick.index] = 1;
+    }
     ++residentBricks_;
     uploadedTotal_ += bytes.size();
-    context_.throwOnErrors(reader_.path().string() + ": uploading level " + std::to_string(level) +
-                           " brick " + std::to_string(index));
+    context_.throwOnErrors(file.path().string() + ": uploading level " + std::to_string(level) +
+                           " brick " + std::to_string(brick.index));
     return true;
 }
 
-void RvolGpuVolume::evictBrick(std::uint32_t level, std::uint32_t index) {
-    if (!resident(level, index)) return;
+void RvolGpuVolume::evictBrick(const RvolBrickRef& brick) {
+    if (!resident(brick)) return;
+    const std::uint32_t level = brick.level;
     const std::uint32_t channels = rvol::levelChannels(level);
-    const std::uint32_t alphaPlanes = rvol::alphaPlanes(channels, level == 0 && binaryLevel0_);
-    const std::uint64_t entry = entryOffset(level, index);
+    const std::uint32_t alphaPlanes =
+        rvol::alphaPlanes(channels, level == 0 && binaryLevel0(brick.file));
+    const std::uint64_t entry = entryOffset(brick);
     const auto unpack = [](std::uint32_t e, const std::array<std::uint32_t, 3>& grid) {
         const std::uint32_t m = kSlotAxisMax - 1;
         return (e & m) +
@@ -307,12 +515,17 @@ void RvolGpuVolume::evictBrick(std::uint32_t level, std::uint32_t index) {
         alphaSlots_.release(unpack(indirection_[entry + channels + p], alphaGrid_));
     const std::uint32_t planes = planesPerBrick(level);
     std::fill_n(indirection_.begin() + static_cast<std::ptrdiff_t>(entry), planes, kMissingBrick);
-    glNamedBufferSubData(indirectionBuffer_, static_cast<GLintptr>(entry * 4),
-                         static_cast<GLsizeiptr>(planes * 4), indirection_.data() + entry);
-    residentFlags_[level][index] = 0;
+    uploadWords(indirectionBuffer_, indirection_, entry, planes);
     --residentBricks_;
-    context_.throwOnErrors(reader_.path().string() + ": evicting level " + std::to_string(level) +
-                           " brick " + std::to_string(index));
+    if (brick.file == kBaseFile) {
+        residentFlags_[level][brick.index] = 0;
+    } else {
+        TileState& t = tiles_[brick.file];
+        t.resident[level][brick.index] = 0;
+        if (--t.residentBricks == 0) releaseTileSlot(brick.file);
+    }
+    context_.throwOnErrors(fileReader(brick.file).path().string() + ": evicting level " +
+                           std::to_string(level) + " brick " + std::to_string(brick.index));
 }
 
 void RvolGpuVolume::bind(const RvolGpuBindings& bindings) const {
@@ -321,12 +534,13 @@ void RvolGpuVolume::bind(const RvolGpuBindings& bindings) const {
     glBindTextureUnit(bindings.alphaAtlasUnit, alphaAtlas_);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, bindings.infoBinding, infoBuffer_);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, bindings.indirectionBinding, indirectionBuffer_);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, bindings.tileTableBinding, tileTableBuffer_);
 }
 
-std::uint64_t RvolGpuVolume::brickBytes(std::uint32_t level, std::uint32_t index) const {
+std::uint64_t RvolGpuVolume::brickBytes(const RvolBrickRef& brick) const {
     const std::uint64_t slot = std::uint64_t{n_} * n_ * n_;
-    const std::uint32_t channels = rvol::levelChannels(level);
-    const std::uint32_t stored = reader_.bricks(level)[index].planes;
+    const std::uint32_t channels = rvol::levelChannels(brick.level);
+    const std::uint32_t stored = fileReader(brick.file).bricks(brick.level)[brick.index].planes;
     const auto rgb = static_cast<std::uint32_t>(std::popcount(stored & ((1u << channels) - 1))),
                alpha = static_cast<std::uint32_t>(std::popcount(stored >> channels));
     return rgb * 4 * slot + alpha * alphaTexelBytes() * slot;
@@ -335,7 +549,7 @@ std::uint64_t RvolGpuVolume::brickBytes(std::uint32_t level, std::uint32_t index
 std::uint64_t RvolGpuVolume::residentBytes() const noexcept {
     const std::uint64_t slot = std::uint64_t{n_} * n_ * n_;
     return 4 * slot * rgbSlots_.capacity() + alphaTexelBytes() * slot * alphaSlots_.capacity() +
-           std::max<std::uint64_t>(4, indirection_.size() * 4) + infoBytes_;
+           indirection_.size() * 4 + tileTable_.size() * 4 + infoBytes_;
 }
 
 std::uint64_t RvolGpuVolume::usedAtlasBytes() const noexcept {

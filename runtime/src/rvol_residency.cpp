@@ -1,112 +1,191 @@
 // The radiance volume's streaming policy: a clipmap of bricks around the eye, within a budget.
+#include <vox/formats/rvol_tiles.h>
 #include <vox/runtime/rvol_residency.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <queue>
+#include <set>
 #include <tuple>
 
 namespace vox::runtime {
+namespace {
+
+/// A needed brick, or a tiled volume's tile not yet opened (bound: no brick of it ranks higher).
+struct Candidate {
+    double priority;
+    bool tile;  // an unopened tile: brick.file is the tile
+    RvolBrickRef brick;
+    std::uint32_t volumeLevel;
+};
+
+/// The heap's order: higher priority first; at ties the far field (base file) first, then coarser
+/// levels, then file and directory order.
+bool ranksBelow(const Candidate& a, const Candidate& b) {
+    const bool aBase = a.brick.file == kBaseFile, bBase = b.brick.file == kBaseFile;
+    return std::tie(a.priority, aBase, a.tile, a.volumeLevel, b.brick.file, b.brick.index) <
+           std::tie(b.priority, bBase, b.tile, b.volumeLevel, a.brick.file, a.brick.index);
+}
+
+/// Distance from @p eye to the box [lo, hi] (0 inside).
+double boxDistance(const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                   const Vec3d& eye) {
+    double d2 = 0;
+    for (std::size_t a = 0; a < 3; ++a) {
+        const double g = std::max({0.0, lo[a] - eye[a], eye[a] - hi[a]});
+        d2 += g * g;
+    }
+    return std::sqrt(d2);
+}
+
+}  // namespace
 
 RvolResidency::RvolResidency(RvolGpuVolume& volume, std::uint64_t budgetBytes, double lodScale)
     : volume_(volume), budget_(budgetBytes), lodScale_(lodScale) {
-    const auto& levels = volume.reader().levels();
-    lastUsed_.resize(levels.size());
-    for (std::uint32_t l = 0; l < levels.size(); ++l) {
-        lastUsed_[l].assign(levels[l].brickCount, 0);
-        for (std::uint32_t i = 0; i < levels[l].brickCount; ++i)
-            if (volume.resident(l, i)) residentBytes_ += volume.brickBytes(l, i);
-    }
+    const auto count = [&](std::uint32_t file) {
+        const rvol::RvolReader& r = volume.fileReader(file);
+        for (std::uint32_t l = 0; l < r.levels().size(); ++l)
+            for (std::uint32_t i = 0; i < r.level(l).brickCount; ++i)
+                if (volume.resident({file, l, i})) {
+                    residentBytes_ += volume.brickBytes({file, l, i});
+                    lastUsed_[{file, l, i}] = 0;
+                }
+    };
+    count(kBaseFile);
+    if (const rvol::TiledRvolReader* tiled = volume.tiled())
+        for (std::uint32_t t = 0; t < tiled->index().tiles.size(); ++t)
+            if (volume.tileResident(t)) count(t);
 }
 
 RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
     ++frame_;
-    const rvol::RvolReader& reader = volume_.reader();
-    const auto& header = reader.header();
-    const auto& levels = reader.levels();
-    const std::uint32_t top = static_cast<std::uint32_t>(levels.size()) - 1;
-    const double span = double(volume_.brickTexels() - 1);
     camera.validate();
     const double pixel = lodScale_ * camera.pixelAngle();
+    const double span = double(volume_.brickTexels() - 1);
+    const std::uint32_t top = volume_.depth();
+    const double tiny = 1e-9 * volume_.finestCellSize() * double(1ull << top);
+    std::priority_queue<Candidate, std::vector<Candidate>, decltype(&ranksBelow)> queue(ranksBelow);
 
-    // Needed bricks with their priority S / distance (the top level's: infinite, coarse first).
-    struct Candidate {
-        double priority;
-        std::uint32_t level, index;
-    };
-    std::vector<Candidate> candidates;
-    for (std::uint32_t l = 0; l <= top; ++l) {
-        const double cell = header.cellSize(l), edge = span * cell;
-        const auto bricks = reader.bricks(l);
-        for (std::uint32_t i = 0; i < bricks.size(); ++i) {
-            const std::uint32_t b[3] = {bricks[i].x, bricks[i].y, bricks[i].z};
-            double d2 = 0;
-            for (int a = 0; a < 3; ++a) {
-                // The brick's texels: cell centres b·(N − 1) … (b + 1)·(N − 1).
-                const double lo = header.origin[std::size_t(a)] + (b[a] * span + 0.5) * cell,
-                             hi = lo + edge;
-                const double g = std::max(
-                    {0.0, lo - camera.eye[std::size_t(a)], camera.eye[std::size_t(a)] - hi});
-                d2 += g * g;
+    // The needed bricks of a file, with their priority S / distance (the top level's: infinite).
+    const auto pushBricks = [&](std::uint32_t file) {
+        const rvol::RvolReader& r = volume_.fileReader(file);
+        const rvol::Header& header = r.header();
+        std::array<double, 3> end{};
+        for (std::size_t a = 0; a < 3; ++a) end[a] = header.origin[a] + header.size;
+        for (std::uint32_t l = 0; l < r.levels().size(); ++l) {
+            const std::uint32_t level = volume_.volumeLevel(file, l);
+            const double cell = header.cellSize(l), edge = span * cell;
+            const auto bricks = r.bricks(l);
+            for (std::uint32_t i = 0; i < bricks.size(); ++i) {
+                const std::uint32_t b[3] = {bricks[i].x, bricks[i].y, bricks[i].z};
+                // The brick's texels: cell centres b·(N − 1) … (b + 1)·(N − 1), inside the file.
+                std::array<double, 3> lo{}, hi{};
+                for (std::size_t a = 0; a < 3; ++a) {
+                    lo[a] = header.origin[a] + (b[a] * span + 0.5) * cell;
+                    hi[a] = std::min(lo[a] + edge, end[a]);
+                }
+                const double d = boxDistance(lo, hi, camera.eye);
+                if (level < top && !(cell > pixel * d))
+                    continue;  // its cells look smaller than lodScale pixels
+                const double priority =
+                    level == top ? std::numeric_limits<double>::max() : edge / std::max(d, tiny);
+                queue.push({priority, false, {file, l, i}, level});
             }
-            const double d = std::sqrt(d2);
-            if (l < top && !(cell > pixel * d))
-                continue;  // its cells look smaller than lodScale pixels
-            const double priority = l == top ? std::numeric_limits<double>::max()
-                                             : edge / std::max(d, 1e-9 * header.size);
-            candidates.push_back({priority, l, i});
+        }
+    };
+    pushBricks(kBaseFile);
+    const rvol::TiledRvolReader* tiled = volume_.tiled();
+    if (tiled) {
+        // Each tile by its bound, unopened: its coarsest level's brick edge over its distance.
+        const rvol::TileIndex& index = tiled->index();
+        const double tileSize = index.tileSize();
+        for (std::uint32_t t = 0; t < index.tiles.size(); ++t) {
+            const rvol::TileEntry& e = index.tiles[t];
+            const std::array<double, 3> lo = index.tileOrigin(e.x, e.y, e.z);
+            const double d =
+                boxDistance(lo, {lo[0] + tileSize, lo[1] + tileSize, lo[2] + tileSize}, camera.eye);
+            if (!(tileSize > pixel * d)) continue;  // even its coarsest cell is under a pixel
+            queue.push({span * tileSize / std::max(d, tiny), true, {t, 0, 0}, index.tileDepth});
         }
     }
-    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-        return std::tie(b.priority, b.level, a.index) < std::tie(a.priority, a.level, b.index);
-    });
-    // A prefix of that order within the budget: every kept brick's coarser cover comes before it.
-    Update out;
-    std::vector<std::vector<char>> selected(levels.size());
-    for (std::uint32_t l = 0; l <= top; ++l) selected[l].assign(levels[l].brickCount, 0);
-    std::uint64_t bytes = 0;
-    std::size_t kept = 0;
-    for (; kept < candidates.size(); ++kept) {
-        const Candidate& c = candidates[kept];
-        const std::uint64_t b = volume_.brickBytes(c.level, c.index);
-        if (bytes + b > budget_) break;
-        bytes += b;
-        selected[c.level][c.index] = 1;
-        lastUsed_[c.level][c.index] = frame_;
-    }
-    out.selected = static_cast<std::uint32_t>(kept);
-    out.neededNotFitting = static_cast<std::uint32_t>(candidates.size() - kept);
 
-    // Evict what is not selected, finest level first (a brick goes before its cover), then the
-    // least recently selected, until the selection's missing bricks fit.
+    // A prefix of that order within the budget: every kept brick's coarser cover comes before it.
+    // A tile's bricks join when its bound comes up; a tile past the tile slots is left out whole
+    // (its bricks' cover is the far field's, which the order keeps anyway).
+    Update out;
+    std::vector<Candidate> kept;
+    std::set<std::uint32_t> keptTiles;
+    std::uint64_t bytes = 0;
+    while (!queue.empty()) {
+        const Candidate c = queue.top();
+        if (c.tile) {
+            queue.pop();
+            if (keptTiles.size() < volume_.tileSlotCount()) pushBricks(c.brick.file);
+            continue;
+        }
+        const std::uint64_t b = volume_.brickBytes(c.brick);
+        if (bytes + b > budget_) break;
+        queue.pop();
+        if (c.brick.file != kBaseFile && !keptTiles.contains(c.brick.file)) {
+            if (keptTiles.size() >= volume_.tileSlotCount()) {
+                ++out.neededNotFitting;
+                continue;
+            }
+            keptTiles.insert(c.brick.file);
+        }
+        bytes += b;
+        kept.push_back(c);
+        lastUsed_[c.brick] = frame_;
+    }
+    for (; !queue.empty(); queue.pop()) out.neededNotFitting += queue.top().tile ? 0 : 1;
+    out.selected = static_cast<std::uint32_t>(kept.size());
+    std::set<RvolBrickRef> selected;
+    for (const Candidate& c : kept) selected.insert(c.brick);
+
+    // Evict what is not selected, first the bricks of tiles the view does not keep (which frees
+    // their tile slots), then the finest level (a brick goes before its cover), then the least
+    // recently selected, until the selection's missing bricks and tiles fit.
     std::uint64_t missing = 0;
-    for (std::size_t k = 0; k < kept; ++k)
-        if (!volume_.resident(candidates[k].level, candidates[k].index))
-            missing += volume_.brickBytes(candidates[k].level, candidates[k].index);
-    std::vector<std::tuple<std::uint32_t, std::uint64_t, std::uint32_t>>
-        victims;  // level, last used, index
-    for (std::uint32_t l = 0; l <= top; ++l)
-        for (std::uint32_t i = 0; i < levels[l].brickCount; ++i)
-            if (volume_.resident(l, i) && !selected[l][i])
-                victims.emplace_back(l, lastUsed_[l][i], i);
+    std::set<std::uint32_t> tilesToPlace;
+    for (const Candidate& c : kept)
+        if (!volume_.resident(c.brick)) {
+            missing += volume_.brickBytes(c.brick);
+            if (c.brick.file != kBaseFile && !volume_.tileResident(c.brick.file))
+                tilesToPlace.insert(c.brick.file);
+        }
+    std::vector<std::tuple<bool, std::uint32_t, std::uint64_t, RvolBrickRef>> victims;
+    for (const auto& [brick, used] : lastUsed_)
+        if (!selected.contains(brick))
+            victims.emplace_back(brick.file == kBaseFile || keptTiles.contains(brick.file),
+                                 volume_.volumeLevel(brick.file, brick.level), used, brick);
     std::sort(victims.begin(), victims.end());
-    for (const auto& [level, used, index] : victims) {
-        if (residentBytes_ + missing <= budget_) break;
-        volume_.evictBrick(level, index);
-        residentBytes_ -= volume_.brickBytes(level, index);
+    for (const auto& [keptTile, level, used, brick] : victims) {
+        const std::uint32_t freeTiles = volume_.tileSlotCount() - volume_.residentTiles();
+        if (residentBytes_ + missing <= budget_ && tilesToPlace.size() <= freeTiles) break;
+        const std::uint64_t b = volume_.brickBytes(brick);
+        volume_.evictBrick(brick);
+        lastUsed_.erase(brick);
+        residentBytes_ -= b;
         ++out.evicted;
+        if (brick.file != kBaseFile && !volume_.tileResident(brick.file)) ++out.tilesEvicted;
     }
     // Upload in priority order (covers first).
-    for (std::size_t k = 0; k < kept; ++k) {
-        const Candidate& c = candidates[k];
-        if (volume_.resident(c.level, c.index)) continue;
-        if (!volume_.uploadBrick(c.level, c.index)) {  // the atlas is out of slots of one kind
-            out.neededNotFitting += static_cast<std::uint32_t>(kept - k);
+    for (std::size_t k = 0; k < kept.size(); ++k) {
+        const RvolBrickRef& brick = kept[k].brick;
+        if (volume_.resident(brick)) continue;
+        const bool newTile = brick.file != kBaseFile && !volume_.tileResident(brick.file);
+        if (!volume_.uploadBrick(brick)) {  // the atlas is out of slots of one kind
+            out.neededNotFitting += static_cast<std::uint32_t>(kept.size() - k);
+            for (std::size_t j = k; j < kept.size(); ++j)
+                if (!volume_.resident(kept[j].brick)) lastUsed_.erase(kept[j].brick);
             break;
         }
-        residentBytes_ += volume_.brickBytes(c.level, c.index);
+        residentBytes_ += volume_.brickBytes(brick);
         ++out.uploaded;
+        out.tilesUploaded += newTile ? 1 : 0;
     }
+    out.residentTiles = volume_.residentTiles();
     out.residentBytes = residentBytes_;
     return out;
 }

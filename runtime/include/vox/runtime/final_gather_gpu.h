@@ -1,7 +1,8 @@
 /// @file final_gather_gpu.h
 /// @brief The cone-traced final gather of vox::FinalGather (libvox/include/vox/final_gather.h) as
-/// an OpenGL compute shader over an RvolGpuVolume: direct light from punctual lights through
-/// shadow cones, seven diffuse cones (indirect light and AO) and a specular cone per shading point.
+/// an OpenGL compute shader over an RvolGpuVolume (a single or a tiled volume): direct light from
+/// punctual lights through shadow cones, seven diffuse cones (indirect light and AO) and a specular
+/// cone per shading point.
 #pragma once
 
 #include <vox/base/light.h>
@@ -63,7 +64,8 @@ public:
     [[nodiscard]] std::vector<GpuGatherParts> shade(const RvolGpuVolume& volume,
                                                     std::span<const GpuShadingPoint> points,
                                                     std::span<const PunctualLight> lights);
-    /// RadianceField::sample(level, position, direction) on the GPU for each query (tests).
+    /// RadianceField::sample(level, position, direction) on the GPU for each query (tests); of a
+    /// tiled volume, TiledRvolReader::sample / sampleDirectional's (the level the volume's).
     struct SampleQuery {
         std::uint32_t level = 0;
         Vec3f position{0, 0, 0};
@@ -78,12 +80,22 @@ public:
     /// The last shade()'s dispatch alone as the GPU timed it (GL_TIME_ELAPSED), seconds; llvmpipe
     /// reads ~0 for compute work.
     [[nodiscard]] double lastGpuSeconds() const noexcept { return lastGpuSeconds_; }
+    /// Of the last shade() (sample()): the points (queries) one of whose samples met a missing
+    /// brick or tile and was served by a coarser resident cover instead ...
+    [[nodiscard]] std::uint32_t lastFallbacks() const noexcept { return lastFallbacks_; }
+    /// ... and those one of whose samples found no resident cover at all up to the top level, so
+    /// read zero where the volume may have radiance: a **hole**. A residency that keeps the top
+    /// level leaves none.
+    [[nodiscard]] std::uint32_t lastHoles() const noexcept { return lastHoles_; }
 
 private:
+    void readCounters(unsigned buffer);
+
     GlContext& context_;
     FinalGatherGpuOptions options_;
     ComputeProgram shadeProgram_, sampleProgram_;
     double lastSeconds_ = 0, lastGpuSeconds_ = 0;
+    std::uint32_t lastFallbacks_ = 0, lastHoles_ = 0;
     unsigned query_ = 0;  // GL_TIME_ELAPSED around shade()'s dispatch
 };
 

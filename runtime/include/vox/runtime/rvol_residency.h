@@ -1,6 +1,7 @@
 /// @file rvol_residency.h
-/// @brief Which .rvol bricks a camera needs on the GPU, under a memory budget: the radiance
-/// volume's streaming policy (the .esvo one is slice_schedule.h).
+/// @brief Which radiance bricks a camera needs on the GPU, under a memory budget: the radiance
+/// volume's streaming policy (the .esvo one is slice_schedule.h), for a single .rvol and for a
+/// tiled volume alike.
 ///
 /// Every shaded point starts its cones at the finest level, so a level's bricks are needed as far
 /// as its cells would still look bigger than lodScale pixels from the eye (as an octree slice's
@@ -10,13 +11,19 @@
 /// S_l / d (S_l the brick's edge: coarse and near first), and the selection stops at the first
 /// brick that does not fit, so that every selected brick's coarser cover is selected too: a
 /// missing brick (kMissingBrick) then always has a resident level above it to fall back to.
+///
+/// A tiled volume's far field is such a volume (levels depth − farDepth … depth), and the tiles'
+/// bricks join the same order; at equal S / d the far field's brick goes first, so a tile brick's
+/// fallback, the far field at its level, is kept whenever the tile brick is. A tile's file is
+/// opened only when the order reaches its bound (its coarsest brick's edge over its distance)
+/// within the budget: tiles far from the eye are never read.
 #pragma once
 
 #include <vox/base/camera.h>
 #include <vox/runtime/rvol_gpu_volume.h>
 
 #include <cstdint>
-#include <vector>
+#include <map>
 
 namespace vox::runtime {
 
@@ -29,11 +36,17 @@ public:
     struct Update {
         std::uint32_t uploaded = 0, evicted = 0;  ///< bricks
         std::uint32_t selected = 0;               ///< bricks the view keeps
-        std::uint32_t neededNotFitting = 0;       ///< needed bricks the budget leaves out
-        std::uint64_t residentBytes = 0;          ///< brickBytes of the resident bricks
+        /// Needed bricks the budget (or the atlas, or the tile slots) leaves out, of the files
+        /// opened: a tile beyond the budget's cut is not opened to count its bricks.
+        std::uint32_t neededNotFitting = 0;
+        std::uint32_t tilesUploaded = 0;  ///< tiles that got their first resident brick
+        std::uint32_t tilesEvicted = 0;   ///< tiles that lost their last one
+        std::uint32_t residentTiles = 0;  ///< tiles with a resident brick, after the update
+        std::uint64_t residentBytes = 0;  ///< brickBytes of the resident bricks
     };
-    /// Selects for @p camera's eye, evicts what is not selected (finest level first, then least
-    /// recently selected) as far as needed, uploads what is missing.
+    /// Selects for @p camera's eye, evicts what is not selected (bricks of tiles the view does not
+    /// keep first, then the finest level, then least recently selected) as far as the budget and
+    /// the tile slots need, uploads what is missing.
     Update update(const PinholeCamera& camera);
     [[nodiscard]] std::uint64_t residentBytes() const noexcept { return residentBytes_; }
     [[nodiscard]] std::uint64_t budget() const noexcept { return budget_; }
@@ -43,7 +56,7 @@ private:
     std::uint64_t budget_;
     double lodScale_;
     std::uint64_t frame_ = 0, residentBytes_ = 0;
-    std::vector<std::vector<std::uint64_t>> lastUsed_;  // per level, per brick
+    std::map<RvolBrickRef, std::uint64_t> lastUsed_;  // the frame each resident brick was last kept
 };
 
 }  // namespace vox::runtime
