@@ -89,10 +89,6 @@ void RvolGpuVolume::build(const RvolGpuVolumeOptions& options) {
         depth_ = index.depth;
         baseLevelOffset_ = index.depth - index.farDepth;
         tiles_.resize(index.tiles.size());
-        // Every tile shares one level table, so one level-0 layout: the first tile's (checked
-        // against each tile as it is opened).
-        if (!index.tiles.empty())
-            tileBinaryLevel0_ = tiled_->tile(0).header().binaryLevel0Opacity();
     }
 
     // Slots: one per stored plane of every brick (RGB: one at level 0, up to six above; A8: one at
@@ -270,11 +266,10 @@ void RvolGpuVolume::writeInfo() {
                 continue;
             }
             const std::uint32_t cells = 1u << (tileDepth - l);
-            table.push_back(
-                {static_cast<std::uint32_t>(tileLevelBase_[l]), rvol::bricksPerAxis(cells, n_),
-                 1u << (depth_ - l),
-                 planesPerBrick(l) | (l == 0 && tileBinaryLevel0_ ? kBinaryOpacityBit : 0u), cells,
-                 farEntry(std::max(l, baseLevelOffset_)), l + 1, l});
+            table.push_back({static_cast<std::uint32_t>(tileLevelBase_[l]),
+                             rvol::bricksPerAxis(cells, n_), 1u << (depth_ - l),
+                             planesPerBrick(l) | (l == 0 && binaryLevel0_ ? kBinaryOpacityBit : 0u),
+                             cells, farEntry(std::max(l, baseLevelOffset_)), l + 1, l});
         }
         for (std::uint32_t l = baseLevelOffset_; l <= tileDepth; ++l) {
             InfoLevel e = baseEntry(l, l - baseLevelOffset_);
@@ -387,8 +382,10 @@ void RvolGpuVolume::uploadWords(unsigned buffer, const std::vector<std::uint32_t
 bool RvolGpuVolume::takeTileSlot(std::uint32_t tile) {
     if (freeTileSlots_.empty()) return false;
     const rvol::RvolReader& file = tiled_->tile(tile);  // opens and checks it on first use
-    if (file.header().binaryLevel0Opacity() != tileBinaryLevel0_)
-        throw InvalidDataError(file.path(), "level-0 opacity layout differs from the first tile's");
+    // Every tile shares one level table, so one level-0 layout: the far field's, as one bake
+    // writes them all.
+    if (file.header().binaryLevel0Opacity() != binaryLevel0_)
+        throw InvalidDataError(file.path(), "level-0 opacity layout differs from the far field's");
     TileState& t = tiles_[tile];
     t.slot = freeTileSlots_.back();
     freeTileSlots_.pop_back();
@@ -426,8 +423,7 @@ bool RvolGpuVolume::uploadBrick(const RvolBrickRef& brick) {
     const rvol::RvolReader& file = fileReader(brick.file);
     const std::uint32_t level = brick.level;
     const std::uint32_t channels = rvol::levelChannels(level);
-    const std::uint32_t alphaPlanes =
-        rvol::alphaPlanes(channels, level == 0 && binaryLevel0(brick.file));
+    const std::uint32_t alphaPlanes = rvol::alphaPlanes(channels, level == 0 && binaryLevel0_);
     const std::uint32_t stored = file.bricks(level)[brick.index].planes;
     // Per plane its slot; 0 (the zero slot) for a plane the file leaves out (all zero).
     std::vector<std::uint32_t> rgb(channels, 0), alpha(alphaPlanes, 0);
@@ -500,8 +496,7 @@ void RvolGpuVolume::evictBrick(const RvolBrickRef& brick) {
     if (!resident(brick)) return;
     const std::uint32_t level = brick.level;
     const std::uint32_t channels = rvol::levelChannels(level);
-    const std::uint32_t alphaPlanes =
-        rvol::alphaPlanes(channels, level == 0 && binaryLevel0(brick.file));
+    const std::uint32_t alphaPlanes = rvol::alphaPlanes(channels, level == 0 && binaryLevel0_);
     const std::uint64_t entry = entryOffset(brick);
     const auto unpack = [](std::uint32_t e, const std::array<std::uint32_t, 3>& grid) {
         const std::uint32_t m = kSlotAxisMax - 1;

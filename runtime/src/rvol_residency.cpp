@@ -14,18 +14,22 @@ namespace {
 
 /// A needed brick, or a tiled volume's tile not yet opened (bound: no brick of it ranks higher).
 struct Candidate {
+    /// A tile brick at a level the far field also has: it only refines the far field's brick
+    /// (which serves where it is missing), so it waits until every other needed brick fits.
+    bool duplicate;
     double priority;
     bool tile;  // an unopened tile: brick.file is the tile
     RvolBrickRef brick;
     std::uint32_t volumeLevel;
 };
 
-/// The heap's order: higher priority first; at ties the far field (base file) first, then coarser
-/// levels, then file and directory order.
+/// The heap's order: duplicates last; higher priority first; at ties the far field (base file)
+/// first, then coarser levels, then file and directory order.
 bool ranksBelow(const Candidate& a, const Candidate& b) {
     const bool aBase = a.brick.file == kBaseFile, bBase = b.brick.file == kBaseFile;
-    return std::tie(a.priority, aBase, a.tile, a.volumeLevel, b.brick.file, b.brick.index) <
-           std::tie(b.priority, bBase, b.tile, b.volumeLevel, a.brick.file, a.brick.index);
+    return std::tie(b.duplicate, a.priority, aBase, a.tile, a.volumeLevel, b.brick.file,
+                    b.brick.index) < std::tie(a.duplicate, b.priority, bBase, b.tile, b.volumeLevel,
+                                              a.brick.file, a.brick.index);
 }
 
 /// Distance from @p eye to the box [lo, hi] (0 inside).
@@ -67,6 +71,9 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
     const double tiny = 1e-9 * volume_.finestCellSize() * double(1ull << top);
     std::priority_queue<Candidate, std::vector<Candidate>, decltype(&ranksBelow)> queue(ranksBelow);
 
+    const rvol::TiledRvolReader* tiled = volume_.tiled();
+    // The far field's finest level: tile bricks from there up duplicate its levels.
+    const std::uint32_t farFinest = volume_.volumeLevel(kBaseFile, 0);
     // The needed bricks of a file, with their priority S / distance (the top level's: infinite).
     const auto pushBricks = [&](std::uint32_t file) {
         const rvol::RvolReader& r = volume_.fileReader(file);
@@ -90,23 +97,28 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
                     continue;  // its cells look smaller than lodScale pixels
                 const double priority =
                     level == top ? std::numeric_limits<double>::max() : edge / std::max(d, tiny);
-                queue.push({priority, false, {file, l, i}, level});
+                const bool duplicate = file != kBaseFile && level >= farFinest;
+                queue.push({duplicate, priority, false, {file, l, i}, level});
             }
         }
     };
     pushBricks(kBaseFile);
-    const rvol::TiledRvolReader* tiled = volume_.tiled();
     if (tiled) {
-        // Each tile by its bound, unopened: its coarsest level's brick edge over its distance.
+        // Each tile by its bound, unopened: the brick edge of its coarsest level below the far
+        // field's (else of its coarsest, a duplicate) over its distance.
         const rvol::TileIndex& index = tiled->index();
         const double tileSize = index.tileSize();
+        const bool allDuplicates = farFinest == 0;
+        const std::uint32_t boundLevel = allDuplicates ? index.tileDepth : farFinest - 1;
+        const double boundCell = index.cellSize() * double(1ull << boundLevel);
         for (std::uint32_t t = 0; t < index.tiles.size(); ++t) {
             const rvol::TileEntry& e = index.tiles[t];
             const std::array<double, 3> lo = index.tileOrigin(e.x, e.y, e.z);
             const double d =
                 boxDistance(lo, {lo[0] + tileSize, lo[1] + tileSize, lo[2] + tileSize}, camera.eye);
-            if (!(tileSize > pixel * d)) continue;  // even its coarsest cell is under a pixel
-            queue.push({span * tileSize / std::max(d, tiny), true, {t, 0, 0}, index.tileDepth});
+            if (!(boundCell > pixel * d)) continue;  // even that level's cells are under a pixel
+            queue.push(
+                {allDuplicates, span * boundCell / std::max(d, tiny), true, {t, 0, 0}, boundLevel});
         }
     }
 

@@ -127,8 +127,9 @@ public:
     RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader,
                   const RvolGpuVolumeOptions& options = {});
     /// A tiled volume: its far field and tiles. With uploadAll it opens every tile and uploads
-    /// every brick; without, it needs atlasBytes > 0 and opens only the first tile (for its
-    /// level-0 layout), the others when uploadBrick first asks for one of their bricks.
+    /// every brick; without, it needs atlasBytes > 0 and opens a tile only when uploadBrick first
+    /// asks for one of its bricks. Tiles must have the far field's level-0 layout (binary opacity
+    /// or not, as one bake writes them): InvalidDataError names a tile that has not.
     /// @throws RuntimeError as above, or when the tile table or one tile block does not fit
     /// GL_MAX_SHADER_STORAGE_BLOCK_SIZE; IoError, InvalidDataError from the files.
     RvolGpuVolume(GlContext& context, const rvol::TiledRvolReader& reader,
@@ -215,9 +216,6 @@ private:
     void build(const RvolGpuVolumeOptions& options);
     void writeInfo();
     [[nodiscard]] std::uint64_t entryOffset(const RvolBrickRef& brick) const;
-    [[nodiscard]] bool binaryLevel0(std::uint32_t file) const noexcept {
-        return file == kBaseFile ? binaryLevel0_ : tileBinaryLevel0_;
-    }
     bool takeTileSlot(std::uint32_t tile);
     void releaseTileSlot(std::uint32_t tile);
     [[nodiscard]] std::uint64_t tileTableIndex(std::uint32_t tile) const;
@@ -232,7 +230,7 @@ private:
     const rvol::TiledRvolReader* tiled_ = nullptr;
     std::uint32_t n_ = 0;
     std::uint32_t depth_ = 0, baseLevelOffset_ = 0;
-    bool binaryLevel0_ = false, tileBinaryLevel0_ = false;
+    bool binaryLevel0_ = false;  // of every file: a tiled volume's tiles have the far field's
     bool alpha16_ = false;
     unsigned rgbAtlas_ = 0, wordView_ = 0, alphaAtlas_ = 0, infoBuffer_ = 0, indirectionBuffer_ = 0,
              tileTableBuffer_ = 0;

@@ -14,9 +14,11 @@
 ///
 /// A tiled volume's far field is such a volume (levels depth − farDepth … depth), and the tiles'
 /// bricks join the same order; at equal S / d the far field's brick goes first, so a tile brick's
-/// fallback, the far field at its level, is kept whenever the tile brick is. A tile's file is
-/// opened only when the order reaches its bound (its coarsest brick's edge over its distance)
-/// within the budget: tiles far from the eye are never read.
+/// fallback, the far field at its level (or its finest), is kept whenever the tile brick is. Tile
+/// bricks at levels the far field also has only refine it: they come after every other needed
+/// brick. A tile's file is opened only when the order reaches its bound (the edge of its coarsest
+/// brick below the far field's levels over its distance) within the budget: tiles far from the
+/// eye are never read.
 #pragma once
 
 #include <vox/base/camera.h>
