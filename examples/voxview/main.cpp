@@ -18,6 +18,7 @@
 #include <vox/formats/esvo_attributes.h>
 #include <vox/formats/esvo_reader.h>
 #include <vox/formats/rvol_io.h>
+#include <vox/formats/rvol_tiles.h>
 #include <vox/import.h>  // vox::import: the lights of --scene
 #include <vox/runtime/channels.h>
 #include <vox/runtime/esvo_gpu_pool.h>
@@ -325,7 +326,9 @@ void run(Options o) {
 
     // The radiance volume, every brick uploaded, and the lights: all of the scene's, static and
     // dynamic, as voxinspect render lights them.
+    // A single .rvol, or a tiled volume's index (its far field then stands for it below).
     std::unique_ptr<vox::rvol::RvolReader> rvolReader;
+    std::unique_ptr<vox::rvol::TiledRvolReader> tiledReader;
     std::unique_ptr<rt::RvolGpuVolume> volume;
     std::unique_ptr<rt::FinalGatherGpu> gather;
     std::unique_ptr<rt::RvolResidency> bricks;
@@ -333,7 +336,10 @@ void run(Options o) {
     std::vector<vox::PunctualLight> lights;
     std::size_t staticLights = 0;
     if (gatherChannel) {
-        rvolReader = std::make_unique<vox::rvol::RvolReader>(o.rvol);
+        if (vox::rvol::isTileIndex(o.rvol))
+            tiledReader = std::make_unique<vox::rvol::TiledRvolReader>(o.rvol);
+        else
+            rvolReader = std::make_unique<vox::rvol::RvolReader>(o.rvol);
         if (!o.scene.empty()) {
             const vox::Scene scene = vox::importScene(o.scene);
             for (const vox::Light& light : scene.lights) {
@@ -341,7 +347,9 @@ void run(Options o) {
                 staticLights += !light.dynamic;
             }
         }
-        const std::uint32_t baked = rvolReader->header().bake.lights;
+        const vox::rvol::BakeInfo bake =
+            tiledReader ? tiledReader->index().bake : rvolReader->header().bake;
+        const std::uint32_t baked = bake.lights;
         if (!o.quiet && o.scene.empty() && baked > 0)
             std::fprintf(stderr,
                          "voxview: warning: no lights without --scene: the direct term is 0 (the "
@@ -357,14 +365,16 @@ void run(Options o) {
             volumeOptions.uploadAll = false;
             volumeOptions.atlasBytes = std::uint64_t(o.rvolBudgetMb * 1048576.0);
         }
-        volume = std::make_unique<rt::RvolGpuVolume>(context, *rvolReader, volumeOptions);
+        volume = tiledReader
+                     ? std::make_unique<rt::RvolGpuVolume>(context, *tiledReader, volumeOptions)
+                     : std::make_unique<rt::RvolGpuVolume>(context, *rvolReader, volumeOptions);
         if (o.rvolBudgetMb > 0)
             bricks = std::make_unique<rt::RvolResidency>(*volume, volumeOptions.atlasBytes);
         rt::FinalGatherGpuOptions gatherOptions;
         gatherOptions.specularApertureDegrees = o.specAperture;
         gatherOptions.shadowApertureDegrees = o.shadowAperture;
         gatherOptions.shadowCones = !o.noShadowCones;
-        gatherOptions.aoLambda = rvolReader->header().bake.aoLambda;
+        gatherOptions.aoLambda = bake.aoLambda;
         gatherOptions.hardwareFilter = o.gatherFilter == "hardware";
         gather = std::make_unique<rt::FinalGatherGpu>(context, gatherOptions);
         context.throwOnErrors("uploading " + o.rvol);
@@ -381,6 +391,7 @@ void run(Options o) {
     ShadingPoints points;
     std::vector<rt::GpuGatherParts> parts;
     std::vector<double> pointsMs, gatherMs, gatherGpuMs;
+    std::uint64_t holesTotal = 0;
     vox::runtime::GpuFrame frame;
     std::vector<double> gpuMs, wallMs, updateMs;
     nlohmann::json perFrame = nlohmann::json::array();
@@ -401,18 +412,27 @@ void run(Options o) {
             pointsMs.push_back(std::chrono::duration<double, std::milli>(
                                    std::chrono::steady_clock::now() - pointsStart)
                                    .count());
-            if (bricks) {
-                const rt::RvolResidency::Update u = bricks->update(path[at]);
-                if (brickFrames.size() < 10000)
-                    brickFrames.push_back({{"uploaded", u.uploaded},
-                                           {"evicted", u.evicted},
-                                           {"selected", u.selected},
-                                           {"over_budget", u.neededNotFitting},
-                                           {"resident_bytes", u.residentBytes}});
-            }
+            rt::RvolResidency::Update u;
+            if (bricks) u = bricks->update(path[at]);
             parts = gather->shade(*volume, points.points, lights);
             gatherMs.push_back(gather->lastSeconds() * 1e3);
             gatherGpuMs.push_back(gather->lastGpuSeconds() * 1e3);
+            holesTotal += gather->lastHoles();
+            if (brickFrames.size() < 10000)
+                brickFrames.push_back(
+                    {{"uploaded", u.uploaded},
+                     {"evicted", u.evicted},
+                     {"selected", u.selected},
+                     {"over_budget", u.neededNotFitting},
+                     {"tiles_uploaded", u.tilesUploaded},
+                     {"tiles_evicted", u.tilesEvicted},
+                     {"resident_tiles", volume->residentTiles()},
+                     {"fallback_points", gather->lastFallbacks()},
+                     {"holes", gather->lastHoles()},
+                     // Bricks' bytes (all of them without a budget),
+                     // and the GPU's: atlases, indirection, tables.
+                     {"resident_bytes", bricks ? u.residentBytes : volume->usedAtlasBytes()},
+                     {"volume_bytes", volume->residentBytes()}});
         }
         gpuMs.push_back(frame.gpuMilliseconds);
         wallMs.push_back(frame.wallMilliseconds);
@@ -538,12 +558,19 @@ void run(Options o) {
                                   {"static_lights", staticLights},
                                   {"filter", o.gatherFilter},
                                   {"exposure", o.exposure},
-                                  {"ao_lambda", rvolReader->header().bake.aoLambda},
+                                  {"ao_lambda", gather->options().aoLambda},
+                                  {"tiled", tiledReader != nullptr},
+                                  {"tiles", tiledReader ? tiledReader->index().tiles.size() : 0},
+                                  {"tile_slots", volume->tileSlotCount()},
+                                  // Points whose samples met a missing brick with no resident
+                                  // cover, over all frames (FinalGatherGpu::lastHoles).
+                                  {"holes", holesTotal},
                                   {"volume_resident_bytes", volume->residentBytes()},
                                   {"volume_uploaded_bytes", volume->uploadedBytesTotal()},
                                   {"rvol_budget_bytes", bricks ? bricks->budget() : 0},
-                                  // With --rvol-budget, per frame: bricks uploaded, evicted, kept,
-                                  // left out, resident bytes.
+                                  // Per frame: bricks and tiles uploaded and evicted (with
+                                  // --rvol-budget), resident bytes and tiles, the points that fell
+                                  // back to a coarser cover and the holes.
                                   {"bricks_per_frame", brickFrames},
                                   // FinalGatherGpu::shade: upload, dispatch, glFinish, read-back.
                                   {"gather_ms_per_frame", gatherMs},
@@ -615,7 +642,8 @@ int main(int argc, char** argv) {
         "Write a JSON report: renderer, frame times, hits, resident and uploaded bytes per frame");
     app.add_option(
         "--rvol", o.rvol,
-        "Draw this radiance volume's final gather at the octree's hits (GPU cone tracing)");
+        "Draw this radiance volume's final gather at the octree's hits (GPU cone tracing); a .rvol "
+        "or a tiled volume's index");
     app.add_option("--scene", o.scene,
                    "--rvol: the lights of this scene (glTF, OBJ; all of them, static and dynamic)");
     app.add_option("--exposure", o.exposure, "--rvol: radiance scale before tone mapping")
