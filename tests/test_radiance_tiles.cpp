@@ -149,8 +149,13 @@ TEST(RadianceTiles, RunsAsSeparateJobsGiveTheWholeBakesFiles) {
     bakeTiled(scene, whole, tiling);
     using Kind = vox::TiledBakeJob::Kind;
     std::uint64_t baked = 0;
-    for (std::uint32_t run = 0; run < 3; ++run)
-        baked += bakeTiled(scene, split, tiling, {Kind::Run, run, 3}).tilesBaked;
+    std::vector<vox::rvol::TileEntry> written;  // what each run says it wrote
+    for (std::uint32_t run = 0; run < 3; ++run) {
+        const vox::TiledBakeResult result = bakeTiled(scene, split, tiling, {Kind::Run, run, 3});
+        baked += result.tilesBaked;
+        EXPECT_EQ(result.tilesWritten.size(), result.tilesBaked);
+        written.insert(written.end(), result.tilesWritten.begin(), result.tilesWritten.end());
+    }
     // The index step refuses while a tile is missing, then writes the index.
     const auto files = filesOf(split);
     EXPECT_EQ(baked, files.size() - 1);
@@ -161,6 +166,16 @@ TEST(RadianceTiles, RunsAsSeparateJobsGiveTheWholeBakesFiles) {
     fs::rename(dir.path() / "aside", oneTile);
     bakeTiled(scene, split, tiling, {Kind::Index, 0, 1});
     EXPECT_EQ(filesOf(whole), filesOf(split));
+    // The runs' records of their tiles are the index's entries, read back from the files.
+    const auto morton = [](const auto& a, const auto& b) { return a.morton() < b.morton(); };
+    std::sort(written.begin(), written.end(), morton);
+    const vox::rvol::TileIndex index = vox::rvol::readTileIndex(split);
+    ASSERT_EQ(written.size(), index.tiles.size());
+    for (std::size_t i = 0; i < written.size(); ++i) {
+        EXPECT_EQ(written[i].morton(), index.tiles[i].morton()) << i;
+        EXPECT_EQ(written[i].fileBytes, index.tiles[i].fileBytes) << i;
+        EXPECT_EQ(written[i].headerChecksum, index.tiles[i].headerChecksum) << i;
+    }
 }
 
 /// voxinspect render's final gather of the Cornell box through @p field, 48 × 36 pixels looking

@@ -7,9 +7,13 @@
 #   2. the same with run 3 killed by scancel while it runs: the merge is cancelled, no output;
 #      a part with a corrupt header and one with a corrupt block; --resubmit builds only the
 #      runs whose part is missing or corrupt (the block's as named by the failed merge), and
-#      the merge then gives the same bytes again.
-# Usage: tests/slurm/run_slurm_test.sh [BUILD_DIR]    (default: build; LIBVOX_VOXELIZE and
-# LIBVOX_MAKE_EXAMPLE_SCENE override BUILD_DIR/tools/voxelize, BUILD_DIR/examples/make_example_scene)
+#      the merge then gives the same bytes again;
+#   3. a tiled radiance bake (depth 6, tiles of 16³) as an array of 3 `--radiance-tile K/3` runs
+#      and the index job after them: valid, and a one-process tiled bake's files byte for byte;
+#      a tile removed, --resubmit bakes its run and the index again, and the bytes are the same.
+# Usage: tests/slurm/run_slurm_test.sh [BUILD_DIR]    (default: build; LIBVOX_VOXELIZE,
+# LIBVOX_VOXINSPECT and LIBVOX_MAKE_EXAMPLE_SCENE override BUILD_DIR/tools/voxelize,
+# BUILD_DIR/tools/voxinspect, BUILD_DIR/examples/make_example_scene)
 # Exit 0 passed, 1 failed, 77 skipped (not root, or no slurm-wlm/munge). Stops its daemons on
 # exit. LIBVOX_SLURM_KEEP=1 keeps the temporary directory (logs, parts).
 set -euo pipefail
@@ -20,9 +24,10 @@ source "$here/slurm_cluster.sh"
 slurm_cluster_check
 build=$(cd "${1:-$root/build}" && pwd)
 voxelize=${LIBVOX_VOXELIZE:-$build/tools/voxelize}
+voxinspect=${LIBVOX_VOXINSPECT:-$build/tools/voxinspect}
 make_scene=${LIBVOX_MAKE_EXAMPLE_SCENE:-$build/examples/make_example_scene}
 front=$root/scripts/voxelize-slurm
-for f in "$voxelize" "$make_scene"; do
+for f in "$voxelize" "$voxinspect" "$make_scene"; do
     [ -x "$f" ] || { echo "FAIL: $f not built" >&2; exit 1; }
 done
 
@@ -187,6 +192,50 @@ ok "the second --resubmit built run 4 only (named by the merge); the merge gives
 again=$("$front" "$scene" -o "$r2/scene.esvo" --runs 4 --workdir "$r2" "${opts[@]}" --voxelize "$voxelize" --resubmit)
 [[ $again == *"nothing to resubmit"* ]] || fail "a third --resubmit printed: $again"
 ok "a third --resubmit finds nothing to do"
+
+# Round 3: a tiled bake as an array of tile runs and the index job after them.
+rt=$tmp/rt
+mkdir -p "$rt"
+tiling=(--radiance-depth 6 --radiance-tile-depth 4 --bounces 1)
+"$voxelize" "$scene" --radiance "$tmp/local-tiled.rvol" "${tiling[@]}" -q
+same_tiled_bake() {  # the index, the far field and every tile: the one-process bake's bytes
+    cmp "$tmp/local-tiled.rvol" "$rt/scene.rvol" || fail "$1: the tile index differs from the local bake's"
+    [ "$(ls "$tmp/local-tiled.rvol.tiles")" = "$(ls "$rt/scene.rvol.tiles")" ] || fail "$1: other tile files than the local bake's"
+    for f in "$tmp/local-tiled.rvol.tiles"/*; do
+        cmp "$f" "$rt/scene.rvol.tiles/$(basename "$f")" || fail "$1: $(basename "$f") differs from the local bake's"
+    done
+}
+tiled_ids() { "$front" "$scene" --workdir "$rt" --radiance "$rt/scene.rvol" "${tiling[@]}" --radiance-runs 3 --voxelize "$voxelize" "$@"; }
+ids=$(tiled_ids)
+tiles=$(job radiance-tiles "$ids")
+index=$(job radiance-index "$ids")
+[ -n "$tiles" ] && [ -n "$index" ] || fail "voxelize-slurm printed: $ids"
+slurm_wait_gone 300 "$tiles" "$index" || fail "round 3 did not finish"
+for k in 1 2 3; do
+    expect_state "${tiles}_$k" COMPLETED
+    grep -q "^voxelize-slurm: radiance run $k/3 exit 0; start " "$rt/radiance-tile-$k.log" || fail "radiance-tile-$k.log has no exit line"
+    [ "$(json "$rt/radiance-tile-$k.stats.json" radiance.run.run)" = "$k" ] || fail "radiance-tile-$k.stats.json is not run $k"
+done
+expect_state "$index" COMPLETED
+grep -q "^voxelize-slurm: radiance index exit 0; start " "$rt/radiance-index.log" || fail "radiance-index.log has no exit line"
+"$voxinspect" validate "$rt/scene.rvol" -q || fail "round 3: voxinspect validate refused the tiled bake"
+same_tiled_bake "round 3"
+ok "a tiled bake as 3 tile runs + the index job: valid, the one-process bake's $(ls "$rt/scene.rvol.tiles" | wc -l) files byte for byte"
+
+# A tile of run 2 removed: --resubmit bakes run 2 and the index again.
+tile=$(json "$rt/radiance-tile-2.stats.json" radiance.tile_files.0.file)
+rm "$rt/scene.rvol.tiles/$tile"
+ids=$(tiled_ids --resubmit)
+tiles=$(job radiance-tiles "$ids")
+index=$(job radiance-index "$ids")
+[ "$(json "$rt/voxelize-slurm.json" submissions.-1.radiance_runs)" = 2 ] || fail "--resubmit resubmitted tile runs other than 2"
+slurm_wait_gone 300 "$tiles" "$index" || fail "the tiled resubmission did not finish"
+expect_state "${tiles}_2" COMPLETED
+expect_state "$index" COMPLETED
+same_tiled_bake "after --resubmit"
+again=$(tiled_ids --resubmit)
+[[ $again == *"nothing to resubmit"* ]] || fail "--resubmit of a complete tiled bake printed: $again"
+ok "$tile removed: --resubmit baked run 2 and the index again, the same bytes; then nothing to resubmit"
 
 echo "slurm test: $((SECONDS - start)) s"
 echo "slurm: $passed passed, 0 failed"

@@ -222,6 +222,13 @@ nlohmann::json bakeTiled(const VoxelizeOptions& options, const vox::Scene& scene
                              {"bake_seconds", seconds}};
     if (job.kind == vox::TiledBakeJob::Kind::Run)
         report["run"] = {{"run", job.run + 1}, {"runs", job.runs}};
+    nlohmann::json files = nlohmann::json::array();
+    for (const vox::rvol::TileEntry& t : result.tilesWritten)
+        files.push_back(
+            {{"file", vox::rvol::tilePath(options.radiance, t.x, t.y, t.z).filename().string()},
+             {"bytes", t.fileBytes},
+             {"header_checksum", t.headerChecksum}});
+    report["tile_files"] = std::move(files);
     return report;
 }
 

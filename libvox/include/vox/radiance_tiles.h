@@ -52,6 +52,9 @@ struct TiledBakeResult {
     std::uint64_t indexBytes = 0;                       ///< index written (0: not written)
     std::uint64_t largestTileVoxels = 0;
     double farSeconds = 0, tileSeconds = 0;
+    /// The tile files this job wrote (Whole, Run), in Morton order, as their index entries: what
+    /// a scheduler checks to know that a run's tiles are still there and whole.
+    std::vector<rvol::TileEntry> tilesWritten;
 };
 
 /// The tiles of @p far's volume that hold a voxel of its static layer, in Morton order, with

@@ -240,8 +240,9 @@ TiledBakeResult bakeTiledRadiance(const Scene& scene, const RadianceBakeOptions&
                   std::to_string(t[2]) + " (" + std::to_string(i + 1) + " of " +
                   std::to_string(tiles.size()) + "): " + std::to_string(bake.staticVoxels) +
                   " voxels, " + std::to_string(written.fileBytes) + " bytes");
+        result.tilesWritten.push_back(entryOf(rvol::RvolReader(file), t));
         if (job.kind == TiledBakeJob::Kind::Whole)
-            index.tiles.push_back(entryOf(rvol::RvolReader(file), t));
+            index.tiles.push_back(result.tilesWritten.back());
     }
     result.tileSeconds = secondsSince(start);
     if (job.kind == TiledBakeJob::Kind::Run) return result;
