@@ -17,6 +17,7 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <thread>
 
 namespace {
 
@@ -268,6 +269,49 @@ TEST(RadianceTiles, FinalGatherAcrossTilesAgreesWithTheSingleVolume) {
     // (measured a red excess of 113 there, −46 on the right).
     const auto [left, right] = redExcessLeftRight(tiledImage.indirect, tiledImage.width);
     EXPECT_GT(left, right + tiledImage.height);
+}
+
+TEST(RadianceTiles, SamplingFromManyThreadsOpensEveryTileOnceAndAgrees) {
+    const vox::test::ScratchDir dir;
+    const vox::Scene scene = vox::importScene(vox::scenes::writeCornellBox(dir.path()));
+    const fs::path index = dir.path() / "t.rvol";
+    const auto tiling = vox::RadianceTiling::plan(5, 3);
+    bakeTiled(scene, index, tiling);
+    // Points all over the root cube, at every level and a few directions.
+    const TiledRvolReader sequential(index);
+    const auto& o = sequential.index().origin;
+    const double size = sequential.index().size;
+    struct Query {
+        std::uint32_t level;
+        std::array<double, 3> p, d;
+    };
+    std::vector<Query> queries;
+    for (int i = 0; i < 4000; ++i) {
+        const double u = (i * 0.618034) - std::floor(i * 0.618034);
+        const double v = (i * 0.414214) - std::floor(i * 0.414214);
+        const double w = (i * 0.732051) - std::floor(i * 0.732051);
+        queries.push_back({static_cast<std::uint32_t>(i % 6),
+                           {o[0] + u * size, o[1] + v * size, o[2] + w * size},
+                           {u - 0.5, 0.3 - v, w - 0.5}});
+    }
+    std::vector<vox::rvol::Texel> expected;
+    for (const Query& q : queries)
+        expected.push_back(sequential.sampleDirectional(q.level, q.p, q.d));
+    // A fresh reader, every tile still closed, sampled by eight threads at once: each opens the
+    // tiles it meets first, and every sample is the sequential one.
+    const TiledRvolReader shared(index);
+    std::vector<std::vector<vox::rvol::Texel>> got(8);
+    std::vector<std::thread> threads;
+    for (std::size_t t = 0; t < got.size(); ++t)
+        threads.emplace_back([&, t] {
+            for (const Query& q : queries)
+                got[t].push_back(shared.sampleDirectional(q.level, q.p, q.d));
+        });
+    for (std::thread& t : threads) t.join();
+    for (const auto& samples : got) EXPECT_EQ(samples, expected);
+    double nonZero = 0;
+    for (const vox::rvol::Texel& t : expected) nonZero += t.a > 0;
+    EXPECT_GT(nonZero, 0.2 * double(expected.size()));
 }
 
 TEST(RadianceTiles, ValidatorRejectsABrokenIndexOrAForeignTile) {
