@@ -52,8 +52,9 @@ std::map<std::string, std::vector<char>> filesOf(const fs::path& index) {
 TEST(RadianceTiles, PlanKeepsTheFarFieldBelowTheTiles) {
     const auto t = vox::RadianceTiling::plan(12, 8);
     EXPECT_EQ(t.halo, 64u);
-    EXPECT_EQ(t.farDepth, 8u);  // far cells of 16 finest cells: a quarter of the halo
-    EXPECT_EQ(vox::RadianceTiling::plan(13, 6).farDepth, 10u);
+    EXPECT_EQ(t.farDepth, 9u);  // a sixteenth of the halo would be 10: no deeper than T + 1
+    EXPECT_EQ(vox::RadianceTiling::plan(9, 7).farDepth, 8u);  // far cells of 2: a sixteenth
+    EXPECT_EQ(vox::RadianceTiling::plan(13, 6).farDepth, 8u);  // T + 1 is 7: at least D − T + 1
     EXPECT_THROW((void)vox::RadianceTiling::plan(13, 3), vox::ParameterError);     // F would be 11
     EXPECT_THROW((void)vox::RadianceTiling::plan(8, 5, 17), vox::ParameterError);  // halo > T/2
     EXPECT_EQ(vox::RadianceTiling::tileDepthFor(12, 4ull << 30), 8u);

@@ -452,7 +452,9 @@ TEST(TiledRvolResidency, ABudgetedFlightIntoTheBoxLeavesNoHolesAndNeverOpensFarT
     EXPECT_LT(maxTiles, tiles.tiles.size() - deleted);
     // The PSNR against every brick measures the clipmap's level of detail (lodScale 2), not a
     // fault: printed, not asserted.
-    std::printf("[ tiled gpu ] %zu of %zu tile files deleted, never opened; worst final %.1f dB\n",
-                deleted, tiles.tiles.size(), worstPsnr);
+    std::printf(
+        "[ tiled gpu ] %zu of %zu tile files deleted, never opened; tiles uploaded %u, evicted %u; "
+        "worst final %.1f dB\n",
+        deleted, tiles.tiles.size(), tilesUploaded, tilesEvicted, worstPsnr);
     EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
 }

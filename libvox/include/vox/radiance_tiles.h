@@ -25,7 +25,8 @@ struct RadianceTiling {
     std::uint32_t farDepth = 0;   ///< F: the far field's depth (D − T < F ≤ min(D, 10))
 
     /// The tiling for @p depth and @p tileDepth; @p halo 0 picks 2^(T−2) cells. The far field's
-    /// cells are a quarter of the halo (F = D − log2(H) + 2), clamped to D − T + 1 … min(D, 10).
+    /// cells are a sixteenth of the halo (F = D − log2(H) + 4), at most min(D, 10, T + 1) (a far
+    /// bake no larger than a tile's) and at least D − T + 1.
     /// @throws ParameterError ("radianceTileDepth", "radianceHalo") where no tiling fits.
     [[nodiscard]] static RadianceTiling plan(std::uint32_t depth, std::uint32_t tileDepth,
                                              std::uint32_t halo = 0);

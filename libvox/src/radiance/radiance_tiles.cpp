@@ -114,12 +114,16 @@ RadianceTiling RadianceTiling::plan(std::uint32_t depth, std::uint32_t tileDepth
     if (t.halo > (1u << (tileDepth - 1)))
         throw ParameterError("radianceHalo", "must be at most half a tile (2^(tile depth − 1))");
     const auto log2Halo = static_cast<std::uint32_t>(std::bit_width(t.halo) - 1);
-    // Far cells a quarter of the halo: the bounces beyond the halo read the far field, a coarser
-    // bake darker than the depth-D one's mips; half the halo left 8.3 % seams at depth 8 (T 6),
-    // a quarter 4.6 % (docs/internals/rvol-writer.md).
-    const std::int64_t wanted = std::int64_t{depth} - log2Halo + 2;
+    // Far cells a sixteenth of the halo: the bounces beyond the halo read the far field, a coarser
+    // bake darker than the depth-D one's mips. Half the halo left 8.3 % seams at depth 8 (T 6), a
+    // quarter 4.6 %; at depth 9 (T 7) a quarter 4.2 %, an eighth 3.4 %, a sixteenth 3.0 %
+    // (docs/internals/rvol-writer.md). No deeper than T + 1, so that the far field's bake is no
+    // larger than a tile's and --memory-limit, which picks T, bounds it too.
+    const std::int64_t wanted = std::int64_t{depth} - log2Halo + 4;
+    const std::int64_t finest = std::min<std::int64_t>({wanted, std::min(depth, rvol::kMaxDepth),
+                                                        std::int64_t{tileDepth} + 1});
     t.farDepth = static_cast<std::uint32_t>(
-        std::clamp<std::int64_t>(wanted, depth - tileDepth + 1, std::min(depth, rvol::kMaxDepth)));
+        std::max<std::int64_t>(finest, std::int64_t{depth} - tileDepth + 1));
     return t;
 }
 
