@@ -551,6 +551,89 @@ TEST(Lightcuts, CursorAfterResetIsAFreshCut) {
     EXPECT_EQ(a.cut, b.cut);
 }
 
+TEST(Lightcuts, CursorWithARegionLeavesOutOnlyLightsThatCannotReachIt) {
+    // A region (a floor patch) with ranged lights whose ranges end just short of or just past
+    // its two far corners, and some inside the box around it. With a zero error threshold the
+    // cut is exact, so a cursor told the region must give brute force's light at every point of
+    // it, corners included; a light dropped while it still reaches a corner (pruning by the
+    // region's centre, a margin on the wrong side) shows there.
+    vox::Bounds3f region;
+    region.add(Vec3f{0, 0, 0});
+    region.add(Vec3f{2, 0.5f, 2});
+    const Vec3d corners[2] = {{0, 0, 0}, {2, 0.5, 2}};
+    LightMix mix;
+    mix.spotShare = 0;
+    mix.rangedShare = 1;
+    mix.lo = {-3, 1, -3};
+    mix.hi = {5, 4, 5};
+    std::vector<Light> lights = randomLights(40, 41, mix);
+    Rng rng(42);
+    std::vector<Light> edge[2];  // [0]: just inside range of a corner, [1]: just outside
+    for (int k = 0; k < 24; ++k) {
+        const int corner = k % 2, inside = (k / 2) % 2 == 0 ? 0 : 1;
+        const double sign = corner == 0 ? -1 : 1;
+        const Vec3d u = vox::normalize(Vec3d{sign * rng.uniform(0.2, 1), sign * rng.uniform(0.2, 1),
+                                             sign * rng.uniform(0.2, 1)});
+        Light l;
+        l.color = {1, 1, 1};
+        l.intensity = float(rng.uniform(20, 50));
+        l.range = float(rng.uniform(1, 3));
+        l.position =
+            f(corners[corner] + u * (double(l.range) * (inside == 0 ? 1 - 1e-3 : 1 + 1e-3)));
+        edge[inside].push_back(l);
+        lights.push_back(l);
+    }
+    const LightTree tree(lights);
+    std::vector<std::uint32_t> all(tree.roots().size());
+    for (std::uint32_t t = 0; t < all.size(); ++t) all[t] = t;
+    std::vector<vox::LightcutPoint> points;
+    for (const Vec3d c : corners)
+        points.push_back(vox::LightcutPoint::lambertian(c, {0, 1, 0}, {1, 1, 1}));
+    for (int k = 0; k < 30; ++k)
+        points.push_back(vox::LightcutPoint::lambertian(
+            {rng.uniform(0, 2), rng.uniform(0, 0.5), rng.uniform(0, 2)}, {0, 1, 0}, {1, 1, 1}));
+    for (vox::LightcutPoint& p : points) {
+        // Every direction lights the point: its response is Σ |l_axis|.
+        p.axisWeighted = true;
+        p.axisWeights = {1, 1, 1, 1, 1, 1};
+    }
+    // The test can fail: the lights just inside range give each corner a measurable share, and
+    // those just outside give nothing.
+    for (int corner = 0; corner < 2; ++corner) {
+        const double total = vox::lightLuminance(vox::bruteForce(tree, points[corner]).radiance);
+        double near = 0, beyond = 0;
+        for (const Light& l : edge[0])
+            near += vox::lightLuminance(vox::lightContribution(l, points[corner]));
+        for (const Light& l : edge[1])
+            beyond += vox::lightLuminance(vox::lightContribution(l, points[corner]));
+        EXPECT_GT(near, 1e-7 * total) << "corner " << corner;
+        EXPECT_EQ(beyond, 0) << "corner " << corner;
+    }
+    vox::LightcutOptions exact;
+    exact.relativeError = 0;
+    exact.criterion = vox::LightcutCriterion::Sum;
+    for (const vox::LightcutOptions& options : {exact, vox::LightcutOptions{}}) {
+        vox::LightcutCursor withRegion(tree, options), without(tree, options);
+        withRegion.setRoots(all, region);
+        without.setRoots(all);
+        std::uint64_t cutWith = 0, cutWithout = 0;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            const auto r = withRegion.evaluate(points[i]);
+            const auto w = without.evaluate(points[i]);
+            const double ref = vox::lightLuminance(vox::bruteForce(tree, points[i]).radiance);
+            const double got = vox::lightLuminance(r.radiance);
+            if (options.relativeError == 0)
+                EXPECT_NEAR(got, ref, 1e-12 * ref) << "point " << i;
+            else  // the rss criterion: close, not guaranteed
+                EXPECT_NEAR(got, ref, 0.05 * ref) << "point " << i;
+            cutWith += r.stats.cutSize;
+            cutWithout += w.stats.cutSize;
+        }
+        // The lights that cannot reach the region are left out of its cuts.
+        EXPECT_LT(cutWith, cutWithout);
+    }
+}
+
 TEST(Lightcuts, DirectionalLightsAreCutToo) {
     LightMix mix;
     mix.directional = 50;

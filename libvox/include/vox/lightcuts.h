@@ -405,6 +405,13 @@ public:
     /// Restricts the search to the trees @p roots (indices into tree.roots()), e.g. the
     /// cluster–light list of the region the coming points lie in; resets the cursor.
     void setRoots(std::vector<std::uint32_t> roots);
+    /// As above, with every coming point inside @p region (a closed box; empty: no region). The
+    /// cuts are then taken in the tree as the region sees it: a subtree all of whose lights have
+    /// a range and lie farther than it from every point of the region gives exactly 0 there and
+    /// is left out, and a node with such a child stands for its other child. A cut then covers
+    /// every light that can reach the region, and results agree with those without a region
+    /// within the error criterion (the cuts, and so the estimates, can differ).
+    void setRoots(std::vector<std::uint32_t> roots, const Bounds3f& region);
     /// Searches every tree again (the default); resets the cursor.
     void clearRoots();
     /// Forgets the previous cut: the next evaluate() is a fresh cut.

@@ -158,8 +158,16 @@ struct ManyLightOptions {
     ClusterVisibilityFactory clusterVisibility;
 };
 
+/// The box lightPoints gives the cursor of a cluster with the points @p members (indices into
+/// @p points): their bounding box in float, padded so that it holds every point; empty for no
+/// members. Its cluster–light list is LightTree::rootsOverlapping of it.
+[[nodiscard]] Bounds3f renderPointRegion(std::span<const LightcutPoint> points,
+                                         std::span<const std::uint32_t> members);
+
 /// Lights every point with Lightcuts: clusters in parallel (TBB), the points of a cluster in
-/// their order with one LightcutCursor (reuseCuts) or fresh cuts. @p out[i] receives point i's
+/// their order with one LightcutCursor (reuseCuts) or fresh cuts; with clusterLists the cursor
+/// searches the cluster's list and sees the tree as its region (renderPointRegion) does
+/// (LightcutCursor::setRoots). @p out[i] receives point i's
 /// radiance (LightcutPoint::albedo / π × Σ irradiance × response × visibility). Without
 /// clusters (an empty @p clusters) every point is its own run. Deterministic: the same inputs
 /// give the same results whatever the thread count.

@@ -98,10 +98,15 @@ struct Response {
     /// An upper bound of the response over the directions v / |v|, v in [lo, hi]; ≥ 0.
     [[nodiscard]] double bound(Vec3d lo, Vec3d hi) const {
         if (!axisWeighted) return std::max(0.0, maxCosine(frame, lo, hi));
+        // An axis without weight adds 0 (the cosines are finite): most voxels weigh one or two.
         double sum = 0;
-        for (int axis = 0; axis < 3; ++axis)
-            sum += std::max(weights[2 * axis] * axisCosine(lo, hi, axis, 1),
-                            weights[2 * axis + 1] * axisCosine(lo, hi, axis, -1));
+        for (int axis = 0; axis < 3; ++axis) {
+            const double plus = weights[2 * axis], minus = weights[2 * axis + 1];
+            double term = 0;
+            if (plus > 0) term = plus * axisCosine(lo, hi, axis, 1);
+            if (minus > 0) term = std::max(term, minus * axisCosine(lo, hi, axis, -1));
+            sum += term;
+        }
         return sum;
     }
 };
@@ -148,6 +153,44 @@ Vec3d boundOf(const LightTreeNode& node, const Response& response, Vec3d point,
     return out;
 }
 
+/// The trees as the render points of a region see them (LightcutCursor::setRoots with a region):
+/// subtrees whose lights cannot reach the region are left out, and a node with one such child
+/// stands for its other child. Without a region (nodes null) every node is itself.
+struct RegionView {
+    const std::vector<LightTreeNode>* nodes = nullptr;
+    Vec3d lo{0, 0, 0}, hi{0, 0, 0};
+
+    /// Every light under @p n has a range and lies beyond it from every point of the region, so
+    /// gives exactly 0 there: lightArrival's d ≥ range (the margin covers the rounding of d).
+    [[nodiscard]] bool outOfReach(std::uint32_t n) const {
+        const LightTreeNode& node = (*nodes)[n];
+        const double range = node.maxRange;
+        if (node.directional || !std::isfinite(range)) return false;
+        double d2 = 0;
+        for (int k = 0; k < 3; ++k) {
+            const double g = std::max(
+                {0.0, double(node.bounds.min[k]) - hi[k], lo[k] - double(node.bounds.max[k])});
+            d2 += g * g;
+        }
+        return d2 > range * range * (1 + 1e-9);
+    }
+    /// The node that stands for @p n in the region (n itself, or the descendant that is left
+    /// where one child of each node on the way is out of reach), or kNoLightNode where no light
+    /// under it can reach the region.
+    [[nodiscard]] std::uint32_t effective(std::uint32_t n) const {
+        if (!nodes) return n;
+        if (outOfReach(n)) return kNoLightNode;
+        for (;;) {
+            const LightTreeNode& node = (*nodes)[n];
+            if (node.leaf()) return n;
+            const bool left = outOfReach(node.left), right = outOfReach(node.right);
+            if (left && right) return kNoLightNode;
+            if (!left && !right) return n;
+            n = left ? node.right : node.left;
+        }
+    }
+};
+
 /// Everything one cut evaluation needs, shared by the fresh cut and the cursor.
 struct Context {
     const LightTree& tree;
@@ -157,9 +200,10 @@ struct Context {
     const LightcutOptions& options;
     const LightVisibility& visibility;
     LightcutStats& stats;
+    const RegionView& view;
 
     Context(const LightTree& t, const LightcutPoint& p, const LightcutOptions& o,
-            const LightVisibility& v, LightcutStats& s)
+            const LightVisibility& v, LightcutStats& s, const RegionView& r)
         : tree(t),
           at(p),
           response(p),
@@ -167,7 +211,8 @@ struct Context {
           albedoOverPi(p.albedo * kInvPi),
           options(o),
           visibility(v),
-          stats(s) {}
+          stats(s),
+          view(r) {}
 
     /// falloff × response × visibility of light @p index: the representative's factor.
     double factor(std::uint32_t index) const {
@@ -207,13 +252,13 @@ bool heapLess(const Entry& a, const Entry& b) {
     return a.node > b.node;
 }
 
-Entry makeEntry(const Context& ctx, std::uint32_t index, double g) {
+/// The cut's entry for node @p index: its bound first, then its representative's factor (@p known
+/// where the caller has it, else NaN), which a node bounded by 0 does not need: it gives 0.
+Entry makeEntry(const Context& ctx, std::uint32_t index, double known) {
     const LightTreeNode& node = ctx.tree.nodes()[index];
     ++ctx.stats.searchSteps;
     Entry e;
     e.node = index;
-    e.g = g;
-    e.estimate = ctx.albedoOverPi * node.intensity * g;
     // A leaf is exact and never split: only merging back asks for its bound.
     e.boundLum = -1;
     e.key = -1;
@@ -223,8 +268,12 @@ Entry makeEntry(const Context& ctx, std::uint32_t index, double g) {
         if (std::isnan(e.boundLum)) e.boundLum = kInf;
         e.key = e.boundLum;
     }
+    e.g = e.boundLum == 0 ? 0.0 : std::isnan(known) ? ctx.factor(node.representative) : known;
+    e.estimate = ctx.albedoOverPi * node.intensity * e.g;
     return e;
 }
+
+constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
 
 /// The luminance of @p e's bound, computed on first use for a leaf.
 double boundLumOf(const Context& ctx, Entry& e) {
@@ -329,9 +378,10 @@ void refine(const Context& ctx, std::vector<Entry>& heap, LightcutResult& result
         else
             budget.remove(parent.key);
         const LightTreeNode& p = nodes[parent.node];
-        for (std::uint32_t child : {p.left, p.right}) {
-            const std::uint32_t rep = nodes[child].representative;
-            const double g = rep == p.representative ? parent.g : ctx.factor(rep);
+        for (std::uint32_t side : {p.left, p.right}) {
+            const std::uint32_t child = ctx.view.effective(side);
+            if (child == kNoLightNode) continue;  // no light of it reaches the region
+            const double g = nodes[child].representative == p.representative ? parent.g : kUnknown;
             const Entry e = makeEntry(ctx, child, g);
             total += e.estimate;
             budget.add(e.key);
@@ -377,15 +427,15 @@ void treesAt(const Context& ctx, std::span<const std::uint32_t> roots, bool all,
 }
 
 void startTree(const Context& ctx, std::uint32_t t, std::vector<Entry>& heap) {
-    const std::uint32_t node = ctx.tree.roots()[t].node;
-    heap.push_back(makeEntry(ctx, node, ctx.factor(ctx.tree.nodes()[node].representative)));
+    const std::uint32_t node = ctx.view.effective(ctx.tree.roots()[t].node);
+    if (node != kNoLightNode) heap.push_back(makeEntry(ctx, node, kUnknown));
 }
 
 LightcutResult freshCut(const LightTree& tree, std::span<const std::uint32_t> roots, bool all,
                         const LightcutPoint& point, const LightcutOptions& options,
-                        const LightVisibility& visibility) {
+                        const LightVisibility& visibility, const RegionView& view = {}) {
     LightcutResult result;
-    const Context ctx(tree, point, options, visibility, result.stats);
+    const Context ctx(tree, point, options, visibility, result.stats, view);
     std::vector<Entry> heap;
     std::vector<std::uint32_t> trees;
     treesAt(ctx, roots, all, trees);
@@ -490,6 +540,7 @@ struct LightcutCursor::Scratch {
     std::vector<std::uint32_t> here, present, work;
     std::vector<Entry> entries, heap;
     std::vector<char> dead;
+    RegionView view;
     /// Open addressing from node to its entry (kNoLightNode: empty slot); a power of two long.
     std::vector<std::pair<std::uint32_t, std::uint32_t>> slots;
 
@@ -534,7 +585,9 @@ LightcutCursor::LightcutCursor(const LightcutCursor& other)
       allRoots_(other.allRoots_),
       previous_(other.previous_),
       havePrevious_(other.havePrevious_),
-      scratch_(std::make_unique<Scratch>()) {}
+      scratch_(std::make_unique<Scratch>()) {
+    scratch_->view = other.scratch_->view;
+}
 
 LightcutCursor& LightcutCursor::operator=(const LightcutCursor& other) {
     if (this != &other) {
@@ -549,14 +602,25 @@ LightcutCursor& LightcutCursor::operator=(LightcutCursor&&) noexcept = default;
 LightcutCursor::~LightcutCursor() = default;
 
 void LightcutCursor::setRoots(std::vector<std::uint32_t> roots) {
+    setRoots(std::move(roots), Bounds3f{});
+}
+
+void LightcutCursor::setRoots(std::vector<std::uint32_t> roots, const Bounds3f& region) {
     roots_ = std::move(roots);
     allRoots_ = false;
+    scratch_->view = {};
+    if (!region.empty()) {
+        scratch_->view.nodes = &tree_->nodes();
+        scratch_->view.lo = vec3Cast<double>(region.min);
+        scratch_->view.hi = vec3Cast<double>(region.max);
+    }
     reset();
 }
 
 void LightcutCursor::clearRoots() {
     roots_.clear();
     allRoots_ = true;
+    scratch_->view = {};
     reset();
 }
 
@@ -569,15 +633,16 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
                                         const LightVisibility& visibility) {
     const LightTree& tree = *tree_;
     if (!havePrevious_) {
-        LightcutResult result = freshCut(tree, roots_, allRoots_, point, options_, visibility);
+        LightcutResult result =
+            freshCut(tree, roots_, allRoots_, point, options_, visibility, scratch_->view);
         previous_.assign(result.cut.begin(), result.cut.end());
         havePrevious_ = true;
         return result;
     }
     LightcutResult result;
-    const Context ctx(tree, point, options_, visibility, result.stats);
-    const auto& nodes = tree.nodes();
     Scratch& w = *scratch_;
+    const Context ctx(tree, point, options_, visibility, result.stats, w.view);
+    const auto& nodes = tree.nodes();
 
     // The previous cut's nodes in trees still searched, evaluated here; trees entered since start
     // from their roots.
@@ -591,7 +656,7 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
         const std::uint32_t t = tree.treeOf(node);
         if (!std::binary_search(here.begin(), here.end(), t)) continue;
         present.push_back(t);
-        entries.push_back(makeEntry(ctx, node, ctx.factor(nodes[node].representative)));
+        entries.push_back(makeEntry(ctx, node, kUnknown));
     }
     std::sort(present.begin(), present.end());
     for (std::uint32_t t : here)
@@ -620,9 +685,13 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
         work.pop_back();
         if (dead[i]) continue;
         const std::uint32_t u = entries[i].node;
-        const std::uint32_t p = nodes[u].parent;
+        // The parent as the region sees it: the first ancestor whose other child has light there.
+        std::uint32_t from = u, p = nodes[u].parent, s = kNoLightNode;
+        for (; p != kNoLightNode; from = p, p = nodes[p].parent) {
+            s = ctx.view.effective(nodes[p].left == from ? nodes[p].right : nodes[p].left);
+            if (s != kNoLightNode) break;
+        }
         if (p == kNoLightNode) continue;
-        const std::uint32_t s = nodes[p].left == u ? nodes[p].right : nodes[p].left;
         const std::uint32_t j = w.find(s);
         if (j == kNoLightNode || dead[j]) continue;
         if (entries[j].key > threshold) continue;
@@ -637,9 +706,10 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
                                      boundLumOf(ctx, entries[i]) + boundLumOf(ctx, entries[j]),
                                      threshold))
             continue;
-        const LightTreeNode& parent = nodes[p];
-        const double g =
-            parent.representative == nodes[u].representative ? entries[i].g : entries[j].g;
+        const std::uint32_t rep = nodes[p].representative;
+        const double g = rep == nodes[u].representative   ? entries[i].g
+                         : rep == nodes[s].representative ? entries[j].g
+                                                          : kUnknown;
         const Entry e = makeEntry(ctx, p, g);
         if (!budget.acceptsReplacing(entries[i].key, entries[j].key, e.key, threshold)) continue;
         budget.remove(entries[i].key);

@@ -264,6 +264,25 @@ RenderPointClusters clusterPixelPoints(std::span<const LightcutPoint> points,
     return out;
 }
 
+Bounds3f renderPointRegion(std::span<const LightcutPoint> points,
+                           std::span<const std::uint32_t> members) {
+    Bounds3f region;
+    for (const std::uint32_t i : members) {
+        const Vec3d p = points[i].position;
+        region.add(Vec3f{float(p.x), float(p.y), float(p.z)});
+    }
+    if (region.empty()) return region;
+    // Pad by float rounding, so that the box holds every point.
+    const Vec3f pad = (region.max - region.min) * 1e-6f +
+                      Vec3f{1e-6f, 1e-6f, 1e-6f} *
+                          std::max({std::abs(region.min.x), std::abs(region.min.y),
+                                    std::abs(region.min.z), std::abs(region.max.x),
+                                    std::abs(region.max.y), std::abs(region.max.z), 1.0f});
+    region.min = region.min - pad;
+    region.max = region.max + pad;
+    return region;
+}
+
 ManyLightStats lightPoints(const LightTree& tree, std::span<const LightcutPoint> points,
                            const RenderPointClusters& clusters, const ManyLightOptions& options,
                            const PointVisibility& visibility, std::span<Vec3d> out) {
@@ -301,21 +320,10 @@ ManyLightStats lightPoints(const LightTree& tree, std::span<const LightcutPoint>
                 for (std::size_t c = r.begin(); c != r.end(); ++c) {
                     const std::uint32_t first = clusters.begin[c], last = clusters.begin[c + 1];
                     if (options.clusterLists) {
-                        Bounds3f region;
-                        for (std::uint32_t k = first; k < last; ++k) {
-                            const Vec3d p = points[clusters.order[k]].position;
-                            region.add(Vec3f{float(p.x), float(p.y), float(p.z)});
-                        }
-                        // Pad by float rounding: the per-point test decides exactly.
-                        const Vec3f pad =
-                            (region.max - region.min) * 1e-6f +
-                            Vec3f{1e-6f, 1e-6f, 1e-6f} *
-                                std::max({std::abs(region.min.x), std::abs(region.min.y),
-                                          std::abs(region.min.z), std::abs(region.max.x),
-                                          std::abs(region.max.y), std::abs(region.max.z), 1.0f});
-                        region.min = region.min - pad;
-                        region.max = region.max + pad;
-                        cursor.setRoots(tree.rootsOverlapping(region));
+                        const Bounds3f region =
+                            renderPointRegion(points, std::span<const std::uint32_t>(clusters.order)
+                                                          .subspan(first, last - first));
+                        cursor.setRoots(tree.rootsOverlapping(region), region);
                     } else {
                         cursor.clearRoots();
                     }
