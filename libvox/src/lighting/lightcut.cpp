@@ -176,19 +176,39 @@ struct RegionView {
     }
     /// The node that stands for @p n in the region (n itself, or the descendant that is left
     /// where one child of each node on the way is out of reach), or kNoLightNode where no light
-    /// under it can reach the region.
+    /// under it can reach the region. Remembered for the region: every point of a run asks.
     [[nodiscard]] std::uint32_t effective(std::uint32_t n) const {
         if (!nodes) return n;
-        if (outOfReach(n)) return kNoLightNode;
-        for (;;) {
-            const LightTreeNode& node = (*nodes)[n];
-            if (node.leaf()) return n;
-            const bool left = outOfReach(node.left), right = outOfReach(node.right);
-            if (left && right) return kNoLightNode;
-            if (!left && !right) return n;
-            n = left ? node.right : node.left;
+        auto& [stamp, value] = memo[n];
+        if (stamp == generation) return value;
+        stamp = generation;
+        value = kNoLightNode;
+        if (outOfReach(n)) return value;
+        for (std::uint32_t m = n;;) {
+            const LightTreeNode& node = (*nodes)[m];
+            const bool left = !node.leaf() && outOfReach(node.left);
+            const bool right = !node.leaf() && outOfReach(node.right);
+            if (left && right) return value;
+            if (left == right) return value = m;
+            m = left ? node.right : node.left;
         }
     }
+    /// Starts a region (@p box empty: none); what effective() remembered is forgotten.
+    void reset(const std::vector<LightTreeNode>& treeNodes, const Bounds3f& box) {
+        nodes = nullptr;
+        if (box.empty()) return;
+        nodes = &treeNodes;
+        lo = vec3Cast<double>(box.min);
+        hi = vec3Cast<double>(box.max);
+        if (memo.size() != treeNodes.size() || ++generation == 0) {
+            memo.assign(treeNodes.size(), {0, 0});
+            generation = 1;
+        }
+    }
+
+private:
+    mutable std::vector<std::pair<std::uint32_t, std::uint32_t>> memo;  // (generation, node)
+    std::uint32_t generation = 0;
 };
 
 /// Everything one cut evaluation needs, shared by the fresh cut and the cursor.
@@ -420,7 +440,7 @@ void treesAt(const Context& ctx, std::span<const std::uint32_t> roots, bool all,
             else
                 ++ctx.stats.treesSkipped;
         }
-        std::sort(out.begin(), out.end());
+        if (!std::is_sorted(out.begin(), out.end())) std::sort(out.begin(), out.end());
         out.erase(std::unique(out.begin(), out.end()), out.end());
     }
     ctx.stats.treesSearched += std::uint32_t(out.size());
@@ -607,20 +627,18 @@ void LightcutCursor::setRoots(std::vector<std::uint32_t> roots) {
 
 void LightcutCursor::setRoots(std::vector<std::uint32_t> roots, const Bounds3f& region) {
     roots_ = std::move(roots);
+    // Ascending and unique, as the trees searched at a point are kept.
+    std::sort(roots_.begin(), roots_.end());
+    roots_.erase(std::unique(roots_.begin(), roots_.end()), roots_.end());
     allRoots_ = false;
-    scratch_->view = {};
-    if (!region.empty()) {
-        scratch_->view.nodes = &tree_->nodes();
-        scratch_->view.lo = vec3Cast<double>(region.min);
-        scratch_->view.hi = vec3Cast<double>(region.max);
-    }
+    scratch_->view.reset(tree_->nodes(), region);
     reset();
 }
 
 void LightcutCursor::clearRoots() {
     roots_.clear();
     allRoots_ = true;
-    scratch_->view = {};
+    scratch_->view.reset(tree_->nodes(), Bounds3f{});
     reset();
 }
 
@@ -648,19 +666,18 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
     // from their roots.
     treesAt(ctx, roots_, allRoots_, w.here);
     const std::vector<std::uint32_t>& here = w.here;
-    std::vector<std::uint32_t>& present = w.present;
+    std::vector<std::uint32_t>& present = w.present;  // per tree of here: 1 if the cut holds it
     std::vector<Entry>& entries = w.entries;
-    present.clear();
+    present.assign(here.size(), 0);
     entries.clear();
     for (std::uint32_t node : previous_) {
-        const std::uint32_t t = tree.treeOf(node);
-        if (!std::binary_search(here.begin(), here.end(), t)) continue;
-        present.push_back(t);
+        const auto at = std::lower_bound(here.begin(), here.end(), tree.treeOf(node));
+        if (at == here.end() || *at != tree.treeOf(node)) continue;
+        present[std::size_t(at - here.begin())] = 1;
         entries.push_back(makeEntry(ctx, node, kUnknown));
     }
-    std::sort(present.begin(), present.end());
-    for (std::uint32_t t : here)
-        if (!std::binary_search(present.begin(), present.end(), t)) startTree(ctx, t, entries);
+    for (std::size_t k = 0; k < here.size(); ++k)
+        if (!present[k]) startTree(ctx, here[k], entries);
 
     // Backtrack over-split parts: a parent replaces its two children when both are in the cut and
     // the cut still meets the criterion with it, against the threshold of the cut's total here;
