@@ -691,6 +691,8 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
     const double threshold = thresholdOf(options_, total);
     w.clearIndex(entries.size());
     for (std::uint32_t i = 0; i < entries.size(); ++i) w.index(entries[i].node, i);
+    // dead: replaced by its parent; 2: its pair was tried and stays apart (the measure only
+    // grows as parents replace pairs, so a pair that fails once fails again).
     std::vector<char>& dead = w.dead;
     dead.assign(entries.size(), 0);
     std::vector<std::uint32_t>& work = w.work;
@@ -700,7 +702,7 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
     while (!work.empty()) {
         const std::uint32_t i = work.back();
         work.pop_back();
-        if (dead[i]) continue;
+        if (dead[i]) continue;  // merged, or its pair was tried
         const std::uint32_t u = entries[i].node;
         // The parent as the region sees it: the first ancestor whose other child has light there.
         std::uint32_t from = u, p = nodes[u].parent, s = kNoLightNode;
@@ -712,9 +714,11 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
         const std::uint32_t j = w.find(s);
         if (j == kNoLightNode || dead[j]) continue;
         if (entries[j].key > threshold) continue;
-        // A parent's bound is at least the sum of its children's, and a child's bound at least
-        // its estimate: where even the estimates' sum fails the criterion, neither the leaves'
-        // bounds nor the parent need be evaluated.
+        // Tried once, from either side: the measure only grows as parents replace pairs (a
+        // parent's bound is at least the sum of its children's), so a pair that fails here
+        // fails again later. A child's bound is at least its estimate: where even the estimates'
+        // sum fails the criterion, neither the leaves' bounds nor the parent need be evaluated.
+        dead[j] = 2;
         if (!budget.acceptsReplacing(entries[i].key, entries[j].key,
                                      lightLuminance(entries[i].estimate + entries[j].estimate),
                                      threshold))
@@ -742,7 +746,7 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
     std::vector<Entry>& heap = w.heap;
     heap.clear();
     for (std::uint32_t i = 0; i < entries.size(); ++i)
-        if (!dead[i]) heap.push_back(entries[i]);
+        if (dead[i] != 1) heap.push_back(entries[i]);
 
     // Split what is under-split, as a fresh cut does.
     refine(ctx, heap, result);
