@@ -267,7 +267,15 @@ struct Entry {
     Vec3d estimate;  // albedo/π × intensity × g
 };
 
-bool heapLess(const Entry& a, const Entry& b) {
+/// A node of the cut that may be split (key > 0), in the max-heap refine keeps: small, so that the
+/// heap moves 16 bytes, not an Entry.
+struct HeapItem {
+    double key;
+    std::uint32_t node;
+    std::uint32_t entry;  // index into the cut's entries
+};
+
+bool heapLess(const HeapItem& a, const HeapItem& b) {
     if (a.key != b.key) return a.key < b.key;
     return a.node > b.node;
 }
@@ -371,30 +379,40 @@ struct Budget {
     }
 };
 
-/// Refines the cut in @p heap (a max-heap by key) until it meets the options; fills @p result.
-void refine(const Context& ctx, std::vector<Entry>& heap, LightcutResult& result) {
+/// Refines the cut @p cut until it meets the options, always splitting the node with the largest
+/// key (a max-heap over the nodes that can be split, in @p heap); fills @p result. A split node
+/// stays in @p cut, marked by node = kNoLightNode.
+void refine(const Context& ctx, std::vector<Entry>& cut, std::vector<HeapItem>& heap,
+            LightcutResult& result) {
     const auto& nodes = ctx.tree.nodes();
     Vec3d total{0, 0, 0};
     Budget budget(ctx.options.criterion);
-    for (const Entry& e : heap) {
+    heap.clear();
+    for (std::uint32_t i = 0; i < cut.size(); ++i) {
+        const Entry& e = cut[i];
         total += e.estimate;
         budget.add(e.key);
+        // Leaves (−1) and nodes without a bound are never split.
+        if (e.key > 0) heap.push_back({e.key, e.node, i});
     }
+    std::size_t size = cut.size();
     std::make_heap(heap.begin(), heap.end(), heapLess);
     while (!heap.empty()) {
-        const Entry& top = heap.front();
-        // The largest key is split first; leaves (−1) and nodes without a bound never are.
-        if (!(top.key > 0) || !(budget.measure(top.key) > thresholdOf(ctx.options, total))) break;
-        if (heap.size() + 1 > ctx.options.maxCutSize) {
+        const HeapItem top = heap.front();
+        if (!(budget.measure(top.key) > thresholdOf(ctx.options, total))) break;
+        if (size + 1 > ctx.options.maxCutSize) {
             ctx.stats.truncated = true;
             break;
         }
         std::pop_heap(heap.begin(), heap.end(), heapLess);
-        const Entry parent = heap.back();
         heap.pop_back();
+        const Entry parent = cut[top.entry];
+        cut[top.entry].node = kNoLightNode;
+        cut[top.entry].key = -1;
+        --size;
         total = total - parent.estimate;
         if (parent.key > 0.5 * budget.sum)
-            budget.reset(heap);  // (parent no longer in heap)
+            budget.reset(cut);  // (the parent's key no longer in it)
         else
             budget.remove(parent.key);
         const LightTreeNode& p = nodes[parent.node];
@@ -405,20 +423,25 @@ void refine(const Context& ctx, std::vector<Entry>& heap, LightcutResult& result
             const Entry e = makeEntry(ctx, child, g);
             total += e.estimate;
             budget.add(e.key);
-            heap.push_back(e);
-            std::push_heap(heap.begin(), heap.end(), heapLess);
+            ++size;
+            if (e.key > 0) {
+                heap.push_back({e.key, e.node, std::uint32_t(cut.size())});
+                std::push_heap(heap.begin(), heap.end(), heapLess);
+            }
+            cut.push_back(e);
         }
     }
     result.radiance = {0, 0, 0};
     result.errorBound = 0;
     result.cut.clear();
-    result.cut.reserve(heap.size());
-    for (const Entry& e : heap) {
+    result.cut.reserve(size);
+    for (const Entry& e : cut) {
+        if (e.node == kNoLightNode) continue;
         result.radiance += e.estimate;
         if (e.key > 0) result.errorBound += e.key;
         result.cut.push_back(e.node);
     }
-    ctx.stats.cutSize = std::uint32_t(heap.size());
+    ctx.stats.cutSize = std::uint32_t(size);
 }
 
 /// Roots to search: (root index, node) of the trees in @p roots whose influence holds the point.
@@ -456,11 +479,12 @@ LightcutResult freshCut(const LightTree& tree, std::span<const std::uint32_t> ro
                         const LightVisibility& visibility, const RegionView& view = {}) {
     LightcutResult result;
     const Context ctx(tree, point, options, visibility, result.stats, view);
-    std::vector<Entry> heap;
+    std::vector<Entry> cut;
+    std::vector<HeapItem> heap;
     std::vector<std::uint32_t> trees;
     treesAt(ctx, roots, all, trees);
-    for (std::uint32_t t : trees) startTree(ctx, t, heap);
-    refine(ctx, heap, result);
+    for (std::uint32_t t : trees) startTree(ctx, t, cut);
+    refine(ctx, cut, heap, result);
     return result;
 }
 
@@ -558,40 +582,25 @@ LightcutResult bruteForce(const LightTree& tree, const LightcutPoint& point,
 /// The cursor's working storage, kept from point to point so that a point allocates nothing.
 struct LightcutCursor::Scratch {
     std::vector<std::uint32_t> here, present, work;
-    std::vector<Entry> entries, heap;
+    std::vector<Entry> entries, cut;
+    std::vector<HeapItem> heap;
     std::vector<char> dead;
     RegionView view;
-    /// Open addressing from node to its entry (kNoLightNode: empty slot); a power of two long.
+    /// Per node of the tree: (point stamp, its entry); valid where the stamp is this point's, so
+    /// that nothing is cleared from point to point.
     std::vector<std::pair<std::uint32_t, std::uint32_t>> slots;
+    std::uint32_t stamp = 0;
 
-    void clearIndex(std::size_t count) {
-        std::size_t size = 64;
-        while (size < 4 * count) size *= 2;
-        slots.assign(size, {kNoLightNode, 0});
-    }
-    [[nodiscard]] std::size_t slotOf(std::uint32_t node) const {
-        const std::size_t mask = slots.size() - 1;
-        std::uint32_t h = node * 0x9E3779B1u;
-        h ^= h >> 16;
-        std::size_t i = h & mask;
-        while (slots[i].first != kNoLightNode && slots[i].first != node) i = (i + 1) & mask;
-        return i;
-    }
-    void index(std::uint32_t node, std::uint32_t entry) {
-        if (4 * (entries.size() + 1) > slots.size() * 3) {
-            // Grow: rebuild from the live entries.
-            std::vector<std::pair<std::uint32_t, std::uint32_t>> old;
-            old.swap(slots);
-            clearIndex(2 * old.size());
-            for (const auto& [n, e] : old)
-                if (n != kNoLightNode) slots[slotOf(n)] = {n, e};
+    void clearIndex(std::size_t nodes) {
+        if (slots.size() != nodes || ++stamp == 0) {
+            slots.assign(nodes, {0, 0});
+            stamp = 1;
         }
-        slots[slotOf(node)] = {node, entry};
     }
+    void index(std::uint32_t node, std::uint32_t entry) { slots[node] = {stamp, entry}; }
     /// The entry of @p node, or kNoLightNode.
     [[nodiscard]] std::uint32_t find(std::uint32_t node) const {
-        const auto& slot = slots[slotOf(node)];
-        return slot.first == node ? slot.second : kNoLightNode;
+        return slots[node].first == stamp ? slots[node].second : kNoLightNode;
     }
 };
 
@@ -689,7 +698,7 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
         budget.add(e.key);
     }
     const double threshold = thresholdOf(options_, total);
-    w.clearIndex(entries.size());
+    w.clearIndex(nodes.size());
     for (std::uint32_t i = 0; i < entries.size(); ++i) w.index(entries[i].node, i);
     // dead: replaced by its parent; 2: its pair was tried and stays apart (the measure only
     // grows as parents replace pairs, so a pair that fails once fails again).
@@ -743,13 +752,13 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
         w.index(p, std::uint32_t(entries.size() - 1));
         work.push_back(std::uint32_t(entries.size() - 1));
     }
-    std::vector<Entry>& heap = w.heap;
-    heap.clear();
+    std::vector<Entry>& cut = w.cut;
+    cut.clear();
     for (std::uint32_t i = 0; i < entries.size(); ++i)
-        if (dead[i] != 1) heap.push_back(entries[i]);
+        if (dead[i] != 1) cut.push_back(entries[i]);
 
     // Split what is under-split, as a fresh cut does.
-    refine(ctx, heap, result);
+    refine(ctx, cut, w.heap, result);
     previous_.assign(result.cut.begin(), result.cut.end());
     return result;
 }
