@@ -392,9 +392,9 @@ TEST(TiledRvolResidency, ABudgetedFlightIntoTheBoxLeavesNoHolesAndNeverOpensFarT
     const rt::RvolGpuVolume full(*gl, *b.reader);
     std::uint64_t total = 0;
     const auto addFile = [&](std::uint32_t file) {
-        const vox::rvol::RvolReader& r = full.fileReader(file);
-        for (std::uint32_t l = 0; l < r.levels().size(); ++l)
-            for (std::uint32_t i = 0; i < r.level(l).brickCount; ++i)
+        const std::shared_ptr<const vox::rvol::RvolReader> r = full.fileReader(file);
+        for (std::uint32_t l = 0; l < r->levels().size(); ++l)
+            for (std::uint32_t i = 0; i < r->level(l).brickCount; ++i)
                 total += full.brickBytes({file, l, i});
     };
     addFile(rt::kBaseFile);

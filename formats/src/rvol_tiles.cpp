@@ -10,10 +10,12 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <condition_variable>
 #include <fstream>
 #include <mutex>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 namespace vox::rvol {
 
@@ -250,21 +252,88 @@ void checkAgainstIndex(const RvolReader& reader, const TileIndex& index, std::ui
 
 }  // namespace
 
-/// The files opened so far. A slot is published (release) once its reader is open and checked,
-/// so that samplers reach an open file without locking; opening takes the mutex, one file at a
-/// time, which costs little next to the sampling that follows.
-struct TiledRvolReader::OpenFiles {
-    explicit OpenFiles(std::size_t tileCount) : tiles(tileCount), ownedTiles(tileCount) {}
+// ---- open tiles: a bound, least recently used closed first -----------------------------------
+//
+// A sample enters an open tile without the mutex: it counts itself among the tile's users, then
+// reads the tile's reader pointer. Closing a tile clears that pointer first and then waits until
+// the tile has no users. Both sides use sequentially consistent operations, so either the sample
+// sees the cleared pointer (and takes the slow path, under the mutex) or the closer sees the
+// sample counted and waits for it: no sample reads a closed file. Opening and closing happen
+// under the mutex, one file at a time.
 
-    std::mutex mutex;
-    std::vector<std::atomic<const RvolReader*>> tiles;
-    std::atomic<const RvolReader*> far{nullptr};
-    std::vector<std::unique_ptr<RvolReader>> ownedTiles;  // guarded by mutex
-    std::unique_ptr<RvolReader> ownedFar;                 // guarded by mutex
+/// One tile of the index: its reader while open, who uses it, when it was last used.
+struct TiledRvolReader::Tile {
+    std::atomic<const RvolReader*> reader{nullptr};  // the open file; null while closed or closing
+    std::atomic<std::uint32_t> users{0};             // samples reading it now, and handles
+    std::atomic<std::uint64_t> lastUse{0};           // OpenFiles::clock when last used
+    std::uint32_t handles = 0;                       // guarded by OpenFiles::mutex
+    std::unique_ptr<RvolReader> owned;               // guarded by OpenFiles::mutex
 };
 
-TiledRvolReader::TiledRvolReader(std::filesystem::path index)
-    : path_(std::move(index)), index_(readTileIndex(path_)) {
+struct TiledRvolReader::OpenFiles {
+    explicit OpenFiles(std::size_t tileCount) : tiles(std::make_unique<Tile[]>(tileCount)) {}
+
+    std::mutex mutex;
+    std::unique_ptr<Tile[]> tiles;
+    std::vector<std::size_t> open;  // guarded by mutex
+    OpenTileStats stats;            // guarded by mutex; openTileStats() fills in open
+    // Advanced by every opening: a use stamps its tile with it, so the tile with the lowest stamp
+    // is the least recently used, at the resolution of openings (which is all eviction needs),
+    // and a use that changes nothing writes nothing.
+    std::atomic<std::uint64_t> clock{0};
+    // Slow paths waiting for an open tile to lose its last user: a sample leaving a tile notifies
+    // only while this is not 0, so that the common path never takes the mutex.
+    std::atomic<std::uint32_t> waiting{0};
+    std::condition_variable released;
+    std::atomic<const RvolReader*> far{nullptr};
+    std::unique_ptr<RvolReader> ownedFar;  // guarded by mutex
+
+    void stamp(Tile& tile) const noexcept {
+        const std::uint64_t now = clock.load(std::memory_order_relaxed);
+        if (tile.lastUse.load(std::memory_order_relaxed) != now)
+            tile.lastUse.store(now, std::memory_order_relaxed);
+    }
+    /// The tile's reader, counted as used, if it is open; null (and not counted) if not.
+    const RvolReader* enter(Tile& tile) {
+        tile.users.fetch_add(1);
+        if (const RvolReader* reader = tile.reader.load()) {
+            stamp(tile);
+            return reader;
+        }
+        leave(tile);
+        return nullptr;
+    }
+    void leave(Tile& tile) {
+        if (tile.users.fetch_sub(1) == 1 && waiting.load() > 0) {
+            const std::lock_guard lock(mutex);
+            released.notify_all();
+        }
+    }
+};
+
+/// A sample's use of one tile: the file stays open while it lives.
+class TiledRvolReader::TileUse {
+public:
+    TileUse(const TiledRvolReader& owner, std::size_t i)
+        : files_(*owner.open_), tile_(files_.tiles[i]) {
+        const RvolReader* reader = files_.enter(tile_);
+        reader_ = reader ? reader : &owner.useTile(i, false);
+    }
+    ~TileUse() { files_.leave(tile_); }
+    TileUse(const TileUse&) = delete;
+    TileUse& operator=(const TileUse&) = delete;
+    const RvolReader* operator->() const noexcept { return reader_; }
+
+private:
+    OpenFiles& files_;
+    Tile& tile_;
+    const RvolReader* reader_;
+};
+
+TiledRvolReader::TiledRvolReader(std::filesystem::path index, const TiledRvolReaderOptions& options)
+    : path_(std::move(index)), options_(options) {
+    if (options_.maxOpenTiles == 0) throw ParameterError("maxOpenTiles", "must be at least 1");
+    index_ = readTileIndex(path_);
     for (std::size_t i = 0; i < index_.tiles.size(); ++i)
         byMorton_.emplace(index_.tiles[i].morton(), i);
     open_ = std::make_unique<OpenFiles>(index_.tiles.size());
@@ -278,19 +347,110 @@ std::int64_t TiledRvolReader::findTile(std::uint32_t x, std::uint32_t y,
     return it == byMorton_.end() ? -1 : static_cast<std::int64_t>(it->second);
 }
 
-const RvolReader& TiledRvolReader::tile(std::size_t i) const {
-    std::atomic<const RvolReader*>& slot = open_->tiles.at(i);
-    if (const RvolReader* open = slot.load(std::memory_order_acquire)) return *open;
-    const std::lock_guard lock(open_->mutex);
-    if (const RvolReader* open = slot.load(std::memory_order_relaxed)) return *open;
+std::filesystem::path TiledRvolReader::tileFile(std::size_t i) const {
+    const TileEntry& t = index_.tiles.at(i);
+    return tilePath(path_, t.x, t.y, t.z);
+}
+
+void TiledRvolReader::openTile(std::size_t i) const {
+    OpenFiles& files = *open_;
+    Tile& tile = files.tiles[i];
     const TileEntry& t = index_.tiles[i];
-    auto reader = std::make_unique<RvolReader>(tilePath(path_, t.x, t.y, t.z));
+    auto reader = std::make_unique<RvolReader>(tileFile(i));
     checkAgainstIndex(*reader, index_, index_.tileDepth, index_.tileOrigin(t.x, t.y, t.z),
                       index_.tileSize(), t.headerChecksum, t.fileBytes);
-    reader->setCacheBytes(8u << 20);
-    open_->ownedTiles[i] = std::move(reader);
-    slot.store(open_->ownedTiles[i].get(), std::memory_order_release);
-    return *open_->ownedTiles[i];
+    reader->setCacheBytes(std::max<std::uint64_t>(1, options_.cacheBytes / options_.maxOpenTiles));
+    tile.lastUse.store(files.clock.fetch_add(1) + 1, std::memory_order_relaxed);
+    tile.owned = std::move(reader);
+    tile.reader.store(tile.owned.get());
+    files.open.push_back(i);
+    ++files.stats.opened;
+    files.stats.mostOpen =
+        std::max(files.stats.mostOpen, static_cast<std::uint32_t>(files.open.size()));
+}
+
+void TiledRvolReader::closeTile(std::size_t i) const {
+    OpenFiles& files = *open_;
+    Tile& tile = files.tiles[i];
+    tile.reader.store(nullptr);
+    // A sample that counted itself before the pointer was cleared is still reading: let it end.
+    while (tile.users.load() != 0) std::this_thread::yield();
+    tile.owned.reset();
+    files.open.erase(std::find(files.open.begin(), files.open.end(), i));
+    ++files.stats.closed;
+}
+
+const RvolReader& TiledRvolReader::useTile(std::size_t i, bool handle) const {
+    OpenFiles& files = *open_;
+    Tile& tile = files.tiles[i];
+    std::unique_lock lock(files.mutex);
+    bool counted = false;  // among OpenFiles::waiting
+    const auto stopWaiting = [&] {
+        if (counted) files.waiting.fetch_sub(1);
+        counted = false;
+    };
+    while (!tile.owned) {
+        if (files.open.size() < options_.maxOpenTiles) {
+            stopWaiting();
+            openTile(i);
+            break;
+        }
+        // Counted before looking, so that a user leaving after the look notifies.
+        if (!counted) {
+            files.waiting.fetch_add(1);
+            counted = true;
+        }
+        std::size_t victim = index_.tiles.size();
+        bool sampled = false;  // an open tile some sample is reading (it will be released soon)
+        for (const std::size_t o : files.open) {
+            const Tile& candidate = files.tiles[o];
+            const std::uint32_t users = candidate.users.load();
+            sampled = sampled || users > candidate.handles;
+            if (users == 0 && (victim == index_.tiles.size() ||
+                               candidate.lastUse.load(std::memory_order_relaxed) <
+                                   files.tiles[victim].lastUse.load(std::memory_order_relaxed)))
+                victim = o;
+        }
+        if (victim < index_.tiles.size() || !sampled) {
+            // A victim to close; or every open tile held by handles, which may never be let go
+            // while this caller waits: open past the bound.
+            stopWaiting();
+            if (victim < index_.tiles.size()) closeTile(victim);
+            openTile(i);
+            break;
+        }
+        files.released.wait(lock);
+    }
+    stopWaiting();
+    tile.users.fetch_add(1);
+    if (handle) ++tile.handles;
+    files.stamp(tile);
+    return *tile.owned;
+}
+
+void TiledRvolReader::dropHandle(std::size_t i) const {
+    OpenFiles& files = *open_;
+    Tile& tile = files.tiles[i];
+    const std::lock_guard lock(files.mutex);
+    --tile.handles;
+    tile.users.fetch_sub(1);
+    // Opened past the bound while handles held every tile: back within it as they go.
+    if (files.open.size() > options_.maxOpenTiles && tile.users.load() == 0) closeTile(i);
+    if (files.waiting.load() > 0) files.released.notify_all();
+}
+
+std::shared_ptr<const RvolReader> TiledRvolReader::tile(std::size_t i) const {
+    if (i >= index_.tiles.size())
+        throw std::out_of_range("TiledRvolReader::tile: no tile " + std::to_string(i));
+    const RvolReader& reader = useTile(i, true);
+    return {&reader, [this, i](const RvolReader*) { dropHandle(i); }};
+}
+
+OpenTileStats TiledRvolReader::openTileStats() const {
+    const std::lock_guard lock(open_->mutex);
+    OpenTileStats stats = open_->stats;
+    stats.open = static_cast<std::uint32_t>(open_->open.size());
+    return stats;
 }
 
 const RvolReader& TiledRvolReader::farField() const {
@@ -317,24 +477,34 @@ Texel TiledRvolReader::cell(std::uint32_t level, std::uint32_t channel, std::uin
             {index_.origin[0] + (x + 0.5) * cs, index_.origin[1] + (y + 0.5) * cs,
              index_.origin[2] + (z + 0.5) * cs});
     }
-    const std::uint32_t shift = index_.tileDepth - level;
-    const std::int64_t t = findTile(x >> shift, y >> shift, z >> shift);
-    if (t < 0) return {};
-    const std::uint32_t mask = (1u << shift) - 1;
-    const RvolReader& reader = tile(static_cast<std::size_t>(t));
-    const std::array<double, 3>& o = reader.header().origin;
-    // At the cell's centre the tile's trilinear filter has weight 1 on that cell.
-    return reader.sample(level, channel,
-                         {o[0] + ((x & mask) + 0.5) * cs, o[1] + ((y & mask) + 0.5) * cs,
-                          o[2] + ((z & mask) + 0.5) * cs});
+    Texel out;
+    cellChannels(level, &channel, 1, {x, y, z}, &out);
+    return out;
 }
 
-Texel TiledRvolReader::sample(std::uint32_t level, std::uint32_t channel,
-                              const std::array<double, 3>& position) const {
-    if (level > index_.depth) throw std::out_of_range("TiledRvolReader: level");
-    if (channel >= levelChannels(level)) throw std::out_of_range("TiledRvolReader: channel");
-    if (level > index_.tileDepth)
-        return farField().sample(level - (index_.depth - index_.farDepth), channel, position);
+void TiledRvolReader::cellChannels(std::uint32_t level, const std::uint32_t* channels,
+                                   std::size_t count, const std::array<std::uint32_t, 3>& cell,
+                                   Texel* out) const {
+    const std::uint32_t shift = index_.tileDepth - level;
+    const std::int64_t t = findTile(cell[0] >> shift, cell[1] >> shift, cell[2] >> shift);
+    if (t < 0) {
+        std::fill_n(out, count, Texel{});
+        return;
+    }
+    const std::uint32_t mask = (1u << shift) - 1;
+    const double cs = index_.cellSize() * double(1ull << level);
+    const TileUse reader(*this, static_cast<std::size_t>(t));
+    const std::array<double, 3>& o = reader->header().origin;
+    // At the cell's centre the tile's trilinear filter has weight 1 on that cell.
+    const std::array<double, 3> centre{o[0] + ((cell[0] & mask) + 0.5) * cs,
+                                       o[1] + ((cell[1] & mask) + 0.5) * cs,
+                                       o[2] + ((cell[2] & mask) + 0.5) * cs};
+    for (std::size_t k = 0; k < count; ++k) out[k] = reader->sample(level, channels[k], centre);
+}
+
+void TiledRvolReader::sampleChannels(std::uint32_t level, const std::uint32_t* channels,
+                                     std::size_t count, const std::array<double, 3>& position,
+                                     Texel* out) const {
     const std::uint32_t resolution = 1u << (index_.depth - level);
     const double cs = index_.cellSize() * double(1ull << level);
     std::uint32_t c0[3], c1[3];
@@ -347,45 +517,79 @@ Texel TiledRvolReader::sample(std::uint32_t level, std::uint32_t channel,
         c1[a] = std::min(c0[a] + 1, resolution - 1);
         f[a] = u - fl;
     }
-    // Where one tile owns all eight cells, its own filter reads them: one brick lookup, not eight.
+    // Where one tile owns all eight cells, its own filter reads them: one brick lookup, not eight,
+    // and one use of the tile for every channel.
     const std::uint32_t shift = index_.tileDepth - level;
     if (c0[0] >> shift == c1[0] >> shift && c0[1] >> shift == c1[1] >> shift &&
         c0[2] >> shift == c1[2] >> shift) {
         const std::int64_t t = findTile(c0[0] >> shift, c0[1] >> shift, c0[2] >> shift);
-        return t < 0 ? Texel{} : tile(static_cast<std::size_t>(t)).sample(level, channel, position);
+        if (t < 0) {
+            std::fill_n(out, count, Texel{});
+            return;
+        }
+        const TileUse reader(*this, static_cast<std::size_t>(t));
+        for (std::size_t k = 0; k < count; ++k)
+            out[k] = reader->sample(level, channels[k], position);
+        return;
     }
-    double sum[4] = {0, 0, 0, 0};
+    std::array<std::array<double, 4>, kDirections> sums{};
+    std::array<Texel, kDirections> cells{};
     for (int corner = 0; corner < 8; ++corner) {
         const double w = (corner & 1 ? f[0] : 1 - f[0]) * (corner & 2 ? f[1] : 1 - f[1]) *
                          (corner & 4 ? f[2] : 1 - f[2]);
         if (w <= 0) continue;
-        const Texel t = cell(level, channel, corner & 1 ? c1[0] : c0[0], corner & 2 ? c1[1] : c0[1],
-                             corner & 4 ? c1[2] : c0[2]);
-        sum[0] += w * t.r;
-        sum[1] += w * t.g;
-        sum[2] += w * t.b;
-        sum[3] += w * t.a;
+        cellChannels(
+            level, channels, count,
+            {corner & 1 ? c1[0] : c0[0], corner & 2 ? c1[1] : c0[1], corner & 4 ? c1[2] : c0[2]},
+            cells.data());
+        for (std::size_t k = 0; k < count; ++k) {
+            sums[k][0] += w * cells[k].r;
+            sums[k][1] += w * cells[k].g;
+            sums[k][2] += w * cells[k].b;
+            sums[k][3] += w * cells[k].a;
+        }
     }
-    return {static_cast<float>(sum[0]), static_cast<float>(sum[1]), static_cast<float>(sum[2]),
-            static_cast<float>(sum[3])};
+    for (std::size_t k = 0; k < count; ++k)
+        out[k] = {static_cast<float>(sums[k][0]), static_cast<float>(sums[k][1]),
+                  static_cast<float>(sums[k][2]), static_cast<float>(sums[k][3])};
+}
+
+Texel TiledRvolReader::sample(std::uint32_t level, std::uint32_t channel,
+                              const std::array<double, 3>& position) const {
+    if (level > index_.depth) throw std::out_of_range("TiledRvolReader: level");
+    if (channel >= levelChannels(level)) throw std::out_of_range("TiledRvolReader: channel");
+    if (level > index_.tileDepth)
+        return farField().sample(level - (index_.depth - index_.farDepth), channel, position);
+    Texel out;
+    sampleChannels(level, &channel, 1, position, &out);
+    return out;
 }
 
 Texel TiledRvolReader::sampleDirectional(std::uint32_t level, const std::array<double, 3>& position,
                                          const std::array<double, 3>& direction) const {
     if (level == 0) return sample(0, 0, position);
+    if (level > index_.depth) throw std::out_of_range("TiledRvolReader: level");
     if (level > index_.tileDepth)
         return farField().sampleDirectional(level - (index_.depth - index_.farDepth), position,
                                             direction);
-    std::array<Texel, 3> facing{};
+    // The channels facing the direction, sampled together.
+    std::array<std::uint32_t, 3> channels{};
+    std::array<int, 3> axes{};
+    std::size_t count = 0;
     for (int a = 0; a < 3; ++a)
-        if (direction[a] != 0 && std::isfinite(direction[a]))
-            facing[a] =
-                sample(level, static_cast<std::uint32_t>(2 * a + (direction[a] < 0)), position);
+        if (direction[a] != 0 && std::isfinite(direction[a])) {
+            channels[count] = static_cast<std::uint32_t>(2 * a + (direction[a] < 0));
+            axes[count++] = a;
+        }
+    std::array<Texel, 3> sampled{}, facing{};
+    sampleChannels(level, channels.data(), count, position, sampled.data());
+    for (std::size_t k = 0; k < count; ++k) facing[static_cast<std::size_t>(axes[k])] = sampled[k];
     return combineDirectional(facing, direction);
 }
 
-std::unique_ptr<RvolSampler> openRvolSampler(const std::filesystem::path& file) {
-    if (isTileIndex(file)) return std::make_unique<TiledRvolReader>(file);
+std::unique_ptr<RvolSampler> openRvolSampler(const std::filesystem::path& file,
+                                             const TiledRvolReaderOptions& tiled) {
+    if (isTileIndex(file)) return std::make_unique<TiledRvolReader>(file, tiled);
     return std::make_unique<RvolReader>(file);
 }
 
@@ -398,11 +602,11 @@ TiledRvolReport validateTiledRvol(const std::filesystem::path& file) {
     report.indexBytes = kTileIndexHeaderBytes + index.tiles.size() * kTileEntryBytes;
     report.tiles = index.tiles.size();
     for (std::size_t i = 0; i < index.tiles.size(); ++i) {
-        const RvolReader& tile = reader.tile(i);
-        const RvolReport r = validateRvol(tile);
+        const std::shared_ptr<const RvolReader> tile = reader.tile(i);
+        const RvolReport r = validateRvol(*tile);
         const TileEntry& t = index.tiles[i];
         if (r.staticVoxels != t.staticVoxels || r.bricks != t.bricks)
-            throw InvalidDataError(tile.path(),
+            throw InvalidDataError(tile->path(),
                                    "does not match its tile index: voxel or brick count differs");
         report.tileBytes += r.fileBytes;
         report.largestTileBytes = std::max(report.largestTileBytes, r.fileBytes);

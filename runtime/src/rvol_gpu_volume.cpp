@@ -34,6 +34,13 @@ constexpr std::uint32_t kNoTileSlot = 0xFFFFFFFFu;
 /// Indirection entries 0 … 8: the zero brick, every plane at the zero slot (an absent tile's).
 constexpr std::uint64_t kZeroBrickEntries = 9;
 
+/// A brick's first entry within its level's part of the indirection (bricks x fastest, then y, z).
+std::uint64_t entryInLevel(const rvol::RvolReader& file, std::uint32_t level, std::uint32_t index) {
+    const rvol::BrickEntry& e = file.bricks(level)[index];
+    const std::uint64_t k = file.level(level).bricksPerAxis;
+    return ((e.z * k + e.y) * k + e.x) * RvolGpuVolume::planesPerBrick(level);
+}
+
 /// A grid of slots holding @p slots with each axis ≤ @p maxPerAxis, as cubic as it goes.
 std::array<std::uint32_t, 3> slotGrid(std::uint32_t slots, std::uint32_t maxPerAxis) {
     const auto x = std::clamp<std::uint32_t>(
@@ -108,7 +115,7 @@ void RvolGpuVolume::build(const RvolGpuVolumeOptions& options) {
     };
     countPlanes(reader_);
     if (tiled_ && options.uploadAll)
-        for (std::size_t t = 0; t < tiles_.size(); ++t) countPlanes(tiled_->tile(t));
+        for (std::size_t t = 0; t < tiles_.size(); ++t) countPlanes(*tiled_->tile(t));
 
     // The indirection: the zero brick (every absent tile's), the base file's levels, then the
     // tile slots' blocks.
@@ -224,9 +231,9 @@ void RvolGpuVolume::build(const RvolGpuVolumeOptions& options) {
 
     if (options.uploadAll) {
         const auto uploadFile = [&](std::uint32_t file) {
-            const rvol::RvolReader& r = fileReader(file);
-            for (std::uint32_t l = 0; l < r.levels().size(); ++l)
-                for (std::uint32_t i = 0; i < r.level(l).brickCount; ++i)
+            const std::shared_ptr<const rvol::RvolReader> r = fileReader(file);
+            for (std::uint32_t l = 0; l < r->levels().size(); ++l)
+                for (std::uint32_t i = 0; i < r->level(l).brickCount; ++i)
                     if (!uploadBrick({file, l, i}))
                         throw RuntimeError(name + ": radiance atlas full");  // sized above
         };
@@ -339,8 +346,14 @@ std::array<std::uint32_t, 3> RvolGpuVolume::slotOrigin(const std::array<std::uin
     return {slot % grid[0], (slot / grid[0]) % grid[1], slot / (grid[0] * grid[1])};
 }
 
-const rvol::RvolReader& RvolGpuVolume::fileReader(std::uint32_t file) const {
-    return file == kBaseFile ? reader_ : tiled_->tile(file);
+std::shared_ptr<const rvol::RvolReader> RvolGpuVolume::fileReader(std::uint32_t file) const {
+    // The single file or far field lives as long as the volume: a pointer that owns nothing.
+    if (file == kBaseFile) return {std::shared_ptr<const rvol::RvolReader>{}, &reader_};
+    return tiled_->tile(file);
+}
+
+std::filesystem::path RvolGpuVolume::fileName(std::uint32_t file) const {
+    return file == kBaseFile ? reader_.path() : tiled_->tileFile(file);
 }
 
 double RvolGpuVolume::finestCellSize() const noexcept {
@@ -358,19 +371,17 @@ bool RvolGpuVolume::tileResident(std::uint32_t tile) const {
 }
 
 std::uint64_t RvolGpuVolume::entryOffset(const RvolBrickRef& brick) const {
-    const rvol::RvolReader& file = fileReader(brick.file);
-    const rvol::BrickEntry& e = file.bricks(brick.level)[brick.index];
-    const std::uint64_t k = file.level(brick.level).bricksPerAxis;
-    const std::uint64_t inLevel = ((e.z * k + e.y) * k + e.x) * planesPerBrick(brick.level);
-    if (brick.file == kBaseFile) return levelBase_[brick.level] + inLevel;
-    return tileBlocksBase_ + tiles_[brick.file].slot * tileBlockEntries_ +
-           tileLevelBase_[brick.level] + inLevel;
+    if (brick.file == kBaseFile)
+        return levelBase_[brick.level] + entryInLevel(reader_, brick.level, brick.index);
+    const TileState& t = tiles_[brick.file];
+    return tileBlocksBase_ + std::uint64_t{t.slot} * tileBlockEntries_ +
+           t.bricks[brick.level][brick.index].entry;
 }
 
 bool RvolGpuVolume::resident(const RvolBrickRef& brick) const {
     if (brick.file == kBaseFile) return residentFlags_.at(brick.level).at(brick.index) != 0;
     const TileState& t = tiles_.at(brick.file);
-    return t.slot != kNoTileSlot && t.resident.at(brick.level).at(brick.index) != 0;
+    return t.slot != kNoTileSlot && t.bricks.at(brick.level).at(brick.index).resident;
 }
 
 void RvolGpuVolume::uploadWords(unsigned buffer, const std::vector<std::uint32_t>& words,
@@ -381,25 +392,33 @@ void RvolGpuVolume::uploadWords(unsigned buffer, const std::vector<std::uint32_t
 
 bool RvolGpuVolume::takeTileSlot(std::uint32_t tile) {
     if (freeTileSlots_.empty()) return false;
-    const rvol::RvolReader& file = tiled_->tile(tile);  // opens and checks it on first use
+    const std::shared_ptr<const rvol::RvolReader> file = tiled_->tile(tile);  // opened, checked
     // Every tile shares one level table, so one level-0 layout: the far field's, as one bake
     // writes them all.
-    if (file.header().binaryLevel0Opacity() != binaryLevel0_)
-        throw InvalidDataError(file.path(), "level-0 opacity layout differs from the far field's");
+    if (file->header().binaryLevel0Opacity() != binaryLevel0_)
+        throw InvalidDataError(file->path(), "level-0 opacity layout differs from the far field's");
     TileState& t = tiles_[tile];
     t.slot = freeTileSlots_.back();
     freeTileSlots_.pop_back();
-    t.resident.assign(file.levels().size(), {});
+    // What the bricks' entries and sizes need from the directory, so that evicting them, or
+    // counting their bytes, does not open the file again.
+    t.bricks.assign(file->levels().size(), {});
+    for (std::uint32_t l = 0; l < file->levels().size(); ++l) {
+        const std::span<const rvol::BrickEntry> entries = file->bricks(l);
+        t.bricks[l].resize(entries.size());
+        for (std::uint32_t i = 0; i < entries.size(); ++i)
+            t.bricks[l][i] = {
+                static_cast<std::uint32_t>(tileLevelBase_[l] + entryInLevel(*file, l, i)),
+                entries[i].planes, false};
+    }
     // The block: every brick the tile has missing, the others the zero slot (empty).
-    const std::uint64_t block = tileBlocksBase_ + t.slot * tileBlockEntries_;
+    const std::uint64_t block = tileBlocksBase_ + std::uint64_t{t.slot} * tileBlockEntries_;
     std::fill_n(indirection_.begin() + static_cast<std::ptrdiff_t>(block), tileBlockEntries_, 0u);
-    for (std::uint32_t l = 0; l < file.levels().size(); ++l) {
-        t.resident[l].assign(file.level(l).brickCount, 0);
-        for (std::uint32_t i = 0; i < file.level(l).brickCount; ++i)
+    for (std::uint32_t l = 0; l < t.bricks.size(); ++l)
+        for (std::uint32_t i = 0; i < t.bricks[l].size(); ++i)
             std::fill_n(
                 indirection_.begin() + static_cast<std::ptrdiff_t>(entryOffset({tile, l, i})),
                 planesPerBrick(l), kMissingBrick);
-    }
     uploadWords(indirectionBuffer_, indirection_, block, tileBlockEntries_);
     const std::uint64_t at = tileTableIndex(tile);
     tileTable_[at] = t.slot;
@@ -420,11 +439,11 @@ bool RvolGpuVolume::uploadBrick(const RvolBrickRef& brick) {
     if (resident(brick)) return true;
     const bool tile = brick.file != kBaseFile;
     if (tile && !tileResident(brick.file) && !takeTileSlot(brick.file)) return false;
-    const rvol::RvolReader& file = fileReader(brick.file);
+    const std::shared_ptr<const rvol::RvolReader> file = fileReader(brick.file);
     const std::uint32_t level = brick.level;
     const std::uint32_t channels = rvol::levelChannels(level);
     const std::uint32_t alphaPlanes = rvol::alphaPlanes(channels, level == 0 && binaryLevel0_);
-    const std::uint32_t stored = file.bricks(level)[brick.index].planes;
+    const std::uint32_t stored = file->bricks(level)[brick.index].planes;
     // Per plane its slot; 0 (the zero slot) for a plane the file leaves out (all zero).
     std::vector<std::uint32_t> rgb(channels, 0), alpha(alphaPlanes, 0);
     const auto giveBack = [&] {
@@ -445,7 +464,7 @@ bool RvolGpuVolume::uploadBrick(const RvolBrickRef& brick) {
         if (!s) return giveBack();
         alpha[p] = *s;
     }
-    const std::vector<std::uint8_t> bytes = file.readBrickBytes(level, brick.index);
+    const std::vector<std::uint8_t> bytes = file->readBrickBytes(level, brick.index);
     const auto n = static_cast<GLsizei>(n_);
     const std::uint64_t entry = entryOffset(brick);
     const auto pack = [](const std::array<std::uint32_t, 3>& o) {
@@ -480,14 +499,14 @@ bool RvolGpuVolume::uploadBrick(const RvolBrickRef& brick) {
     glPixelStorei(GL_UNPACK_ALIGNMENT, alignment);
     uploadWords(indirectionBuffer_, indirection_, entry, planesPerBrick(level));
     if (tile) {
-        tiles_[brick.file].resident[level][brick.index] = 1;
+        tiles_[brick.file].bricks[level][brick.index].resident = true;
         ++tiles_[brick.file].residentBricks;
     } else {
         residentFlags_[level][brick.index] = 1;
     }
     ++residentBricks_;
     uploadedTotal_ += bytes.size();
-    context_.throwOnErrors(file.path().string() + ": uploading level " + std::to_string(level) +
+    context_.throwOnErrors(file->path().string() + ": uploading level " + std::to_string(level) +
                            " brick " + std::to_string(brick.index));
     return true;
 }
@@ -516,10 +535,10 @@ void RvolGpuVolume::evictBrick(const RvolBrickRef& brick) {
         residentFlags_[level][brick.index] = 0;
     } else {
         TileState& t = tiles_[brick.file];
-        t.resident[level][brick.index] = 0;
+        t.bricks[level][brick.index].resident = false;
         if (--t.residentBricks == 0) releaseTileSlot(brick.file);
     }
-    context_.throwOnErrors(fileReader(brick.file).path().string() + ": evicting level " +
+    context_.throwOnErrors(fileName(brick.file).string() + ": evicting level " +
                            std::to_string(level) + " brick " + std::to_string(brick.index));
 }
 
@@ -533,11 +552,19 @@ void RvolGpuVolume::bind(const RvolGpuBindings& bindings) const {
 }
 
 std::uint64_t RvolGpuVolume::brickBytes(const RvolBrickRef& brick) const {
+    if (brick.file == kBaseFile)
+        return planeBytes(brick.level, reader_.bricks(brick.level)[brick.index].planes);
+    if (tileResident(brick.file))
+        return planeBytes(brick.level,
+                          tiles_[brick.file].bricks.at(brick.level).at(brick.index).planes);
+    return planeBytes(brick.level, fileReader(brick.file)->bricks(brick.level)[brick.index].planes);
+}
+
+std::uint64_t RvolGpuVolume::planeBytes(std::uint32_t level, std::uint32_t planes) const noexcept {
     const std::uint64_t slot = std::uint64_t{n_} * n_ * n_;
-    const std::uint32_t channels = rvol::levelChannels(brick.level);
-    const std::uint32_t stored = fileReader(brick.file).bricks(brick.level)[brick.index].planes;
-    const auto rgb = static_cast<std::uint32_t>(std::popcount(stored & ((1u << channels) - 1))),
-               alpha = static_cast<std::uint32_t>(std::popcount(stored >> channels));
+    const std::uint32_t channels = rvol::levelChannels(level);
+    const auto rgb = static_cast<std::uint32_t>(std::popcount(planes & ((1u << channels) - 1))),
+               alpha = static_cast<std::uint32_t>(std::popcount(planes >> channels));
     return rgb * 4 * slot + alpha * alphaTexelBytes() * slot;
 }
 

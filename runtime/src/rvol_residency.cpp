@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <queue>
 #include <set>
 #include <tuple>
@@ -21,6 +22,9 @@ struct Candidate {
     bool tile;  // an unopened tile: brick.file is the tile
     RvolBrickRef brick;
     std::uint32_t volumeLevel;
+    // The brick's slot bytes, taken from the directory while its file is open: the tiled reader
+    // may close a tile file that no tile slot keeps on the GPU.
+    std::uint64_t bytes;
 };
 
 /// The heap's order: duplicates last; higher priority first; at ties the far field (base file)
@@ -48,9 +52,9 @@ double boxDistance(const std::array<double, 3>& lo, const std::array<double, 3>&
 RvolResidency::RvolResidency(RvolGpuVolume& volume, std::uint64_t budgetBytes, double lodScale)
     : volume_(volume), budget_(budgetBytes), lodScale_(lodScale) {
     const auto count = [&](std::uint32_t file) {
-        const rvol::RvolReader& r = volume.fileReader(file);
-        for (std::uint32_t l = 0; l < r.levels().size(); ++l)
-            for (std::uint32_t i = 0; i < r.level(l).brickCount; ++i)
+        const std::shared_ptr<const rvol::RvolReader> r = volume.fileReader(file);
+        for (std::uint32_t l = 0; l < r->levels().size(); ++l)
+            for (std::uint32_t i = 0; i < r->level(l).brickCount; ++i)
                 if (volume.resident({file, l, i})) {
                     residentBytes_ += volume.brickBytes({file, l, i});
                     lastUsed_[{file, l, i}] = 0;
@@ -76,14 +80,14 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
     const std::uint32_t farFinest = volume_.volumeLevel(kBaseFile, 0);
     // The needed bricks of a file, with their priority S / distance (the top level's: infinite).
     const auto pushBricks = [&](std::uint32_t file) {
-        const rvol::RvolReader& r = volume_.fileReader(file);
-        const rvol::Header& header = r.header();
+        const std::shared_ptr<const rvol::RvolReader> r = volume_.fileReader(file);
+        const rvol::Header& header = r->header();
         std::array<double, 3> end{};
         for (std::size_t a = 0; a < 3; ++a) end[a] = header.origin[a] + header.size;
-        for (std::uint32_t l = 0; l < r.levels().size(); ++l) {
+        for (std::uint32_t l = 0; l < r->levels().size(); ++l) {
             const std::uint32_t level = volume_.volumeLevel(file, l);
             const double cell = header.cellSize(l), edge = span * cell;
-            const auto bricks = r.bricks(l);
+            const auto bricks = r->bricks(l);
             for (std::uint32_t i = 0; i < bricks.size(); ++i) {
                 const std::uint32_t b[3] = {bricks[i].x, bricks[i].y, bricks[i].z};
                 // The brick's texels: cell centres b·(N − 1) … (b + 1)·(N − 1), inside the file.
@@ -98,7 +102,12 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
                 const double priority =
                     level == top ? std::numeric_limits<double>::max() : edge / std::max(d, tiny);
                 const bool duplicate = file != kBaseFile && level >= farFinest;
-                queue.push({duplicate, priority, false, {file, l, i}, level});
+                queue.push({duplicate,
+                            priority,
+                            false,
+                            {file, l, i},
+                            level,
+                            volume_.planeBytes(l, bricks[i].planes)});
             }
         }
     };
@@ -117,8 +126,12 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
             const double d =
                 boxDistance(lo, {lo[0] + tileSize, lo[1] + tileSize, lo[2] + tileSize}, camera.eye);
             if (!(boundCell > pixel * d)) continue;  // even that level's cells are under a pixel
-            queue.push(
-                {allDuplicates, span * boundCell / std::max(d, tiny), true, {t, 0, 0}, boundLevel});
+            queue.push({allDuplicates,
+                        span * boundCell / std::max(d, tiny),
+                        true,
+                        {t, 0, 0},
+                        boundLevel,
+                        0});
         }
     }
 
@@ -136,7 +149,7 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
             if (keptTiles.size() < volume_.tileSlotCount()) pushBricks(c.brick.file);
             continue;
         }
-        const std::uint64_t b = volume_.brickBytes(c.brick);
+        const std::uint64_t b = c.bytes;
         if (bytes + b > budget_) break;
         queue.pop();
         if (c.brick.file != kBaseFile && !keptTiles.contains(c.brick.file)) {
@@ -162,7 +175,7 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
     std::set<std::uint32_t> tilesToPlace;
     for (const Candidate& c : kept)
         if (!volume_.resident(c.brick)) {
-            missing += volume_.brickBytes(c.brick);
+            missing += c.bytes;
             if (c.brick.file != kBaseFile && !volume_.tileResident(c.brick.file))
                 tilesToPlace.insert(c.brick.file);
         }
@@ -193,7 +206,7 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
                 if (!volume_.resident(kept[j].brick)) lastUsed_.erase(kept[j].brick);
             break;
         }
-        residentBytes_ += volume_.brickBytes(brick);
+        residentBytes_ += kept[k].bytes;
         ++out.uploaded;
         out.tilesUploaded += newTile ? 1 : 0;
     }

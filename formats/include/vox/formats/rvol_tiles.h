@@ -87,22 +87,54 @@ void writeTileIndex(const std::filesystem::path& file, const TileIndex& index);
 /// @throws IoError, InvalidDataError naming the file.
 [[nodiscard]] TileIndex readTileIndex(const std::filesystem::path& file);
 
+/// How many tile files a TiledRvolReader keeps open, and how much they cache.
+struct TiledRvolReaderOptions {
+    /// Tile files open at once, at least 1 (the far field, open from its first use on, is not
+    /// counted). Each holds a file descriptor, its brick directory and its brick cache.
+    std::uint32_t maxOpenTiles = 64;
+    /// Decoded bricks kept for sampling, over all open tiles: each open tile caches
+    /// cacheBytes / maxOpenTiles (RvolReader::setCacheBytes). The far field keeps RvolReader's
+    /// default cache besides.
+    std::uint64_t cacheBytes = std::uint64_t{512} << 20;
+};
+
+/// What a TiledRvolReader has open now, and what it opened and closed since it was made.
+struct OpenTileStats {
+    std::uint32_t open = 0;      ///< tile files open now
+    std::uint32_t mostOpen = 0;  ///< the most tile files open at once
+    std::uint64_t opened = 0;    ///< tile files opened, each reopening counted
+    std::uint64_t closed = 0;    ///< tile files closed to make room for another
+};
+
 /// A tiled volume open for sampling: the index, and the tile and far-field files opened on first
 /// use, each checked against its index entry (header checksum, size, depth, geometry). Samples
 /// cross tile borders as a single volume of depth D would: level l ≤ T reads every cell from the
-/// tile owning it, levels above T come from the far field. Every const member function is
-/// thread-safe: a file is opened once, by the first caller that needs it, while others wait for
-/// it; a file that fails to open is tried again by the next caller.
+/// tile owning it, levels above T come from the far field.
+///
+/// At most TiledRvolReaderOptions::maxOpenTiles tile files are open at once: opening another
+/// closes the least recently used open tile that no sample is reading and no handle (tile())
+/// holds. A closed tile is opened again, and checked against its entry again, when it is next
+/// needed; a tile file removed or replaced since then fails there, as a first opening would.
+///
+/// Every const member function is thread-safe. A sample keeps the tiles it reads open until it
+/// returns; where every open tile is being read by other threads' samples, opening another waits
+/// for one of them to finish. Handles keep their tiles open for as long as they live; where the
+/// tiles that handles hold leave no room, a tile opens past the bound, and the count returns to
+/// it as those handles go.
 class TiledRvolReader final : public RvolSampler {
 public:
-    /// Reads and checks the index (readTileIndex). @throws IoError, InvalidDataError.
-    explicit TiledRvolReader(std::filesystem::path index);
+    /// Reads and checks the index (readTileIndex); opens no tile. @throws IoError,
+    /// InvalidDataError; ParameterError for maxOpenTiles 0.
+    explicit TiledRvolReader(std::filesystem::path index,
+                             const TiledRvolReaderOptions& options = {});
+    /// Expects no handle from tile() to be alive.
     ~TiledRvolReader() override;
     TiledRvolReader(const TiledRvolReader&) = delete;
     TiledRvolReader& operator=(const TiledRvolReader&) = delete;
 
     [[nodiscard]] const TileIndex& index() const noexcept { return index_; }
     [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
+    [[nodiscard]] const TiledRvolReaderOptions& options() const noexcept { return options_; }
     [[nodiscard]] std::uint32_t depth() const noexcept override { return index_.depth; }
     [[nodiscard]] const std::array<double, 3>& origin() const noexcept override {
         return index_.origin;
@@ -113,38 +145,63 @@ public:
     /// Index in index().tiles of tile (x, y, z), or -1.
     [[nodiscard]] std::int64_t findTile(std::uint32_t x, std::uint32_t y,
                                         std::uint32_t z) const noexcept;
-    /// Tile @p i opened and checked against its entry. @throws std::out_of_range for a bad @p i,
-    /// IoError, InvalidDataError.
-    [[nodiscard]] const RvolReader& tile(std::size_t i) const;
-    /// The far field opened and checked. @throws IoError, InvalidDataError.
+    /// The file of tile @p i: tilePath(path(), x, y, z).
+    [[nodiscard]] std::filesystem::path tileFile(std::size_t i) const;
+    /// Tile @p i, opened and checked against its entry if it is not open: a handle that keeps it
+    /// open while it or a copy lives, and that must not outlive this reader.
+    /// @throws std::out_of_range for a bad @p i; IoError "FILE: cannot open: …" naming the tile's
+    /// file (also when it was open before and has gone since), InvalidDataError.
+    [[nodiscard]] std::shared_ptr<const RvolReader> tile(std::size_t i) const;
+    /// The far field opened and checked; it stays open as long as this reader.
+    /// @throws IoError, InvalidDataError.
     [[nodiscard]] const RvolReader& farField() const;
+    /// The tile files open now and since construction (a snapshot).
+    [[nodiscard]] OpenTileStats openTileStats() const;
 
     /// Texel of cell (x, y, z) of @p level (≤ depth), @p channel: from the owning tile at levels
-    /// ≤ T (zero where no tile is listed), from the far field above.
+    /// ≤ T (zero where no tile is listed), from the far field above. Throws as sample().
     [[nodiscard]] Texel cell(std::uint32_t level, std::uint32_t channel, std::uint32_t x,
                              std::uint32_t y, std::uint32_t z) const;
     /// Trilinear sample as RvolReader::sample over the whole depth-D volume: each of the eight
     /// cells from the tile owning it (where one tile owns all eight, its own filter reads them,
-    /// equal up to rounding), levels above T from the far field.
+    /// equal up to rounding), levels above T from the far field. @throws std::out_of_range for a
+    /// bad level or channel; IoError or InvalidDataError naming the file that cannot be opened
+    /// (or opened again) or read.
     [[nodiscard]] Texel sample(std::uint32_t level, std::uint32_t channel,
                                const std::array<double, 3>& position) const override;
-    /// As RvolReader::sampleDirectional over the whole depth-D volume.
+    /// As RvolReader::sampleDirectional over the whole depth-D volume. Throws as sample().
     [[nodiscard]] Texel sampleDirectional(std::uint32_t level,
                                           const std::array<double, 3>& position,
                                           const std::array<double, 3>& direction) const override;
 
 private:
+    struct Tile;
     struct OpenFiles;
+    class TileUse;
+
+    /// @p count channels of level ≤ T at @p position into @p out, with a single use of the tile
+    /// where one tile owns the eight cells.
+    void sampleChannels(std::uint32_t level, const std::uint32_t* channels, std::size_t count,
+                        const std::array<double, 3>& position, Texel* out) const;
+    /// @p count channels of level ≤ T's cell @p cell, from the tile owning it, into @p out.
+    void cellChannels(std::uint32_t level, const std::uint32_t* channels, std::size_t count,
+                      const std::array<std::uint32_t, 3>& cell, Texel* out) const;
+    [[nodiscard]] const RvolReader& useTile(std::size_t i, bool handle) const;
+    void dropHandle(std::size_t i) const;
+    void openTile(std::size_t i) const;   // expects OpenFiles::mutex held
+    void closeTile(std::size_t i) const;  // expects OpenFiles::mutex held, the tile unused
 
     std::filesystem::path path_;
     TileIndex index_;
+    TiledRvolReaderOptions options_;
     std::map<std::uint64_t, std::size_t> byMorton_;
     std::unique_ptr<OpenFiles> open_;
 };
 
-/// @p file open for sampling: a TiledRvolReader where it starts with the tile index magic
-/// (isTileIndex), else an RvolReader. @throws what their constructors throw.
-[[nodiscard]] std::unique_ptr<RvolSampler> openRvolSampler(const std::filesystem::path& file);
+/// @p file open for sampling: a TiledRvolReader (with @p tiled) where it starts with the tile
+/// index magic (isTileIndex), else an RvolReader. @throws what their constructors throw.
+[[nodiscard]] std::unique_ptr<RvolSampler> openRvolSampler(
+    const std::filesystem::path& file, const TiledRvolReaderOptions& tiled = {});
 
 /// What validateTiledRvol found.
 struct TiledRvolReport {

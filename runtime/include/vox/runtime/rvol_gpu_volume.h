@@ -9,6 +9,8 @@
 
 #include <array>
 #include <cstdint>
+#include <filesystem>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -118,7 +120,10 @@ inline constexpr std::uint32_t kAbsentTile = 0x40000000u;
 ///   a **tile table** SSBO, per tile of the volume its slot, kMissingTile or kAbsentTile. Levels
 ///   ≤ T sample the tile owning each cell (fetching across tile borders); where a tile or brick
 ///   is missing, the far field at that level (or its finest) serves.
-/// The reader must outlive the object (uploadBrick reads from it).
+/// The reader must outlive the object (uploadBrick reads from it). Of a tiled volume's tiles, the
+/// object keeps what eviction and the residency's byte counts need while a tile has a tile slot,
+/// and holds a tile's file open only while it reads it (TiledRvolReader::tile): the reader's bound
+/// on open tiles holds.
 class RvolGpuVolume {
 public:
     /// Allocates the atlases for every brick of @p reader (plus the options' extra slots) and, by
@@ -126,10 +131,11 @@ public:
     /// GL_MAX_3D_TEXTURE_SIZE allows, or on a GL error; InvalidDataError for a corrupt brick.
     RvolGpuVolume(GlContext& context, const rvol::RvolReader& reader,
                   const RvolGpuVolumeOptions& options = {});
-    /// A tiled volume: its far field and tiles. With uploadAll it opens every tile and uploads
-    /// every brick; without, it needs atlasBytes > 0 and opens a tile only when uploadBrick first
-    /// asks for one of its bricks. Tiles must have the far field's level-0 layout (binary opacity
-    /// or not, as one bake writes them): InvalidDataError names a tile that has not.
+    /// A tiled volume: its far field and tiles. With uploadAll it opens every tile (one at a
+    /// time) and uploads every brick; without, it needs atlasBytes > 0 and opens a tile only when
+    /// uploadBrick asks for one of its bricks. Tiles must have the far field's level-0 layout
+    /// (binary opacity or not, as one bake writes them): InvalidDataError names a tile that has
+    /// not.
     /// @throws RuntimeError as above, or when the tile table or one tile block does not fit
     /// GL_MAX_SHADER_STORAGE_BLOCK_SIZE; IoError, InvalidDataError from the files.
     RvolGpuVolume(GlContext& context, const rvol::TiledRvolReader& reader,
@@ -139,12 +145,13 @@ public:
     RvolGpuVolume& operator=(const RvolGpuVolume&) = delete;
 
     /// Uploads @p brick into free slots and points the indirection at them; nothing if it is
-    /// resident. A tile's first brick opens the tile's file and takes a tile slot. Returns false
-    /// when an atlas or the tile slots are full (nothing changed): evict first.
+    /// resident. A tile's first brick takes a tile slot; every tile brick opens its tile's file
+    /// if the tiled reader has closed it since. @throws IoError, InvalidDataError from the file.
+    /// Returns false when an atlas or the tile slots are full (nothing changed): evict first.
     bool uploadBrick(const RvolBrickRef& brick);
     /// Frees the brick's slots and marks its indirection entries kMissingBrick (samples there fall
     /// back to the coarser level, or over a tile to the far field); a tile's last brick frees its
-    /// tile slot. Nothing if it is not resident.
+    /// tile slot. Nothing if it is not resident. Reads no file.
     void evictBrick(const RvolBrickRef& brick);
     [[nodiscard]] bool resident(const RvolBrickRef& brick) const;
 
@@ -155,8 +162,11 @@ public:
     [[nodiscard]] const rvol::RvolReader& reader() const noexcept { return reader_; }
     /// The tiled volume, or null.
     [[nodiscard]] const rvol::TiledRvolReader* tiled() const noexcept { return tiled_; }
-    /// The file of @p file (kBaseFile or a tile, which this opens on first use).
-    [[nodiscard]] const rvol::RvolReader& fileReader(std::uint32_t file) const;
+    /// The file of @p file: kBaseFile's, or a tile's, opened if the tiled reader has it closed and
+    /// kept open while the pointer lives (TiledRvolReader::tile). @throws as tile().
+    [[nodiscard]] std::shared_ptr<const rvol::RvolReader> fileReader(std::uint32_t file) const;
+    /// The name of @p file, without opening it.
+    [[nodiscard]] std::filesystem::path fileName(std::uint32_t file) const;
     /// The volume level that level @p level of @p file is: a tiled volume's far field starts at
     /// depth − farDepth; tiles and single volumes at 0.
     [[nodiscard]] std::uint32_t volumeLevel(std::uint32_t file,
@@ -198,19 +208,29 @@ public:
     [[nodiscard]] unsigned tileTableBuffer() const noexcept { return tileTableBuffer_; }
 
     /// GPU bytes of the slots @p brick takes (its stored planes; the planes the file leaves out
-    /// take none): what a residency budget counts.
+    /// take none): what a residency budget counts. Opens the brick's tile where it has no tile
+    /// slot (planeBytes of its directory entry needs no file).
     [[nodiscard]] std::uint64_t brickBytes(const RvolBrickRef& brick) const;
+    /// GPU bytes of the slots of a brick of @p level that stores @p planes (BrickEntry::planes).
+    [[nodiscard]] std::uint64_t planeBytes(std::uint32_t level,
+                                           std::uint32_t planes) const noexcept;
     /// Planes per brick entry of the indirection: 2 at level 0, 9 above.
     [[nodiscard]] static std::uint32_t planesPerBrick(std::uint32_t level) noexcept {
         return level == 0 ? 2u : 9u;
     }
 
 private:
+    /// Of a tile's brick, what the GPU side needs without the tile's file.
+    struct TileBrick {
+        std::uint32_t entry = 0;   // first indirection entry, within the tile's block
+        std::uint16_t planes = 0;  // BrickEntry::planes
+        bool resident = false;
+    };
     /// A tile's bricks on the GPU: its slot (a block of the indirection) while one is resident.
     struct TileState {
         std::uint32_t slot = 0xFFFFFFFFu;
         std::uint64_t residentBricks = 0;
-        std::vector<std::vector<std::uint8_t>> resident;  // per level, per directory index
+        std::vector<std::vector<TileBrick>> bricks;  // per level, per directory index
     };
 
     void build(const RvolGpuVolumeOptions& options);
