@@ -7,6 +7,7 @@
 #include <vox/import.h>
 #include <vox/octree.h>
 #include <vox/radiance.h>
+#include <vox/radiance_tiles.h>
 #include <vox/raycast.h>
 #include <vox/texture.h>
 #include <vox/runtime/channels.h>
@@ -22,6 +23,7 @@
 
 #include <GL/glcorearb.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -89,6 +91,39 @@ double psnr(double sumSquared, std::size_t count) {
     if (count == 0) return 0;
     if (sumSquared == 0) return std::numeric_limits<double>::infinity();
     return 10.0 * std::log10(255.0 * 255.0 / (sumSquared / double(count)));
+}
+
+/// Two PNGs of one view, voxinspect's and voxview's: the hit masks (non-black pixels) and the
+/// PSNR, in 8-bit steps, over the pixels either image shows.
+struct PngComparison {
+    std::size_t pixels = 0, firstHits = 0, maskAgree = 0, exact = 0, shown = 0;
+    double psnr = 0;
+};
+
+PngComparison comparePngs(const fs::path& first, const fs::path& second) {
+    const vox::Texture a = vox::loadTexture(first, vox::ColorSpace::Linear),
+                       b = vox::loadTexture(second, vox::ColorSpace::Linear);
+    EXPECT_EQ(a.width(), b.width());
+    EXPECT_EQ(a.height(), b.height());
+    PngComparison c;
+    double sumSq = 0;
+    for (int y = 0; y < std::min(a.height(), b.height()); ++y)
+        for (int x = 0; x < std::min(a.width(), b.width()); ++x) {
+            const vox::Vec4f p = a.texel(0, x, y), q = b.texel(0, x, y);
+            const bool ph = p.x > 0 || p.y > 0 || p.z > 0, qh = q.x > 0 || q.y > 0 || q.z > 0;
+            ++c.pixels;
+            c.firstHits += ph;
+            c.maskAgree += ph == qh;
+            c.exact += p.x == q.x && p.y == q.y && p.z == q.z;
+            if (!(ph || qh)) continue;
+            ++c.shown;
+            for (int k = 0; k < 3; ++k) {
+                const double d = 255.0 * (double(p[k]) - double(q[k]));
+                sumSq += d * d;
+            }
+        }
+    c.psnr = psnr(sumSq, 3 * c.shown);
+    return c;
 }
 
 /// 8-bit sRGB of libvox's linear image, as voxinspect render writes it.
@@ -634,41 +669,134 @@ TEST(Voxview, FinalGatherMatchesVoxinspectRender) {
                 .count();
         ASSERT_EQ(gpuRun.exitCode, 0) << gpuRun.err;
         EXPECT_TRUE(gpuRun.err.empty()) << gpuRun.err;
-        const vox::Texture a = vox::loadTexture(cpuPng, vox::ColorSpace::Linear),
-                           b = vox::loadTexture(gpuPng, vox::ColorSpace::Linear);
-        ASSERT_EQ(b.width(), width);
-        ASSERT_EQ(b.height(), height);
-        std::size_t cpuHits = 0, maskAgree = 0, shown = 0, exact = 0;
-        double sumSq = 0;
-        for (int y = 0; y < height; ++y)
-            for (int x = 0; x < width; ++x) {
-                const vox::Vec4f p = a.texel(0, x, y), q = b.texel(0, x, y);
-                const bool ph = p.x > 0 || p.y > 0 || p.z > 0, qh = q.x > 0 || q.y > 0 || q.z > 0;
-                cpuHits += ph;
-                maskAgree += ph == qh;
-                exact += p.x == q.x && p.y == q.y && p.z == q.z;
-                if (!(ph || qh)) continue;
-                ++shown;  // PSNR over the pixels either image shows, in 8-bit steps
-                for (int k = 0; k < 3; ++k) {
-                    const double d = 255.0 * (double(p[k]) - double(q[k]));
-                    sumSq += d * d;
-                }
-            }
-        const double db = psnr(sumSq, 3 * shown);
+        const PngComparison c = comparePngs(cpuPng, gpuPng);
         const std::size_t pixels = std::size_t(width) * std::size_t(height);
+        ASSERT_EQ(c.pixels, pixels);
         std::printf(
             "[ runtime  ] voxview --rvol %s: %zu px, %zu non-black (CPU); mask %zu/%zu; exact %zu; "
             "PSNR %.1f dB over %zu px; "
             "voxinspect %.0f ms, voxview %.0f ms (processes)\n",
-            channel.c_str(), pixels, cpuHits, maskAgree, pixels, exact, db, shown, cpuMs, gpuMs);
-        EXPECT_GT(cpuHits, pixels / 4) << channel << ": the view must show the lit box";
-        EXPECT_GE(double(maskAgree), 0.999 * double(pixels)) << channel << ": hit masks differ";
-        EXPECT_GE(db, 40.0) << channel;
+            channel.c_str(), pixels, c.firstHits, c.maskAgree, pixels, c.exact, c.psnr, c.shown,
+            cpuMs, gpuMs);
+        EXPECT_GT(c.firstHits, pixels / 4) << channel << ": the view must show the lit box";
+        EXPECT_GE(double(c.maskAgree), 0.999 * double(pixels)) << channel << ": hit masks differ";
+        EXPECT_GE(c.psnr, 40.0) << channel;
     }
     const std::string stats = vox::test::readText(dir / "stats.json");
     for (const char* key : {"\"final_gather\"", "\"gather_ms_median\"", "\"points\"", "\"lights\""})
         EXPECT_NE(stats.find(key), std::string::npos) << key;
     EXPECT_NE(stats.find("\"gl_errors\": 0"), std::string::npos) << stats;
+}
+
+// voxview over a tiled volume (index, tiles, far field) along a camera path into the box, its
+// bricks streamed within a budget and at most four tile files open: no holes, tiles uploaded and
+// evicted, tile files closed and reopened within the bound. The budget renders far cells from
+// coarser covers (the clipmap's level of detail), so the image is compared with voxinspect render
+// of the same index without one: every brick uploaded, the same view, the tolerance of the
+// single-volume test above.
+TEST(Voxview, ATiledFlightStreamsTilesWithoutHolesAndMatchesVoxinspectRender) {
+    REQUIRE_GL();
+    vox::test::ScratchDir dir;
+    const fs::path gltf = vox::scenes::writeCornellBox(dir.path());
+    const fs::path esvo = writeOctree(dir / "box.esvo", 6, vox::AttributeEncoding::Compressed);
+    const fs::path index = dir / "tiled.rvol";  // depth 6, tiles of 16³ cells: 57 of 64 listed
+    {
+        vox::RadianceBakeOptions options;
+        options.bounces = 1;
+        vox::bakeTiledRadiance(vox::importScene(gltf), options, vox::RadianceTiling::plan(6, 4), {},
+                               index, {});
+    }
+    const int frames = 6;
+    std::string path;
+    std::vector<std::string> lastView;
+    for (int f = 0; f < frames; ++f) {
+        const double t = f / double(frames - 1);
+        char eye[64];
+        std::snprintf(eye, sizeof eye, "%.4f,%.4f,%.4f", -0.6 + 1.0 * t, 0.5 + 0.8 * t,
+                      3.0 - 2.6 * t);
+        path += std::string(eye) + " 0.2,0.9,-1.0\n";
+        lastView = {"--eye", eye, "--target", "0.2,0.9,-1.0"};
+    }
+    vox::test::writeText(dir / "path.txt", path);
+    const std::vector<std::string> size{"--width", "80", "--height", "60"};
+    const auto voxview = [&](const std::string& png, const std::string& stats,
+                             std::vector<std::string> extra) {
+        std::vector<std::string> args{esvo.string(),
+                                      "--rvol",
+                                      index.string(),
+                                      "--scene",
+                                      gltf.string(),
+                                      "--headless",
+                                      "-o",
+                                      png,
+                                      "-q",
+                                      "--stats",
+                                      stats,
+                                      "--rvol-max-open-tiles",
+                                      "4"};
+        args.insert(args.end(), size.begin(), size.end());
+        args.insert(args.end(), extra.begin(), extra.end());
+        const vox::test::ProcessResult r = vox::test::runProcess(LIBVOX_VOXVIEW, args);
+        EXPECT_EQ(r.exitCode, 0) << r.err;
+        EXPECT_TRUE(r.err.empty()) << r.err;
+        return nlohmann::json::parse(vox::test::readText(stats));
+    };
+
+    // The flight, within half a megabyte of bricks.
+    std::vector<std::string> flight{"--camera-path", (dir / "path.txt").string(),
+                                    "--frames",      std::to_string(frames),
+                                    "--rvol-budget", "0.5"};
+    flight.insert(flight.end(), lastView.begin(), lastView.end());
+    const nlohmann::json streamed =
+        voxview((dir / "streamed.png").string(), (dir / "streamed.json").string(), flight);
+    const nlohmann::json& gather = streamed.at("final_gather");
+    EXPECT_EQ(gather.at("holes"), 0) << gather.dump();
+    EXPECT_EQ(gather.at("tiles"), 57);
+    std::uint64_t tilesUploaded = 0, tilesEvicted = 0;
+    for (const nlohmann::json& f : gather.at("bricks_per_frame")) {
+        tilesUploaded += f.at("tiles_uploaded").get<std::uint64_t>();
+        tilesEvicted += f.at("tiles_evicted").get<std::uint64_t>();
+        EXPECT_LE(f.at("resident_bytes"), gather.at("rvol_budget_bytes"));
+        EXPECT_EQ(f.at("holes"), 0);
+    }
+    EXPECT_GT(tilesUploaded, 0u);
+    EXPECT_GT(tilesEvicted, 0u);
+    const nlohmann::json& open = gather.at("open_tiles");
+    EXPECT_LE(open.at("most_open"), 4);
+    EXPECT_GT(open.at("closed"), 0) << "more tiles resident than open: closed and reopened";
+    EXPECT_EQ(streamed.at("gl_errors"), 0);
+
+    // The last view with every brick uploaded (each tile file opened in turn, four at most), and
+    // voxinspect's final gather of it. voxinspect keeps its default bound, above the 57 tiles:
+    // its cones reach most tiles from every pixel, and at four it would reopen about two million
+    // times (TiledRvolOpenTiles tests a bounded CPU reader).
+    const nlohmann::json whole =
+        voxview((dir / "whole.png").string(), (dir / "whole.json").string(), lastView);
+    EXPECT_EQ(whole.at("final_gather").at("holes"), 0);
+    EXPECT_LE(whole.at("final_gather").at("open_tiles").at("most_open"), 4);
+    std::vector<std::string> args{"render",  index.string(), "--esvo", esvo.string(),
+                                  "--scene", gltf.string(),  "-o",     (dir / "cpu.png").string(),
+                                  "-q"};
+    args.insert(args.end(), size.begin(), size.end());
+    args.insert(args.end(), lastView.begin(), lastView.end());
+    const vox::test::ProcessResult cpuRun =
+        vox::test::runProcess(vox::test::voxinspectPath(), args);
+    ASSERT_EQ(cpuRun.exitCode, 0) << cpuRun.err;
+    const PngComparison c = comparePngs(dir / "cpu.png", dir / "whole.png");
+    // The budget changes the gather, not the octree's hits.
+    const PngComparison budgeted = comparePngs(dir / "whole.png", dir / "streamed.png");
+    std::printf(
+        "[ runtime  ] voxview tiled flight: %llu tiles uploaded, %llu evicted, %s tile files "
+        "opened, %s closed, at most %s open; last view against voxinspect: mask %zu/%zu, PSNR "
+        "%.1f dB; streamed against every brick: mask %zu/%zu, PSNR %.1f dB\n",
+        static_cast<unsigned long long>(tilesUploaded),
+        static_cast<unsigned long long>(tilesEvicted), open.at("opened").dump().c_str(),
+        open.at("closed").dump().c_str(), open.at("most_open").dump().c_str(), c.maskAgree,
+        c.pixels, c.psnr, budgeted.maskAgree, budgeted.pixels, budgeted.psnr);
+    EXPECT_GT(c.firstHits, c.pixels / 4) << "the view must show the lit box";
+    EXPECT_GE(double(c.maskAgree), 0.999 * double(c.pixels));
+    EXPECT_GE(c.psnr, 40.0);
+    EXPECT_EQ(budgeted.maskAgree, budgeted.pixels);
 }
 
 // Issue 10: a slice corrupted on disk is rejected by the stream, which reports it (file and

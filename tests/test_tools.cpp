@@ -976,6 +976,23 @@ TEST(Tools, RvolRenderTiledVolumeAcrossItsTiles) {
     const auto threaded = dir / "threaded.png";
     ASSERT_EQ(render(threaded, "2").exitCode, 0);
     EXPECT_EQ(readBytes(png), readBytes(threaded));
+    // At most eight of the 57 tile files open: closed and reopened as the cones need them, the
+    // same image.
+    const auto bounded = dir / "bounded.png";
+    const auto stats = dir / "bounded.json";
+    std::vector<std::string> boundedArgs{"render",  index.string(),   "--scene",   scene.string(),
+                                         "-o",      bounded.string(), "--threads", "2",
+                                         "--stats", stats.string()};
+    boundedArgs.insert(boundedArgs.end(), kCornellCamera.begin(), kCornellCamera.end());
+    boundedArgs.insert(boundedArgs.end(), {"--max-open-tiles", "8"});
+    ASSERT_EQ(voxinspect(boundedArgs).exitCode, 0);
+    EXPECT_EQ(readBytes(png), readBytes(bounded));
+    const auto openTiles = nlohmann::json::parse(vox::test::readText(stats))["open_tiles"];
+    EXPECT_EQ(openTiles["max_open_tiles"], 8);
+    EXPECT_LE(openTiles["most_open"].get<int>(), 8);
+    EXPECT_GT(openTiles["closed"].get<int>(), 0);
+    boundedArgs.back() = "0";
+    expectOneLineError(voxinspect(boundedArgs), 1, "--max-open-tiles", "voxinspect");
 
     // A missing tile (the one holding most voxels: a wall the camera sees) is a file that cannot
     // be read: exit 2, one line naming it, no image.

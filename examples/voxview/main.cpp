@@ -58,6 +58,7 @@ struct Options {
     unsigned maxLevel = 0xFFFFFFFFu;
     bool headless = false, quiet = false, framesGiven = false;
     double budgetMb = 256, frameLoadMb = 0, rvolBudgetMb = 0;
+    unsigned rvolMaxOpenTiles = vox::rvol::TiledRvolReaderOptions{}.maxOpenTiles;
     std::string cameraPath, upload = "ring";
     // The final gather (--rvol).
     std::string rvol, scene, gatherFilter = "hardware";
@@ -215,6 +216,16 @@ std::optional<rt::EglPlatform> eglPlatform(const std::string& name) {
     throw vox::UsageError("--egl-platform must be auto, device, surfaceless or default");
 }
 
+/// The tiled reader's open tile files (null without one).
+nlohmann::json openTilesReport(const vox::rvol::TiledRvolReader* tiled) {
+    if (!tiled) return nullptr;
+    const vox::rvol::OpenTileStats stats = tiled->openTileStats();
+    return {{"max_open_tiles", tiled->options().maxOpenTiles},
+            {"most_open", stats.mostOpen},
+            {"opened", stats.opened},
+            {"closed", stats.closed}};
+}
+
 double median(std::vector<double> v) {
     if (v.empty()) return 0.0;
     std::sort(v.begin(), v.end());
@@ -336,10 +347,13 @@ void run(Options o) {
     std::vector<vox::PunctualLight> lights;
     std::size_t staticLights = 0;
     if (gatherChannel) {
-        if (vox::rvol::isTileIndex(o.rvol))
-            tiledReader = std::make_unique<vox::rvol::TiledRvolReader>(o.rvol);
-        else
+        if (vox::rvol::isTileIndex(o.rvol)) {
+            vox::rvol::TiledRvolReaderOptions tiledOptions;
+            tiledOptions.maxOpenTiles = o.rvolMaxOpenTiles;
+            tiledReader = std::make_unique<vox::rvol::TiledRvolReader>(o.rvol, tiledOptions);
+        } else {
             rvolReader = std::make_unique<vox::rvol::RvolReader>(o.rvol);
+        }
         if (!o.scene.empty()) {
             const vox::Scene scene = vox::importScene(o.scene);
             for (const vox::Light& light : scene.lights) {
@@ -562,6 +576,9 @@ void run(Options o) {
                                   {"tiled", tiledReader != nullptr},
                                   {"tiles", tiledReader ? tiledReader->index().tiles.size() : 0},
                                   {"tile_slots", volume->tileSlotCount()},
+                                  // The tiled reader's files: its bound, the most open at once,
+                                  // openings (reopenings included) and closings.
+                                  {"open_tiles", openTilesReport(tiledReader.get())},
                                   // Points whose samples met a missing brick with no resident
                                   // cover, over all frames (FinalGatherGpu::lastHoles).
                                   {"holes", holesTotal},
@@ -625,6 +642,12 @@ int main(int argc, char** argv) {
     app.add_option("--rvol-budget", o.rvolBudgetMb,
                    "With --rvol: stream the radiance bricks around the eye within this many MB (0: "
                    "upload every brick)")
+        ->capture_default_str();
+    app.add_option(
+           "--rvol-max-open-tiles", o.rvolMaxOpenTiles,
+           "With --rvol INDEX (a tiled volume): tile files open at once (the least recently "
+           "used is closed, and opened again when needed)")
+        ->check(CLI::Range(1u, 1u << 20))
         ->capture_default_str();
     app.add_option("--frame-load", o.frameLoadMb,
                    "Most MB of slices loaded per frame (0: all the view needs)")

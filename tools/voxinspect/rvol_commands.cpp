@@ -59,6 +59,33 @@ void checkExposure(double exposure) {
         throw UsageError("--exposure must be a finite number > 0");
 }
 
+/// A tiled volume's reader with at most @p maxOpenTiles tile files open.
+rvol::TiledRvolReaderOptions tiledOptions(unsigned maxOpenTiles) {
+    rvol::TiledRvolReaderOptions options;
+    options.maxOpenTiles = maxOpenTiles;
+    return options;
+}
+
+void addMaxOpenTiles(CLI::App& command, unsigned& maxOpenTiles) {
+    command
+        .add_option("--max-open-tiles", maxOpenTiles,
+                    "A tiled volume's index: tile files open at once (the least recently used is "
+                    "closed, and opened again when needed)")
+        ->check(CLI::Range(1u, 1u << 20))
+        ->capture_default_str();
+}
+
+/// What a tiled volume's reader opened (null for a single file).
+nlohmann::json openTilesReport(const rvol::RvolSampler& file) {
+    const auto* tiled = dynamic_cast<const rvol::TiledRvolReader*>(&file);
+    if (!tiled) return nullptr;
+    const rvol::OpenTileStats stats = tiled->openTileStats();
+    return {{"max_open_tiles", tiled->options().maxOpenTiles},
+            {"most_open", stats.mostOpen},
+            {"opened", stats.opened},
+            {"closed", stats.closed}};
+}
+
 // ---- info, validate ------------------------------------------------------------------------
 
 nlohmann::json rvolReport(const rvol::RvolReader& reader, const rvol::RvolReport& report,
@@ -256,7 +283,8 @@ void sample(const RvolCommands& c) {
     const Vec3d at = parseVector(c.at, "--at");
     const bool hasDir = !c.dir.empty();
     const Vec3d dir = hasDir ? parseDirection(c.dir) : Vec3d{0, 0, 0};
-    const std::unique_ptr<rvol::RvolSampler> file = rvol::openRvolSampler(c.file);
+    const std::unique_ptr<rvol::RvolSampler> file =
+        rvol::openRvolSampler(c.file, tiledOptions(c.maxOpenTiles));
     const rvol::RvolSampler& reader = *file;
     const std::uint32_t depth = reader.depth();
     if (c.level < 0 || static_cast<std::uint32_t>(c.level) > depth)
@@ -381,7 +409,8 @@ void render(const RvolCommands& r, const EsvoCommands& c) {
 
     // One file is read whole, so that the cones look texels up without locks; a tiled volume
     // (larger than memory, by design) is sampled from its files as the cones reach them.
-    const std::unique_ptr<rvol::RvolSampler> file = rvol::openRvolSampler(c.file);
+    const std::unique_ptr<rvol::RvolSampler> file =
+        rvol::openRvolSampler(c.file, tiledOptions(r.maxOpenTiles));
     const auto* single = dynamic_cast<const rvol::RvolReader*>(file.get());
     const rvol::Volume volume = single ? single->readVolume() : rvol::Volume{};
     const RadianceField field = single ? RadianceField(volume) : RadianceField(*file);
@@ -465,7 +494,8 @@ void render(const RvolCommands& r, const EsvoCommands& c) {
             {"hits", image.hits},
             {"seconds", image.seconds},
             {"direct_seconds", image.directSeconds},
-            {"direct_light", directLightReport(image.directLight, options.lightcut)}};
+            {"direct_light", directLightReport(image.directLight, options.lightcut)},
+            {"open_tiles", openTilesReport(*file)}};
         Timings timings;
         timings.add("render", image.seconds * 1000.0);
         timings.add("direct", image.directSeconds * 1000.0);
@@ -497,6 +527,7 @@ void RvolCommands::add(CLI::App& app, EsvoCommands& esvoCommands) {
         "--dir", dir,
         "Direction a cone looks along (levels >= 1): +x, -x, +y, -y, +z, -z or dx,dy,dz");
     sample->add_flag("--json", json, "Print JSON");
+    addMaxOpenTiles(*sample, maxOpenTiles);
 
     slices = app.add_subcommand(
         "slices",
@@ -522,6 +553,7 @@ void RvolCommands::add(CLI::App& app, EsvoCommands& esvoCommands) {
     render.add_option("--shadow-aperture", shadowAperture, ".rvol: shadow cone aperture, degrees")
         ->capture_default_str();
     render.add_flag("--no-shadow-cones", noShadowCones, ".rvol: lights unshadowed");
+    addMaxOpenTiles(render, maxOpenTiles);
     render
         .add_option("--lightcuts", lightcuts,
                     ".rvol: direct light through Lightcuts: on, off or auto (on from " +
@@ -565,10 +597,10 @@ bool RvolCommands::run() {
                                            "--load-levels", "--lod-scale", "--beam"}))
                 throw UsageError(std::string(option) + " applies to .esvo files");
         } else if (const char* option = firstGiven(
-                       *c.render,
-                       {"--scene", "--esvo", "--exposure", "--spec-aperture", "--shadow-aperture",
-                        "--no-shadow-cones", "--lightcuts", "--lightcut-error",
-                        "--lightcut-criterion", "--lightcut-max-cut", "--lightcuts-compare"})) {
+                       *c.render, {"--scene", "--esvo", "--exposure", "--spec-aperture",
+                                   "--shadow-aperture", "--no-shadow-cones", "--lightcuts",
+                                   "--lightcut-error", "--lightcut-criterion", "--lightcut-max-cut",
+                                   "--lightcuts-compare", "--max-open-tiles"})) {
             throw UsageError(std::string(option) + " applies to .rvol files");
         }
     }

@@ -4,6 +4,8 @@
 
 #include "esvo_commands.h"
 
+#include <vox/formats/rvol_tiles.h>
+
 #include <CLI/CLI.hpp>
 
 #include <string>
@@ -19,6 +21,7 @@ struct RvolCommands {
     std::string outputDir, axis = "z";
     long long index = -1;  // level-0 cell; -1: the middle
     double exposure = 1;   // slices and render
+    unsigned maxOpenTiles = rvol::TiledRvolReaderOptions{}.maxOpenTiles;  // sample and render
     // render (options of the render command EsvoCommands adds)
     std::string scene, esvo;
     double specAperture = 10, shadowAperture = 10;
