@@ -317,6 +317,55 @@ TEST(FinalGatherGpu, FinalGatherMatchesTheCpuAtA64x48CamerasSurfacePoints) {
     EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
 }
 
+TEST(RvolResidency, AFullAtlasEvictsBricksTheViewLeftBehindThoughTheBudgetHasRoom) {
+    // The atlases hold level-0 and directional planes in a fixed proportion, so a slot kind can
+    // run out while the byte budget has room: the bricks the previous view kept must then make
+    // way for the current view's, not leave it missing bricks (and holding none it needs less).
+    REQUIRE_GL();
+    const Baked& b = baked();
+    const auto& h = b.reader->header();
+    std::uint64_t fullBytes = 0;
+    std::uint32_t bricks = 0;
+    {
+        const rt::RvolGpuVolume full(*gl, *b.reader);
+        for (std::uint32_t l = 0; l < h.levelCount; ++l)
+            for (std::uint32_t i = 0; i < b.reader->level(l).brickCount; ++i, ++bricks)
+                fullBytes += full.brickBytes({rt::kBaseFile, l, i});
+    }
+    rt::RvolGpuVolume streamed(*gl, *b.reader, {.uploadAll = false, .atlasBytes = fullBytes / 3});
+    rt::RvolResidency residency(streamed, 2 * fullBytes, 4);
+    vox::PinholeCamera camera;
+    const auto at = [&](double x, double y, double z) {
+        camera.eye = {h.origin[0] + x * h.size, h.origin[1] + y * h.size, h.origin[2] + z * h.size};
+        camera.target = {h.origin[0] + 0.5 * h.size, h.origin[1] + 0.5 * h.size,
+                         h.origin[2] + 0.5 * h.size};
+        return residency.update(camera);
+    };
+    const auto residentBricks = [&] {
+        std::uint32_t n = 0;
+        for (std::uint32_t l = 0; l < h.levelCount; ++l)
+            for (std::uint32_t i = 0; i < b.reader->level(l).brickCount; ++i)
+                n += streamed.resident({rt::kBaseFile, l, i});
+        return n;
+    };
+    const auto first = at(0.1, 0.1, 0.9);
+    ASSERT_GT(first.neededNotFitting, 0u) << "the atlas, not the budget, must bind";
+    const std::uint32_t heldAtFirst = residentBricks();
+    const auto moved = at(0.9, 0.9, 0.1);
+    EXPECT_GT(moved.evicted, 0u);
+    EXPECT_GT(moved.uploaded, 0u);
+    // Needed bricks are left out only once nothing unneeded is left to evict.
+    if (moved.neededNotFitting > 0) {
+        EXPECT_LE(residentBricks(), moved.selected);
+    }
+    std::printf(
+        "[ rvol gpu ] full atlas: %u of %u bricks held at the first view, %u needed at the second: "
+        "%u evicted, %u uploaded, %u left out\n",
+        heldAtFirst, bricks, moved.selected + moved.neededNotFitting, moved.evicted,
+        moved.uploaded, moved.neededNotFitting);
+    EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
+}
+
 TEST(RvolResidency, AClipmapAroundTheEyeWithinTheBudgetFallsBackToCoarserLevelsAndNeverToEmpty) {
     REQUIRE_GL();
     const Baked& b = baked();

@@ -560,11 +560,16 @@ std::uint64_t RvolGpuVolume::brickBytes(const RvolBrickRef& brick) const {
     return planeBytes(brick.level, fileReader(brick.file)->bricks(brick.level)[brick.index].planes);
 }
 
+std::array<std::uint32_t, 2> RvolGpuVolume::planeSlots(std::uint32_t level,
+                                                       std::uint32_t planes) noexcept {
+    const std::uint32_t channels = rvol::levelChannels(level);
+    return {static_cast<std::uint32_t>(std::popcount(planes & ((1u << channels) - 1))),
+            static_cast<std::uint32_t>(std::popcount(planes >> channels))};
+}
+
 std::uint64_t RvolGpuVolume::planeBytes(std::uint32_t level, std::uint32_t planes) const noexcept {
     const std::uint64_t slot = std::uint64_t{n_} * n_ * n_;
-    const std::uint32_t channels = rvol::levelChannels(level);
-    const auto rgb = static_cast<std::uint32_t>(std::popcount(planes & ((1u << channels) - 1))),
-               alpha = static_cast<std::uint32_t>(std::popcount(planes >> channels));
+    const auto [rgb, alpha] = planeSlots(level, planes);
     return rgb * 4 * slot + alpha * alphaTexelBytes() * slot;
 }
 

@@ -3,6 +3,7 @@
 #include <vox/runtime/rvol_residency.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -22,9 +23,10 @@ struct Candidate {
     bool tile;  // an unopened tile: brick.file is the tile
     RvolBrickRef brick;
     std::uint32_t volumeLevel;
-    // The brick's slot bytes, taken from the directory while its file is open: the tiled reader
-    // may close a tile file that no tile slot keeps on the GPU.
+    // The brick's slot bytes and {RGB, opacity} atlas slots, taken from the directory while its
+    // file is open: the tiled reader may close a tile file that no tile slot keeps on the GPU.
     std::uint64_t bytes;
+    std::array<std::uint32_t, 2> slots;
 };
 
 /// The heap's order: duplicates last; higher priority first; at ties the far field (base file)
@@ -107,7 +109,8 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
                             false,
                             {file, l, i},
                             level,
-                            volume_.planeBytes(l, bricks[i].planes)});
+                            volume_.planeBytes(l, bricks[i].planes),
+                            RvolGpuVolume::planeSlots(l, bricks[i].planes)});
             }
         }
     };
@@ -131,7 +134,8 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
                         true,
                         {t, 0, 0},
                         boundLevel,
-                        0});
+                        0,
+                        {0, 0}});
         }
     }
 
@@ -141,7 +145,12 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
     Update out;
     std::vector<Candidate> kept;
     std::set<std::uint32_t> keptTiles;
+    // The atlases bound it too: they hold level-0 and directional planes in a fixed proportion,
+    // so a slot kind can run out while the byte budget has room.
     std::uint64_t bytes = 0;
+    const std::uint32_t rgbSlots = volume_.rgbSlots().capacity() - 1,
+                        alphaSlots = volume_.alphaSlots().capacity() - 1;
+    std::uint32_t rgbUsed = 0, alphaUsed = 0;
     while (!queue.empty()) {
         const Candidate c = queue.top();
         if (c.tile) {
@@ -150,7 +159,9 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
             continue;
         }
         const std::uint64_t b = c.bytes;
-        if (bytes + b > budget_) break;
+        if (bytes + b > budget_ || rgbUsed + c.slots[0] > rgbSlots ||
+            alphaUsed + c.slots[1] > alphaSlots)
+            break;
         queue.pop();
         if (c.brick.file != kBaseFile && !keptTiles.contains(c.brick.file)) {
             if (keptTiles.size() >= volume_.tileSlotCount()) {
@@ -160,6 +171,8 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
             keptTiles.insert(c.brick.file);
         }
         bytes += b;
+        rgbUsed += c.slots[0];
+        alphaUsed += c.slots[1];
         kept.push_back(c);
         lastUsed_[c.brick] = frame_;
     }
@@ -170,7 +183,8 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
 
     // Evict what is not selected, first the bricks of tiles the view does not keep (which frees
     // their tile slots), then the finest level (a brick goes before its cover), then the least
-    // recently selected, until the selection's missing bricks and tiles fit.
+    // recently selected, until the selection's missing bricks and tiles fit; and again while an
+    // atlas has no free slot of the kind a missing brick needs.
     std::uint64_t missing = 0;
     std::set<std::uint32_t> tilesToPlace;
     for (const Candidate& c : kept)
@@ -185,22 +199,29 @@ RvolResidency::Update RvolResidency::update(const PinholeCamera& camera) {
             victims.emplace_back(brick.file == kBaseFile || keptTiles.contains(brick.file),
                                  volume_.volumeLevel(brick.file, brick.level), used, brick);
     std::sort(victims.begin(), victims.end());
-    for (const auto& [keptTile, level, used, brick] : victims) {
-        const std::uint32_t freeTiles = volume_.tileSlotCount() - volume_.residentTiles();
-        if (residentBytes_ + missing <= budget_ && tilesToPlace.size() <= freeTiles) break;
+    std::size_t nextVictim = 0;
+    const auto evictNext = [&] {
+        if (nextVictim == victims.size()) return false;
+        const RvolBrickRef brick = std::get<3>(victims[nextVictim++]);
         const std::uint64_t b = volume_.brickBytes(brick);
         volume_.evictBrick(brick);
         lastUsed_.erase(brick);
         residentBytes_ -= b;
         ++out.evicted;
         if (brick.file != kBaseFile && !volume_.tileResident(brick.file)) ++out.tilesEvicted;
-    }
+        return true;
+    };
+    while (residentBytes_ + missing > budget_ ||
+           tilesToPlace.size() > volume_.tileSlotCount() - volume_.residentTiles())
+        if (!evictNext()) break;
     // Upload in priority order (covers first).
     for (std::size_t k = 0; k < kept.size(); ++k) {
         const RvolBrickRef& brick = kept[k].brick;
         if (volume_.resident(brick)) continue;
         const bool newTile = brick.file != kBaseFile && !volume_.tileResident(brick.file);
-        if (!volume_.uploadBrick(brick)) {  // the atlas is out of slots of one kind
+        bool uploaded = volume_.uploadBrick(brick);
+        while (!uploaded && evictNext()) uploaded = volume_.uploadBrick(brick);
+        if (!uploaded) {  // an atlas is out of slots with nothing left to evict
             out.neededNotFitting += static_cast<std::uint32_t>(kept.size() - k);
             for (std::size_t j = k; j < kept.size(); ++j)
                 if (!volume_.resident(kept[j].brick)) lastUsed_.erase(kept[j].brick);

@@ -214,6 +214,9 @@ public:
     /// GPU bytes of the slots of a brick of @p level that stores @p planes (BrickEntry::planes).
     [[nodiscard]] std::uint64_t planeBytes(std::uint32_t level,
                                            std::uint32_t planes) const noexcept;
+    /// The slots such a brick takes: {RGB atlas slots, opacity atlas slots}.
+    [[nodiscard]] static std::array<std::uint32_t, 2> planeSlots(std::uint32_t level,
+                                                                 std::uint32_t planes) noexcept;
     /// Planes per brick entry of the indirection: 2 at level 0, 9 above.
     [[nodiscard]] static std::uint32_t planesPerBrick(std::uint32_t level) noexcept {
         return level == 0 ? 2u : 9u;
