@@ -251,7 +251,7 @@ TEST(TiledRvolGpu, SamplesEqualTheCpuTiledReaderAtEveryLevelAndAcrossTileBorders
     // texelFetch: float rounding only. The texture unit inside a tile (GL_R8 opacity comes back at
     // 8 bits on llvmpipe, as for a single volume), fetches across tile borders.
     for (const bool hardware : {false, true}) {
-        rt::FinalGatherGpu gather(*gl, {.hardwareFilter = hardware});
+        rt::FinalGatherGpu gather(*gl, {.hardwareFilter = hardware, .tiledVolumes = true});
         const auto gpu = gather.sample(volume, queries);
         const SampleError e = compare(gpu, cpu);
         std::vector<std::array<float, 4>> gpuCrossing;
@@ -289,6 +289,7 @@ TEST(TiledRvolGpu, GatherEqualsTheGatherOverTheSameCellsAsOneSingleVolume) {
     rt::FinalGatherGpuOptions options;
     options.aoLambda = b.reader->index().bake.aoLambda;
     options.hardwareFilter = false;
+    options.tiledVolumes = true;
     rt::FinalGatherGpu gather(*gl, options);
     const auto tiled = gather.shade(tiledVolume, points, lights);
     const double tiledSeconds = gather.lastSeconds();
@@ -314,7 +315,9 @@ TEST(TiledRvolGpu, TheFarFieldAloneServesWhereNoTileIsResidentAndNothingIsAHole)
     const vox::rvol::RvolReader& far = b.reader->farField();
     rt::RvolGpuVolume volume(*gl, *b.reader, {.uploadAll = false, .atlasBytes = 4u << 20});
     const auto queries = borderAndRandomQueries(index, 1400);
-    rt::FinalGatherGpu gather(*gl, {.hardwareFilter = false});
+    rt::FinalGatherGpu gather(*gl, {.hardwareFilter = false, .tiledVolumes = true});
+    // A shader compiled for single volumes refuses a tiled one rather than mis-sample its borders.
+    EXPECT_THROW((void)rt::FinalGatherGpu(*gl).sample(volume, queries), rt::RuntimeError);
     // Nothing resident: every query where the volume has radiance is a hole; none that reads only
     // tiles the index leaves out (zero, as the format says: nothing missing there) is.
     std::size_t absent = 0, tiled = 0, radiant = 0;
@@ -407,6 +410,7 @@ TEST(TiledRvolResidency, ABudgetedFlightIntoTheBoxLeavesNoHolesAndNeverOpensFarT
     rt::FinalGatherGpuOptions options;
     options.aoLambda = tiles.bake.aoLambda;
     options.hardwareFilter = false;
+    options.tiledVolumes = true;
     rt::FinalGatherGpu gather(*gl, options);
     std::uint32_t uploaded = 0, evicted = 0, tilesUploaded = 0, tilesEvicted = 0, maxTiles = 0;
     std::uint64_t fallbacks = 0;

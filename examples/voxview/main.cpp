@@ -390,6 +390,7 @@ void run(Options o) {
         gatherOptions.shadowCones = !o.noShadowCones;
         gatherOptions.aoLambda = bake.aoLambda;
         gatherOptions.hardwareFilter = o.gatherFilter == "hardware";
+        gatherOptions.tiledVolumes = tiledReader != nullptr;
         gather = std::make_unique<rt::FinalGatherGpu>(context, gatherOptions);
         context.throwOnErrors("uploading " + o.rvol);
     }

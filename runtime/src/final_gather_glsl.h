@@ -17,7 +17,7 @@
 //   (GL_R32UI view, corners with a non-zero word), and so is the half cell along a tile border,
 //   whose corners lie in different tiles' bricks.
 // The host prepends "#version 450 core" and the #defines (VOX_MODE_SHADE or VOX_MODE_SAMPLE,
-// VOX_HARDWARE_FILTER).
+// VOX_HARDWARE_FILTER, VOX_TILED: compiled for tiled volumes, see FinalGatherGpuOptions).
 #pragma once
 
 namespace vox::runtime::detail {
@@ -150,7 +150,9 @@ bool locate(uint e, vec3 p) {
 // One RGB plane's radiance.
 vec3 filterRgb(uint plane) {
 #ifdef VOX_HARDWARE_FILTER
+#ifdef VOX_TILED
     if (gOneBrick)
+#endif
         return textureLod(uRgbAtlas, (vec3(slotTexel(slots[gEntry0 + plane])) + gT + 0.5) / rgbAtlasSize.xyz, 0.0).rgb;
 #endif
     vec3 sum = vec3(0.0);
@@ -168,7 +170,10 @@ vec3 filterRgb(uint plane) {
 // every corner's weight must leave no float error below 1.
 vec2 filterAlpha(uint plane) {
 #ifdef VOX_HARDWARE_FILTER
-    if (gOneBrick) {
+#ifdef VOX_TILED
+    if (gOneBrick)
+#endif
+    {
         float a = textureLod(uAlphaAtlas, (vec3(slotTexel(slots[gEntry0 + plane])) + gT + 0.5) / alphaAtlasSize.xyz, 0.0).r;
         // The filter's result within two float steps of 1 is an opaque neighbourhood (a sum of
         // weights that does not quite reach 1): fully opaque, as the CPU's float rounding makes it.

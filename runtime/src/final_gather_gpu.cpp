@@ -20,6 +20,7 @@ std::string shaderSource(const FinalGatherGpuOptions& options, const char* mode)
     source += mode;
     source += "\n";
     if (options.hardwareFilter) source += "#define VOX_HARDWARE_FILTER\n";
+    if (options.tiledVolumes) source += "#define VOX_TILED\n";
     return source + detail::kFinalGatherShader;
 }
 
@@ -112,9 +113,17 @@ FinalGatherGpu::~FinalGatherGpu() {
     if (query_ != 0) glDeleteQueries(1, &query_);
 }
 
+void FinalGatherGpu::requireTiledSupport(const RvolGpuVolume& volume) const {
+    if (volume.tiled() && !options_.tiledVolumes)
+        throw RuntimeError(
+            "final gather: a tiled volume needs a shader compiled for it "
+            "(FinalGatherGpuOptions::tiledVolumes)");
+}
+
 std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume,
                                                   std::span<const GpuShadingPoint> points,
                                                   std::span<const PunctualLight> lights) {
+    requireTiledSupport(volume);
     const auto start = std::chrono::steady_clock::now();
     std::vector<GpuGatherParts> out(points.size());
     if (points.empty()) {
@@ -199,6 +208,7 @@ void FinalGatherGpu::readCounters(unsigned buffer) {
 
 std::vector<std::array<float, 4>> FinalGatherGpu::sample(const RvolGpuVolume& volume,
                                                          std::span<const SampleQuery> queries) {
+    requireTiledSupport(volume);
     std::vector<std::array<float, 4>> out(queries.size());
     lastFallbacks_ = lastHoles_ = 0;
     if (queries.empty()) return out;

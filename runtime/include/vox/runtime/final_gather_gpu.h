@@ -47,6 +47,11 @@ struct FinalGatherGpuOptions {
     /// true: the texture unit's trilinear filter over the atlas slots (one fetch per plane);
     /// false: eight texelFetch per plane with float weights (exactly the CPU's interpolation).
     bool hardwareFilter = true;
+    /// Compile for tiled volumes too (RvolGpuVolume over a TiledRvolReader): where a sample's
+    /// cells lie in several tiles it fetches them one by one. false: single volumes only, whose
+    /// samples then need no such branch (a JIT compiler such as llvmpipe's runs both sides of
+    /// it); shade() and sample() throw RuntimeError for a tiled volume.
+    bool tiledVolumes = false;
 };
 
 /// Compiles the shader (shade and sample variants) once; shade() runs it over a volume.
@@ -89,6 +94,7 @@ public:
     [[nodiscard]] std::uint32_t lastHoles() const noexcept { return lastHoles_; }
 
 private:
+    void requireTiledSupport(const RvolGpuVolume& volume) const;
     void readCounters(unsigned buffer);
 
     GlContext& context_;
