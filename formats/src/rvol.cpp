@@ -75,10 +75,12 @@ Texel combineDirectional(const std::array<Texel, 3>& facing,
         rgb[1] += w * t.g;
         rgb[2] += w * t.b;
         alphaBlend += w * t.a;
-        logTransmittance += std::abs(direction[a]) / sumAbs *
-                            std::log(std::max(1.0 - std::clamp(double(t.a), 0.0, 1.0), 1e-12));
+        // A clear channel adds log(1) = 0: skip the logarithm (most samples of a cone are clear).
+        if (t.a > 0)
+            logTransmittance += std::abs(direction[a]) / sumAbs *
+                                std::log(std::max(1.0 - std::min(double(t.a), 1.0), 1e-12));
     }
-    const double alpha = 1 - std::exp(logTransmittance);
+    const double alpha = logTransmittance < 0 ? 1 - std::exp(logTransmittance) : 0.0;
     const double scale = alphaBlend > 1e-12 ? alpha / alphaBlend : 0.0;
     return {static_cast<float>(rgb[0] * scale), static_cast<float>(rgb[1] * scale),
             static_cast<float>(rgb[2] * scale), static_cast<float>(alpha)};

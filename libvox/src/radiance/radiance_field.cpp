@@ -79,14 +79,34 @@ Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const {
             offsets[axis] =
                 static_cast<std::size_t>(2 * axis + (dir[axis] < 0 ? 1 : 0)) * kBlockTexels;
     }
+    // The corners' blocks: a corner shares its block with the corner below it along an axis
+    // where both cells fall in the same block (7 of 8 cells per axis), so most samples look up
+    // one block instead of eight.
+    const LevelIndex& index = index_[level];
+    std::int32_t blockOf[8];
+    for (int corner = 0; corner < 8; ++corner) {
+        const int axis = corner >= 4 ? 2 : corner >= 2 ? 1 : 0;
+        if (corner > 0 && c0[axis] / kBlockCells == c1[axis] / kBlockCells) {
+            blockOf[corner] = blockOf[corner & ~(1 << axis)];
+            continue;
+        }
+        const std::uint32_t x = corner & 1 ? c1[0] : c0[0], y = corner & 2 ? c1[1] : c0[1],
+                            z = corner & 4 ? c1[2] : c0[2];
+        blockOf[corner] =
+            index.blocks[(std::size_t{z / kBlockCells} * index.blocksPerAxis + y / kBlockCells) *
+                             index.blocksPerAxis +
+                         x / kBlockCells];
+    }
     double sums[3][4] = {};
     for (int corner = 0; corner < 8; ++corner) {
         const double w = (corner & 1 ? f[0] : 1 - f[0]) * (corner & 2 ? f[1] : 1 - f[1]) *
                          (corner & 4 ? f[2] : 1 - f[2]);
-        if (w <= 0) continue;
-        const Texel* t = cellTexels(level, corner & 1 ? c1[0] : c0[0], corner & 2 ? c1[1] : c0[1],
+        if (w <= 0 || blockOf[corner] < 0) continue;
+        const Texel* t =
+            l.texels.data() +
+            rvol::Level::texelIndex(static_cast<std::size_t>(blockOf[corner]), l.channels, 0,
+                                    corner & 1 ? c1[0] : c0[0], corner & 2 ? c1[1] : c0[1],
                                     corner & 4 ? c1[2] : c0[2]);
-        if (!t) continue;
         for (std::uint32_t c = 0; c < channelCount; ++c) {
             const Texel& v = t[offsets[c]];
             sums[c][0] += w * v.r;
@@ -171,9 +191,10 @@ RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLa
         const double step = 0.5 * diameter;
         const Texel s = sampleNearOrFar(level, p, cone.dir);
         if (s.a > 1e-6f) {
-            // The sample's opacity is for a footprint-long path; the step covers half of it.
+            // The sample's opacity is for a footprint-long path; the step covers half of it, so
+            // its transmittance is the square root of the sample's.
             const double a = std::clamp(double(s.a), 0.0, 1.0);
-            const double corrected = 1 - std::pow(1 - std::min(a, 0.999999), step / diameter);
+            const double corrected = 1 - std::sqrt(1 - std::min(a, 0.999999));
             if (!opacityOnly) radiance += Vec3d{s.r, s.g, s.b} * ((1 - opacity) * corrected / a);
             occlusion += (1 - occlusion) * corrected / (1 + aoLambda * 0.5 * diameter / size);
             opacity += (1 - opacity) * corrected;
