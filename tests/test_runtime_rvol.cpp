@@ -64,6 +64,41 @@ const Baked& baked() {
 
 vox::Vec3f f3(Vec3d v) { return vox::vec3Cast<float>(v); }
 
+/// The surface points a 64×48 (@p width × @p height) camera sees in the box, as the CPU and the
+/// GPU shade them (the float-rounded point on both sides).
+struct CameraPoints {
+    std::vector<vox::ShadingPoint> points;
+    std::vector<rt::GpuShadingPoint> gpuPoints;
+};
+
+CameraPoints cameraPoints(const vox::Scene& scene, int width, int height) {
+    vox::PinholeCamera camera;
+    camera.eye = {0, 1, 3.2};
+    camera.target = {0, 1, 0};
+    camera.fovYDegrees = 50;
+    camera.width = width;
+    camera.height = height;
+    const vox::TriangleRayCaster caster(scene);
+    CameraPoints out;
+    for (int y = 0; y < camera.height; ++y)
+        for (int x = 0; x < camera.width; ++x) {
+            vox::ShadingPoint p;
+            if (!vox::sceneShadingPoint(scene, caster, camera.rayThrough(x, y),
+                                        camera.pixelAngle(), p))
+                continue;
+            const rt::GpuShadingPoint g{f3(p.position), f3(p.normal), f3(p.albedo), f3(p.emission),
+                                        f3(p.view)};
+            p = {{g.position[0], g.position[1], g.position[2]},
+                 {g.normal[0], g.normal[1], g.normal[2]},
+                 {g.albedo[0], g.albedo[1], g.albedo[2]},
+                 {g.emission[0], g.emission[1], g.emission[2]},
+                 {g.view[0], g.view[1], g.view[2]}};
+            out.points.push_back(p);
+            out.gpuPoints.push_back(g);
+        }
+    return out;
+}
+
 /// PSNR over points of one term: peak the reference's largest component.
 struct Psnr {
     double sumSq = 0, peak = 0;
@@ -235,32 +270,9 @@ TEST(FinalGatherGpu, FinalGatherMatchesTheCpuAtA64x48CamerasSurfacePoints) {
     const Baked& b = baked();
     const rt::RvolGpuVolume volume(*gl, *b.reader);
     const rt::RvolGpuVolume volume16(*gl, *b.reader, {.alpha16 = true});
-    vox::PinholeCamera camera;
-    camera.eye = {0, 1, 3.2};
-    camera.target = {0, 1, 0};
-    camera.fovYDegrees = 50;
-    camera.width = 64;
-    camera.height = 48;
-    const vox::TriangleRayCaster caster(b.scene);
-    std::vector<vox::ShadingPoint> points;
-    std::vector<rt::GpuShadingPoint> gpuPoints;
-    for (int y = 0; y < camera.height; ++y)
-        for (int x = 0; x < camera.width; ++x) {
-            vox::ShadingPoint p;
-            if (!vox::sceneShadingPoint(b.scene, caster, camera.rayThrough(x, y),
-                                        camera.pixelAngle(), p))
-                continue;
-            // Both sides shade the float-rounded point.
-            const rt::GpuShadingPoint g{f3(p.position), f3(p.normal), f3(p.albedo), f3(p.emission),
-                                        f3(p.view)};
-            p = {{g.position[0], g.position[1], g.position[2]},
-                 {g.normal[0], g.normal[1], g.normal[2]},
-                 {g.albedo[0], g.albedo[1], g.albedo[2]},
-                 {g.emission[0], g.emission[1], g.emission[2]},
-                 {g.view[0], g.view[1], g.view[2]}};
-            points.push_back(p);
-            gpuPoints.push_back(g);
-        }
+    const CameraPoints cam = cameraPoints(b.scene, 64, 48);
+    const auto& points = cam.points;
+    const auto& gpuPoints = cam.gpuPoints;
     ASSERT_GT(points.size(), 2000u);
     std::vector<vox::PunctualLight> lights;
     for (const vox::Light& l : b.scene.lights) lights.push_back(l);
@@ -314,6 +326,70 @@ TEST(FinalGatherGpu, FinalGatherMatchesTheCpuAtA64x48CamerasSurfacePoints) {
         EXPECT_GE(specularP.db(), 40.0);
         EXPECT_GE(aoP.db(), 40.0);
     }
+    EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
+}
+
+TEST(FinalGatherGpu, HundredsOfRangedLightsEachPointTestingOnlyThoseInRangeMatchTheCpu) {
+    REQUIRE_GL();
+    const Baked& b = baked();
+    const rt::RvolGpuVolume volume(*gl, *b.reader);
+    const CameraPoints cam = cameraPoints(b.scene, 48, 36);
+    ASSERT_GT(cam.points.size(), 1000u);
+    // 400 point and spot lights of 0.25–0.45 m ranges a few centimetres off the walls, floor and
+    // ceiling of the 2 m box (so that each lights a patch), and one light without a range.
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(-0.95, 0.95), range(0.25, 0.45), pick(0, 1);
+    std::vector<vox::Light> lights;
+    for (int i = 0; i < 400; ++i) {
+        vox::Light l;
+        l.type = i % 4 == 0 ? vox::PunctualLight::Type::Spot : vox::PunctualLight::Type::Point;
+        l.outerConeAngle = 1.2f;
+        const int wall = i % 5;
+        Vec3d p{u(rng), 1 + u(rng), u(rng)};
+        const double inset = 0.05 + 0.1 * pick(rng);
+        if (wall == 0) p.x = -1 + inset;
+        if (wall == 1) p.x = 1 - inset;
+        if (wall == 2) p.y = inset;
+        if (wall == 3) p.y = 2 - inset;
+        if (wall == 4) p.z = -1 + inset;
+        l.position = f3(p);
+        l.direction = f3(Vec3d{wall == 0 ? -1.0 : wall == 1 ? 1.0 : 0.0,
+                               wall == 2 ? -1.0 : wall == 3 ? 1.0 : 0.0, wall == 4 ? -1.0 : 0.0});
+        l.range = static_cast<float>(range(rng));
+        l.intensity = 0.05f;
+        l.color = {float(0.5 + 0.5 * pick(rng)), float(0.5 + 0.5 * pick(rng)), 1.0f};
+        lights.push_back(l);
+    }
+    vox::Light fill;
+    fill.position = {0, 1.5f, 0};
+    fill.intensity = 0.5f;
+    lights.push_back(fill);
+    const std::vector<vox::PunctualLight> gpuLights(lights.begin(), lights.end());
+
+    vox::FinalGatherOptions cpuOptions;
+    cpuOptions.aoLambda = b.reader->header().bake.aoLambda;
+    const vox::FinalGather cpu(*b.field, lights, cpuOptions);
+    rt::FinalGatherGpuOptions options;
+    options.aoLambda = cpuOptions.aoLambda;
+    rt::FinalGatherGpu gather(*gl, options);
+    const auto gpu = gather.shade(volume, cam.gpuPoints, gpuLights);
+    Psnr directP;
+    double directSum = 0;
+    for (std::size_t i = 0; i < cam.points.size(); ++i) {
+        const vox::FinalGatherParts r = cpu.shade(cam.points[i]);
+        const double dir[3] = {r.direct.x, r.direct.y, r.direct.z};
+        directP.add(dir, &gpu[i].direct.x, 3);
+        directSum += r.direct.x + r.direct.y + r.direct.z;
+    }
+    std::printf("[ rvol gpu ] %zu points, %zu lights: %.1f lights tested per point, PSNR direct "
+                "%.1f dB, GPU %.3f s\n",
+                cam.points.size(), lights.size(), gather.lastLightsPerPoint(), directP.db(),
+                gather.lastSeconds());
+    EXPECT_GT(directSum, 0.0);
+    EXPECT_GE(directP.db(), 40.0);
+    // Each point tests the light without a range and those whose range reaches its cell.
+    EXPECT_GE(gather.lastLightsPerPoint(), 1.0);
+    EXPECT_LT(gather.lastLightsPerPoint(), 0.2 * double(lights.size()));
     EXPECT_EQ(gl->errorCount(), 0u) << gl->errorSummary();
 }
 

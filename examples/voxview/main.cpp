@@ -444,6 +444,8 @@ void run(Options o) {
                      {"resident_tiles", volume->residentTiles()},
                      {"fallback_points", gather->lastFallbacks()},
                      {"holes", gather->lastHoles()},
+                     // Lights each point tested: its light-grid cell's.
+                     {"lights_per_point", gather->lastLightsPerPoint()},
                      // Bricks' bytes (all of them without a budget),
                      // and the GPU's: atlases, indirection, tables.
                      {"resident_bytes", bricks ? u.residentBytes : volume->usedAtlasBytes()},

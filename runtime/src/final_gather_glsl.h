@@ -338,9 +338,14 @@ struct GpuLight {
 layout(std430, binding = 6) readonly buffer Points { GatherPoint points[]; };
 layout(std430, binding = 7) writeonly buffer Parts { GatherParts parts[]; };
 layout(std430, binding = 8) readonly buffer Lights { GpuLight lights[]; };
+// The light grid (runtime/src/light_grid.h): per cell its first entry in lightList and count.
+layout(std430, binding = 10) readonly buffer LightCells { uvec2 lightCells[]; };
+layout(std430, binding = 11) readonly buffer LightList { uint lightList[]; };
 
 uniform uint uCount;
-uniform uint uLightCount;
+uniform vec3 uLightGridOrigin;
+uniform vec3 uLightGridInverseCell;
+uniform uvec3 uLightGridCells;
 uniform float uOffset;           // offsetCells × finest cell, world
 uniform float uAoLambda;
 uniform float uSpecularF0;
@@ -408,20 +413,27 @@ void main() {
     vec3 mirrored = n * (2.0 * cosView) - point.view.xyz;
     float mirroredLength = length(mirrored);
 
+    // The lights that can reach the point: its light-grid cell's list (LightGrid::cellOf).
+    uvec3 cell = uvec3(clamp(floor((position - uLightGridOrigin) * uLightGridInverseCell), vec3(0.0),
+                             vec3(uLightGridCells - 1u)));
+    uvec2 lightRange = lightCells[(cell.z * uLightGridCells.y + cell.y) * uLightGridCells.x + cell.x];
+    uint lightCount = lightRange.y;
+
     // Every cone of the point through one traceCone call (the shader's size is what a JIT
-    // compiler such as llvmpipe's takes seconds over): cone k < uLightCount is light k's shadow
-    // cone (FinalGather::visibility), the next seven the diffuse cones
+    // compiler such as llvmpipe's takes seconds over): cone k < lightCount is the shadow cone
+    // (FinalGather::visibility) of the cell's k-th light, the next seven the diffuse cones
     // (RadianceField::gatherDiffuse), the last the specular cone.
     vec3 irradiance = vec3(0.0), gathered = vec3(0.0), specular = vec3(0.0);
     float occlusion = 0.0, weightSum = 0.0;
-    for (uint k = 0u; k < uLightCount + 8u; ++k) {
+    for (uint k = 0u; k < lightCount + 8u; ++k) {
         vec3 dir, lightIrradiance = vec3(0.0);
         float tanHalf = uDiffuseTanHalf, maxDistance = 1e30, weight = 0.0, cosine = 0.0;
-        if (k < uLightCount) {
-            // Direct: Σ lights E · cos · visibility (FinalGather::shade(point)).
+        if (k < lightCount) {
+            // Direct: Σ lights E · cos · visibility (FinalGather::shade(point)), in light order.
             float distance;
             bool infinite;
-            if (!lightArrival(lights[k], position, dir, distance, infinite, lightIrradiance)) continue;
+            if (!lightArrival(lights[lightList[lightRange.x + k]], position, dir, distance, infinite,
+                              lightIrradiance)) continue;
             cosine = dot(n, dir);
             if (!(cosine > 0.0)) continue;
             if (!uShadowCones) {
@@ -430,8 +442,8 @@ void main() {
             }
             tanHalf = uTanHalfShadow;
             if (!infinite) maxDistance = length(position + dir * distance - origin) / (1.0 + 3.0 * uTanHalfShadow);
-        } else if (k < uLightCount + 7u) {
-            uint i = k - uLightCount;
+        } else if (k < lightCount + 7u) {
+            uint i = k - lightCount;
             dir = n;
             weight = uDiffuseWeights[0];
             if (i > 0u) {
@@ -444,12 +456,12 @@ void main() {
             dir = mirrored / mirroredLength;
             tanHalf = uTanHalfSpecular;
         }
-        bool shadow = k < uLightCount;
+        bool shadow = k < lightCount;
         ConeResult r = traceCone(origin, dir, tanHalf, 0.0, maxDistance, planePoint, n, shadow ? 0.0 : uAoLambda, shadow);
         if (shadow) {
             float v = 1.0 - r.opacity;
             if (v > 0.0) irradiance += lightIrradiance * (cosine * v);
-        } else if (k < uLightCount + 7u) {
+        } else if (k < lightCount + 7u) {
             gathered += r.radiance * weight;
             occlusion += r.occlusion * weight;
             weightSum += weight;

@@ -2,6 +2,7 @@
 #include <vox/runtime/gl_context.h>
 
 #include "final_gather_glsl.h"
+#include "light_grid.h"
 
 #include <GL/glcorearb.h>
 
@@ -46,6 +47,13 @@ struct ScopedBuffer {
     GLuint id = 0;
     ScopedBuffer(std::size_t bytes, const void* data, GLbitfield flags) {
         glCreateBuffers(1, &id);
+        // At least 16 bytes (an empty SSBO binding is invalid); a shorter source is copied into
+        // 16 zeroed bytes rather than read past its end.
+        std::uint8_t padded[16] = {};
+        if (data && bytes < sizeof padded) {
+            std::copy_n(static_cast<const std::uint8_t*>(data), bytes, padded);
+            data = padded;
+        }
         glNamedBufferStorage(id, static_cast<GLsizeiptr>(std::max<std::size_t>(bytes, 16)), data,
                              flags);
     }
@@ -127,7 +135,7 @@ std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume,
     const auto start = std::chrono::steady_clock::now();
     std::vector<GpuGatherParts> out(points.size());
     if (points.empty()) {
-        lastSeconds_ = lastGpuSeconds_ = 0;
+        lastSeconds_ = lastGpuSeconds_ = lastLightsPerPoint_ = 0;
         lastFallbacks_ = lastHoles_ = 0;
         return out;
     }
@@ -156,21 +164,37 @@ std::vector<GpuGatherParts> FinalGatherGpu::shade(const RvolGpuVolume& volume,
         d[13] = static_cast<float>(1.0 / std::max(1e-3, cosInner - cosOuter));
         d[14] = d[15] = 0;
     }
+    std::vector<Vec3f> positions(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) positions[i] = points[i].position;
+    const detail::LightGrid grid = detail::buildLightGrid(positions, lights);
+    std::uint64_t lightsTested = 0;
+    for (const Vec3f& p : positions) lightsTested += grid.cellRanges[grid.cellOf(p)][1];
+    lastLightsPerPoint_ = double(lightsTested) / double(points.size());
+
     const ScopedBuffer pointBuffer(pointData.size() * 4, pointData.data(), 0);
     const ScopedBuffer lightBuffer(lightData.size() * 4,
                                    lightData.empty() ? nullptr : lightData.data(), 0);
+    const ScopedBuffer cellBuffer(grid.cellRanges.size() * 8, grid.cellRanges.data(), 0);
+    const ScopedBuffer lightListBuffer(grid.lightList.size() * 4,
+                                       grid.lightList.empty() ? nullptr : grid.lightList.data(), 0);
     const ScopedBuffer partsBuffer(points.size() * 64, nullptr, GL_CLIENT_STORAGE_BIT);
 
     const GLuint p = shadeProgram_.id();
     glProgramUniform1f(p, shadeProgram_.uniform("uOffset"),
                        static_cast<float>(options_.offsetCells * volume.finestCellSize()));
     glProgramUniform1ui(p, shadeProgram_.uniform("uCount"), static_cast<GLuint>(points.size()));
-    glProgramUniform1ui(p, shadeProgram_.uniform("uLightCount"),
-                        static_cast<GLuint>(lights.size()));
+    glProgramUniform3f(p, shadeProgram_.uniform("uLightGridOrigin"), grid.origin[0],
+                       grid.origin[1], grid.origin[2]);
+    glProgramUniform3f(p, shadeProgram_.uniform("uLightGridInverseCell"), grid.inverseCell[0],
+                       grid.inverseCell[1], grid.inverseCell[2]);
+    glProgramUniform3ui(p, shadeProgram_.uniform("uLightGridCells"), grid.cells[0], grid.cells[1],
+                        grid.cells[2]);
     volume.bind();
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, pointBuffer.id);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, partsBuffer.id);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, lightBuffer.id);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 10, cellBuffer.id);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 11, lightListBuffer.id);
     const ScopedBuffer counters(sizeof kZeroCounters, kZeroCounters, GL_CLIENT_STORAGE_BIT);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kCountersBinding, counters.id);
     glUseProgram(p);

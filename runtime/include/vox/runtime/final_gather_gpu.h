@@ -65,7 +65,9 @@ public:
     FinalGatherGpu& operator=(const FinalGatherGpu&) = delete;
 
     /// Every term of each point, the direct one summed over @p lights with shadow cones, through
-    /// one dispatch (64 points per work group). Blocks until the results are read back.
+    /// one dispatch (64 points per work group). Blocks until the results are read back. A point
+    /// tests only the lights whose range can reach it (a grid over the points lists them), in
+    /// @p lights' order, so the sums are those over every light.
     [[nodiscard]] std::vector<GpuGatherParts> shade(const RvolGpuVolume& volume,
                                                     std::span<const GpuShadingPoint> points,
                                                     std::span<const PunctualLight> lights);
@@ -82,6 +84,8 @@ public:
     [[nodiscard]] const FinalGatherGpuOptions& options() const noexcept { return options_; }
     /// Seconds the last shade() took on the GPU, upload and read-back included (glFinish).
     [[nodiscard]] double lastSeconds() const noexcept { return lastSeconds_; }
+    /// The mean number of lights the last shade() tested per point (out of all it was given).
+    [[nodiscard]] double lastLightsPerPoint() const noexcept { return lastLightsPerPoint_; }
     /// The last shade()'s dispatch alone as the GPU timed it (GL_TIME_ELAPSED), seconds; llvmpipe
     /// reads ~0 for compute work.
     [[nodiscard]] double lastGpuSeconds() const noexcept { return lastGpuSeconds_; }
@@ -100,7 +104,7 @@ private:
     GlContext& context_;
     FinalGatherGpuOptions options_;
     ComputeProgram shadeProgram_, sampleProgram_;
-    double lastSeconds_ = 0, lastGpuSeconds_ = 0;
+    double lastSeconds_ = 0, lastGpuSeconds_ = 0, lastLightsPerPoint_ = 0;
     std::uint32_t lastFallbacks_ = 0, lastHoles_ = 0;
     unsigned query_ = 0;  // GL_TIME_ELAPSED around shade()'s dispatch
 };
