@@ -1,5 +1,6 @@
 #include "air_regions.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace vox::detail {
@@ -8,42 +9,77 @@ AirRegions::AirRegions(const SolidGrid& solid, std::uint32_t depth, std::array<s
                        std::array<std::int64_t, 3> hi)
     : resolution_(1u << depth) {
     const std::size_t r = resolution_;
-    labels_.assign(r * r * r, kNone);
-    for (std::size_t z = 0; z < r; ++z)
-        for (std::size_t y = 0; y < r; ++y)
-            for (std::size_t x = 0; x < r; ++x) {
-                const std::int64_t c[3] = {static_cast<std::int64_t>(x),
-                                           static_cast<std::int64_t>(y),
-                                           static_cast<std::int64_t>(z)};
-                bool outside = false;
-                for (int a = 0; a < 3; ++a) outside = outside || c[a] < lo[a] || c[a] >= hi[a];
-                if (outside || solid.solid(c[0], c[1], c[2])) labels_[(z * r + y) * r + x] = kSolid;
+    labels_.assign(r * r * r, kSolid);
+    const auto clamped = [r](std::int64_t v) {
+        return static_cast<std::size_t>(std::clamp<std::int64_t>(v, 0, std::int64_t(r)));
+    };
+    const std::size_t x0 = clamped(lo[0]), x1 = clamped(hi[0]);
+    for (std::size_t z = clamped(lo[2]); z < clamped(hi[2]); ++z)
+        for (std::size_t y = clamped(lo[1]); y < clamped(hi[1]); ++y) {
+            std::uint16_t* row = &labels_[(z * r + y) * r];
+            for (std::size_t x = x0; x < x1; ++x)
+                if (!solid.solid(std::int64_t(x), std::int64_t(y), std::int64_t(z))) row[x] = kNone;
+        }
+    // Components through runs of air along x: each run is joined to the runs it overlaps in the
+    // rows below (y − 1) and behind (z − 1), and the components are numbered in the order of
+    // their first runs, which is the scan order of their first cells (what a flood fill from
+    // seeds in scan order numbers). A few runs per row instead of a visit per cell.
+    struct Run {
+        std::uint32_t begin, end;  // x range [begin, end)
+    };
+    std::vector<Run> runs;
+    std::vector<std::size_t> rowRuns(r * r + 1, 0);  // runs of row (z·r + y): [rowRuns[row], next)
+    for (std::size_t row = 0; row < r * r; ++row) {
+        rowRuns[row] = runs.size();
+        const std::uint16_t* cells = &labels_[row * r];
+        for (std::size_t x = 0; x < r;) {
+            if (cells[x] != kNone) {
+                ++x;
+                continue;
             }
-    std::vector<std::uint32_t> stack;
-    for (std::size_t seed = 0; seed < labels_.size(); ++seed) {
-        if (labels_[seed] != kNone) continue;
-        if (count_ >= kNone) break;  // out of labels: the rest stay kNone
-        const auto region = static_cast<std::uint16_t>(count_++);
-        labels_[seed] = region;
-        stack.push_back(static_cast<std::uint32_t>(seed));
-        while (!stack.empty()) {
-            const std::size_t i = stack.back();
-            stack.pop_back();
-            const std::size_t x = i % r, y = (i / r) % r, z = i / (r * r);
-            const auto visit = [&](std::size_t j) {
-                if (labels_[j] == kNone) {
-                    labels_[j] = region;
-                    stack.push_back(static_cast<std::uint32_t>(j));
-                }
-            };
-            if (x > 0) visit(i - 1);
-            if (x + 1 < r) visit(i + 1);
-            if (y > 0) visit(i - r);
-            if (y + 1 < r) visit(i + r);
-            if (z > 0) visit(i - r * r);
-            if (z + 1 < r) visit(i + r * r);
+            const std::size_t begin = x;
+            while (x < r && cells[x] == kNone) ++x;
+            runs.push_back({static_cast<std::uint32_t>(begin), static_cast<std::uint32_t>(x)});
         }
     }
+    rowRuns[r * r] = runs.size();
+    // Union–find; the root of a set is its earliest run.
+    std::vector<std::size_t> parent(runs.size());
+    for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = i;
+    const auto find = [&](std::size_t i) {
+        while (parent[i] != i) {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        return i;
+    };
+    const auto joinRows = [&](std::size_t row, std::size_t other) {
+        std::size_t j = rowRuns[other];
+        const std::size_t jEnd = rowRuns[other + 1];
+        for (std::size_t i = rowRuns[row]; i < rowRuns[row + 1]; ++i) {
+            while (j < jEnd && runs[j].end <= runs[i].begin) ++j;
+            // Every run of the other row that overlaps run i (face-connected cells share x).
+            for (std::size_t k = j; k < jEnd && runs[k].begin < runs[i].end; ++k) {
+                const std::size_t a = find(i), b = find(k);
+                if (a != b) parent[std::max(a, b)] = std::min(a, b);
+            }
+        }
+    };
+    for (std::size_t z = 0; z < r; ++z)
+        for (std::size_t y = 0; y < r; ++y) {
+            if (y > 0) joinRows(z * r + y, z * r + y - 1);
+            if (z > 0) joinRows(z * r + y, (z - 1) * r + y);
+        }
+    std::vector<std::uint16_t> regionOf(runs.size(), kNone);
+    for (std::size_t row = 0; row < r * r; ++row)
+        for (std::size_t i = rowRuns[row]; i < rowRuns[row + 1]; ++i) {
+            const std::size_t root = find(i);
+            if (root == i && count_ < kNone) regionOf[i] = static_cast<std::uint16_t>(count_++);
+            // Out of labels: the later components stay kNone.
+            const std::uint16_t region = regionOf[root];
+            std::fill(labels_.begin() + static_cast<std::ptrdiff_t>(row * r + runs[i].begin),
+                      labels_.begin() + static_cast<std::ptrdiff_t>(row * r + runs[i].end), region);
+        }
 }
 
 std::uint16_t AirRegions::label(std::int64_t x, std::int64_t y, std::int64_t z) const noexcept {
