@@ -9,7 +9,8 @@
 # then scales the sample's tile seconds by its share of the far-field voxels (the runs' shares).
 # Usage: bench/radiance_world.sh [BUILD_DIR]
 # Environment: BLOCKS (40), DEPTH (12), MEMORY (4G), TILE_DEPTH (what MEMORY allows), RUNS (16),
-# ONLY (all runs), BOUNCES (2), THREADS (all cores), OUT (BUILD_DIR/bench/radiance_world).
+# ONLY (all runs), PARALLEL (runs at a time, 1), BOUNCES (2), THREADS (all cores), OUT
+# (BUILD_DIR/bench/radiance_world).
 set -euo pipefail
 build=${1:-build}
 blocks=${BLOCKS:-40}
@@ -36,11 +37,20 @@ extra_args=()
 common=("$scene" --radiance "$index" --radiance-depth "$depth" --memory-limit "$memory"
     --bounces "$bounces" "${extra_args[@]}" -q)
 
+# PARALLEL runs at a time: a run's serial parts (the far field's and each tile's setup) leave a
+# core idle, which a second run fills.
+run_one() {
+    echo "radiance_world: run $1 of $runs ..." >&2
+    python3 "$here/measure.py" "$out/run-$1.measure.json" -- \
+        "$build/tools/voxelize" "${common[@]}" --radiance-tile "$1/$runs" --stats "$out/run-$1.json"
+}
+start=$(date +%s)
 for k in $only; do
-    echo "radiance_world: run $k of $runs ..." >&2
-    python3 "$here/measure.py" "$out/run-$k.measure.json" -- \
-        "$build/tools/voxelize" "${common[@]}" --radiance-tile "$k/$runs" --stats "$out/run-$k.json"
+    while [ "$(jobs -rp | wc -l)" -ge "${PARALLEL:-1}" ]; do wait -n; done
+    run_one "$k" &
 done
+while [ -n "$(jobs -rp)" ]; do wait -n; done
+echo "radiance_world: runs took $(($(date +%s) - start)) s from the first start to the last end" >&2
 complete=0
 if [ "$(echo "$only" | wc -w)" -eq "$runs" ]; then
     echo "radiance_world: index ..." >&2
