@@ -393,6 +393,30 @@ int main(int argc, char** argv) {
             worst["bounce" + std::to_string(b + 1)] = list;
         }
 
+        // Direct light: the five points that add most to Σ|bake − ref| (shadows the voxels miss
+        // have a reference of 0, so a relative ranking would leave them out).
+        {
+            std::vector<std::size_t> order(direct.size());
+            for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+            const auto gap = [&](std::size_t i) {
+                return std::abs(direct[i].bake - direct[i].reference);
+            };
+            std::stable_sort(order.begin(), order.end(),
+                             [&](std::size_t a, std::size_t b) { return gap(a) > gap(b); });
+            nlohmann::json list = nlohmann::json::array();
+            for (std::size_t k = 0; k < std::min<std::size_t>(5, order.size()); ++k) {
+                const std::size_t i = order[k];
+                const vox::VoxelLighting& v = bake.voxels[chosen[i].voxel];
+                const Vec3d p = chosen[i].point.position, nn = chosen[i].point.normal;
+                list.push_back({{"cell", {v.x, v.y, v.z}},
+                                {"point", {p.x, p.y, p.z}},
+                                {"normal", {nn.x, nn.y, nn.z}},
+                                {"bake", direct[i].bake},
+                                {"reference", direct[i].reference}});
+            }
+            worst["direct"] = list;
+        }
+
         const nlohmann::json b1 = summarise(bounce[0]), b2 = summarise(bounce[1]);
         constexpr double kLimit = 0.20, kNoiseLimit = 0.01;
         nlohmann::json out{
