@@ -335,12 +335,13 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         };
         ClusterVisibilityFactory sharedRays;
         if (!shadowCones && options.shareShadowRays && !tile) {
-            sharedRays = [&](std::span<const std::uint32_t>,
+            sharedRays = [&](std::span<const std::uint32_t> members,
                              SharedVisibilityStats& stats) -> ClusterVisibility {
                 // Isolated: waiting for its own parallel work, the building thread must not pick
                 // up another cluster's task, which would wait for the groups in turn.
                 std::call_once(groupsBuilt, [&] { tbb::this_task_arena::isolate(buildGroups); });
-                auto verdicts = std::make_shared<detail::ShadowRayGroups::Verdicts>();
+                auto verdicts =
+                    std::make_shared<detail::ShadowRayGroups::Verdicts>(*rayGroups, members);
                 return [&, verdicts](std::size_t i, std::uint32_t index, const Light&,
                                      const LightArrival& arrival) -> double {
                     const int side =

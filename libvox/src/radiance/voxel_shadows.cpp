@@ -78,12 +78,17 @@ bool SolidGrid::occluded(Vec3d origin, Vec3d dir, double maxT,
 bool SolidGrid::anySolid(Vec3d lo, Vec3d hi) const noexcept {
     const double r = resolution_;
     std::int64_t first[3], last[3];
+    // floor() as a cast of a value clamped into [−1, r] (where the cast truncates exactly): the
+    // libm call cost as much as the bits' test.
+    const auto floorIn = [r](double v) {
+        v = std::clamp(v, -1.0, r);
+        const auto t = static_cast<std::int64_t>(v);
+        return t - (static_cast<double>(t) > v ? 1 : 0);
+    };
     for (int axis = 0; axis < 3; ++axis) {
         if (!(hi[axis] >= 0 && lo[axis] <= r)) return false;  // (NaN: nothing)
-        first[axis] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor(lo[axis])), 0,
-                                               resolution_ - 1);
-        last[axis] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor(hi[axis])), 0,
-                                              resolution_ - 1);
+        first[axis] = std::clamp<std::int64_t>(floorIn(lo[axis]), 0, resolution_ - 1);
+        last[axis] = std::clamp<std::int64_t>(floorIn(hi[axis]), 0, resolution_ - 1);
     }
     const auto res = static_cast<std::size_t>(resolution_);
     for (std::int64_t bz = first[2] / kBlock; bz <= last[2] / kBlock; ++bz)
@@ -96,23 +101,17 @@ bool SolidGrid::anySolid(Vec3d lo, Vec3d hi) const noexcept {
                                    y1 = std::min<std::int64_t>(last[1], by * kBlock + kBlock - 1);
                 const std::int64_t z0 = std::max<std::int64_t>(first[2], bz * kBlock),
                                    z1 = std::min<std::int64_t>(last[2], bz * kBlock + kBlock - 1);
+                // A row's bits x0 … x1 lie in one word: a row starts at a multiple of the
+                // resolution (a multiple of 8 from depth 3, else a single block) and x0 … x1 in
+                // one block of 8.
+                const std::uint64_t bits = (std::uint64_t{1} << (x1 - x0 + 1)) - 1;
                 for (std::int64_t z = z0; z <= z1; ++z)
                     for (std::int64_t y = y0; y <= y1; ++y) {
-                        // The row's bits x0 … x1, in one or two words.
-                        const std::size_t row =
-                            (static_cast<std::size_t>(z) * res + static_cast<std::size_t>(y)) * res;
-                        std::size_t i = row + static_cast<std::size_t>(x0);
-                        const std::size_t end = row + static_cast<std::size_t>(x1) + 1;
-                        while (i < end) {
-                            const std::size_t word = i / 64, bit = i % 64;
-                            const std::size_t count = std::min<std::size_t>(64 - bit, end - i);
-                            const std::uint64_t mask =
-                                (count == 64 ? ~std::uint64_t{0}
-                                             : ((std::uint64_t{1} << count) - 1))
-                                << bit;
-                            if (bits_[word] & mask) return true;
-                            i += count;
-                        }
+                        const std::size_t i =
+                            (static_cast<std::size_t>(z) * res + static_cast<std::size_t>(y)) *
+                                res +
+                            static_cast<std::size_t>(x0);
+                        if (bits_[i / 64] & (bits << (i % 64))) return true;
                     }
             }
     return false;
@@ -121,6 +120,20 @@ bool SolidGrid::anySolid(Vec3d lo, Vec3d hi) const noexcept {
 namespace {
 
 bool finite(Vec3d v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+/// Interleaves the low 20 bits of x, y and z (x lowest).
+std::uint64_t mortonOf(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+    const auto spread = [](std::uint64_t v) {
+        v &= 0xFFFFFu;
+        v = (v | (v << 32)) & 0x000F00000000FFFFull;
+        v = (v | (v << 16)) & 0x000F0000FF0000FFull;
+        v = (v | (v << 8)) & 0x000F00F00F00F00Full;
+        v = (v | (v << 4)) & 0x00C30C30C30C30C3ull;
+        v = (v | (v << 2)) & 0x0249249249249249ull;
+        return v;
+    };
+    return spread(x) | (spread(y) << 1) | (spread(z) << 2);
+}
 
 /// The box of the points (1 − u)·a + u·b, a in [aLo, aHi], b in [bLo, bHi], for u in [u0, u1]
 /// (0 ≤ u0 ≤ u1 ≤ 1): per axis, each bound is linear in u, so one of the two ends gives it.
@@ -241,9 +254,10 @@ ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
                 originEmpty_[i] = static_cast<std::uint8_t>(originEmpty_[i] | (1u << s));
         }
     });
-    // Groups: the voxels sorted by block and by the axis direction their normal is closest to,
-    // level by level; a group's boxes hold its members'. Apart from the direction, a block's two
-    // sides of a thin wall or floor would share boxes that take in the wall itself.
+    // Groups: the voxels sorted by block (in Morton order, so that an octree node's groups are
+    // contiguous: Verdicts keeps a cluster's as one range) and by the axis direction their normal
+    // is closest to, level by level; a group's boxes hold its members'. Apart from the direction,
+    // a block's two sides of a thin wall or floor would share boxes that take in the wall itself.
     std::vector<std::uint32_t> facing(cells.size());
     for (std::size_t i = 0; i < cells.size(); ++i) {
         const Vec3d n = normals_[i];
@@ -257,9 +271,10 @@ ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
     for (int level = 0; level < kLevels; ++level) {
         const std::uint32_t shift = static_cast<std::uint32_t>(kLevels - level);
         for (std::uint32_t i = 0; i < cells.size(); ++i)
-            order[i] = {(std::uint64_t{cells[i][2] >> shift} << 43) |
-                            (std::uint64_t{cells[i][1] >> shift} << 23) |
-                            (std::uint64_t{cells[i][0] >> shift} << 3) | facing[i],
+            order[i] = {(mortonOf(cells[i][0] >> shift, cells[i][1] >> shift,
+                                  cells[i][2] >> shift)
+                         << 3) |
+                            facing[i],
                         i};
         tbb::parallel_sort(order.begin(), order.end());
         for (std::size_t k = 0; k < order.size(); ++k) {
@@ -298,29 +313,32 @@ Vec3d ShadowRayGroups::origin(std::size_t voxel, int side) const noexcept {
     return {c[0] + 0.5 + side * n.x, c[1] + 0.5 + side * n.y, c[2] + 0.5 + side * n.z};
 }
 
-namespace {
-constexpr std::uint64_t kEmptyKey = ~std::uint64_t{0};
+ShadowRayGroups::Verdicts::Verdicts(const ShadowRayGroups& groups,
+                                    std::span<const std::uint32_t> members)
+    : rowOf_(groups.lights_.size(), 0) {
+    std::uint32_t slots = 0;
+    for (std::size_t level = 0; level < kLevels; ++level) {
+        std::uint32_t lo = ~std::uint32_t{0}, hi = 0;
+        for (const std::uint32_t i : members) {
+            lo = std::min(lo, groups.groupOf_[i][level]);
+            hi = std::max(hi, groups.groupOf_[i][level]);
+        }
+        first_[level] = members.empty() ? 0 : lo;
+        offset_[level] = slots;
+        slots += members.empty() ? 0 : hi - lo + 1;
+    }
+    rowSize_ = 2 * std::size_t{slots};
 }
 
-std::pair<std::uint8_t*, bool> ShadowRayGroups::Verdicts::find(std::uint64_t key) {
-    if (4 * (used_ + 1) > 3 * keys_.size()) {
-        std::vector<std::uint64_t> keys(std::max<std::size_t>(1024, 2 * keys_.size()), kEmptyKey);
-        std::vector<std::uint8_t> values(keys.size(), 0);
-        keys.swap(keys_);
-        values.swap(values_);
-        for (std::size_t i = 0; i < keys.size(); ++i)
-            if (keys[i] != kEmptyKey) *find(keys[i]).first = values[i];
+std::uint8_t& ShadowRayGroups::Verdicts::at(int level, std::uint32_t group, std::uint32_t light,
+                                            std::size_t side) {
+    std::uint32_t& row = rowOf_[light];
+    if (row == 0) {
+        rows_.resize(rows_.size() + rowSize_, 0);
+        row = static_cast<std::uint32_t>(rows_.size() / rowSize_);
     }
-    const std::size_t mask = keys_.size() - 1;
-    std::size_t i = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> 20) & mask;
-    while (keys_[i] != kEmptyKey) {
-        if (keys_[i] == key) return {&values_[i], false};
-        i = (i + 1) & mask;
-    }
-    keys_[i] = key;
-    values_[i] = 0;
-    ++used_;
-    return {&values_[i], true};
+    const auto l = static_cast<std::size_t>(level);
+    return rows_[(row - 1) * rowSize_ + 2 * (offset_[l] + group - first_[l]) + side];
 }
 
 bool ShadowRayGroups::occluded(std::size_t voxel, std::uint32_t light, int side, Vec3d dir,
@@ -332,18 +350,19 @@ bool ShadowRayGroups::occluded(std::size_t voxel, std::uint32_t light, int side,
     if (!(originEmpty_[voxel] & (1u << s)) || light >= lights_.size() || !std::isfinite(target.x) ||
         !std::isfinite(target.y) || !std::isfinite(target.z) || !std::isfinite(maxT))
         return grid_.occluded(from, dir, maxT);
-    enum : std::uint8_t { kUndecided = 0, kClear = 1, kBlocked = 2 };
+    enum : std::uint8_t { kUntested = 0, kUndecided = 1, kClear = 2, kBlocked = 3 };
     // The voxel's own ray, traced at most once: it answers where no group can, and the cell that
     // stops it names the layers the blocked test tries.
     int own = -1;
     std::array<std::int64_t, 3> hit{};
-    for (const std::uint32_t g : groupOf_[voxel]) {
-        const std::uint64_t key = (std::uint64_t{g} << 32) | (std::uint64_t{light} << 1) | s;
-        auto [verdict, added] = verdicts.find(key);
-        if (added) {
+    for (int level = 0; level < kLevels; ++level) {
+        const std::uint32_t g = groupOf_[voxel][static_cast<std::size_t>(level)];
+        std::uint8_t* verdict = &verdicts.at(level, g, light, s);
+        if (*verdict == kUntested) {
             const Group& group = groups_[g];
             const Vec3d toLo = target + group.endLo[s], toHi = target + group.endHi[s];
             ++counts.tests;
+            *verdict = kUndecided;
             if (grid_.beamClear(group.originLo[s], group.originHi[s], toLo, toHi)) {
                 *verdict = kClear;
             } else {

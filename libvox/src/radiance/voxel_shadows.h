@@ -63,19 +63,31 @@ private:
 /// are conservative, so the answer is exactly occluded()'s. A voxel whose ray starts in a solid
 /// cell (which its ray ignores) never uses the groups, nor does a ray without a finite length.
 class ShadowRayGroups {
+    // Blocks of 4 and 2 cells: 8-cell blocks failed their tests more often than they answered
+    // (docs/internals/lighting.md).
+    static constexpr int kLevels = 2;
+
 public:
-    /// What the group tests decided, keyed by group, light and side; one per thread (e.g. per
-    /// cluster of the direct light). Open addressing: the verdicts of a cluster are looked up
-    /// once per visibility query.
+    /// What the group tests decided for one cluster of voxels (e.g. of the direct light), per
+    /// group of its voxels, light and side; one cluster at a time, on one thread.
     class Verdicts {
     public:
-        /// The verdict slot of @p key, and whether it was just added (holding 0).
-        std::pair<std::uint8_t*, bool> find(std::uint64_t key);
+        /// For the voxels @p members of @p groups (indices into the cells). Holds, per light
+        /// asked about, a slot for every group numbered between the members' first and last
+        /// groups of each level: few beyond the members' own where they are an octree node's
+        /// voxels (clusterVoxelPoints), whose groups are numbered contiguously.
+        Verdicts(const ShadowRayGroups& groups, std::span<const std::uint32_t> members);
+        /// The verdict slot of group @p group, a member's group of level @p level (0: the
+        /// coarsest), for light @p light on side @p side (0: +1, 1: −1); 0 until set.
+        [[nodiscard]] std::uint8_t& at(int level, std::uint32_t group, std::uint32_t light,
+                                       std::size_t side);
 
     private:
-        std::vector<std::uint64_t> keys_;  // kEmpty: a free slot
-        std::vector<std::uint8_t> values_;
-        std::size_t used_ = 0;
+        // Each level's range of the members' group indices, and where its slots start.
+        std::array<std::uint32_t, kLevels> first_{}, offset_{};
+        std::size_t rowSize_ = 0;           // slots per light: 2 sides × the levels' ranges
+        std::vector<std::uint32_t> rowOf_;  // per light: 1 + its row, 0: none yet
+        std::vector<std::uint8_t> rows_;
     };
 
     /// @p cells: the voxels; @p normals: their mean normals (the rays leave the voxel centre one
@@ -88,16 +100,14 @@ public:
     [[nodiscard]] Vec3d origin(std::size_t voxel, int side) const noexcept;
     /// Whether voxel @p voxel's shadow ray on @p side towards light @p light (unit direction
     /// @p dir, length @p maxT, in cell units) is occluded: grid.occluded(origin(voxel, side), dir,
-    /// maxT), answered by the voxel's groups where they can (their verdicts kept in @p verdicts;
-    /// @p counts counts the group tests run and the rays they answered).
+    /// maxT), answered by the voxel's groups where they can (their verdicts kept in @p verdicts,
+    /// those of a cluster the voxel is a member of; @p counts counts the group tests run and the
+    /// rays they answered).
     [[nodiscard]] bool occluded(std::size_t voxel, std::uint32_t light, int side, Vec3d dir,
                                 double maxT, Verdicts& verdicts,
                                 SharedVisibilityStats& counts) const;
 
 private:
-    // Blocks of 4 and 2 cells: 8-cell blocks failed their tests more often than they answered
-    // (docs/internals/lighting.md).
-    static constexpr int kLevels = 2;
     struct Group {
         // Per side (+1, −1), over the members whose origin cell is empty on that side: their ray
         // origins, and where their rays end relative to the light (side × normal).
