@@ -408,11 +408,22 @@ int main(int argc, char** argv) {
                 const std::size_t i = order[k];
                 const vox::VoxelLighting& v = bake.voxels[chosen[i].voxel];
                 const Vec3d p = chosen[i].point.position, nn = chosen[i].point.normal;
-                list.push_back({{"cell", {v.x, v.y, v.z}},
-                                {"point", {p.x, p.y, p.z}},
-                                {"normal", {nn.x, nn.y, nn.z}},
-                                {"bake", direct[i].bake},
-                                {"reference", direct[i].reference}});
+                nlohmann::json entry{{"cell", {v.x, v.y, v.z}},
+                                     {"point", {p.x, p.y, p.z}},
+                                     {"normal", {nn.x, nn.y, nn.z}},
+                                     {"bake", direct[i].bake},
+                                     {"reference", direct[i].reference}};
+                if (sun) {
+                    // How far towards the sun the triangles occlude the point (cells; null:
+                    // open): an occluder within a cell or two is one the voxels' shadow ray,
+                    // which leaves from a cell off the surface, can miss.
+                    const Vec3d toSun = -toDouble(sun->direction);
+                    const vox::SurfaceHit h =
+                        caster.castSurface({p + nn * (1e-4 * cell), toSun});
+                    entry["sun_occluder_cells"] =
+                        h.hit ? nlohmann::json(h.t / cell) : nlohmann::json(nullptr);
+                }
+                list.push_back(entry);
             }
             worst["direct"] = list;
         }
