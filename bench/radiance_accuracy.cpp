@@ -368,6 +368,16 @@ int main(int argc, char** argv) {
                                std::cos(kMaxNormalDegrees * std::numbers::pi / 180);
             meanDistance += chosen[i].distance / cell;
         }
+        // A listed point: its voxel's cell, the surface point and normal, bake and reference.
+        const auto describe = [&](std::size_t i, const Compared& c) {
+            const vox::VoxelLighting& v = bake.voxels[chosen[i].voxel];
+            const Vec3d p = chosen[i].point.position, nn = chosen[i].point.normal;
+            return nlohmann::json{{"cell", {v.x, v.y, v.z}},
+                                  {"point", {p.x, p.y, p.z}},
+                                  {"normal", {nn.x, nn.y, nn.z}},
+                                  {"bake", c.bake},
+                                  {"reference", c.reference}};
+        };
         // The five worst points per bounce (among those bright enough to count), to look at.
         for (int b = 0; b < 2; ++b) {
             double meanRef = 0;
@@ -381,14 +391,9 @@ int main(int argc, char** argv) {
             nlohmann::json list = nlohmann::json::array();
             for (std::size_t k = 0; k < std::min<std::size_t>(5, ranked[b].size()); ++k) {
                 const std::size_t i = ranked[b][k].second;
-                const vox::VoxelLighting& v = bake.voxels[chosen[i].voxel];
-                const Vec3d p = chosen[i].point.position, nn = chosen[i].point.normal;
-                list.push_back({{"cell", {v.x, v.y, v.z}},
-                                {"point", {p.x, p.y, p.z}},
-                                {"normal", {nn.x, nn.y, nn.z}},
-                                {"bake", bounce[b][i].bake},
-                                {"reference", bounce[b][i].reference},
-                                {"relative_error", ranked[b][k].first}});
+                nlohmann::json entry = describe(i, bounce[b][i]);
+                entry["relative_error"] = ranked[b][k].first;
+                list.push_back(entry);
             }
             worst["bounce" + std::to_string(b + 1)] = list;
         }
@@ -406,20 +411,15 @@ int main(int argc, char** argv) {
             nlohmann::json list = nlohmann::json::array();
             for (std::size_t k = 0; k < std::min<std::size_t>(5, order.size()); ++k) {
                 const std::size_t i = order[k];
-                const vox::VoxelLighting& v = bake.voxels[chosen[i].voxel];
-                const Vec3d p = chosen[i].point.position, nn = chosen[i].point.normal;
-                nlohmann::json entry{{"cell", {v.x, v.y, v.z}},
-                                     {"point", {p.x, p.y, p.z}},
-                                     {"normal", {nn.x, nn.y, nn.z}},
-                                     {"bake", direct[i].bake},
-                                     {"reference", direct[i].reference}};
+                nlohmann::json entry = describe(i, direct[i]);
                 if (sun) {
                     // How far towards the sun the triangles occlude the point (cells; null:
                     // open): an occluder within a cell or two is one the voxels' shadow ray,
                     // which leaves from a cell off the surface, can miss.
                     const Vec3d toSun = -toDouble(sun->direction);
+                    const vox::reference::SurfacePoint& at = chosen[i].point;
                     const vox::SurfaceHit h =
-                        caster.castSurface({p + nn * (1e-4 * cell), toSun});
+                        caster.castSurface({at.position + at.normal * (1e-4 * cell), toSun});
                     entry["sun_occluder_cells"] =
                         h.hit ? nlohmann::json(h.t / cell) : nlohmann::json(nullptr);
                 }

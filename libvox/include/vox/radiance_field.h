@@ -114,6 +114,15 @@ private:
     struct LevelIndex {
         std::uint32_t blocksPerAxis = 1;
         std::vector<std::int32_t> blocks;  ///< dense: block index in the level, or -1
+
+        /// The index in the level of the block holding cell (x, y, z), or -1.
+        [[nodiscard]] std::int32_t blockOf(std::uint32_t x, std::uint32_t y,
+                                           std::uint32_t z) const noexcept {
+            return blocks[(std::size_t{z / rvol::kBlockCells} * blocksPerAxis +
+                           y / rvol::kBlockCells) *
+                              blocksPerAxis +
+                          x / rvol::kBlockCells];
+        }
     };
     /// sampleLod here or, where the sample's filter leaves the near box, in the far field.
     [[nodiscard]] rvol::Texel sampleNearOrFar(double level, Vec3d p, Vec3d dir) const;

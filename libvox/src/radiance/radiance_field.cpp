@@ -43,11 +43,7 @@ RadianceField::RadianceField(const rvol::RvolSampler& sampler)
 
 const Texel* RadianceField::cellTexels(std::uint32_t level, std::uint32_t x, std::uint32_t y,
                                        std::uint32_t z) const noexcept {
-    const LevelIndex& index = index_[level];
-    const std::int32_t block =
-        index.blocks[(std::size_t{z / kBlockCells} * index.blocksPerAxis + y / kBlockCells) *
-                         index.blocksPerAxis +
-                     x / kBlockCells];
+    const std::int32_t block = index_[level].blockOf(x, y, z);
     if (block < 0) return nullptr;
     const rvol::Level& l = volume_->levels[level];
     return l.texels.data() +
@@ -92,10 +88,7 @@ Texel RadianceField::sample(std::uint32_t level, Vec3d p, Vec3d dir) const {
         }
         const std::uint32_t x = corner & 1 ? c1[0] : c0[0], y = corner & 2 ? c1[1] : c0[1],
                             z = corner & 4 ? c1[2] : c0[2];
-        blockOf[corner] =
-            index.blocks[(std::size_t{z / kBlockCells} * index.blocksPerAxis + y / kBlockCells) *
-                             index.blocksPerAxis +
-                         x / kBlockCells];
+        blockOf[corner] = index.blockOf(x, y, z);
     }
     double sums[3][4] = {};
     for (int corner = 0; corner < 8; ++corner) {

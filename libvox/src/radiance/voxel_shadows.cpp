@@ -2,6 +2,8 @@
 
 #include "../util/segment_clip.h"
 
+#include <vox/formats/rvol.h>
+
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
@@ -120,20 +122,6 @@ bool SolidGrid::anySolid(Vec3d lo, Vec3d hi) const noexcept {
 namespace {
 
 bool finite(Vec3d v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-
-/// Interleaves the low 20 bits of x, y and z (x lowest).
-std::uint64_t mortonOf(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
-    const auto spread = [](std::uint64_t v) {
-        v &= 0xFFFFFu;
-        v = (v | (v << 32)) & 0x000F00000000FFFFull;
-        v = (v | (v << 16)) & 0x000F0000FF0000FFull;
-        v = (v | (v << 8)) & 0x000F00F00F00F00Full;
-        v = (v | (v << 4)) & 0x00C30C30C30C30C3ull;
-        v = (v | (v << 2)) & 0x0249249249249249ull;
-        return v;
-    };
-    return spread(x) | (spread(y) << 1) | (spread(z) << 2);
-}
 
 /// The box of the points (1 − u)·a + u·b, a in [aLo, aHi], b in [bLo, bHi], for u in [u0, u1]
 /// (0 ≤ u0 ≤ u1 ≤ 1): per axis, each bound is linear in u, so one of the two ends gives it.
@@ -271,8 +259,8 @@ ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
     for (int level = 0; level < kLevels; ++level) {
         const std::uint32_t shift = static_cast<std::uint32_t>(kLevels - level);
         for (std::uint32_t i = 0; i < cells.size(); ++i)
-            order[i] = {(mortonOf(cells[i][0] >> shift, cells[i][1] >> shift,
-                                  cells[i][2] >> shift)
+            order[i] = {(rvol::morton3(cells[i][0] >> shift, cells[i][1] >> shift,
+                                       cells[i][2] >> shift)
                          << 3) |
                             facing[i],
                         i};
