@@ -9,14 +9,15 @@
 # the post-process filter) and colour PSNR against the mesh's own materials.
 # Usage: bench/fidelity_table.sh [BUILD_DIR] [DEPTHS...]       (default: build 10 11 12)
 # Environment: MESHES (space-separated NAME:PATH, replacing the default list); SETTINGS
-# (semicolon-separated LABEL=voxelize options, replacing the default list); THREADS.
-# Outputs: build/bench/fidelity/fidelity_table.{json,csv} and every run's stats beside them.
+# (semicolon-separated LABEL=voxelize options, replacing the default list); THREADS; OUT, the
+# output directory (BUILD_DIR/bench/fidelity): runs side by side need their own.
+# Outputs: OUT/fidelity_table.{json,csv} and every run's stats beside them.
 set -euo pipefail
 build=${1:-build}
 shift || true
 depths=("$@")
 [ ${#depths[@]} -gt 0 ] || depths=(10 11 12)
-out=$build/bench/fidelity
+out=${OUT:-$build/bench/fidelity}
 mkdir -p "$out/runs"
 threads=()
 [ -z "${THREADS:-}" ] || threads=(--threads "$THREADS")

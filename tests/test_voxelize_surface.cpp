@@ -1,12 +1,16 @@
 // voxelizeSurface (libvox/src/octree/voxelize_surface.cpp): the leaf set must be exactly the
 // leaf cubes a triangle touches (closed cubes), checked against an independent brute force that
 // clips each triangle against every leaf cube; the per-level masks must be consistent; the result
-// must not depend on the thread count; deep octrees stay sparse; bad input is rejected.
+// must not depend on the thread count; deep octrees stay sparse; bad input is rejected;
+// error-bounded, leaf-depth voxels inherit their parents' slabs.
 #include <vox/base/error.h>
+#include <vox/formats/esvo.h>
+#include <vox/import.h>
 #include <vox/octree.h>
 #include <vox/scene.h>
 #include <vox/util/parallel.h>
 
+#include "octree/contours.h"
 #include "test_support.h"
 
 #include <algorithm>
@@ -581,4 +585,42 @@ TEST(VoxelizeSurface, InteriorVoxelsAlwaysHaveChildren) {
             for (std::uint8_t m : octree.masks[l]) empty += m == 0;
         EXPECT_EQ(empty, 0u) << "voxels above the leaf level without children";
     }
+}
+
+// Contour economy: error-bounded, a voxel at the leaf depth relies on the slab its parent hands
+// down and stores a contour of its own only where none is carried; with full refinement it
+// still stores one wherever its fit is much thinner. Counted below parents whose own contour
+// carries down to the child (the builder's carry rule, detail::carryContour): none in the first
+// build, many in the second.
+TEST(VoxelizeSurface, ErrorBoundedLeafDepthVoxelsInheritTheirParentsSlab) {
+    const vox::Scene scene = vox::importScene(vox::test::assimpModels() / "OBJ/WusonOBJ.obj");
+    const auto ownBelowACarriedSlab = [&](double contourError) {
+        vox::SurfaceVoxelizeOptions options;
+        options.depth = 8;
+        options.contours = true;
+        options.contourError = contourError;
+        const vox::SparseOctree octree = vox::voxelizeSurface(scene, options);
+        const std::uint32_t leafLevel = options.depth;
+        EXPECT_EQ(octree.contours.size(), leafLevel + 1);
+        // The children of level leafLevel − 1's voxels are level leafLevel's, in order.
+        std::uint64_t child = 0, own = 0, belowCarried = 0;
+        const auto& parents = octree.masks[leafLevel - 1];
+        for (std::size_t p = 0; p < parents.size(); ++p) {
+            for (std::uint32_t slot = 0; slot < 8; ++slot) {
+                if (!(parents[p] & (1u << slot))) continue;
+                const std::uint32_t contour = octree.contours[leafLevel][child++];
+                if (contour == 0) continue;
+                ++own;
+                double thickness = 0;
+                belowCarried +=
+                    vox::detail::carryContour(octree.contours[leafLevel - 1][p], slot, thickness) !=
+                    0;
+            }
+        }
+        EXPECT_EQ(child, octree.voxelsPerLevel[leafLevel]);
+        EXPECT_GT(own, 0u) << "leaf-depth voxels with no carried slab fit their own";
+        return belowCarried;
+    };
+    EXPECT_EQ(ownBelowACarriedSlab(vox::kDefaultContourError), 0u);
+    EXPECT_GT(ownBelowACarriedSlab(0), 1000u);
 }

@@ -62,7 +62,7 @@ struct SparseOctree {
 
 /// The error bounds voxelize refines to unless told otherwise (docs/cli.md): see
 /// SurfaceVoxelizeOptions::contourError, colorError and normalErrorDegrees.
-inline constexpr double kDefaultContourError = 0.35;
+inline constexpr double kDefaultContourError = 0.25;
 inline constexpr double kDefaultNormalErrorDegrees = 4;
 inline constexpr double kDefaultColorError = 6;
 

@@ -59,10 +59,15 @@ std::uint32_t mortonCell(std::uint32_t x, std::uint32_t y, std::uint32_t z, std:
     return code;
 }
 
-/// A voxel stores a contour of its own only where its slab is at most this fraction of the one
-/// its ancestors impose (measured on Wuson at depth 10: 0.5 → 2.9 bytes of contours per voxel,
-/// 0.15 → 1.7, with depth error within a leaf diagonal on 99.7 % and 99.55 % of pixels).
-constexpr double kOwnContourGain = 0.25;
+/// A voxel whose carried slab is not within the contour error stores a contour of its own only
+/// where its fitted slab is at most this fraction of the carried one. With full refinement every
+/// voxel refines anyway and an own contour buys only accuracy, so it must be much thinner.
+constexpr double kOwnContourGainFull = 0.25;
+/// Error-bounded, an own contour above the leaf depth also lets the voxel stop early, saving its
+/// subtree, so a smaller gain pays; at the leaf depth nothing stops below it and the carried slab
+/// keeps the depth error well within a diagonal, so a leaf-depth voxel fits its own only where
+/// none is carried. Both measured with bench/fidelity_table.sh (docs/internals/esvo-writer.md).
+constexpr double kOwnContourGainBounded = 0.7;
 /// Thinnest slab the encoding can state, in edge units: one 0.75 step along a normal of length
 /// at most 31·√3.
 constexpr double kThinnestSlab = 0.75 / (31 * 1.7320508075688772);
@@ -266,18 +271,21 @@ private:
                             leaf = attributesWithinBounds(children[slot], *ownFragments,
                                                           childCentre, childHalf, filtered);
                     } else {
-                        // Otherwise the child keeps a contour of its own only where it is much
-                        // thinner than the carried slab; below a gain's worth of the thinnest
-                        // encodable slab, no fit can win.
+                        // Otherwise the child keeps a contour of its own only where it is
+                        // thinner enough than the carried slab; below a gain's worth of the
+                        // thinnest encodable slab, no fit can win.
+                        const double gain = contourError_ <= 0 ? kOwnContourGainFull
+                                            : leaf             ? 0.0
+                                                               : kOwnContourGainBounded;
                         detail::ContourFit fit;
-                        if (!(carried && kOwnContourGain * carriedThickness <= kThinnestSlab))
+                        if (!(carried && gain * carriedThickness <= kThinnestSlab))
                             fit = detail::fitContour(*ownFragments, children[slot], local_,
                                                      {normalLength_.data(), unitNormal_.data(),
                                                       quantisedNormal_.data()});
                         double thickness = carriedThickness;
                         childSlab = carried;
                         if (fit.encoded &&
-                            (carried == 0 || fit.thickness < kOwnContourGain * carriedThickness)) {
+                            (carried == 0 || fit.thickness < gain * carriedThickness)) {
                             ownContour = fit.encoded;
                             childSlab = fit.encoded;
                             thickness = fit.thickness;
