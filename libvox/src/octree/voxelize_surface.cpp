@@ -59,15 +59,22 @@ std::uint32_t mortonCell(std::uint32_t x, std::uint32_t y, std::uint32_t z, std:
     return code;
 }
 
-/// A voxel whose carried slab is not within the contour error stores a contour of its own only
+/// A voxel whose carried slab does not spare it a fit (below) stores a contour of its own only
 /// where its fitted slab is at most this fraction of the carried one. With full refinement every
 /// voxel refines anyway and an own contour buys only accuracy, so it must be much thinner.
 constexpr double kOwnContourGainFull = 0.25;
 /// Error-bounded, an own contour above the leaf depth also lets the voxel stop early, saving its
 /// subtree, so a smaller gain pays; at the leaf depth nothing stops below it and the carried slab
 /// keeps the depth error well within a diagonal, so a leaf-depth voxel fits its own only where
-/// none is carried. Both measured with bench/fidelity_table.sh (docs/internals/esvo-writer.md).
+/// none is carried.
 constexpr double kOwnContourGainBounded = 0.7;
+/// Error-bounded, a carried slab spares a voxel a fit of its own where it is within this fraction
+/// of the contour error; and where the voxel's colour deviates by more than kVaryingColor × the
+/// colour bound (a texture, a material border), the voxel stops only where its slab is within it
+/// too: a ray that enters a voxel away from the surface sees the colour of another part of it.
+/// All three fractions measured with bench/fidelity_table.sh (docs/internals/esvo-writer.md).
+constexpr double kVaryingColorContourError = 0.5;
+constexpr double kVaryingColor = 0.5;
 /// Thinnest slab the encoding can state, in edge units: one 0.75 step along a normal of length
 /// at most 31·√3.
 constexpr double kThinnestSlab = 0.75 / (31 * 1.7320508075688772);
@@ -255,24 +262,41 @@ private:
                 if (contours_) {
                     double carriedThickness = 0;
                     const std::uint32_t carried = carrier(slot, carriedThickness);
-                    // Error-bounded: where the slab its ancestors impose (the ray caster carries
-                    // theirs) already bounds the surface within the error, the child stores no
-                    // contour of its own, and stops refining there if its attributes allow.
-                    const auto withinError = [&](std::uint32_t candidate, double thickness) {
+                    const auto withinError = [&](std::uint32_t candidate, double thickness,
+                                                 double error) {
                         // A slab thicker than twice the error cannot be (one of its planes is too
                         // far).
-                        return thickness * childHalf <= contourError_ &&
+                        return thickness * childHalf <= error &&
                                detail::shapeWithinError(candidate, children[slot], local_,
-                                                        childCentre, childHalf, contourError_);
+                                                        childCentre, childHalf, error);
                     };
-                    if (contourError_ > 0 && carried && withinError(carried, carriedThickness)) {
+                    // Where the colour varies across the voxel (kVaryingColor), the slab must be
+                    // within the tighter bound for the voxel to stop.
+                    const double tightError = kVaryingColorContourError * contourError_;
+                    const auto stops = [&](std::uint32_t effective, double thickness,
+                                           bool withinTight) {
+                        double colorDeviation = 0;
+                        if (!attributesWithinBounds(children[slot], *ownFragments, childCentre,
+                                                    childHalf, filtered, colorDeviation))
+                            return false;
+                        return withinTight || colorError_ <= 0 ||
+                               colorDeviation <= kVaryingColor * colorError_ ||
+                               withinError(effective, thickness, tightError);
+                    };
+                    // Error-bounded: where the slab its ancestors impose (the ray caster carries
+                    // theirs) already bounds the surface within the tighter error, the child
+                    // stores no contour of its own, and stops refining there if its attributes
+                    // allow.
+                    bool tryOwn = true;
+                    if (contourError_ > 0 && carried &&
+                        withinError(carried, carriedThickness, tightError)) {
                         childSlab = carried;
-                        if (!leaf)
-                            leaf = attributesWithinBounds(children[slot], *ownFragments,
-                                                          childCentre, childHalf, filtered);
-                    } else {
+                        tryOwn = false;
+                        if (!leaf) leaf = stops(carried, carriedThickness, true);
+                    }
+                    if (tryOwn) {
                         // Otherwise the child keeps a contour of its own only where it is
-                        // thinner enough than the carried slab; below a gain's worth of the
+                        // enough thinner than the carried slab; below a gain's worth of the
                         // thinnest encodable slab, no fit can win.
                         const double gain = contourError_ <= 0 ? kOwnContourGainFull
                                             : leaf             ? 0.0
@@ -292,9 +316,8 @@ private:
                         }
                         // Refinement stops where cube ∩ slab is within the error of the surface.
                         if (!leaf && contourError_ > 0 && childSlab &&
-                            withinError(childSlab, thickness))
-                            leaf = attributesWithinBounds(children[slot], *ownFragments,
-                                                          childCentre, childHalf, filtered);
+                            withinError(childSlab, thickness, contourError_))
+                            leaf = stops(childSlab, thickness, false);
                     }
                 }
                 if (leaf) {
@@ -333,15 +356,16 @@ private:
     /// The attribute criterion of refinement: true where the voxel's colour and normal stand for
     /// the surface inside it within the bounds (AttributeSums::error), or where there are none.
     /// criterionSums_ receive the voxel's sums where they were computed (@p computed set), from
-    /// @p fragments, the voxel's.
+    /// @p fragments, the voxel's, and @p colorDeviation its colour's error (0 where not computed).
     bool attributesWithinBounds(std::span<const std::uint32_t> list,
                                 const detail::CubeFragments& fragments, Vec3d centre, double half,
-                                bool& computed) {
+                                bool& computed, double& colorDeviation) {
         if (!attributes_ || (colorError_ <= 0 && normalError_ <= 0)) return true;
         criterionSums_ =
             attributes_->filter(fragments, list, centre, half, attributeScratch_, view());
         computed = true;
         const detail::AttributeSums::Error e = criterionSums_.error();
+        colorDeviation = e.color;
         return (colorError_ <= 0 || e.color <= colorError_) &&
                (normalError_ <= 0 || e.normalDegrees <= normalError_);
     }
