@@ -33,7 +33,7 @@ else
             "walls:$cornell"
             "bumpy-sphere:$out/bumpy_sphere.glb")
 fi
-IFS=';' read -r -a settings <<< "${SETTINGS:-cubes=--full-refinement --no-contours;full=--full-refinement;geometry=--normal-error 0 --color-error 0;coarse=--contour-error 0.5 --normal-error 6 --color-error 10;default=;fine=--contour-error 0.25 --normal-error 2 --color-error 4}"
+IFS=';' read -r -a settings <<< "${SETTINGS:-cubes=--full-refinement --no-contours;full=--full-refinement;geometry=--normal-error 0 --color-error 0;coarse=--contour-error 0.5 --normal-error 6 --color-error 10;default=;fine=--contour-error 0.15 --normal-error 2 --color-error 4}"
 # Four views all round the mesh; the walls (a box open at +z) are seen through their opening.
 views_for() {
     case "$1" in

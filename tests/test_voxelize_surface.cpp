@@ -2,7 +2,8 @@
 // leaf cubes a triangle touches (closed cubes), checked against an independent brute force that
 // clips each triangle against every leaf cube; the per-level masks must be consistent; the result
 // must not depend on the thread count; deep octrees stay sparse; bad input is rejected;
-// error-bounded, leaf-depth voxels inherit their parents' slabs.
+// error-bounded, leaf-depth voxels inherit their parents' slabs and voxels whose colour varies
+// stop only within half the contour error.
 #include <vox/base/error.h>
 #include <vox/formats/esvo.h>
 #include <vox/import.h>
@@ -623,4 +624,69 @@ TEST(VoxelizeSurface, ErrorBoundedLeafDepthVoxelsInheritTheirParentsSlab) {
     };
     EXPECT_EQ(ownBelowACarriedSlab(vox::kDefaultContourError), 0u);
     EXPECT_GT(ownBelowACarriedSlab(0), 1000u);
+}
+
+namespace {
+
+/// A quarter of a cylinder of radius 0.5 (axis y, 64 × 16 quads, smooth normals), coloured by
+/// a texture that ramps from sRGB 40 up to 200 and back around it (@p ramp), or plain grey.
+vox::Scene rampedCylinder(bool ramp) {
+    vox::Scene scene;
+    std::vector<std::uint8_t> pixels(256 * 4);
+    for (int x = 0; x < 256; ++x)
+        for (int y = 0; y < 4; ++y)
+            pixels[std::size_t(y) * 256 + std::size_t(x)] =
+                static_cast<std::uint8_t>(ramp ? 40 + 160 * (255 - std::abs(2 * x - 255)) / 255
+                                               : 120);
+    scene.textures.emplace_back("ramp", 256, 4, 1, pixels, vox::ColorSpace::SRGB);
+    vox::Material material;
+    material.baseColorTexture.texture = 0;
+    scene.materials = {material};
+    vox::Mesh mesh;
+    mesh.uvs.resize(1);
+    constexpr int kAround = 64, kAlong = 16;
+    for (int j = 0; j <= kAlong; ++j)
+        for (int i = 0; i <= kAround; ++i) {
+            const float a = 1.5707964f * float(i) / kAround;
+            mesh.positions.push_back({0.5f * std::cos(a), float(j) / kAlong, 0.5f * std::sin(a)});
+            mesh.normals.push_back({std::cos(a), 0, std::sin(a)});
+            mesh.uvs[0].push_back({float(i) / kAround, 0.5f});
+        }
+    for (int j = 0; j < kAlong; ++j)
+        for (int i = 0; i < kAround; ++i) {
+            const auto v = [&](int di, int dj) {
+                return static_cast<std::uint32_t>((j + dj) * (kAround + 1) + i + di);
+            };
+            mesh.indices.insert(mesh.indices.end(), {v(0, 0), v(1, 0), v(1, 1)});
+            mesh.indices.insert(mesh.indices.end(), {v(0, 0), v(1, 1), v(0, 1)});
+        }
+    scene.meshes.push_back(mesh);
+    return scene;
+}
+
+vox::SparseOctree errorBounded(const vox::Scene& scene, double colorError) {
+    vox::SurfaceVoxelizeOptions options;
+    options.depth = 7;
+    options.contours = true;
+    options.attributes = true;
+    options.contourError = vox::kDefaultContourError;
+    options.colorError = colorError;
+    options.normalErrorDegrees = 0;
+    return vox::voxelizeSurface(scene, options);
+}
+
+}  // namespace
+
+// Where a voxel's colour deviates by more than half the colour bound, it stops only where its
+// slab lies within half the contour error: the ramp (a voxel's deviation grows with its size, a
+// few sRGB steps at the levels where the cylinder's slabs stop) refines further than grey under
+// a bound of 12, and exactly as far as grey under a bound of 60, which no voxel's deviation
+// reaches half of.
+TEST(VoxelizeSurface, VaryingColourStopsOnlyWithinHalfTheContourError) {
+    const vox::SparseOctree grey = errorBounded(rampedCylinder(false), vox::kDefaultColorError);
+    const vox::SparseOctree ramp = errorBounded(rampedCylinder(true), vox::kDefaultColorError);
+    const vox::SparseOctree rampLoose = errorBounded(rampedCylinder(true), 60);
+    EXPECT_GT(grey.voxelsPerLevel[7], 0u) << "the cylinder refines to the leaf depth somewhere";
+    EXPECT_EQ(rampLoose.masks, grey.masks);
+    EXPECT_GT(ramp.voxelCount(), grey.voxelCount() * 11 / 10);
 }

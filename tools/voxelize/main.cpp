@@ -517,8 +517,9 @@ int main(int argc, char** argv) {
         "Refine every voxel to --depth (as --contour-error 0): no error-bounded early stop");
     app.add_option("--contour-error", options.contourError,
                    "Stop refining where a voxel's cube and contour lie within E leaf voxels of the "
-                   "surface, and its colour "
-                   "and normal within --color-error and --normal-error (0: refine to --depth)")
+                   "surface (E/2 where its colour varies by more than half of --color-error), and "
+                   "its colour and normal within --color-error and --normal-error (0: refine to "
+                   "--depth)")
         ->check(CLI::Range(0.0, 1e6))
         ->capture_default_str();
     app.add_option("--attributes", options.attributes,
