@@ -33,6 +33,13 @@ inline void importAndVoxelize(const std::filesystem::path& file) {
         voxelize.includeDynamic = true;
         voxelize.contours = true;
         voxelize.attributes = true;
+        // voxelize's default, error-bounded refinement (early stops, carried slabs, attribute
+        // bounds), then full refinement.
+        voxelize.contourError = kDefaultContourError;
+        voxelize.colorError = kDefaultColorError;
+        voxelize.normalErrorDegrees = kDefaultNormalErrorDegrees;
+        (void)voxelizeSurface(scene, voxelize);
+        voxelize.contourError = 0;
         (void)voxelizeSurface(scene, voxelize);
     } catch (const vox::Error&) {}
 }
