@@ -57,6 +57,7 @@
 #include <fstream>
 #include <iostream>
 #include <numbers>
+#include <numeric>
 #include <optional>
 #include <span>
 #include <string>
@@ -402,7 +403,7 @@ int main(int argc, char** argv) {
         // have a reference of 0, so a relative ranking would leave them out).
         {
             std::vector<std::size_t> order(direct.size());
-            for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+            std::iota(order.begin(), order.end(), std::size_t{0});
             const auto gap = [&](std::size_t i) {
                 return std::abs(direct[i].bake - direct[i].reference);
             };

@@ -287,14 +287,11 @@ private:
                     // theirs) already bounds the surface within the tighter error, the child
                     // stores no contour of its own, and stops refining there if its attributes
                     // allow.
-                    bool tryOwn = true;
                     if (contourError_ > 0 && carried &&
                         withinError(carried, carriedThickness, tightError)) {
                         childSlab = carried;
-                        tryOwn = false;
                         if (!leaf) leaf = stops(carried, carriedThickness, true);
-                    }
-                    if (tryOwn) {
+                    } else {
                         // Otherwise the child keeps a contour of its own only where it is
                         // enough thinner than the carried slab; below a gain's worth of the
                         // thinnest encodable slab, no fit can win.
