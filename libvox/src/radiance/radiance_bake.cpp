@@ -318,9 +318,8 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         std::optional<detail::ShadowRayGroups> rayGroups;
         std::once_flag groupsBuilt;
         const auto buildGroups = [&] {
-            std::vector<Vec3d> normals(leaves.size());
-            for (std::size_t i = 0; i < leaves.size(); ++i)
-                normals[i] = toVec3d(leaves[i].normals.mean);
+            std::vector<Vec3f> normals(leaves.size());
+            for (std::size_t i = 0; i < leaves.size(); ++i) normals[i] = leaves[i].normals.mean;
             std::vector<Vec3d> lightCells(scene.lights.size());
             for (std::size_t k = 0; k < scene.lights.size(); ++k) {
                 const Light& light = scene.lights[k];

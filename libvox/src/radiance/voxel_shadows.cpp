@@ -2,9 +2,11 @@
 
 #include "../util/segment_clip.h"
 
+#include <vox/base/error.h>
 #include <vox/formats/rvol.h>
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
@@ -123,6 +125,16 @@ namespace {
 
 bool finite(Vec3d v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
+/// The largest float ≤ @p v, and the smallest float ≥ @p v.
+float floatBelow(double v) {
+    const auto f = static_cast<float>(v);
+    return double(f) > v ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+}
+float floatAbove(double v) {
+    const auto f = static_cast<float>(v);
+    return double(f) < v ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+}
+
 /// The box of the points (1 − u)·a + u·b, a in [aLo, aHi], b in [bLo, bHi], for u in [u0, u1]
 /// (0 ≤ u0 ≤ u1 ≤ 1): per axis, each bound is linear in u, so one of the two ends gives it.
 void boxBetween(Vec3d aLo, Vec3d aHi, Vec3d bLo, Vec3d bHi, double u0, double u1, double pad,
@@ -226,7 +238,7 @@ bool SolidGrid::layerBlocks(Vec3d fromLo, Vec3d fromHi, Vec3d toLo, Vec3d toHi, 
 
 ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
                                  std::span<const std::array<std::uint32_t, 3>> cells,
-                                 std::vector<Vec3d> normals, std::vector<Vec3d> lights)
+                                 std::vector<Vec3f> normals, std::vector<Vec3d> lights)
     : grid_(grid),
       cells_(cells),
       normals_(std::move(normals)),
@@ -242,63 +254,73 @@ ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
                 originEmpty_[i] = static_cast<std::uint8_t>(originEmpty_[i] | (1u << s));
         }
     });
-    // Groups: the voxels sorted by block (in Morton order, so that an octree node's groups are
-    // contiguous: Verdicts keeps a cluster's as one range) and by the axis direction their normal
-    // is closest to, level by level; a group's boxes hold its members'. Apart from the direction,
-    // a block's two sides of a thin wall or floor would share boxes that take in the wall itself.
-    std::vector<std::uint32_t> facing(cells.size());
-    for (std::size_t i = 0; i < cells.size(); ++i) {
-        const Vec3d n = normals_[i];
+    // Groups: the voxels sorted by block and by the axis direction their normal is closest to.
+    // Apart from the direction, a block's two sides of a thin wall or floor would share boxes that
+    // take in the wall itself. One order serves both levels: by coarse block (Morton, so that an
+    // octree node's groups are contiguous: Verdicts keeps a cluster's as one range), direction,
+    // then fine block within the coarse one.
+    static_assert(kLevels == 2, "the sort key holds two block sizes");
+    // The key (≤ 30 bits for cells below 1024) above the voxel's index, in one word to sort.
+    for (const auto& c : cells)
+        if (std::max({c[0], c[1], c[2]}) >= 1024 || cells.size() > 0xFFFFFFFFu)
+            throw UsageError("ShadowRayGroups: cells must lie below 1024 on every axis");
+    std::vector<std::uint64_t> order(cells.size());
+    tbb::parallel_for(std::size_t{0}, cells.size(), [&](std::size_t i) {
+        const Vec3f n = normals_[i];
         int axis = 0;
         for (int k = 1; k < 3; ++k)
             if (std::abs(n[k]) > std::abs(n[axis])) axis = k;
-        facing[i] = static_cast<std::uint32_t>(2 * axis + (n[axis] < 0 ? 1 : 0));
-    }
-    groups_.reserve(cells.size() * kLevels);
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> order(cells.size());
+        const std::uint64_t facing = static_cast<std::uint64_t>(2 * axis + (n[axis] < 0 ? 1 : 0));
+        const auto& c = cells[i];
+        const std::uint64_t fine = rvol::morton3(c[0] >> 1, c[1] >> 1, c[2] >> 1);
+        order[i] = ((((fine >> 3) << 6) | (facing << 3) | (fine & 7u)) << 32) | i;
+    });
+    tbb::parallel_sort(order.begin(), order.end());
+    // Level 0 (blocks of 4) ignores the fine block's three bits; its groups come first.
+    const auto keyOf = [&](std::size_t k, int level) { return order[k] >> (level == 0 ? 35 : 32); };
+    std::array<std::size_t, kLevels + 1> first{};
     for (int level = 0; level < kLevels; ++level) {
-        const std::uint32_t shift = static_cast<std::uint32_t>(kLevels - level);
-        for (std::uint32_t i = 0; i < cells.size(); ++i)
-            order[i] = {(rvol::morton3(cells[i][0] >> shift, cells[i][1] >> shift,
-                                       cells[i][2] >> shift)
-                         << 3) |
-                            facing[i],
-                        i};
-        tbb::parallel_sort(order.begin(), order.end());
+        std::size_t count = 0;
+        for (std::size_t k = 0; k < order.size(); ++k)
+            count += k == 0 || keyOf(k - 1, level) != keyOf(k, level);
+        first[std::size_t(level) + 1] = first[std::size_t(level)] + count;
+    }
+    // Sized once: the groups take as much memory as the voxels, and growing it would touch
+    // several times that.
+    groups_.resize(first[kLevels]);
+    const auto buildLevel = [&](int level) {
+        std::size_t g = first[std::size_t(level)];
         for (std::size_t k = 0; k < order.size(); ++k) {
-            const std::uint32_t i = order[k].second;
-            if (k == 0 || order[k - 1].first != order[k].first) {
-                Group g;
-                const double inf = std::numeric_limits<double>::infinity();
-                g.originLo = {Vec3d{inf, inf, inf}, Vec3d{inf, inf, inf}};
-                g.originHi = {Vec3d{-inf, -inf, -inf}, Vec3d{-inf, -inf, -inf}};
-                g.endLo = g.originLo;
-                g.endHi = g.originHi;
-                groups_.push_back(g);
-            }
-            Group& g = groups_.back();
-            groupOf_[i][static_cast<std::size_t>(level)] =
-                static_cast<std::uint32_t>(groups_.size() - 1);
+            if (k > 0 && keyOf(k - 1, level) != keyOf(k, level)) ++g;
+            const auto i = static_cast<std::uint32_t>(order[k] & 0xFFFFFFFFu);
+            Group& group = groups_[g];
+            groupOf_[i][static_cast<std::size_t>(level)] = static_cast<std::uint32_t>(g);
             for (std::size_t s = 0; s < 2; ++s) {
                 if (!(originEmpty_[i] & (1u << s))) continue;
                 const double side = s == 0 ? 1 : -1;
                 const Vec3d o = origin(i, int(side));
                 for (int axis = 0; axis < 3; ++axis) {
-                    g.originLo[s][axis] = std::min(g.originLo[s][axis], o[axis]);
-                    g.originHi[s][axis] = std::max(g.originHi[s][axis], o[axis]);
-                    const double end = side * normals_[i][axis];
-                    g.endLo[s][axis] = std::min(g.endLo[s][axis], end);
-                    g.endHi[s][axis] = std::max(g.endHi[s][axis], end);
+                    // Rounded outwards: the float boxes hold the double origins and ends.
+                    group.originLo[s][axis] =
+                        std::min(group.originLo[s][axis], floatBelow(o[axis]));
+                    group.originHi[s][axis] =
+                        std::max(group.originHi[s][axis], floatAbove(o[axis]));
+                    const double end = side * double(normals_[i][axis]);
+                    group.endLo[s][axis] = std::min(group.endLo[s][axis], floatBelow(end));
+                    group.endHi[s][axis] = std::max(group.endHi[s][axis], floatAbove(end));
                 }
             }
         }
-    }
+    };
+    // The levels write their own groups and their own slot of groupOf_.
+    tbb::parallel_invoke([&] { buildLevel(0); }, [&] { buildLevel(1); });
 }
 
 Vec3d ShadowRayGroups::origin(std::size_t voxel, int side) const noexcept {
     const auto& c = cells_[voxel];
-    const Vec3d n = normals_[voxel];
-    return {c[0] + 0.5 + side * n.x, c[1] + 0.5 + side * n.y, c[2] + 0.5 + side * n.z};
+    const Vec3f n = normals_[voxel];
+    return {c[0] + 0.5 + side * double(n.x), c[1] + 0.5 + side * double(n.y),
+            c[2] + 0.5 + side * double(n.z)};
 }
 
 ShadowRayGroups::Verdicts::Verdicts(const ShadowRayGroups& groups,
@@ -348,10 +370,13 @@ bool ShadowRayGroups::occluded(std::size_t voxel, std::uint32_t light, int side,
         std::uint8_t* verdict = &verdicts.at(level, g, light, s);
         if (*verdict == kUntested) {
             const Group& group = groups_[g];
-            const Vec3d toLo = target + group.endLo[s], toHi = target + group.endHi[s];
+            const Vec3d fromLo = vec3Cast<double>(group.originLo[s]),
+                        fromHi = vec3Cast<double>(group.originHi[s]);
+            const Vec3d toLo = target + vec3Cast<double>(group.endLo[s]),
+                        toHi = target + vec3Cast<double>(group.endHi[s]);
             ++counts.tests;
             *verdict = kUndecided;
-            if (grid_.beamClear(group.originLo[s], group.originHi[s], toLo, toHi)) {
+            if (grid_.beamClear(fromLo, fromHi, toLo, toHi)) {
                 *verdict = kClear;
             } else {
                 if (own < 0) own = grid_.occluded(from, dir, maxT, &hit) ? 1 : 0;
@@ -366,8 +391,7 @@ bool ShadowRayGroups::occluded(std::size_t voxel, std::uint32_t light, int side,
                                                                        : dir[axis] < 0 ? -1
                                                                                        : 0));
                             if ((step == 0 || layer != hit[std::size_t(axis)]) &&
-                                grid_.layerBlocks(group.originLo[s], group.originHi[s], toLo, toHi,
-                                                  axis, layer))
+                                grid_.layerBlocks(fromLo, fromHi, toLo, toHi, axis, layer))
                                 *verdict = kBlocked;
                         }
             }

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <utility>
 #include <vector>
@@ -92,9 +93,10 @@ public:
 
     /// @p cells: the voxels; @p normals: their mean normals (the rays leave the voxel centre one
     /// normal along it, on the side facing the light); @p lights: the light positions in cell
-    /// units (non-finite for lights without one).
+    /// units (non-finite for lights without one). Throws UsageError unless every cell lies below
+    /// 1024 on each axis (a volume of depth ≤ 10).
     ShadowRayGroups(const SolidGrid& grid, std::span<const std::array<std::uint32_t, 3>> cells,
-                    std::vector<Vec3d> normals, std::vector<Vec3d> lights);
+                    std::vector<Vec3f> normals, std::vector<Vec3d> lights);
 
     /// The origin of voxel @p voxel's shadow ray on @p side (+1: along its normal, −1: against).
     [[nodiscard]] Vec3d origin(std::size_t voxel, int side) const noexcept;
@@ -110,12 +112,16 @@ public:
 private:
     struct Group {
         // Per side (+1, −1), over the members whose origin cell is empty on that side: their ray
-        // origins, and where their rays end relative to the light (side × normal).
-        std::array<Vec3d, 2> originLo, originHi, endLo, endHi;
+        // origins, and where their rays end relative to the light (side × normal); in float,
+        // rounded outwards, as the groups take as much memory as the voxels. Empty: +∞ … −∞.
+        static constexpr float kInf = std::numeric_limits<float>::infinity();
+        std::array<Vec3f, 2> originLo{Vec3f{kInf, kInf, kInf}, Vec3f{kInf, kInf, kInf}};
+        std::array<Vec3f, 2> originHi{Vec3f{-kInf, -kInf, -kInf}, Vec3f{-kInf, -kInf, -kInf}};
+        std::array<Vec3f, 2> endLo = originLo, endHi = originHi;
     };
     const SolidGrid& grid_;
     std::span<const std::array<std::uint32_t, 3>> cells_;
-    std::vector<Vec3d> normals_;
+    std::vector<Vec3f> normals_;
     std::vector<Vec3d> lights_;
     std::vector<Group> groups_;
     std::vector<std::array<std::uint32_t, kLevels>> groupOf_;  // per voxel, coarsest first
