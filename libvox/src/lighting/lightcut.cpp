@@ -380,22 +380,24 @@ struct Budget {
 };
 
 /// Refines the cut @p cut until it meets the options, always splitting the node with the largest
-/// key (a max-heap over the nodes that can be split, in @p heap); fills @p result. A split node
-/// stays in @p cut, marked by node = kNoLightNode.
+/// key (a max-heap over the nodes that can be split, in @p heap); fills @p result. Entries whose
+/// node is kNoLightNode are not in the cut; a split node stays in @p cut, marked so.
 void refine(const Context& ctx, std::vector<Entry>& cut, std::vector<HeapItem>& heap,
             LightcutResult& result) {
     const auto& nodes = ctx.tree.nodes();
     Vec3d total{0, 0, 0};
     Budget budget(ctx.options.criterion);
     heap.clear();
+    std::size_t size = 0;
     for (std::uint32_t i = 0; i < cut.size(); ++i) {
         const Entry& e = cut[i];
+        if (e.node == kNoLightNode) continue;
+        ++size;
         total += e.estimate;
         budget.add(e.key);
         // Leaves (−1) and nodes without a bound are never split.
         if (e.key > 0) heap.push_back({e.key, e.node, i});
     }
-    std::size_t size = cut.size();
     std::make_heap(heap.begin(), heap.end(), heapLess);
     while (!heap.empty()) {
         const HeapItem top = heap.front();
@@ -582,7 +584,7 @@ LightcutResult bruteForce(const LightTree& tree, const LightcutPoint& point,
 /// The cursor's working storage, kept from point to point so that a point allocates nothing.
 struct LightcutCursor::Scratch {
     std::vector<std::uint32_t> here, present, work;
-    std::vector<Entry> entries, cut;
+    std::vector<Entry> entries;
     std::vector<HeapItem> heap;
     std::vector<char> dead;
     RegionView view;
@@ -752,13 +754,15 @@ LightcutResult LightcutCursor::evaluate(const LightcutPoint& point,
         w.index(p, std::uint32_t(entries.size() - 1));
         work.push_back(std::uint32_t(entries.size() - 1));
     }
-    std::vector<Entry>& cut = w.cut;
-    cut.clear();
+    // Merged entries leave the cut in place (refine skips them).
     for (std::uint32_t i = 0; i < entries.size(); ++i)
-        if (dead[i] != 1) cut.push_back(entries[i]);
+        if (dead[i] == 1) {
+            entries[i].node = kNoLightNode;
+            entries[i].key = -1;
+        }
 
     // Split what is under-split, as a fresh cut does.
-    refine(ctx, cut, w.heap, result);
+    refine(ctx, entries, w.heap, result);
     previous_.assign(result.cut.begin(), result.cut.end());
     return result;
 }
