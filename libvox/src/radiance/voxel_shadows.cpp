@@ -2,12 +2,9 @@
 
 #include "../util/segment_clip.h"
 
-#include <vox/base/error.h>
 #include <vox/formats/rvol.h>
 
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cmath>
@@ -125,16 +122,6 @@ namespace {
 
 bool finite(Vec3d v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
-/// The largest float ≤ @p v, and the smallest float ≥ @p v.
-float floatBelow(double v) {
-    const auto f = static_cast<float>(v);
-    return double(f) > v ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
-}
-float floatAbove(double v) {
-    const auto f = static_cast<float>(v);
-    return double(f) < v ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
-}
-
 /// The box of the points (1 − u)·a + u·b, a in [aLo, aHi], b in [bLo, bHi], for u in [u0, u1]
 /// (0 ≤ u0 ≤ u1 ≤ 1): per axis, each bound is linear in u, so one of the two ends gives it.
 void boxBetween(Vec3d aLo, Vec3d aHi, Vec3d bLo, Vec3d bHi, double u0, double u1, double pad,
@@ -243,7 +230,6 @@ ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
       cells_(cells),
       normals_(std::move(normals)),
       lights_(std::move(lights)),
-      groupOf_(cells.size()),
       originEmpty_(cells.size(), 0) {
     tbb::parallel_for(std::size_t{0}, cells.size(), [&](std::size_t i) {
         for (int s = 0; s < 2; ++s) {
@@ -254,66 +240,6 @@ ShadowRayGroups::ShadowRayGroups(const SolidGrid& grid,
                 originEmpty_[i] = static_cast<std::uint8_t>(originEmpty_[i] | (1u << s));
         }
     });
-    // Groups: the voxels sorted by block and by the axis direction their normal is closest to.
-    // Apart from the direction, a block's two sides of a thin wall or floor would share boxes that
-    // take in the wall itself. One order serves both levels: by coarse block (Morton, so that an
-    // octree node's groups are contiguous: Verdicts keeps a cluster's as one range), direction,
-    // then fine block within the coarse one.
-    static_assert(kLevels == 2, "the sort key holds two block sizes");
-    // The key (≤ 30 bits for cells below 1024) above the voxel's index, in one word to sort.
-    for (const auto& c : cells)
-        if (std::max({c[0], c[1], c[2]}) >= 1024 || cells.size() > 0xFFFFFFFFu)
-            throw UsageError("ShadowRayGroups: cells must lie below 1024 on every axis");
-    std::vector<std::uint64_t> order(cells.size());
-    tbb::parallel_for(std::size_t{0}, cells.size(), [&](std::size_t i) {
-        const Vec3f n = normals_[i];
-        int axis = 0;
-        for (int k = 1; k < 3; ++k)
-            if (std::abs(n[k]) > std::abs(n[axis])) axis = k;
-        const std::uint64_t facing = static_cast<std::uint64_t>(2 * axis + (n[axis] < 0 ? 1 : 0));
-        const auto& c = cells[i];
-        const std::uint64_t fine = rvol::morton3(c[0] >> 1, c[1] >> 1, c[2] >> 1);
-        order[i] = ((((fine >> 3) << 6) | (facing << 3) | (fine & 7u)) << 32) | i;
-    });
-    tbb::parallel_sort(order.begin(), order.end());
-    // Level 0 (blocks of 4) ignores the fine block's three bits; its groups come first.
-    const auto keyOf = [&](std::size_t k, int level) { return order[k] >> (level == 0 ? 35 : 32); };
-    std::array<std::size_t, kLevels + 1> first{};
-    for (int level = 0; level < kLevels; ++level) {
-        std::size_t count = 0;
-        for (std::size_t k = 0; k < order.size(); ++k)
-            count += k == 0 || keyOf(k - 1, level) != keyOf(k, level);
-        first[std::size_t(level) + 1] = first[std::size_t(level)] + count;
-    }
-    // Sized once: the groups take as much memory as the voxels, and growing it would touch
-    // several times that.
-    groups_.resize(first[kLevels]);
-    const auto buildLevel = [&](int level) {
-        std::size_t g = first[std::size_t(level)];
-        for (std::size_t k = 0; k < order.size(); ++k) {
-            if (k > 0 && keyOf(k - 1, level) != keyOf(k, level)) ++g;
-            const auto i = static_cast<std::uint32_t>(order[k] & 0xFFFFFFFFu);
-            Group& group = groups_[g];
-            groupOf_[i][static_cast<std::size_t>(level)] = static_cast<std::uint32_t>(g);
-            for (std::size_t s = 0; s < 2; ++s) {
-                if (!(originEmpty_[i] & (1u << s))) continue;
-                const double side = s == 0 ? 1 : -1;
-                const Vec3d o = origin(i, int(side));
-                for (int axis = 0; axis < 3; ++axis) {
-                    // Rounded outwards: the float boxes hold the double origins and ends.
-                    group.originLo[s][axis] =
-                        std::min(group.originLo[s][axis], floatBelow(o[axis]));
-                    group.originHi[s][axis] =
-                        std::max(group.originHi[s][axis], floatAbove(o[axis]));
-                    const double end = side * double(normals_[i][axis]);
-                    group.endLo[s][axis] = std::min(group.endLo[s][axis], floatBelow(end));
-                    group.endHi[s][axis] = std::max(group.endHi[s][axis], floatAbove(end));
-                }
-            }
-        }
-    };
-    // The levels write their own groups and their own slot of groupOf_.
-    tbb::parallel_invoke([&] { buildLevel(0); }, [&] { buildLevel(1); });
 }
 
 Vec3d ShadowRayGroups::origin(std::size_t voxel, int side) const noexcept {
@@ -326,29 +252,67 @@ Vec3d ShadowRayGroups::origin(std::size_t voxel, int side) const noexcept {
 ShadowRayGroups::Verdicts::Verdicts(const ShadowRayGroups& groups,
                                     std::span<const std::uint32_t> members)
     : rowOf_(groups.lights_.size(), 0) {
-    std::uint32_t slots = 0;
-    for (std::size_t level = 0; level < kLevels; ++level) {
-        std::uint32_t lo = ~std::uint32_t{0}, hi = 0;
-        for (const std::uint32_t i : members) {
-            lo = std::min(lo, groups.groupOf_[i][level]);
-            hi = std::max(hi, groups.groupOf_[i][level]);
+    // Per level, the members sorted by (block, facing): a group is a run of equal keys. Apart
+    // from the facing, a block's two sides of a thin wall or floor would share boxes that take in
+    // the wall itself.
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(members.size());
+    members_.resize(members.size());
+    for (std::size_t k = 0; k < members.size(); ++k) members_[k].first = members[k];
+    std::sort(members_.begin(), members_.end());
+    for (int level = 0; level < kLevels; ++level) {
+        const auto shift = static_cast<std::uint32_t>(kLevels - level);  // blocks of 4, then 2
+        for (std::size_t k = 0; k < members_.size(); ++k) {
+            const std::uint32_t i = members_[k].first;
+            const Vec3f n = groups.normals_[i];
+            int axis = 0;
+            for (int a = 1; a < 3; ++a)
+                if (std::abs(n[a]) > std::abs(n[axis])) axis = a;
+            const auto& c = groups.cells_[i];
+            const std::uint64_t block = rvol::morton3(c[0] >> shift, c[1] >> shift, c[2] >> shift);
+            keyed[k] = {(block << 3) | std::uint64_t(2 * axis + (n[axis] < 0 ? 1 : 0)),
+                        std::uint32_t(k)};
         }
-        first_[level] = members.empty() ? 0 : lo;
-        offset_[level] = slots;
-        slots += members.empty() ? 0 : hi - lo + 1;
+        std::sort(keyed.begin(), keyed.end());
+        for (std::size_t k = 0; k < keyed.size(); ++k) {
+            if (k == 0 || keyed[k - 1].first != keyed[k].first) groups_.emplace_back();
+            Group& g = groups_.back();
+            auto& [i, of] = members_[keyed[k].second];
+            of[std::size_t(level)] = static_cast<std::uint32_t>(groups_.size() - 1);
+            for (std::size_t s = 0; s < 2; ++s) {
+                if (!(groups.originEmpty_[i] & (1u << s))) continue;
+                const double side = s == 0 ? 1 : -1;
+                const Vec3d o = groups.origin(i, int(side));
+                for (int a = 0; a < 3; ++a) {
+                    g.originLo[s][a] = std::min(g.originLo[s][a], o[a]);
+                    g.originHi[s][a] = std::max(g.originHi[s][a], o[a]);
+                    const double end = side * double(groups.normals_[i][a]);
+                    g.endLo[s][a] = std::min(g.endLo[s][a], end);
+                    g.endHi[s][a] = std::max(g.endHi[s][a], end);
+                }
+            }
+        }
     }
-    rowSize_ = 2 * std::size_t{slots};
 }
 
-std::uint8_t& ShadowRayGroups::Verdicts::at(int level, std::uint32_t group, std::uint32_t light,
+const std::array<std::uint32_t, ShadowRayGroups::kLevels>& ShadowRayGroups::Verdicts::groupsOf(
+    std::size_t voxel) {
+    if (last_ >= members_.size() || members_[last_].first != voxel)
+        last_ = static_cast<std::size_t>(
+            std::lower_bound(members_.begin(), members_.end(), voxel,
+                             [](const auto& m, std::size_t v) { return m.first < v; }) -
+            members_.begin());
+    return members_[last_].second;
+}
+
+std::uint8_t& ShadowRayGroups::Verdicts::at(std::uint32_t group, std::uint32_t light,
                                             std::size_t side) {
+    const std::size_t rowSize = 2 * groups_.size();
     std::uint32_t& row = rowOf_[light];
     if (row == 0) {
-        rows_.resize(rows_.size() + rowSize_, 0);
-        row = static_cast<std::uint32_t>(rows_.size() / rowSize_);
+        rows_.resize(rows_.size() + rowSize, 0);
+        row = static_cast<std::uint32_t>(rows_.size() / rowSize);
     }
-    const auto l = static_cast<std::size_t>(level);
-    return rows_[(row - 1) * rowSize_ + 2 * (offset_[l] + group - first_[l]) + side];
+    return rows_[(row - 1) * rowSize + 2 * std::size_t{group} + side];
 }
 
 bool ShadowRayGroups::occluded(std::size_t voxel, std::uint32_t light, int side, Vec3d dir,
@@ -365,15 +329,14 @@ bool ShadowRayGroups::occluded(std::size_t voxel, std::uint32_t light, int side,
     // stops it names the layers the blocked test tries.
     int own = -1;
     std::array<std::int64_t, 3> hit{};
+    const std::array<std::uint32_t, kLevels>& of = verdicts.groupsOf(voxel);
     for (int level = 0; level < kLevels; ++level) {
-        const std::uint32_t g = groupOf_[voxel][static_cast<std::size_t>(level)];
-        std::uint8_t* verdict = &verdicts.at(level, g, light, s);
+        const std::uint32_t g = of[static_cast<std::size_t>(level)];
+        std::uint8_t* verdict = &verdicts.at(g, light, s);
         if (*verdict == kUntested) {
-            const Group& group = groups_[g];
-            const Vec3d fromLo = vec3Cast<double>(group.originLo[s]),
-                        fromHi = vec3Cast<double>(group.originHi[s]);
-            const Vec3d toLo = target + vec3Cast<double>(group.endLo[s]),
-                        toHi = target + vec3Cast<double>(group.endHi[s]);
+            const Verdicts::Group& group = verdicts.groups_[g];
+            const Vec3d fromLo = group.originLo[s], fromHi = group.originHi[s];
+            const Vec3d toLo = target + group.endLo[s], toHi = target + group.endHi[s];
             ++counts.tests;
             *verdict = kUndecided;
             if (grid_.beamClear(fromLo, fromHi, toLo, toHi)) {

@@ -52,9 +52,10 @@ private:
     std::vector<std::uint8_t> blocks_;
 };
 
-/// Shadow rays of nearby voxels decided together. The voxels are grouped by aligned blocks of the
-/// grid at two sizes (4 and 2 cells) and by the axis direction their normal is closest to.
-/// For a group and a light, one test decides the rays of every member at once where it can:
+/// Shadow rays of nearby voxels decided together. A cluster's voxels are grouped by aligned
+/// blocks of the grid at two sizes (4 and 2 cells) and by the axis direction their normal is
+/// closest to. For a group and a light, one test decides the rays of every member at once where
+/// it can:
 /// - *clear* (beamClear): no solid cell in a set of boxes holding every segment from a member's
 ///   ray origin towards the light;
 /// - *blocked* (layerBlocks): every such segment crosses one layer of the grid (the layer, along
@@ -69,32 +70,42 @@ class ShadowRayGroups {
     static constexpr int kLevels = 2;
 
 public:
-    /// What the group tests decided for one cluster of voxels (e.g. of the direct light), per
-    /// group of its voxels, light and side; one cluster at a time, on one thread.
+    /// One cluster of voxels (e.g. of the direct light): its groups, and what their tests
+    /// decided per light and side. Used by one thread at a time.
     class Verdicts {
     public:
-        /// For the voxels @p members of @p groups (indices into the cells). Holds, per light
-        /// asked about, a slot for every group numbered between the members' first and last
-        /// groups of each level: few beyond the members' own where they are an octree node's
-        /// voxels (clusterVoxelPoints), whose groups are numbered contiguously.
+        /// The groups of the voxels @p members (indices into the cells of @p groups): only
+        /// these voxels may be asked about with it.
         Verdicts(const ShadowRayGroups& groups, std::span<const std::uint32_t> members);
-        /// The verdict slot of group @p group, a member's group of level @p level (0: the
-        /// coarsest), for light @p light on side @p side (0: +1, 1: −1); 0 until set.
-        [[nodiscard]] std::uint8_t& at(int level, std::uint32_t group, std::uint32_t light,
-                                       std::size_t side);
 
     private:
-        // Each level's range of the members' group indices, and where its slots start.
-        std::array<std::uint32_t, kLevels> first_{}, offset_{};
-        std::size_t rowSize_ = 0;           // slots per light: 2 sides × the levels' ranges
+        friend class ShadowRayGroups;
+        struct Group {
+            // Per side (+1, −1), over the members whose origin cell is empty on that side: their
+            // ray origins, and where their rays end relative to the light (side × normal).
+            static constexpr double kInf = std::numeric_limits<double>::infinity();
+            std::array<Vec3d, 2> originLo{Vec3d{kInf, kInf, kInf}, Vec3d{kInf, kInf, kInf}};
+            std::array<Vec3d, 2> originHi{Vec3d{-kInf, -kInf, -kInf}, Vec3d{-kInf, -kInf, -kInf}};
+            std::array<Vec3d, 2> endLo = originLo, endHi = originHi;
+        };
+        /// The groups of member voxel @p voxel, coarsest first (indices into groups_).
+        [[nodiscard]] const std::array<std::uint32_t, kLevels>& groupsOf(std::size_t voxel);
+        /// The verdict slot of group @p group for light @p light on side @p side (0: +1,
+        /// 1: −1); 0 until set.
+        [[nodiscard]] std::uint8_t& at(std::uint32_t group, std::uint32_t light, std::size_t side);
+
+        std::vector<Group> groups_;
+        // (voxel, its groups), ascending by voxel; the last one asked about, as a point's
+        // queries come together.
+        std::vector<std::pair<std::uint32_t, std::array<std::uint32_t, kLevels>>> members_;
+        std::size_t last_ = 0;
         std::vector<std::uint32_t> rowOf_;  // per light: 1 + its row, 0: none yet
-        std::vector<std::uint8_t> rows_;
+        std::vector<std::uint8_t> rows_;    // per row: 2 sides × the groups
     };
 
     /// @p cells: the voxels; @p normals: their mean normals (the rays leave the voxel centre one
     /// normal along it, on the side facing the light); @p lights: the light positions in cell
-    /// units (non-finite for lights without one). Throws UsageError unless every cell lies below
-    /// 1024 on each axis (a volume of depth ≤ 10).
+    /// units (non-finite for lights without one).
     ShadowRayGroups(const SolidGrid& grid, std::span<const std::array<std::uint32_t, 3>> cells,
                     std::vector<Vec3f> normals, std::vector<Vec3d> lights);
 
@@ -110,21 +121,10 @@ public:
                                 SharedVisibilityStats& counts) const;
 
 private:
-    struct Group {
-        // Per side (+1, −1), over the members whose origin cell is empty on that side: their ray
-        // origins, and where their rays end relative to the light (side × normal); in float,
-        // rounded outwards, as the groups take as much memory as the voxels. Empty: +∞ … −∞.
-        static constexpr float kInf = std::numeric_limits<float>::infinity();
-        std::array<Vec3f, 2> originLo{Vec3f{kInf, kInf, kInf}, Vec3f{kInf, kInf, kInf}};
-        std::array<Vec3f, 2> originHi{Vec3f{-kInf, -kInf, -kInf}, Vec3f{-kInf, -kInf, -kInf}};
-        std::array<Vec3f, 2> endLo = originLo, endHi = originHi;
-    };
     const SolidGrid& grid_;
     std::span<const std::array<std::uint32_t, 3>> cells_;
     std::vector<Vec3f> normals_;
     std::vector<Vec3d> lights_;
-    std::vector<Group> groups_;
-    std::vector<std::array<std::uint32_t, kLevels>> groupOf_;  // per voxel, coarsest first
     std::vector<std::uint8_t> originEmpty_;  // per voxel: bit 0 side +1, bit 1 side −1
 };
 
