@@ -764,7 +764,9 @@ TEST(Lightcuts, EdgeCases) {
 namespace {
 
 constexpr vox::Attenuation kAttenuations[] = {vox::Attenuation::Weighted, vox::Attenuation::Paper,
-                                              vox::Attenuation::Average};
+                                              vox::Attenuation::Average,
+                                              vox::Attenuation::Adaptive};
+constexpr int kModes = int(std::size(kAttenuations));
 
 const char* name(vox::Attenuation a) {
     switch (a) {
@@ -774,6 +776,8 @@ const char* name(vox::Attenuation a) {
             return "paper";
         case vox::Attenuation::Average:
             return "average";
+        case vox::Attenuation::Adaptive:
+            return "adaptive";
     }
     return "?";
 }
@@ -816,19 +820,23 @@ TEST(LightcutPoint, VoxelResponseMatchesAttenuate) {
         double difference = 0, got = 0, expected = 0;
         Vec3d mean{0, 0, 0}, l{0, 0, 0};
     };
-    Worst worst[3];
+    Worst worst[kModes];
     Rng rng(40);
     for (int trial = 0; trial < 400; ++trial) {
         const vox::VoxelNormals normals =
             trial % 2 ? randomNormals(rng) : fragmentNormals(rng, rng.unit(), 1.2);
         const Vec3d position{rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-5, 5)};
         const Vec3d albedo{rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(0, 1)};
-        for (int m = 0; m < 3; ++m) {
+        for (int m = 0; m < kModes; ++m) {
             const vox::Attenuation mode = kAttenuations[m];
             const vox::LightcutPoint p = vox::LightcutPoint::voxel(position, normals, mode, albedo);
             EXPECT_EQ(p.position, position);
             EXPECT_EQ(p.albedo, albedo);
-            EXPECT_EQ(p.axisWeighted, mode != vox::Attenuation::Average) << name(mode);
+            // Adaptive: a flat voxel is a cosine point, a folded one axis-weighted.
+            EXPECT_EQ(p.axisWeighted, mode == vox::Attenuation::Adaptive
+                                          ? vox::adaptiveAttenuation(normals).flat < 1
+                                          : mode != vox::Attenuation::Average)
+                << name(mode);
             std::vector<Vec3d> directions;
             for (int k = 0; k < 20; ++k) directions.push_back(rng.unit());
             // The axis directions themselves (one axis weight each) too.
@@ -846,7 +854,7 @@ TEST(LightcutPoint, VoxelResponseMatchesAttenuate) {
             }
         }
     }
-    for (int m = 0; m < 3; ++m) {
+    for (int m = 0; m < kModes; ++m) {
         const Worst& w = worst[m];
         std::printf("[lightcuts] voxel response vs attenuate, %-8s largest difference %.3g\n",
                     name(kAttenuations[m]), w.difference);
@@ -874,6 +882,53 @@ TEST(LightcutPoint, VoxelResponseMatchesAttenuate) {
     EXPECT_EQ(w.response({1, 0, 0}), 0.0);
 }
 
+TEST(Attenuation, AdaptiveIsTheCosineOnAPlaneAndWeightedWhereTheSurfaceFolds) {
+    // A tilted plane, lit from outside its normal's octant: Weighted drops the negative axis term
+    // and over-lights; Adaptive is the cosine.
+    const Vec3d n = vox::normalize(Vec3d{1, 1, 0});
+    vox::VoxelNormals plane;
+    plane.mean = f(n);
+    plane.moments = {float(n.x), 0, float(n.y), 0, 0, 0};
+    const Vec3d l = vox::normalize(Vec3d{-0.5, 1, 0.2});
+    const double cosine = dot(n, l);
+    ASSERT_GT(cosine, 0.1);
+    EXPECT_NEAR(vox::attenuate(vox::Attenuation::Adaptive, plane, l), cosine, 1e-6);
+    EXPECT_GT(vox::attenuate(vox::Attenuation::Weighted, plane, l), cosine + 0.3);
+    EXPECT_EQ(vox::adaptiveAttenuation(plane).flat, 1.0);
+    // A box's edge, two faces along +x and +y of equal area: Weighted is exact there, and so is
+    // Adaptive (|m| = 0.71, no flat share): light along (−0.6, 0.8) reaches the +y face only.
+    vox::VoxelNormals edge;
+    edge.mean = f(vox::normalize(Vec3d{1, 1, 0}));
+    edge.moments = {0.5f, 0, 0.5f, 0, 0, 0};
+    const Vec3d side = vox::normalize(Vec3d{-0.6, 0.8, 0});
+    EXPECT_EQ(vox::adaptiveAttenuation(edge).flat, 0.0);
+    EXPECT_NEAR(vox::attenuate(vox::Attenuation::Adaptive, edge, side), 0.5 * side.y, 1e-6);
+    EXPECT_LT(vox::attenuate(vox::Attenuation::Average, edge, side), 0.5 * side.y - 0.1);
+    // A thin wall's two sides: no flat share either, each side lit from its own.
+    vox::VoxelNormals wall;
+    wall.moments = {0, 0, 0, 0, 0.5f, 0.5f};
+    EXPECT_EQ(vox::adaptiveAttenuation(wall).flat, 0.0);
+    EXPECT_DOUBLE_EQ(vox::attenuate(vox::Attenuation::Adaptive, wall, {0, 0, -1}), 0.5);
+    // Lightcuts' point gives the same response.
+    const auto p =
+        vox::LightcutPoint::voxel({0, 0, 0}, plane, vox::Attenuation::Adaptive, {1, 1, 1});
+    EXPECT_FALSE(p.axisWeighted);
+    EXPECT_NEAR(p.response(l), cosine, 1e-6);
+    // Half flat (|m| = 0.945): half the cosine, half Weighted.
+    vox::VoxelNormals fold;
+    fold.moments = {0.945f, 0, 0, 0, 0, 0};
+    const double t = vox::adaptiveAttenuation(fold).flat;
+    EXPECT_NEAR(t, 0.5, 1e-6);
+    const Vec3d oblique = vox::normalize(Vec3d{1, 0, 1});
+    EXPECT_NEAR(vox::attenuate(vox::Attenuation::Adaptive, fold, oblique),
+                t * oblique.x + (1 - t) * 0.945 * oblique.x, 1e-6);
+    const auto q =
+        vox::LightcutPoint::voxel({0, 0, 0}, fold, vox::Attenuation::Adaptive, {1, 1, 1});
+    EXPECT_TRUE(q.axisWeighted);
+    EXPECT_NEAR(q.response(oblique), vox::attenuate(vox::Attenuation::Adaptive, fold, oblique),
+                1e-12);
+}
+
 TEST(LightcutBound, AxisWeightedIsConservative) {
     LightMix mix;
     mix.directional = 4;
@@ -893,10 +948,11 @@ TEST(LightcutBound, AxisWeightedIsConservative) {
             const vox::VoxelNormals normals =
                 trial % 3 == 0 ? randomNormals(rng) : fragmentNormals(rng, rng.unit(), 1.0);
             const Vec3d albedo{rng.uniform(0, 1), rng.uniform(0, 1), rng.uniform(0, 1)};
-            const vox::Attenuation mode =
-                trial % 4 == 3 ? vox::Attenuation::Paper : vox::Attenuation::Weighted;
+            const vox::Attenuation mode = trial % 4 == 3   ? vox::Attenuation::Paper
+                                          : trial % 4 == 2 ? vox::Attenuation::Adaptive
+                                                           : vox::Attenuation::Weighted;
             const vox::LightcutPoint point = vox::LightcutPoint::voxel(p, normals, mode, albedo);
-            ASSERT_TRUE(point.axisWeighted);
+            ASSERT_TRUE(point.axisWeighted || mode == vox::Attenuation::Adaptive);
             // Children come before their parents in nodes(): sum the subtree totals upwards.
             for (std::size_t k = 0; k < nodes.size(); ++k)
                 exact[k] = nodes[k].leaf() ? vox::lightContribution(
@@ -942,6 +998,7 @@ TEST(Lightcuts, AxisWeightedAgainstBruteForce) {
             const Vec3d albedo{rng.uniform(0.2, 1), rng.uniform(0.2, 1), rng.uniform(0.2, 1)};
             const vox::Attenuation mode = i % 5 == 3   ? vox::Attenuation::Paper
                                           : i % 5 == 4 ? vox::Attenuation::Average
+                                          : i % 5 == 2 ? vox::Attenuation::Adaptive
                                                        : vox::Attenuation::Weighted;
             const vox::LightcutPoint point = vox::LightcutPoint::voxel(p, normals, mode, albedo);
             const auto cut = vox::evaluateCut(*tree, point, options);

@@ -45,7 +45,7 @@ struct VoxelizeOptions {
     // Radiance volume
     std::string radiance;
     unsigned radianceDepth = 8;
-    std::string attenuation = "weighted";
+    std::string attenuation = "adaptive";
     double shadowAperture = 0;
     unsigned bounces = 2;
     double aoLambda = 8;
@@ -238,9 +238,10 @@ nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& sc
                             vox::Timings& timings) {
     vox::RadianceBakeOptions bakeOptions;
     bakeOptions.depth = options.radianceDepth;
-    bakeOptions.attenuation = options.attenuation == "paper"     ? vox::Attenuation::Paper
-                              : options.attenuation == "average" ? vox::Attenuation::Average
-                                                                 : vox::Attenuation::Weighted;
+    bakeOptions.attenuation = options.attenuation == "paper"      ? vox::Attenuation::Paper
+                              : options.attenuation == "average"  ? vox::Attenuation::Average
+                              : options.attenuation == "adaptive" ? vox::Attenuation::Adaptive
+                                                                  : vox::Attenuation::Weighted;
     bakeOptions.shadowApertureDegrees = options.shadowAperture;
     bakeOptions.bounces = options.bounces;
     bakeOptions.aoLambda = options.aoLambda;
@@ -570,10 +571,11 @@ int main(int argc, char** argv) {
                    "and the index once every run has ('index')");
     app.add_option(
            "--attenuation", options.attenuation,
-           "Direct light's normal attenuation per voxel: weighted (per axis, by the voxel's own "
-           "normals), paper "
-           "(eq. 2 of Gui et al. on the mean normal) or average (cosine of the mean normal)")
-        ->check(CLI::IsMember({"weighted", "paper", "average"}))
+           "Direct light's normal attenuation per voxel: adaptive (the cosine of the mean normal "
+           "where the voxel's surface is flat, weighted where it folds), weighted (per axis, by "
+           "the voxel's own normals), paper (eq. 2 of Gui et al. on the mean normal) or average "
+           "(cosine of the mean normal)")
+        ->check(CLI::IsMember({"adaptive", "weighted", "paper", "average"}))
         ->capture_default_str();
     app.add_option("--shadow-aperture", options.shadowAperture,
                    "Shadows by a cone of this aperture in degrees through the voxels' occlusion "

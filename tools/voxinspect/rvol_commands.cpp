@@ -39,6 +39,8 @@ const char* attenuationName(std::uint32_t attenuation) {
             return "paper";
         case 2:
             return "average";
+        case 3:
+            return "adaptive";
         default:
             return "unknown";
     }

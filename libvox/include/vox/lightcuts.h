@@ -211,7 +211,8 @@ private:
 /// A render point: where light is gathered and how its surface turns arriving light into
 /// outgoing radiance. Lambertian: albedo/π × Σ irradiance × response(l) × visibility, the
 /// response being max(0, n·l) (the default) or, for the radiance bake's voxels, the axis-weighted
-/// attenuation of vox::attenuate (Attenuation::Weighted and Paper are of that form).
+/// attenuation of vox::attenuate (Attenuation::Weighted and Paper are of that form; Adaptive adds
+/// a cosine term).
 struct LightcutPoint {
     Vec3d position{0, 0, 0};  ///< world units
     Vec3d normal{0, 0,
@@ -219,9 +220,10 @@ struct LightcutPoint {
     Vec3d albedo{1, 1,
                  1};  ///< linear, each channel in [0, 1] (π gives irradiance instead of radiance)
     /// false: response max(0, n·l). true: Σ over the axis directions (+x, −x, +y, −y, +z, −z) of
-    /// axisWeights[k] × max(0, ±l_axis), each weight ≥ 0.
+    /// axisWeights[k] × max(0, ±l_axis), each weight ≥ 0, plus axisCosineWeight × max(0, n·l).
     bool axisWeighted = false;
     std::array<double, 6> axisWeights{};
+    double axisCosineWeight = 0;  ///< ≥ 0; read only where axisWeighted (unit normal)
 
     /// The response to light arriving from unit direction @p toLight.
     [[nodiscard]] double response(Vec3d toLight) const noexcept;
@@ -322,7 +324,7 @@ struct LightcutResult {
 ///
 /// For an axis-weighted point (LightcutPoint::axisWeighted) cosBound is Σ over the axes of
 /// max(w₊ × bound on l_axis, w₋ × bound on −l_axis) over the box, each bound Walter's with that
-/// axis as the normal.
+/// axis as the normal, plus axisCosineWeight × Walter's bound on max(0, n·l).
 [[nodiscard]] Vec3d lightcutBound(const LightTree& tree, std::uint32_t node,
                                   const LightcutPoint& point);
 /// lightcutBound at a Lambertian point with a cosine response.

@@ -44,6 +44,13 @@ enum class Attenuation : std::uint8_t {
     Paper,
     /// max(n·L, 0) on the unit mean normal.
     Average,
+    /// Average where the voxel's surface is flat, Weighted where it folds. With m = Σ_s (w_s+ −
+    /// w_s−) e_s the fragments' area-weighted mean normal (|m| = 1 for a plane, less where the
+    /// normals spread or cancel) and the flat share t = clamp((|m| − 0.9) / 0.09, 0, 1):
+    /// V = t · max(m̂·L, 0) + (1 − t) · Weighted's V, m̂ = m / |m|. Exact for a plane whatever L
+    /// (where Weighted over-lights L outside n's octant) and for faces along the axes (a box's
+    /// edges, a thin wall's two sides, where Average under-lights one face).
+    Adaptive,
 };
 
 /// What the attenuation of one voxel needs of its normals.
@@ -52,6 +59,14 @@ struct VoxelNormals {
     std::array<float, 6>
         moments{};  ///< area shares of |n_s| per axis direction (Attenuation::Weighted)
 };
+
+/// Attenuation::Adaptive's parts of @p normals: the area-weighted mean normal m (not unit) and the
+/// flat share t ∈ [0, 1].
+struct AdaptiveAttenuation {
+    Vec3d mean{0, 0, 0};
+    double flat = 0;
+};
+[[nodiscard]] AdaptiveAttenuation adaptiveAttenuation(const VoxelNormals& normals);
 
 /// The attenuation V ∈ [0, √3] of light arriving from unit direction @p toLight.
 [[nodiscard]] double attenuate(Attenuation mode, const VoxelNormals& normals, Vec3d toLight);

@@ -1,7 +1,7 @@
 /// @file radiance.h
 /// @brief The radiance bake (Gui et al. 2019, "Global illumination based on voxel cone tracing",
 /// as an offline bake): conservative voxelization into albedo/normal/emission (the same
-/// voxelizer as the octree), direct light from punctual lights with normal-weighted attenuation
+/// voxelizer as the octree), direct light from punctual lights attenuated by the voxels' normals
 /// and voxel shadow rays or shadow cones, a six-direction anisotropic mip chain, cone-traced
 /// diffuse bounces and ambient occlusion. The result is an rvol::Volume (docs/rvol-format.md).
 #pragma once
@@ -48,7 +48,7 @@ struct RadianceBakeRegion {
 /// Options for bakeRadiance.
 struct RadianceBakeOptions {
     std::uint32_t depth = 8;  ///< level 0 has 2^depth cells along the longest side (1 … 10)
-    Attenuation attenuation = Attenuation::Weighted;
+    Attenuation attenuation = Attenuation::Adaptive;
     double shadowApertureDegrees = 0;  ///< 0: shadow rays through solid voxels; > 0: shadow cones
     std::uint32_t bounces = 2;
     /// λ of the ambient-occlusion falloff (eq. 4): δ += (1 − δ)·α / (1 + λ·r), r the cone radius

@@ -92,9 +92,13 @@ struct Response {
     Frame frame;
     bool axisWeighted;
     std::array<double, 6> weights;
+    double cosineWeight;
 
     explicit Response(const LightcutPoint& p)
-        : frame(p.normal), axisWeighted(p.axisWeighted), weights(p.axisWeights) {}
+        : frame(p.normal),
+          axisWeighted(p.axisWeighted),
+          weights(p.axisWeights),
+          cosineWeight(p.axisCosineWeight) {}
     /// An upper bound of the response over the directions v / |v|, v in [lo, hi]; ≥ 0.
     [[nodiscard]] double bound(Vec3d lo, Vec3d hi) const {
         if (!axisWeighted) return std::max(0.0, maxCosine(frame, lo, hi));
@@ -107,6 +111,7 @@ struct Response {
             if (minus > 0) term = std::max(term, minus * axisCosine(lo, hi, axis, -1));
             sum += term;
         }
+        if (cosineWeight > 0) sum += cosineWeight * std::max(0.0, maxCosine(frame, lo, hi));
         return sum;
     }
 };
@@ -500,6 +505,7 @@ double LightcutPoint::response(Vec3d toLight) const noexcept {
         v += l > 0 ? axisWeights[std::size_t(2 * axis)] * l
                    : axisWeights[std::size_t(2 * axis + 1)] * -l;
     }
+    if (axisCosineWeight > 0) v += axisCosineWeight * std::max(0.0, dot(normal, toLight));
     return v;
 }
 
@@ -530,6 +536,17 @@ LightcutPoint LightcutPoint::voxel(Vec3d position, const VoxelNormals& normals, 
             break;
         case Attenuation::Average:
             break;
+        case Attenuation::Adaptive: {
+            // A flat voxel is a plain cosine point on the moments' mean direction.
+            const AdaptiveAttenuation a = adaptiveAttenuation(normals);
+            if (a.flat > 0) p.normal = normalize(a.mean);
+            if (a.flat == 1) break;
+            p.axisWeighted = true;
+            for (std::size_t k = 0; k < 6; ++k)
+                p.axisWeights[k] = (1 - a.flat) * std::max(0.0f, normals.moments[k]);
+            p.axisCosineWeight = a.flat;
+            break;
+        }
     }
     return p;
 }

@@ -44,6 +44,17 @@ bool lightArrival(const Light& light, Vec3d point, LightArrival& out) {
     return true;
 }
 
+AdaptiveAttenuation adaptiveAttenuation(const VoxelNormals& normals) {
+    AdaptiveAttenuation out;
+    for (int axis = 0; axis < 3; ++axis)
+        out.mean[axis] = double(normals.moments[std::size_t(2 * axis)]) -
+                         double(normals.moments[std::size_t(2 * axis + 1)]);
+    // Flat from |m| = 0.99 (normals within about ±14°, and float moments' rounding), folded below
+    // 0.9 (a fold of 50° or more).
+    out.flat = std::clamp((length(out.mean) - 0.9) / 0.09, 0.0, 1.0);
+    return out;
+}
+
 double attenuate(Attenuation mode, const VoxelNormals& normals, Vec3d toLight) {
     // Renormalised in double: a float unit vector is 1 ± 3e-8 long, and Lightcuts' bounds
     // (LightcutPoint::voxel) must see exactly the normal this does.
@@ -56,6 +67,13 @@ double attenuate(Attenuation mode, const VoxelNormals& normals, Vec3d toLight) {
                 v += l > 0 ? normals.moments[2 * axis] * l : normals.moments[2 * axis + 1] * -l;
             }
             return v;
+        case Attenuation::Adaptive: {
+            const AdaptiveAttenuation a = adaptiveAttenuation(normals);
+            const double cosine = a.flat > 0 ? std::max(0.0, dot(normalize(a.mean), toLight)) : 0;
+            if (a.flat == 1) return cosine;
+            return a.flat * cosine +
+                   (1 - a.flat) * attenuate(Attenuation::Weighted, normals, toLight);
+        }
         case Attenuation::Paper:
             for (int axis = 0; axis < 3; ++axis) {
                 const double l = toLight[axis];
