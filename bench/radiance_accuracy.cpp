@@ -36,6 +36,19 @@
 //   reference_noise_bound      √(2/π)·Σσ / Σ E_ref: how far the reference's noise can move
 //                              mean_relative_error in expectation (E|a + ε| ≤ |a| + σ√(2/π))
 // Direct light is exact in the reference (shadow rays to punctual lights): its σ is 0.
+// Bounce 1's error, split (summaries of the same form; rays per point against the triangles,
+// each reading the radiance its hit's voxel leaves, albedo/π × direct + emission):
+//   bounce1_ray_gather_against_reference     those rays over the hemisphere against the reference:
+//                                            what one radiance per level-0 voxel costs (thin
+//                                            parts' two sides, the voxels' direct light)
+//   bounce1_cone_layout_against_ray_gather   the rays inside each diffuse cone, averaged and
+//                                            weighted as the gather weights its cones, against
+//                                            the hemisphere: what seven cones cost
+//   bounce1_cones_against_ray_gather         the bake's cones against the hemisphere's rays: the
+//                                            cone layout and the volume's sampling together
+// Also in the JSON: `worst`, the five worst points per quantity, and `every_point`, each point's
+// cell, surface point, normal, [bake, reference] for direct, bounce1 and bounce2, and
+// bounce1_ray_gather and bounce1_cone_layout.
 #include "path_reference.h"
 
 #include "octree/triangle_box.h"
@@ -44,6 +57,7 @@
 #include <vox/base/error.h>
 #include <vox/import.h>
 #include <vox/radiance.h>
+#include <vox/radiance_field.h>
 #include <vox/triangle_raycast.h>
 #include <vox/util/log.h>
 #include <vox/util/parallel.h>
@@ -343,7 +357,78 @@ int main(int argc, char** argv) {
             tracer.estimate(where, reference);
         const double referenceSeconds = seconds(start);
 
-        std::vector<Compared> direct, bounce[2];
+        // Bounce 1 gathered by rays instead of cones (the split in the file comment).
+        // The radiance the bake's voxel at the ray's hit leaves (0 on a miss, or where no voxel
+        // holds the hit: counted in @p misses).
+        const auto voxelRadiance = [&](Vec3d from, Vec3d dir, std::size_t& misses) {
+            const vox::SurfaceHit h = caster.castSurface({from, dir});
+            if (!h.hit) return 0.0;
+            const Vec3d p = from + dir * h.t;
+            std::uint32_t c[3];
+            for (int a = 0; a < 3; ++a)
+                c[a] = std::uint32_t(std::clamp<std::int64_t>(
+                    std::int64_t(std::floor((p[a] - origin[a]) / cell)), 0, last));
+            const auto it = voxelAt.find(vox::rvol::morton3(c[0], c[1], c[2]));
+            if (it == voxelAt.end()) {
+                ++misses;
+                return 0.0;
+            }
+            const vox::VoxelLighting& hit = bake.voxels[it->second];
+            return vox::reference::luminance(toDouble(hit.albedo) * toDouble(hit.direct) /
+                                                 std::numbers::pi +
+                                             toDouble(hit.emission));
+        };
+        // Unit vectors t, b completing @p n to an orthonormal frame (as gatherDiffuse picks them).
+        const auto frameOf = [](Vec3d axis) {
+            const Vec3d t =
+                normalize(cross(std::abs(axis.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0}, axis));
+            return std::pair{t, cross(axis, t)};
+        };
+        constexpr std::uint32_t kGatherRays = 1024, kConeRays = 256;  // 32², 16² strata
+        std::vector<double> rayGather(chosen.size(), 0.0), coneLayoutGather(chosen.size(), 0.0);
+        std::size_t rayGatherMisses = 0;
+        const vox::RadianceField::DiffuseCones& cones = vox::RadianceField::diffuseCones();
+        const double cosHalf = 1 / std::sqrt(1 + cones.tanHalf * cones.tanHalf);
+        for (std::size_t i = 0; i < chosen.size(); ++i) {
+            const Vec3d normal = chosen[i].point.normal;
+            const Vec3d from = chosen[i].point.position + normal * (1e-4 * cell);
+            const auto [t, b] = frameOf(normal);
+            // The hemisphere: cosine-distributed (Malley's method over a stratified disk).
+            double sum = 0;
+            for (std::uint32_t r = 0; r < kGatherRays; ++r) {
+                const double u = (double(r % 32) + 0.5) / 32, v = (double(r / 32) + 0.5) / 32;
+                const double radius = std::sqrt(u), phi = 2 * std::numbers::pi * v;
+                const Vec3d dir = t * (radius * std::cos(phi)) + b * (radius * std::sin(phi)) +
+                                  normal * std::sqrt(std::max(0.0, 1 - u));
+                sum += voxelRadiance(from, dir, rayGatherMisses);
+            }
+            rayGather[i] = std::numbers::pi * sum / kGatherRays;
+            // Each cone: uniform over its solid angle (what a cone's footprint averages).
+            double layout = 0;
+            for (std::size_t k = 0; k <= vox::RadianceField::DiffuseCones::kRing; ++k) {
+                Vec3d axis = normal;
+                if (k > 0)
+                    axis = normalize(normal * cones.cosTilt +
+                                     (t * cones.cosAzimuth[k - 1] + b * cones.sinAzimuth[k - 1]) *
+                                         cones.sinTilt);
+                const auto [ta, ba] = frameOf(axis);
+                double coneSum = 0;
+                for (std::uint32_t r = 0; r < kConeRays; ++r) {
+                    const double u = (double(r % 16) + 0.5) / 16, v = (double(r / 16) + 0.5) / 16;
+                    const double cz = 1 - u * (1 - cosHalf), sz = std::sqrt(1 - cz * cz);
+                    const double phi = 2 * std::numbers::pi * v;
+                    const Vec3d dir =
+                        ta * (sz * std::cos(phi)) + ba * (sz * std::sin(phi)) + axis * cz;
+                    std::size_t ignored = 0;
+                    if (dot(dir, normal) > 0) coneSum += voxelRadiance(from, dir, ignored);
+                }
+                layout += (k == 0 ? cones.centreWeight : cones.ringWeight) * coneSum / kConeRays;
+            }
+            coneLayoutGather[i] = layout;
+        }
+
+        std::vector<Compared> direct, bounce[2], conesAgainstRays, raysAgainstReference,
+            coneLayoutAgainstRays;
         std::size_t normalDisagrees = 0;
         double meanDistance = 0;
         nlohmann::json worst = nlohmann::json::object();
@@ -365,6 +450,9 @@ int main(int argc, char** argv) {
                                      : 0.0,
                      i});
             }
+            conesAgainstRays.push_back({bounce[0].back().bake, rayGather[i], 0});
+            raysAgainstReference.push_back({rayGather[i], bounce[0].back().reference, 0});
+            coneLayoutAgainstRays.push_back({coneLayoutGather[i], rayGather[i], 0});
             normalDisagrees += dot(toDouble(v.normal), chosen[i].point.normal) <
                                std::cos(kMaxNormalDegrees * std::numbers::pi / 180);
             meanDistance += chosen[i].distance / cell;
@@ -429,6 +517,20 @@ int main(int argc, char** argv) {
             worst["direct"] = list;
         }
 
+        // Every point, in the order picked: to plot or to compare two builds point by point.
+        nlohmann::json everyPoint = nlohmann::json::array();
+        for (std::size_t i = 0; i < chosen.size(); ++i) {
+            nlohmann::json entry = describe(i, direct[i]);
+            entry.erase("bake");
+            entry.erase("reference");
+            entry["direct"] = {direct[i].bake, direct[i].reference};
+            entry["bounce1"] = {bounce[0][i].bake, bounce[0][i].reference};
+            entry["bounce2"] = {bounce[1][i].bake, bounce[1][i].reference};
+            entry["bounce1_ray_gather"] = rayGather[i];
+            entry["bounce1_cone_layout"] = coneLayoutGather[i];
+            everyPoint.push_back(entry);
+        }
+
         const nlohmann::json b1 = summarise(bounce[0]), b2 = summarise(bounce[1]);
         constexpr double kLimit = 0.20, kNoiseLimit = 0.01;
         nlohmann::json out{
@@ -448,7 +550,12 @@ int main(int argc, char** argv) {
             {"direct", summarise(direct)},
             {"bounce1", b1},
             {"bounce2", b2},
+            {"bounce1_cones_against_ray_gather", summarise(conesAgainstRays)},
+            {"bounce1_ray_gather_against_reference", summarise(raysAgainstReference)},
+            {"bounce1_cone_layout_against_ray_gather", summarise(coneLayoutAgainstRays)},
+            {"ray_gather_misses", rayGatherMisses},
             {"worst", worst},
+            {"every_point", everyPoint},
             {"acceptance",
              {{"limit", kLimit},
               {"bounce1_ok", b1["mean_relative_error"].get<double>() < kLimit},
