@@ -306,7 +306,8 @@ ConeResult traceCone(vec3 origin, vec3 dir, float tanHalf, float start, float ma
         float margin = 0.5 * diameter;
         if (any(lessThan(p, lo - margin)) || any(greaterThan(p, hi + margin))) break;
         float footprint = diameter;
-        if (clampToPlane) footprint = max(finest, min(footprint, dot(p - planePoint, planeNormal) / 1.5));
+        // Measured where the sample reads (the clamped edge cells beyond the cube).
+        if (clampToPlane) footprint = max(finest, min(footprint, dot(clamp(p, lo, hi) - planePoint, planeNormal) / 1.5));
         float level = log2(footprint / finest);
         if (level > top) break;
         float stepLength = 0.5 * diameter;

@@ -51,7 +51,8 @@ public:
         double maxDistance = 1e30;
         /// With a non-zero @p plane normal: the cone leaves the surface through @p planePoint with
         /// that unit normal, and no sample's filter reaches behind that plane (a sample's level is
-        /// lowered until its trilinear footprint, 1.5 cells each way, stays in front). Without
+        /// lowered until its trilinear footprint, 1.5 cells each way around the point it reads,
+        /// its position clamped to the root cube, stays in front). Without
         /// this, coarse samples near the start straddle the surface the cone leaves and pick up
         /// what lies behind it: the lit outside of a closed room's wall, seen from inside.
         Vec3d planePoint{0, 0, 0};

@@ -176,9 +176,17 @@ RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLa
             p.x > hi.x + margin || p.y > hi.y + margin || p.z > hi.z + margin)
             break;
         double footprint = diameter;
-        if (clampToPlane)
+        if (clampToPlane) {
+            // Measured where the sample reads: beyond the cube the sampler clamps to the edge
+            // cells, which may lie behind the plane though p does not (a floor's underside, its
+            // cones leaving through the cube's face below, would read the floor's lit top).
+            Vec3d read = p;
+            for (int axis = 0; axis < 3; ++axis)
+                read[axis] = std::clamp(p[axis], lo[axis], hi[axis]);
             footprint = std::max(
-                finestCell_, std::min(footprint, dot(p - cone.planePoint, cone.planeNormal) / 1.5));
+                finestCell_,
+                std::min(footprint, dot(read - cone.planePoint, cone.planeNormal) / 1.5));
+        }
         const double level = std::log2(footprint / finestCell_);
         if (level > top) break;
         const double step = 0.5 * diameter;
