@@ -378,12 +378,6 @@ int main(int argc, char** argv) {
                                                  std::numbers::pi +
                                              toDouble(hit.emission));
         };
-        // Unit vectors t, b completing @p n to an orthonormal frame (as gatherDiffuse picks them).
-        const auto frameOf = [](Vec3d axis) {
-            const Vec3d t =
-                normalize(cross(std::abs(axis.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0}, axis));
-            return std::pair{t, cross(axis, t)};
-        };
         constexpr std::uint32_t kGatherRays = 1024, kConeRays = 256;  // 32², 16² strata
         std::vector<double> rayGather(chosen.size(), 0.0), coneLayoutGather(chosen.size(), 0.0);
         std::size_t rayGatherMisses = 0;
@@ -392,26 +386,23 @@ int main(int argc, char** argv) {
         for (std::size_t i = 0; i < chosen.size(); ++i) {
             const Vec3d normal = chosen[i].point.normal;
             const Vec3d from = chosen[i].point.position + normal * (1e-4 * cell);
-            const auto [t, b] = frameOf(normal);
-            // The hemisphere: cosine-distributed (Malley's method over a stratified disk).
+            // The hemisphere, cosine-distributed.
             double sum = 0;
-            for (std::uint32_t r = 0; r < kGatherRays; ++r) {
-                const double u = (double(r % 32) + 0.5) / 32, v = (double(r / 32) + 0.5) / 32;
-                const double radius = std::sqrt(u), phi = 2 * std::numbers::pi * v;
-                const Vec3d dir = t * (radius * std::cos(phi)) + b * (radius * std::sin(phi)) +
-                                  normal * std::sqrt(std::max(0.0, 1 - u));
-                sum += voxelRadiance(from, dir, rayGatherMisses);
-            }
+            for (std::uint32_t r = 0; r < kGatherRays; ++r)
+                sum += voxelRadiance(
+                    from,
+                    vox::reference::cosineDirection(normal, (double(r % 32) + 0.5) / 32,
+                                                    (double(r / 32) + 0.5) / 32),
+                    rayGatherMisses);
             rayGather[i] = std::numbers::pi * sum / kGatherRays;
             // Each cone: uniform over its solid angle (what a cone's footprint averages).
             double layout = 0;
-            for (std::size_t k = 0; k <= vox::RadianceField::DiffuseCones::kRing; ++k) {
-                Vec3d axis = normal;
-                if (k > 0)
-                    axis = normalize(normal * cones.cosTilt +
-                                     (t * cones.cosAzimuth[k - 1] + b * cones.sinAzimuth[k - 1]) *
-                                         cones.sinTilt);
-                const auto [ta, ba] = frameOf(axis);
+            const auto axes = cones.axes(normal);
+            for (std::size_t k = 0; k < axes.size(); ++k) {
+                const Vec3d axis = axes[k];
+                const Vec3d ta = normalize(
+                    cross(std::abs(axis.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0}, axis));
+                const Vec3d ba = cross(axis, ta);
                 double coneSum = 0;
                 for (std::uint32_t r = 0; r < kConeRays; ++r) {
                     const double u = (double(r % 16) + 0.5) / 16, v = (double(r / 16) + 0.5) / 16;
@@ -422,7 +413,7 @@ int main(int argc, char** argv) {
                     std::size_t ignored = 0;
                     if (dot(dir, normal) > 0) coneSum += voxelRadiance(from, dir, ignored);
                 }
-                layout += (k == 0 ? cones.centreWeight : cones.ringWeight) * coneSum / kConeRays;
+                layout += cones.weight(k) * coneSum / kConeRays;
             }
             coneLayoutGather[i] = layout;
         }

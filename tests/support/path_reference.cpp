@@ -34,18 +34,6 @@ std::uint64_t mix(std::uint64_t x) {
 /// unlike std::uniform_real_distribution's, so results are the same with any standard library.
 double uniform(std::mt19937_64& rng) { return double(rng() >> 11) * 0x1.0p-53; }
 
-/// A direction about unit @p n with density cos θ / π (Malley: a uniform disc point lifted onto
-/// the hemisphere), in the orthonormal frame of Duff et al. 2017 (no branch on n's direction).
-Vec3d cosineDirection(Vec3d n, double u1, double u2) {
-    const double sign = std::copysign(1.0, n.z);
-    const double a = -1.0 / (sign + n.z), b = n.x * n.y * a;
-    const Vec3d t{1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x};
-    const Vec3d s{b, sign + n.y * n.y * a, -n.y};
-    const double r = std::sqrt(u1), phi = 2 * kPi * u2;
-    return normalize(t * (r * std::cos(phi)) + s * (r * std::sin(phi)) +
-                     n * std::sqrt(std::max(0.0, 1.0 - u1)));
-}
-
 /// Running mean and sum of squared deviations of (r, g, b, luminance) samples (Welford), merged
 /// by Chan et al.'s formula: exact for zero-variance fields, where Σx² − (Σx)²/N is not.
 struct Moments {
@@ -90,6 +78,16 @@ struct Moments {
 }  // namespace
 
 double luminance(Vec3d rgb) { return 0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z; }
+
+Vec3d cosineDirection(Vec3d n, double u1, double u2) {
+    const double sign = std::copysign(1.0, n.z);
+    const double a = -1.0 / (sign + n.z), b = n.x * n.y * a;
+    const Vec3d t{1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x};
+    const Vec3d s{b, sign + n.y * n.y * a, -n.y};
+    const double r = std::sqrt(u1), phi = 2 * kPi * u2;
+    return normalize(t * (r * std::cos(phi)) + s * (r * std::sin(phi)) +
+                     n * std::sqrt(std::max(0.0, 1.0 - u1)));
+}
 
 double IrradianceEstimate::relativeStandardError() const {
     if (luminance > 0) return luminanceStandardError / luminance;

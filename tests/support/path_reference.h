@@ -36,6 +36,10 @@ namespace vox::reference {
 
 /// Luminance of a linear RGB colour with sRGB / Rec. 709 primaries (the scenes' colour space).
 [[nodiscard]] double luminance(Vec3d rgb);
+/// A unit direction about unit @p n with density cos θ / π for (@p u1, @p u2) uniform in
+/// [0, 1)² (Malley: a disc point lifted onto the hemisphere), in the orthonormal frame of Duff et
+/// al. 2017.
+[[nodiscard]] Vec3d cosineDirection(Vec3d n, double u1, double u2);
 
 /// A point on a surface where irradiance is wanted.
 struct SurfacePoint {

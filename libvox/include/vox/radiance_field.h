@@ -9,6 +9,7 @@
 #include <vox/formats/rvol_sampler.h>
 #include <vox/base/math.h>
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -79,12 +80,20 @@ public:
         double cosTilt = 0, sinTilt = 0;
         double cosAzimuth[kRing] = {}, sinAzimuth[kRing] = {};
         double centreWeight = 0, ringWeight = 0;
+
+        /// The cones' unit axes about unit @p normal: index 0 along it, 1 … kRing the ring, with
+        /// the tangent t = normalize(cross(h, n)), h = (1, 0, 0) where |n_x| < 0.9, else
+        /// (0, 1, 0), and b = n × t.
+        [[nodiscard]] std::array<Vec3d, kRing + 1> axes(Vec3d normal) const;
+        /// Cone @p i's weight: centreWeight for 0, else ringWeight.
+        [[nodiscard]] double weight(std::size_t i) const noexcept {
+            return i == 0 ? centreWeight : ringWeight;
+        }
     };
     [[nodiscard]] static const DiffuseCones& diffuseCones() noexcept;
 
-    /// Diffuse irradiance at a surface point: the diffuseCones() over the hemisphere of
-    /// @p normal, so that uniform radiance L gives π·L. The tangent t is
-    /// normalize(cross(h, n)) with h = (1, 0, 0) where |n_x| < 0.9, else (0, 1, 0); b = n × t.
+    /// Diffuse irradiance at a surface point: the diffuseCones() along their axes() about
+    /// @p normal, so that uniform radiance L gives π·L.
     /// @p offset: world distance the cones start off the surface, along the normal; no sample
     /// filters behind a plane one level-0 cell above @p point (Cone::planePoint).
     struct Gather {

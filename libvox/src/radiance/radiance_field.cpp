@@ -183,9 +183,9 @@ RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLa
             Vec3d read = p;
             for (int axis = 0; axis < 3; ++axis)
                 read[axis] = std::clamp(p[axis], lo[axis], hi[axis]);
-            footprint = std::max(
-                finestCell_,
-                std::min(footprint, dot(read - cone.planePoint, cone.planeNormal) / 1.5));
+            footprint =
+                std::max(finestCell_,
+                         std::min(footprint, dot(read - cone.planePoint, cone.planeNormal) / 1.5));
         }
         const double level = std::log2(footprint / finestCell_);
         if (level > top) break;
@@ -211,31 +211,36 @@ RadianceField::ConeResult RadianceField::traceCone(const Cone& cone, double aoLa
 RadianceField::Gather RadianceField::gatherDiffuse(Vec3d point, Vec3d normal, double offset,
                                                    double aoLambda) const {
     const DiffuseCones& cones = diffuseCones();
-    // A tangent frame that depends only on the normal (deterministic).
-    const Vec3d helper = std::abs(normal.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
-    const Vec3d tangent = normalize(cross(helper, normal));
-    const Vec3d bitangent = cross(normal, tangent);
+    const std::array<Vec3d, DiffuseCones::kRing + 1> axes = cones.axes(normal);
     // The cones' samples stay in front of a plane one cell above the surface point: clear of the
     // surface's own voxels, which would otherwise occlude the cones that leave it.
     const Vec3d origin = point + normal * offset;
     Gather out;
     double weightSum = 0;
     for (std::size_t i = 0; i <= DiffuseCones::kRing; ++i) {
-        Vec3d dir = normal;
-        double weight = cones.centreWeight;
-        if (i > 0) {
-            dir = normalize(normal * cones.cosTilt + (tangent * cones.cosAzimuth[i - 1] +
-                                                      bitangent * cones.sinAzimuth[i - 1]) *
-                                                         cones.sinTilt);
-            weight = cones.ringWeight;
-        }
+        const double weight = cones.weight(i);
         const ConeResult r = traceCone(
-            {origin, dir, cones.tanHalf, 0, 1e30, point + normal * finestCell_, normal}, aoLambda);
+            {origin, axes[i], cones.tanHalf, 0, 1e30, point + normal * finestCell_, normal},
+            aoLambda);
         out.irradiance += r.radiance * weight;
         out.occlusion += r.occlusion * weight;
         weightSum += weight;
     }
     out.occlusion /= weightSum;
+    return out;
+}
+
+std::array<Vec3d, RadianceField::DiffuseCones::kRing + 1> RadianceField::DiffuseCones::axes(
+    Vec3d normal) const {
+    // A tangent frame that depends only on the normal (deterministic).
+    const Vec3d helper = std::abs(normal.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
+    const Vec3d tangent = normalize(cross(helper, normal));
+    const Vec3d bitangent = cross(normal, tangent);
+    std::array<Vec3d, kRing + 1> out;
+    out[0] = normal;
+    for (std::size_t i = 0; i < kRing; ++i)
+        out[i + 1] = normalize(normal * cosTilt +
+                               (tangent * cosAzimuth[i] + bitangent * sinAzimuth[i]) * sinTilt);
     return out;
 }
 
