@@ -22,6 +22,42 @@ std::vector<std::uint8_t> encode(const draco::PointCloud& cloud, bool mesh) {
     return {buffer.data(), buffer.data() + buffer.size()};
 }
 
+/// A quad's two triangles, Draco-encoded with @p method (draco::MeshEncoderMethod).
+std::vector<std::uint8_t> encodedQuad(int method) {
+    draco::TriangleSoupMeshBuilder builder;
+    builder.Start(2);
+    const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+    const float p[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    builder.SetAttributeValuesForFace(pos, draco::FaceIndex(0), p[0], p[1], p[2]);
+    builder.SetAttributeValuesForFace(pos, draco::FaceIndex(1), p[0], p[2], p[3]);
+    draco::Encoder encoder;
+    encoder.SetEncodingMethod(method);
+    draco::EncoderBuffer buffer;
+    EXPECT_TRUE(encoder.EncodeMeshToBuffer(*builder.Finalize(), &buffer).ok());
+    return {buffer.data(), buffer.data() + buffer.size()};
+}
+
+/// @p bytes with the unsigned LEB128 varint at @p offset replaced by @p value.
+std::vector<std::uint8_t> withVarint(std::vector<std::uint8_t> bytes, std::size_t offset,
+                                     std::uint32_t value) {
+    std::size_t end = offset;
+    while (bytes.at(end) & 0x80) ++end;
+    std::vector<std::uint8_t> encoded;
+    do {
+        encoded.push_back(static_cast<std::uint8_t>((value & 0x7f) | (value > 0x7f ? 0x80 : 0)));
+        value >>= 7;
+    } while (value);
+    bytes.erase(bytes.begin() + std::ptrdiff_t(offset), bytes.begin() + std::ptrdiff_t(end + 1));
+    bytes.insert(bytes.begin() + std::ptrdiff_t(offset), encoded.begin(), encoded.end());
+    return bytes;
+}
+
+/// The offset just past the unsigned LEB128 varint at @p offset.
+std::size_t afterVarint(const std::vector<std::uint8_t>& bytes, std::size_t offset) {
+    while (bytes.at(offset) & 0x80) ++offset;
+    return offset + 1;
+}
+
 }  // namespace
 
 TEST(DrcImport, TriangleMeshWithColoursAndUvs) {
@@ -128,4 +164,38 @@ TEST(DrcImport, CountsBeyondWhatTheDataCanHoldAreInvalidData) {
     vox::test::writeBinary(dir / "huge.drc", bytes);
     const std::string message = vox::test::importError<vox::InvalidDataError>(dir / "huge.drc");
     EXPECT_NE(message.find("in 118 bytes, more than 16384 per byte"), std::string::npos) << message;
+}
+
+TEST(DrcImport, CurrentBitstreamCountsAreCheckedForBothMethods) {
+    // Today's bitstream (2.2) stores the counts as varints after the 11-byte header: the
+    // sequential method the face count first, then the point count; edgebreaker a traversal byte,
+    // the encoded vertices, then the faces.
+    ScratchDir dir;
+    constexpr std::size_t kHeader = 11;
+    const std::vector<std::uint8_t> sequential = encodedQuad(draco::MESH_SEQUENTIAL_ENCODING);
+    const std::vector<std::uint8_t> edgebreaker = encodedQuad(draco::MESH_EDGEBREAKER_ENCODING);
+    ASSERT_EQ(sequential.at(8), draco::MESH_SEQUENTIAL_ENCODING);
+    ASSERT_EQ(edgebreaker.at(8), draco::MESH_EDGEBREAKER_ENCODING);
+    ASSERT_EQ(sequential.at(kHeader), 2u) << "faces";
+    ASSERT_EQ(sequential.at(afterVarint(sequential, kHeader)), 4u) << "points";
+    const std::size_t edgebreakerFaces = afterVarint(edgebreaker, kHeader + 1);
+    ASSERT_EQ(edgebreaker.at(edgebreakerFaces), 2u) << "faces";
+
+    // Unchanged, both import.
+    vox::test::writeBinary(dir / "seq.drc", sequential);
+    vox::test::writeBinary(dir / "eb.drc", edgebreaker);
+    EXPECT_EQ(vox::importScene(dir / "seq.drc").triangleCount(), 2u);
+    EXPECT_EQ(vox::importScene(dir / "eb.drc").triangleCount(), 2u);
+
+    const auto refused = [&](const std::vector<std::uint8_t>& bytes, const std::string& expected) {
+        vox::test::writeBinary(dir / "big.drc", bytes);
+        const std::string message = vox::test::importError<vox::InvalidDataError>(dir / "big.drc");
+        EXPECT_NE(message.find(expected), std::string::npos) << message;
+        EXPECT_NE(message.find("per byte"), std::string::npos) << message;
+    };
+    constexpr std::uint32_t kHuge = 1u << 28;  // beyond 16384 per byte of any of these streams
+    refused(withVarint(sequential, kHeader, kHuge), "declares 268435456 faces and 4 vertices");
+    refused(withVarint(sequential, afterVarint(sequential, kHeader), kHuge),
+            "declares 2 faces and 268435456 vertices");
+    refused(withVarint(edgebreaker, edgebreakerFaces, kHuge), "declares 268435456 faces");
 }
