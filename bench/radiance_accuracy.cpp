@@ -4,7 +4,8 @@
 // bake's error per bounce (1, 2) and for direct light, next to the reference's own noise.
 //
 // Usage: radiance_accuracy SCENE [--depth D=6] [--points N=300] [--samples S=65536] [--seed K=1]
-//                          [--threads T=0 (all)] [--sun DX,DY,DZ,LUX] [--json FILE]
+//                          [--threads T=0 (all)] [--sun DX,DY,DZ,LUX] [--gather-strata G=32]
+//                          [--json FILE]
 //
 // --sun adds a white directional light travelling along (DX, DY, DZ) to the scene the bake and the
 // reference both see: for meshes without lights of their own, whose bounces are otherwise zero.
@@ -36,8 +37,8 @@
 //   reference_noise_bound      √(2/π)·Σσ / Σ E_ref: how far the reference's noise can move
 //                              mean_relative_error in expectation (E|a + ε| ≤ |a| + σ√(2/π))
 // Direct light is exact in the reference (shadow rays to punctual lights): its σ is 0.
-// Bounce 1's error, split (summaries of the same form; rays per point against the triangles,
-// each reading the radiance its hit's voxel leaves, albedo/π × direct + emission):
+// Bounce 1's error, split (summaries of the same form; G² stratified rays per point against the
+// triangles, each reading the radiance its hit's voxel leaves, albedo/π × direct + emission):
 //   bounce1_ray_gather_against_reference     those rays over the hemisphere against the reference:
 //                                            what one radiance per level-0 voxel costs (thin
 //                                            parts' two sides, the voxels' direct light)
@@ -218,9 +219,10 @@ int main(int argc, char** argv) {
     try {
         const std::string usage =
             "usage: radiance_accuracy SCENE [--depth D=6] [--points N=300] [--samples S=65536] "
-            "[--seed K=1] [--threads T] [--sun DX,DY,DZ,LUX] [--json FILE]";
+            "[--seed K=1] [--threads T] [--sun DX,DY,DZ,LUX] [--gather-strata G=32] "
+            "[--json FILE]";
         if (argc < 2) throw vox::UsageError(usage);
-        std::uint32_t depth = 6, points = 300;
+        std::uint32_t depth = 6, points = 300, gatherStrata = 32;
         vox::reference::PathReferenceOptions reference;
         reference.samples = 65536;
         int threads = 0;
@@ -240,6 +242,8 @@ int main(int argc, char** argv) {
                 reference.seed = std::stoull(value);
             else if (key == "--threads")
                 threads = std::stoi(value);
+            else if (key == "--gather-strata")
+                gatherStrata = static_cast<std::uint32_t>(std::stoul(value));
             else if (key == "--json")
                 jsonFile = value;
             else if (key == "--sun") {
@@ -260,8 +264,9 @@ int main(int argc, char** argv) {
             } else
                 throw vox::UsageError("unknown option " + key + "\n" + usage);
         }
-        if (points == 0 || reference.samples < 2)
-            throw vox::UsageError("--points must be ≥ 1 and --samples ≥ 2");
+        if (points == 0 || reference.samples < 2 || gatherStrata == 0 || gatherStrata > 256)
+            throw vox::UsageError(
+                "--points must be ≥ 1, --samples ≥ 2 and --gather-strata in 1…256");
         const vox::ThreadLimit limit(threads);
         vox::log::setVerbosity(vox::log::Verbosity::Quiet);  // the benchmark's output is its JSON
         vox::Scene scene = vox::importScene(argv[1]);
@@ -378,7 +383,8 @@ int main(int argc, char** argv) {
                                                  std::numbers::pi +
                                              toDouble(hit.emission));
         };
-        constexpr std::uint32_t kGatherRays = 1024, kConeRays = 256;  // 32², 16² strata
+        const std::uint32_t gatherRays = gatherStrata * gatherStrata;
+        constexpr std::uint32_t kConeRays = 256;  // 16² strata
         std::vector<double> rayGather(chosen.size(), 0.0), coneLayoutGather(chosen.size(), 0.0);
         std::size_t rayGatherMisses = 0;
         const vox::RadianceField::DiffuseCones& cones = vox::RadianceField::diffuseCones();
@@ -388,13 +394,13 @@ int main(int argc, char** argv) {
             const Vec3d from = chosen[i].point.position + normal * (1e-4 * cell);
             // The hemisphere, cosine-distributed.
             double sum = 0;
-            for (std::uint32_t r = 0; r < kGatherRays; ++r)
-                sum += voxelRadiance(
-                    from,
-                    vox::reference::cosineDirection(normal, (double(r % 32) + 0.5) / 32,
-                                                    (double(r / 32) + 0.5) / 32),
-                    rayGatherMisses);
-            rayGather[i] = std::numbers::pi * sum / kGatherRays;
+            for (std::uint32_t r = 0; r < gatherRays; ++r)
+                sum += voxelRadiance(from,
+                                     vox::reference::cosineDirection(
+                                         normal, (double(r % gatherStrata) + 0.5) / gatherStrata,
+                                         (double(r / gatherStrata) + 0.5) / gatherStrata),
+                                     rayGatherMisses);
+            rayGather[i] = std::numbers::pi * sum / gatherRays;
             // Each cone: uniform over its solid angle (what a cone's footprint averages).
             double layout = 0;
             const auto axes = cones.axes(normal);
