@@ -72,7 +72,8 @@ std::optional<DeclaredCounts> declaredCounts(std::span<const std::uint8_t> bytes
     } else if (header.encoder_method == draco::MESH_EDGEBREAKER_ENCODING) {
         std::uint8_t traversal = 0, attributeData = 0;
         complete = buffer.Decode(&traversal);
-        if (version < bitstreamVersion(2, 2)) counts.vertices += count(bitstreamVersion(2, 0));
+        if (version < bitstreamVersion(2, 2))  // new vertices, stored before 2.2
+            counts.vertices += count(bitstreamVersion(2, 0));
         counts.vertices += count(bitstreamVersion(2, 0));  // encoded vertices
         counts.faces = count(bitstreamVersion(2, 0));
         complete = complete && buffer.Decode(&attributeData);
