@@ -5,7 +5,9 @@
 #include <draco/compression/config/compression_shared.h>
 #include <draco/compression/decode.h>
 #include <draco/compression/point_cloud/point_cloud_decoder.h>
+#include <draco/core/data_buffer.h>
 #include <draco/core/decoder_buffer.h>
+#include <draco/core/draco_types.h>
 #include <draco/core/varint_decoding.h>
 #include <draco/mesh/mesh.h>
 #include <draco/metadata/geometry_metadata.h>
@@ -159,6 +161,24 @@ std::vector<float> DracoMesh::floats(const draco::PointAttribute& attribute, int
                                           std::to_string(attribute.data_type()) + ", not numbers");
     const std::size_t points = mesh_->num_points();
     const int available = std::min<int>(attribute.num_components(), components);
+    // Draco's own accessors check neither the point-to-value map's length nor that a value's last
+    // byte lies inside the attribute's buffer (only its first): both are checked once here, for
+    // every index the loop below may read.
+    if (!attribute.is_mapping_identity() && attribute.indices_map_size() < points)
+        throw InvalidDataError(file_, prefix + " maps " +
+                                          std::to_string(attribute.indices_map_size()) +
+                                          " of the mesh's " + std::to_string(points) + " points");
+    if (points > 0 && attribute.size() > 0) {
+        const draco::DataBuffer* buffer = attribute.buffer();
+        const std::int64_t lastEnd =
+            attribute.byte_offset() +
+            attribute.byte_stride() * static_cast<std::int64_t>(attribute.size() - 1) +
+            std::int64_t{available} * draco::DataTypeLength(attribute.data_type());
+        if (!buffer || attribute.byte_offset() < 0 || attribute.byte_stride() < 0 ||
+            lastEnd > static_cast<std::int64_t>(buffer->data_size()))
+            throw InvalidDataError(file_, prefix + " has " + std::to_string(attribute.size()) +
+                                              " values but its buffer holds fewer");
+    }
     std::vector<float> out(points * static_cast<std::size_t>(components), 0.0f);
     float value[16] = {};
     for (draco::PointIndex p(0); p < mesh_->num_points(); ++p) {
