@@ -527,6 +527,20 @@ std::string_view glbJsonChunk(std::span<const std::uint8_t> glb,
     if (chunkType != 0x4E4F534Au) throw InvalidDataError(file, "GLB's first chunk is not JSON");
     if (chunkLength > length - 20)
         throw InvalidDataError(file, "GLB JSON chunk runs past the end of the file");
+    // The binary chunk, if any, must fit inside the length the header claims, its own 8-byte
+    // header included. tinygltf's check leaves that header out, so a chunk 8 bytes too long read
+    // past the container (found by fuzz_gltf: a rewritten container ends at the claimed length).
+    const std::uint32_t rest = length - 20 - chunkLength;
+    if (rest > 0) {
+        if (rest < 8)
+            throw InvalidDataError(file, "GLB has " + std::to_string(rest) +
+                                             " bytes after its JSON chunk, too few for a chunk");
+        const std::uint32_t binLength = readU32(glb.data() + 20 + chunkLength);
+        if (binLength > rest - 8)
+            throw InvalidDataError(file, "GLB's second chunk claims " + std::to_string(binLength) +
+                                             " bytes but the header's length leaves " +
+                                             std::to_string(rest - 8));
+    }
     return {reinterpret_cast<const char*>(glb.data() + 20), chunkLength};
 }
 

@@ -23,7 +23,9 @@ namespace vox::detail {
 [[nodiscard]] std::vector<std::uint8_t> replaceGlbJson(std::span<const std::uint8_t> glb,
                                                        std::string_view json);
 
-/// The JSON chunk of a GLB container. @throws InvalidDataError if the container is malformed.
+/// The JSON chunk of a GLB container. @throws InvalidDataError if the container is malformed: a
+/// header other than glTF 2's, a length beyond @p glb, or a JSON or second chunk that does not fit
+/// inside that length.
 [[nodiscard]] std::string_view glbJsonChunk(std::span<const std::uint8_t> glb,
                                             const std::filesystem::path& file);
 
