@@ -47,9 +47,15 @@
 //                                            the hemisphere: what seven cones cost
 //   bounce1_cones_against_ray_gather         the bake's cones against the hemisphere's rays: the
 //                                            cone layout and the volume's sampling together
+//   bounce1_voxel_ray_gather_against_reference  the hemisphere's rays marched through the level-0
+//                                            voxels instead (no triangles), each hitting the first
+//                                            voxel more than --voxel-ray-plane cells (2) in front
+//                                            of the point's tangent plane: its whole cube, or with
+//                                            --voxel-ray-hit slab only where the ray crosses the
+//                                            voxel's plane (its centre, its mean normal)
 // Also in the JSON: `worst`, the five worst points per quantity, and `every_point`, each point's
 // cell, surface point, normal, [bake, reference] for direct, bounce1 and bounce2, and
-// bounce1_ray_gather and bounce1_cone_layout.
+// bounce1_ray_gather, bounce1_voxel_ray_gather and bounce1_cone_layout.
 #include "path_reference.h"
 
 #include "octree/triangle_box.h"
@@ -220,9 +226,11 @@ int main(int argc, char** argv) {
         const std::string usage =
             "usage: radiance_accuracy SCENE [--depth D=6] [--points N=300] [--samples S=65536] "
             "[--seed K=1] [--threads T] [--sun DX,DY,DZ,LUX] [--gather-strata G=32] "
-            "[--json FILE]";
+            "[--voxel-ray-plane P=2] [--voxel-ray-hit cube|slab] [--json FILE]";
         if (argc < 2) throw vox::UsageError(usage);
         std::uint32_t depth = 6, points = 300, gatherStrata = 32;
+        double voxelRayPlane = 2;  // cells
+        bool voxelRaySlab = false;
         vox::reference::PathReferenceOptions reference;
         reference.samples = 65536;
         int threads = 0;
@@ -244,6 +252,10 @@ int main(int argc, char** argv) {
                 threads = std::stoi(value);
             else if (key == "--gather-strata")
                 gatherStrata = static_cast<std::uint32_t>(std::stoul(value));
+            else if (key == "--voxel-ray-plane")
+                voxelRayPlane = std::stod(value);
+            else if (key == "--voxel-ray-hit" && (value == "cube" || value == "slab"))
+                voxelRaySlab = value == "slab";
             else if (key == "--json")
                 jsonFile = value;
             else if (key == "--sun") {
@@ -383,9 +395,65 @@ int main(int argc, char** argv) {
                                                  std::numbers::pi +
                                              toDouble(hit.emission));
         };
+        // The same rays marched through the bake's level-0 voxels instead of the triangles (what a
+        // bake could gather without them): the first voxel on the ray whose centre lies more than
+        // --voxel-ray-plane cells in front of the point's tangent plane (so that the point's own
+        // surface is not hit), reading the radiance it leaves; 0 where the ray leaves the cube.
+        const std::int64_t cells = last + 1;
+        const auto voxelMarch = [&](Vec3d from, Vec3d normal, Vec3d dir) {
+            Vec3d g = (from - origin) / cell;  // grid units
+            std::int64_t c[3], step[3];
+            double tMax[3], tDelta[3];
+            for (int a = 0; a < 3; ++a) {
+                c[a] = std::int64_t(std::floor(g[a]));
+                step[a] = dir[a] > 0 ? 1 : -1;
+                tDelta[a] =
+                    dir[a] != 0 ? std::abs(1 / dir[a]) : std::numeric_limits<double>::infinity();
+                const double boundary = dir[a] > 0 ? double(c[a] + 1) : double(c[a]);
+                tMax[a] = dir[a] != 0 ? (boundary - g[a]) / dir[a]
+                                      : std::numeric_limits<double>::infinity();
+            }
+            while (c[0] >= 0 && c[1] >= 0 && c[2] >= 0 && c[0] < cells && c[1] < cells &&
+                   c[2] < cells) {
+                const auto it = voxelAt.find(vox::rvol::morton3(
+                    std::uint32_t(c[0]), std::uint32_t(c[1]), std::uint32_t(c[2])));
+                if (it != voxelAt.end()) {
+                    const Vec3d centre =
+                        origin +
+                        Vec3d{double(c[0]) + 0.5, double(c[1]) + 0.5, double(c[2]) + 0.5} * cell;
+                    // --voxel-ray-hit slab: a voxel is hit only where the ray crosses the plane
+                    // through its centre along its mean normal inside its cell.
+                    bool crosses = true;
+                    if (voxelRaySlab) {
+                        const vox::VoxelLighting& v = bake.voxels[it->second];
+                        const Vec3d slabNormal = toDouble(v.normal);
+                        const double denom = dot(dir, slabNormal);
+                        crosses = false;
+                        if (denom != 0) {
+                            const double t = dot(centre - from, slabNormal) / denom;
+                            const Vec3d x = (from + dir * t - centre) / cell;
+                            crosses = t > 0 && std::abs(x.x) <= 0.5 && std::abs(x.y) <= 0.5 &&
+                                      std::abs(x.z) <= 0.5;
+                        }
+                    }
+                    if (crosses && dot(centre - from, normal) > voxelRayPlane * cell) {
+                        const vox::VoxelLighting& hit = bake.voxels[it->second];
+                        return vox::reference::luminance(
+                            toDouble(hit.albedo) * toDouble(hit.direct) / std::numbers::pi +
+                            toDouble(hit.emission));
+                    }
+                }
+                const int a =
+                    tMax[0] < tMax[1] ? (tMax[0] < tMax[2] ? 0 : 2) : (tMax[1] < tMax[2] ? 1 : 2);
+                c[a] += step[a];
+                tMax[a] += tDelta[a];
+            }
+            return 0.0;
+        };
         const std::uint32_t gatherRays = gatherStrata * gatherStrata;
         constexpr std::uint32_t kConeRays = 256;  // 16² strata
-        std::vector<double> rayGather(chosen.size(), 0.0), coneLayoutGather(chosen.size(), 0.0);
+        std::vector<double> rayGather(chosen.size(), 0.0), coneLayoutGather(chosen.size(), 0.0),
+            voxelRayGather(chosen.size(), 0.0);
         std::size_t rayGatherMisses = 0;
         const vox::RadianceField::DiffuseCones& cones = vox::RadianceField::diffuseCones();
         const double cosHalf = 1 / std::sqrt(1 + cones.tanHalf * cones.tanHalf);
@@ -401,6 +469,13 @@ int main(int argc, char** argv) {
                                          (double(r / gatherStrata) + 0.5) / gatherStrata),
                                      rayGatherMisses);
             rayGather[i] = std::numbers::pi * sum / gatherRays;
+            double marched = 0;
+            for (std::uint32_t r = 0; r < gatherRays; ++r)
+                marched += voxelMarch(from, normal,
+                                      vox::reference::cosineDirection(
+                                          normal, (double(r % gatherStrata) + 0.5) / gatherStrata,
+                                          (double(r / gatherStrata) + 0.5) / gatherStrata));
+            voxelRayGather[i] = std::numbers::pi * marched / gatherRays;
             // Each cone: uniform over its solid angle (what a cone's footprint averages).
             double layout = 0;
             const auto axes = cones.axes(normal);
@@ -425,7 +500,7 @@ int main(int argc, char** argv) {
         }
 
         std::vector<Compared> direct, bounce[2], conesAgainstRays, raysAgainstReference,
-            coneLayoutAgainstRays;
+            coneLayoutAgainstRays, voxelRaysAgainstReference;
         std::size_t normalDisagrees = 0;
         double meanDistance = 0;
         nlohmann::json worst = nlohmann::json::object();
@@ -450,6 +525,7 @@ int main(int argc, char** argv) {
             conesAgainstRays.push_back({bounce[0].back().bake, rayGather[i], 0});
             raysAgainstReference.push_back({rayGather[i], bounce[0].back().reference, 0});
             coneLayoutAgainstRays.push_back({coneLayoutGather[i], rayGather[i], 0});
+            voxelRaysAgainstReference.push_back({voxelRayGather[i], bounce[0].back().reference, 0});
             normalDisagrees += dot(toDouble(v.normal), chosen[i].point.normal) <
                                std::cos(kMaxNormalDegrees * std::numbers::pi / 180);
             meanDistance += chosen[i].distance / cell;
@@ -524,6 +600,7 @@ int main(int argc, char** argv) {
             entry["bounce1"] = {bounce[0][i].bake, bounce[0][i].reference};
             entry["bounce2"] = {bounce[1][i].bake, bounce[1][i].reference};
             entry["bounce1_ray_gather"] = rayGather[i];
+            entry["bounce1_voxel_ray_gather"] = voxelRayGather[i];
             entry["bounce1_cone_layout"] = coneLayoutGather[i];
             everyPoint.push_back(entry);
         }
@@ -549,6 +626,7 @@ int main(int argc, char** argv) {
             {"bounce2", b2},
             {"bounce1_cones_against_ray_gather", summarise(conesAgainstRays)},
             {"bounce1_ray_gather_against_reference", summarise(raysAgainstReference)},
+            {"bounce1_voxel_ray_gather_against_reference", summarise(voxelRaysAgainstReference)},
             {"bounce1_cone_layout_against_ray_gather", summarise(coneLayoutAgainstRays)},
             {"ray_gather_misses", rayGatherMisses},
             {"worst", worst},
