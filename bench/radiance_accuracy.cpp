@@ -377,6 +377,10 @@ int main(int argc, char** argv) {
         // Bounce 1 gathered by rays instead of cones (the split in the file comment).
         // The radiance the bake's voxel at the ray's hit leaves (0 on a miss, or where no voxel
         // holds the hit: counted in @p misses).
+        const auto leavingLuminance = [](const vox::VoxelLighting& v) {
+            return vox::reference::luminance(
+                toDouble(v.albedo) * toDouble(v.direct) / std::numbers::pi + toDouble(v.emission));
+        };
         const auto voxelRadiance = [&](Vec3d from, Vec3d dir, std::size_t& misses) {
             const vox::SurfaceHit h = caster.castSurface({from, dir});
             if (!h.hit) return 0.0;
@@ -390,10 +394,7 @@ int main(int argc, char** argv) {
                 ++misses;
                 return 0.0;
             }
-            const vox::VoxelLighting& hit = bake.voxels[it->second];
-            return vox::reference::luminance(toDouble(hit.albedo) * toDouble(hit.direct) /
-                                                 std::numbers::pi +
-                                             toDouble(hit.emission));
+            return leavingLuminance(bake.voxels[it->second]);
         };
         // The same rays marched through the bake's level-0 voxels instead of the triangles (what a
         // bake could gather without them): the first voxel on the ray whose centre lies more than
@@ -418,6 +419,7 @@ int main(int argc, char** argv) {
                 const auto it = voxelAt.find(vox::rvol::morton3(
                     std::uint32_t(c[0]), std::uint32_t(c[1]), std::uint32_t(c[2])));
                 if (it != voxelAt.end()) {
+                    const vox::VoxelLighting& v = bake.voxels[it->second];
                     const Vec3d centre =
                         origin +
                         Vec3d{double(c[0]) + 0.5, double(c[1]) + 0.5, double(c[2]) + 0.5} * cell;
@@ -425,7 +427,6 @@ int main(int argc, char** argv) {
                     // through its centre along its mean normal inside its cell.
                     bool crosses = true;
                     if (voxelRaySlab) {
-                        const vox::VoxelLighting& v = bake.voxels[it->second];
                         const Vec3d slabNormal = toDouble(v.normal);
                         const double denom = dot(dir, slabNormal);
                         crosses = false;
@@ -436,12 +437,8 @@ int main(int argc, char** argv) {
                                       std::abs(x.z) <= 0.5;
                         }
                     }
-                    if (crosses && dot(centre - from, normal) > voxelRayPlane * cell) {
-                        const vox::VoxelLighting& hit = bake.voxels[it->second];
-                        return vox::reference::luminance(
-                            toDouble(hit.albedo) * toDouble(hit.direct) / std::numbers::pi +
-                            toDouble(hit.emission));
-                    }
+                    if (crosses && dot(centre - from, normal) > voxelRayPlane * cell)
+                        return leavingLuminance(v);
                 }
                 const int a =
                     tMax[0] < tMax[1] ? (tMax[0] < tMax[2] ? 0 : 2) : (tMax[1] < tMax[2] ? 1 : 2);
@@ -461,20 +458,15 @@ int main(int argc, char** argv) {
             const Vec3d normal = chosen[i].point.normal;
             const Vec3d from = chosen[i].point.position + normal * (1e-4 * cell);
             // The hemisphere, cosine-distributed.
-            double sum = 0;
-            for (std::uint32_t r = 0; r < gatherRays; ++r)
-                sum += voxelRadiance(from,
-                                     vox::reference::cosineDirection(
-                                         normal, (double(r % gatherStrata) + 0.5) / gatherStrata,
-                                         (double(r / gatherStrata) + 0.5) / gatherStrata),
-                                     rayGatherMisses);
+            double sum = 0, marched = 0;
+            for (std::uint32_t r = 0; r < gatherRays; ++r) {
+                const Vec3d dir = vox::reference::cosineDirection(
+                    normal, (double(r % gatherStrata) + 0.5) / gatherStrata,
+                    (double(r / gatherStrata) + 0.5) / gatherStrata);
+                sum += voxelRadiance(from, dir, rayGatherMisses);
+                marched += voxelMarch(from, normal, dir);
+            }
             rayGather[i] = std::numbers::pi * sum / gatherRays;
-            double marched = 0;
-            for (std::uint32_t r = 0; r < gatherRays; ++r)
-                marched += voxelMarch(from, normal,
-                                      vox::reference::cosineDirection(
-                                          normal, (double(r % gatherStrata) + 0.5) / gatherStrata,
-                                          (double(r / gatherStrata) + 0.5) / gatherStrata));
             voxelRayGather[i] = std::numbers::pi * marched / gatherRays;
             // Each cone: uniform over its solid angle (what a cone's footprint averages).
             double layout = 0;

@@ -37,25 +37,24 @@ std::vector<std::uint8_t> encodedQuad(int method) {
     return {buffer.data(), buffer.data() + buffer.size()};
 }
 
+/// The offset just past the unsigned LEB128 varint at @p offset.
+std::size_t afterVarint(const std::vector<std::uint8_t>& bytes, std::size_t offset) {
+    while (bytes.at(offset) & 0x80) ++offset;
+    return offset + 1;
+}
+
 /// @p bytes with the unsigned LEB128 varint at @p offset replaced by @p value.
 std::vector<std::uint8_t> withVarint(std::vector<std::uint8_t> bytes, std::size_t offset,
                                      std::uint32_t value) {
-    std::size_t end = offset;
-    while (bytes.at(end) & 0x80) ++end;
+    const std::size_t end = afterVarint(bytes, offset);
     std::vector<std::uint8_t> encoded;
     do {
         encoded.push_back(static_cast<std::uint8_t>((value & 0x7f) | (value > 0x7f ? 0x80 : 0)));
         value >>= 7;
     } while (value);
-    bytes.erase(bytes.begin() + std::ptrdiff_t(offset), bytes.begin() + std::ptrdiff_t(end + 1));
+    bytes.erase(bytes.begin() + std::ptrdiff_t(offset), bytes.begin() + std::ptrdiff_t(end));
     bytes.insert(bytes.begin() + std::ptrdiff_t(offset), encoded.begin(), encoded.end());
     return bytes;
-}
-
-/// The offset just past the unsigned LEB128 varint at @p offset.
-std::size_t afterVarint(const std::vector<std::uint8_t>& bytes, std::size_t offset) {
-    while (bytes.at(offset) & 0x80) ++offset;
-    return offset + 1;
 }
 
 }  // namespace
