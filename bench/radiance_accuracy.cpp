@@ -226,11 +226,13 @@ int main(int argc, char** argv) {
         const std::string usage =
             "usage: radiance_accuracy SCENE [--depth D=6] [--points N=300] [--samples S=65536] "
             "[--seed K=1] [--threads T] [--sun DX,DY,DZ,LUX] [--gather-strata G=32] "
-            "[--voxel-ray-plane P=2] [--voxel-ray-hit cube|slab] [--json FILE]";
+            "[--voxel-ray-plane P=2] [--voxel-ray-hit cube|slab] [--bounce-gather cones|rays] "
+            "[--gather-rays R=256] [--json FILE]";
         if (argc < 2) throw vox::UsageError(usage);
         std::uint32_t depth = 6, points = 300, gatherStrata = 32;
         double voxelRayPlane = 2;  // cells
         bool voxelRaySlab = false;
+        vox::RadianceBakeOptions options;
         vox::reference::PathReferenceOptions reference;
         reference.samples = 65536;
         int threads = 0;
@@ -256,6 +258,11 @@ int main(int argc, char** argv) {
                 voxelRayPlane = std::stod(value);
             else if (key == "--voxel-ray-hit" && (value == "cube" || value == "slab"))
                 voxelRaySlab = value == "slab";
+            else if (key == "--bounce-gather" && (value == "cones" || value == "rays"))
+                options.bounceGather =
+                    value == "rays" ? vox::BounceGather::Rays : vox::BounceGather::Cones;
+            else if (key == "--gather-rays")
+                options.gatherRays = static_cast<std::uint32_t>(std::stoul(value));
             else if (key == "--json")
                 jsonFile = value;
             else if (key == "--sun") {
@@ -285,7 +292,6 @@ int main(int argc, char** argv) {
         if (sun) scene.lights.push_back(*sun);
 
         auto start = std::chrono::steady_clock::now();
-        vox::RadianceBakeOptions options;
         options.depth = depth;
         options.keepVoxelLighting = true;
         const vox::RadianceBake bake = vox::bakeRadiance(scene, options);
@@ -608,6 +614,8 @@ int main(int argc, char** argv) {
             {"static_voxels", bake.voxels.size()},
             {"qualifying_voxels", candidates.size()},
             {"excluded_cavity_voxels", cavities},
+            {"bounce_gather", options.bounceGather == vox::BounceGather::Rays ? "rays" : "cones"},
+            {"gather_rays", bake.volume.bake.gatherRays},
             {"points", chosen.size()},
             {"samples_per_point", reference.samples},
             {"seed", reference.seed},

@@ -685,7 +685,8 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     std::uint8_t* w = want.data();
     // Header.
     std::memcpy(w, "RVOL", 4);
-    store<std::uint16_t>(w + 4, 4);  // version 4.0
+    store<std::uint16_t>(w + 4, 4);  // version 4.1
+    store<std::uint16_t>(w + 6, 1);
     store<std::uint32_t>(w + 8, 256);
     store<std::uint32_t>(w + 12, 1);  // depth
     store<std::uint32_t>(w + 16, 2);  // levels
@@ -715,7 +716,7 @@ TEST(Rvol, WorkedExampleOfTheSpec) {
     store<std::uint64_t>(w + 208, 576);          // dynamic layer, 0 bytes
     store<std::uint32_t>(w + 224, 0x1F01AA95u);  // static layer checksum (dynamic: 0)
     store<std::uint64_t>(w + 232, 576);
-    store<std::uint32_t>(w + 252, 0x44B1427Eu);  // header checksum
+    store<std::uint32_t>(w + 252, 0x80B68279u);  // header checksum
     // Level table: resolution, channels, bricks per axis, dense brick bytes, bricks, first entry,
     // data offset.
     for (const auto& [at, entry, offset] :
@@ -934,7 +935,8 @@ TEST(Rvol, BinaryLevel0OpacityWorkedExampleOfTheSpec) {
     std::vector<std::uint8_t> want(448, 0);
     std::uint8_t* w = want.data();
     std::memcpy(w, "RVOL", 4);
-    store<std::uint16_t>(w + 4, 4);  // version 4.0
+    store<std::uint16_t>(w + 4, 4);  // version 4.1
+    store<std::uint16_t>(w + 6, 1);
     store<std::uint32_t>(w + 8, 256);
     store<std::uint32_t>(w + 12, 1);  // depth
     store<std::uint32_t>(w + 16, 2);  // levels
@@ -958,7 +960,7 @@ TEST(Rvol, BinaryLevel0OpacityWorkedExampleOfTheSpec) {
     store<std::uint64_t>(w + 192, 448);  // static layer, 0 bytes
     store<std::uint64_t>(w + 208, 448);  // dynamic layer, 0 bytes
     store<std::uint64_t>(w + 232, 448);
-    store<std::uint32_t>(w + 252, 0x01FC9382u);  // header checksum
+    store<std::uint32_t>(w + 252, 0xC5FB5385u);  // header checksum
     for (const auto& [at, entry, offset] :
          {std::tuple{256, std::array<std::uint32_t, 6>{2, 1, 1, 500, 1, 0}, 384},
           std::tuple{288, std::array<std::uint32_t, 6>{1, 6, 1, 3384, 0, 1}, 448}}) {
@@ -1675,8 +1677,9 @@ TEST(Rvol, ErrorMessagesSayWhere) {
     std::vector<std::uint8_t> version = bytes;
     for (const std::uint8_t major : {1, 2, 3, 5}) {
         version[4] = major;
-        EXPECT_EQ(message(version), bad.string() + ": unsupported .rvol version " +
-                                        std::to_string(major) + ".0 (this reader reads 4.x)");
+        EXPECT_EQ(message(version),
+                  bad.string() + ": unsupported .rvol version " + std::to_string(major) + "." +
+                      std::to_string(vox::rvol::kVersionMinor) + " (this reader reads 4.x)");
     }
     // Any minor of the reader's major is accepted (the header checksum made right).
     version = bytes;

@@ -1,6 +1,7 @@
 // voxelize and voxinspect as a content build meets them: exit codes, one-line errors, no
 // output on failure, --stats and --depfile.
 #include <vox/formats/atomic_file.h>
+#include <vox/formats/rvol_io.h>
 #include <vox/formats/rvol_tiles.h>
 #include <vox/octree.h>
 #include <vox/texture.h>
@@ -715,6 +716,26 @@ TEST(Tools, RadianceBakeIsByteIdenticalWhateverTheThreadCountAndRejectsBadOption
     }
     EXPECT_TRUE(rvols[0] == rvols[1]);
     EXPECT_TRUE(vdbs[0] == vdbs[1]);
+    // Bounces gathered by rays: the same bytes too, and the header says how they were gathered.
+    std::vector<std::vector<std::uint8_t>> rayRvols;
+    for (const char* threads : {"1", "2"}) {
+        const auto rvol = dir / (std::string("rays") + threads + ".rvol");
+        const ProcessResult r =
+            voxelize({scene.string(), "--radiance", rvol.string(), "--radiance-depth", "5",
+                      "--bounce-gather", "rays", "--gather-rays", "16", "--threads", threads});
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        rayRvols.push_back(readBytes(rvol));
+        EXPECT_EQ(vox::rvol::RvolReader(rvol).header().bake.gatherRays, 16u);
+    }
+    EXPECT_TRUE(rayRvols[0] == rayRvols[1]);
+    EXPECT_FALSE(rayRvols[0] == rvols[0]) << "rays and cones gather different light";
+    EXPECT_EQ(vox::rvol::RvolReader(dir / "t1.rvol").header().bake.gatherRays, 0u);
+    expectOneLineError(voxelize({scene.string(), "--radiance", (dir / "x.rvol").string(),
+                                 "--bounce-gather", "rays", "--gather-rays", "200"}),
+                       1, "--gather-rays: 200 is not a square number");
+    expectOneLineError(voxelize({scene.string(), "--radiance", (dir / "x.rvol").string(),
+                                 "--bounce-gather", "rays", "--radiance-tile-depth", "4"}),
+                       1, "--bounce-gather rays: not for a tiled bake");
     expectOneLineError(voxelize({scene.string(), "--radiance", (dir / "x.txt").string()}), 1,
                        ".rvol");
     expectOneLineError(voxelize({scene.string(), "--export-vdb", (dir / "x.vdb").string()}), 1,

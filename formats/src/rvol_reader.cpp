@@ -57,6 +57,7 @@ Header decodeHeader(const std::filesystem::path& file, const std::uint8_t* p,
     h.bake.aoLambda = load<float>(p + o::kAoLambda);
     h.bake.attenuation = load<std::uint32_t>(p + o::kAttenuation);
     h.bake.lights = load<std::uint32_t>(p + o::kLights);
+    h.bake.gatherRays = load<std::uint32_t>(p + o::kGatherRays);
     h.brickCount = load<std::uint64_t>(p + o::kBrickCount);
     h.staticVoxelCount = load<std::uint64_t>(p + o::kStaticVoxels);
     h.dynamicVoxelCount = load<std::uint64_t>(p + o::kDynamicVoxels);

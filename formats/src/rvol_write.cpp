@@ -38,6 +38,7 @@ std::array<std::uint8_t, kHeaderBytes> encodeHeader(const Header& h) {
     store<float>(p + o::kAoLambda, h.bake.aoLambda);
     store<std::uint32_t>(p + o::kAttenuation, h.bake.attenuation);
     store<std::uint32_t>(p + o::kLights, h.bake.lights);
+    store<std::uint32_t>(p + o::kGatherRays, h.bake.gatherRays);
     store<std::uint64_t>(p + o::kBrickCount, h.brickCount);
     store<std::uint64_t>(p + o::kStaticVoxels, h.staticVoxelCount);
     store<std::uint64_t>(p + o::kDynamicVoxels, h.dynamicVoxelCount);

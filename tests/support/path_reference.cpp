@@ -80,13 +80,9 @@ struct Moments {
 double luminance(Vec3d rgb) { return 0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z; }
 
 Vec3d cosineDirection(Vec3d n, double u1, double u2) {
-    const double sign = std::copysign(1.0, n.z);
-    const double a = -1.0 / (sign + n.z), b = n.x * n.y * a;
-    const Vec3d t{1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x};
-    const Vec3d s{b, sign + n.y * n.y * a, -n.y};
     const double r = std::sqrt(u1), phi = 2 * kPi * u2;
-    return normalize(t * (r * std::cos(phi)) + s * (r * std::sin(phi)) +
-                     n * std::sqrt(std::max(0.0, 1.0 - u1)));
+    return normalize(OrthonormalFrame(n).toWorld(r * std::cos(phi), r * std::sin(phi),
+                                                 std::sqrt(std::max(0.0, 1.0 - u1))));
 }
 
 double IrradianceEstimate::relativeStandardError() const {

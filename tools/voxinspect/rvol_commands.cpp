@@ -120,6 +120,8 @@ nlohmann::json rvolReport(const rvol::RvolReader& reader, const rvol::RvolReport
               {"max", {h.sceneBounds[3], h.sceneBounds[4], h.sceneBounds[5]}}}},
             {"bake",
              {{"bounces", h.bake.bounces},
+              {"bounce_gather", h.bake.gatherRays > 0 ? "rays" : "cones"},
+              {"gather_rays", h.bake.gatherRays},
               {"attenuation", attenuationName(h.bake.attenuation)},
               {"shadow_aperture_degrees", h.bake.shadowApertureDegrees},
               {"ao_lambda", h.bake.aoLambda},
@@ -167,8 +169,13 @@ void printInfo(const std::string& file, bool json) {
                       double(h.bake.shadowApertureDegrees));
     else
         std::snprintf(shadows, sizeof shadows, "shadow rays");
-    std::printf("  bake            %u bounces, attenuation %s, %s, AO lambda %g, %u lights\n",
-                h.bake.bounces, attenuationName(h.bake.attenuation), shadows,
+    char gather[64];
+    if (h.bake.gatherRays > 0)
+        std::snprintf(gather, sizeof gather, "gathered by %u rays per voxel", h.bake.gatherRays);
+    else
+        std::snprintf(gather, sizeof gather, "gathered by cones");
+    std::printf("  bake            %u bounces %s, attenuation %s, %s, AO lambda %g, %u lights\n",
+                h.bake.bounces, gather, attenuationName(h.bake.attenuation), shadows,
                 double(h.bake.aoLambda), h.bake.lights);
     std::printf(
         "  voxels          %llu static, %llu dynamic%s\n", u64(h.staticVoxelCount),

@@ -45,6 +45,18 @@ struct RadianceBakeRegion {
     std::uint32_t rootDepth = 0;
 };
 
+/// How the bake gathers each bounce's light at a voxel.
+enum class BounceGather : std::uint32_t {
+    /// The diffuse cones through the volume's mips (RadianceField::gatherDiffuse), as the
+    /// runtime's final gather does: fast; light can leak through walls thinner than a cone's
+    /// footprint, and open scenes read the edge of the volume's cube.
+    Cones = 0,
+    /// Stratified cosine-distributed rays against the scene's triangles from a point of the
+    /// voxel's own surface, each reading the radiance the level-0 voxel at its hit leaves; the
+    /// cones still give the ambient occlusion. Not for tiled bakes (RadianceBakeRegion).
+    Rays = 1,
+};
+
 /// Options for bakeRadiance.
 struct RadianceBakeOptions {
     std::uint32_t depth = 8;  ///< level 0 has 2^depth cells along the longest side (1 … 10)
@@ -54,6 +66,9 @@ struct RadianceBakeOptions {
     /// λ of the ambient-occlusion falloff (eq. 4): δ += (1 − δ)·α / (1 + λ·r), r the cone radius
     /// in units of the root cube's edge.
     double aoLambda = 8;
+    BounceGather bounceGather = BounceGather::Cones;
+    /// With BounceGather::Rays: rays per voxel and bounce, a square number (strata²), 1 … 4096.
+    std::uint32_t gatherRays = 256;
     /// Keep per-voxel irradiance per bounce in RadianceBake::voxels (tests and the accuracy bench).
     bool keepVoxelLighting = false;
     /// Direct light through Lightcuts (many_lights.h): the voxels are the render points,
@@ -100,8 +115,8 @@ struct RadianceBake {
 };
 
 /// Bakes the radiance volume of @p scene. Same scene and options → the same volume, whatever the
-/// thread count. @throws InvalidDataError if the scene has no static triangles; UsageError for
-/// bad options.
+/// thread count. @throws InvalidDataError if the scene has no static triangles; ParameterError
+/// for bad options (BounceGather::Rays with a region among them).
 [[nodiscard]] RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options);
 
 }  // namespace vox

@@ -7,6 +7,7 @@
 #include <vox/raycast.h>
 #include <vox/scene.h>
 
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -28,7 +29,7 @@ struct SurfaceHit {
     /// Unit normal of the triangle's winding (counter-clockwise = front), not turned towards the
     /// ray: callers that treat surfaces as two-sided decide the side from dot(geometricNormal, d).
     Vec3d geometricNormal{0, 0, 0};
-    std::uint32_t iterations = 0;  ///< BVH nodes visited
+    std::uint32_t iterations = 0;  ///< BVH node boxes tested
 };
 
 /// Casts rays against a scene's triangles (world units) through a bounding volume hierarchy.
@@ -37,8 +38,8 @@ public:
     /// @p includeDynamic: also the meshes flagged dynamic (voxelizeSurface leaves them out by
     /// default). @p scene must outlive the caster: hits are shaded from its materials.
     explicit TriangleRayCaster(const Scene& scene, bool includeDynamic = false);
-    /// Nearest hit; CastHit::level is 0, iterations counts BVH nodes visited. The hit's colour and
-    /// shading normal come from the material (as the voxel filter evaluates it), textures
+    /// Nearest hit; CastHit::level is 0, iterations counts BVH node boxes tested. The hit's colour
+    /// and shading normal come from the material (as the voxel filter evaluates it), textures
     /// filtered over @p footprintAngle × t (a pixel's footprint; 0: finest mip level).
     [[nodiscard]] CastHit cast(const Ray& ray,
                                double tMax = std::numeric_limits<double>::infinity(),
@@ -66,7 +67,15 @@ private:
         std::uint32_t iterations = 0;
     };
     [[nodiscard]] Nearest nearest(const Ray& ray, double tMax) const;
-    std::uint32_t build(std::uint32_t first, std::uint32_t count, std::vector<Vec3f>& centroids);
+    /// Per triangle during the build: its centroid and bounds (min xyz, max xyz); order: the
+    /// triangles as the leaves will hold them.
+    struct BuildInput {
+        std::vector<std::uint32_t> order;
+        std::vector<Vec3f> centroids;
+        std::vector<std::array<float, 6>> bounds;
+    };
+    std::uint32_t build(std::uint32_t first, std::uint32_t count, std::uint32_t depth,
+                        BuildInput& input);
     const Scene& scene_;
     std::vector<Triangle> triangles_;
     std::vector<std::uint64_t> sources_;  // per triangle: mesh << 32 | triangle in mesh

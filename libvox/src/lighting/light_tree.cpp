@@ -3,6 +3,8 @@
 // clusters with lower bounds on the merge cost (after Walter et al. 2008, "Fast agglomerative
 // clustering for rendering"); in a forest a pair is allowed only while its merged extent stays
 // within the reach of the two clusters' representatives' influence spheres.
+#include "../util/splitmix.h"
+
 #include <vox/lightcuts.h>
 
 #include <tbb/blocked_range.h>
@@ -31,13 +33,6 @@ Bounds3f unionOf(const Bounds3f& a, const Bounds3f& b) {
 bool overlaps(const Bounds3f& a, const Bounds3f& b) {
     return a.min.x <= b.max.x && b.min.x <= a.max.x && a.min.y <= b.max.y && b.min.y <= a.max.y &&
            a.min.z <= b.max.z && b.min.z <= a.max.z;
-}
-
-std::uint64_t splitmix64(std::uint64_t x) {
-    x += 0x9E3779B97F4A7C15ull;
-    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-    return x ^ (x >> 31);
 }
 
 struct Cone {
@@ -456,7 +451,8 @@ static std::vector<std::uint32_t> agglomerate(std::vector<LightTreeNode>& nodes,
         n.luminance = A.luminance + B.luminance;
         // Representative ∝ the children's luminance, drawn by a hash of the two candidates.
         const double u =
-            double(splitmix64((std::uint64_t(A.representative) << 32) | B.representative) >> 11) *
+            double(detail::splitmix64((std::uint64_t(A.representative) << 32) | B.representative) >>
+                   11) *
             0x1p-53;
         n.representative = (n.luminance > 0 ? u * n.luminance < A.luminance : true)
                                ? A.representative

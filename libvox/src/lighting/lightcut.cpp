@@ -27,22 +27,10 @@ bool contains(const Bounds3f& b, Vec3d p) {
            p.z <= b.max.z;
 }
 
-/// An orthonormal frame with @p n as its third axis (Duff et al. 2017).
-struct Frame {
-    Vec3d t, b, n;
-    explicit Frame(Vec3d normal) : n(normal) {
-        const double sign = std::copysign(1.0, n.z);
-        const double a = -1.0 / (sign + n.z);
-        const double c = n.x * n.y * a;
-        t = {1.0 + sign * n.x * n.x * a, sign * c, -sign * n.x};
-        b = {c, sign + n.y * n.y * a, -n.y};
-    }
-};
-
 /// An upper bound on max over v in the box [lo, hi] of dot(f.n, v) / |v| (Walter 2005: the box
 /// rotated into the frame, z/√(x² + y² + z²) maximised over the rotated box's bounding box). It
 /// may be negative (every v points away from n); 1 where the box holds the origin.
-double maxCosine(const Frame& f, Vec3d lo, Vec3d hi) {
+double maxCosine(const OrthonormalFrame& f, Vec3d lo, Vec3d hi) {
     const Vec3d c = (lo + hi) * 0.5, h = (hi - lo) * 0.5;
     double range[3][2];
     const Vec3d axes[3] = {f.t, f.b, f.n};
@@ -89,7 +77,7 @@ double axisCosine(Vec3d lo, Vec3d hi, int axis, double sign) {
 
 /// The surface response of a render point, bounded over a box of directions.
 struct Response {
-    Frame frame;
+    OrthonormalFrame frame;
     bool axisWeighted;
     std::array<double, 6> weights;
     double cosineWeight;
@@ -132,7 +120,7 @@ double geometricBound(const LightTreeNode& node, const Response& response, Vec3d
     if (node.hasSpot && !node.hasOmni) {
         // Directions from the lights to the point, x − p for p in the box, against the cone of
         // spot axes widened by the largest outer angle.
-        const Frame axis(normalize(vec3Cast<double>(node.coneAxis)));
+        const OrthonormalFrame axis(normalize(vec3Cast<double>(node.coneAxis)));
         const double c = std::clamp(maxCosine(axis, point - hi, point - lo), -1.0, 1.0);
         if (std::acos(c) > double(node.coneHalfAngle) + double(node.maxOuterAngle) + 1e-6) return 0;
     }

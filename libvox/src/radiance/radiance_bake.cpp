@@ -3,6 +3,7 @@
 // re-filter after each.
 #include "air_regions.h"
 #include "radiance_mips.h"
+#include "ray_gather.h"
 #include "scene_occupancy.h"
 #include "voxel_shadows.h"
 
@@ -106,6 +107,16 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         throw ParameterError("shadowApertureDegrees", "must be at least 0 and below 90 degrees");
     if (!(options.aoLambda >= 0) || !std::isfinite(options.aoLambda))
         throw ParameterError("aoLambda", "must be a finite number ≥ 0");
+    if (options.bounceGather == BounceGather::Rays) {
+        const auto strata = static_cast<std::uint32_t>(std::lround(std::sqrt(options.gatherRays)));
+        if (options.gatherRays < 1 || options.gatherRays > 4096 ||
+            strata * strata != options.gatherRays)
+            throw ParameterError("gatherRays", "must be a square number from 1 to 4096");
+        if (options.region)
+            throw ParameterError("bounceGather", "rays are not available for tiled bakes");
+    } else if (options.bounceGather != BounceGather::Cones) {
+        throw ParameterError("bounceGather", "must be cones or rays");
+    }
 
     RadianceBake bake;
     rvol::Volume& volume = bake.volume;
@@ -258,10 +269,13 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
 
     const auto staticLights = std::count_if(scene.lights.begin(), scene.lights.end(),
                                             [](const Light& l) { return !l.dynamic; });
-    volume.bake = {options.bounces, static_cast<float>(options.shadowApertureDegrees),
-                   static_cast<float>(options.aoLambda),
-                   static_cast<std::uint32_t>(options.attenuation),
-                   static_cast<std::uint32_t>(staticLights)};
+    volume.bake = {
+        options.bounces,
+        static_cast<float>(options.shadowApertureDegrees),
+        static_cast<float>(options.aoLambda),
+        static_cast<std::uint32_t>(options.attenuation),
+        static_cast<std::uint32_t>(staticLights),
+        options.bounceGather == BounceGather::Rays && options.bounces > 0 ? options.gatherRays : 0};
 
     // Shadow cones need the occlusion of the mips before any light is in them.
     const bool shadowCones = options.shadowApertureDegrees > 0;
@@ -386,29 +400,43 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     std::vector<Vec3f> gathered(leaves.size()), previous(leaves.size());
     std::vector<float> occlusion(leaves.size(), 0);
     if (options.keepVoxelLighting) bake.voxels.resize(leaves.size());
+    std::optional<detail::RayGather> rays;
+    if (options.bounceGather == BounceGather::Rays && options.bounces > 0) {
+        Timings::Scope timer(options.timings, "radiance_ray_gather_setup");
+        rays.emplace(scene, leaves, Vec3d{volume.origin[0], volume.origin[1], volume.origin[2]},
+                     cell, options.depth,
+                     static_cast<std::uint32_t>(std::lround(std::sqrt(options.gatherRays))));
+    }
     const std::uint32_t passes =
         std::max<std::uint32_t>(options.bounces, 1);  // one pass for AO without bounces
     for (std::uint32_t b = 0; b < passes; ++b) {
         Timings::Scope timer(options.timings, "radiance_bounce_" + std::to_string(b + 1));
-        Progress progress("bounce " + std::to_string(b + 1), leaves.size());
-        tbb::parallel_for(
-            tbb::blocked_range<std::size_t>(0, leaves.size(), 512),
-            [&](const tbb::blocked_range<std::size_t>& r) {
-                for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                    const LeafMaterial& v = leaves[i];
-                    const RadianceField& from =
-                        gatherFrom[i] < 0
-                            ? field
-                            : *regionVolumes[static_cast<std::size_t>(gatherFrom[i])]->field;
-                    const auto g = from.gatherDiffuse(centreOf(v), toVec3d(v.normals.mean),
-                                                      kGatherOffsetCells * cell, options.aoLambda);
-                    gathered[i] = {static_cast<float>(g.irradiance.x),
-                                   static_cast<float>(g.irradiance.y),
-                                   static_cast<float>(g.irradiance.z)};
-                    if (b == 0) occlusion[i] = static_cast<float>(g.occlusion);
-                }
-                progress.advance(r.size());
-            });
+        Progress progress("bounce " + std::to_string(b + 1), leaves.size() * (rays && b > 0 ? 1
+                                                                              : rays        ? 2
+                                                                                            : 1));
+        // Cones: the irradiance and (first pass) the ambient occlusion; with rays, the cones'
+        // occlusion alone and the irradiance from the rays.
+        if (!rays || b == 0)
+            tbb::parallel_for(
+                tbb::blocked_range<std::size_t>(0, leaves.size(), 512),
+                [&](const tbb::blocked_range<std::size_t>& r) {
+                    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        const LeafMaterial& v = leaves[i];
+                        const RadianceField& from =
+                            gatherFrom[i] < 0
+                                ? field
+                                : *regionVolumes[static_cast<std::size_t>(gatherFrom[i])]->field;
+                        const auto g =
+                            from.gatherDiffuse(centreOf(v), toVec3d(v.normals.mean),
+                                               kGatherOffsetCells * cell, options.aoLambda);
+                        gathered[i] = {static_cast<float>(g.irradiance.x),
+                                       static_cast<float>(g.irradiance.y),
+                                       static_cast<float>(g.irradiance.z)};
+                        if (b == 0) occlusion[i] = static_cast<float>(g.occlusion);
+                    }
+                    progress.advance(r.size());
+                });
+        if (rays && b < options.bounces) gathered = rays->gather(radiance, &progress);
         if (options.keepVoxelLighting && b < options.bounces)
             for (std::size_t i = 0; i < leaves.size(); ++i)
                 bake.voxels[i].indirect.push_back(gathered[i] - previous[i]);

@@ -2,6 +2,8 @@
 // it appears in libvox's headers.
 #include <vox/vdb_export.h>
 
+#include "../util/splitmix.h"
+
 #include <vox/formats/atomic_file.h>
 #include <vox/base/error.h>
 
@@ -206,8 +208,8 @@ public:
         add(values.data(), values.size() * sizeof(T));
     }
     void addWord(std::uint64_t word) {
-        h1_ = mix(h1_ ^ word);
-        h2_ = mix(h2_ + word * 0xc2b2ae3d27d4eb4full) ^ h1_;
+        h1_ = detail::splitmix64(h1_ ^ word);
+        h2_ = detail::splitmix64(h2_ + word * 0xc2b2ae3d27d4eb4full) ^ h1_;
     }
     /// As an RFC 9562 version-8 (custom) UUID in its 36-character text form.
     [[nodiscard]] std::string uuid() const {
@@ -229,12 +231,6 @@ public:
     }
 
 private:
-    static std::uint64_t mix(std::uint64_t x) {  // splitmix64's finaliser
-        x += 0x9e3779b97f4a7c15ull;
-        x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-        x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-        return x ^ (x >> 31);
-    }
     std::uint64_t h1_ = 0x6c69627666786462ull, h2_ = 0x7664622d65787074ull;
 };
 

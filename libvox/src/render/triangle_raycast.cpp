@@ -1,5 +1,5 @@
-// BVH over triangles: median splits on the longest centroid axis, four triangles per leaf,
-// slab tests and Möller–Trumbore intersection.
+// BVH over triangles: binned surface-area-heuristic splits, up to four triangles per leaf,
+// children visited nearer first, slab tests and Möller–Trumbore intersection.
 #include "../scene/surface_shading.h"
 
 #include <vox/formats/esvo_attributes.h>
@@ -12,8 +12,41 @@
 
 namespace vox {
 
+namespace {
+
+/// Binned SAH build (Wald 2007): bins per axis, and the relative cost of a node visit against a
+/// triangle test.
+constexpr int kSahBins = 16;
+constexpr float kTraversalCost = 1.0f;
+/// A leaf holds at most this many triangles unless they cannot be split (equal centroids).
+constexpr std::uint32_t kMaxLeafTriangles = 4;
+/// Below this depth nodes split at the median (log2 of the triangles more levels at most), so
+/// that no path exceeds the traversal's stack.
+constexpr std::uint32_t kMaxSahDepth = 64;
+constexpr int kStackEntries = 128;
+
+struct Box {
+    Vec3f lo{std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity(),
+             std::numeric_limits<float>::infinity()};
+    Vec3f hi{-std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+             -std::numeric_limits<float>::infinity()};
+    void add(Vec3f p) {
+        for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
+    }
+    void add(const Box& b) {
+        add(b.lo);
+        add(b.hi);
+    }
+    [[nodiscard]] float halfArea() const {
+        if (!(lo.x <= hi.x)) return 0;
+        const Vec3f e = hi - lo;
+        return e.x * e.y + e.y * e.z + e.z * e.x;
+    }
+};
+
+}  // namespace
+
 TriangleRayCaster::TriangleRayCaster(const Scene& scene, bool includeDynamic) : scene_(scene) {
-    std::vector<Vec3f> centroids;
     for (std::uint32_t m = 0; m < scene.meshes.size(); ++m) {
         const Mesh& mesh = scene.meshes[m];
         if (mesh.dynamic && !includeDynamic) continue;
@@ -23,62 +56,128 @@ TriangleRayCaster::TriangleRayCaster(const Scene& scene, bool includeDynamic) : 
                         b = mesh.positions[mesh.indices[3 * t + 1]],
                         c = mesh.positions[mesh.indices[3 * t + 2]];
             triangles_.push_back({a, b - a, c - a});
-            centroids.push_back((a + b + c) * (1.0f / 3.0f));
         }
     }
-    if (!triangles_.empty()) {
-        nodes_.reserve(2 * triangles_.size() / 4 + 1);
-        build(0, static_cast<std::uint32_t>(triangles_.size()), centroids);
+    if (triangles_.empty()) return;
+    BuildInput input;
+    input.order.resize(triangles_.size());
+    std::iota(input.order.begin(), input.order.end(), 0u);
+    input.centroids.resize(triangles_.size());
+    input.bounds.resize(triangles_.size());
+    for (std::size_t i = 0; i < triangles_.size(); ++i) {
+        const Triangle& t = triangles_[i];
+        const Vec3f v[3] = {t.v0, t.v0 + t.e1, t.v0 + t.e2};
+        input.centroids[i] = (v[0] + v[1] + v[2]) * (1.0f / 3.0f);
+        for (int a = 0; a < 3; ++a) {
+            input.bounds[i][a] = std::min({v[0][a], v[1][a], v[2][a]});
+            input.bounds[i][3 + a] = std::max({v[0][a], v[1][a], v[2][a]});
+        }
     }
+    nodes_.reserve(2 * triangles_.size() / 2 + 1);
+    build(0, static_cast<std::uint32_t>(triangles_.size()), 0, input);
+    // The leaves index the build's order: store the triangles in it.
+    std::vector<Triangle> triangles(triangles_.size());
+    std::vector<std::uint64_t> sources(triangles_.size());
+    for (std::size_t i = 0; i < triangles_.size(); ++i) {
+        triangles[i] = triangles_[input.order[i]];
+        sources[i] = sources_[input.order[i]];
+    }
+    triangles_ = std::move(triangles);
+    sources_ = std::move(sources);
 }
 
 std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
-                                       std::vector<Vec3f>& centroids) {
+                                       std::uint32_t depth, BuildInput& input) {
     const auto index = static_cast<std::uint32_t>(nodes_.size());
     nodes_.push_back({});
-    Node node{};
-    for (int a = 0; a < 3; ++a)
-        node.lo[a] = std::numeric_limits<float>::infinity(),
-        node.hi[a] = -std::numeric_limits<float>::infinity();
-    float clo[3] = {node.lo[0], node.lo[1], node.lo[2]},
-          chi[3] = {node.hi[0], node.hi[1], node.hi[2]};
+    Box box, centroidBox;
     for (std::uint32_t i = first; i < first + count; ++i) {
-        const Triangle& t = triangles_[i];
-        const Vec3f v[3] = {t.v0, t.v0 + t.e1, t.v0 + t.e2};
-        for (int a = 0; a < 3; ++a) {
-            for (const Vec3f& p : v)
-                node.lo[a] = std::min(node.lo[a], p[a]), node.hi[a] = std::max(node.hi[a], p[a]);
-            clo[a] = std::min(clo[a], centroids[i][a]);
-            chi[a] = std::max(chi[a], centroids[i][a]);
-        }
+        const std::uint32_t t = input.order[i];
+        box.add(Vec3f{input.bounds[t][0], input.bounds[t][1], input.bounds[t][2]});
+        box.add(Vec3f{input.bounds[t][3], input.bounds[t][4], input.bounds[t][5]});
+        centroidBox.add(input.centroids[t]);
     }
-    if (count <= 4) {
+    Node node{};
+    for (int a = 0; a < 3; ++a) node.lo[a] = box.lo[a], node.hi[a] = box.hi[a];
+    const auto leaf = [&] {
         node.first = first;
         node.count = count;
         nodes_[index] = node;
         return index;
+    };
+    if (count <= 1) return leaf();
+
+    // The cheapest plane between bins of the centroids, on any axis, by the surface area
+    // heuristic.
+    int bestAxis = -1;
+    int bestBin = 0;
+    float bestCost = std::numeric_limits<float>::infinity();
+    for (int a = 0; a < 3 && depth < kMaxSahDepth; ++a) {
+        const float extent = centroidBox.hi[a] - centroidBox.lo[a];
+        if (!(extent > 0)) continue;
+        const float scale = kSahBins / extent;
+        Box bins[kSahBins];
+        std::uint32_t counts[kSahBins] = {};
+        for (std::uint32_t i = first; i < first + count; ++i) {
+            const std::uint32_t t = input.order[i];
+            const int b =
+                std::min(kSahBins - 1,
+                         static_cast<int>((input.centroids[t][a] - centroidBox.lo[a]) * scale));
+            ++counts[b];
+            bins[b].add(Vec3f{input.bounds[t][0], input.bounds[t][1], input.bounds[t][2]});
+            bins[b].add(Vec3f{input.bounds[t][3], input.bounds[t][4], input.bounds[t][5]});
+        }
+        float rightArea[kSahBins];
+        std::uint32_t rightCount[kSahBins];
+        Box right;
+        std::uint32_t n = 0;
+        for (int b = kSahBins - 1; b > 0; --b) {
+            right.add(bins[b]);
+            n += counts[b];
+            rightArea[b] = right.halfArea();
+            rightCount[b] = n;
+        }
+        Box left;
+        n = 0;
+        for (int b = 0; b < kSahBins - 1; ++b) {
+            left.add(bins[b]);
+            n += counts[b];
+            if (n == 0 || rightCount[b + 1] == 0) continue;
+            const float cost =
+                left.halfArea() * float(n) + rightArea[b + 1] * float(rightCount[b + 1]);
+            if (cost < bestCost) bestCost = cost, bestAxis = a, bestBin = b;
+        }
     }
-    int axis = 0;
-    for (int a = 1; a < 3; ++a)
-        if (chi[a] - clo[a] > chi[axis] - clo[axis]) axis = a;
-    // Sort triangles and centroids together by the split axis around the median.
-    std::vector<std::uint32_t> order(count);
-    std::iota(order.begin(), order.end(), first);
-    const std::uint32_t half = count / 2;
-    std::nth_element(
-        order.begin(), order.begin() + half, order.end(),
-        [&](std::uint32_t x, std::uint32_t y) { return centroids[x][axis] < centroids[y][axis]; });
-    std::vector<Triangle> tris(count);
-    std::vector<Vec3f> cents(count);
-    std::vector<std::uint64_t> sources(count);
-    for (std::uint32_t i = 0; i < count; ++i)
-        tris[i] = triangles_[order[i]], cents[i] = centroids[order[i]],
-        sources[i] = sources_[order[i]];
-    std::copy(tris.begin(), tris.end(), triangles_.begin() + first);
-    std::copy(cents.begin(), cents.end(), centroids.begin() + first);
-    std::copy(sources.begin(), sources.end(), sources_.begin() + first);
-    build(first, half, centroids);
-    node.first = build(first + half, count - half, centroids);
+    const float leafCost = float(count);
+    const float splitCost = kTraversalCost + bestCost / std::max(box.halfArea(), 1e-30f);
+    if (count <= kMaxLeafTriangles && leafCost <= splitCost) return leaf();
+    std::uint32_t half = 0;
+    if (bestAxis >= 0) {
+        const float scale = kSahBins / (centroidBox.hi[bestAxis] - centroidBox.lo[bestAxis]);
+        const auto middle = std::partition(
+            input.order.begin() + first, input.order.begin() + first + count, [&](std::uint32_t t) {
+                return std::min(kSahBins - 1, static_cast<int>((input.centroids[t][bestAxis] -
+                                                                centroidBox.lo[bestAxis]) *
+                                                               scale)) <= bestBin;
+            });
+        half = static_cast<std::uint32_t>(middle - (input.order.begin() + first));
+    }
+    if (bestAxis < 0 || half == 0 || half == count) {
+        // Too deep, or every centroid the same: halves at the median of the longest axis.
+        if (count <= kMaxLeafTriangles) return leaf();
+        int axis = 0;
+        for (int a = 1; a < 3; ++a)
+            if (centroidBox.hi[a] - centroidBox.lo[a] > centroidBox.hi[axis] - centroidBox.lo[axis])
+                axis = a;
+        half = count / 2;
+        std::nth_element(input.order.begin() + first, input.order.begin() + first + half,
+                         input.order.begin() + first + count,
+                         [&](std::uint32_t x, std::uint32_t y) {
+                             return input.centroids[x][axis] < input.centroids[y][axis];
+                         });
+    }
+    build(first, half, depth + 1, input);
+    node.first = build(first + half, count - half, depth + 1, input);
     node.count = 0;
     nodes_[index] = node;
     return index;
@@ -93,12 +192,8 @@ TriangleRayCaster::Nearest TriangleRayCaster::nearest(const Ray& ray, double tMa
                   static_cast<float>(ray.direction.z)};
     const Vec3f inv{1.0f / d.x, 1.0f / d.y, 1.0f / d.z};
     float best = static_cast<float>(std::min(tMax, 3.0e38));
-    std::uint32_t stack[64];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-        const Node& n = nodes_[stack[--top]];
-        ++result.iterations;
+    // Where the ray enters a node's box (≤ best), or infinity where it misses it.
+    const auto enter = [&](const Node& n) {
         float t0 = 0.0f, t1 = best;
         for (int a = 0; a < 3; ++a) {
             float ta = (n.lo[a] - o[a]) * inv[a], tb = (n.hi[a] - o[a]) * inv[a];
@@ -106,11 +201,40 @@ TriangleRayCaster::Nearest TriangleRayCaster::nearest(const Ray& ray, double tMa
             t0 = std::max(t0, ta);
             t1 = std::min(t1, tb);
         }
-        if (!(t0 <= t1)) continue;
+        return t0 <= t1 ? t0 : std::numeric_limits<float>::infinity();
+    };
+    // Nodes to visit with the distance where the ray enters them: the nearer child is taken
+    // first, and an entry beyond a hit found since it was pushed is dropped.
+    struct Entry {
+        std::uint32_t node;
+        float t;
+    };
+    Entry stack[kStackEntries];
+    int top = 0;
+    ++result.iterations;
+    if (const float t = enter(nodes_[0]); t <= best) stack[top++] = {0, t};
+    while (top > 0) {
+        const Entry e = stack[--top];
+        if (e.t > best) continue;
+        const Node& n = nodes_[e.node];
         if (n.count == 0) {
-            const auto self = static_cast<std::uint32_t>(&n - nodes_.data());
-            stack[top++] = n.first;
-            stack[top++] = self + 1;
+            const std::uint32_t near = e.node + 1, far = n.first;
+            const float tNear = enter(nodes_[near]), tFar = enter(nodes_[far]);
+            result.iterations += 2;
+            const bool hitNear = tNear <= best, hitFar = tFar <= best;
+            if (hitNear && hitFar) {
+                if (tNear <= tFar) {
+                    stack[top++] = {far, tFar};
+                    stack[top++] = {near, tNear};
+                } else {
+                    stack[top++] = {near, tNear};
+                    stack[top++] = {far, tFar};
+                }
+            } else if (hitNear) {
+                stack[top++] = {near, tNear};
+            } else if (hitFar) {
+                stack[top++] = {far, tFar};
+            }
             continue;
         }
         for (std::uint32_t i = n.first; i < n.first + n.count; ++i) {

@@ -89,6 +89,24 @@ inline bool isFinite(Vec3<T> a) {
     return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
 }
 
+/// An orthonormal frame (t, b, n) with the unit vector @p normal as n, continuous in n except
+/// where n.z changes sign (Duff et al. 2017, "Building an Orthonormal Basis, Revisited"):
+/// deterministic, so directions built in it are the same on every run and thread.
+struct OrthonormalFrame {
+    Vec3d t, b, n;
+    explicit OrthonormalFrame(Vec3d normal) : n(normal) {
+        const double sign = std::copysign(1.0, n.z);
+        const double a = -1.0 / (sign + n.z);
+        const double c = n.x * n.y * a;
+        t = {1.0 + sign * n.x * n.x * a, sign * c, -sign * n.x};
+        b = {c, sign + n.y * n.y * a, -n.y};
+    }
+    /// The direction with coordinates (x, y, z) in the frame.
+    [[nodiscard]] Vec3d toWorld(double x, double y, double z) const {
+        return t * x + b * y + n * z;
+    }
+};
+
 /// 4×4 affine transform in double precision, column-major as glTF stores it: m[col][row].
 struct Mat4d {
     std::array<std::array<double, 4>, 4> m{

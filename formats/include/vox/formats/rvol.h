@@ -89,6 +89,7 @@ struct BakeInfo {
     float aoLambda = 0;
     std::uint32_t attenuation = 0;  ///< vox::Attenuation
     std::uint32_t lights = 0;
+    std::uint32_t gatherRays = 0;  ///< rays per voxel that gathered the bounces; 0: cones
 };
 
 /// A whole radiance volume in memory.

@@ -24,10 +24,10 @@ namespace vox::rvol {
 // ---- constants ------------------------------------------------------------------------------
 
 inline constexpr std::array<std::uint8_t, 4> kMagic{'R', 'V', 'O', 'L'};
-/// The format version this library reads and writes, 4.0 (docs/rvol-format.md, "Versions"; the
+/// The format version this library reads and writes, 4.1 (docs/rvol-format.md, "Versions"; the
 /// earlier versions: docs/internals/rvol-writer.md).
 inline constexpr std::uint16_t kVersionMajor = 4;  ///< readers reject other majors
-inline constexpr std::uint16_t kVersionMinor = 0;  ///< readers accept any minor of their major
+inline constexpr std::uint16_t kVersionMinor = 1;  ///< readers accept any minor of their major
 inline constexpr std::uint32_t kHeaderBytes = 256;
 inline constexpr std::uint32_t kLevelEntryBytes = 32;
 inline constexpr std::uint32_t kBrickEntryBytes = 16;

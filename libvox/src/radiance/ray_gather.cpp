@@ -1,0 +1,116 @@
+// Bounce light gathered by rays against the triangles (ray_gather.h).
+#include "ray_gather.h"
+
+#include <vox/formats/rvol.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace vox::detail {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+/// How far off its surface point a voxel's rays start, in cells: clear of the float intersection's
+/// rounding on that surface, far below anything a cell resolves.
+constexpr double kOriginOffsetCells = 1e-3;
+/// How far outside its cell a voxel's surface point may lie, in cells (float rounding).
+constexpr double kFaceSlackCells = 1e-4;
+/// How far back along the ray a hit is looked up, in cells: the cell the ray arrives through where
+/// the hit lies on a cell boundary.
+constexpr double kHitBackoffCells = 1e-4;
+
+}  // namespace
+
+RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, Vec3d origin,
+                     double cell, std::uint32_t depth, std::uint32_t strata)
+    : leaves_(leaves),
+      caster_(scene),
+      origin_(origin),
+      cell_(cell),
+      cells_(std::int64_t{1} << depth),
+      codes_(leaves.size()),
+      from_(leaves.size()) {
+    // Each voxel's rays start on its own surface: where the line along its mean normal through
+    // its centre first meets a triangle from the front, inside the cell (the cones start off the
+    // centre instead, which may lie behind the surface or inside a wall).
+    const double halfDiagonal = 0.5 * std::sqrt(3.0) * cell;
+    std::vector<std::uint8_t> centred(leaves.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 1024),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t i = r.begin(); i != r.end(); ++i)
+                              centred[i] = placeOrigin(i, halfDiagonal) ? 0 : 1;
+                      });
+    for (std::uint8_t c : centred) centred_ += c;
+    // Cosine-distributed directions about +z (Malley's method) at the centres of strata² strata
+    // of the unit square, the same for every voxel: a per-voxel random shift of the strata
+    // (unbiased) scattered the voxels' estimates by more than the fixed pattern errs
+    // (docs/internals/rvol-writer.md).
+    strata = std::max<std::uint32_t>(strata, 1);
+    for (std::uint32_t k = 0; k < strata * strata; ++k) {
+        const double u = (double(k % strata) + 0.5) / strata;
+        const double v = (double(k / strata) + 0.5) / strata;
+        const double radius = std::sqrt(u), phi = 2 * kPi * v;
+        pattern_.push_back({radius * std::cos(phi), radius * std::sin(phi), std::sqrt(1.0 - u)});
+    }
+}
+
+bool RayGather::placeOrigin(std::size_t i, double halfDiagonal) {
+    const LeafMaterial& v = leaves_[i];
+    codes_[i] = rvol::morton3(v.x, v.y, v.z);
+    const Vec3d n = vec3Cast<double>(v.normals.mean);
+    const Vec3d centre = origin_ + Vec3d{v.x + 0.5, v.y + 0.5, v.z + 0.5} * cell_;
+    const SurfaceHit h =
+        caster_.castSurface({centre + n * halfDiagonal, n * -1.0}, 2 * halfDiagonal);
+    const Vec3d onSurface = centre + n * (halfDiagonal - h.t);
+    const Vec3d off = (onSurface - centre) / cell_;
+    // A surface on the cell's face is in the cell: the float intersection may put it a rounding
+    // error outside.
+    const bool inCell = h.hit && std::max({std::abs(off.x), std::abs(off.y), std::abs(off.z)}) <=
+                                     0.5 + kFaceSlackCells;
+    from_[i] = (inCell ? onSurface : centre) + n * (kOriginOffsetCells * cell_);
+    return inCell;
+}
+
+std::uint32_t RayGather::leafAt(Vec3d p) const noexcept {
+    std::uint32_t c[3];
+    for (int a = 0; a < 3; ++a) {
+        const double g = std::floor((p[a] - origin_[a]) / cell_);
+        if (!(g >= 0 && g < double(cells_))) return kNone;
+        c[a] = static_cast<std::uint32_t>(g);
+    }
+    const std::uint64_t code = rvol::morton3(c[0], c[1], c[2]);
+    const auto it = std::lower_bound(codes_.begin(), codes_.end(), code);
+    return it != codes_.end() && *it == code ? static_cast<std::uint32_t>(it - codes_.begin())
+                                             : kNone;
+}
+
+std::vector<Vec3f> RayGather::gather(std::span<const Vec3f> radiance, Progress* progress) const {
+    std::vector<Vec3f> out(leaves_.size());
+    const double weight = kPi / double(pattern_.size());  // cosine-distributed: E = π · mean L
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, leaves_.size(), 64),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                const OrthonormalFrame frame(vec3Cast<double>(leaves_[i].normals.mean));
+                Vec3d sum{0, 0, 0};
+                for (const Vec3d& local : pattern_) {
+                    const Vec3d dir = frame.toWorld(local.x, local.y, local.z);
+                    const SurfaceHit h = caster_.castSurface({from_[i], dir});
+                    if (!h.hit) continue;
+                    const Vec3d hit = from_[i] + dir * h.t;
+                    std::uint32_t leaf = leafAt(hit - dir * (kHitBackoffCells * cell_));
+                    if (leaf == kNone) leaf = leafAt(hit);
+                    if (leaf != kNone) sum += vec3Cast<double>(radiance[leaf]);
+                }
+                out[i] = vec3Cast<float>(sum * weight);
+            }
+            if (progress) progress->advance(r.size());
+        });
+    return out;
+}
+
+}  // namespace vox::detail
