@@ -17,6 +17,8 @@ constexpr double kPi = 3.14159265358979323846;
 /// How far off its surface point a voxel's rays start, in cells: clear of the float intersection's
 /// rounding on that surface, far below anything a cell resolves.
 constexpr double kOriginOffsetCells = 1e-3;
+/// Most bytes of remembered ray hits (a leaf index per ray); beyond it every bounce traces again.
+constexpr std::size_t kMaxCachedHitBytes = std::size_t{512} << 20;
 /// How far outside its cell a voxel's surface point may lie, in cells (float rounding).
 constexpr double kFaceSlackCells = 1e-4;
 /// How far back along the ray a hit is looked up, in cells: the cell the ray arrives through where
@@ -38,13 +40,11 @@ RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, V
     // its centre first meets a triangle from the front, inside the cell (the cones start off the
     // centre instead, which may lie behind the surface or inside a wall).
     const double halfDiagonal = 0.5 * std::sqrt(3.0) * cell;
-    std::vector<std::uint8_t> centred(leaves.size(), 0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 1024),
                       [&](const tbb::blocked_range<std::size_t>& r) {
                           for (std::size_t i = r.begin(); i != r.end(); ++i)
-                              centred[i] = placeOrigin(i, halfDiagonal) ? 0 : 1;
+                              placeOrigin(i, halfDiagonal);
                       });
-    for (std::uint8_t c : centred) centred_ += c;
     // Cosine-distributed directions about +z (Malley's method) at the centres of strata² strata
     // of the unit square, the same for every voxel: a per-voxel random shift of the strata
     // (unbiased) scattered the voxels' estimates by more than the fixed pattern errs
@@ -58,7 +58,7 @@ RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, V
     }
 }
 
-bool RayGather::placeOrigin(std::size_t i, double halfDiagonal) {
+void RayGather::placeOrigin(std::size_t i, double halfDiagonal) {
     const LeafMaterial& v = leaves_[i];
     codes_[i] = rvol::morton3(v.x, v.y, v.z);
     const Vec3d n = vec3Cast<double>(v.normals.mean);
@@ -68,11 +68,11 @@ bool RayGather::placeOrigin(std::size_t i, double halfDiagonal) {
     const Vec3d onSurface = centre + n * (halfDiagonal - h.t);
     const Vec3d off = (onSurface - centre) / cell_;
     // A surface on the cell's face is in the cell: the float intersection may put it a rounding
-    // error outside.
+    // error outside. A point outside the cell (a surface that clips a corner, another surface in
+    // front) is not taken: that lost accuracy on the house (docs/internals/rvol-writer.md).
     const bool inCell = h.hit && std::max({std::abs(off.x), std::abs(off.y), std::abs(off.z)}) <=
                                      0.5 + kFaceSlackCells;
     from_[i] = (inCell ? onSurface : centre) + n * (kOriginOffsetCells * cell_);
-    return inCell;
 }
 
 std::uint32_t RayGather::leafAt(Vec3d p) const noexcept {
@@ -88,29 +88,49 @@ std::uint32_t RayGather::leafAt(Vec3d p) const noexcept {
                                              : kNone;
 }
 
-std::vector<Vec3f> RayGather::gather(std::span<const Vec3f> radiance, Progress* progress) const {
+std::vector<Vec3f> RayGather::gather(std::span<const Vec3f> radiance, Progress* progress) {
     std::vector<Vec3f> out(leaves_.size());
-    const double weight = kPi / double(pattern_.size());  // cosine-distributed: E = π · mean L
+    const std::size_t rays = pattern_.size();
+    const double weight = kPi / double(rays);  // cosine-distributed: E = π · mean L
+    // The first gather keeps each ray's leaf where that fits in kMaxCachedHitBytes, so that
+    // later bounces only read them.
+    const bool replay = hitsCached_;
+    if (!replay && leaves_.size() * rays * sizeof(std::uint32_t) <= kMaxCachedHitBytes)
+        hits_.resize(leaves_.size() * rays);
+    const bool record = !replay && !hits_.empty();
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, leaves_.size(), 64),
         [&](const tbb::blocked_range<std::size_t>& r) {
             for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                const OrthonormalFrame frame(vec3Cast<double>(leaves_[i].normals.mean));
                 Vec3d sum{0, 0, 0};
-                for (const Vec3d& local : pattern_) {
-                    const Vec3d dir = frame.toWorld(local.x, local.y, local.z);
-                    const SurfaceHit h = caster_.castSurface({from_[i], dir});
-                    if (!h.hit) continue;
-                    const Vec3d hit = from_[i] + dir * h.t;
-                    std::uint32_t leaf = leafAt(hit - dir * (kHitBackoffCells * cell_));
-                    if (leaf == kNone) leaf = leafAt(hit);
-                    if (leaf != kNone) sum += vec3Cast<double>(radiance[leaf]);
+                if (replay) {
+                    for (std::size_t k = 0; k < rays; ++k)
+                        if (const std::uint32_t leaf = hits_[i * rays + k]; leaf != kNone)
+                            sum += vec3Cast<double>(radiance[leaf]);
+                } else {
+                    const OrthonormalFrame frame(vec3Cast<double>(leaves_[i].normals.mean));
+                    for (std::size_t k = 0; k < rays; ++k) {
+                        const Vec3d dir =
+                            frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z);
+                        const std::uint32_t leaf = trace(from_[i], dir);
+                        if (record) hits_[i * rays + k] = leaf;
+                        if (leaf != kNone) sum += vec3Cast<double>(radiance[leaf]);
+                    }
                 }
                 out[i] = vec3Cast<float>(sum * weight);
             }
             if (progress) progress->advance(r.size());
         });
+    hitsCached_ = hitsCached_ || record;
     return out;
+}
+
+std::uint32_t RayGather::trace(Vec3d from, Vec3d dir) const {
+    const SurfaceHit h = caster_.castSurface({from, dir});
+    if (!h.hit) return kNone;
+    const Vec3d hit = from + dir * h.t;
+    const std::uint32_t leaf = leafAt(hit - dir * (kHitBackoffCells * cell_));
+    return leaf != kNone ? leaf : leafAt(hit);
 }
 
 }  // namespace vox::detail

@@ -27,18 +27,18 @@ public:
 
     /// Per leaf, the irradiance its rays gather from @p radiance (per leaf, what it leaves in every
     /// direction): π times the rays' mean. A ray that hits nothing, or hits where no leaf is,
-    /// gathers nothing. Same inputs, same result, whatever the thread count.
+    /// gathers nothing. Same inputs, same result, whatever the thread count. The first call
+    /// remembers where each ray hit (up to a fixed number of bytes), and later calls read that
+    /// instead of tracing again.
     /// @p progress, if given, advances by one per leaf.
     [[nodiscard]] std::vector<Vec3f> gather(std::span<const Vec3f> radiance,
-                                            Progress* progress = nullptr) const;
-
-    /// Leaves whose rays start at their cell's centre because no surface crosses the line along
-    /// their normal through it (corners, edges).
-    [[nodiscard]] std::size_t centredOrigins() const noexcept { return centred_; }
+                                            Progress* progress = nullptr);
 
 private:
-    /// Sets leaf @p i's Morton code and ray origin; false where it falls back to the centre.
-    bool placeOrigin(std::size_t i, double halfDiagonal);
+    /// Sets leaf @p i's Morton code and ray origin.
+    void placeOrigin(std::size_t i, double halfDiagonal);
+    /// The leaf the ray from @p from along unit @p dir hits first, or kNone.
+    [[nodiscard]] std::uint32_t trace(Vec3d from, Vec3d dir) const;
     /// The leaf holding world point @p p, or kNone.
     [[nodiscard]] std::uint32_t leafAt(Vec3d p) const noexcept;
     static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
@@ -51,7 +51,8 @@ private:
     std::vector<std::uint64_t> codes_;  ///< per leaf: morton3 of its cell (ascending)
     std::vector<Vec3d> from_;           ///< per leaf: where its rays start
     std::vector<Vec3d> pattern_;        ///< the rays' directions about +z
-    std::size_t centred_ = 0;
+    std::vector<std::uint32_t> hits_;   ///< per leaf and ray: the leaf hit (kNone: none)
+    bool hitsCached_ = false;
 };
 
 }  // namespace vox::detail
