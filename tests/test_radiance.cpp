@@ -258,6 +258,38 @@ TEST(RadianceBake, RaysGatherNothingThroughAThinPlate) {
     EXPECT_GT(floor, 1000u);
 }
 
+TEST(RadianceBake, RaysReadNothingFromTheBackOfASurface) {
+    // An emissive box, its faces outward, standing over part of a floor: the floor outside it
+    // gathers its light; the floor inside sees only the backs of its faces, and gathers nothing
+    // (reading the box's emission there would light its inside).
+    vox::Scene scene;
+    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4},
+                       vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
+    vox::test::addBox(scene, {-0.5, -0.2, -0.5}, {0.5, 0.5, 0.5},
+                      vox::test::addMaterial(scene, {0, 0, 0}, {1, 1, 1}));
+    vox::RadianceBakeOptions options;
+    options.depth = 6;
+    options.bounces = 1;
+    options.keepVoxelLighting = true;
+    options.bounceGather = vox::BounceGather::Rays;
+    options.gatherRays = 64;
+    const auto b = vox::bakeRadiance(scene, options);
+    std::size_t inside = 0, beside = 0;
+    for (const auto& v : b.voxels) {
+        if (v.normal.y < 0.99 || std::abs(v.centre.y) > 0.05) continue;  // the floor's voxels
+        const double out = std::max(std::abs(v.centre.x), std::abs(v.centre.z));
+        if (out < 0.4) {
+            EXPECT_EQ(v.indirect[0].x, 0) << v.centre.x << "," << v.centre.z;
+            ++inside;
+        } else if (out > 0.6 && out < 0.8) {
+            EXPECT_GT(v.indirect[0].x, 0.2) << v.centre.x << "," << v.centre.z;
+            ++beside;
+        }
+    }
+    EXPECT_GT(inside, 100u);
+    EXPECT_GT(beside, 100u);
+}
+
 TEST(RadianceBake, RaysRejectBadCountsAndTiles) {
     vox::Scene scene;
     vox::test::addQuad(scene, {-1, 0, 1}, {2, 0, 0}, {0, 0, -2},

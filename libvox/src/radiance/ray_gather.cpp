@@ -127,7 +127,9 @@ std::vector<Vec3f> RayGather::gather(std::span<const Vec3f> radiance, Progress* 
 
 std::uint32_t RayGather::trace(Vec3d from, Vec3d dir) const {
     const SurfaceHit h = caster_.castSurface({from, dir});
-    if (!h.hit) return kNone;
+    // The back of a triangle: the inside of a closed surface (a ray from a thin part's cell centre)
+    // or the unlit side of a sheet. The voxel's radiance is its front's; nothing is read.
+    if (!h.hit || dot(h.geometricNormal, dir) > 0) return kNone;
     const Vec3d hit = from + dir * h.t;
     const std::uint32_t leaf = leafAt(hit - dir * (kHitBackoffCells * cell_));
     return leaf != kNone ? leaf : leafAt(hit);

@@ -26,8 +26,8 @@ public:
               std::uint32_t depth, std::uint32_t strata);
 
     /// Per leaf, the irradiance its rays gather from @p radiance (per leaf, what it leaves in every
-    /// direction): π times the rays' mean. A ray that hits nothing, or hits where no leaf is,
-    /// gathers nothing. Same inputs, same result, whatever the thread count. The first call
+    /// direction): π times the rays' mean. A ray that hits nothing, the back of a triangle, or
+    /// where no leaf is, gathers nothing. Same inputs, same result, whatever the thread count. The first call
     /// remembers where each ray hit (up to a fixed number of bytes), and later calls read that
     /// instead of tracing again.
     /// @p progress, if given, advances by one per leaf.
@@ -37,7 +37,8 @@ public:
 private:
     /// Sets leaf @p i's Morton code and ray origin.
     void placeOrigin(std::size_t i, double halfDiagonal);
-    /// The leaf the ray from @p from along unit @p dir hits first, or kNone.
+    /// The leaf the ray from @p from along unit @p dir hits first, or kNone (also where it hits
+    /// the back of a triangle).
     [[nodiscard]] std::uint32_t trace(Vec3d from, Vec3d dir) const;
     /// The leaf holding world point @p p, or kNone.
     [[nodiscard]] std::uint32_t leafAt(Vec3d p) const noexcept;
