@@ -27,9 +27,9 @@ public:
 
     /// Per leaf, the irradiance its rays gather from @p radiance (per leaf, what it leaves in every
     /// direction): π times the rays' mean. A ray that hits nothing, the back of a triangle, or
-    /// where no leaf is, gathers nothing. Same inputs, same result, whatever the thread count. The first call
-    /// remembers where each ray hit (up to a fixed number of bytes), and later calls read that
-    /// instead of tracing again.
+    /// where no leaf is, gathers nothing. Same inputs, same result, whatever the thread count. The
+    /// first call remembers where each ray hit (up to a fixed number of bytes), and later calls
+    /// read that instead of tracing again.
     /// @p progress, if given, advances by one per leaf.
     [[nodiscard]] std::vector<Vec3f> gather(std::span<const Vec3f> radiance,
                                             Progress* progress = nullptr);
