@@ -411,11 +411,10 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         std::max<std::uint32_t>(options.bounces, 1);  // one pass for AO without bounces
     for (std::uint32_t b = 0; b < passes; ++b) {
         Timings::Scope timer(options.timings, "radiance_bounce_" + std::to_string(b + 1));
-        Progress progress("bounce " + std::to_string(b + 1), leaves.size() * (rays && b > 0 ? 1
-                                                                              : rays        ? 2
-                                                                                            : 1));
         // Cones: the irradiance and (first pass) the ambient occlusion; with rays, the cones'
-        // occlusion alone and the irradiance from the rays.
+        // occlusion alone (first pass) and the irradiance from the rays.
+        const std::uint64_t units = leaves.size() * (rays && b == 0 ? 2 : 1);
+        Progress progress("bounce " + std::to_string(b + 1), units);
         if (!rays || b == 0)
             tbb::parallel_for(
                 tbb::blocked_range<std::size_t>(0, leaves.size(), 512),
