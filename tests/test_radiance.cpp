@@ -27,12 +27,22 @@ vox::Scene cornellBox(const vox::test::ScratchDir& dir) {
     return vox::importScene(vox::scenes::writeCornellBox(dir.path()));
 }
 
-vox::RadianceBake bake(const vox::Scene& scene, std::uint32_t depth, std::uint32_t bounces) {
+vox::RadianceBake bake(const vox::Scene& scene, std::uint32_t depth, std::uint32_t bounces,
+                       vox::BounceGather gather = vox::BounceGather::Cones,
+                       std::uint32_t gatherRays = 256) {
     vox::RadianceBakeOptions options;
     options.depth = depth;
     options.bounces = bounces;
     options.keepVoxelLighting = true;
+    options.bounceGather = gather;
+    options.gatherRays = gatherRays;
     return vox::bakeRadiance(scene, options);
+}
+
+/// A grey floor, 4 × 4 around the origin in the plane y = 0, facing +y.
+void addFloor(vox::Scene& scene) {
+    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4},
+                       vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
 }
 
 /// Mean over the floor's top voxels (normal +y) whose centre lies in the x range, of the indirect
@@ -152,8 +162,7 @@ TEST(RadianceBake, DirectLightOnAFloorIsAlbedoOverPiTimesIntensityOverDistanceSq
 
 TEST(RadianceBake, AnOccluderCastsAShadowRayShadowAndEmissionStillArrivesThroughCones) {
     vox::Scene scene;
-    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4},
-                       vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
+    addFloor(scene);
     // A black, emissive slab above the floor between it and the light.
     vox::test::addBox(scene, {-0.5, 0.6, -0.5}, {0.5, 0.7, 0.5},
                       vox::test::addMaterial(scene, {0, 0, 0}, {2, 2, 2}));
@@ -196,17 +205,11 @@ TEST(RadianceBake, RaysGatherTheIrradianceOfAnEmitterAboveAFloor) {
     // beneath its middle receives π·F (F the form factor of the rectangle as the voxel's surface
     // point sees it) as its first bounce.
     vox::Scene scene;
-    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4},
-                       vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
+    addFloor(scene);
     constexpr double kHeight = 0.5, kHalf = 1;
     vox::test::addQuad(scene, {-kHalf, kHeight, kHalf}, {0, 0, -2 * kHalf}, {2 * kHalf, 0, 0},
                        vox::test::addMaterial(scene, {0, 0, 0}, {1, 1, 1}));
-    vox::RadianceBakeOptions options;
-    options.depth = 6;
-    options.bounces = 1;
-    options.keepVoxelLighting = true;
-    options.bounceGather = vox::BounceGather::Rays;
-    const auto b = vox::bakeRadiance(scene, options);
+    const auto b = bake(scene, 6, 1, vox::BounceGather::Rays);
     EXPECT_EQ(b.volume.bake.gatherRays, 256u);
     std::size_t checked = 0;
     double worst = 0, mean = 0;
@@ -236,19 +239,12 @@ TEST(RadianceBake, RaysGatherNothingThroughAThinPlate) {
     // The emitter above the floor, and a black plate a hair below it: the floor beneath gathers
     // only the plate's black. Cones, whose samples are cells wide, see past a one-cell plate.
     vox::Scene scene;
-    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4},
-                       vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
+    addFloor(scene);
     vox::test::addQuad(scene, {-2, 1, 2}, {0, 0, -4}, {4, 0, 0},
                        vox::test::addMaterial(scene, {0, 0, 0}, {1, 1, 1}));
     vox::test::addQuad(scene, {-2, 0.9, 2}, {4, 0, 0}, {0, 0, -4},
                        vox::test::addMaterial(scene, {0, 0, 0}));
-    vox::RadianceBakeOptions options;
-    options.depth = 6;
-    options.bounces = 1;
-    options.keepVoxelLighting = true;
-    options.bounceGather = vox::BounceGather::Rays;
-    options.gatherRays = 64;
-    const auto b = vox::bakeRadiance(scene, options);
+    const auto b = bake(scene, 6, 1, vox::BounceGather::Rays, 64);
     std::size_t floor = 0;
     for (const auto& v : b.voxels)
         if (v.normal.y > 0.99 && v.centre.y < 0.05) {
@@ -263,17 +259,10 @@ TEST(RadianceBake, RaysReadNothingFromTheBackOfASurface) {
     // gathers its light; the floor inside sees only the backs of its faces, and gathers nothing
     // (reading the box's emission there would light its inside).
     vox::Scene scene;
-    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4},
-                       vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
+    addFloor(scene);
     vox::test::addBox(scene, {-0.5, -0.2, -0.5}, {0.5, 0.5, 0.5},
                       vox::test::addMaterial(scene, {0, 0, 0}, {1, 1, 1}));
-    vox::RadianceBakeOptions options;
-    options.depth = 6;
-    options.bounces = 1;
-    options.keepVoxelLighting = true;
-    options.bounceGather = vox::BounceGather::Rays;
-    options.gatherRays = 64;
-    const auto b = vox::bakeRadiance(scene, options);
+    const auto b = bake(scene, 6, 1, vox::BounceGather::Rays, 64);
     std::size_t inside = 0, beside = 0;
     for (const auto& v : b.voxels) {
         if (v.normal.y < 0.99 || std::abs(v.centre.y) > 0.05) continue;  // the floor's voxels
@@ -453,8 +442,7 @@ TEST(RadianceBake, SharedShadowRaysDoNotLeakLightPastAWallBetweenVoxels) {
     // other side gets no direct light at all. The wall runs through the middle of the voxel
     // blocks whose rays are tested together, so that a block holds voxels on both sides.
     vox::Scene scene;
-    vox::test::addQuad(scene, {-2, 0, 2}, {4, 0, 0}, {0, 0, -4},
-                       vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
+    addFloor(scene);
     vox::test::addBox(scene, {0.33, 0, -2}, {0.36, 0.5, 2},
                       vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f}));
     for (int i = 0; i < 8; ++i)

@@ -7,7 +7,6 @@
 #include <vox/raycast.h>
 #include <vox/scene.h>
 
-#include <array>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -67,12 +66,12 @@ private:
         std::uint32_t iterations = 0;
     };
     [[nodiscard]] Nearest nearest(const Ray& ray, double tMax) const;
-    /// Per triangle during the build: its centroid and bounds (min xyz, max xyz); order: the
-    /// triangles as the leaves will hold them.
+    /// Per triangle during the build: its centroid and bounds; order: the triangles as the
+    /// leaves will hold them.
     struct BuildInput {
         std::vector<std::uint32_t> order;
         std::vector<Vec3f> centroids;
-        std::vector<std::array<float, 6>> bounds;
+        std::vector<Bounds3f> bounds;
     };
     std::uint32_t build(std::uint32_t first, std::uint32_t count, std::uint32_t depth,
                         BuildInput& input);

@@ -107,10 +107,12 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         throw ParameterError("shadowApertureDegrees", "must be at least 0 and below 90 degrees");
     if (!(options.aoLambda >= 0) || !std::isfinite(options.aoLambda))
         throw ParameterError("aoLambda", "must be a finite number ≥ 0");
+    // With rays: the strata per axis of the rays' pattern.
+    const auto gatherStrata =
+        static_cast<std::uint32_t>(std::lround(std::sqrt(options.gatherRays)));
     if (options.bounceGather == BounceGather::Rays) {
-        const auto strata = static_cast<std::uint32_t>(std::lround(std::sqrt(options.gatherRays)));
         if (options.gatherRays < 1 || options.gatherRays > 4096 ||
-            strata * strata != options.gatherRays)
+            gatherStrata * gatherStrata != options.gatherRays)
             throw ParameterError("gatherRays", "must be a square number from 1 to 4096");
         if (options.region)
             throw ParameterError("bounceGather", "rays are not available for tiled bakes");
@@ -404,8 +406,7 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     if (options.bounceGather == BounceGather::Rays && options.bounces > 0) {
         Timings::Scope timer(options.timings, "radiance_ray_gather_setup");
         rays.emplace(scene, leaves, Vec3d{volume.origin[0], volume.origin[1], volume.origin[2]},
-                     cell, options.depth,
-                     static_cast<std::uint32_t>(std::lround(std::sqrt(options.gatherRays))));
+                     cell, options.depth, gatherStrata);
     }
     const std::uint32_t passes =
         std::max<std::uint32_t>(options.bounces, 1);  // one pass for AO without bounces

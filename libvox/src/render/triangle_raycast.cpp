@@ -25,24 +25,11 @@ constexpr std::uint32_t kMaxLeafTriangles = 4;
 constexpr std::uint32_t kMaxSahDepth = 64;
 constexpr int kStackEntries = 128;
 
-struct Box {
-    Vec3f lo{std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity(),
-             std::numeric_limits<float>::infinity()};
-    Vec3f hi{-std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
-             -std::numeric_limits<float>::infinity()};
-    void add(Vec3f p) {
-        for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
-    }
-    void add(const Box& b) {
-        add(b.lo);
-        add(b.hi);
-    }
-    [[nodiscard]] float halfArea() const {
-        if (!(lo.x <= hi.x)) return 0;
-        const Vec3f e = hi - lo;
-        return e.x * e.y + e.y * e.z + e.z * e.x;
-    }
-};
+/// Half the surface area of @p b (0 when empty): the SAH's measure of a node.
+float halfArea(const Bounds3f& b) {
+    const Vec3f e = b.extent();
+    return e.x * e.y + e.y * e.z + e.z * e.x;
+}
 
 }  // namespace
 
@@ -68,12 +55,9 @@ TriangleRayCaster::TriangleRayCaster(const Scene& scene, bool includeDynamic) : 
         const Triangle& t = triangles_[i];
         const Vec3f v[3] = {t.v0, t.v0 + t.e1, t.v0 + t.e2};
         input.centroids[i] = (v[0] + v[1] + v[2]) * (1.0f / 3.0f);
-        for (int a = 0; a < 3; ++a) {
-            input.bounds[i][a] = std::min({v[0][a], v[1][a], v[2][a]});
-            input.bounds[i][3 + a] = std::max({v[0][a], v[1][a], v[2][a]});
-        }
+        for (const Vec3f& p : v) input.bounds[i].add(p);
     }
-    nodes_.reserve(2 * triangles_.size() / 2 + 1);
+    nodes_.reserve(2 * triangles_.size());  // at most 2n − 1 nodes: every leaf holds a triangle
     build(0, static_cast<std::uint32_t>(triangles_.size()), 0, input);
     // The leaves index the build's order: store the triangles in it.
     std::vector<Triangle> triangles(triangles_.size());
@@ -90,15 +74,14 @@ std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
                                        std::uint32_t depth, BuildInput& input) {
     const auto index = static_cast<std::uint32_t>(nodes_.size());
     nodes_.push_back({});
-    Box box, centroidBox;
+    Bounds3f box, centroidBox;
     for (std::uint32_t i = first; i < first + count; ++i) {
         const std::uint32_t t = input.order[i];
-        box.add(Vec3f{input.bounds[t][0], input.bounds[t][1], input.bounds[t][2]});
-        box.add(Vec3f{input.bounds[t][3], input.bounds[t][4], input.bounds[t][5]});
+        box.add(input.bounds[t]);
         centroidBox.add(input.centroids[t]);
     }
     Node node{};
-    for (int a = 0; a < 3; ++a) node.lo[a] = box.lo[a], node.hi[a] = box.hi[a];
+    for (int a = 0; a < 3; ++a) node.lo[a] = box.min[a], node.hi[a] = box.max[a];
     const auto leaf = [&] {
         node.first = first;
         node.count = count;
@@ -112,54 +95,51 @@ std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
     int bestAxis = -1;
     int bestBin = 0;
     float bestCost = std::numeric_limits<float>::infinity();
+    // The bin of triangle t's centroid along axis a: the binning and the partition must agree.
+    const auto binOf = [&](std::uint32_t t, int a) {
+        const float scale = kSahBins / (centroidBox.max[a] - centroidBox.min[a]);
+        return std::min(kSahBins - 1,
+                        static_cast<int>((input.centroids[t][a] - centroidBox.min[a]) * scale));
+    };
     for (int a = 0; a < 3 && depth < kMaxSahDepth; ++a) {
-        const float extent = centroidBox.hi[a] - centroidBox.lo[a];
-        if (!(extent > 0)) continue;
-        const float scale = kSahBins / extent;
-        Box bins[kSahBins];
+        if (!(centroidBox.max[a] - centroidBox.min[a] > 0)) continue;
+        Bounds3f bins[kSahBins];
         std::uint32_t counts[kSahBins] = {};
         for (std::uint32_t i = first; i < first + count; ++i) {
             const std::uint32_t t = input.order[i];
-            const int b =
-                std::min(kSahBins - 1,
-                         static_cast<int>((input.centroids[t][a] - centroidBox.lo[a]) * scale));
+            const int b = binOf(t, a);
             ++counts[b];
-            bins[b].add(Vec3f{input.bounds[t][0], input.bounds[t][1], input.bounds[t][2]});
-            bins[b].add(Vec3f{input.bounds[t][3], input.bounds[t][4], input.bounds[t][5]});
+            bins[b].add(input.bounds[t]);
         }
         float rightArea[kSahBins];
         std::uint32_t rightCount[kSahBins];
-        Box right;
+        Bounds3f right;
         std::uint32_t n = 0;
         for (int b = kSahBins - 1; b > 0; --b) {
             right.add(bins[b]);
             n += counts[b];
-            rightArea[b] = right.halfArea();
+            rightArea[b] = halfArea(right);
             rightCount[b] = n;
         }
-        Box left;
+        Bounds3f left;
         n = 0;
         for (int b = 0; b < kSahBins - 1; ++b) {
             left.add(bins[b]);
             n += counts[b];
             if (n == 0 || rightCount[b + 1] == 0) continue;
             const float cost =
-                left.halfArea() * float(n) + rightArea[b + 1] * float(rightCount[b + 1]);
+                halfArea(left) * float(n) + rightArea[b + 1] * float(rightCount[b + 1]);
             if (cost < bestCost) bestCost = cost, bestAxis = a, bestBin = b;
         }
     }
     const float leafCost = float(count);
-    const float splitCost = kTraversalCost + bestCost / std::max(box.halfArea(), 1e-30f);
+    const float splitCost = kTraversalCost + bestCost / std::max(halfArea(box), 1e-30f);
     if (count <= kMaxLeafTriangles && leafCost <= splitCost) return leaf();
     std::uint32_t half = 0;
     if (bestAxis >= 0) {
-        const float scale = kSahBins / (centroidBox.hi[bestAxis] - centroidBox.lo[bestAxis]);
-        const auto middle = std::partition(
-            input.order.begin() + first, input.order.begin() + first + count, [&](std::uint32_t t) {
-                return std::min(kSahBins - 1, static_cast<int>((input.centroids[t][bestAxis] -
-                                                                centroidBox.lo[bestAxis]) *
-                                                               scale)) <= bestBin;
-            });
+        const auto middle =
+            std::partition(input.order.begin() + first, input.order.begin() + first + count,
+                           [&](std::uint32_t t) { return binOf(t, bestAxis) <= bestBin; });
         half = static_cast<std::uint32_t>(middle - (input.order.begin() + first));
     }
     if (bestAxis < 0 || half == 0 || half == count) {
@@ -167,8 +147,7 @@ std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
         if (count <= kMaxLeafTriangles) return leaf();
         int axis = 0;
         for (int a = 1; a < 3; ++a)
-            if (centroidBox.hi[a] - centroidBox.lo[a] > centroidBox.hi[axis] - centroidBox.lo[axis])
-                axis = a;
+            if (centroidBox.extent()[a] > centroidBox.extent()[axis]) axis = a;
         half = count / 2;
         std::nth_element(input.order.begin() + first, input.order.begin() + first + half,
                          input.order.begin() + first + count,
