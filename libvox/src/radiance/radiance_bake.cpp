@@ -289,35 +289,38 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     // Direct light (eq. 2 attenuation, shadow rays or cones), through Lightcuts when there are
     // many lights. The render points' albedo is π so that their "radiance" is the irradiance the
     // bounces need too; the cut's error is then relative to the irradiance.
+    const double tanHalf = std::tan(0.5 * options.shadowApertureDegrees * kPi / 180);
+    // How much of the light arriving at leaf i along @p arrival reaches it (shadow rays through
+    // the solid cells, or a shadow cone).
+    const auto leafVisibility = [&](std::size_t i, const LightArrival& arrival) -> double {
+        const LeafMaterial& v = leaves[i];
+        const Vec3d n = toVec3d(v.normals.mean);
+        // Leave the voxel on the side of its surface that faces the light.
+        const double side = dot(n, arrival.toLight) >= 0 ? 1.0 : -1.0;
+        if (shadowCones) {
+            const Vec3d origin = centreOf(v) + n * (side * kGatherOffsetCells * cell);
+            return 1 -
+                   field.traceCone({origin, arrival.toLight, tanHalf, 0, arrival.distance}, 0, true)
+                       .opacity;
+        }
+        const Vec3d local{v.x + 0.5 + side * n.x, v.y + 0.5 + side * n.y, v.z + 0.5 + side * n.z};
+        const double maxT = std::isfinite(arrival.distance) ? arrival.distance / cell : 1e30;
+        return solid.occluded(local, arrival.toLight, maxT) ||
+                       farOccluded(local, arrival.toLight, maxT)
+                   ? 0.0
+                   : 1.0;
+    };
     std::vector<Vec3f> direct(leaves.size());
     {
         Timings::Scope timer(options.timings, "radiance_direct");
-        const double tanHalf = std::tan(0.5 * options.shadowApertureDegrees * kPi / 180);
         std::vector<LightcutPoint> points(leaves.size());
         tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t i) {
             points[i] = LightcutPoint::voxel(centreOf(leaves[i]), leaves[i].normals,
                                              options.attenuation, {kPi, kPi, kPi});
         });
         const PointVisibility visibility = [&](std::size_t i, const Light&,
-                                               const LightArrival& arrival) -> double {
-            const LeafMaterial& v = leaves[i];
-            const Vec3d n = toVec3d(v.normals.mean);
-            // Leave the voxel on the side of its surface that faces the light.
-            const double side = dot(n, arrival.toLight) >= 0 ? 1.0 : -1.0;
-            if (shadowCones) {
-                const Vec3d origin = points[i].position + n * (side * kGatherOffsetCells * cell);
-                return 1 - field
-                               .traceCone({origin, arrival.toLight, tanHalf, 0, arrival.distance},
-                                          0, true)
-                               .opacity;
-            }
-            const Vec3d local{v.x + 0.5 + side * n.x, v.y + 0.5 + side * n.y,
-                              v.z + 0.5 + side * n.z};
-            const double maxT = std::isfinite(arrival.distance) ? arrival.distance / cell : 1e30;
-            return solid.occluded(local, arrival.toLight, maxT) ||
-                           farOccluded(local, arrival.toLight, maxT)
-                       ? 0.0
-                       : 1.0;
+                                               const LightArrival& arrival) {
+            return leafVisibility(i, arrival);
         };
         // Clusters for the cluster–light lists and cut reuse: octree nodes of similar voxels (the
         // same material, normals within 10°), at most kClusterVoxels each.
@@ -379,19 +382,75 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
                          static_cast<float>(irradiance[i].z)};
     }
 
+    // Bounces gathered by rays: trace them once. A voxel that rays reach on both sides (a thin
+    // part: a triangle facing away from its mean normal) has each side lit apart for them, as a
+    // plane about its mean normal and one about the opposite, instead of reading the radiance of
+    // its normals' mix on both (a sunlit wall's inside is dark).
+    std::optional<detail::RayGather> rays;
+    std::vector<std::uint32_t> twoSided;           // ascending leaf indices
+    std::vector<std::array<Vec3f, 2>> sideDirect;  // per two-sided leaf: front, back irradiance
+    if (options.bounceGather == BounceGather::Rays && options.bounces > 0) {
+        {
+            Timings::Scope timer(options.timings, "radiance_ray_gather_setup");
+            rays.emplace(scene, leaves, Vec3d{volume.origin[0], volume.origin[1], volume.origin[2]},
+                         cell, options.depth, gatherStrata);
+        }
+        {
+            Timings::Scope timer(options.timings, "radiance_ray_trace");
+            Progress progress("bounce rays", leaves.size());
+            twoSided = rays->trace(&progress);
+        }
+        Timings::Scope timer(options.timings, "radiance_direct_sides");
+        sideDirect.resize(twoSided.size());
+        const PointVisibility visibility = [&](std::size_t k, const Light&,
+                                               const LightArrival& arrival) {
+            return leafVisibility(twoSided[k], arrival);
+        };
+        for (const double side : {1.0, -1.0}) {
+            // A plain cosine: the moments mix both sides (the axis weights of Attenuation::Paper
+            // about the back's normal read 1 point worse on the house).
+            std::vector<LightcutPoint> points(twoSided.size());
+            for (std::size_t k = 0; k < twoSided.size(); ++k) {
+                const LeafMaterial& v = leaves[twoSided[k]];
+                points[k] = LightcutPoint::lambertian(centreOf(v), toVec3d(v.normals.mean) * side,
+                                                      {kPi, kPi, kPi});
+            }
+            std::vector<Vec3d> irradiance(points.size());
+            (void)directLight(scene.lights, points, options.lightcuts, options.lightcut, false, {},
+                              visibility, irradiance);
+            for (std::size_t k = 0; k < points.size(); ++k)
+                sideDirect[k][side > 0 ? 0 : 1] = vec3Cast<float>(irradiance[k]);
+        }
+    }
+
     // Level 0's radiance from the irradiance a voxel receives: emission + albedo/π · E.
     std::vector<Vec3f> radiance(leaves.size());
+    const auto leave = [&](const LeafMaterial& v, Vec3f e) -> Vec3f {
+        const float k = static_cast<float>(1 / kPi);
+        return {v.emission.x + v.albedo.x * k * e.x, v.emission.y + v.albedo.y * k * e.y,
+                v.emission.z + v.albedo.z * k * e.z};
+    };
+    // What the rays read on a voxel's front and back side: its radiance, but at the two-sided
+    // voxels each side's own.
+    std::vector<Vec3f> rayFront, rayBack(twoSided.empty() ? 0 : leaves.size());
     const auto light = [&](const std::vector<Vec3f>* gathered) {
         tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t i) {
-            const LeafMaterial& v = leaves[i];
             Vec3f e = direct[i];
             if (gathered) e = e + (*gathered)[i];
-            const float k = static_cast<float>(1 / kPi);
-            radiance[i] = {v.emission.x + v.albedo.x * k * e.x, v.emission.y + v.albedo.y * k * e.y,
-                           v.emission.z + v.albedo.z * k * e.z};
+            radiance[i] = leave(leaves[i], e);
         });
         all.update(radiance);
         for (auto& gv : regionVolumes) gv->update(radiance);
+        if (!rays) return;
+        rayFront = radiance;
+        tbb::parallel_for(std::size_t{0}, twoSided.size(), [&](std::size_t k) {
+            const std::uint32_t i = twoSided[k];
+            // The bounce light a side receives is not gathered apart: the front's stands in for
+            // both (reading none on the back was further off on the house's second bounce).
+            const Vec3f bounce = gathered ? (*gathered)[i] : Vec3f{0, 0, 0};
+            rayFront[i] = leave(leaves[i], sideDirect[k][0] + bounce);
+            rayBack[i] = leave(leaves[i], sideDirect[k][1] + bounce);
+        });
     };
     {
         Timings::Scope timer(options.timings, "radiance_filter");
@@ -402,12 +461,6 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     std::vector<Vec3f> gathered(leaves.size()), previous(leaves.size());
     std::vector<float> occlusion(leaves.size(), 0);
     if (options.keepVoxelLighting) bake.voxels.resize(leaves.size());
-    std::optional<detail::RayGather> rays;
-    if (options.bounceGather == BounceGather::Rays && options.bounces > 0) {
-        Timings::Scope timer(options.timings, "radiance_ray_gather_setup");
-        rays.emplace(scene, leaves, Vec3d{volume.origin[0], volume.origin[1], volume.origin[2]},
-                     cell, options.depth, gatherStrata);
-    }
     const std::uint32_t passes =
         std::max<std::uint32_t>(options.bounces, 1);  // one pass for AO without bounces
     for (std::uint32_t b = 0; b < passes; ++b) {
@@ -436,7 +489,7 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
                     }
                     progress.advance(r.size());
                 });
-        if (rays && b < options.bounces) gathered = rays->gather(radiance, &progress);
+        if (rays && b < options.bounces) gathered = rays->gather(rayFront, rayBack, &progress);
         if (options.keepVoxelLighting && b < options.bounces)
             for (std::size_t i = 0; i < leaves.size(); ++i)
                 bake.voxels[i].indirect.push_back(gathered[i] - previous[i]);

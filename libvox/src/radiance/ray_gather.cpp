@@ -4,10 +4,12 @@
 #include <vox/formats/rvol.h>
 
 #include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace vox::detail {
 
@@ -36,6 +38,7 @@ RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, V
       cells_(std::int64_t{1} << depth),
       codes_(leaves.size()),
       from_(leaves.size()) {
+    if (leaves.size() >= kBackSide) throw std::length_error("RayGather: 2^31 leaves or more");
     // Each voxel's rays start on its own surface: where the line along its mean normal through
     // its centre first meets a triangle from the front, inside the cell (the cones start off the
     // centre instead, which may lie behind the surface or inside a wall).
@@ -88,51 +91,79 @@ std::uint32_t RayGather::leafAt(Vec3d p) const noexcept {
                                              : kNone;
 }
 
-std::vector<Vec3f> RayGather::gather(std::span<const Vec3f> radiance, Progress* progress) {
+Vec3d RayGather::direction(std::size_t i, std::size_t k) const {
+    const OrthonormalFrame frame(vec3Cast<double>(leaves_[i].normals.mean));
+    return frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z);
+}
+
+std::vector<std::uint32_t> RayGather::trace(Progress* progress) {
+    const std::size_t rays = pattern_.size();
+    if (leaves_.size() * rays * sizeof(std::uint32_t) <= kMaxCachedHitBytes)
+        hits_.resize(leaves_.size() * rays);
+    const bool record = !hits_.empty();
+    // Each block lists the leaves its rays reached from behind; the lists are merged and sorted,
+    // so the result does not depend on how the blocks were scheduled.
+    tbb::combinable<std::vector<std::uint32_t>> seenFromBehind;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves_.size(), 64),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          std::vector<std::uint32_t>& back = seenFromBehind.local();
+                          for (std::size_t i = r.begin(); i != r.end(); ++i)
+                              for (std::size_t k = 0; k < rays; ++k) {
+                                  const std::uint32_t hit = castRay(from_[i], direction(i, k));
+                                  if (record) hits_[i * rays + k] = hit;
+                                  if (hit != kNone && (hit & kBackSide))
+                                      back.push_back(hit & ~kBackSide);
+                              }
+                          if (progress) progress->advance(r.size());
+                      });
+    std::vector<std::uint32_t> back;
+    seenFromBehind.combine_each([&](const std::vector<std::uint32_t>& part) {
+        back.insert(back.end(), part.begin(), part.end());
+    });
+    std::sort(back.begin(), back.end());
+    back.erase(std::unique(back.begin(), back.end()), back.end());
+    traced_ = true;
+    return back;
+}
+
+std::vector<Vec3f> RayGather::gather(std::span<const Vec3f> front, std::span<const Vec3f> back,
+                                     Progress* progress) const {
+    if (!traced_) throw std::logic_error("RayGather::gather before trace");
     std::vector<Vec3f> out(leaves_.size());
     const std::size_t rays = pattern_.size();
     const double weight = kPi / double(rays);  // cosine-distributed: E = π · mean L
-    // The first gather keeps each ray's leaf where that fits in kMaxCachedHitBytes, so that
-    // later bounces only read them.
-    const bool replay = hitsCached_;
-    if (!replay && leaves_.size() * rays * sizeof(std::uint32_t) <= kMaxCachedHitBytes)
-        hits_.resize(leaves_.size() * rays);
-    const bool record = !replay && !hits_.empty();
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, leaves_.size(), 64),
         [&](const tbb::blocked_range<std::size_t>& r) {
             for (std::size_t i = r.begin(); i != r.end(); ++i) {
                 Vec3d sum{0, 0, 0};
-                if (replay) {
-                    for (std::size_t k = 0; k < rays; ++k)
-                        if (const std::uint32_t leaf = hits_[i * rays + k]; leaf != kNone)
-                            sum += vec3Cast<double>(radiance[leaf]);
-                } else {
-                    const OrthonormalFrame frame(vec3Cast<double>(leaves_[i].normals.mean));
-                    for (std::size_t k = 0; k < rays; ++k) {
-                        const Vec3d dir =
-                            frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z);
-                        const std::uint32_t leaf = trace(from_[i], dir);
-                        if (record) hits_[i * rays + k] = leaf;
-                        if (leaf != kNone) sum += vec3Cast<double>(radiance[leaf]);
-                    }
+                for (std::size_t k = 0; k < rays; ++k) {
+                    const std::uint32_t hit =
+                        hits_.empty() ? castRay(from_[i], direction(i, k)) : hits_[i * rays + k];
+                    if (hit == kNone) continue;
+                    sum += vec3Cast<double>(hit & kBackSide ? back[hit & ~kBackSide] : front[hit]);
                 }
                 out[i] = vec3Cast<float>(sum * weight);
             }
             if (progress) progress->advance(r.size());
         });
-    hitsCached_ = hitsCached_ || record;
     return out;
 }
 
-std::uint32_t RayGather::trace(Vec3d from, Vec3d dir) const {
+std::uint32_t RayGather::castRay(Vec3d from, Vec3d dir) const {
     const SurfaceHit h = caster_.castSurface({from, dir});
     // The back of a triangle: the inside of a closed surface (a ray from a thin part's cell centre)
-    // or the unlit side of a sheet. The voxel's radiance is its front's; nothing is read.
+    // or the unlit side of a sheet. Nothing is read.
     if (!h.hit || dot(h.geometricNormal, dir) > 0) return kNone;
     const Vec3d hit = from + dir * h.t;
-    const std::uint32_t leaf = leafAt(hit - dir * (kHitBackoffCells * cell_));
-    return leaf != kNone ? leaf : leafAt(hit);
+    std::uint32_t leaf = leafAt(hit - dir * (kHitBackoffCells * cell_));
+    if (leaf == kNone) leaf = leafAt(hit);
+    if (leaf == kNone) return kNone;
+    // A triangle facing away from the leaf's mean normal is the other side of a voxel that holds
+    // both sides of a thin part: its radiance is not the front's (a sunlit wall's inside is dark).
+    return dot(h.geometricNormal, vec3Cast<double>(leaves_[leaf].normals.mean)) < 0
+               ? leaf | kBackSide
+               : leaf;
 }
 
 }  // namespace vox::detail

@@ -1,8 +1,9 @@
 // Bounce light gathered by rays against the scene's triangles (RadianceBakeOptions::BounceGather::
 // Rays): each static voxel casts a stratified, cosine-distributed set of rays over the hemisphere
 // of its mean normal from a point of its own surface, and each ray reads the radiance that the
-// level-0 voxel holding its hit leaves. Slower than cones, and it does not leak through thin walls
-// or read light beyond the volume's cube; the cones still give the ambient occlusion.
+// level-0 voxel holding its hit leaves on the side it hits. Slower than cones, and it does not leak
+// through thin walls or read light beyond the volume's cube; the cones still give the ambient
+// occlusion.
 #pragma once
 
 #include <vox/base/math.h>
@@ -20,29 +21,42 @@ namespace vox::detail {
 class RayGather {
 public:
     /// @p leaves: the bake's static level-0 voxels in ascending Morton order of their cells, in a
-    /// grid of cells of edge @p cell from @p origin with 2^@p depth cells per axis. @p strata: the
-    /// rays per voxel are strata², ≥ 1. The scene and the leaves must outlive the gather.
+    /// grid of cells of edge @p cell from @p origin with 2^@p depth cells per axis; fewer than
+    /// 2^31 of them. @p strata: the rays per voxel are strata², ≥ 1. The scene and the leaves must
+    /// outlive the gather.
     RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, Vec3d origin, double cell,
               std::uint32_t depth, std::uint32_t strata);
 
-    /// Per leaf, the irradiance its rays gather from @p radiance (per leaf, what it leaves in every
-    /// direction): π times the rays' mean. A ray that hits nothing, the back of a triangle, or
-    /// where no leaf is, gathers nothing. Same inputs, same result, whatever the thread count. The
-    /// first call remembers where each ray hit (up to a fixed number of bytes), and later calls
-    /// read that instead of tracing again.
-    /// @p progress, if given, advances by one per leaf.
-    [[nodiscard]] std::vector<Vec3f> gather(std::span<const Vec3f> radiance,
-                                            Progress* progress = nullptr);
+    /// Traces every voxel's rays (remembering each ray's hit where that fits in a fixed number of
+    /// bytes, so that gather() only reads them) and returns, ascending, the leaves that some ray
+    /// reaches on their back side: on a triangle that faces away from the leaf's mean normal (both
+    /// sides of a thin wall in one voxel). Call once, before gather(). Same result whatever the
+    /// thread count. @p progress, if given, advances by one per leaf.
+    [[nodiscard]] std::vector<std::uint32_t> trace(Progress* progress = nullptr);
+
+    /// Per leaf, the irradiance its rays gather: π times the mean of what they read. A ray reads
+    /// @p front[j] where it reaches leaf j's front side (a triangle facing along the leaf's mean
+    /// normal or across it) and @p back[j] where it reaches its back side (read only at the leaves
+    /// trace() returned; @p back may be empty when it returned none). A ray that hits nothing,
+    /// the back of a triangle, or where no leaf is, reads nothing. Requires trace(). Same inputs,
+    /// same result, whatever the thread count. @p progress, if given, advances by one per leaf.
+    [[nodiscard]] std::vector<Vec3f> gather(std::span<const Vec3f> front,
+                                            std::span<const Vec3f> back,
+                                            Progress* progress = nullptr) const;
 
 private:
     /// Sets leaf @p i's Morton code and ray origin.
     void placeOrigin(std::size_t i, double halfDiagonal);
-    /// The leaf the ray from @p from along unit @p dir hits first, or kNone (also where it hits
-    /// the back of a triangle).
-    [[nodiscard]] std::uint32_t trace(Vec3d from, Vec3d dir) const;
+    /// What the ray from @p from along unit @p dir reaches first: a leaf index, with kBackSide set
+    /// where the triangle hit faces away from that leaf's mean normal; kNone where it hits nothing,
+    /// the back of a triangle, or no leaf.
+    [[nodiscard]] std::uint32_t castRay(Vec3d from, Vec3d dir) const;
+    /// Leaf @p i's k-th ray direction.
+    [[nodiscard]] Vec3d direction(std::size_t i, std::size_t k) const;
     /// The leaf holding world point @p p, or kNone.
     [[nodiscard]] std::uint32_t leafAt(Vec3d p) const noexcept;
     static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+    static constexpr std::uint32_t kBackSide = 0x80000000u;
 
     std::span<const LeafMaterial> leaves_;
     TriangleRayCaster caster_;
@@ -52,8 +66,8 @@ private:
     std::vector<std::uint64_t> codes_;  ///< per leaf: morton3 of its cell (ascending)
     std::vector<Vec3d> from_;           ///< per leaf: where its rays start
     std::vector<Vec3d> pattern_;        ///< the rays' directions about +z
-    std::vector<std::uint32_t> hits_;   ///< per leaf and ray: the leaf hit (kNone: none)
-    bool hitsCached_ = false;
+    std::vector<std::uint32_t> hits_;   ///< per leaf and ray: castRay's answer (empty: not kept)
+    bool traced_ = false;
 };
 
 }  // namespace vox::detail
