@@ -279,6 +279,52 @@ TEST(RadianceBake, RaysReadNothingFromTheBackOfASurface) {
     EXPECT_GT(beside, 100u);
 }
 
+TEST(RadianceBake, RaysReadEachSideOfAThinWallApart) {
+    // A wall thinner than a cell, its two faces in the same voxels, lit on its +x face by a sun
+    // travelling along -x (grazing the floor, which gets no direct light). The floor in front of
+    // the lit face gathers its light; the floor behind sees the unlit face, and gathers (almost)
+    // nothing. Read as one radiance for both sides, the wall would light the floor behind it
+    // with about half of what the lit side gathers.
+    vox::Scene scene;
+    addFloor(scene);
+    const std::uint32_t grey = vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f});
+    vox::test::addQuad(scene, {0.04, 0, -1}, {0, 1, 0}, {0, 0, 2}, grey);  // faces +x
+    vox::test::addQuad(scene, {0.02, 0, -1}, {0, 0, 2}, {0, 1, 0}, grey);  // faces -x
+    vox::Light sun;
+    sun.type = vox::Light::Type::Directional;
+    sun.direction = {-1, 0, 0};
+    scene.lights.push_back(sun);
+    vox::RadianceBake one;
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        one = bake(scene, 6, 1, vox::BounceGather::Rays, 64);
+    }
+    const auto b = bake(scene, 6, 1, vox::BounceGather::Rays, 64);
+    // Both the wall's faces share its voxels (else this checks nothing).
+    std::size_t wall = 0;
+    for (const auto& v : b.voxels)
+        if (std::abs(v.normal.x) > 0.99 && v.centre.y > 0.2) ++wall;
+    EXPECT_GT(wall, 100u);
+    EXPECT_LT(wall, 600u);  // one column of cells, not two
+    double lit = 0, dark = 0;
+    std::size_t litCount = 0, darkCount = 0;
+    ASSERT_EQ(one.voxels.size(), b.voxels.size());
+    for (std::size_t i = 0; i < b.voxels.size(); ++i) {
+        const auto& v = b.voxels[i];
+        EXPECT_EQ(v.indirect[0], one.voxels[i].indirect[0]) << i;  // whatever the thread count
+        if (v.normal.y < 0.99 || std::abs(v.centre.y) > 0.05 || std::abs(v.centre.z) > 0.5)
+            continue;
+        if (v.centre.x > 0.2 && v.centre.x < 0.6) lit += v.indirect[0].x, ++litCount;
+        if (v.centre.x < -0.2 && v.centre.x > -0.6) dark += v.indirect[0].x, ++darkCount;
+    }
+    ASSERT_GT(litCount, 50u);
+    ASSERT_GT(darkCount, 50u);
+    lit /= double(litCount);
+    dark /= double(darkCount);
+    EXPECT_GT(lit, 0.02);
+    EXPECT_LT(dark, 0.05 * lit) << dark << " " << lit;
+}
+
 TEST(RadianceBake, RaysRejectBadCountsAndTiles) {
     vox::Scene scene;
     vox::test::addQuad(scene, {-1, 0, 1}, {2, 0, 0}, {0, 0, -2},
