@@ -387,7 +387,7 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     // plane about its mean normal and one about the opposite, instead of reading the radiance of
     // its normals' mix on both (a sunlit wall's inside is dark).
     std::optional<detail::RayGather> rays;
-    std::vector<std::uint32_t> twoSided;           // ascending leaf indices
+    std::vector<detail::RayGather::TwoSidedLeaf> twoSided;  // ascending by leaf
     std::vector<std::array<Vec3f, 2>> sideDirect;  // per two-sided leaf: front, back irradiance
     if (options.bounceGather == BounceGather::Rays && options.bounces > 0) {
         {
@@ -404,22 +404,22 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         sideDirect.resize(twoSided.size());
         const PointVisibility visibility = [&](std::size_t k, const Light&,
                                                const LightArrival& arrival) {
-            return leafVisibility(twoSided[k], arrival);
+            return leafVisibility(twoSided[k].leaf, arrival);
         };
-        for (const double side : {1.0, -1.0}) {
-            // A plain cosine: the moments mix both sides (the axis weights of Attenuation::Paper
-            // about the back's normal read 1 point worse on the house).
+        for (const int side : {0, 1}) {
+            // A plain cosine about the normal the rays saw on the side: the moments mix both
+            // sides.
             std::vector<LightcutPoint> points(twoSided.size());
             for (std::size_t k = 0; k < twoSided.size(); ++k) {
-                const LeafMaterial& v = leaves[twoSided[k]];
-                points[k] = LightcutPoint::lambertian(centreOf(v), toVec3d(v.normals.mean) * side,
-                                                      {kPi, kPi, kPi});
+                const auto& t = twoSided[k];
+                points[k] = LightcutPoint::lambertian(
+                    centreOf(leaves[t.leaf]), side == 0 ? t.front : t.back, {kPi, kPi, kPi});
             }
             std::vector<Vec3d> irradiance(points.size());
             (void)directLight(scene.lights, points, options.lightcuts, options.lightcut, false, {},
                               visibility, irradiance);
             for (std::size_t k = 0; k < points.size(); ++k)
-                sideDirect[k][side > 0 ? 0 : 1] = vec3Cast<float>(irradiance[k]);
+                sideDirect[k][std::size_t(side)] = vec3Cast<float>(irradiance[k]);
         }
     }
 
@@ -444,7 +444,7 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         if (!rays) return;
         rayFront = radiance;
         tbb::parallel_for(std::size_t{0}, twoSided.size(), [&](std::size_t k) {
-            const std::uint32_t i = twoSided[k];
+            const std::uint32_t i = twoSided[k].leaf;
             // The bounce light a side receives is not gathered apart: the front's stands in for
             // both (reading none on the back was further off on the house's second bounce).
             const Vec3f bounce = gathered ? (*gathered)[i] : Vec3f{0, 0, 0};

@@ -4,10 +4,10 @@
 #include <vox/formats/rvol.h>
 
 #include <tbb/blocked_range.h>
-#include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <stdexcept>
 
@@ -21,6 +21,8 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kOriginOffsetCells = 1e-3;
 /// Most bytes of remembered ray hits (a leaf index per ray); beyond it every bounce traces again.
 constexpr std::size_t kMaxCachedHitBytes = std::size_t{512} << 20;
+/// The fixed-point unit of the sums of hit normals (RayGather::trace).
+constexpr double kNormalFixedPoint = double(1 << 24);
 /// How far outside its cell a voxel's surface point may lie, in cells (float rounding).
 constexpr double kFaceSlackCells = 1e-4;
 /// How far back along the ray a hit is looked up, in cells: the cell the ray arrives through where
@@ -96,34 +98,47 @@ Vec3d RayGather::direction(std::size_t i, std::size_t k) const {
     return frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z);
 }
 
-std::vector<std::uint32_t> RayGather::trace(Progress* progress) {
+std::vector<RayGather::TwoSidedLeaf> RayGather::trace(Progress* progress) {
     const std::size_t rays = pattern_.size();
     if (leaves_.size() * rays * sizeof(std::uint32_t) <= kMaxCachedHitBytes)
         hits_.resize(leaves_.size() * rays);
     const bool record = !hits_.empty();
-    // Each block lists the leaves its rays reached from behind; the lists are merged and sorted,
-    // so the result does not depend on how the blocks were scheduled.
-    tbb::combinable<std::vector<std::uint32_t>> seenFromBehind;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves_.size(), 64),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                          std::vector<std::uint32_t>& back = seenFromBehind.local();
-                          for (std::size_t i = r.begin(); i != r.end(); ++i)
-                              for (std::size_t k = 0; k < rays; ++k) {
-                                  const std::uint32_t hit = castRay(from_[i], direction(i, k));
-                                  if (record) hits_[i * rays + k] = hit;
-                                  if (hit != kNone && (hit & kBackSide))
-                                      back.push_back(hit & ~kBackSide);
-                              }
-                          if (progress) progress->advance(r.size());
-                      });
-    std::vector<std::uint32_t> back;
-    seenFromBehind.combine_each([&](const std::vector<std::uint32_t>& part) {
-        back.insert(back.end(), part.begin(), part.end());
-    });
-    std::sort(back.begin(), back.end());
-    back.erase(std::unique(back.begin(), back.end()), back.end());
+    // Per leaf and side, the sum of the hit triangles' normals in fixed point: integer sums do
+    // not depend on the order the threads add in.
+    std::vector<std::array<std::atomic<std::int64_t>, 6>> seen(leaves_.size());
+    std::vector<std::atomic<std::uint8_t>> reachedFromBehind(leaves_.size());
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, leaves_.size(), 64),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i)
+                for (std::size_t k = 0; k < rays; ++k) {
+                    Vec3d normal;
+                    const std::uint32_t hit = castRay(from_[i], direction(i, k), &normal);
+                    if (record) hits_[i * rays + k] = hit;
+                    if (hit == kNone) continue;
+                    const std::uint32_t leaf = hit & ~kBackSide;
+                    const std::size_t side = hit & kBackSide ? 3 : 0;
+                    if (side) reachedFromBehind[leaf].store(1, std::memory_order_relaxed);
+                    for (std::size_t a = 0; a < 3; ++a)
+                        seen[leaf][side + a].fetch_add(std::llround(normal[a] * kNormalFixedPoint),
+                                                       std::memory_order_relaxed);
+                }
+            if (progress) progress->advance(r.size());
+        });
+    std::vector<TwoSidedLeaf> twoSided;
+    for (std::size_t i = 0; i < leaves_.size(); ++i) {
+        if (!reachedFromBehind[i].load(std::memory_order_relaxed)) continue;
+        const Vec3d mean = vec3Cast<double>(leaves_[i].normals.mean);
+        const auto sideNormal = [&](std::size_t side, Vec3d fallback) {
+            const Vec3d sum{double(seen[i][side].load()), double(seen[i][side + 1].load()),
+                            double(seen[i][side + 2].load())};
+            return length(sum) > 0.01 * kNormalFixedPoint ? normalize(sum) : fallback;
+        };
+        twoSided.push_back(
+            {static_cast<std::uint32_t>(i), sideNormal(0, mean), sideNormal(3, mean * -1.0)});
+    }
     traced_ = true;
-    return back;
+    return twoSided;
 }
 
 std::vector<Vec3f> RayGather::gather(std::span<const Vec3f> front, std::span<const Vec3f> back,
@@ -150,8 +165,9 @@ std::vector<Vec3f> RayGather::gather(std::span<const Vec3f> front, std::span<con
     return out;
 }
 
-std::uint32_t RayGather::castRay(Vec3d from, Vec3d dir) const {
+std::uint32_t RayGather::castRay(Vec3d from, Vec3d dir, Vec3d* normal) const {
     const SurfaceHit h = caster_.castSurface({from, dir});
+    if (normal) *normal = h.geometricNormal;
     // The back of a triangle: the inside of a closed surface (a ray from a thin part's cell centre)
     // or the unlit side of a sheet. Nothing is read.
     if (!h.hit || dot(h.geometricNormal, dir) > 0) return kNone;

@@ -27,12 +27,21 @@ public:
     RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, Vec3d origin, double cell,
               std::uint32_t depth, std::uint32_t strata);
 
+    /// A leaf that rays reach on both sides, and the unit normal of each side as the rays saw it.
+    struct TwoSidedLeaf {
+        std::uint32_t leaf = 0;
+        Vec3d front{0, 0, 1};  ///< the side of the triangles facing along the leaf's mean normal
+        Vec3d back{0, 0, -1};  ///< the side of those facing away from it
+    };
+
     /// Traces every voxel's rays (remembering each ray's hit where that fits in a fixed number of
-    /// bytes, so that gather() only reads them) and returns, ascending, the leaves that some ray
-    /// reaches on their back side: on a triangle that faces away from the leaf's mean normal (both
-    /// sides of a thin wall in one voxel). Call once, before gather(). Same result whatever the
-    /// thread count. @p progress, if given, advances by one per leaf.
-    [[nodiscard]] std::vector<std::uint32_t> trace(Progress* progress = nullptr);
+    /// bytes, so that gather() only reads them) and returns, in ascending order of leaf, the
+    /// leaves that some ray reaches on their back side: on a triangle that faces away from the
+    /// leaf's mean normal (both sides of a thin wall in one voxel). Each side's normal is the
+    /// normalised sum of the normals of the triangles the rays hit on it (the mean normal, or its
+    /// opposite, where they cancel or none was hit). Call once, before gather(). Same result
+    /// whatever the thread count. @p progress, if given, advances by one per leaf.
+    [[nodiscard]] std::vector<TwoSidedLeaf> trace(Progress* progress = nullptr);
 
     /// Per leaf, the irradiance its rays gather: π times the mean of what they read. A ray reads
     /// @p front[j] where it reaches leaf j's front side (a triangle facing along the leaf's mean
@@ -49,8 +58,8 @@ private:
     void placeOrigin(std::size_t i, double halfDiagonal);
     /// What the ray from @p from along unit @p dir reaches first: a leaf index, with kBackSide set
     /// where the triangle hit faces away from that leaf's mean normal; kNone where it hits nothing,
-    /// the back of a triangle, or no leaf.
-    [[nodiscard]] std::uint32_t castRay(Vec3d from, Vec3d dir) const;
+    /// the back of a triangle, or no leaf. @p normal, if given, receives the triangle's normal.
+    [[nodiscard]] std::uint32_t castRay(Vec3d from, Vec3d dir, Vec3d* normal = nullptr) const;
     /// Leaf @p i's k-th ray direction.
     [[nodiscard]] Vec3d direction(std::size_t i, std::size_t k) const;
     /// The leaf holding world point @p p, or kNone.
