@@ -211,6 +211,7 @@ TEST(RadianceBake, RaysGatherTheIrradianceOfAnEmitterAboveAFloor) {
                        vox::test::addMaterial(scene, {0, 0, 0}, {1, 1, 1}));
     const auto b = bake(scene, 6, 1, vox::BounceGather::Rays);
     EXPECT_EQ(b.volume.bake.gatherRays, 256u);
+    EXPECT_EQ(b.twoSidedVoxels, 0u);  // the rays see one side of the emitter and of the floor
     std::size_t checked = 0;
     double worst = 0, mean = 0;
     for (const auto& v : b.voxels) {
@@ -306,6 +307,8 @@ TEST(RadianceBake, RaysReadEachSideOfAThinWallApart) {
         if (std::abs(v.normal.x) > 0.99 && v.centre.y > 0.2) ++wall;
     EXPECT_GT(wall, 100u);
     EXPECT_LT(wall, 600u);  // one column of cells, not two
+    EXPECT_GE(b.twoSidedVoxels, wall / 2);
+    EXPECT_LT(b.twoSidedVoxels, wall * 2);
     double lit = 0, dark = 0;
     std::size_t litCount = 0, darkCount = 0;
     ASSERT_EQ(one.voxels.size(), b.voxels.size());

@@ -298,6 +298,7 @@ nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& sc
         {"bounces", options.bounces},
         {"bounce_gather", options.bounceGather},
         {"gather_rays", bake.volume.bake.gatherRays},
+        {"two_sided_voxels", bake.twoSidedVoxels},
         {"attenuation", options.attenuation},
         {"shadow_aperture_degrees", options.shadowAperture},
         {"brick_texels", options.brickTexels},

@@ -109,6 +109,9 @@ struct RadianceBake {
     std::vector<VoxelLighting>
         voxels;  ///< with keepVoxelLighting: every static voxel, Morton order
     std::uint64_t staticVoxels = 0, dynamicVoxels = 0;
+    /// With BounceGather::Rays: the static voxels that rays reach on both sides of their surface,
+    /// each side lit apart for the rays (docs/radiance.md); 0 otherwise.
+    std::uint64_t twoSidedVoxels = 0;
     /// How the direct light was computed: method, lights, trees, clusters, cut sizes, search steps,
     /// time; with lightcutsCompare the same for classic Lightcuts and brute force, and the errors.
     ManyLightReport directLight;

@@ -399,6 +399,7 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
             Timings::Scope timer(options.timings, "radiance_ray_trace");
             Progress progress("bounce rays", leaves.size());
             twoSided = rays->trace(&progress);
+            bake.twoSidedVoxels = twoSided.size();
         }
         Timings::Scope timer(options.timings, "radiance_direct_sides");
         sideDirect.resize(twoSided.size());
