@@ -41,7 +41,8 @@
 // triangles, each reading the radiance its hit's voxel leaves, albedo/π × direct + emission):
 //   bounce1_ray_gather_against_reference     those rays over the hemisphere against the reference:
 //                                            what one radiance per level-0 voxel costs (thin
-//                                            parts' two sides, the voxels' direct light)
+//                                            parts' two sides, the voxels' direct light; the
+//                                            bake's rays read a two-sided voxel's sides apart)
 //   bounce1_cone_layout_against_ray_gather   the rays inside each diffuse cone, averaged and
 //                                            weighted as the gather weights its cones, against
 //                                            the hemisphere: what seven cones cost
