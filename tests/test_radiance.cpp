@@ -328,6 +328,44 @@ TEST(RadianceBake, RaysReadEachSideOfAThinWallApart) {
     EXPECT_LT(dark, 0.05 * lit) << dark << " " << lit;
 }
 
+TEST(RadianceBake, RaysGatherEachSideOfAThinWallsBounceApart) {
+    // The thin wall again, between two halves of the floor, and a black emitter facing one of its
+    // faces from 0.5 away, lower than the wall: no light reaches the other side. The emitter's
+    // side of the floor reads the lit face in its second bounce; the other side reads that
+    // face's own (dark) gather, not the lit side's. Mirrored, so that the lit face is once the
+    // front and once the back of the wall's voxels.
+    for (const double side : {1.0, -1.0}) {
+        vox::Scene scene;
+        addFloor(scene);
+        const std::uint32_t grey = vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f});
+        vox::test::addQuad(scene, {0.04, 0, -2}, {0, 1, 0}, {0, 0, 4}, grey);  // faces +x
+        vox::test::addQuad(scene, {0.02, 0, -2}, {0, 0, 4}, {0, 1, 0}, grey);  // faces -x
+        const std::uint32_t emitter = vox::test::addMaterial(scene, {0, 0, 0}, {1, 1, 1});
+        const double x = 0.03 + 0.5 * side;
+        if (side > 0)  // faces -x, towards the wall
+            vox::test::addQuad(scene, {x, 0, -2}, {0, 0, 4}, {0, 0.5, 0}, emitter);
+        else
+            vox::test::addQuad(scene, {x, 0, -2}, {0, 0.5, 0}, {0, 0, 4}, emitter);
+        const auto b = bake(scene, 6, 2, vox::BounceGather::Rays, 64);
+        EXPECT_GT(b.twoSidedVoxels, 100u);
+        double lit = 0, dark = 0;
+        std::size_t litCount = 0, darkCount = 0;
+        for (const auto& v : b.voxels) {
+            if (v.normal.y < 0.99 || std::abs(v.centre.y) > 0.05 || std::abs(v.centre.z) > 1)
+                continue;
+            const double away = (v.centre.x - 0.03) * side;  // > 0: the emitter's side
+            if (away > 0.15 && away < 0.4) lit += v.indirect[1].x, ++litCount;
+            if (away < -0.15 && away > -0.6) dark += v.indirect[1].x, ++darkCount;
+        }
+        ASSERT_GT(litCount, 50u);
+        ASSERT_GT(darkCount, 50u);
+        lit /= double(litCount);
+        dark /= double(darkCount);
+        EXPECT_GT(lit, 0.01) << side;
+        EXPECT_LT(dark, 0.05 * lit) << side << ": " << dark << " " << lit;
+    }
+}
+
 TEST(RadianceBake, RaysRejectBadCountsAndTiles) {
     vox::Scene scene;
     vox::test::addQuad(scene, {-1, 0, 1}, {2, 0, 0}, {0, 0, -2},

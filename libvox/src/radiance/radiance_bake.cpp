@@ -434,6 +434,7 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     // What the rays read on a voxel's front and back side: its radiance, but at the two-sided
     // voxels each side's own.
     std::vector<Vec3f> rayFront, rayBack(twoSided.empty() ? 0 : leaves.size());
+    std::vector<Vec3f> backGathered(twoSided.size());  // per two-sided leaf: its back's bounce
     const auto light = [&](const std::vector<Vec3f>* gathered) {
         tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t i) {
             Vec3f e = direct[i];
@@ -446,11 +447,12 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         rayFront = radiance;
         tbb::parallel_for(std::size_t{0}, twoSided.size(), [&](std::size_t k) {
             const std::uint32_t i = twoSided[k].leaf;
-            // The bounce light a side receives is not gathered apart: the front's stands in for
-            // both (reading none on the back was further off on the house's second bounce).
-            const Vec3f bounce = gathered ? (*gathered)[i] : Vec3f{0, 0, 0};
-            rayFront[i] = leave(leaves[i], sideDirect[k][0] + bounce);
-            rayBack[i] = leave(leaves[i], sideDirect[k][1] + bounce);
+            // Each side adds the bounce it gathered: the voxel's own gather about its mean normal
+            // on the front, the back's own rays on the back.
+            const Vec3f front = gathered ? (*gathered)[i] : Vec3f{0, 0, 0};
+            const Vec3f back = gathered ? backGathered[k] : Vec3f{0, 0, 0};
+            rayFront[i] = leave(leaves[i], sideDirect[k][0] + front);
+            rayBack[i] = leave(leaves[i], sideDirect[k][1] + back);
         });
     };
     {
@@ -490,7 +492,11 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
                     }
                     progress.advance(r.size());
                 });
-        if (rays && b < options.bounces) gathered = rays->gather(rayFront, rayBack, &progress);
+        if (rays && b < options.bounces) {
+            detail::RayGather::Irradiance g = rays->gather(rayFront, rayBack, &progress);
+            gathered = std::move(g.leaves);
+            backGathered = std::move(g.backs);
+        }
         if (options.keepVoxelLighting && b < options.bounces)
             for (std::size_t i = 0; i < leaves.size(); ++i)
                 bake.voxels[i].indirect.push_back(gathered[i] - previous[i]);

@@ -39,16 +39,20 @@ RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, V
       cell_(cell),
       cells_(std::int64_t{1} << depth),
       codes_(leaves.size()),
-      from_(leaves.size()) {
+      from_(leaves.size()),
+      normal_(leaves.size()) {
     if (leaves.size() >= kBackSide) throw std::length_error("RayGather: 2^31 leaves or more");
     // Each voxel's rays start on its own surface: where the line along its mean normal through
     // its centre first meets a triangle from the front, inside the cell (the cones start off the
     // centre instead, which may lie behind the surface or inside a wall).
-    const double halfDiagonal = 0.5 * std::sqrt(3.0) * cell;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 1024),
                       [&](const tbb::blocked_range<std::size_t>& r) {
-                          for (std::size_t i = r.begin(); i != r.end(); ++i)
-                              placeOrigin(i, halfDiagonal);
+                          for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                              const LeafMaterial& v = leaves[i];
+                              codes_[i] = rvol::morton3(v.x, v.y, v.z);
+                              normal_[i] = vec3Cast<double>(v.normals.mean);
+                              from_[i] = rayOrigin(v, normal_[i]);
+                          }
                       });
     // Cosine-distributed directions about +z (Malley's method) at the centres of strata² strata
     // of the unit square, the same for every voxel: a per-voxel random shift of the strata
@@ -63,10 +67,8 @@ RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, V
     }
 }
 
-void RayGather::placeOrigin(std::size_t i, double halfDiagonal) {
-    const LeafMaterial& v = leaves_[i];
-    codes_[i] = rvol::morton3(v.x, v.y, v.z);
-    const Vec3d n = vec3Cast<double>(v.normals.mean);
+Vec3d RayGather::rayOrigin(const LeafMaterial& v, Vec3d n) const {
+    const double halfDiagonal = 0.5 * std::sqrt(3.0) * cell_;
     const Vec3d centre = origin_ + Vec3d{v.x + 0.5, v.y + 0.5, v.z + 0.5} * cell_;
     const SurfaceHit h =
         caster_.castSurface({centre + n * halfDiagonal, n * -1.0}, 2 * halfDiagonal);
@@ -77,7 +79,7 @@ void RayGather::placeOrigin(std::size_t i, double halfDiagonal) {
     // front) is not taken: that lost accuracy on the house (docs/internals/rvol-writer.md).
     const bool inCell = h.hit && std::max({std::abs(off.x), std::abs(off.y), std::abs(off.z)}) <=
                                      0.5 + kFaceSlackCells;
-    from_[i] = (inCell ? onSurface : centre) + n * (kOriginOffsetCells * cell_);
+    return (inCell ? onSurface : centre) + n * (kOriginOffsetCells * cell_);
 }
 
 std::uint32_t RayGather::leafAt(Vec3d p) const noexcept {
@@ -93,76 +95,100 @@ std::uint32_t RayGather::leafAt(Vec3d p) const noexcept {
                                              : kNone;
 }
 
-Vec3d RayGather::direction(std::size_t i, std::size_t k) const {
-    const OrthonormalFrame frame(vec3Cast<double>(leaves_[i].normals.mean));
+Vec3d RayGather::direction(std::size_t e, std::size_t k) const {
+    const OrthonormalFrame frame(normal_[e]);
     return frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z);
 }
 
-std::vector<RayGather::TwoSidedLeaf> RayGather::trace(Progress* progress) {
+std::uint32_t RayGather::hit(std::size_t e, std::size_t k) const {
+    return e < keptEntries_ ? hits_[e * pattern_.size() + k] : castRay(from_[e], direction(e, k));
+}
+
+void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* seen,
+                             Progress* progress) {
     const std::size_t rays = pattern_.size();
-    if (leaves_.size() * rays * sizeof(std::uint32_t) <= kMaxCachedHitBytes)
-        hits_.resize(leaves_.size() * rays);
-    const bool record = !hits_.empty();
-    // Per leaf and side, the sum of the hit triangles' normals in fixed point: integer sums do
-    // not depend on the order the threads add in.
-    std::vector<std::array<std::atomic<std::int64_t>, 6>> seen(leaves_.size());
-    std::vector<std::atomic<std::uint8_t>> reachedFromBehind(leaves_.size());
+    // Kept where every entry up to @p last fits.
+    const bool keep =
+        keptEntries_ == first && last * rays * sizeof(std::uint32_t) <= kMaxCachedHitBytes;
+    if (keep) hits_.resize(last * rays);
     tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, leaves_.size(), 64),
+        tbb::blocked_range<std::size_t>(first, last, 64),
         [&](const tbb::blocked_range<std::size_t>& r) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i)
+            for (std::size_t e = r.begin(); e != r.end(); ++e)
                 for (std::size_t k = 0; k < rays; ++k) {
                     Vec3d normal;
-                    const std::uint32_t hit = castRay(from_[i], direction(i, k), &normal);
-                    if (record) hits_[i * rays + k] = hit;
-                    if (hit == kNone) continue;
+                    const std::uint32_t hit = castRay(from_[e], direction(e, k), &normal);
+                    if (keep) hits_[e * rays + k] = hit;
+                    if (hit == kNone || !seen) continue;
                     const std::uint32_t leaf = hit & ~kBackSide;
                     const std::size_t side = hit & kBackSide ? 3 : 0;
-                    if (side) reachedFromBehind[leaf].store(1, std::memory_order_relaxed);
                     for (std::size_t a = 0; a < 3; ++a)
                         seen[leaf][side + a].fetch_add(std::llround(normal[a] * kNormalFixedPoint),
                                                        std::memory_order_relaxed);
                 }
             if (progress) progress->advance(r.size());
         });
+    if (keep) keptEntries_ = last;
+}
+
+std::vector<RayGather::TwoSidedLeaf> RayGather::trace(Progress* progress) {
+    if (traced_) throw std::logic_error("RayGather::trace called twice");
+    std::vector<NormalSums> seen(leaves_.size());
+    traceEntries(0, leaves_.size(), seen.data(), progress);
+    // A leaf reached from behind has a back-side sum; the hit normals' components are never all
+    // zero, so a zero sum means no hit (or an exact cancellation, taken as none).
     std::vector<TwoSidedLeaf> twoSided;
     for (std::size_t i = 0; i < leaves_.size(); ++i) {
-        if (!reachedFromBehind[i].load(std::memory_order_relaxed)) continue;
-        const Vec3d mean = vec3Cast<double>(leaves_[i].normals.mean);
-        const auto sideNormal = [&](std::size_t side, Vec3d fallback) {
-            const Vec3d sum{double(seen[i][side].load()), double(seen[i][side + 1].load()),
-                            double(seen[i][side + 2].load())};
-            return length(sum) > 0.01 * kNormalFixedPoint ? normalize(sum) : fallback;
+        const auto sum = [&](std::size_t side) {
+            return Vec3d{double(seen[i][side].load()), double(seen[i][side + 1].load()),
+                         double(seen[i][side + 2].load())};
         };
-        twoSided.push_back(
-            {static_cast<std::uint32_t>(i), sideNormal(0, mean), sideNormal(3, mean * -1.0)});
+        const Vec3d frontSum = sum(0), backSum = sum(3);
+        if (backSum.x == 0 && backSum.y == 0 && backSum.z == 0) continue;
+        const Vec3d mean = vec3Cast<double>(leaves_[i].normals.mean);
+        const auto sideNormal = [&](Vec3d s, Vec3d fallback) {
+            return length(s) > 0.01 * kNormalFixedPoint ? normalize(s) : fallback;
+        };
+        twoSided.push_back({static_cast<std::uint32_t>(i), sideNormal(frontSum, mean),
+                            sideNormal(backSum, mean * -1.0)});
     }
+    // The back sides' own rays, about the back's normal from the back's surface.
+    for (const TwoSidedLeaf& t : twoSided) {
+        normal_.push_back(t.back);
+        from_.push_back(rayOrigin(leaves_[t.leaf], t.back));
+    }
+    traceEntries(leaves_.size(), from_.size(), nullptr, nullptr);
     traced_ = true;
     return twoSided;
 }
 
-std::vector<Vec3f> RayGather::gather(std::span<const Vec3f> front, std::span<const Vec3f> back,
-                                     Progress* progress) const {
+RayGather::Irradiance RayGather::gather(std::span<const Vec3f> front, std::span<const Vec3f> back,
+                                        Progress* progress) const {
     if (!traced_) throw std::logic_error("RayGather::gather before trace");
-    std::vector<Vec3f> out(leaves_.size());
+    std::vector<Vec3f> out(from_.size());
     const std::size_t rays = pattern_.size();
     const double weight = kPi / double(rays);  // cosine-distributed: E = π · mean L
+    const std::size_t leaves = leaves_.size();
     tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, leaves_.size(), 64),
+        tbb::blocked_range<std::size_t>(0, from_.size(), 64),
         [&](const tbb::blocked_range<std::size_t>& r) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            for (std::size_t e = r.begin(); e != r.end(); ++e) {
                 Vec3d sum{0, 0, 0};
                 for (std::size_t k = 0; k < rays; ++k) {
-                    const std::uint32_t hit =
-                        hits_.empty() ? castRay(from_[i], direction(i, k)) : hits_[i * rays + k];
-                    if (hit == kNone) continue;
-                    sum += vec3Cast<double>(hit & kBackSide ? back[hit & ~kBackSide] : front[hit]);
+                    const std::uint32_t h = hit(e, k);
+                    if (h == kNone) continue;
+                    sum += vec3Cast<double>(h & kBackSide ? back[h & ~kBackSide] : front[h]);
                 }
-                out[i] = vec3Cast<float>(sum * weight);
+                out[e] = vec3Cast<float>(sum * weight);
             }
-            if (progress) progress->advance(r.size());
+            if (progress && r.begin() < leaves)
+                progress->advance(std::min(r.end(), leaves) - r.begin());
         });
-    return out;
+    Irradiance irradiance;
+    irradiance.backs.assign(out.begin() + static_cast<std::ptrdiff_t>(leaves), out.end());
+    out.resize(leaves);
+    irradiance.leaves = std::move(out);
+    return irradiance;
 }
 
 std::uint32_t RayGather::castRay(Vec3d from, Vec3d dir, Vec3d* normal) const {

@@ -39,29 +39,46 @@ public:
     /// leaves that some ray reaches on their back side: on a triangle that faces away from the
     /// leaf's mean normal (both sides of a thin wall in one voxel). Each side's normal is the
     /// normalised sum of the normals of the triangles the rays hit on it (the mean normal, or its
-    /// opposite, where they cancel or none was hit). Call once, before gather(). Same result
-    /// whatever the thread count. @p progress, if given, advances by one per leaf.
+    /// opposite, where they cancel or none was hit). Then traces those leaves' back sides' own
+    /// rays, about the back's normal. Call once, before gather(). Same result whatever the thread
+    /// count. @p progress, if given, advances by one per leaf.
     [[nodiscard]] std::vector<TwoSidedLeaf> trace(Progress* progress = nullptr);
 
-    /// Per leaf, the irradiance its rays gather: π times the mean of what they read. A ray reads
-    /// @p front[j] where it reaches leaf j's front side (a triangle facing along the leaf's mean
-    /// normal or across it) and @p back[j] where it reaches its back side (read only at the leaves
-    /// trace() returned; @p back may be empty when it returned none). A ray that hits nothing,
-    /// the back of a triangle, or where no leaf is, reads nothing. Requires trace(). Same inputs,
-    /// same result, whatever the thread count. @p progress, if given, advances by one per leaf.
-    [[nodiscard]] std::vector<Vec3f> gather(std::span<const Vec3f> front,
-                                            std::span<const Vec3f> back,
-                                            Progress* progress = nullptr) const;
+    /// The irradiance the rays gather (π times the mean of what they read), per leaf about its
+    /// mean normal, and per leaf trace() returned (in its order) on its back side.
+    struct Irradiance {
+        std::vector<Vec3f> leaves;
+        std::vector<Vec3f> backs;
+    };
+
+    /// A ray reads @p front[j] where it reaches leaf j's front side (a triangle facing along the
+    /// leaf's mean normal or across it) and @p back[j] where it reaches its back side (read only
+    /// at the leaves trace() returned; @p back may be empty when it returned none). A ray that
+    /// hits nothing, the back of a triangle, or where no leaf is, reads nothing. Requires
+    /// trace(). Same inputs, same result, whatever the thread count. @p progress, if given,
+    /// advances by one per leaf.
+    [[nodiscard]] Irradiance gather(std::span<const Vec3f> front, std::span<const Vec3f> back,
+                                    Progress* progress = nullptr) const;
 
 private:
-    /// Sets leaf @p i's Morton code and ray origin.
-    void placeOrigin(std::size_t i, double halfDiagonal);
+    /// Where rays about unit @p n start for leaf @p v: where the line along @p n through the
+    /// cell's centre first meets a surface inside the cell, else the centre; just off it along
+    /// @p n.
+    [[nodiscard]] Vec3d rayOrigin(const LeafMaterial& v, Vec3d n) const;
+    /// Per leaf, the fixed-point sums of the hit triangles' normals on its front (x, y, z) and
+    /// back (x, y, z): integer sums do not depend on the order the threads add in.
+    using NormalSums = std::array<std::atomic<std::int64_t>, 6>;
+    /// Traces the rays of entries [@p first, @p last) into hits_ where they are kept, and where
+    /// @p seen is given, adds each hit's normal to its leaf's side in seen[leaf].
+    void traceEntries(std::size_t first, std::size_t last, NormalSums* seen, Progress* progress);
     /// What the ray from @p from along unit @p dir reaches first: a leaf index, with kBackSide set
     /// where the triangle hit faces away from that leaf's mean normal; kNone where it hits nothing,
     /// the back of a triangle, or no leaf. @p normal, if given, receives the triangle's normal.
     [[nodiscard]] std::uint32_t castRay(Vec3d from, Vec3d dir, Vec3d* normal = nullptr) const;
-    /// Leaf @p i's k-th ray direction.
-    [[nodiscard]] Vec3d direction(std::size_t i, std::size_t k) const;
+    /// Entry @p e's k-th ray: what castRay answers for it, kept or traced again.
+    [[nodiscard]] std::uint32_t hit(std::size_t e, std::size_t k) const;
+    /// Entry @p e's k-th ray direction.
+    [[nodiscard]] Vec3d direction(std::size_t e, std::size_t k) const;
     /// The leaf holding world point @p p, or kNone.
     [[nodiscard]] std::uint32_t leafAt(Vec3d p) const noexcept;
     static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
@@ -73,9 +90,12 @@ private:
     double cell_;
     std::int64_t cells_;
     std::vector<std::uint64_t> codes_;  ///< per leaf: morton3 of its cell (ascending)
-    std::vector<Vec3d> from_;           ///< per leaf: where its rays start
-    std::vector<Vec3d> pattern_;        ///< the rays' directions about +z
-    std::vector<std::uint32_t> hits_;   ///< per leaf and ray: castRay's answer (empty: not kept)
+    /// Per entry (a gather's set of rays): each leaf's front, then each two-sided leaf's back.
+    std::vector<Vec3d> from_;          ///< where its rays start
+    std::vector<Vec3d> normal_;        ///< what they are cosine-distributed about
+    std::vector<Vec3d> pattern_;       ///< the rays' directions about +z
+    std::vector<std::uint32_t> hits_;  ///< per entry and ray: castRay's answer, for the first
+    std::size_t keptEntries_ = 0;      ///< keptEntries_ entries (the rest are traced again)
     bool traced_ = false;
 };
 
