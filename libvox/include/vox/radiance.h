@@ -52,8 +52,10 @@ enum class BounceGather : std::uint32_t {
     /// footprint, and open scenes read the edge of the volume's cube.
     Cones = 0,
     /// Stratified cosine-distributed rays against the scene's triangles from a point of the
-    /// voxel's own surface, each reading the radiance the level-0 voxel at its hit leaves; the
-    /// cones still give the ambient occlusion. Not for tiled bakes (RadianceBakeRegion).
+    /// voxel's own surface, each reading the radiance the level-0 voxel at its hit leaves on the
+    /// side it hits (a voxel holding both sides of a thin part has each side lit and gathered
+    /// apart); the cones still give the ambient occlusion. Not for tiled bakes
+    /// (RadianceBakeRegion).
     Rays = 1,
 };
 
