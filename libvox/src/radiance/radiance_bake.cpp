@@ -384,8 +384,8 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
 
     // Bounces gathered by rays: trace them once. A voxel that rays reach on both sides (a thin
     // part: a triangle facing away from its mean normal) has each side lit apart for them, as a
-    // plane about its mean normal and one about the opposite, instead of reading the radiance of
-    // its normals' mix on both (a sunlit wall's inside is dark).
+    // plane about the normal the rays saw there, and gathered apart, instead of reading the
+    // radiance of its normals' mix on both (a sunlit wall's inside is dark).
     std::optional<detail::RayGather> rays;
     std::vector<detail::RayGather::TwoSidedLeaf> twoSided;  // ascending by leaf
     std::vector<std::array<Vec3f, 2>> sideDirect;  // per two-sided leaf: front, back irradiance

@@ -122,9 +122,10 @@ void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* se
                     if (hit == kNone || !seen) continue;
                     const std::uint32_t leaf = hit & ~kBackSide;
                     const std::size_t side = hit & kBackSide ? 3 : 0;
+                    if (side) seen[leaf].reachedFromBehind.store(true, std::memory_order_relaxed);
                     for (std::size_t a = 0; a < 3; ++a)
-                        seen[leaf][side + a].fetch_add(std::llround(normal[a] * kNormalFixedPoint),
-                                                       std::memory_order_relaxed);
+                        seen[leaf].sums[side + a].fetch_add(
+                            std::llround(normal[a] * kNormalFixedPoint), std::memory_order_relaxed);
                 }
             if (progress) progress->advance(r.size());
         });
@@ -135,16 +136,14 @@ std::vector<RayGather::TwoSidedLeaf> RayGather::trace(Progress* progress) {
     if (traced_) throw std::logic_error("RayGather::trace called twice");
     std::vector<NormalSums> seen(leaves_.size());
     traceEntries(0, leaves_.size(), seen.data(), progress);
-    // A leaf reached from behind has a back-side sum; the hit normals' components are never all
-    // zero, so a zero sum means no hit (or an exact cancellation, taken as none).
     std::vector<TwoSidedLeaf> twoSided;
     for (std::size_t i = 0; i < leaves_.size(); ++i) {
+        if (!seen[i].reachedFromBehind.load(std::memory_order_relaxed)) continue;
         const auto sum = [&](std::size_t side) {
-            return Vec3d{double(seen[i][side].load()), double(seen[i][side + 1].load()),
-                         double(seen[i][side + 2].load())};
+            return Vec3d{double(seen[i].sums[side].load()), double(seen[i].sums[side + 1].load()),
+                         double(seen[i].sums[side + 2].load())};
         };
         const Vec3d frontSum = sum(0), backSum = sum(3);
-        if (backSum.x == 0 && backSum.y == 0 && backSum.z == 0) continue;
         const Vec3d mean = vec3Cast<double>(leaves_[i].normals.mean);
         const auto sideNormal = [&](Vec3d s, Vec3d fallback) {
             return length(s) > 0.01 * kNormalFixedPoint ? normalize(s) : fallback;

@@ -65,11 +65,15 @@ private:
     /// cell's centre first meets a surface inside the cell, else the centre; just off it along
     /// @p n.
     [[nodiscard]] Vec3d rayOrigin(const LeafMaterial& v, Vec3d n) const;
-    /// Per leaf, the fixed-point sums of the hit triangles' normals on its front (x, y, z) and
-    /// back (x, y, z): integer sums do not depend on the order the threads add in.
-    using NormalSums = std::array<std::atomic<std::int64_t>, 6>;
+    /// Per leaf, whether a ray reached its back side, and the fixed-point sums of the hit
+    /// triangles' normals on its front (x, y, z) and back (x, y, z): integer sums do not depend
+    /// on the order the threads add in.
+    struct NormalSums {
+        std::atomic<bool> reachedFromBehind{false};
+        std::array<std::atomic<std::int64_t>, 6> sums{};
+    };
     /// Traces the rays of entries [@p first, @p last) into hits_ where they are kept, and where
-    /// @p seen is given, adds each hit's normal to its leaf's side in seen[leaf].
+    /// @p seen is given, records each hit in seen[leaf] (its side, its normal).
     void traceEntries(std::size_t first, std::size_t last, NormalSums* seen, Progress* progress);
     /// What the ray from @p from along unit @p dir reaches first: a leaf index, with kBackSide set
     /// where the triangle hit faces away from that leaf's mean normal; kNone where it hits nothing,
