@@ -7,6 +7,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <bit>
 #include <atomic>
 #include <cmath>
 #include <stdexcept>
@@ -19,7 +20,8 @@ constexpr double kPi = 3.14159265358979323846;
 /// How far off its surface point a voxel's rays start, in cells: clear of the float intersection's
 /// rounding on that surface, far below anything a cell resolves.
 constexpr double kOriginOffsetCells = 1e-3;
-/// Most bytes of remembered ray hits (a leaf index per ray); beyond it every bounce traces again.
+/// Most bytes of remembered ray hits (a leaf index and a side per ray, bit-packed); beyond it every
+/// bounce traces again.
 constexpr std::size_t kMaxCachedHitBytes = std::size_t{512} << 20;
 /// The fixed-point unit of the sums of hit normals (RayGather::trace).
 constexpr double kNormalFixedPoint = double(1 << 24);
@@ -65,6 +67,10 @@ RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, V
         const double radius = std::sqrt(u), phi = 2 * kPi * v;
         pattern_.push_back({radius * std::cos(phi), radius * std::sin(phi), std::sqrt(1.0 - u)});
     }
+    // A kept hit: the leaf in the fewest bits that hold every index and one more (all ones: no
+    // leaf), and a bit for the side.
+    hitBits_ = static_cast<unsigned>(std::bit_width(leaves.size())) + 1;
+    wordsPerEntry_ = (pattern_.size() * hitBits_ + 63) / 64;
 }
 
 Vec3d RayGather::rayOrigin(const LeafMaterial& v, Vec3d n) const {
@@ -101,16 +107,37 @@ Vec3d RayGather::direction(std::size_t e, std::size_t k) const {
 }
 
 std::uint32_t RayGather::hit(std::size_t e, std::size_t k) const {
-    return e < keptEntries_ ? hits_[e * pattern_.size() + k] : castRay(from_[e], direction(e, k));
+    if (e >= keptEntries_) return castRay(from_[e], direction(e, k));
+    const std::size_t bit = k * hitBits_, word = e * wordsPerEntry_ + bit / 64;
+    const unsigned shift = bit % 64;
+    std::uint64_t code = hitWords_[word] >> shift;
+    if (shift + hitBits_ > 64) code |= hitWords_[word + 1] << (64 - shift);
+    const std::uint64_t leafMask = (std::uint64_t{1} << (hitBits_ - 1)) - 1;
+    const std::uint32_t leaf = static_cast<std::uint32_t>(code & leafMask);
+    if (leaf == leafMask) return kNone;
+    return code >> (hitBits_ - 1) & 1 ? leaf | kBackSide : leaf;
+}
+
+void RayGather::keepHit(std::size_t e, std::size_t k, std::uint32_t hit) {
+    const std::uint64_t leafMask = (std::uint64_t{1} << (hitBits_ - 1)) - 1;
+    const std::uint64_t code = hit == kNone ? leafMask
+                               : hit & kBackSide
+                                   ? (hit & ~kBackSide) | (std::uint64_t{1} << (hitBits_ - 1))
+                                   : hit;
+    const std::size_t bit = k * hitBits_, word = e * wordsPerEntry_ + bit / 64;
+    const unsigned shift = bit % 64;
+    hitWords_[word] |= code << shift;
+    if (shift + hitBits_ > 64) hitWords_[word + 1] |= code >> (64 - shift);
 }
 
 void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* seen,
                              Progress* progress) {
     const std::size_t rays = pattern_.size();
-    // Kept where every entry up to @p last fits.
-    const bool keep =
-        keptEntries_ == first && last * rays * sizeof(std::uint32_t) <= kMaxCachedHitBytes;
-    if (keep) hits_.resize(last * rays);
+    // Kept where every entry up to @p last fits, bit-packed: each entry's hits in whole words, so
+    // that no two threads write one word.
+    const bool keep = keptEntries_ == first &&
+                      last * wordsPerEntry_ * sizeof(std::uint64_t) <= kMaxCachedHitBytes;
+    if (keep) hitWords_.resize(last * wordsPerEntry_);
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(first, last, 64),
         [&](const tbb::blocked_range<std::size_t>& r) {
@@ -118,7 +145,7 @@ void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* se
                 for (std::size_t k = 0; k < rays; ++k) {
                     Vec3d normal;
                     const std::uint32_t hit = castRay(from_[e], direction(e, k), &normal);
-                    if (keep) hits_[e * rays + k] = hit;
+                    if (keep) keepHit(e, k, hit);
                     if (hit == kNone || !seen) continue;
                     const std::uint32_t leaf = hit & ~kBackSide;
                     const std::size_t side = hit & kBackSide ? 3 : 0;
