@@ -108,10 +108,11 @@ Vec3d RayGather::direction(std::size_t e, std::size_t k) const {
 
 std::uint32_t RayGather::hit(std::size_t e, std::size_t k) const {
     if (e >= keptEntries_) return castRay(from_[e], direction(e, k));
-    const std::size_t bit = k * hitBits_, word = e * wordsPerEntry_ + bit / 64;
+    const std::uint64_t* words = entryWords(e);
+    const std::size_t bit = k * hitBits_, word = bit / 64;
     const unsigned shift = bit % 64;
-    std::uint64_t code = hitWords_[word] >> shift;
-    if (shift + hitBits_ > 64) code |= hitWords_[word + 1] << (64 - shift);
+    std::uint64_t code = words[word] >> shift;
+    if (shift + hitBits_ > 64) code |= words[word + 1] << (64 - shift);
     const std::uint64_t leafMask = (std::uint64_t{1} << (hitBits_ - 1)) - 1;
     const std::uint32_t leaf = static_cast<std::uint32_t>(code & leafMask);
     if (leaf == leafMask) return kNone;
@@ -124,20 +125,32 @@ void RayGather::keepHit(std::size_t e, std::size_t k, std::uint32_t hit) {
                                : hit & kBackSide
                                    ? (hit & ~kBackSide) | (std::uint64_t{1} << (hitBits_ - 1))
                                    : hit;
-    const std::size_t bit = k * hitBits_, word = e * wordsPerEntry_ + bit / 64;
+    std::uint64_t* words = entryWords(e);
+    const std::size_t bit = k * hitBits_, word = bit / 64;
     const unsigned shift = bit % 64;
-    hitWords_[word] |= code << shift;
-    if (shift + hitBits_ > 64) hitWords_[word + 1] |= code >> (64 - shift);
+    words[word] |= code << shift;
+    if (shift + hitBits_ > 64) words[word + 1] |= code >> (64 - shift);
+}
+
+std::uint64_t* RayGather::entryWords(std::size_t e) {
+    return e < leaves_.size() ? leafHitWords_.data() + e * wordsPerEntry_
+                              : backHitWords_.data() + (e - leaves_.size()) * wordsPerEntry_;
+}
+
+const std::uint64_t* RayGather::entryWords(std::size_t e) const {
+    return e < leaves_.size() ? leafHitWords_.data() + e * wordsPerEntry_
+                              : backHitWords_.data() + (e - leaves_.size()) * wordsPerEntry_;
 }
 
 void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* seen,
                              Progress* progress) {
     const std::size_t rays = pattern_.size();
     // Kept where every entry up to @p last fits, bit-packed: each entry's hits in whole words, so
-    // that no two threads write one word.
+    // that no two threads write one word. The leaves' and the back sides' words are apart, so that
+    // keeping the back sides does not move (and for a moment double) the leaves'.
     const bool keep = keptEntries_ == first &&
                       last * wordsPerEntry_ * sizeof(std::uint64_t) <= kMaxCachedHitBytes;
-    if (keep) hitWords_.resize(last * wordsPerEntry_);
+    if (keep) (first == 0 ? leafHitWords_ : backHitWords_).resize((last - first) * wordsPerEntry_);
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(first, last, 64),
         [&](const tbb::blocked_range<std::size_t>& r) {

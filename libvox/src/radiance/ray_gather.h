@@ -83,6 +83,9 @@ private:
     [[nodiscard]] std::uint32_t hit(std::size_t e, std::size_t k) const;
     /// Keeps castRay's answer @p hit for entry @p e's k-th ray (into zeroed words).
     void keepHit(std::size_t e, std::size_t k, std::uint32_t hit);
+    /// The words of entry @p e's kept hits.
+    [[nodiscard]] std::uint64_t* entryWords(std::size_t e);
+    [[nodiscard]] const std::uint64_t* entryWords(std::size_t e) const;
     /// Entry @p e's k-th ray direction.
     [[nodiscard]] Vec3d direction(std::size_t e, std::size_t k) const;
     /// The leaf holding world point @p p, or kNone.
@@ -97,13 +100,15 @@ private:
     std::int64_t cells_;
     std::vector<std::uint64_t> codes_;  ///< per leaf: morton3 of its cell (ascending)
     /// Per entry (a gather's set of rays): each leaf's front, then each two-sided leaf's back.
-    std::vector<Vec3d> from_;              ///< where its rays start
-    std::vector<Vec3d> normal_;            ///< what they are cosine-distributed about
-    std::vector<Vec3d> pattern_;           ///< the rays' directions about +z
-    unsigned hitBits_ = 0;                 ///< bits of a kept hit: the leaf's, then the side's
-    std::size_t wordsPerEntry_ = 0;        ///< 64-bit words holding one entry's kept hits
-    std::vector<std::uint64_t> hitWords_;  ///< per entry and ray: castRay's answer, for the first
-    std::size_t keptEntries_ = 0;          ///< keptEntries_ entries (the rest are traced again)
+    std::vector<Vec3d> from_;        ///< where its rays start
+    std::vector<Vec3d> normal_;      ///< what they are cosine-distributed about
+    std::vector<Vec3d> pattern_;     ///< the rays' directions about +z
+    unsigned hitBits_ = 0;           ///< bits of a kept hit: the leaf's, then the side's
+    std::size_t wordsPerEntry_ = 0;  ///< 64-bit words holding one entry's kept hits
+    /// Per entry and ray, castRay's answer, for the first keptEntries_ entries (the rest are
+    /// traced again): the leaves' entries, and the back sides'.
+    std::vector<std::uint64_t> leafHitWords_, backHitWords_;
+    std::size_t keptEntries_ = 0;
     bool traced_ = false;
 };
 
