@@ -81,11 +81,15 @@ Vec3d RayGather::rayOrigin(const LeafMaterial& v, Vec3d n) const {
     const Vec3d onSurface = centre + n * (halfDiagonal - h.t);
     const Vec3d off = (onSurface - centre) / cell_;
     // A surface on the cell's face is in the cell: the float intersection may put it a rounding
-    // error outside. A point outside the cell (a surface that clips a corner, another surface in
-    // front) is not taken: that lost accuracy on the house (docs/internals/rvol-writer.md).
+    // error outside. A point outside the cell on the far side of the centre (a surface that clips
+    // a corner, another surface) is not taken: that lost accuracy on the house
+    // (docs/internals/rvol-writer.md).
     const bool inCell = h.hit && std::max({std::abs(off.x), std::abs(off.y), std::abs(off.z)}) <=
                                      0.5 + kFaceSlackCells;
-    return (inCell ? onSurface : centre) + n * (kOriginOffsetCells * cell_);
+    // A surface on the normal's side of the centre, though outside the cell, puts the centre
+    // behind it: rays from the centre would meet its back and read nothing, so they start on it.
+    const bool centreBehind = h.hit && h.t < halfDiagonal;
+    return (inCell || centreBehind ? onSurface : centre) + n * (kOriginOffsetCells * cell_);
 }
 
 std::uint32_t RayGather::leafAt(Vec3d p) const noexcept {

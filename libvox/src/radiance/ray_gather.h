@@ -62,8 +62,8 @@ public:
 
 private:
     /// Where rays about unit @p n start for leaf @p v: where the line along @p n through the
-    /// cell's centre first meets a surface inside the cell, else the centre; just off it along
-    /// @p n.
+    /// cell's centre first meets a surface inside the cell, or outside it on @p n's side of the
+    /// centre, else the centre; just off it along @p n.
     [[nodiscard]] Vec3d rayOrigin(const LeafMaterial& v, Vec3d n) const;
     /// Per leaf, whether a ray reached its back side, and the fixed-point sums of the hit
     /// triangles' normals on its front (x, y, z) and back (x, y, z): integer sums do not depend
