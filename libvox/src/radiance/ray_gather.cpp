@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <bit>
-#include <atomic>
 #include <cmath>
 #include <stdexcept>
 
@@ -70,6 +69,7 @@ RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, V
     // A kept hit: the leaf in the fewest bits that hold every index and one more (all ones: no
     // leaf), and a bit for the side.
     hitBits_ = static_cast<unsigned>(std::bit_width(leaves.size())) + 1;
+    noLeaf_ = (std::uint64_t{1} << (hitBits_ - 1)) - 1;
     wordsPerEntry_ = (pattern_.size() * hitBits_ + 63) / 64;
 }
 
@@ -105,45 +105,46 @@ std::uint32_t RayGather::leafAt(Vec3d p) const noexcept {
                                              : kNone;
 }
 
-Vec3d RayGather::direction(std::size_t e, std::size_t k) const {
-    const OrthonormalFrame frame(normal_[e]);
-    return frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z);
+std::uint64_t RayGather::pack(std::uint32_t hit) const noexcept {
+    if (hit == kNone) return noLeaf_;
+    return hit & kBackSide ? (hit & ~kBackSide) | (noLeaf_ + 1) : hit;
 }
 
-std::uint32_t RayGather::hit(std::size_t e, std::size_t k) const {
-    if (e >= keptEntries_) return castRay(from_[e], direction(e, k));
-    const std::uint64_t* words = entryWords(e);
-    const std::size_t bit = k * hitBits_, word = bit / 64;
-    const unsigned shift = bit % 64;
-    std::uint64_t code = words[word] >> shift;
-    if (shift + hitBits_ > 64) code |= words[word + 1] << (64 - shift);
-    const std::uint64_t leafMask = (std::uint64_t{1} << (hitBits_ - 1)) - 1;
-    const std::uint32_t leaf = static_cast<std::uint32_t>(code & leafMask);
-    if (leaf == leafMask) return kNone;
-    return code >> (hitBits_ - 1) & 1 ? leaf | kBackSide : leaf;
+std::uint32_t RayGather::unpack(std::uint64_t code) const noexcept {
+    const auto leaf = static_cast<std::uint32_t>(code & noLeaf_);
+    if (leaf == noLeaf_) return kNone;
+    return code & (noLeaf_ + 1) ? leaf | kBackSide : leaf;
+}
+
+const std::uint64_t* RayGather::entryWords(std::size_t e) const {
+    return e < leaves_.size() ? leafHitWords_.data() + e * wordsPerEntry_
+                              : backHitWords_.data() + (e - leaves_.size()) * wordsPerEntry_;
 }
 
 void RayGather::keepHit(std::size_t e, std::size_t k, std::uint32_t hit) {
-    const std::uint64_t leafMask = (std::uint64_t{1} << (hitBits_ - 1)) - 1;
-    const std::uint64_t code = hit == kNone ? leafMask
-                               : hit & kBackSide
-                                   ? (hit & ~kBackSide) | (std::uint64_t{1} << (hitBits_ - 1))
-                                   : hit;
-    std::uint64_t* words = entryWords(e);
+    auto* words = const_cast<std::uint64_t*>(entryWords(e));  // into this object's own vectors
+    const std::uint64_t code = pack(hit);
     const std::size_t bit = k * hitBits_, word = bit / 64;
     const unsigned shift = bit % 64;
     words[word] |= code << shift;
     if (shift + hitBits_ > 64) words[word + 1] |= code >> (64 - shift);
 }
 
-std::uint64_t* RayGather::entryWords(std::size_t e) {
-    return e < leaves_.size() ? leafHitWords_.data() + e * wordsPerEntry_
-                              : backHitWords_.data() + (e - leaves_.size()) * wordsPerEntry_;
-}
-
-const std::uint64_t* RayGather::entryWords(std::size_t e) const {
-    return e < leaves_.size() ? leafHitWords_.data() + e * wordsPerEntry_
-                              : backHitWords_.data() + (e - leaves_.size()) * wordsPerEntry_;
+void RayGather::entryHits(std::size_t e, std::span<std::uint32_t> out) const {
+    if (e >= keptEntries_) {
+        const OrthonormalFrame frame(normal_[e]);
+        for (std::size_t k = 0; k < out.size(); ++k)
+            out[k] = castRay(from_[e], frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z));
+        return;
+    }
+    const std::uint64_t* words = entryWords(e);
+    for (std::size_t k = 0; k < out.size(); ++k) {
+        const std::size_t bit = k * hitBits_, word = bit / 64;
+        const unsigned shift = bit % 64;
+        std::uint64_t code = words[word] >> shift;
+        if (shift + hitBits_ > 64) code |= words[word + 1] << (64 - shift);
+        out[k] = unpack(code);
+    }
 }
 
 void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* seen,
@@ -158,10 +159,13 @@ void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* se
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(first, last, 64),
         [&](const tbb::blocked_range<std::size_t>& r) {
-            for (std::size_t e = r.begin(); e != r.end(); ++e)
+            for (std::size_t e = r.begin(); e != r.end(); ++e) {
+                const OrthonormalFrame frame(normal_[e]);
                 for (std::size_t k = 0; k < rays; ++k) {
                     Vec3d normal;
-                    const std::uint32_t hit = castRay(from_[e], direction(e, k), &normal);
+                    const std::uint32_t hit = castRay(
+                        from_[e], frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z),
+                        &normal);
                     if (keep) keepHit(e, k, hit);
                     if (hit == kNone || !seen) continue;
                     const std::uint32_t leaf = hit & ~kBackSide;
@@ -171,6 +175,7 @@ void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* se
                         seen[leaf].sums[side + a].fetch_add(
                             std::llround(normal[a] * kNormalFixedPoint), std::memory_order_relaxed);
                 }
+            }
             if (progress) progress->advance(r.size());
         });
     if (keep) keptEntries_ = last;
@@ -215,10 +220,11 @@ RayGather::Irradiance RayGather::gather(std::span<const Vec3f> front, std::span<
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, from_.size(), 64),
         [&](const tbb::blocked_range<std::size_t>& r) {
+            std::vector<std::uint32_t> hits(rays);
             for (std::size_t e = r.begin(); e != r.end(); ++e) {
+                entryHits(e, hits);
                 Vec3d sum{0, 0, 0};
-                for (std::size_t k = 0; k < rays; ++k) {
-                    const std::uint32_t h = hit(e, k);
+                for (const std::uint32_t h : hits) {
                     if (h == kNone) continue;
                     sum += vec3Cast<double>(h & kBackSide ? back[h & ~kBackSide] : front[h]);
                 }

@@ -79,15 +79,16 @@ private:
     /// where the triangle hit faces away from that leaf's mean normal; kNone where it hits nothing,
     /// the back of a triangle, or no leaf. @p normal, if given, receives the triangle's normal.
     [[nodiscard]] std::uint32_t castRay(Vec3d from, Vec3d dir, Vec3d* normal = nullptr) const;
-    /// Entry @p e's k-th ray: what castRay answers for it, kept or traced again.
-    [[nodiscard]] std::uint32_t hit(std::size_t e, std::size_t k) const;
+    /// Entry @p e's rays, in the pattern's order: what castRay answers for each, kept or traced
+    /// again. @p out holds one per ray.
+    void entryHits(std::size_t e, std::span<std::uint32_t> out) const;
     /// Keeps castRay's answer @p hit for entry @p e's k-th ray (into zeroed words).
     void keepHit(std::size_t e, std::size_t k, std::uint32_t hit);
+    /// A castRay answer as the hitBits_ bits kept, and back.
+    [[nodiscard]] std::uint64_t pack(std::uint32_t hit) const noexcept;
+    [[nodiscard]] std::uint32_t unpack(std::uint64_t code) const noexcept;
     /// The words of entry @p e's kept hits.
-    [[nodiscard]] std::uint64_t* entryWords(std::size_t e);
     [[nodiscard]] const std::uint64_t* entryWords(std::size_t e) const;
-    /// Entry @p e's k-th ray direction.
-    [[nodiscard]] Vec3d direction(std::size_t e, std::size_t k) const;
     /// The leaf holding world point @p p, or kNone.
     [[nodiscard]] std::uint32_t leafAt(Vec3d p) const noexcept;
     static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
@@ -104,6 +105,7 @@ private:
     std::vector<Vec3d> normal_;      ///< what they are cosine-distributed about
     std::vector<Vec3d> pattern_;     ///< the rays' directions about +z
     unsigned hitBits_ = 0;           ///< bits of a kept hit: the leaf's, then the side's
+    std::uint64_t noLeaf_ = 0;       ///< the leaf bits all set: no leaf hit
     std::size_t wordsPerEntry_ = 0;  ///< 64-bit words holding one entry's kept hits
     /// Per entry and ray, castRay's answer, for the first keptEntries_ entries (the rest are
     /// traced again): the leaves' entries, and the back sides'.
