@@ -52,11 +52,25 @@ private:
     struct Triangle {
         Vec3f v0, e1, e2;
     };
+    /// A node of the binary tree the build makes (and collapses into WideNodes).
     struct Node {
         float lo[3], hi[3];
         std::uint32_t first;  // leaf: first triangle; inner: right child (left child is this + 1)
         std::uint32_t count;  // leaf: triangle count; inner: 0
     };
+    /// Up to four children's boxes, one array per axis and bound with a lane per child, so that
+    /// one ray tests all four at once.
+    struct alignas(16) WideNode {
+        float lo[3][4], hi[3][4];
+        std::uint32_t child[4];  // kLeafChild | packet, or a WideNode
+        std::uint32_t count;     // children in use, the first ones
+    };
+    /// A leaf's triangles (at most four), one lane each; unused lanes have no area.
+    struct alignas(16) TrianglePacket {
+        float v0[3][4], e1[3][4], e2[3][4];
+        std::uint32_t triangle[4];  // index into triangles_, or Nearest::kNone
+    };
+    static constexpr std::uint32_t kLeafChild = 0x80000000u;
     /// The BVH traversal cast() and castSurface() share: the nearest triangle (index into
     /// triangles_, or kNone) and its Möller–Trumbore t, u, v.
     struct Nearest {
@@ -67,18 +81,24 @@ private:
     };
     [[nodiscard]] Nearest nearest(const Ray& ray, double tMax) const;
     /// Per triangle during the build: its centroid and bounds; order: the triangles as the
-    /// leaves will hold them.
+    /// leaves will hold them; nodes: the binary tree.
     struct BuildInput {
         std::vector<std::uint32_t> order;
         std::vector<Vec3f> centroids;
         std::vector<Bounds3f> bounds;
+        std::vector<Node> nodes;
     };
     std::uint32_t build(std::uint32_t first, std::uint32_t count, std::uint32_t depth,
                         BuildInput& input);
+    /// The WideNode standing for binary node @p node's subtree (an inner node); returns its index.
+    std::uint32_t collapse(const std::vector<Node>& nodes, std::uint32_t node);
+    /// The child code of binary node @p node: a packet for a leaf, else collapse().
+    std::uint32_t childCode(const std::vector<Node>& nodes, std::uint32_t node);
     const Scene& scene_;
     std::vector<Triangle> triangles_;
     std::vector<std::uint64_t> sources_;  // per triangle: mesh << 32 | triangle in mesh
-    std::vector<Node> nodes_;
+    std::vector<WideNode> wide_;  // wide_[0] is the root
+    std::vector<TrianglePacket> packets_;
 };
 
 /// One primary ray per pixel against the triangles, in parallel, into the same buffers as

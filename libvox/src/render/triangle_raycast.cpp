@@ -1,5 +1,7 @@
-// BVH over triangles: binned surface-area-heuristic splits, up to four triangles per leaf,
-// children visited nearer first, slab tests and Möller–Trumbore intersection.
+// BVH over triangles: a binary tree by binned surface-area-heuristic splits (up to four triangles
+// per leaf), collapsed into four-wide nodes whose children's boxes one ray tests at once; children
+// visited nearer first; a leaf's four triangles intersected at once (Möller–Trumbore). Each lane
+// evaluates the very float operations of the one-triangle, one-box test, in the same order.
 #include "../scene/surface_shading.h"
 
 #include <vox/formats/esvo_attributes.h>
@@ -7,8 +9,14 @@
 #include <vox/triangle_raycast.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <numeric>
+#include <stdexcept>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace vox {
 
@@ -23,7 +31,61 @@ constexpr std::uint32_t kMaxLeafTriangles = 4;
 /// Below this depth nodes split at the median (log2 of the triangles more levels at most), so
 /// that no path exceeds the traversal's stack.
 constexpr std::uint32_t kMaxSahDepth = 64;
-constexpr int kStackEntries = 128;
+/// A wide node leaves at most three siblings on the stack per level, over at most
+/// kMaxSahDepth + 32 levels.
+constexpr int kStackEntries = 3 * (kMaxSahDepth + 33);
+static_assert(kMaxLeafTriangles == 4, "a leaf's triangles fill one TrianglePacket");
+
+// Four float lanes: SSE2 where the target has it (every x86-64), else a plain loop. Comparisons
+// give a bit per lane (bit i: lane i). maxKeep / minKeep return the accumulator where the
+// candidate is NaN (0·∞ in a slab test where the ray runs in a box's face), as the one-box test
+// does with std::max / std::min.
+#if defined(__SSE2__)
+struct Lanes {
+    __m128 v;
+};
+inline Lanes load(const float* p) { return {_mm_load_ps(p)}; }
+inline Lanes splat(float x) { return {_mm_set1_ps(x)}; }
+inline Lanes operator+(Lanes a, Lanes b) { return {_mm_add_ps(a.v, b.v)}; }
+inline Lanes operator-(Lanes a, Lanes b) { return {_mm_sub_ps(a.v, b.v)}; }
+inline Lanes operator*(Lanes a, Lanes b) { return {_mm_mul_ps(a.v, b.v)}; }
+inline Lanes operator/(Lanes a, Lanes b) { return {_mm_div_ps(a.v, b.v)}; }
+inline Lanes maxKeep(Lanes candidate, Lanes acc) { return {_mm_max_ps(candidate.v, acc.v)}; }
+inline Lanes minKeep(Lanes candidate, Lanes acc) { return {_mm_min_ps(candidate.v, acc.v)}; }
+inline unsigned lessThan(Lanes a, Lanes b) { return unsigned(_mm_movemask_ps(_mm_cmplt_ps(a.v, b.v))); }
+inline unsigned lessEqual(Lanes a, Lanes b) { return unsigned(_mm_movemask_ps(_mm_cmple_ps(a.v, b.v))); }
+inline unsigned notEqual(Lanes a, Lanes b) { return unsigned(_mm_movemask_ps(_mm_cmpneq_ps(a.v, b.v))); }
+inline void store(float* p, Lanes a) { _mm_store_ps(p, a.v); }
+#else
+struct Lanes {
+    float v[4];
+};
+template <typename Op>
+inline Lanes lanewise(Lanes a, Lanes b, Op op) {
+    Lanes r;
+    for (int i = 0; i < 4; ++i) r.v[i] = op(a.v[i], b.v[i]);
+    return r;
+}
+template <typename Op>
+inline unsigned compare(Lanes a, Lanes b, Op op) {
+    unsigned bits = 0;
+    for (int i = 0; i < 4; ++i) bits |= op(a.v[i], b.v[i]) ? 1u << i : 0u;
+    return bits;
+}
+inline Lanes load(const float* p) { return {{p[0], p[1], p[2], p[3]}}; }
+inline Lanes splat(float x) { return {{x, x, x, x}}; }
+inline Lanes operator+(Lanes a, Lanes b) { return lanewise(a, b, [](float x, float y) { return x + y; }); }
+inline Lanes operator-(Lanes a, Lanes b) { return lanewise(a, b, [](float x, float y) { return x - y; }); }
+inline Lanes operator*(Lanes a, Lanes b) { return lanewise(a, b, [](float x, float y) { return x * y; }); }
+inline Lanes operator/(Lanes a, Lanes b) { return lanewise(a, b, [](float x, float y) { return x / y; }); }
+inline Lanes maxKeep(Lanes c, Lanes acc) { return lanewise(c, acc, [](float x, float a) { return x > a ? x : a; }); }
+inline Lanes minKeep(Lanes c, Lanes acc) { return lanewise(c, acc, [](float x, float a) { return x < a ? x : a; }); }
+inline unsigned lessThan(Lanes a, Lanes b) { return compare(a, b, [](float x, float y) { return x < y; }); }
+inline unsigned lessEqual(Lanes a, Lanes b) { return compare(a, b, [](float x, float y) { return x <= y; }); }
+inline unsigned notEqual(Lanes a, Lanes b) { return compare(a, b, [](float x, float y) { return x != y; }); }
+inline void store(float* p, Lanes a) { std::copy(a.v, a.v + 4, p); }
+#endif
+constexpr unsigned kAllLanes = 0xFu;
 
 /// Half the surface area of @p b (0 when empty): the SAH's measure of a node.
 float halfArea(const Bounds3f& b) {
@@ -57,7 +119,7 @@ TriangleRayCaster::TriangleRayCaster(const Scene& scene, bool includeDynamic) : 
         input.centroids[i] = (v[0] + v[1] + v[2]) * (1.0f / 3.0f);
         for (const Vec3f& p : v) input.bounds[i].add(p);
     }
-    nodes_.reserve(2 * triangles_.size());  // at most 2n − 1 nodes: every leaf holds a triangle
+    input.nodes.reserve(2 * triangles_.size());  // at most 2n − 1: every leaf holds a triangle
     build(0, static_cast<std::uint32_t>(triangles_.size()), 0, input);
     // The leaves index the build's order: store the triangles in it.
     std::vector<Triangle> triangles(triangles_.size());
@@ -68,12 +130,65 @@ TriangleRayCaster::TriangleRayCaster(const Scene& scene, bool includeDynamic) : 
     }
     triangles_ = std::move(triangles);
     sources_ = std::move(sources);
+    collapse(input.nodes, 0);
+}
+
+std::uint32_t TriangleRayCaster::collapse(const std::vector<Node>& nodes, std::uint32_t node) {
+    const auto index = static_cast<std::uint32_t>(wide_.size());
+    wide_.emplace_back();
+    // Opens the inner node of largest surface area among the children until there are four (the
+    // SAH's own measure of how often a ray enters a box) or only leaves.
+    std::uint32_t children[4] = {node};
+    std::uint32_t count = 1;
+    while (count < 4) {
+        int open = -1;
+        float openArea = -1;
+        for (std::uint32_t i = 0; i < count; ++i) {
+            const Node& n = nodes[children[i]];
+            if (n.count != 0) continue;
+            Bounds3f box;
+            box.add(Vec3f{n.lo[0], n.lo[1], n.lo[2]});
+            box.add(Vec3f{n.hi[0], n.hi[1], n.hi[2]});
+            if (halfArea(box) > openArea) openArea = halfArea(box), open = static_cast<int>(i);
+        }
+        if (open < 0) break;
+        const std::uint32_t inner = children[open];
+        children[open] = inner + 1;
+        children[count++] = nodes[inner].first;
+    }
+    WideNode wide{};
+    for (int a = 0; a < 3; ++a)
+        for (std::uint32_t i = 0; i < 4; ++i)
+            wide.lo[a][i] = i < count ? nodes[children[i]].lo[a] : 0.0f,
+            wide.hi[a][i] = i < count ? nodes[children[i]].hi[a] : 0.0f;
+    wide.count = count;
+    for (std::uint32_t i = 0; i < count; ++i) wide.child[i] = childCode(nodes, children[i]);
+    wide_[index] = wide;  // after the children: collapsing them may move wide_
+    return index;
+}
+
+std::uint32_t TriangleRayCaster::childCode(const std::vector<Node>& nodes, std::uint32_t node) {
+    const Node& n = nodes[node];
+    if (n.count == 0) return collapse(nodes, node);
+    if (n.count > kMaxLeafTriangles) throw std::logic_error("TriangleRayCaster: leaf too large");
+    TrianglePacket packet{};  // unused lanes: no area, so their determinant is 0 and they miss
+    for (std::uint32_t lane = 0; lane < 4; ++lane) {
+        packet.triangle[lane] = Nearest::kNone;
+        if (lane >= n.count) continue;
+        const Triangle& t = triangles_[n.first + lane];
+        for (int a = 0; a < 3; ++a)
+            packet.v0[a][lane] = t.v0[a], packet.e1[a][lane] = t.e1[a],
+            packet.e2[a][lane] = t.e2[a];
+        packet.triangle[lane] = n.first + lane;
+    }
+    packets_.push_back(packet);
+    return kLeafChild | static_cast<std::uint32_t>(packets_.size() - 1);
 }
 
 std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
                                        std::uint32_t depth, BuildInput& input) {
-    const auto index = static_cast<std::uint32_t>(nodes_.size());
-    nodes_.push_back({});
+    const auto index = static_cast<std::uint32_t>(input.nodes.size());
+    input.nodes.push_back({});
     Bounds3f box, centroidBox;
     for (std::uint32_t i = first; i < first + count; ++i) {
         const std::uint32_t t = input.order[i];
@@ -85,7 +200,7 @@ std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
     const auto leaf = [&] {
         node.first = first;
         node.count = count;
-        nodes_[index] = node;
+        input.nodes[index] = node;
         return index;
     };
     if (count <= 1) return leaf();
@@ -158,78 +273,91 @@ std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
     build(first, half, depth + 1, input);
     node.first = build(first + half, count - half, depth + 1, input);
     node.count = 0;
-    nodes_[index] = node;
+    input.nodes[index] = node;
     return index;
 }
 
 TriangleRayCaster::Nearest TriangleRayCaster::nearest(const Ray& ray, double tMax) const {
     Nearest result;
-    if (nodes_.empty()) return result;
-    const Vec3f o{static_cast<float>(ray.origin.x), static_cast<float>(ray.origin.y),
-                  static_cast<float>(ray.origin.z)};
-    const Vec3f d{static_cast<float>(ray.direction.x), static_cast<float>(ray.direction.y),
-                  static_cast<float>(ray.direction.z)};
-    const Vec3f inv{1.0f / d.x, 1.0f / d.y, 1.0f / d.z};
+    if (wide_.empty()) return result;
+    const float o[3] = {static_cast<float>(ray.origin.x), static_cast<float>(ray.origin.y),
+                        static_cast<float>(ray.origin.z)};
+    const float d[3] = {static_cast<float>(ray.direction.x), static_cast<float>(ray.direction.y),
+                        static_cast<float>(ray.direction.z)};
+    Lanes origin[3], inverse[3], direction[3];
+    bool nearIsLo[3];  // the slab's near plane: lo where the ray runs up the axis
+    for (int a = 0; a < 3; ++a) {
+        const float inv = 1.0f / d[a];
+        nearIsLo[a] = !(inv < 0);
+        origin[a] = splat(o[a]), inverse[a] = splat(inv), direction[a] = splat(d[a]);
+    }
     float best = static_cast<float>(std::min(tMax, 3.0e38));
-    // Where the ray enters a node's box (≤ best), or infinity where it misses it.
-    const auto enter = [&](const Node& n) {
-        float t0 = 0.0f, t1 = best;
-        for (int a = 0; a < 3; ++a) {
-            float ta = (n.lo[a] - o[a]) * inv[a], tb = (n.hi[a] - o[a]) * inv[a];
-            if (ta > tb) std::swap(ta, tb);
-            t0 = std::max(t0, ta);
-            t1 = std::min(t1, tb);
-        }
-        return t0 <= t1 ? t0 : std::numeric_limits<float>::infinity();
-    };
-    // Nodes to visit with the distance where the ray enters them: the nearer child is taken
-    // first, and an entry beyond a hit found since it was pushed is dropped.
+    // Nodes (child codes) to visit with the distance where the ray enters them: the nearest
+    // child is taken first, and an entry beyond a hit found since it was pushed is dropped.
     struct Entry {
-        std::uint32_t node;
+        std::uint32_t code;
         float t;
     };
     Entry stack[kStackEntries];
     int top = 0;
-    ++result.iterations;
-    if (const float t = enter(nodes_[0]); t <= best) stack[top++] = {0, t};
+    stack[top++] = {0, 0.0f};
+    alignas(16) float lanes[4];
     while (top > 0) {
         const Entry e = stack[--top];
         if (e.t > best) continue;
-        const Node& n = nodes_[e.node];
-        if (n.count == 0) {
-            const std::uint32_t near = e.node + 1, far = n.first;
-            const float tNear = enter(nodes_[near]), tFar = enter(nodes_[far]);
-            result.iterations += 2;
-            const bool hitNear = tNear <= best, hitFar = tFar <= best;
-            if (hitNear && hitFar) {
-                if (tNear <= tFar) {
-                    stack[top++] = {far, tFar};
-                    stack[top++] = {near, tNear};
-                } else {
-                    stack[top++] = {near, tNear};
-                    stack[top++] = {far, tFar};
-                }
-            } else if (hitNear) {
-                stack[top++] = {near, tNear};
-            } else if (hitFar) {
-                stack[top++] = {far, tFar};
+        if (e.code & kLeafChild) {
+            const TrianglePacket& p = packets_[e.code & ~kLeafChild];
+            const Lanes e1[3] = {load(p.e1[0]), load(p.e1[1]), load(p.e1[2])};
+            const Lanes e2[3] = {load(p.e2[0]), load(p.e2[1]), load(p.e2[2])};
+            // p = d × e2, s = o − v0, q = s × e1, as cross() and dot() evaluate them.
+            const Lanes px = direction[1] * e2[2] - direction[2] * e2[1];
+            const Lanes py = direction[2] * e2[0] - direction[0] * e2[2];
+            const Lanes pz = direction[0] * e2[1] - direction[1] * e2[0];
+            const Lanes det = e1[0] * px + e1[1] * py + e1[2] * pz;
+            const Lanes invDet = splat(1.0f) / det;
+            const Lanes sx = origin[0] - load(p.v0[0]), sy = origin[1] - load(p.v0[1]),
+                        sz = origin[2] - load(p.v0[2]);
+            const Lanes u = (sx * px + sy * py + sz * pz) * invDet;
+            const Lanes qx = sy * e1[2] - sz * e1[1];
+            const Lanes qy = sz * e1[0] - sx * e1[2];
+            const Lanes qz = sx * e1[1] - sy * e1[0];
+            const Lanes v = (direction[0] * qx + direction[1] * qy + direction[2] * qz) * invDet;
+            const Lanes t = (e2[0] * qx + e2[1] * qy + e2[2] * qz) * invDet;
+            const Lanes zero = splat(0.0f), one = splat(1.0f);
+            unsigned hits = notEqual(det, zero) & ~lessThan(u, zero) & ~lessThan(one, u) &
+                            ~lessThan(v, zero) & ~lessThan(one, u + v) & lessEqual(zero, t) &
+                            lessThan(t, splat(best)) & kAllLanes;
+            if (hits == 0) continue;
+            alignas(16) float us[4], vs[4];
+            store(lanes, t), store(us, u), store(vs, v);
+            for (; hits != 0; hits &= hits - 1) {  // lanes in triangle order: the first of equals
+                const int lane = std::countr_zero(hits);
+                if (lanes[lane] < best)
+                    best = lanes[lane], result.triangle = p.triangle[lane], result.u = us[lane],
+                    result.v = vs[lane];
             }
             continue;
         }
-        for (std::uint32_t i = n.first; i < n.first + n.count; ++i) {
-            const Triangle& tri = triangles_[i];
-            const Vec3f p = cross(d, tri.e2);
-            const float det = dot(tri.e1, p);
-            if (det == 0.0f) continue;
-            const float invDet = 1.0f / det;
-            const Vec3f s = o - tri.v0;
-            const float u = dot(s, p) * invDet;
-            if (u < 0.0f || u > 1.0f) continue;
-            const Vec3f q = cross(s, tri.e1);
-            const float v = dot(d, q) * invDet;
-            if (v < 0.0f || u + v > 1.0f) continue;
-            const float t = dot(tri.e2, q) * invDet;
-            if (t >= 0.0f && t < best) best = t, result.triangle = i, result.u = u, result.v = v;
+        const WideNode& n = wide_[e.code];
+        result.iterations += n.count;
+        Lanes t0 = splat(0.0f), t1 = splat(best);
+        for (int a = 0; a < 3; ++a) {
+            const Lanes nearPlane = load(nearIsLo[a] ? n.lo[a] : n.hi[a]);
+            const Lanes farPlane = load(nearIsLo[a] ? n.hi[a] : n.lo[a]);
+            t0 = maxKeep((nearPlane - origin[a]) * inverse[a], t0);
+            t1 = minKeep((farPlane - origin[a]) * inverse[a], t1);
+        }
+        unsigned entered = lessEqual(t0, t1) & ((1u << n.count) - 1);
+        if (entered == 0) continue;
+        store(lanes, t0);
+        // The entered children onto the stack, sorted in place so that the nearest is on top.
+        const int base = top;
+        for (; entered != 0; entered &= entered - 1) {
+            const int lane = std::countr_zero(entered);
+            const Entry c{n.child[lane], lanes[lane]};
+            int i = top++;
+            for (; i > base && stack[i - 1].t < c.t; --i) stack[i] = stack[i - 1];
+            stack[i] = c;
         }
     }
     result.t = best;
