@@ -2,12 +2,14 @@
 #include "embree_peer.h"
 
 #include <embree3/rtcore.h>
+#include <tbb/blocked_range.h>
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -30,6 +32,26 @@ void throwOnError(RTCDevice device, const char* what) {
     if (error != RTC_ERROR_NONE)
         throw std::runtime_error(std::string("Embree: ") + what + ": error " +
                                  std::to_string(int(error)));
+}
+
+/// The nearest hit's distance along one ray (rtcIntersect1), or +inf where it misses.
+float intersect(RTCScene scene, RTCIntersectContext& context, const float* origin,
+                const float* direction) {
+    RTCRayHit rayHit;
+    rayHit.ray.org_x = origin[0], rayHit.ray.org_y = origin[1], rayHit.ray.org_z = origin[2];
+    rayHit.ray.dir_x = direction[0], rayHit.ray.dir_y = direction[1],
+    rayHit.ray.dir_z = direction[2];
+    rayHit.ray.tnear = 0;
+    rayHit.ray.tfar = std::numeric_limits<float>::infinity();
+    rayHit.ray.time = 0;
+    rayHit.ray.mask = ~0u;
+    rayHit.ray.id = 0;
+    rayHit.ray.flags = 0;
+    rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rayHit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene, &context, &rayHit);
+    return rayHit.hit.geomID != RTC_INVALID_GEOMETRY_ID ? rayHit.ray.tfar
+                                                        : std::numeric_limits<float>::infinity();
 }
 
 }  // namespace
@@ -105,27 +127,40 @@ EmbreeImage EmbreePeer::render(const vox::PinholeCamera& camera) const {
             for (int y = tile.rows().begin(); y < tile.rows().end(); ++y)
                 for (int x = tile.cols().begin(); x < tile.cols().end(); ++x) {
                     const std::size_t i = std::size_t(y) * std::size_t(width) + std::size_t(x);
-                    RTCRayHit rayHit;
-                    rayHit.ray.org_x = origin[0], rayHit.ray.org_y = origin[1],
-                    rayHit.ray.org_z = origin[2];
-                    rayHit.ray.dir_x = directions[3 * i], rayHit.ray.dir_y = directions[3 * i + 1],
-                    rayHit.ray.dir_z = directions[3 * i + 2];
-                    rayHit.ray.tnear = 0;
-                    rayHit.ray.tfar = std::numeric_limits<float>::infinity();
-                    rayHit.ray.time = 0;
-                    rayHit.ray.mask = ~0u;
-                    rayHit.ray.id = 0;
-                    rayHit.ray.flags = 0;
-                    rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-                    rayHit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-                    rtcIntersect1(scene, &context, &rayHit);
-                    if (rayHit.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
-                        image.depth[i] = rayHit.ray.tfar;
+                    const float t = intersect(scene, context, origin, &directions[3 * i]);
+                    if (std::isfinite(t)) {
+                        image.depth[i] = t;
                         ++tileHits;
                     }
                 }
             hits += tileHits;
         });
+    image.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    image.hits = hits;
+    return image;
+}
+
+EmbreeImage EmbreePeer::cast(const std::vector<float>& origins,
+                             const std::vector<float>& directions) const {
+    const std::size_t rays = directions.size() / 3;
+    EmbreeImage image;
+    image.depth.assign(rays, std::numeric_limits<float>::infinity());
+    std::atomic<std::uint64_t> hits{0};
+    RTCScene scene = handles_->scene;
+    const auto start = std::chrono::steady_clock::now();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays, 256),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          RTCIntersectContext context;
+                          rtcInitIntersectContext(&context);
+                          std::uint64_t chunkHits = 0;
+                          for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                              const float t =
+                                  intersect(scene, context, &origins[3 * i], &directions[3 * i]);
+                              image.depth[i] = t;
+                              chunkHits += std::isfinite(t) ? 1 : 0;
+                          }
+                          hits += chunkHits;
+                      });
     image.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     image.hits = hits;
     return image;

@@ -13,9 +13,9 @@
 
 namespace bench {
 
-/// One image of primary rays cast by Embree.
+/// One image of primary rays (or one set of rays) cast by Embree.
 struct EmbreeImage {
-    std::vector<float> depth;  ///< distance along the (unit) ray; +inf where it missed
+    std::vector<float> depth;  ///< per ray: distance along the (unit) ray; +inf where it missed
     std::uint64_t hits = 0;
     double seconds = 0;  ///< wall time of the cast alone (no ray set-up, no BVH build)
 };
@@ -36,6 +36,10 @@ public:
     /// One ray per pixel, the very rays camera.rayThrough gives (rounded to float), prepared
     /// before the clock starts; the timed part is rtcIntersect1 and the depth write per pixel.
     [[nodiscard]] EmbreeImage render(const vox::PinholeCamera& camera) const;
+    /// Ray i from origins[3i…3i+2] along directions[3i…3i+2] (unit), in chunks of 256 rays
+    /// through TBB; the timed part is rtcIntersect1 and the depth write per ray.
+    [[nodiscard]] EmbreeImage cast(const std::vector<float>& origins,
+                                   const std::vector<float>& directions) const;
 
     [[nodiscard]] double buildSeconds() const noexcept { return buildSeconds_; }
     [[nodiscard]] std::uint64_t triangleCount() const noexcept { return triangles_; }

@@ -21,6 +21,8 @@
 // rays).
 // --threads: TBB threads for every caster (default: all cores). --embree-only: cast only Embree
 // (ESVO is not read): bench/raycast_table.sh's peer run beside voxinspect render.
+// --bounce-rays K (ESVO is not read): the rays a bounce gather casts, K from each pixel's
+// primary hit on the mesh, cast by the BVH triangle caster and by Embree: "bounce_rays".
 #include <vox/base/error.h>
 #include <vox/formats/esvo_attributes.h>
 #include <vox/import.h>
@@ -34,7 +36,12 @@
 
 #include "embree_peer.h"  // no Embree headers: its .cpp is built only with LIBVOX_HAVE_EMBREE
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -118,6 +125,104 @@ void castEmbree(const bench::EmbreePeer& embree, const vox::PinholeCamera& camer
     if (bvhDepth)
         for (std::size_t i = 0; i < image.depth.size(); ++i)
             c.embreeAgree += std::isfinite(image.depth[i]) == std::isfinite((*bvhDepth)[i]);
+}
+#endif
+
+#ifdef LIBVOX_HAVE_EMBREE
+/// Bounce rays cast by both triangle casters, summed over views.
+struct BounceComparison {
+    double rays = 0, oursSeconds = 0, embreeSeconds = 0;
+    std::uint64_t oursHits = 0, embreeHits = 0, agree = 0, sameDepth = 0;
+    void add(const BounceComparison& o) {
+        rays += o.rays, oursSeconds += o.oursSeconds, embreeSeconds += o.embreeSeconds;
+        oursHits += o.oursHits, embreeHits += o.embreeHits, agree += o.agree,
+            sameDepth += o.sameDepth;
+    }
+};
+
+/// The rays a bounce gather casts: from each pixel's primary hit on the mesh (the BVH caster's,
+/// untimed), @p perHit directions cosine-distributed about the triangle's normal turned to the
+/// camera (the strata of a square pattern, turned about the normal by a fixed per-pixel angle),
+/// starting 1e-5 of the mesh's bounding radius off the surface; each caster's best of
+/// @p repeat.
+BounceComparison compareBounceRays(const vox::TriangleRayCaster& triangles,
+                                   const bench::EmbreePeer& embree,
+                                   const vox::PinholeCamera& camera, int perHit, double radius,
+                                   int repeat) {
+    const int strata = std::max(1, static_cast<int>(std::lround(std::sqrt(double(perHit)))));
+    std::vector<float> origins, directions;
+    std::vector<vox::Ray> rays;
+    for (int y = 0; y < camera.height; ++y)
+        for (int x = 0; x < camera.width; ++x) {
+            const vox::Ray primary = camera.rayThrough(x, y);
+            const vox::SurfaceHit h = triangles.castSurface(primary);
+            if (!h.hit) continue;
+            vox::Vec3d n = h.geometricNormal;
+            if (vox::dot(n, primary.direction) > 0) n = n * -1.0;
+            const vox::Vec3d from = primary.origin + primary.direction * h.t + n * (1e-5 * radius);
+            const vox::OrthonormalFrame frame(n);
+            const double turn = 2 * 3.14159265358979323846 *
+                                double((std::uint32_t(y * camera.width + x) * 2654435761u) >> 8) /
+                                double(1 << 24);
+            for (int k = 0; k < perHit; ++k) {
+                const double u = (double(k % strata) + 0.5) / strata;
+                const double v = (double(k / strata % strata) + 0.5) / strata;
+                const double r = std::sqrt(u), phi = 2 * 3.14159265358979323846 * v + turn;
+                const vox::Vec3d d = frame.toWorld(r * std::cos(phi), r * std::sin(phi),
+                                                   std::sqrt(std::max(0.0, 1.0 - u)));
+                rays.push_back({from, d});
+                for (int a = 0; a < 3; ++a)
+                    origins.push_back(float(from[a])), directions.push_back(float(d[a]));
+            }
+        }
+    BounceComparison c;
+    c.rays = double(rays.size());
+    std::vector<float> ours(rays.size());
+    for (int i = 0; i < repeat; ++i) {
+        std::atomic<std::uint64_t> hits{0};
+        const auto start = std::chrono::steady_clock::now();
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 256),
+                          [&](const tbb::blocked_range<std::size_t>& r) {
+                              std::uint64_t chunkHits = 0;
+                              for (std::size_t j = r.begin(); j != r.end(); ++j) {
+                                  const vox::SurfaceHit h = triangles.castSurface(rays[j]);
+                                  ours[j] =
+                                      h.hit ? float(h.t) : std::numeric_limits<float>::infinity();
+                                  chunkHits += h.hit ? 1 : 0;
+                              }
+                              hits += chunkHits;
+                          });
+        const double seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (i == 0 || seconds < c.oursSeconds) c.oursSeconds = seconds;
+        c.oursHits = hits;
+    }
+    bench::EmbreeImage image = embree.cast(origins, directions);
+    for (int i = 1; i < repeat; ++i) {
+        bench::EmbreeImage again = embree.cast(origins, directions);
+        if (again.seconds < image.seconds) image = std::move(again);
+    }
+    c.embreeSeconds = image.seconds;
+    c.embreeHits = image.hits;
+    for (std::size_t j = 0; j < rays.size(); ++j) {
+        const bool a = std::isfinite(ours[j]), b = std::isfinite(image.depth[j]);
+        c.agree += a == b;
+        c.sameDepth += a && b && std::abs(ours[j] - image.depth[j]) <= 1e-4f * float(radius);
+    }
+    return c;
+}
+
+nlohmann::json bounceReport(const BounceComparison& c) {
+    const double oursRate = c.rays / c.oursSeconds / 1e6,
+                 embreeRate = c.rays / c.embreeSeconds / 1e6;
+    return {{"rays", c.rays},
+            {"mrays_per_second", oursRate},
+            {"hit_fraction", double(c.oursHits) / c.rays},
+            {"embree_mrays_per_second", embreeRate},
+            {"embree_hit_fraction", double(c.embreeHits) / c.rays},
+            {"ours_over_embree", oursRate / embreeRate},
+            {"hit_agreement", double(c.agree) / c.rays},
+            {"same_depth", double(c.sameDepth) / c.rays}};
 }
 #endif
 
@@ -301,11 +406,12 @@ int main(int argc, char** argv) {
             throw vox::UsageError(
                 "usage: raycast_peer MESH ESVO (--eye x,y,z --target x,y,z [--up x,y,z] | --view "
                 "dx,dy,dz [--view ...]) "
-                "[--fov D] [--width W] [--height H] [--repeat N] [--threads N] [--embree-only]");
+                "[--fov D] [--width W] [--height H] [--repeat N] [--threads N] [--embree-only] "
+                "[--bounce-rays K]");
         vox::PinholeCamera camera;
         camera.width = 1024;
         camera.height = 768;
-        int repeat = 3, threadCount = 0;
+        int repeat = 3, threadCount = 0, bounceRays = 0;
         double distanceScale = 1;
         bool embreeOnly = false;
         std::vector<vox::Vec3d> views;
@@ -337,14 +443,19 @@ int main(int argc, char** argv) {
                 threadCount = std::max(0, std::stoi(argv[i + 1]));
             else if (key == "--distance")
                 distanceScale = std::stod(argv[i + 1]);
+            else if (key == "--bounce-rays")
+                bounceRays = std::stoi(argv[i + 1]);
             else
                 throw vox::UsageError("unknown option " + key);
         }
 #ifndef LIBVOX_HAVE_EMBREE
-        if (embreeOnly)
+        if (embreeOnly || bounceRays > 0)
             throw vox::UsageError(
-                "--embree-only: built without Embree (install libembree-dev and reconfigure)");
+                "--embree-only, --bounce-rays: built without Embree (install "
+                "libembree-dev and reconfigure)");
 #endif
+        if (bounceRays < 0 || bounceRays > 4096)
+            throw vox::UsageError("--bounce-rays must be from 1 to 4096");
         const vox::ThreadLimit threads(threadCount);
         vox::log::setVerbosity(vox::log::Verbosity::Quiet);  // the benchmark's output is its JSON
         const vox::Scene scene = vox::importScene(argv[1]);
@@ -382,6 +493,34 @@ int main(int argc, char** argv) {
                        {"build_seconds", embree->buildSeconds()},
                        {"triangles", embree->triangleCount()},
                        {"api", "rtcIntersect1, 16x16 pixel tiles (TBB)"}};
+        // What every JSON of a run starts with.
+        const auto runJson = [&] {
+            return nlohmann::json{{"mesh", argv[1]},
+                                  {"width", camera.width},
+                                  {"height", camera.height},
+                                  {"fov", camera.fovYDegrees},
+                                  {"threads", vox::ThreadLimit::active()},
+                                  {"embree_build", embreeBuild}};
+        };
+        if (bounceRays > 0) {
+            const vox::TriangleRayCaster triangles(scene);
+            nlohmann::json perView = nlohmann::json::array();
+            BounceComparison all;
+            for (const auto& c : cameras) {
+                const BounceComparison one =
+                    compareBounceRays(triangles, *embree, c, bounceRays, radius, repeat);
+                nlohmann::json r = bounceReport(one);
+                cameraJson(c, r);
+                perView.push_back(std::move(r));
+                all.add(one);
+            }
+            nlohmann::json out = runJson();
+            out.update({{"triangles", triangles.triangleCount()},
+                        {"bounce_rays", bounceReport(all)},
+                        {"views", perView}});
+            std::cout << out.dump(2) << "\n";
+            return 0;
+        }
         if (embreeOnly) {
             Comparison all;
             nlohmann::json perView = nlohmann::json::array();
@@ -393,14 +532,8 @@ int main(int argc, char** argv) {
                 perView.push_back(std::move(r));
                 all.add(one);
             }
-            const nlohmann::json out{{"mesh", argv[1]},
-                                     {"width", camera.width},
-                                     {"height", camera.height},
-                                     {"fov", camera.fovYDegrees},
-                                     {"threads", vox::ThreadLimit::active()},
-                                     {"embree", embreeReport(all, false)},
-                                     {"embree_build", embreeBuild},
-                                     {"views", perView}};
+            nlohmann::json out = runJson();
+            out.update({{"embree", embreeReport(all, false)}, {"views", perView}});
             std::cout << out.dump(2) << "\n";
             return 0;
         }

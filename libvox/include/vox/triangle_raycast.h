@@ -97,7 +97,7 @@ private:
     const Scene& scene_;
     std::vector<Triangle> triangles_;
     std::vector<std::uint64_t> sources_;  // per triangle: mesh << 32 | triangle in mesh
-    std::vector<WideNode> wide_;  // wide_[0] is the root
+    std::vector<WideNode> wide_;          // wide_[0] is the root
     std::vector<TrianglePacket> packets_;
 };
 
