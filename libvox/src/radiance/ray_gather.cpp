@@ -55,6 +55,17 @@ RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, V
                               from_[i] = rayOrigin(v, normal_[i]);
                           }
                       });
+    // At least as many buckets as leaves (a power of two), at most one per cell.
+    const auto codeBits = static_cast<unsigned>(3 * depth);
+    const unsigned bucketBits =
+        std::min(codeBits, static_cast<unsigned>(std::bit_width(leaves.size())));
+    bucketShift_ = codeBits - bucketBits;
+    bucketStart_.resize((std::size_t{1} << bucketBits) + 1);
+    std::size_t next = 0;
+    for (std::size_t b = 0; b < bucketStart_.size(); ++b) {
+        while (next < codes_.size() && (codes_[next] >> bucketShift_) < b) ++next;
+        bucketStart_[b] = static_cast<std::uint32_t>(next);
+    }
     // Cosine-distributed directions about +z (Malley's method) at the centres of strata² strata
     // of the unit square, the same for every voxel: a per-voxel random shift of the strata
     // (unbiased) scattered the voxels' estimates by more than the fixed pattern errs
@@ -100,9 +111,10 @@ std::uint32_t RayGather::leafAt(Vec3d p) const noexcept {
         c[a] = static_cast<std::uint32_t>(g);
     }
     const std::uint64_t code = rvol::morton3(c[0], c[1], c[2]);
-    const auto it = std::lower_bound(codes_.begin(), codes_.end(), code);
-    return it != codes_.end() && *it == code ? static_cast<std::uint32_t>(it - codes_.begin())
-                                             : kNone;
+    const std::size_t bucket = code >> bucketShift_;
+    const auto last = codes_.begin() + bucketStart_[bucket + 1];
+    const auto it = std::lower_bound(codes_.begin() + bucketStart_[bucket], last, code);
+    return it != last && *it == code ? static_cast<std::uint32_t>(it - codes_.begin()) : kNone;
 }
 
 std::uint64_t RayGather::pack(std::uint32_t hit) const noexcept {
@@ -252,9 +264,7 @@ std::uint32_t RayGather::castRay(Vec3d from, Vec3d dir, Vec3d* normal) const {
     if (leaf == kNone) return kNone;
     // A triangle facing away from the leaf's mean normal is the other side of a voxel that holds
     // both sides of a thin part: its radiance is not the front's (a sunlit wall's inside is dark).
-    return dot(h.geometricNormal, vec3Cast<double>(leaves_[leaf].normals.mean)) < 0
-               ? leaf | kBackSide
-               : leaf;
+    return dot(h.geometricNormal, normal_[leaf]) < 0 ? leaf | kBackSide : leaf;
 }
 
 }  // namespace vox::detail

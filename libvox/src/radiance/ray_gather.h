@@ -100,9 +100,15 @@ private:
     double cell_;
     std::int64_t cells_;
     std::vector<std::uint64_t> codes_;  ///< per leaf: morton3 of its cell (ascending)
+    /// Where leafAt searches: the leaves whose codes have top bits b (codes >> bucketShift_) are
+    /// codes_[bucketStart_[b], bucketStart_[b + 1]); about one leaf per bucket.
+    std::vector<std::uint32_t> bucketStart_;
+    unsigned bucketShift_ = 0;
     /// Per entry (a gather's set of rays): each leaf's front, then each two-sided leaf's back.
     std::vector<Vec3d> from_;        ///< where its rays start
-    std::vector<Vec3d> normal_;      ///< what they are cosine-distributed about
+    std::vector<Vec3d> normal_;      ///< what they are cosine-distributed about (a leaf's:
+                                     ///< its mean normal, which castRay reads: compact, unlike
+                                     ///< leaves_)
     std::vector<Vec3d> pattern_;     ///< the rays' directions about +z
     unsigned hitBits_ = 0;           ///< bits of a kept hit: the leaf's, then the side's
     std::uint64_t noLeaf_ = 0;       ///< the leaf bits all set: no leaf hit
