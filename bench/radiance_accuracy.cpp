@@ -227,7 +227,7 @@ int main(int argc, char** argv) {
         const std::string usage =
             "usage: radiance_accuracy SCENE [--depth D=6] [--points N=300] [--samples S=65536] "
             "[--seed K=1] [--threads T] [--sun DX,DY,DZ,LUX] [--gather-strata G=32] "
-            "[--voxel-ray-plane P=2] [--voxel-ray-hit cube|slab] [--bounce-gather cones|rays] "
+            "[--voxel-ray-plane P=2] [--voxel-ray-hit cube|slab] [--bounce-gather auto|cones|rays] "
             "[--gather-rays R=256] [--json FILE]";
         if (argc < 2) throw vox::UsageError(usage);
         std::uint32_t depth = 6, points = 300, gatherStrata = 32;
@@ -259,9 +259,11 @@ int main(int argc, char** argv) {
                 voxelRayPlane = std::stod(value);
             else if (key == "--voxel-ray-hit" && (value == "cube" || value == "slab"))
                 voxelRaySlab = value == "slab";
-            else if (key == "--bounce-gather" && (value == "cones" || value == "rays"))
-                options.bounceGather =
-                    value == "rays" ? vox::BounceGather::Rays : vox::BounceGather::Cones;
+            else if (key == "--bounce-gather" &&
+                     (value == "cones" || value == "rays" || value == "auto"))
+                options.bounceGather = value == "rays"    ? vox::BounceGather::Rays
+                                       : value == "cones" ? vox::BounceGather::Cones
+                                                          : vox::BounceGather::Auto;
             else if (key == "--gather-rays")
                 options.gatherRays = static_cast<std::uint32_t>(std::stoul(value));
             else if (key == "--json")
@@ -615,7 +617,7 @@ int main(int argc, char** argv) {
             {"static_voxels", bake.voxels.size()},
             {"qualifying_voxels", candidates.size()},
             {"excluded_cavity_voxels", cavities},
-            {"bounce_gather", options.bounceGather == vox::BounceGather::Rays ? "rays" : "cones"},
+            {"bounce_gather", bake.volume.bake.gatherRays > 0 ? "rays" : "cones"},
             {"gather_rays", bake.volume.bake.gatherRays},
             {"points", chosen.size()},
             {"samples_per_point", reference.samples},

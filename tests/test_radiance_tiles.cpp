@@ -29,9 +29,12 @@ std::vector<char> bytesOf(const fs::path& file) {
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
+/// Cones gather the bounces of tiles and single volumes alike (auto would pick rays for a small
+/// single volume): what differs between them is then the tiling alone.
 vox::RadianceBakeOptions options(std::uint32_t bounces = 1) {
     vox::RadianceBakeOptions o;
     o.bounces = bounces;
+    o.bounceGather = vox::BounceGather::Cones;
     return o;
 }
 
@@ -53,7 +56,7 @@ TEST(RadianceTiles, PlanKeepsTheFarFieldBelowTheTiles) {
     const auto t = vox::RadianceTiling::plan(12, 8);
     EXPECT_EQ(t.halo, 64u);
     EXPECT_EQ(t.farDepth, 9u);  // a sixteenth of the halo would be 10: no deeper than T + 1
-    EXPECT_EQ(vox::RadianceTiling::plan(9, 7).farDepth, 8u);  // far cells of 2: a sixteenth
+    EXPECT_EQ(vox::RadianceTiling::plan(9, 7).farDepth, 8u);   // far cells of 2: a sixteenth
     EXPECT_EQ(vox::RadianceTiling::plan(13, 6).farDepth, 8u);  // T + 1 is 7: at least D − T + 1
     EXPECT_THROW((void)vox::RadianceTiling::plan(13, 3), vox::ParameterError);     // F would be 11
     EXPECT_THROW((void)vox::RadianceTiling::plan(8, 5, 17), vox::ParameterError);  // halo > T/2

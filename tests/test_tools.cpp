@@ -707,9 +707,9 @@ TEST(Tools, RadianceBakeIsByteIdenticalWhateverTheThreadCountAndRejectsBadOption
     for (const char* threads : {"1", "2"}) {
         const auto rvol = dir / (std::string("t") + threads + ".rvol");
         const auto vdb = dir / (std::string("t") + threads + ".vdb");
-        const ProcessResult r =
-            voxelize({scene.string(), "--radiance", rvol.string(), "--radiance-depth", "5",
-                      "--bounces", "2", "--export-vdb", vdb.string(), "--threads", threads});
+        const ProcessResult r = voxelize(
+            {scene.string(), "--radiance", rvol.string(), "--radiance-depth", "5", "--bounces", "2",
+             "--bounce-gather", "cones", "--export-vdb", vdb.string(), "--threads", threads});
         ASSERT_EQ(r.exitCode, 0) << r.err;
         rvols.push_back(readBytes(rvol));
         vdbs.push_back(readBytes(vdb));
@@ -735,6 +735,12 @@ TEST(Tools, RadianceBakeIsByteIdenticalWhateverTheThreadCountAndRejectsBadOption
     EXPECT_FALSE(pastHeader(rayRvols[0]) == pastHeader(rvols[0]))
         << "rays and cones gather different light";
     EXPECT_EQ(vox::rvol::RvolReader(dir / "t1.rvol").header().bake.gatherRays, 0u);
+    // The default (auto) gathers a volume this small with rays, 256 per voxel.
+    const auto automatic = dir / "auto.rvol";
+    ASSERT_EQ(voxelize({scene.string(), "--radiance", automatic.string(), "--radiance-depth", "5"})
+                  .exitCode,
+              0);
+    EXPECT_EQ(vox::rvol::RvolReader(automatic).header().bake.gatherRays, 256u);
     expectOneLineError(voxelize({scene.string(), "--radiance", (dir / "x.rvol").string(),
                                  "--bounce-gather", "rays", "--gather-rays", "200"}),
                        1, "--gather-rays: 200 is not a square number");

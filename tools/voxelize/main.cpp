@@ -49,7 +49,7 @@ struct VoxelizeOptions {
     std::string attenuation = "adaptive";
     double shadowAperture = 0;
     unsigned bounces = 2;
-    std::string bounceGather = "cones";
+    std::string bounceGather = "auto";
     unsigned gatherRays = 256;
     double aoLambda = 8;
     unsigned brickTexels = 5;
@@ -247,8 +247,9 @@ nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& sc
                                                                   : vox::Attenuation::Weighted;
     bakeOptions.shadowApertureDegrees = options.shadowAperture;
     bakeOptions.bounces = options.bounces;
-    bakeOptions.bounceGather =
-        options.bounceGather == "rays" ? vox::BounceGather::Rays : vox::BounceGather::Cones;
+    bakeOptions.bounceGather = options.bounceGather == "rays"    ? vox::BounceGather::Rays
+                               : options.bounceGather == "cones" ? vox::BounceGather::Cones
+                                                                 : vox::BounceGather::Auto;
     bakeOptions.gatherRays = options.gatherRays;
     bakeOptions.aoLambda = options.aoLambda;
     bakeOptions.timings = &timings;
@@ -296,7 +297,7 @@ nlohmann::json bakeRadiance(const VoxelizeOptions& options, const vox::Scene& sc
         {"dynamic_voxels", bake.dynamicVoxels},
         {"lights", bake.volume.bake.lights},
         {"bounces", options.bounces},
-        {"bounce_gather", options.bounceGather},
+        {"bounce_gather", bake.volume.bake.gatherRays > 0 ? "rays" : "cones"},
         {"gather_rays", bake.volume.bake.gatherRays},
         {"two_sided_voxels", bake.twoSidedVoxels},
         {"attenuation", options.attenuation},
@@ -602,13 +603,15 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     app.add_option("--bounce-gather", options.bounceGather,
                    "How each voxel gathers bounce light: cones (through the volume, as the "
-                   "runtime's final gather) or rays (against the triangles, each reading the "
+                   "runtime's final gather), rays (against the triangles, each reading the "
                    "voxel it hits: slower, closer to the truth where thin walls or the volume's "
-                   "edge mislead cones; not for tiled bakes)")
-        ->check(CLI::IsMember({"cones", "rays"}))
+                   "edge mislead cones; not for tiled bakes) or auto (rays where the volume is "
+                   "baked whole and its rays' hits fit in 512 MiB, about 800 000 voxels; else "
+                   "cones)")
+        ->check(CLI::IsMember({"auto", "cones", "rays"}))
         ->capture_default_str();
     app.add_option("--gather-rays", options.gatherRays,
-                   "With --bounce-gather rays: rays per voxel and bounce, a square number")
+                   "Where rays gather bounces: rays per voxel and bounce, a square number")
         ->check(CLI::Range(1, 4096))
         ->capture_default_str();
     app.add_option("--ao-lambda", options.aoLambda,

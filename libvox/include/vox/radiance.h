@@ -57,6 +57,10 @@ enum class BounceGather : std::uint32_t {
     /// apart); the cones still give the ambient occlusion. Not for tiled bakes
     /// (RadianceBakeRegion).
     Rays = 1,
+    /// Rays where the volume is baked whole and the hits of its voxels' rays fit in the memory
+    /// the gather keeps them in (512 MiB: about 800 000 voxels at 256 rays), so that they are
+    /// traced once; cones otherwise (tiles, larger volumes). Volume::bake.gatherRays tells which.
+    Auto = 2,
 };
 
 /// Options for bakeRadiance.
@@ -68,8 +72,9 @@ struct RadianceBakeOptions {
     /// λ of the ambient-occlusion falloff (eq. 4): δ += (1 − δ)·α / (1 + λ·r), r the cone radius
     /// in units of the root cube's edge.
     double aoLambda = 8;
-    BounceGather bounceGather = BounceGather::Cones;
-    /// With BounceGather::Rays: rays per voxel and bounce, a square number (strata²), 1 … 4096.
+    BounceGather bounceGather = BounceGather::Auto;
+    /// Where rays gather (BounceGather::Rays, or Auto choosing them): rays per voxel and bounce, a
+    /// square number (strata²), 1 … 4096.
     std::uint32_t gatherRays = 256;
     /// Keep per-voxel irradiance per bounce in RadianceBake::voxels (tests and the accuracy bench).
     bool keepVoxelLighting = false;

@@ -110,14 +110,14 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     // With rays: the strata per axis of the rays' pattern.
     const auto gatherStrata =
         static_cast<std::uint32_t>(std::lround(std::sqrt(options.gatherRays)));
-    if (options.bounceGather == BounceGather::Rays) {
+    if (options.bounceGather == BounceGather::Rays || options.bounceGather == BounceGather::Auto) {
         if (options.gatherRays < 1 || options.gatherRays > 4096 ||
             gatherStrata * gatherStrata != options.gatherRays)
             throw ParameterError("gatherRays", "must be a square number from 1 to 4096");
-        if (options.region)
+        if (options.region && options.bounceGather == BounceGather::Rays)
             throw ParameterError("bounceGather", "rays are not available for tiled bakes");
     } else if (options.bounceGather != BounceGather::Cones) {
-        throw ParameterError("bounceGather", "must be cones or rays");
+        throw ParameterError("bounceGather", "must be cones, rays or auto");
     }
 
     RadianceBake bake;
@@ -268,16 +268,20 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
         return tile->occupancy->occluded(world, dir, exit, maxT, start);
     };
     const RadianceField& field = *all.field;
+    // Auto gathers by rays where the volume is whole and its voxels' hits are kept (traced once).
+    const bool gatherByRays =
+        options.bounces > 0 && (options.bounceGather == BounceGather::Rays ||
+                                (options.bounceGather == BounceGather::Auto && !tile &&
+                                 detail::RayGather::keepsHits(leaves.size(), options.gatherRays)));
 
     const auto staticLights = std::count_if(scene.lights.begin(), scene.lights.end(),
                                             [](const Light& l) { return !l.dynamic; });
-    volume.bake = {
-        options.bounces,
-        static_cast<float>(options.shadowApertureDegrees),
-        static_cast<float>(options.aoLambda),
-        static_cast<std::uint32_t>(options.attenuation),
-        static_cast<std::uint32_t>(staticLights),
-        options.bounceGather == BounceGather::Rays && options.bounces > 0 ? options.gatherRays : 0};
+    volume.bake = {options.bounces,
+                   static_cast<float>(options.shadowApertureDegrees),
+                   static_cast<float>(options.aoLambda),
+                   static_cast<std::uint32_t>(options.attenuation),
+                   static_cast<std::uint32_t>(staticLights),
+                   gatherByRays ? options.gatherRays : 0};
 
     // Shadow cones need the occlusion of the mips before any light is in them.
     const bool shadowCones = options.shadowApertureDegrees > 0;
@@ -389,7 +393,7 @@ RadianceBake bakeRadiance(const Scene& scene, const RadianceBakeOptions& options
     std::optional<detail::RayGather> rays;
     std::vector<detail::RayGather::TwoSidedLeaf> twoSided;  // ascending by leaf
     std::vector<std::array<Vec3f, 2>> sideDirect;  // per two-sided leaf: front, back irradiance
-    if (options.bounceGather == BounceGather::Rays && options.bounces > 0) {
+    if (gatherByRays) {
         {
             Timings::Scope timer(options.timings, "radiance_ray_gather_setup");
             rays.emplace(scene, leaves, Vec3d{volume.origin[0], volume.origin[1], volume.origin[2]},

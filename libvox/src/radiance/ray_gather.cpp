@@ -84,6 +84,11 @@ RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, V
     wordsPerEntry_ = (pattern_.size() * hitBits_ + 63) / 64;
 }
 
+bool RayGather::keepsHits(std::size_t leaves, std::uint32_t rays) noexcept {
+    const auto hitBits = static_cast<std::size_t>(std::bit_width(leaves)) + 1;
+    return leaves * ((rays * hitBits + 63) / 64) * sizeof(std::uint64_t) <= kMaxCachedHitBytes;
+}
+
 Vec3d RayGather::rayOrigin(const LeafMaterial& v, Vec3d n) const {
     const double halfDiagonal = 0.5 * std::sqrt(3.0) * cell_;
     const Vec3d centre = origin_ + Vec3d{v.x + 0.5, v.y + 0.5, v.z + 0.5} * cell_;

@@ -27,6 +27,10 @@ public:
     RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, Vec3d origin, double cell,
               std::uint32_t depth, std::uint32_t strata);
 
+    /// Whether the hits of @p rays rays from each of @p leaves leaves fit in the bytes a gather
+    /// keeps them in, so that it traces them once (else it traces them again for every bounce).
+    [[nodiscard]] static bool keepsHits(std::size_t leaves, std::uint32_t rays) noexcept;
+
     /// A leaf that rays reach on both sides, and the unit normal of each side as the rays saw it.
     struct TwoSidedLeaf {
         std::uint32_t leaf = 0;
