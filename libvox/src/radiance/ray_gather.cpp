@@ -164,7 +164,15 @@ void RayGather::entryHits(std::size_t e, std::span<std::uint32_t> out) const {
     }
 }
 
-void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* seen,
+void RayGather::NormalSums::add(bool back, Vec3d normal) {
+    const std::size_t side = back ? 3 : 0;
+    if (back) reachedFromBehind.store(true, std::memory_order_relaxed);
+    for (std::size_t a = 0; a < 3; ++a)
+        sums[side + a].fetch_add(std::llround(normal[a] * kNormalFixedPoint),
+                                 std::memory_order_relaxed);
+}
+
+void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* seen, bool fronts,
                              Progress* progress) {
     const std::size_t rays = pattern_.size();
     // Kept where every entry up to @p last fits, bit-packed: each entry's hits in whole words, so
@@ -173,35 +181,66 @@ void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* se
     const bool keep = keptEntries_ == first &&
                       last * wordsPerEntry_ * sizeof(std::uint64_t) <= kMaxCachedHitBytes;
     if (keep) (first == 0 ? leafHitWords_ : backHitWords_).resize((last - first) * wordsPerEntry_);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(first, last, 64),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t e = r.begin(); e != r.end(); ++e) {
+                              const OrthonormalFrame frame(normal_[e]);
+                              for (std::size_t k = 0; k < rays; ++k) {
+                                  Vec3d normal;
+                                  const std::uint32_t hit = castRay(
+                                      from_[e],
+                                      frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z),
+                                      &normal);
+                                  if (keep) keepHit(e, k, hit);
+                                  if (hit == kNone || !seen || !(fronts || (hit & kBackSide)))
+                                      continue;
+                                  seen[hit & ~kBackSide].add((hit & kBackSide) != 0, normal);
+                              }
+                          }
+                          if (progress) progress->advance(r.size());
+                      });
+    if (keep) keptEntries_ = last;
+}
+
+void RayGather::sumTwoSidedFronts(NormalSums* seen) const {
+    // The leaves reached from behind as bits: a few kilobytes, where seen[] is tens of megabytes.
+    std::vector<std::uint64_t> twoSided((leaves_.size() + 63) / 64);
+    for (std::size_t i = 0; i < leaves_.size(); ++i)
+        if (seen[i].reachedFromBehind.load(std::memory_order_relaxed))
+            twoSided[i / 64] |= std::uint64_t{1} << (i % 64);
+    const std::size_t rays = pattern_.size();
     tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(first, last, 64),
+        tbb::blocked_range<std::size_t>(0, leaves_.size(), 64),
         [&](const tbb::blocked_range<std::size_t>& r) {
+            std::vector<std::uint32_t> hits(rays);
             for (std::size_t e = r.begin(); e != r.end(); ++e) {
+                entryHits(e, hits);
                 const OrthonormalFrame frame(normal_[e]);
                 for (std::size_t k = 0; k < rays; ++k) {
+                    const std::uint32_t h = hits[k];
+                    if (h == kNone || (h & kBackSide) || !(twoSided[h / 64] >> (h % 64) & 1))
+                        continue;
+                    // The same ray as the trace's: the same hit, and its normal.
                     Vec3d normal;
-                    const std::uint32_t hit = castRay(
-                        from_[e], frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z),
-                        &normal);
-                    if (keep) keepHit(e, k, hit);
-                    if (hit == kNone || !seen) continue;
-                    const std::uint32_t leaf = hit & ~kBackSide;
-                    const std::size_t side = hit & kBackSide ? 3 : 0;
-                    if (side) seen[leaf].reachedFromBehind.store(true, std::memory_order_relaxed);
-                    for (std::size_t a = 0; a < 3; ++a)
-                        seen[leaf].sums[side + a].fetch_add(
-                            std::llround(normal[a] * kNormalFixedPoint), std::memory_order_relaxed);
+                    (void)castRay(from_[e],
+                                  frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z),
+                                  &normal);
+                    seen[h].add(false, normal);
                 }
             }
-            if (progress) progress->advance(r.size());
         });
-    if (keep) keptEntries_ = last;
 }
 
 std::vector<RayGather::TwoSidedLeaf> RayGather::trace(Progress* progress) {
     if (traced_) throw std::logic_error("RayGather::trace called twice");
     std::vector<NormalSums> seen(leaves_.size());
-    traceEntries(0, leaves_.size(), seen.data(), progress);
+    // Where the hits are kept, the fronts' sums come after, from the kept hits, for the two-sided
+    // leaves alone; else the trace sums every hit's normal.
+    const bool keeps = keepsHits(leaves_.size(), static_cast<std::uint32_t>(pattern_.size()));
+    traceEntries(0, leaves_.size(), seen.data(), !keeps, progress);
+    if (keeps != (keptEntries_ == leaves_.size()))
+        throw std::logic_error("RayGather::trace: kept hits and keepsHits disagree");
+    if (keeps) sumTwoSidedFronts(seen.data());
     std::vector<TwoSidedLeaf> twoSided;
     for (std::size_t i = 0; i < leaves_.size(); ++i) {
         if (!seen[i].reachedFromBehind.load(std::memory_order_relaxed)) continue;
@@ -222,7 +261,7 @@ std::vector<RayGather::TwoSidedLeaf> RayGather::trace(Progress* progress) {
         normal_.push_back(t.back);
         from_.push_back(rayOrigin(leaves_[t.leaf], t.back));
     }
-    traceEntries(leaves_.size(), from_.size(), nullptr, nullptr);
+    traceEntries(leaves_.size(), from_.size(), nullptr, false, nullptr);
     traced_ = true;
     return twoSided;
 }

@@ -75,10 +75,18 @@ private:
     struct NormalSums {
         std::atomic<bool> reachedFromBehind{false};
         std::array<std::atomic<std::int64_t>, 6> sums{};
+        /// Adds unit @p normal to the front's sums (@p back false) or the back's.
+        void add(bool back, Vec3d normal);
     };
-    /// Traces the rays of entries [@p first, @p last) into hits_ where they are kept, and where
-    /// @p seen is given, records each hit in seen[leaf] (its side, its normal).
-    void traceEntries(std::size_t first, std::size_t last, NormalSums* seen, Progress* progress);
+    /// Traces the rays of entries [@p first, @p last) into the kept hits where they fit, and
+    /// where @p seen is given, records each hit on a back side in seen[leaf] (reached from
+    /// behind, its normal), and with @p fronts each hit on a front side too.
+    void traceEntries(std::size_t first, std::size_t last, NormalSums* seen, bool fronts,
+                      Progress* progress);
+    /// Adds to @p seen the normals of the kept hits on the front sides of the leaves reached from
+    /// behind (traceEntries without fronts records only the backs: the sums of every leaf's
+    /// front cost a cache miss per hit, and only two-sided leaves need them).
+    void sumTwoSidedFronts(NormalSums* seen) const;
     /// What the ray from @p from along unit @p dir reaches first: a leaf index, with kBackSide set
     /// where the triangle hit faces away from that leaf's mean normal; kNone where it hits nothing,
     /// the back of a triangle, or no leaf. @p normal, if given, receives the triangle's normal.
