@@ -5,6 +5,7 @@
 // TriangleRayCaster::castSurface, which the reference is built on. Scenes are built in code.
 #include "path_reference.h"
 #include "scene_builder.h"
+#include "render/triangle_raycast_kernels.h"
 
 #include <vox/triangle_raycast.h>
 #include <vox/util/parallel.h>
@@ -348,7 +349,6 @@ TEST(TriangleRayCaster, FindsTheNearestOfEveryTriangle) {
     scene.meshes.push_back(soup);
     for (int i = 0; i < 8; ++i)
         addQuad(scene, {-1.0 + 0.25 * i, -1, -1}, {0, 0.5, 0}, {0, 0, 0.5}, grey);  // x planes
-    const vox::TriangleRayCaster caster(scene);
     std::vector<std::array<Vec3f, 3>> triangles;
     for (const vox::Mesh& mesh : scene.meshes)
         for (std::size_t t = 0; t < mesh.triangleCount(); ++t)
@@ -370,21 +370,30 @@ TEST(TriangleRayCaster, FindsTheNearestOfEveryTriangle) {
         rays.push_back({o - d * 3.0, d});
         rays.push_back({Vec3d{-1.0 + 0.25 * (i % 8), -0.9 + 0.001 * i, -3}, Vec3d{0, 0, 1}});
     }
-    int hits = 0;
+    std::vector<float> nearest;
     for (const vox::Ray& ray : rays) {
         const Vec3f o{float(ray.origin.x), float(ray.origin.y), float(ray.origin.z)};
         const Vec3f d{float(ray.direction.x), float(ray.direction.y), float(ray.direction.z)};
-        float nearest = std::numeric_limits<float>::infinity();
-        for (const auto& t : triangles)
-            nearest = std::min(nearest, intersectOne(o, d, t[0], t[1], t[2]));
-        const vox::SurfaceHit hit = caster.castSurface(ray);
-        ASSERT_EQ(hit.hit, std::isfinite(nearest))
-            << "ray from " << ray.origin.x << "," << ray.origin.y << "," << ray.origin.z;
-        if (!hit.hit) continue;
-        ++hits;
-        EXPECT_EQ(float(hit.t), nearest);
+        float t = std::numeric_limits<float>::infinity();
+        for (const auto& c : triangles) t = std::min(t, intersectOne(o, d, c[0], c[1], c[2]));
+        nearest.push_back(t);
     }
-    EXPECT_GT(hits, 1000);  // 1162: the test compares hits, not only misses
+    // Both box kernels: eight boxes at once with AVX2 (where the CPU has it), four at a time.
+    const bool before = vox::detail::setTriangleCasterAvx2(true);
+    for (const bool avx2 : {true, false}) {
+        if (vox::detail::setTriangleCasterAvx2(avx2) != avx2) continue;  // no AVX2 here
+        const vox::TriangleRayCaster caster(scene);
+        int hits = 0;
+        for (std::size_t i = 0; i < rays.size(); ++i) {
+            const vox::SurfaceHit hit = caster.castSurface(rays[i]);
+            ASSERT_EQ(hit.hit, std::isfinite(nearest[i])) << "AVX2 " << avx2 << ", ray " << i;
+            if (!hit.hit) continue;
+            ++hits;
+            EXPECT_EQ(float(hit.t), nearest[i]);
+        }
+        EXPECT_GT(hits, 1000);  // 1162: the test compares hits, not only misses
+    }
+    vox::detail::setTriangleCasterAvx2(before);
 }
 
 }  // namespace

@@ -58,11 +58,11 @@ private:
         std::uint32_t first;  // leaf: first triangle; inner: right child (left child is this + 1)
         std::uint32_t count;  // leaf: triangle count; inner: 0
     };
-    /// Up to four children's boxes, one array per axis and bound with a lane per child, so that
-    /// one ray tests all four at once.
-    struct alignas(16) WideNode {
-        float lo[3][4], hi[3][4];
-        std::uint32_t child[4];  // kLeafChild | packet, or a WideNode
+    /// Up to eight children's boxes, one array per axis and bound with a lane per child, so that
+    /// one ray tests all of them at once.
+    struct alignas(32) WideNode {
+        float lo[3][8], hi[3][8];
+        std::uint32_t child[8];  // kLeafChild | packet, or a WideNode
         std::uint32_t count;     // children in use, the first ones
     };
     /// A leaf's triangles (at most four), one lane each; unused lanes have no area.
@@ -80,6 +80,11 @@ private:
         std::uint32_t iterations = 0;
     };
     [[nodiscard]] Nearest nearest(const Ray& ray, double tMax) const;
+    /// nearest() with the children's boxes tested by @p Boxes (four lanes twice, or eight).
+    template <class Boxes>
+    [[nodiscard]] Nearest traverse(const Ray& ray, double tMax) const;
+    /// traverse() with AVX2 boxes, built for AVX2 (called only where the CPU has it).
+    [[nodiscard]] Nearest traverseAvx2(const Ray& ray, double tMax) const;
     /// Per triangle during the build: its centroid and bounds; order: the triangles as the
     /// leaves will hold them; nodes: the binary tree.
     struct BuildInput {
@@ -99,6 +104,7 @@ private:
     std::vector<std::uint64_t> sources_;  // per triangle: mesh << 32 | triangle in mesh
     std::vector<WideNode> wide_;          // wide_[0] is the root
     std::vector<TrianglePacket> packets_;
+    bool avx2_ = false;  // the CPU runs traverseAvx2
 };
 
 /// One primary ray per pixel against the triangles, in parallel, into the same buffers as

@@ -2,13 +2,17 @@
 // per leaf), collapsed into four-wide nodes whose children's boxes one ray tests at once; children
 // visited nearer first; a leaf's four triangles intersected at once (Möller–Trumbore). Each lane
 // evaluates the very float operations of the one-triangle, one-box test, in the same order.
+#include "triangle_raycast_kernels.h"
+
 #include "../scene/surface_shading.h"
+#include "../util/cpu_features.h"
 
 #include <vox/formats/esvo_attributes.h>
 #include <vox/texture.h>
 #include <vox/triangle_raycast.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <numeric>
@@ -16,6 +20,12 @@
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
+#endif
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define VOX_TRIANGLE_AVX2 1
+#include <immintrin.h>
+#else
+#define VOX_TRIANGLE_AVX2 0
 #endif
 
 namespace vox {
@@ -34,9 +44,10 @@ constexpr std::uint32_t kMaxLeafTriangles = 4;
 /// Below this depth nodes split at the median (log2 of the triangles more levels at most), so
 /// that no path exceeds the traversal's stack.
 constexpr std::uint32_t kMaxSahDepth = 64;
-/// A wide node leaves at most three siblings on the stack per level, over at most
+/// A wide node leaves at most seven siblings on the stack per level, over at most
 /// kMaxSahDepth + 32 levels.
-constexpr int kStackEntries = 3 * (kMaxSahDepth + 33);
+constexpr int kStackEntries = 7 * (kMaxSahDepth + 33);
+constexpr std::uint32_t kWidth = 8;  // children per WideNode
 static_assert(kMaxLeafTriangles == 4, "a leaf's triangles fill one TrianglePacket");
 
 // Four float lanes: SSE2 where the target has it (every x86-64), else a plain loop. Comparisons
@@ -114,6 +125,67 @@ inline void store(float* p, Lanes a) { std::copy(a.v, a.v + 4, p); }
 #endif
 constexpr unsigned kAllLanes = 0xFu;
 
+/// Whether new casters use the AVX2 boxes (setTriangleCasterAvx2).
+std::atomic<bool> g_avx2{detail::cpuFeatures().avx2};
+
+// A WideNode's children's boxes against one ray: enter() gives a bit per child the ray enters
+// before @p best (the same slab test, lane for lane, as the one-box test) and where it enters
+// (t0Out, eight floats, 32-byte aligned). nearPlane[a] / farPlane[a]: the node's lo or hi of
+// axis a, whichever the ray meets first.
+struct BoxesSse {
+    struct Slabs {
+        Lanes origin[3], inverse[3];
+    };
+    static void prepare(const float origin[3], const float inverse[3], Slabs& s) {
+        for (int a = 0; a < 3; ++a)
+            s.origin[a] = splat(origin[a]), s.inverse[a] = splat(inverse[a]);
+    }
+    static unsigned enter(const float* const nearPlane[3], const float* const farPlane[3],
+                          const Slabs& s, float best, float* t0Out) {
+        unsigned bits = 0;
+        for (std::uint32_t half = 0; half < kWidth; half += 4) {
+            Lanes t0 = splat(0.0f), t1 = splat(best);
+            for (int a = 0; a < 3; ++a) {
+                t0 = maxKeep((load(nearPlane[a] + half) - s.origin[a]) * s.inverse[a], t0);
+                t1 = minKeep((load(farPlane[a] + half) - s.origin[a]) * s.inverse[a], t1);
+            }
+            bits |= lessEqual(t0, t1) << half;
+            store(t0Out + half, t0);
+        }
+        return bits;
+    }
+};
+
+#if VOX_TRIANGLE_AVX2
+#define VOX_AVX2 [[gnu::target("avx2")]]
+struct BoxesAvx2 {
+    struct Slabs {
+        __m256 origin[3], inverse[3];
+    };
+    VOX_AVX2 static void prepare(const float origin[3], const float inverse[3], Slabs& s) {
+        for (int a = 0; a < 3; ++a)
+            s.origin[a] = _mm256_set1_ps(origin[a]), s.inverse[a] = _mm256_set1_ps(inverse[a]);
+    }
+    // _mm256_max_ps / _mm256_min_ps return their second operand where either is NaN: maxKeep.
+    VOX_AVX2 static unsigned enter(const float* const nearPlane[3], const float* const farPlane[3],
+                                   const Slabs& s, float best, float* t0Out) {
+        __m256 t0 = _mm256_setzero_ps(), t1 = _mm256_set1_ps(best);
+        for (int a = 0; a < 3; ++a) {
+            t0 = _mm256_max_ps(
+                _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(nearPlane[a]), s.origin[a]),
+                              s.inverse[a]),
+                t0);
+            t1 =
+                _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(farPlane[a]), s.origin[a]),
+                                            s.inverse[a]),
+                              t1);
+        }
+        _mm256_store_ps(t0Out, t0);
+        return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)));
+    }
+};
+#endif
+
 /// The cost of intersecting @p n triangles, four at a time.
 float packets(std::uint32_t n) { return kPacketCost * float((n + 3) / 4); }
 
@@ -165,16 +237,17 @@ TriangleRayCaster::TriangleRayCaster(const Scene& scene, bool includeDynamic) : 
     triangles_ = std::move(triangles);
     sources_ = std::move(sources);
     collapse(input.nodes, 0);
+    avx2_ = g_avx2.load();
 }
 
 std::uint32_t TriangleRayCaster::collapse(const std::vector<Node>& nodes, std::uint32_t node) {
     const auto index = static_cast<std::uint32_t>(wide_.size());
     wide_.emplace_back();
-    // Opens the inner node of largest surface area among the children until there are four (the
-    // SAH's own measure of how often a ray enters a box) or only leaves.
-    std::uint32_t children[4] = {node};
+    // Opens the inner node of largest surface area among the children until there are kWidth
+    // (the SAH's own measure of how often a ray enters a box) or only leaves.
+    std::uint32_t children[kWidth] = {node};
     std::uint32_t count = 1;
-    while (count < 4) {
+    while (count < kWidth) {
         int open = -1;
         float openArea = -1;
         for (std::uint32_t i = 0; i < count; ++i) {
@@ -192,7 +265,7 @@ std::uint32_t TriangleRayCaster::collapse(const std::vector<Node>& nodes, std::u
     }
     WideNode wide{};
     for (int a = 0; a < 3; ++a)
-        for (std::uint32_t i = 0; i < 4; ++i)
+        for (std::uint32_t i = 0; i < kWidth; ++i)
             wide.lo[a][i] = i < count ? nodes[children[i]].lo[a] : 0.0f,
             wide.hi[a][i] = i < count ? nodes[children[i]].hi[a] : 0.0f;
     wide.count = count;
@@ -312,19 +385,39 @@ std::uint32_t TriangleRayCaster::build(std::uint32_t first, std::uint32_t count,
 }
 
 TriangleRayCaster::Nearest TriangleRayCaster::nearest(const Ray& ray, double tMax) const {
+    if (wide_.empty()) return {};
+    return avx2_ ? traverseAvx2(ray, tMax) : traverse<BoxesSse>(ray, tMax);
+}
+
+#if VOX_TRIANGLE_AVX2
+// Flattened: traverse's body, and the AVX2 boxes' tests in it, compiled for AVX2 here alone.
+[[gnu::target("avx2"), gnu::flatten]] TriangleRayCaster::Nearest TriangleRayCaster::traverseAvx2(
+    const Ray& ray, double tMax) const {
+    return traverse<BoxesAvx2>(ray, tMax);
+}
+#else
+TriangleRayCaster::Nearest TriangleRayCaster::traverseAvx2(const Ray& ray, double tMax) const {
+    return traverse<BoxesSse>(ray, tMax);
+}
+#endif
+
+template <class Boxes>
+inline TriangleRayCaster::Nearest TriangleRayCaster::traverse(const Ray& ray, double tMax) const {
     Nearest result;
-    if (wide_.empty()) return result;
     const float o[3] = {static_cast<float>(ray.origin.x), static_cast<float>(ray.origin.y),
                         static_cast<float>(ray.origin.z)};
     const float d[3] = {static_cast<float>(ray.direction.x), static_cast<float>(ray.direction.y),
                         static_cast<float>(ray.direction.z)};
-    Lanes origin[3], inverse[3], direction[3];
+    Lanes origin[3], direction[3];
+    float inverse[3];
     bool nearIsLo[3];  // the slab's near plane: lo where the ray runs up the axis
     for (int a = 0; a < 3; ++a) {
-        const float inv = 1.0f / d[a];
-        nearIsLo[a] = !(inv < 0);
-        origin[a] = splat(o[a]), inverse[a] = splat(inv), direction[a] = splat(d[a]);
+        inverse[a] = 1.0f / d[a];
+        nearIsLo[a] = !(inverse[a] < 0);
+        origin[a] = splat(o[a]), direction[a] = splat(d[a]);
     }
+    typename Boxes::Slabs slabs;
+    Boxes::prepare(o, inverse, slabs);
     float best = static_cast<float>(std::min(tMax, 3.0e38));
     // Nodes (child codes) to visit with the distance where the ray enters them: the nearest
     // child is taken first, and an entry beyond a hit found since it was pushed is dropped.
@@ -335,7 +428,7 @@ TriangleRayCaster::Nearest TriangleRayCaster::nearest(const Ray& ray, double tMa
     Entry stack[kStackEntries];
     int top = 0;
     stack[top++] = {0, 0.0f};
-    alignas(16) float lanes[4];
+    alignas(32) float lanes[kWidth];
     while (top > 0) {
         const Entry e = stack[--top];
         if (e.t > best) continue;
@@ -374,16 +467,15 @@ TriangleRayCaster::Nearest TriangleRayCaster::nearest(const Ray& ray, double tMa
         }
         const WideNode& n = wide_[e.code];
         result.iterations += n.count;
-        Lanes t0 = splat(0.0f), t1 = splat(best);
-        for (int a = 0; a < 3; ++a) {
-            const Lanes nearPlane = load(nearIsLo[a] ? n.lo[a] : n.hi[a]);
-            const Lanes farPlane = load(nearIsLo[a] ? n.hi[a] : n.lo[a]);
-            t0 = maxKeep((nearPlane - origin[a]) * inverse[a], t0);
-            t1 = minKeep((farPlane - origin[a]) * inverse[a], t1);
-        }
-        unsigned entered = lessEqual(t0, t1) & ((1u << n.count) - 1);
+        const float* const nearPlane[3] = {nearIsLo[0] ? n.lo[0] : n.hi[0],
+                                           nearIsLo[1] ? n.lo[1] : n.hi[1],
+                                           nearIsLo[2] ? n.lo[2] : n.hi[2]};
+        const float* const farPlane[3] = {nearIsLo[0] ? n.hi[0] : n.lo[0],
+                                          nearIsLo[1] ? n.hi[1] : n.lo[1],
+                                          nearIsLo[2] ? n.hi[2] : n.lo[2]};
+        unsigned entered =
+            Boxes::enter(nearPlane, farPlane, slabs, best, lanes) & ((1u << n.count) - 1);
         if (entered == 0) continue;
-        store(lanes, t0);
         // The entered children onto the stack, sorted in place so that the nearest is on top.
         const int base = top;
         for (; entered != 0; entered &= entered - 1) {
@@ -457,5 +549,15 @@ RenderBuffers renderTriangles(const TriangleRayCaster& caster, const PinholeCame
         return caster.cast(ray, std::numeric_limits<double>::infinity(), footprint);
     });
 }
+
+namespace detail {
+
+bool setTriangleCasterAvx2(bool enabled) noexcept {
+    const bool on = enabled && VOX_TRIANGLE_AVX2 && cpuFeatures().avx2;
+    g_avx2.store(on);
+    return on;
+}
+
+}  // namespace detail
 
 }  // namespace vox
