@@ -95,7 +95,7 @@ private:
     };
     std::uint32_t build(std::uint32_t first, std::uint32_t count, std::uint32_t depth,
                         BuildInput& input);
-    /// The WideNode standing for binary node @p node's subtree (an inner node); returns its index.
+    /// The WideNode standing for binary node @p node's subtree; returns its index.
     std::uint32_t collapse(const std::vector<Node>& nodes, std::uint32_t node);
     /// The child code of binary node @p node: a packet for a leaf, else collapse().
     std::uint32_t childCode(const std::vector<Node>& nodes, std::uint32_t node);

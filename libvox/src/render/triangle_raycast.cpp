@@ -1,7 +1,8 @@
 // BVH over triangles: a binary tree by binned surface-area-heuristic splits (up to four triangles
-// per leaf), collapsed into four-wide nodes whose children's boxes one ray tests at once; children
-// visited nearer first; a leaf's four triangles intersected at once (Möller–Trumbore). Each lane
-// evaluates the very float operations of the one-triangle, one-box test, in the same order.
+// per leaf), collapsed into eight-wide nodes whose children's boxes one ray tests at once (eight
+// lanes with AVX2, else four twice); children visited nearer first; a leaf's four triangles
+// intersected at once (Möller–Trumbore). Each lane evaluates the very float operations of the
+// one-triangle, one-box test, in the same order.
 #include "triangle_raycast_kernels.h"
 
 #include "../scene/surface_shading.h"
