@@ -6,6 +6,7 @@
 #include <vox/radiance_field.h>
 
 #include "cornell_box.h"
+#include "radiance/ray_gather.h"
 #include "light_grid.h"
 #include "path_reference.h"
 #include "scene_builder.h"
@@ -280,12 +281,9 @@ TEST(RadianceBake, RaysReadNothingFromTheBackOfASurface) {
     EXPECT_GT(beside, 100u);
 }
 
-TEST(RadianceBake, RaysReadEachSideOfAThinWallApart) {
-    // A wall thinner than a cell, its two faces in the same voxels, lit on its +x face by a sun
-    // travelling along -x (grazing the floor, which gets no direct light). The floor in front of
-    // the lit face gathers its light; the floor behind sees the unlit face, and gathers (almost)
-    // nothing. Read as one radiance for both sides, the wall would light the floor behind it
-    // with about half of what the lit side gathers.
+/// The floor and a wall thinner than a cell across it (its faces 0.02 apart, at x 0.02 and 0.04,
+/// facing -x and +x), lit by a sun travelling along @p direction.
+vox::Scene sunlitThinWall(Vec3f direction) {
     vox::Scene scene;
     addFloor(scene);
     const std::uint32_t grey = vox::test::addMaterial(scene, {0.5f, 0.5f, 0.5f});
@@ -293,8 +291,18 @@ TEST(RadianceBake, RaysReadEachSideOfAThinWallApart) {
     vox::test::addQuad(scene, {0.02, 0, -1}, {0, 0, 2}, {0, 1, 0}, grey);  // faces -x
     vox::Light sun;
     sun.type = vox::Light::Type::Directional;
-    sun.direction = {-1, 0, 0};
+    sun.direction = direction;
     scene.lights.push_back(sun);
+    return scene;
+}
+
+TEST(RadianceBake, RaysReadEachSideOfAThinWallApart) {
+    // A wall thinner than a cell, its two faces in the same voxels, lit on its +x face by a sun
+    // travelling along -x (grazing the floor, which gets no direct light). The floor in front of
+    // the lit face gathers its light; the floor behind sees the unlit face, and gathers (almost)
+    // nothing. Read as one radiance for both sides, the wall would light the floor behind it
+    // with about half of what the lit side gathers.
+    const vox::Scene scene = sunlitThinWall({-1, 0, 0});
     vox::RadianceBake one;
     {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
@@ -326,6 +334,28 @@ TEST(RadianceBake, RaysReadEachSideOfAThinWallApart) {
     dark /= double(darkCount);
     EXPECT_GT(lit, 0.02);
     EXPECT_LT(dark, 0.05 * lit) << dark << " " << lit;
+}
+
+TEST(RadianceBake, RaysGiveTheSameLightWhetherTheirHitsAreKeptOrTracedAgain) {
+    // The sunlit thin wall (two-sided voxels) with two bounces: once with the hits kept (the
+    // fronts' normals summed after the trace, from the kept hits), once with no bytes for them
+    // (every hit's normal summed in the trace, every bounce traced again).
+    const vox::Scene scene = sunlitThinWall({-1, -0.3f, 0.2f});
+    const auto kept = bake(scene, 6, 2, vox::BounceGather::Rays, 64);
+    const std::size_t before = vox::detail::setRayGatherHitBudget(0);
+    const auto traced = bake(scene, 6, 2, vox::BounceGather::Rays, 64);
+    vox::detail::setRayGatherHitBudget(before);
+    EXPECT_GT(kept.twoSidedVoxels, 100u);
+    EXPECT_EQ(kept.twoSidedVoxels, traced.twoSidedVoxels);
+    ASSERT_EQ(kept.voxels.size(), traced.voxels.size());
+    double bounce2 = 0;
+    for (std::size_t i = 0; i < kept.voxels.size(); ++i) {
+        ASSERT_EQ(kept.voxels[i].indirect.size(), 2u);
+        EXPECT_EQ(kept.voxels[i].indirect[0], traced.voxels[i].indirect[0]) << i;
+        EXPECT_EQ(kept.voxels[i].indirect[1], traced.voxels[i].indirect[1]) << i;
+        bounce2 += kept.voxels[i].indirect[1].x;
+    }
+    EXPECT_GT(bounce2, 0);
 }
 
 TEST(RadianceBake, RaysGatherEachSideOfAThinWallsBounceApart) {

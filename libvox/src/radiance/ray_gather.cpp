@@ -7,6 +7,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <stdexcept>
@@ -20,8 +21,8 @@ constexpr double kPi = 3.14159265358979323846;
 /// rounding on that surface, far below anything a cell resolves.
 constexpr double kOriginOffsetCells = 1e-3;
 /// Most bytes of remembered ray hits (a leaf index and a side per ray, bit-packed); beyond it every
-/// bounce traces again.
-constexpr std::size_t kMaxCachedHitBytes = std::size_t{512} << 20;
+/// bounce traces again. setRayGatherHitBudget changes it (tests).
+std::atomic<std::size_t> g_hitBudget{kRayGatherHitBudget};
 /// The fixed-point unit of the sums of hit normals (RayGather::trace).
 constexpr double kNormalFixedPoint = double(1 << 24);
 /// How far outside its cell a voxel's surface point may lie, in cells (float rounding).
@@ -31,6 +32,10 @@ constexpr double kFaceSlackCells = 1e-4;
 constexpr double kHitBackoffCells = 1e-4;
 
 }  // namespace
+
+std::size_t setRayGatherHitBudget(std::size_t bytes) noexcept {
+    return g_hitBudget.exchange(bytes);
+}
 
 RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, Vec3d origin,
                      double cell, std::uint32_t depth, std::uint32_t strata)
@@ -86,7 +91,7 @@ RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, V
 
 bool RayGather::keepsHits(std::size_t leaves, std::uint32_t rays) noexcept {
     const auto hitBits = static_cast<std::size_t>(std::bit_width(leaves)) + 1;
-    return leaves * ((rays * hitBits + 63) / 64) * sizeof(std::uint64_t) <= kMaxCachedHitBytes;
+    return leaves * ((rays * hitBits + 63) / 64) * sizeof(std::uint64_t) <= g_hitBudget.load();
 }
 
 Vec3d RayGather::rayOrigin(const LeafMaterial& v, Vec3d n) const {
@@ -179,7 +184,7 @@ void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* se
     // that no two threads write one word. The leaves' and the back sides' words are apart, so that
     // keeping the back sides does not move (and for a moment double) the leaves'.
     const bool keep = keptEntries_ == first &&
-                      last * wordsPerEntry_ * sizeof(std::uint64_t) <= kMaxCachedHitBytes;
+                      last * wordsPerEntry_ * sizeof(std::uint64_t) <= g_hitBudget.load();
     if (keep) (first == 0 ? leafHitWords_ : backHitWords_).resize((last - first) * wordsPerEntry_);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(first, last, 64),
                       [&](const tbb::blocked_range<std::size_t>& r) {

@@ -12,11 +12,20 @@
 #include <vox/triangle_raycast.h>
 #include <vox/util/progress.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <vector>
 
 namespace vox::detail {
+
+/// The bytes of kept ray hits a gather may hold by default.
+inline constexpr std::size_t kRayGatherHitBudget = std::size_t{512} << 20;
+
+/// Sets the bytes of kept ray hits that gathers tracing from now on may hold (beyond them every
+/// bounce traces again, and BounceGather::Auto picks cones; a gather's light is the same either
+/// way); returns the budget before. For tests.
+std::size_t setRayGatherHitBudget(std::size_t bytes) noexcept;
 
 class RayGather {
 public:
