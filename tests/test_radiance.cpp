@@ -282,7 +282,7 @@ TEST(RadianceBake, RaysReadNothingFromTheBackOfASurface) {
 }
 
 /// The floor and a wall thinner than a cell across it (its faces 0.02 apart, at x 0.02 and 0.04,
-/// facing -x and +x), lit by a sun travelling along @p direction.
+/// facing -x and +x), lit by a sun travelling along unit @p direction.
 vox::Scene sunlitThinWall(Vec3f direction) {
     vox::Scene scene;
     addFloor(scene);
@@ -340,7 +340,7 @@ TEST(RadianceBake, RaysGiveTheSameLightWhetherTheirHitsAreKeptOrTracedAgain) {
     // The sunlit thin wall (two-sided voxels) with two bounces: once with the hits kept (the
     // fronts' normals summed after the trace, from the kept hits), once with no bytes for them
     // (every hit's normal summed in the trace, every bounce traced again).
-    const vox::Scene scene = sunlitThinWall({-1, -0.3f, 0.2f});
+    const vox::Scene scene = sunlitThinWall(vox::normalize(Vec3f{-1, -0.3f, 0.2f}));
     const auto kept = bake(scene, 6, 2, vox::BounceGather::Rays, 64);
     const std::size_t before = vox::detail::setRayGatherHitBudget(0);
     const auto traced = bake(scene, 6, 2, vox::BounceGather::Rays, 64);
