@@ -31,6 +31,17 @@ constexpr double kFaceSlackCells = 1e-4;
 /// the hit lies on a cell boundary.
 constexpr double kHitBackoffCells = 1e-4;
 
+/// Bits of a kept hit among @p leaves leaves: the leaf in the fewest bits that hold every index
+/// and one more (all ones: no leaf), and a bit for the side.
+unsigned hitBitsFor(std::size_t leaves) {
+    return static_cast<unsigned>(std::bit_width(leaves)) + 1;
+}
+
+/// Whether @p entries entries of @p wordsPerEntry words of kept hits fit the budget.
+bool fitsHitBudget(std::size_t entries, std::size_t wordsPerEntry) {
+    return entries * wordsPerEntry * sizeof(std::uint64_t) <= g_hitBudget.load();
+}
+
 }  // namespace
 
 std::size_t setRayGatherHitBudget(std::size_t bytes) noexcept {
@@ -82,16 +93,17 @@ RayGather::RayGather(const Scene& scene, std::span<const LeafMaterial> leaves, V
         const double radius = std::sqrt(u), phi = 2 * kPi * v;
         pattern_.push_back({radius * std::cos(phi), radius * std::sin(phi), std::sqrt(1.0 - u)});
     }
-    // A kept hit: the leaf in the fewest bits that hold every index and one more (all ones: no
-    // leaf), and a bit for the side.
-    hitBits_ = static_cast<unsigned>(std::bit_width(leaves.size())) + 1;
+    hitBits_ = hitBitsFor(leaves.size());
     noLeaf_ = (std::uint64_t{1} << (hitBits_ - 1)) - 1;
     wordsPerEntry_ = (pattern_.size() * hitBits_ + 63) / 64;
 }
 
 bool RayGather::keepsHits(std::size_t leaves, std::uint32_t rays) noexcept {
-    const auto hitBits = static_cast<std::size_t>(std::bit_width(leaves)) + 1;
-    return leaves * ((rays * hitBits + 63) / 64) * sizeof(std::uint64_t) <= g_hitBudget.load();
+    return fitsHitBudget(leaves, (rays * std::size_t{hitBitsFor(leaves)} + 63) / 64);
+}
+
+Vec3d RayGather::direction(const OrthonormalFrame& frame, std::size_t k) const {
+    return frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z);
 }
 
 Vec3d RayGather::rayOrigin(const LeafMaterial& v, Vec3d n) const {
@@ -156,7 +168,7 @@ void RayGather::entryHits(std::size_t e, std::span<std::uint32_t> out) const {
     if (e >= keptEntries_) {
         const OrthonormalFrame frame(normal_[e]);
         for (std::size_t k = 0; k < out.size(); ++k)
-            out[k] = castRay(from_[e], frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z));
+            out[k] = castRay(from_[e], direction(frame, k));
         return;
     }
     const std::uint64_t* words = entryWords(e);
@@ -177,14 +189,12 @@ void RayGather::NormalSums::add(bool back, Vec3d normal) {
                                  std::memory_order_relaxed);
 }
 
-void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* seen, bool fronts,
-                             Progress* progress) {
+void RayGather::traceEntries(std::size_t first, std::size_t last, bool keep, NormalSums* seen,
+                             bool fronts, Progress* progress) {
     const std::size_t rays = pattern_.size();
-    // Kept where every entry up to @p last fits, bit-packed: each entry's hits in whole words, so
-    // that no two threads write one word. The leaves' and the back sides' words are apart, so that
-    // keeping the back sides does not move (and for a moment double) the leaves'.
-    const bool keep = keptEntries_ == first &&
-                      last * wordsPerEntry_ * sizeof(std::uint64_t) <= g_hitBudget.load();
+    // Kept bit-packed: each entry's hits in whole words, so that no two threads write one word.
+    // The leaves' and the back sides' words are apart, so that keeping the back sides does not
+    // move (and for a moment double) the leaves'.
     if (keep) (first == 0 ? leafHitWords_ : backHitWords_).resize((last - first) * wordsPerEntry_);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(first, last, 64),
                       [&](const tbb::blocked_range<std::size_t>& r) {
@@ -192,10 +202,8 @@ void RayGather::traceEntries(std::size_t first, std::size_t last, NormalSums* se
                               const OrthonormalFrame frame(normal_[e]);
                               for (std::size_t k = 0; k < rays; ++k) {
                                   Vec3d normal;
-                                  const std::uint32_t hit = castRay(
-                                      from_[e],
-                                      frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z),
-                                      &normal);
+                                  const std::uint32_t hit =
+                                      castRay(from_[e], direction(frame, k), &normal);
                                   if (keep) keepHit(e, k, hit);
                                   if (hit == kNone || !seen || !(fronts || (hit & kBackSide)))
                                       continue;
@@ -227,9 +235,7 @@ void RayGather::sumTwoSidedFronts(NormalSums* seen) const {
                         continue;
                     // The same ray as the trace's: the same hit, and its normal.
                     Vec3d normal;
-                    (void)castRay(from_[e],
-                                  frame.toWorld(pattern_[k].x, pattern_[k].y, pattern_[k].z),
-                                  &normal);
+                    (void)castRay(from_[e], direction(frame, k), &normal);
                     seen[h].add(false, normal);
                 }
             }
@@ -241,11 +247,9 @@ std::vector<RayGather::TwoSidedLeaf> RayGather::trace(Progress* progress) {
     std::vector<NormalSums> seen(leaves_.size());
     // Where the hits are kept, the fronts' sums come after, from the kept hits, for the two-sided
     // leaves alone; else the trace sums every hit's normal.
-    const bool keeps = keepsHits(leaves_.size(), static_cast<std::uint32_t>(pattern_.size()));
-    traceEntries(0, leaves_.size(), seen.data(), !keeps, progress);
-    if (keeps != (keptEntries_ == leaves_.size()))
-        throw std::logic_error("RayGather::trace: kept hits and keepsHits disagree");
-    if (keeps) sumTwoSidedFronts(seen.data());
+    const bool keep = fitsHitBudget(leaves_.size(), wordsPerEntry_);
+    traceEntries(0, leaves_.size(), keep, seen.data(), !keep, progress);
+    if (keep) sumTwoSidedFronts(seen.data());
     std::vector<TwoSidedLeaf> twoSided;
     for (std::size_t i = 0; i < leaves_.size(); ++i) {
         if (!seen[i].reachedFromBehind.load(std::memory_order_relaxed)) continue;
@@ -266,7 +270,8 @@ std::vector<RayGather::TwoSidedLeaf> RayGather::trace(Progress* progress) {
         normal_.push_back(t.back);
         from_.push_back(rayOrigin(leaves_[t.leaf], t.back));
     }
-    traceEntries(leaves_.size(), from_.size(), nullptr, false, nullptr);
+    traceEntries(leaves_.size(), from_.size(), keep && fitsHitBudget(from_.size(), wordsPerEntry_),
+                 nullptr, false, nullptr);
     traced_ = true;
     return twoSided;
 }

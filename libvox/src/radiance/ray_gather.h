@@ -87,10 +87,11 @@ private:
         /// Adds unit @p normal to the front's sums (@p back false) or the back's.
         void add(bool back, Vec3d normal);
     };
-    /// Traces the rays of entries [@p first, @p last) into the kept hits where they fit, and
-    /// where @p seen is given, records each hit on a back side in seen[leaf] (reached from
-    /// behind, its normal), and with @p fronts each hit on a front side too.
-    void traceEntries(std::size_t first, std::size_t last, NormalSums* seen, bool fronts,
+    /// Traces the rays of entries [@p first, @p last) (the next after those traced before),
+    /// keeping their hits with @p keep, and where @p seen is given, records each hit on a back
+    /// side in seen[leaf] (reached from behind, its normal), and with @p fronts each hit on a
+    /// front side too.
+    void traceEntries(std::size_t first, std::size_t last, bool keep, NormalSums* seen, bool fronts,
                       Progress* progress);
     /// Adds to @p seen the normals of the kept hits on the front sides of the leaves reached from
     /// behind (traceEntries without fronts records only the backs: the sums of every leaf's
@@ -110,6 +111,8 @@ private:
     [[nodiscard]] std::uint32_t unpack(std::uint64_t code) const noexcept;
     /// The words of entry @p e's kept hits.
     [[nodiscard]] const std::uint64_t* entryWords(std::size_t e) const;
+    /// The k-th ray's direction of the pattern in @p frame.
+    [[nodiscard]] Vec3d direction(const OrthonormalFrame& frame, std::size_t k) const;
     /// The leaf holding world point @p p, or kNone.
     [[nodiscard]] std::uint32_t leafAt(Vec3d p) const noexcept;
     static constexpr std::uint32_t kNone = 0xFFFFFFFFu;

@@ -35,8 +35,8 @@ namespace {
 
 /// Binned SAH build (Wald 2007): bins per axis, and the relative costs of a node visit and of a
 /// leaf's test of up to four triangles at once (so a leaf costs as many tests as it has groups of
-/// four, not triangles: 5–15 % more rays per second than counting triangles, and the same at
-/// twice the cost).
+/// four, not triangles: with four-wide nodes, 7–22 % more bounce rays per second on the bench
+/// meshes than counting triangles, and about the same at twice the cost).
 constexpr int kSahBins = 16;
 constexpr float kTraversalCost = 1.0f;
 constexpr float kPacketCost = 1.0f;
@@ -257,7 +257,8 @@ std::uint32_t TriangleRayCaster::collapse(const std::vector<Node>& nodes, std::u
             Bounds3f box;
             box.add(Vec3f{n.lo[0], n.lo[1], n.lo[2]});
             box.add(Vec3f{n.hi[0], n.hi[1], n.hi[2]});
-            if (halfArea(box) > openArea) openArea = halfArea(box), open = static_cast<int>(i);
+            if (const float area = halfArea(box); area > openArea)
+                openArea = area, open = static_cast<int>(i);
         }
         if (open < 0) break;
         const std::uint32_t inner = children[open];
